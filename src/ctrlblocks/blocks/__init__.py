@@ -1,0 +1,34 @@
+"""The function blocks, as a PLC library would list them."""
+
+from .base import Block, BlockConfig, ErrorCode, ParameterError
+from .signals import (
+    PT1,
+    DeadBand,
+    MaxSelector,
+    MinSelector,
+    MovingAverage,
+    RateLimiter,
+    Saturation,
+    Scale,
+    SteadyStateDetector,
+    deadband,
+    scale,
+)
+
+__all__ = [
+    "PT1",
+    "Block",
+    "BlockConfig",
+    "DeadBand",
+    "ErrorCode",
+    "MaxSelector",
+    "MinSelector",
+    "MovingAverage",
+    "ParameterError",
+    "RateLimiter",
+    "Saturation",
+    "Scale",
+    "SteadyStateDetector",
+    "deadband",
+    "scale",
+]

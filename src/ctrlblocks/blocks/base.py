@@ -1,0 +1,367 @@
+"""The block contract: configuration, state, status and error codes.
+
+Every function block of ctrlblocks has the same shape, so that a PLC
+programmer, a test and a faceplate can treat them alike:
+
+* a **configuration**: a frozen dataclass, validated when the block is made
+  and on every :meth:`Block.configure`; a refused change raises
+  :class:`ParameterError` and leaves the old, valid configuration in force;
+* a small, explicit **state**: plain Python floats held as attributes, named
+  in ``_state_fields``; :meth:`Block.snapshot` copies them and
+  :meth:`Block.restore` puts them back;
+* a one-call **step**: ``y = block(u)``, called once per sample.  Time is an
+  input: the configured sample time ``ts`` or a ``dt`` passed to the call.
+  No block reads a clock;
+* a **status**: ``error`` (bool) and ``error_id`` (int, one of
+  :class:`ErrorCode`).  Process data never raises in a step: a NaN/inf input,
+  an invalid-measurement flag or a bad ``dt`` gives a documented fallback
+  (normally: hold the last output) and an error code, and the block recovers
+  by itself when the input recovers.  Errors from process data are *live*: they
+  describe the last cycle and clear when the cause goes away;
+* :meth:`Block.reset` returns the block to its initial state;
+* a readable ``repr``.
+
+Error codes reuse those of the CODESYS ``PID_Controller`` of seed 002
+(section 2.2, "Status & Error codes") where the meaning is the same, and add
+ctrlblocks' own codes in the same 16#8xxx style: 16#80xx cycle time,
+16#81xx process data, 16#82xx configuration, 16#83xx warnings (the block keeps
+running normally; only a status flag is set).  ``docs/error-codes.md`` lists
+them all; a test keeps that table and :class:`ErrorCode` identical.
+
+Blocks whose state a surrounding structure must shape (saturation, selectors,
+cascades) also offer the two-phase form of Åström (seed 004, section 6,
+Listing 6.3): ``compute_output(...)`` returns the output without touching the
+state; the structure shapes it; ``update_state(applied)`` then updates the
+state with the value actually applied, so anti-windup tracking uses
+simultaneous values.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from enum import IntEnum
+from typing import Any, ClassVar
+
+
+class ErrorCode(IntEnum):
+    """Status and error codes of every block (``block.error_id``).
+
+    Codes marked *seed 002* keep the number and meaning of the CODESYS
+    ``PID_Controller`` (seed 002, section 2.2).
+    """
+
+    NO_ERROR = 0x0000
+    """No error (seed 002 ``STATUS_NO_ERRORS``)."""
+
+    # --- 16#80xx: cycle time -------------------------------------------------
+    NO_CYCLE = 0x8001
+    """Cycle time ``ts`` or per-call ``dt`` is zero, negative or not finite
+    (seed 002 ``ERR_NO_CYCLE``).  At run time: the block holds its last output."""
+
+    # --- 16#81xx: process data (set by the step, never raised) ---------------
+    BAD_INPUT = 0x8101
+    """A process input (setpoint, measurement, feed-forward, ...) is NaN or inf.
+    The block holds its last output (or its safe value) and recovers when the
+    input is finite again."""
+    BAD_MEASUREMENT = 0x8102
+    """The measurement was declared invalid by its quality flag (``y_ok`` /
+    ``pv_ok`` false).  Fallback as for ``BAD_INPUT``."""
+    BAD_RUNTIME_LIMITS = 0x8103
+    """Limits written at run time are reversed or not finite; the last valid
+    limits stay in force (the configuration-time twin is ``BAD_LIMITS``)."""
+
+    # --- 16#82xx: configuration (raised as ParameterError) -------------------
+    BAD_LIMITS = 0x8201
+    """Bad low and/or high limits, e.g. low > high (seed 002 ``ERR_BAD_LIMITS``)."""
+    CANT_TRACK_SETP = 0x8202
+    """Bumpless method TRACK_SETPOINT selected but the setpoint ramp is zero
+    (seed 002 ``ERR_CANT_TRACK_SETP``)."""
+    BAD_RATE = 0x8203
+    """A rate of change is negative or not finite (seed 002 ``ERR_BAD_RATE``)."""
+    BACK_CALC_T = 0x8205
+    """Bad back-calculation (tracking) time constant (seed 002 ``ERR_BACK_CALC_T``)."""
+    BAD_ANTIWINDUP = 0x8207
+    """Error in the anti-windup settings (seed 002 ``ERR_BAD_ANTIWINDUP``)."""
+    BAD_STAB_TIME = 0x8209
+    """Stabilisation time must be positive (seed 002 ``ERR_BAD_STAB_TIME``)."""
+    BAD_DEV_TOL = 0x820A
+    """Deviation tolerance must lie in 0..50 % (seed 002 ``ERR_BAD_DEV_TOL``)."""
+    BAD_PID_COEFFS = 0x820B
+    """Wrong PID parameters (seed 002 ``ERR_BAD_PID_COEFFS``)."""
+    BAD_PARAMETER = 0x8210
+    """Any other invalid parameter: not a finite number, an unknown option
+    name, a wrong type."""
+    BAD_TIME_CONSTANT = 0x8211
+    """A filter or lag time constant is negative or not finite."""
+    BAD_WINDOW = 0x8212
+    """A window length (moving average, dead-time buffer) is not a positive integer."""
+    BAD_ORDER = 0x8213
+    """ADRC order is not 1, 2 or 3."""
+    BAD_B0 = 0x8214
+    """ADRC scaling parameter b0 is not positive and finite."""
+    BAD_BANDWIDTH = 0x8215
+    """ADRC bandwidth omega_c or omega_o is not positive and finite."""
+    BAD_FORM = 0x8216
+    """A PID cannot be converted to the requested form (series form needs
+    Ti >= 4 Td, seed 004 (2.6))."""
+
+    # --- 16#83xx: warnings (status only, the block runs normally) ------------
+    WARN_DISCRETISATION = 0x8301
+    """The discretisation is outside the range where it is trustworthy
+    (e.g. ADRC omega_o * ts too large for the Euler observer)."""
+
+
+class ParameterError(ValueError):
+    """An invalid configuration value, refused where it was made.
+
+    Carries the numeric ``code`` (an :class:`ErrorCode`) and the ``field``
+    that was refused.  Raised by constructors and by ``configure``; the block
+    keeps its previous configuration.
+    """
+
+    def __init__(self, code: ErrorCode, field: str, message: str) -> None:
+        self.code = ErrorCode(code)
+        self.field = field
+        self.message = message
+        super().__init__(f"{field}: {message} (error 16#{self.code:04X} {self.code.name})")
+
+
+# ---------------------------------------------------------------------------
+# Validation helpers for configuration dataclasses
+# ---------------------------------------------------------------------------
+
+
+def require_finite(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_PARAMETER) -> float:
+    """Return ``value`` as a float, or raise ParameterError if it is not a finite number."""
+    if isinstance(value, bool):
+        raise ParameterError(code, name, f"must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(code, name, f"must be a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise ParameterError(code, name, f"must be finite, got {value!r}")
+    return x
+
+
+def require_positive(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_PARAMETER) -> float:
+    """Return ``value`` as a float > 0, or raise ParameterError with ``code``."""
+    x = require_finite(name, value, code)
+    if x <= 0.0:
+        raise ParameterError(code, name, f"must be > 0, got {value!r}")
+    return x
+
+
+def require_nonnegative(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_PARAMETER) -> float:
+    """Return ``value`` as a float >= 0, or raise ParameterError with ``code``."""
+    x = require_finite(name, value, code)
+    if x < 0.0:
+        raise ParameterError(code, name, f"must be >= 0, got {value!r}")
+    return x
+
+
+def require_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
+    """Return ``value`` if it is one of ``choices``, else raise BAD_PARAMETER."""
+    if value not in choices:
+        raise ParameterError(
+            ErrorCode.BAD_PARAMETER, name, f"must be one of {', '.join(choices)}; got {value!r}"
+        )
+    return value
+
+
+def require_limits(
+    lo_name: str, lo: Any, hi_name: str, hi: Any, *, allow_infinite: bool = True
+) -> tuple[float, float]:
+    """Return the limit pair as floats, or raise BAD_LIMITS if reversed or NaN.
+
+    Infinite limits (``-inf``/``inf``: no limit) are accepted unless
+    ``allow_infinite`` is false.
+    """
+    try:
+        lo_f, hi_f = float(lo), float(hi)
+    except (TypeError, ValueError):
+        raise ParameterError(
+            ErrorCode.BAD_LIMITS, f"{lo_name}/{hi_name}", f"must be numbers, got {lo!r}, {hi!r}"
+        ) from None
+    if math.isnan(lo_f) or math.isnan(hi_f):
+        raise ParameterError(ErrorCode.BAD_LIMITS, f"{lo_name}/{hi_name}", "must not be NaN")
+    if not allow_infinite and not (math.isfinite(lo_f) and math.isfinite(hi_f)):
+        raise ParameterError(ErrorCode.BAD_LIMITS, f"{lo_name}/{hi_name}", "must be finite")
+    if lo_f > hi_f:
+        raise ParameterError(
+            ErrorCode.BAD_LIMITS,
+            f"{lo_name}/{hi_name}",
+            f"low limit {lo_f!r} is above high limit {hi_f!r}",
+        )
+    return lo_f, hi_f
+
+
+def is_finite(x: Any) -> bool:
+    """True if ``x`` is a finite real number; False for NaN, inf, None or non-numbers.
+
+    Used on process data in the step, where a bad value must never raise.
+    """
+    try:
+        return math.isfinite(x)
+    except TypeError:
+        return False
+
+
+# ---------------------------------------------------------------------------
+# The block base class
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockConfig:
+    """Base of every block configuration: a frozen, validated dataclass.
+
+    Subclasses add their fields and override :meth:`validate`, which must
+    raise :class:`ParameterError` for any invalid value.
+    """
+
+    def validate(self) -> None:
+        """Raise ParameterError if the configuration is invalid."""
+
+
+class Block:
+    """Base class of every function block (see the module docstring).
+
+    Subclasses set ``Config`` (a :class:`BlockConfig` subclass) and
+    ``_state_fields`` (names of the state attributes), and implement
+    ``_apply_config(old)`` (derive cached coefficients; ``old`` is the previous
+    configuration or None) and ``_reset_state()``.
+    """
+
+    Config: ClassVar[type[BlockConfig]] = BlockConfig
+    _state_fields: ClassVar[tuple[str, ...]] = ()
+
+    out: float
+    error_id: int
+
+    def __init__(self, config: BlockConfig | None = None, /, **params: Any) -> None:
+        if config is None:
+            config = self._make_config(params)
+        elif params:
+            config = self._replace_config(config, params)
+        if not isinstance(config, self.Config):
+            raise TypeError(f"{type(self).__name__} needs a {self.Config.__name__}")
+        config.validate()
+        self._config = config
+        self._apply_config(None)
+        self.reset()
+
+    # -- configuration -----------------------------------------------------
+
+    @property
+    def config(self) -> BlockConfig:
+        """The configuration in force (immutable; change it with :meth:`configure`)."""
+        return self._config
+
+    def configure(self, **changes: Any) -> None:
+        """Change configuration fields, validated as a whole.
+
+        On any error a :class:`ParameterError` (or ``TypeError`` for an unknown
+        name) is raised and the old configuration stays in force.  Blocks with
+        memory apply the change bumplessly where their docstring says so.
+        """
+        new = self._replace_config(self._config, changes)
+        new.validate()
+        old = self._config
+        self._config = new
+        try:
+            self._apply_config(old)
+        except Exception:
+            self._config = old
+            self._apply_config(None)
+            raise
+
+    def _make_config(self, params: dict[str, Any]) -> BlockConfig:
+        try:
+            return self.Config(**params)
+        except TypeError as exc:
+            raise TypeError(f"{type(self).__name__}: {exc}") from None
+
+    def _replace_config(self, config: BlockConfig, changes: dict[str, Any]) -> BlockConfig:
+        names = {f.name for f in dataclasses.fields(config)}
+        unknown = sorted(set(changes) - names)
+        if unknown:
+            raise TypeError(
+                f"{type(self).__name__} has no parameter {', '.join(unknown)}; "
+                f"known: {', '.join(sorted(names))}"
+            )
+        return dataclasses.replace(config, **changes)
+
+    def _apply_config(self, old: BlockConfig | None) -> None:
+        """Derive cached coefficients from ``self._config`` (override)."""
+
+    # -- state -------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Return to the initial state: initial output, empty memories, no error."""
+        self.error_id = ErrorCode.NO_ERROR
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        """Set every state attribute to its initial value (override)."""
+
+    def snapshot(self) -> dict[str, Any]:
+        """A copy of the block's state; :meth:`restore` puts it back."""
+        snap = {name: copy.deepcopy(getattr(self, name)) for name in self._state_fields}
+        snap["error_id"] = self.error_id
+        return snap
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Restore a state taken by :meth:`snapshot` (configuration is unchanged)."""
+        missing = [n for n in self._state_fields if n not in snapshot]
+        if missing:
+            raise ValueError(f"snapshot lacks state fields: {', '.join(missing)}")
+        for name in self._state_fields:
+            setattr(self, name, copy.deepcopy(snapshot[name]))
+        self.error_id = snapshot.get("error_id", ErrorCode.NO_ERROR)
+
+    # -- status ------------------------------------------------------------
+
+    @property
+    def error(self) -> bool:
+        """True when the last cycle or call reported an error (``error_id != 0``).
+
+        Warnings (16#83xx) do not set ``error``.
+        """
+        return self.error_id != 0 and not (0x8300 <= self.error_id < 0x8400)
+
+    @property
+    def error_name(self) -> str:
+        """Symbolic name of ``error_id`` (``"NO_ERROR"`` when all is well)."""
+        try:
+            return ErrorCode(self.error_id).name
+        except ValueError:
+            return f"16#{self.error_id:04X}"
+
+    # -- time ----------------------------------------------------------------
+
+    def _cycle_time(self, dt: float | None, ts: float) -> float | None:
+        """The sample time of this call: ``ts`` when ``dt`` is None, else ``dt``.
+
+        Returns None (and sets ``NO_CYCLE``) when ``dt`` is zero, negative or
+        not finite; the caller then holds its last output.
+        """
+        if dt is None:
+            return ts
+        if is_finite(dt) and dt > 0.0:
+            return float(dt)
+        self.error_id = ErrorCode.NO_CYCLE
+        return None
+
+    # -- presentation --------------------------------------------------------
+
+    def __repr__(self) -> str:
+        fields = ", ".join(
+            f"{f.name}={getattr(self._config, f.name)!r}" for f in dataclasses.fields(self._config)
+        )
+        status = f"out={getattr(self, 'out', None)!r}"
+        if self.error_id:
+            status += f", error_id=16#{self.error_id:04X} {self.error_name}"
+        return f"{type(self).__name__}({fields}) <{status}>"

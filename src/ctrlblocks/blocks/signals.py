@@ -1,0 +1,597 @@
+"""Small signal blocks: the pieces the PID and ADRC blocks are built from.
+
+Sources
+-------
+* seed 002 (CODESYS ``PID_Controller``, section 1.3 "sub blocks"):
+  ``DeadBand`` (dead zone; a negative width acts as its absolute value),
+  ``RateLimiter`` (linear ramp), ``SCALE_R`` (range to range),
+  ``MovingAverage`` (mean of the last N values), ``FindSteadyState``
+  (variation below a tolerance for a stabilisation time) and ``LSim_PT1``
+  (first-order lag).
+* seed 004 (Åström, section 5 and Appendix A): ``Saturation``, ``Min selector``,
+  ``Max selector``; the jump-and-rate module is in :mod:`.jumprate`.
+
+Equations
+---------
+PT1, ``G(s) = K / (T s + 1)``, sample time h:
+
+* ``method="exact"`` (default): ``y[k] = a y[k-1] + (1 - a) K u[k]`` with
+  ``a = exp(-h/T)``.  The pole is the exact (ZOH) image of ``-1/T``; the input
+  is the current sample, so a filter in a controller passes today's value
+  (``H(z) = (1-a) K z / (z - a)``, the ZOH discretisation advanced one sample).
+* ``method="euler"``: backward difference ``s = (1 - z^-1)/h`` (seed 003,
+  "Bakoverdifferanse (Eulers metode)"): ``y[k] = (T y[k-1] + h K u[k]) / (T + h)``.
+* ``T = 0`` switches the filter off (``y = K u``), as seed 002 says for its
+  filter times.
+
+Dead band (seed 002 Fig. 3): ``y = 0`` for ``|u| <= w``, else ``u - sign(u) w``;
+continuous and odd.
+
+Scale (SCALE_R): ``y = (u - in_lo) / (in_hi - in_lo) (out_hi - out_lo) + out_lo``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, ClassVar
+
+from .base import (
+    Block,
+    BlockConfig,
+    ErrorCode,
+    ParameterError,
+    is_finite,
+    require_choice,
+    require_finite,
+    require_limits,
+    require_nonnegative,
+    require_positive,
+)
+
+__all__ = [
+    "PT1",
+    "DeadBand",
+    "MaxSelector",
+    "MinSelector",
+    "MovingAverage",
+    "RateLimiter",
+    "Saturation",
+    "Scale",
+    "SteadyStateDetector",
+    "deadband",
+    "pt1_coefficient",
+    "scale",
+]
+
+
+# ---------------------------------------------------------------------------
+# Plain functions (stateless; used inside the larger blocks)
+# ---------------------------------------------------------------------------
+
+
+def deadband(u: float, width: float) -> float:
+    """Dead zone of seed 002 (``DeadBand`` FC, Fig. 3).
+
+    ``0`` for ``|u| <= |width|``, else ``u - sign(u) |width|``.  A negative
+    width acts as its absolute value (seed 002, 2.3.10).
+    """
+    w = abs(width)
+    if u > w:
+        return u - w
+    if u < -w:
+        return u + w
+    return 0.0
+
+
+def scale(u: float, in_lo: float, in_hi: float, out_lo: float, out_hi: float) -> float:
+    """Linear map of ``u`` from ``[in_lo, in_hi]`` to ``[out_lo, out_hi]`` (seed 002 ``SCALE_R``).
+
+    No clamping: values outside the input range are extrapolated.
+    """
+    return (u - in_lo) / (in_hi - in_lo) * (out_hi - out_lo) + out_lo
+
+
+def pt1_coefficient(t: float, h: float, method: str) -> float:
+    """Pole ``a`` of the discrete PT1 ``y[k] = a y[k-1] + (1-a) K u[k]``.
+
+    ``exp(-h/t)`` for ``"exact"``, ``t/(t+h)`` for ``"euler"`` (backward
+    difference); ``0`` when ``t == 0`` (filter off).
+    """
+    if t <= 0.0:
+        return 0.0
+    if method == "exact":
+        return math.exp(-h / t)
+    return t / (t + h)
+
+
+# ---------------------------------------------------------------------------
+# PT1
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class PT1Config(BlockConfig):
+    """Configuration of :class:`PT1`.
+
+    Attributes
+    ----------
+    t : float
+        Time constant [s]; 0 switches the filter off.
+    ts : float
+        Sample time [s].
+    gain : float
+        Static gain K [output units / input units].
+    method : str
+        ``"exact"`` (pole ``exp(-ts/t)``) or ``"euler"`` (backward difference).
+    y0 : float
+        Output after ``reset()``.
+    """
+
+    t: float = 0.0
+    ts: float = 0.1
+    gain: float = 1.0
+    method: str = "exact"
+    y0: float = 0.0
+
+    def validate(self) -> None:
+        require_nonnegative("t", self.t, ErrorCode.BAD_TIME_CONSTANT)
+        require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
+        require_finite("gain", self.gain)
+        require_choice("method", self.method, ("exact", "euler"))
+        require_finite("y0", self.y0)
+
+
+class PT1(Block):
+    """First-order lag ``K/(T s + 1)`` (seed 002 ``LSim_PT1``); see the module docstring.
+
+    ``y = pt1(u)`` runs one sample.  A NaN/inf input holds the output and sets
+    ``BAD_INPUT``; a bad ``dt`` holds the output and sets ``NO_CYCLE``.
+
+    Examples
+    --------
+    >>> f = PT1(t=2.0, ts=0.1)
+    >>> round(f(1.0), 6)
+    0.04877
+    """
+
+    Config = PT1Config
+    _state_fields = ("out",)
+    config: PT1Config
+
+    def _apply_config(self, old: BlockConfig | None) -> None:
+        c = self._config
+        self._t, self._k, self._method = float(c.t), float(c.gain), c.method
+        self._ts = float(c.ts)
+        self._h = self._ts
+        self._a = pt1_coefficient(self._t, self._h, self._method)
+
+    def _reset_state(self) -> None:
+        self.out = float(self._config.y0)
+
+    def preset(self, value: float) -> None:
+        """Set the output (and so the filter state) to ``value``, e.g. the first measurement."""
+        if is_finite(value):
+            self.out = float(value)
+
+    def __call__(self, u: float, dt: float | None = None) -> float:
+        h = self._cycle_time(dt, self._ts)
+        if h is None:
+            return self.out
+        if not is_finite(u):
+            self.error_id = ErrorCode.BAD_INPUT
+            return self.out
+        self.error_id = ErrorCode.NO_ERROR
+        if h != self._h:
+            self._h = h
+            self._a = pt1_coefficient(self._t, h, self._method)
+        a = self._a
+        self.out = a * self.out + (1.0 - a) * self._k * u
+        return self.out
+
+
+# ---------------------------------------------------------------------------
+# Rate limiter
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class RateLimiterConfig(BlockConfig):
+    """Configuration of :class:`RateLimiter`.
+
+    Attributes
+    ----------
+    rate_up, rate_down : float
+        Largest rise and fall per second [units/s], both >= 0.  0 means no
+        limit in that direction (seed 002: "set to a non-zero value to
+        activate").
+    ts : float
+        Sample time [s].
+    y0 : float
+        Output after ``reset()``.
+    """
+
+    rate_up: float = 0.0
+    rate_down: float = 0.0
+    ts: float = 0.1
+    y0: float = 0.0
+
+    def validate(self) -> None:
+        require_nonnegative("rate_up", self.rate_up, ErrorCode.BAD_RATE)
+        require_nonnegative("rate_down", self.rate_down, ErrorCode.BAD_RATE)
+        require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
+        require_finite("y0", self.y0)
+
+
+class RateLimiter(Block):
+    """Linear-ramp rate limiter (seed 002 ``RateLimiter``).
+
+    ``y[k] = y[k-1] + clamp(u[k] - y[k-1], -rate_down h, rate_up h)``.
+    ``limiting`` is true in a cycle where the ramp, not the input, set the
+    output.  NaN/inf input: hold, ``BAD_INPUT``.
+    """
+
+    Config = RateLimiterConfig
+    _state_fields = ("out", "limiting")
+    config: RateLimiterConfig
+
+    def _apply_config(self, old: BlockConfig | None) -> None:
+        c = self._config
+        self._up = float(c.rate_up) if c.rate_up > 0 else math.inf
+        self._down = float(c.rate_down) if c.rate_down > 0 else math.inf
+        self._ts = float(c.ts)
+
+    def _reset_state(self) -> None:
+        self.out = float(self._config.y0)
+        self.limiting = False
+
+    def preset(self, value: float) -> None:
+        """Set the output to ``value`` (no ramp), e.g. to follow another signal."""
+        if is_finite(value):
+            self.out = float(value)
+            self.limiting = False
+
+    def __call__(self, u: float, dt: float | None = None) -> float:
+        h = self._cycle_time(dt, self._ts)
+        if h is None:
+            return self.out
+        if not is_finite(u):
+            self.error_id = ErrorCode.BAD_INPUT
+            return self.out
+        self.error_id = ErrorCode.NO_ERROR
+        step = u - self.out
+        up, down = self._up * h, self._down * h
+        if step > up:
+            self.out += up
+            self.limiting = True
+        elif step < -down:
+            self.out -= down
+            self.limiting = True
+        else:
+            self.out = float(u)
+            self.limiting = False
+        return self.out
+
+
+# ---------------------------------------------------------------------------
+# Dead band and scale (stateless blocks around the functions above)
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class DeadBandConfig(BlockConfig):
+    """Configuration of :class:`DeadBand`.
+
+    ``width``: half-width of the dead zone; a negative width acts as its
+    absolute value.
+    """
+
+    width: float = 0.0
+
+    def validate(self) -> None:
+        require_finite("width", self.width)
+
+
+class DeadBand(Block):
+    """Dead zone of seed 002 as a block: ``y = deadband(u, width)``.
+
+    NaN/inf input: hold, ``BAD_INPUT``.
+    """
+
+    Config = DeadBandConfig
+    _state_fields = ("out",)
+    config: DeadBandConfig
+
+    def _reset_state(self) -> None:
+        self.out = 0.0
+
+    def __call__(self, u: float) -> float:
+        if not is_finite(u):
+            self.error_id = ErrorCode.BAD_INPUT
+            return self.out
+        self.error_id = ErrorCode.NO_ERROR
+        self.out = deadband(float(u), self._config.width)
+        return self.out
+
+
+@dataclasses.dataclass(frozen=True)
+class ScaleConfig(BlockConfig):
+    """Configuration of :class:`Scale` (seed 002 ``SCALE_R``).
+
+    The input range may be inverted (``in_hi < in_lo``) but not empty.
+    ``clamp`` limits the output to the output range.
+    """
+
+    in_lo: float = 0.0
+    in_hi: float = 100.0
+    out_lo: float = 0.0
+    out_hi: float = 100.0
+    clamp: bool = False
+
+    def validate(self) -> None:
+        for name in ("in_lo", "in_hi", "out_lo", "out_hi"):
+            require_finite(name, getattr(self, name), ErrorCode.BAD_LIMITS)
+        if self.in_lo == self.in_hi:
+            raise ParameterError(
+                ErrorCode.BAD_LIMITS, "in_lo/in_hi", f"input range is empty ({self.in_lo!r})"
+            )
+
+
+class Scale(Block):
+    """Range-to-range scaling (seed 002 ``SCALE_R``); see :func:`scale`.
+
+    NaN/inf input: hold, ``BAD_INPUT``.
+    """
+
+    Config = ScaleConfig
+    _state_fields = ("out",)
+    config: ScaleConfig
+
+    def _reset_state(self) -> None:
+        self.out = float(self._config.out_lo)
+
+    def __call__(self, u: float) -> float:
+        if not is_finite(u):
+            self.error_id = ErrorCode.BAD_INPUT
+            return self.out
+        self.error_id = ErrorCode.NO_ERROR
+        c = self._config
+        y = scale(float(u), c.in_lo, c.in_hi, c.out_lo, c.out_hi)
+        if c.clamp:
+            lo, hi = min(c.out_lo, c.out_hi), max(c.out_lo, c.out_hi)
+            y = min(max(y, lo), hi)
+        self.out = y
+        return y
+
+
+# ---------------------------------------------------------------------------
+# Moving average
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class MovingAverageConfig(BlockConfig):
+    """Configuration of :class:`MovingAverage`: window length ``n`` (samples, >= 1)."""
+
+    n: int = 10
+
+    def validate(self) -> None:
+        if isinstance(self.n, bool) or not isinstance(self.n, int) or self.n < 1:
+            raise ParameterError(
+                ErrorCode.BAD_WINDOW, "n", f"must be an integer >= 1, got {self.n!r}"
+            )
+
+
+class MovingAverage(Block):
+    """Mean of the last ``n`` inputs (seed 002 ``MovingAverage``).
+
+    Until ``n`` values have arrived, the mean of those received.  The sum is
+    recomputed exactly once per window so that rounding cannot drift.
+    NaN/inf input: not stored, output held, ``BAD_INPUT``.
+    """
+
+    Config = MovingAverageConfig
+    _state_fields = ("out", "_buf", "_idx", "_count", "_sum")
+    config: MovingAverageConfig
+
+    def _reset_state(self) -> None:
+        self.out = 0.0
+        self._buf = [0.0] * self._config.n
+        self._idx = 0
+        self._count = 0
+        self._sum = 0.0
+
+    def preset(self, value: float) -> None:
+        """Fill the whole window with ``value``."""
+        if is_finite(value):
+            n = self._config.n
+            self._buf = [float(value)] * n
+            self._idx, self._count = 0, n
+            self._sum = float(value) * n
+            self.out = float(value)
+
+    def __call__(self, u: float) -> float:
+        if not is_finite(u):
+            self.error_id = ErrorCode.BAD_INPUT
+            return self.out
+        self.error_id = ErrorCode.NO_ERROR
+        n = self._config.n
+        i = self._idx
+        self._sum += u - self._buf[i]
+        self._buf[i] = float(u)
+        self._idx = i + 1 if i + 1 < n else 0
+        if self._idx == 0:
+            self._sum = math.fsum(self._buf)
+        if self._count < n:
+            self._count += 1
+        self.out = self._sum / self._count
+        return self.out
+
+
+# ---------------------------------------------------------------------------
+# Steady-state detector
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class SteadyStateDetectorConfig(BlockConfig):
+    """Configuration of :class:`SteadyStateDetector`.
+
+    Attributes
+    ----------
+    tolerance : float
+        Largest variation [input units] still counted as steady, >= 0.
+    t_stab : float
+        Stabilisation time [s] > 0 (seed 002 ``irStabilizationTime``).
+    ts : float
+        Sample time [s].
+    """
+
+    tolerance: float = 1.0
+    t_stab: float = 2.0
+    ts: float = 0.1
+
+    def validate(self) -> None:
+        require_nonnegative("tolerance", self.tolerance)
+        require_positive("t_stab", self.t_stab, ErrorCode.BAD_STAB_TIME)
+        require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
+
+
+class SteadyStateDetector(Block):
+    """Is the input steady? (seed 002 ``FindSteadyState``).
+
+    The block keeps an anchor value.  While ``|u - anchor| <= tolerance`` the
+    time since the anchor was set grows; a larger variation moves the anchor to
+    ``u`` and restarts the time.  ``steady`` is true once that time reaches
+    ``t_stab``.  This is O(1) per cycle, like the PLC block, and never needs a
+    window of history.  ``out`` is ``steady`` as 1.0/0.0.
+
+    NaN/inf input: not steady, time restarts, ``BAD_INPUT``.
+    """
+
+    Config = SteadyStateDetectorConfig
+    _state_fields = ("out", "steady", "_anchor", "_elapsed", "_started")
+    config: SteadyStateDetectorConfig
+
+    def _reset_state(self) -> None:
+        self.out = 0.0
+        self.steady = False
+        self._anchor = 0.0
+        self._elapsed = 0.0
+        self._started = False
+
+    def __call__(self, u: float, dt: float | None = None) -> bool:
+        h = self._cycle_time(dt, self._config.ts)
+        if h is None:
+            return self.steady
+        if not is_finite(u):
+            self.error_id = ErrorCode.BAD_INPUT
+            self._started = False
+            self._elapsed = 0.0
+            self.steady = False
+            self.out = 0.0
+            return False
+        self.error_id = ErrorCode.NO_ERROR
+        if not self._started or abs(u - self._anchor) > self._config.tolerance:
+            self._anchor = float(u)
+            self._elapsed = 0.0
+            self._started = True
+        else:
+            self._elapsed += h
+        # a small slack so that t_stab = k*ts is reached after exactly k samples
+        self.steady = self._elapsed >= self._config.t_stab - 1e-9 * h
+        self.out = 1.0 if self.steady else 0.0
+        return self.steady
+
+
+# ---------------------------------------------------------------------------
+# Saturation and selectors (seed 004, section 5)
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class SaturationConfig(BlockConfig):
+    """Configuration of :class:`Saturation`: limits ``lo <= hi`` (infinite allowed)."""
+
+    lo: float = -math.inf
+    hi: float = math.inf
+
+    def validate(self) -> None:
+        require_limits("lo", self.lo, "hi", self.hi)
+
+
+class Saturation(Block):
+    """Saturation module of seed 004 (section 5; Appendix A, system ``int``).
+
+    ``y = min(max(u, lo), hi)``; ``high``/``low`` tell which limit is active.
+    NaN/inf input: hold the last output, ``BAD_INPUT`` (an infinite command is
+    a fault, not a request for full scale).
+    """
+
+    Config = SaturationConfig
+    _state_fields = ("out", "high", "low")
+    config: SaturationConfig
+
+    def _reset_state(self) -> None:
+        c = self._config
+        self.out = min(max(0.0, c.lo), c.hi)
+        self.high = self.low = False
+
+    @property
+    def active(self) -> bool:
+        """True when a limit is active."""
+        return self.high or self.low
+
+    def __call__(self, u: float) -> float:
+        if not is_finite(u):
+            self.error_id = ErrorCode.BAD_INPUT
+            return self.out
+        self.error_id = ErrorCode.NO_ERROR
+        c = self._config
+        self.high = u > c.hi
+        self.low = u < c.lo
+        self.out = c.hi if self.high else c.lo if self.low else float(u)
+        return self.out
+
+
+@dataclasses.dataclass(frozen=True)
+class SelectorConfig(BlockConfig):
+    """Selectors have no parameters."""
+
+
+class _Selector(Block):
+    """Common code of the min and max selectors (seed 004, section 3 "Systems with Selectors")."""
+
+    Config = SelectorConfig
+    _state_fields = ("out", "selected")
+    _pick: ClassVar[Any]
+
+    def _reset_state(self) -> None:
+        self.out = 0.0
+        self.selected = -1
+
+    def __call__(self, *inputs: float) -> float:
+        """Select among ``inputs``; ``selected`` is the index of the chosen one.
+
+        Inputs that are NaN/inf are left out of the selection and set
+        ``BAD_INPUT``; if none is finite the last output is held.
+        """
+        good = [(x, i) for i, x in enumerate(inputs) if is_finite(x)]
+        self.error_id = ErrorCode.NO_ERROR if len(good) == len(inputs) else ErrorCode.BAD_INPUT
+        if not good:
+            return self.out
+        value, index = self._pick(good, key=lambda p: p[0])
+        self.out, self.selected = float(value), index
+        return self.out
+
+
+class MinSelector(_Selector):
+    """Output the smallest input (seed 004 "Min selector"); ties pick the first."""
+
+    _pick = staticmethod(min)
+
+
+class MaxSelector(_Selector):
+    """Output the largest input (seed 004 "Max selector"); ties pick the first."""
+
+    _pick = staticmethod(max)

@@ -1,0 +1,178 @@
+"""The block contract, checked over every block (DESIGN.md, "Every block has the same shape").
+
+Each entry of CASES makes a block, drives it one sample, and names a
+configuration change that must be refused with a given error code.  A test
+makes sure that every block exported by ``ctrlblocks`` has an entry.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+
+import ctrlblocks
+from ctrlblocks import Block, ErrorCode, ParameterError
+
+
+@dataclasses.dataclass
+class Case:
+    make: Callable[[], Block]
+    drive: Callable[[Block, int], Any]  # one sample at step k
+    bad: dict[str, Any]  # a configuration change that must be refused
+    code: ErrorCode  # ... with this code
+
+
+def _wave(k: int) -> float:
+    return math.sin(0.3 * k) + (1.0 if k % 17 < 8 else -0.5)
+
+
+CASES: dict[str, Case] = {
+    "PT1": Case(
+        lambda: ctrlblocks.PT1(t=2.0, ts=0.1, y0=0.5),
+        lambda b, k: b(_wave(k)),
+        {"t": -1.0},
+        ErrorCode.BAD_TIME_CONSTANT,
+    ),
+    "RateLimiter": Case(
+        lambda: ctrlblocks.RateLimiter(rate_up=2.0, rate_down=1.0, ts=0.1),
+        lambda b, k: b(3 * _wave(k)),
+        {"rate_up": -1.0},
+        ErrorCode.BAD_RATE,
+    ),
+    "DeadBand": Case(
+        lambda: ctrlblocks.DeadBand(width=0.1),
+        lambda b, k: b(_wave(k)),
+        {"width": math.nan},
+        ErrorCode.BAD_PARAMETER,
+    ),
+    "Scale": Case(
+        lambda: ctrlblocks.Scale(in_lo=0.0, in_hi=10.0, out_lo=0.0, out_hi=100.0),
+        lambda b, k: b(5 + 5 * _wave(k)),
+        {"in_hi": 0.0},
+        ErrorCode.BAD_LIMITS,
+    ),
+    "MovingAverage": Case(
+        lambda: ctrlblocks.MovingAverage(n=5),
+        lambda b, k: b(_wave(k)),
+        {"n": 0},
+        ErrorCode.BAD_WINDOW,
+    ),
+    "SteadyStateDetector": Case(
+        lambda: ctrlblocks.SteadyStateDetector(tolerance=0.2, t_stab=0.5, ts=0.1),
+        lambda b, k: b(round(_wave(k // 9), 1)),
+        {"t_stab": 0.0},
+        ErrorCode.BAD_STAB_TIME,
+    ),
+    "Saturation": Case(
+        lambda: ctrlblocks.Saturation(lo=-0.5, hi=0.8),
+        lambda b, k: b(_wave(k)),
+        {"lo": 1.0},
+        ErrorCode.BAD_LIMITS,
+    ),
+    "MinSelector": Case(
+        lambda: ctrlblocks.MinSelector(),
+        lambda b, k: b(_wave(k), _wave(k + 5), 0.2),
+        {},
+        ErrorCode.NO_ERROR,
+    ),
+    "MaxSelector": Case(
+        lambda: ctrlblocks.MaxSelector(),
+        lambda b, k: b(_wave(k), _wave(k + 5), 0.2),
+        {},
+        ErrorCode.NO_ERROR,
+    ),
+}
+
+
+def _exported_blocks() -> list[str]:
+    return sorted(
+        name
+        for name in ctrlblocks.__all__
+        if isinstance(getattr(ctrlblocks, name), type)
+        and issubclass(getattr(ctrlblocks, name), Block)
+        and getattr(ctrlblocks, name) is not Block
+    )
+
+
+def _trace(block: Block, drive: Callable[[Block, int], Any], start: int, n: int) -> list[Any]:
+    out = []
+    for k in range(start, start + n):
+        drive(block, k)
+        out.append(block.snapshot())
+    return out
+
+
+def test_every_exported_block_has_a_contract_case() -> None:
+    assert set(_exported_blocks()) <= set(CASES), set(_exported_blocks()) - set(CASES)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_reset_restores_the_initial_state(name: str) -> None:
+    case = CASES[name]
+    block = case.make()
+    initial = block.snapshot()
+    _trace(block, case.drive, 0, 40)
+    assert block.snapshot() != initial, "the drive should change the state"
+    block.reset()
+    assert block.snapshot() == initial
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_snapshot_restore_reproduces_the_trace(name: str) -> None:
+    case = CASES[name]
+    block = case.make()
+    _trace(block, case.drive, 0, 25)
+    snap = block.snapshot()
+    first = _trace(block, case.drive, 25, 30)
+    block.restore(snap)
+    assert _trace(block, case.drive, 25, 30) == first
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_bad_configuration_is_refused_and_the_old_one_stays(name: str) -> None:
+    case = CASES[name]
+    if not case.bad:
+        pytest.skip("block has no parameters")
+    block = case.make()
+    _trace(block, case.drive, 0, 10)
+    config, state = block.config, block.snapshot()
+    with pytest.raises(ParameterError) as info:
+        block.configure(**case.bad)
+    assert info.value.code == case.code
+    assert isinstance(info.value, ValueError)
+    assert block.config is config
+    assert block.snapshot() == state
+    # and the block still runs
+    case.drive(block, 10)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_bad_configuration_is_refused_at_construction(name: str) -> None:
+    case = CASES[name]
+    if not case.bad:
+        pytest.skip("block has no parameters")
+    cls = type(case.make())
+    params = {**dataclasses.asdict(case.make().config), **case.bad}
+    with pytest.raises(ParameterError) as info:
+        cls(**params)
+    assert info.value.code == case.code
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_unknown_parameter_is_a_type_error(name: str) -> None:
+    block = CASES[name].make()
+    with pytest.raises(TypeError, match="no parameter"):
+        block.configure(no_such_parameter=1.0)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_repr_names_the_block_and_its_configuration(name: str) -> None:
+    block = CASES[name].make()
+    text = repr(block)
+    assert text.startswith(type(block).__name__ + "(")
+    for field in dataclasses.fields(block.config):
+        assert f"{field.name}=" in text
