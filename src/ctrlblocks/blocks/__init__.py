@@ -1,6 +1,6 @@
 """The function blocks, as a PLC library would list them."""
 
-from .base import Block, BlockConfig, ErrorCode, ParameterError
+from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
 from .signals import (
     PT1,
     DeadBand,
@@ -23,6 +23,7 @@ __all__ = [
     "ErrorCode",
     "MaxSelector",
     "MinSelector",
+    "Mode",
     "MovingAverage",
     "ParameterError",
     "RateLimiter",

@@ -68,13 +68,13 @@ class ErrorCode(IntEnum):
     BAD_MEASUREMENT = 0x8102
     """The measurement was declared invalid by its quality flag (``y_ok`` /
     ``pv_ok`` false).  Fallback as for ``BAD_INPUT``."""
-    BAD_RUNTIME_LIMITS = 0x8103
-    """Limits written at run time are reversed or not finite; the last valid
-    limits stay in force (the configuration-time twin is ``BAD_LIMITS``)."""
 
     # --- 16#82xx: configuration (raised as ParameterError) -------------------
     BAD_LIMITS = 0x8201
-    """Bad low and/or high limits, e.g. low > high (seed 002 ``ERR_BAD_LIMITS``)."""
+    """Bad low and/or high limits, e.g. low > high (seed 002 ``ERR_BAD_LIMITS``).
+    Raised for a configuration; for limits written at run time (``set_limits``)
+    it is a status: the last valid limits stay in force until a valid pair is
+    written."""
     CANT_TRACK_SETP = 0x8202
     """Bumpless method TRACK_SETPOINT selected but the setpoint ramp is zero
     (seed 002 ``ERR_CANT_TRACK_SETP``)."""
@@ -111,6 +111,20 @@ class ErrorCode(IntEnum):
     WARN_DISCRETISATION = 0x8301
     """The discretisation is outside the range where it is trustworthy
     (e.g. ADRC omega_o * ts too large for the Euler observer)."""
+
+
+class Mode(IntEnum):
+    """Operating mode of a controller block (seed 002, section 2.3.5).
+
+    Priority when several requests are active (seed 002): RESET > TRACK >
+    HOLD > MANUAL > AUTO.
+    """
+
+    AUTO = 0
+    MANUAL = 1
+    TRACK = 2
+    HOLD = 3
+    RESET = 4
 
 
 class ParameterError(ValueError):

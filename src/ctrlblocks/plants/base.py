@@ -1,0 +1,40 @@
+"""The plant contract: a discrete-time process model driven sample by sample.
+
+A plant is sampled with period ``ts``; its input is held constant over a
+sample (zero-order hold, as a DA converter does).  It is strictly proper: the
+output ``y`` depends on the state only, so a controller can read ``y``,
+compute ``u`` and apply it in the same sample (Åström, seed 004, section 6:
+read, ComputeOutput, ShapeOutput, write, UpdateState).
+
+One sample of a closed loop::
+
+    y = plant.y            # AD conversion
+    u = controller(r, y)   # compute (and shape) the output
+    plant.step(u)          # DA conversion; the plant advances by ts
+
+``reset(u0)`` puts the plant in the steady state that belongs to the constant
+input ``u0`` (for integrating plants: zero state with the input held).
+"""
+
+from __future__ import annotations
+
+import abc
+
+
+class Plant(abc.ABC):
+    """Abstract discrete-time plant (see the module docstring)."""
+
+    ts: float
+
+    @property
+    @abc.abstractmethod
+    def y(self) -> float:
+        """Current output (measurement before any sensor effects)."""
+
+    @abc.abstractmethod
+    def step(self, u: float) -> float:
+        """Hold ``u`` for one sample, advance the state by ``ts``; return the new ``y``."""
+
+    @abc.abstractmethod
+    def reset(self, u0: float = 0.0) -> None:
+        """Go to the steady state for the constant input ``u0``."""
