@@ -79,6 +79,12 @@ CASES: dict[str, Case] = {
         {},
         ErrorCode.NO_ERROR,
     ),
+    "LeadLag": Case(
+        lambda: ctrlblocks.LeadLag(k=1.5, t_lead=2.0, t_lag=0.5, ts=0.1, out_min=-2.0, out_max=3.0),
+        lambda b, k: b(_wave(k), enable=k % 23 != 5),
+        {"out_min": 4.0},
+        ErrorCode.BAD_LIMITS,
+    ),
     "MaxSelector": Case(
         lambda: ctrlblocks.MaxSelector(),
         lambda b, k: b(_wave(k), _wave(k + 5), 0.2),

@@ -1,6 +1,7 @@
 """The function blocks, as a PLC library would list them."""
 
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
+from .leadlag import LeadLag
 from .signals import (
     PT1,
     DeadBand,
@@ -21,6 +22,7 @@ __all__ = [
     "BlockConfig",
     "DeadBand",
     "ErrorCode",
+    "LeadLag",
     "MaxSelector",
     "MinSelector",
     "Mode",
