@@ -79,6 +79,12 @@ CASES: dict[str, Case] = {
         {},
         ErrorCode.NO_ERROR,
     ),
+    "JumpAndRate": Case(
+        lambda: ctrlblocks.JumpAndRate(jlow=-0.5, jhigh=1.0, rlow=-0.5, rhigh=1.0, ts=0.1),
+        lambda b, k: b(3 * _wave(k)),
+        {"rlow": 0.5},
+        ErrorCode.BAD_RATE,
+    ),
     "LeadLag": Case(
         lambda: ctrlblocks.LeadLag(k=1.5, t_lead=2.0, t_lag=0.5, ts=0.1, out_min=-2.0, out_max=3.0),
         lambda b, k: b(_wave(k), enable=k % 23 != 5),

@@ -1,6 +1,7 @@
 """The function blocks, as a PLC library would list them."""
 
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
+from .jumprate import JumpAndRate
 from .leadlag import LeadLag
 from .signals import (
     PT1,
@@ -22,6 +23,7 @@ __all__ = [
     "BlockConfig",
     "DeadBand",
     "ErrorCode",
+    "JumpAndRate",
     "LeadLag",
     "MaxSelector",
     "MinSelector",
