@@ -1,5 +1,24 @@
-"""Process models to test the blocks on (see :mod:`.base` for the contract)."""
+"""Process models to test the blocks on (see :mod:`.base` for the contract).
+
+Linear models (:mod:`.linear`): :class:`LinearPlant` (transfer function or
+state space, exact ZOH, any input dead time) and the convenience models
+:class:`PT1`, :class:`PT2`, :class:`PT2Osc`, :class:`PTn`, :class:`IT1`,
+:class:`FOPDT`; a pure dead time :class:`DeadTime`.  See docs/plants.md.
+"""
 
 from .base import Plant
+from .deadtime import DeadTime
+from .linear import FOPDT, IT1, PT1, PT2, LinearPlant, PT2Osc, PTn, split_dead_time
 
-__all__ = ["Plant"]
+__all__ = [
+    "FOPDT",
+    "IT1",
+    "PT1",
+    "PT2",
+    "DeadTime",
+    "LinearPlant",
+    "PT2Osc",
+    "PTn",
+    "Plant",
+    "split_dead_time",
+]

@@ -14,17 +14,33 @@ One sample of a closed loop::
 
 ``reset(u0)`` puts the plant in the steady state that belongs to the constant
 input ``u0`` (for integrating plants: zero state with the input held).
+
+Additions (ctrlblocks' plants all provide them):
+
+* ``plant.u`` -- the input applied in the last ``step`` (``u0`` after reset);
+* ``snapshot()`` / ``restore(snap)`` -- copy and put back the dynamic state
+  (for "what if" runs from the same point);
+* ``find(cls)`` -- the first plant of type ``cls`` in a chain of wrappers
+  (:mod:`.wrappers`), e.g. ``chain.find(ThreeTank).outlet = "b"``; a plain
+  plant returns itself if it is a ``cls``, else None.
+
+A plant never raises on process data: a non-finite input holds the previous
+input.
 """
 
 from __future__ import annotations
 
 import abc
+from typing import Any, TypeVar
+
+_P = TypeVar("_P", bound="Plant")
 
 
 class Plant(abc.ABC):
     """Abstract discrete-time plant (see the module docstring)."""
 
     ts: float
+    u: float
 
     @property
     @abc.abstractmethod
@@ -38,3 +54,15 @@ class Plant(abc.ABC):
     @abc.abstractmethod
     def reset(self, u0: float = 0.0) -> None:
         """Go to the steady state for the constant input ``u0``."""
+
+    def snapshot(self) -> dict[str, Any]:
+        """A copy of the dynamic state; :meth:`restore` puts it back."""
+        raise NotImplementedError(f"{type(self).__name__} has no snapshot")
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        """Put back a state taken by :meth:`snapshot`."""
+        raise NotImplementedError(f"{type(self).__name__} has no restore")
+
+    def find(self, cls: type[_P]) -> _P | None:
+        """This plant if it is a ``cls``, else None (wrappers search inside)."""
+        return self if isinstance(self, cls) else None

@@ -1,0 +1,511 @@
+"""Linear process models: transfer function or state space, exact ZOH, input dead time.
+
+A continuous linear time-invariant model
+
+    dx/dt = A x + B u(t - tau),      y = C x                            (1)
+
+driven by a zero-order-hold input (``u(t) = u[k]`` for ``k ts <= t < (k+1) ts``)
+is sampled exactly (no approximation) by the ZOH discretisation (Åström and
+Wittenmark, *Computer-Controlled Systems*, 3rd ed., section 2.3; the same as
+:func:`scipy.signal.cont2discrete` with ``method="zoh"``).
+
+Dead time
+---------
+Write the dead time as ``tau = d ts + eps`` with a whole number ``d >= 0`` and
+``0 <= eps < ts``.  Within one sample the delayed input takes two values: the
+older ``u[k-d-1]`` during the first ``eps`` seconds and ``u[k-d]`` during the
+remaining ``ts - eps``.  Integrating (1) over the sample gives the exact update
+(the modified z-transform of a delayed ZOH system, Åström and Wittenmark,
+section 2.3, "Time delay")
+
+    x[k+1] = Phi x[k] + Gamma0 u[k-d] + Gamma1 u[k-d-1]                  (2)
+
+    Phi    = exp(A ts)
+    Gamma0 = int_0^(ts-eps) exp(A s) ds B
+    Gamma1 = exp(A (ts-eps)) int_0^eps exp(A s) ds B
+
+so a dead time that is **not** a multiple of ``ts`` is still exact for a ZOH
+input (rounding it to whole samples is not, and is not done here).  Past inputs
+are kept in a ring buffer of ``d + 2`` samples (the "Lagging" block of seed 002,
+``LSim_Lagging``).  With ``eps = 0``, ``Gamma1 = 0`` and ``Gamma0 = Gamma``,
+the ordinary ZOH input matrix.
+
+Convenience models (seed 002, section 1.3, ``/sim`` blocks; seed 000, (10))
+--------------------------------------------------------------------------
+==========  ===============================================  ==================
+class       transfer function                                 source
+==========  ===============================================  ==================
+``PT1``     ``k / (t s + 1)``                                  seed 002 LSim_PT1
+``PT2``     ``k / ((t1 s + 1)(t2 s + 1))``                     ctrlblocks
+``PT2Osc``  ``k / (t^2 s^2 + 2 zeta t s + 1)``                 ctrlblocks
+``PTn``     ``k / prod(t_i s + 1)``                            seed 000 (10a)/(10b)
+``IT1``     ``k / (s (t s + 1))``                              seed 002 LSim_IT1
+``FOPDT``   ``k e^(-dead_time s) / (t s + 1)``                 seed 000 (10) right
+==========  ===============================================  ==================
+
+Every class takes ``dead_time`` [s] (default 0).  Times are in seconds; the
+gain ``k`` is in output units per input unit (for ``IT1``: per second).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from scipy import signal
+
+from ..blocks.base import ErrorCode, ParameterError, require_nonnegative, require_positive
+from .base import Plant
+
+__all__ = [
+    "FOPDT",
+    "IT1",
+    "PT1",
+    "PT2",
+    "LinearPlant",
+    "PT2Osc",
+    "PTn",
+    "split_dead_time",
+]
+
+_WHOLE_TOL = 1e-9  # relative tolerance for "tau is a whole number of samples"
+
+
+def split_dead_time(dead_time: float, ts: float) -> tuple[int, float]:
+    """Split ``dead_time`` into whole samples ``d`` and a remainder ``eps`` in ``[0, ts)``.
+
+    A ratio within 1e-9 of a whole number counts as whole (so ``0.3 / 0.1``
+    gives ``d = 3, eps = 0`` despite floating-point rounding).
+
+    >>> d, eps = split_dead_time(0.35, 0.1)
+    >>> d, round(eps, 12)
+    (3, 0.05)
+    >>> split_dead_time(0.3, 0.1)
+    (3, 0.0)
+    """
+    r = dead_time / ts
+    n = round(r)
+    if abs(r - n) <= _WHOLE_TOL * max(1.0, abs(r)):
+        return int(n), 0.0
+    d = math.floor(r)
+    return int(d), dead_time - d * ts
+
+
+def lti_step(
+    x: list[float],
+    phi: tuple[tuple[float, ...], ...],
+    g0: tuple[float, ...],
+    g1: tuple[float, ...],
+    u0: float,
+    u1: float,
+) -> list[float]:
+    """One sample of (2): ``Phi x + Gamma0 u0 + Gamma1 u1`` over plain floats."""
+    n = len(x)
+    out = [0.0] * n
+    for i in range(n):
+        row = phi[i]
+        s = g0[i] * u0 + g1[i] * u1
+        for j in range(n):
+            s += row[j] * x[j]
+        out[i] = s
+    return out
+
+
+def lti_output(x: list[float], c: tuple[float, ...]) -> float:
+    """``y = C x`` over plain floats."""
+    s = 0.0
+    for j in range(len(x)):
+        s += c[j] * x[j]
+    return s
+
+
+def _as_matrix(name: str, m: Any, shape: tuple[int, int]) -> np.ndarray:
+    a = np.atleast_2d(np.asarray(m, dtype=float))
+    if a.shape != shape:
+        raise ParameterError(
+            ErrorCode.BAD_PARAMETER, name, f"must have shape {shape}, got {a.shape}"
+        )
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(ErrorCode.BAD_PARAMETER, name, "must be finite")
+    return a
+
+
+class LinearPlant(Plant):
+    """Linear SISO plant (1), sampled exactly by ZOH (2), with optional input dead time.
+
+    Give either a transfer function (``num``, ``den``: polynomial coefficients
+    in descending powers of ``s``, strictly proper: ``len(num) < len(den)``
+    after leading zeros are stripped) or a state space (``A``, ``B``, ``C``
+    and optionally ``D``, which must be zero).
+
+    Parameters
+    ----------
+    num, den : sequence of float, optional
+        Transfer function ``num(s)/den(s)``.
+    ts : float
+        Sample time [s], > 0.
+    A, B, C, D : array_like, optional
+        State space (1); ``A`` is n x n, ``B`` n x 1, ``C`` 1 x n, ``D`` 0.
+    dead_time : float
+        Input dead time ``tau`` [s], >= 0; any value, exact for a ZOH input.
+
+    Attributes
+    ----------
+    ts : float
+        Sample time [s].
+    u : float
+        The input applied in the last ``step`` (after ``reset(u0)``: ``u0``).
+    phi, gamma0, gamma1, c : numpy.ndarray
+        The discrete matrices of (2) and the output row ``C``.
+    dead_samples : int
+        Whole samples ``d`` of the dead time.
+    dead_fraction : float
+        Remainder ``eps`` [s] of the dead time, ``0 <= eps < ts``.
+
+    Notes
+    -----
+    A non-finite input (NaN, inf) is never propagated into the state: the
+    previous input is held instead (the plant does not raise on process data).
+
+    Examples
+    --------
+    >>> p = LinearPlant([2.0], [5.0, 1.0], ts=0.1)      # 2/(5s+1)
+    >>> p.reset(1.0)
+    >>> round(p.y, 12)
+    2.0
+    """
+
+    def __init__(
+        self,
+        num: Sequence[float] | None = None,
+        den: Sequence[float] | None = None,
+        *,
+        ts: float,
+        A: Any = None,
+        B: Any = None,
+        C: Any = None,
+        D: Any = None,
+        dead_time: float = 0.0,
+    ) -> None:
+        self.ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
+        self.dead_time = require_nonnegative("dead_time", dead_time, ErrorCode.BAD_TIME_CONSTANT)
+        a, b, c = self._continuous(num, den, A, B, C, D)
+        self.a_c, self.b_c, self.c_c = a, b, c
+        self._discretise()
+        self.reset(0.0)
+
+    # -- construction --------------------------------------------------------
+
+    @staticmethod
+    def _continuous(
+        num: Any, den: Any, A: Any, B: Any, C: Any, D: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        tf_given = num is not None or den is not None
+        ss_given = any(m is not None for m in (A, B, C))
+        if tf_given == ss_given:
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER, "num/den|A/B/C", "give either (num, den) or (A, B, C)"
+            )
+        if tf_given:
+            if num is None or den is None:
+                raise ParameterError(ErrorCode.BAD_PARAMETER, "num/den", "give both num and den")
+            n = np.trim_zeros(np.atleast_1d(np.asarray(num, dtype=float)), "f")
+            d = np.trim_zeros(np.atleast_1d(np.asarray(den, dtype=float)), "f")
+            if d.size < 2 or not np.all(np.isfinite(d)) or not np.all(np.isfinite(n)):
+                raise ParameterError(
+                    ErrorCode.BAD_PARAMETER, "den", "must be finite and of degree >= 1"
+                )
+            if n.size == 0:
+                n = np.zeros(1)
+            if n.size >= d.size:
+                raise ParameterError(
+                    ErrorCode.BAD_PARAMETER,
+                    "num",
+                    "the plant must be strictly proper (deg num < deg den)",
+                )
+            a, b, c, _ = signal.tf2ss(n, d)
+            return np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)
+        if A is None or B is None or C is None:
+            raise ParameterError(ErrorCode.BAD_PARAMETER, "A/B/C", "give A, B and C")
+        a = np.atleast_2d(np.asarray(A, dtype=float))
+        nx = a.shape[0]
+        a = _as_matrix("A", a, (nx, nx))
+        b = _as_matrix("B", np.reshape(np.asarray(B, dtype=float), (nx, 1)), (nx, 1))
+        c = _as_matrix("C", np.reshape(np.asarray(C, dtype=float), (1, nx)), (1, nx))
+        if D is not None and np.any(np.asarray(D, dtype=float) != 0.0):
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER, "D", "the plant must be strictly proper (D = 0)"
+            )
+        return a, b, c
+
+    def _discretise(self) -> None:
+        a, b, c = self.a_c, self.b_c, self.c_c
+        nx = a.shape[0]
+        zero_d = np.zeros((1, 1))
+        d, eps = split_dead_time(self.dead_time, self.ts)
+        self.dead_samples, self.dead_fraction = d, eps
+        phi, gam = signal.cont2discrete((a, b, c, zero_d), self.ts, method="zoh")[:2]
+        if eps > 0.0:
+            phi_r, gam_r = signal.cont2discrete((a, b, c, zero_d), self.ts - eps, method="zoh")[:2]
+            gam_e = signal.cont2discrete((a, b, c, zero_d), eps, method="zoh")[1]
+            g0 = gam_r
+            g1 = phi_r @ gam_e
+        else:
+            g0, g1 = gam, np.zeros((nx, 1))
+        self.phi = np.asarray(phi, float)
+        self.gamma0 = np.asarray(g0, float).reshape(nx)
+        self.gamma1 = np.asarray(g1, float).reshape(nx)
+        self.c = c.reshape(nx).copy()
+        # plain-float copies for the per-sample path
+        self._phi = tuple(tuple(float(v) for v in row) for row in self.phi)
+        self._g0 = tuple(float(v) for v in self.gamma0)
+        self._g1 = tuple(float(v) for v in self.gamma1)
+        self._c = tuple(float(v) for v in self.c)
+        # steady state map x_ss = (I - Phi)^-1 (Gamma0 + Gamma1) u0, None if integrating
+        m = np.eye(nx) - self.phi
+        if np.linalg.cond(m) < 1e12:
+            self._x_per_u: np.ndarray | None = np.linalg.solve(m, self.gamma0 + self.gamma1)
+        else:
+            self._x_per_u = None
+        self._buf_len = d + 2
+
+    # -- the contract ----------------------------------------------------------
+
+    @property
+    def n_states(self) -> int:
+        """Number of continuous states ``n`` (the dead-time buffer not counted)."""
+        return len(self._c)
+
+    @property
+    def integrating(self) -> bool:
+        """True when the model has a pole at ``s = 0`` (no steady state for ``u != 0``)."""
+        return self._x_per_u is None
+
+    @property
+    def dc_gain(self) -> float:
+        """Static gain ``y/u`` in steady state (``inf`` for an integrating plant)."""
+        if self._x_per_u is None:
+            return math.inf
+        return float(self.c @ self._x_per_u)
+
+    @property
+    def y(self) -> float:
+        """Current output ``y[k] = C x[k]``."""
+        return self._y
+
+    @property
+    def state(self) -> list[float]:
+        """The state vector ``x[k]`` as a list of floats (a copy)."""
+        return list(self._x)
+
+    def step(self, u: float) -> float:
+        """Apply ``u[k]`` for one sample (ZOH); return ``y[k+1]``.
+
+        A non-finite ``u`` holds the previous input.
+        """
+        if not math.isfinite(u):
+            u = self.u
+        u = float(u)
+        self.u = u
+        buf, n, pos, d = self._buf, self._buf_len, self._pos, self.dead_samples
+        buf[pos] = u
+        u0 = buf[(pos - d) % n]
+        u1 = buf[(pos - d - 1) % n]
+        self._pos = (pos + 1) % n
+        self._x = lti_step(self._x, self._phi, self._g0, self._g1, u0, u1)
+        self._y = lti_output(self._x, self._c)
+        return self._y
+
+    def reset(self, u0: float = 0.0) -> None:
+        """Steady state for the constant input ``u0``; the dead-time buffer holds ``u0``.
+
+        For an integrating plant the state is zero (and the input ``u0`` is
+        held in the buffer), as the :class:`~.base.Plant` contract says.
+        """
+        u0 = float(u0) if math.isfinite(u0) else 0.0
+        self.u = u0
+        if self._x_per_u is None:
+            self._x = [0.0] * self.n_states
+        else:
+            self._x = [float(v) * u0 for v in self._x_per_u]
+        self._buf = [u0] * self._buf_len
+        self._pos = 0
+        self._y = lti_output(self._x, self._c)
+
+    def set_state(self, x: Sequence[float]) -> None:
+        """Overwrite the state vector ``x`` (length ``n_states``); the buffer is kept."""
+        if len(x) != self.n_states:
+            raise ValueError(f"state must have {self.n_states} entries, got {len(x)}")
+        self._x = [float(v) for v in x]
+        self._y = lti_output(self._x, self._c)
+
+    def snapshot(self) -> dict[str, Any]:
+        """A copy of the dynamic state (state vector, dead-time buffer, last input)."""
+        return {"x": list(self._x), "buf": list(self._buf), "pos": self._pos, "u": self.u}
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        """Put back a state taken by :meth:`snapshot` of the same plant."""
+        if len(snap["x"]) != self.n_states or len(snap["buf"]) != self._buf_len:
+            raise ValueError("snapshot does not belong to this plant")
+        self._x = [float(v) for v in snap["x"]]
+        self._buf = [float(v) for v in snap["buf"]]
+        self._pos = int(snap["pos"])
+        self.u = float(snap["u"])
+        self._y = lti_output(self._x, self._c)
+
+    def __repr__(self) -> str:
+        dt = f", dead_time={self.dead_time!r}" if self.dead_time else ""
+        return (
+            f"{type(self).__name__}(n_states={self.n_states}, ts={self.ts!r}{dt}) <y={self._y!r}>"
+        )
+
+
+def _lag(name: str, t: Any) -> float:
+    return require_positive(name, t, ErrorCode.BAD_TIME_CONSTANT)
+
+
+def _gain(k: Any) -> float:
+    from ..blocks.base import require_finite
+
+    return require_finite("k", k)
+
+
+class PT1(LinearPlant):
+    """First-order lag ``k e^(-dead_time s) / (t s + 1)`` (seed 002 ``LSim_PT1``).
+
+    Parameters
+    ----------
+    k : float
+        Static gain [output unit / input unit].
+    t : float
+        Time constant [s], > 0.
+    ts : float
+        Sample time [s].
+    dead_time : float
+        Input dead time [s], >= 0.
+    """
+
+    def __init__(self, k: float, t: float, ts: float, dead_time: float = 0.0) -> None:
+        self.k, self.t = _gain(k), _lag("t", t)
+        super().__init__([self.k], [self.t, 1.0], ts=ts, dead_time=dead_time)
+
+    def __repr__(self) -> str:
+        return f"PT1(k={self.k!r}, t={self.t!r}, ts={self.ts!r}, dead_time={self.dead_time!r})"
+
+
+class FOPDT(PT1):
+    """First order plus dead time ``k e^(-dead_time s) / (t s + 1)`` (seed 000, (10)).
+
+    Same as :class:`PT1` with the dead time as a required third argument.
+    """
+
+    def __init__(self, k: float, t: float, dead_time: float, ts: float) -> None:
+        super().__init__(k, t, ts, dead_time)
+
+    def __repr__(self) -> str:
+        return f"FOPDT(k={self.k!r}, t={self.t!r}, dead_time={self.dead_time!r}, ts={self.ts!r})"
+
+
+class PTn(LinearPlant):
+    """Chain of first-order lags ``k e^(-dead_time s) / prod_i (t_i s + 1)``.
+
+    The form of the pneumatic process models (10a) and (10b) of seed 000:
+    ``PTn(0.73, (7.3, 2.2, 1.4), ts=0.1)`` is (10b).
+
+    Parameters
+    ----------
+    k : float
+        Static gain.
+    t : sequence of float
+        Time constants [s], each > 0, at least one.
+    ts : float
+        Sample time [s].
+    dead_time : float
+        Input dead time [s].
+    """
+
+    def __init__(self, k: float, t: Sequence[float], ts: float, dead_time: float = 0.0) -> None:
+        self.k = _gain(k)
+        ts_list = [_lag(f"t[{i}]", ti) for i, ti in enumerate(t)]
+        if not ts_list:
+            raise ParameterError(ErrorCode.BAD_TIME_CONSTANT, "t", "give at least one")
+        self.t = tuple(ts_list)
+        den = np.array([1.0])
+        for ti in self.t:
+            den = np.polymul(den, [ti, 1.0])
+        super().__init__([self.k], den, ts=ts, dead_time=dead_time)
+
+    def __repr__(self) -> str:
+        return f"PTn(k={self.k!r}, t={self.t!r}, ts={self.ts!r}, dead_time={self.dead_time!r})"
+
+
+class PT2(PTn):
+    """Second-order lag ``k e^(-dead_time s) / ((t1 s + 1)(t2 s + 1))``."""
+
+    def __init__(self, k: float, t1: float, t2: float, ts: float, dead_time: float = 0.0) -> None:
+        super().__init__(k, (t1, t2), ts, dead_time)
+        self.t1, self.t2 = self.t
+
+    def __repr__(self) -> str:
+        return (
+            f"PT2(k={self.k!r}, t1={self.t1!r}, t2={self.t2!r}, ts={self.ts!r}, "
+            f"dead_time={self.dead_time!r})"
+        )
+
+
+class PT2Osc(LinearPlant):
+    """Second-order lag in damping form ``k e^(-dead_time s) / (t^2 s^2 + 2 zeta t s + 1)``.
+
+    Parameters
+    ----------
+    k : float
+        Static gain.
+    t : float
+        Time constant ``1/omega_n`` [s], > 0.
+    zeta : float
+        Damping ratio, >= 0 (``< 1``: oscillating).
+    ts : float
+        Sample time [s].
+    dead_time : float
+        Input dead time [s].
+    """
+
+    def __init__(self, k: float, t: float, zeta: float, ts: float, dead_time: float = 0.0) -> None:
+        self.k, self.t = _gain(k), _lag("t", t)
+        self.zeta = require_nonnegative("zeta", zeta)
+        den = [self.t**2, 2.0 * self.zeta * self.t, 1.0]
+        super().__init__([self.k], den, ts=ts, dead_time=dead_time)
+
+    def __repr__(self) -> str:
+        return (
+            f"PT2Osc(k={self.k!r}, t={self.t!r}, zeta={self.zeta!r}, ts={self.ts!r}, "
+            f"dead_time={self.dead_time!r})"
+        )
+
+
+class IT1(LinearPlant):
+    """Integrator with lag ``k e^(-dead_time s) / (s (t s + 1))`` (seed 002 ``LSim_IT1``).
+
+    Integrating: ``reset(u0)`` gives the zero state (the output stays at 0 only
+    for ``u0 = 0``; otherwise it ramps with slope ``k u0``).
+
+    Parameters
+    ----------
+    k : float
+        Integration gain [output unit / (input unit s)].
+    t : float
+        Lag time constant [s], > 0.
+    ts : float
+        Sample time [s].
+    dead_time : float
+        Input dead time [s].
+    """
+
+    def __init__(self, k: float, t: float, ts: float, dead_time: float = 0.0) -> None:
+        self.k, self.t = _gain(k), _lag("t", t)
+        super().__init__([self.k], [self.t, 1.0, 0.0], ts=ts, dead_time=dead_time)
+
+    def __repr__(self) -> str:
+        return f"IT1(k={self.k!r}, t={self.t!r}, ts={self.ts!r}, dead_time={self.dead_time!r})"
