@@ -91,6 +91,12 @@ CASES: dict[str, Case] = {
         {"out_min": 4.0},
         ErrorCode.BAD_LIMITS,
     ),
+    "ManualStation": Case(
+        lambda: ctrlblocks.ManualStation(tm=5.0, tr=0.3, ts=0.1, y0=50.0),
+        lambda b, k: b(inc=k % 13 < 6, dec=k % 29 < 4, track=None if k % 40 < 30 else 20.0),
+        {"tr": -1.0},
+        ErrorCode.BACK_CALC_T,
+    ),
     "MaxSelector": Case(
         lambda: ctrlblocks.MaxSelector(),
         lambda b, k: b(_wave(k), _wave(k + 5), 0.2),

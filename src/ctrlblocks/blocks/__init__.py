@@ -3,6 +3,7 @@
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
 from .jumprate import JumpAndRate
 from .leadlag import LeadLag
+from .manual import ManualStation
 from .signals import (
     PT1,
     DeadBand,
@@ -25,6 +26,7 @@ __all__ = [
     "ErrorCode",
     "JumpAndRate",
     "LeadLag",
+    "ManualStation",
     "MaxSelector",
     "MinSelector",
     "Mode",
