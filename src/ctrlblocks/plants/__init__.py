@@ -3,22 +3,30 @@
 Linear models (:mod:`.linear`): :class:`LinearPlant` (transfer function or
 state space, exact ZOH, any input dead time) and the convenience models
 :class:`PT1`, :class:`PT2`, :class:`PT2Osc`, :class:`PTn`, :class:`IT1`,
-:class:`FOPDT`; a pure dead time :class:`DeadTime`.  See docs/plants.md.
+:class:`FOPDT`; a pure dead time :class:`DeadTime`.  Wrappers that are
+plants themselves (:mod:`.wrappers`): :class:`Actuator` (input load, rate and
+range limits), :class:`Sensor` (output load, :class:`Noise`, saturation),
+:func:`process` (both).  See docs/plants.md.
 """
 
 from .base import Plant
 from .deadtime import DeadTime
 from .linear import FOPDT, IT1, PT1, PT2, LinearPlant, PT2Osc, PTn, split_dead_time
+from .wrappers import Actuator, Noise, Sensor, process
 
 __all__ = [
     "FOPDT",
     "IT1",
     "PT1",
     "PT2",
+    "Actuator",
     "DeadTime",
     "LinearPlant",
+    "Noise",
     "PT2Osc",
     "PTn",
     "Plant",
+    "Sensor",
+    "process",
     "split_dead_time",
 ]
