@@ -43,6 +43,12 @@ CASES: dict[str, Case] = {
         {"rate_up": -1.0},
         ErrorCode.BAD_RATE,
     ),
+    "CycleMonitor": Case(
+        lambda: ctrlblocks.CycleMonitor(ts=0.1, warn_limit=0.12, alarm_limit=0.2),
+        lambda b, k: b(0.1 + 0.03 * _wave(k) + (0.15 if k % 19 == 3 else 0.0)),
+        {"alarm_limit": 0.11},
+        ErrorCode.BAD_LIMITS,
+    ),
     "DeadBand": Case(
         lambda: ctrlblocks.DeadBand(width=0.1),
         lambda b, k: b(_wave(k)),

@@ -4,6 +4,7 @@ from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
 from .jumprate import JumpAndRate
 from .leadlag import LeadLag
 from .manual import ManualStation
+from .monitor import CycleMonitor
 from .signals import (
     PT1,
     DeadBand,
@@ -22,6 +23,7 @@ __all__ = [
     "PT1",
     "Block",
     "BlockConfig",
+    "CycleMonitor",
     "DeadBand",
     "ErrorCode",
     "JumpAndRate",
