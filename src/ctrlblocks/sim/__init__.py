@@ -1,0 +1,33 @@
+"""Closed-loop simulation: scenarios, wiring in Åström's computational order, metrics, plots.
+
+The main entry points:
+
+* :func:`load_scenario` reads a scenario file (TOML) and checks it;
+* :func:`simulate` runs one controller in one case and returns its trace;
+* :func:`run_scenario` runs all controllers in all cases, computes the
+  metrics (per run and per event window) and checks the source's claims;
+* :func:`write_result` writes traces, ``metrics.json`` and plots.
+
+See ``docs/simulator.md`` for the scenario format.
+"""
+
+from .loop import Run, simulate
+from .metrics import METRIC_NAMES, compute_metrics
+from .results import write_result
+from .runner import ScenarioResult, metric_table, run_scenario
+from .scenario import Scenario, ScenarioError, load_scenario, parse_scenario
+
+__all__ = [
+    "METRIC_NAMES",
+    "Run",
+    "Scenario",
+    "ScenarioError",
+    "ScenarioResult",
+    "compute_metrics",
+    "load_scenario",
+    "metric_table",
+    "parse_scenario",
+    "run_scenario",
+    "simulate",
+    "write_result",
+]

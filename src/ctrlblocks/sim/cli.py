@@ -1,0 +1,110 @@
+"""``ctrlblocks run`` and ``ctrlblocks reproduce``: the simulator on the command line."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import click
+
+from .report import load_shipped, render_report
+from .results import write_result
+from .runner import ScenarioResult, metric_table, run_scenario
+from .scenario import ScenarioError, load_scenario
+
+_FORMAT = click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["auto", "csv", "parquet"]),
+    default="auto",
+    show_default=True,
+    help="Trace file format (auto: Parquet when pyarrow is installed, else CSV).",
+)
+
+
+def _echo_claims(result: ScenarioResult) -> None:
+    for c in result.claims:
+        mark = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c.holds]
+        click.echo(f"  [{mark}] {c.claim.text}: {c.detail}")
+
+
+@click.command()
+@click.argument("scenario_file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("results"),
+    show_default=True,
+    help="Output directory (a folder per scenario is made in it).",
+)
+@click.option("--quick", is_flag=True, help="Cut every case to the scenario's quick_duration.")
+@_FORMAT
+def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str) -> None:
+    """Run SCENARIO_FILE (TOML): every controller in every case; write traces, metrics, plots."""
+    try:
+        sc = load_scenario(scenario_file)
+    except ScenarioError as exc:
+        raise click.ClickException(str(exc)) from None
+    n = len(sc.controllers) * len(sc.cases)
+    with click.progressbar(length=n, label=f"{sc.name}", show_pos=True) as bar:
+        result = run_scenario(sc, quick=quick, progress=lambda _: bar.update(1))
+    files = write_result(result, out_dir, fmt=fmt)
+    click.echo(metric_table(result))
+    _echo_claims(result)
+    click.echo(f"wrote {out_dir / sc.name}/ ({sum(len(v) for v in files.values())} files)")
+
+
+@click.command()
+@click.argument("names", nargs=-1)
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("report"),
+    show_default=True,
+    help="Output directory for report.md and a folder per scenario.",
+)
+@click.option("--quick", is_flag=True, help="Short runs (each case cut to its quick_duration).")
+@click.option("--list", "list_only", is_flag=True, help="List the shipped scenarios and exit.")
+@_FORMAT
+def reproduce(
+    names: tuple[str, ...], out_dir: Path, quick: bool, list_only: bool, fmt: str
+) -> None:
+    """Run the shipped scenarios (all, or NAMES) and write report.md with plots and metrics."""
+    try:
+        scenarios = load_shipped(names)
+    except KeyError as exc:
+        raise click.ClickException(str(exc.args[0])) from None
+    except ScenarioError as exc:  # pragma: no cover - shipped files are tested
+        raise click.ClickException(str(exc)) from None
+    if list_only:
+        for sc in scenarios:
+            click.echo(f"{sc.name:28s} {sc.source}: {sc.title}")
+        return
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    results = []
+    n = sum(len(sc.controllers) * len(sc.cases) for sc in scenarios)
+    with click.progressbar(
+        length=n, label="reproducing", show_pos=True, item_show_func=lambda s: s
+    ) as bar:
+        for sc in scenarios:
+
+            def tick(what: str, sc=sc) -> None:
+                bar.update(1, f"{sc.name}: {what}")
+
+            result = run_scenario(sc, quick=quick, progress=tick)
+            write_result(result, out_dir, fmt=fmt)
+            results.append(result)
+    seconds = time.perf_counter() - t0
+    report = out_dir / "report.md"
+    report.write_text(render_report(results, quick=quick, seconds=seconds), encoding="utf-8")
+    n_claims = sum(len(r.claims) for r in results)
+    n_hold = sum(1 for r in results for c in r.claims if c.holds)
+    for r in results:
+        bad = [c for c in r.claims if not c.holds]
+        if bad:
+            click.echo(f"{r.scenario.name}:")
+            _echo_claims(ScenarioResult(r.scenario, r.runs, r.metrics, bad, r.quick))
+    click.echo(f"{n_hold}/{n_claims} claims hold; report: {report} ({seconds:.1f} s)")

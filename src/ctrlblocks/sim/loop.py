@@ -1,0 +1,485 @@
+"""Closed-loop wiring of blocks and plants, in Åström's computational order.
+
+Every sample ``k`` (time ``t_k = k ts``) runs Listing 6.3 of seed 004
+(section 6, "Digital Implementation"):
+
+1. *events*: everything scheduled at or before ``t_k`` takes effect
+   (setpoint steps and ramps, loads, mode switches, limits, plant parameter
+   switches, sensor faults);
+2. *Adin*: read the measurement ``y`` of the plant (with an output load and
+   the sensor: saturation, noise, faults);
+3. *ComputeOutput*: each controller computes its output ``v`` with
+   ``compute_output`` (no state is touched);
+4. *ShapeOutput*: the structure shapes the outputs (min/max selector, the
+   secondary's setpoint in a cascade);
+5. *Daout*: the applied value ``u`` goes to the plant (plus an input load);
+6. *UpdateState*: every controller updates its state with the value actually
+   applied (``update_state(u)``), so tracking anti-windup and selectors use
+   simultaneous values (seed 004, section 6: "it is essential that
+   simultaneous values of the tracking signal and the regulator output are
+   used"); the plant advances by ``ts``.
+
+Structures (``scenario.structure``)
+-----------------------------------
+``single``
+    one controller, one plant.
+``cascade``
+    ``inner_plant`` (``u -> y2``) in series with ``plant`` (``y2 -> y``); the
+    primary controller's output is the secondary's setpoint; the secondary's
+    ``awout`` (at a limit) is written to the primary's ``awin`` before the
+    primary updates its state (the AW handshake of seed 000, section 5, and
+    seed 004, section 3 "Cascade Control").
+``override``
+    two or more controllers, each on ``y`` or ``y2``; a min (or max) selector
+    picks the applied ``u`` and every controller tracks it (seed 004,
+    Figs. 3.8/3.9).
+``feedforward``
+    the input load (the measured disturbance) goes through a lead-lag block
+    whose output is the controller's ``ff`` input, summed before the
+    controller's limits so that limits and anti-windup act on it (seed 003).
+``smith``
+    Smith predictor (seed 000, section 3.1): the controller sees
+    ``y + y_model_fast - y_model`` where ``y_model`` is a plant model with the
+    dead time and ``y_model_fast`` the same model without it.
+``open_loop``
+    a block driven by the setpoint profile (e.g. the jump-and-rate module of
+    seed 004 Fig. 5.2); ``y`` is its output.
+
+Series plants (cascade, override) are coupled with a zero-order hold: the
+outer plant receives ``y2`` at the start of the sample.  This adds an error of
+order ``ts`` against the continuous series connection; use a small ``ts``
+where it matters.
+
+Controllers are used through their two-phase interface
+(``compute_output``/``update_state``); a block without it is called once per
+sample as ``block(sp, y)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from .scenario import BlockSpec, Case, ControllerSpec, Event, Scenario, build
+
+__all__ = ["Run", "simulate"]
+
+
+@dataclasses.dataclass
+class Run:
+    """The trace of one controller in one case.
+
+    ``signals`` maps names to arrays of equal length: always ``t`` [s], ``sp``,
+    ``y`` (process output incl. output load), ``ym`` (measured), ``u``
+    (applied MV, before an input load), ``v`` (controller output before
+    shaping), ``load``; plus structure-specific ones (``y2``, ``sp2``, ``v1``,
+    ``v2``, ..., ``ff``, ``y_pred``).
+    """
+
+    scenario: str
+    controller: str
+    case: str
+    ts: float
+    signals: dict[str, np.ndarray]
+    events: tuple[Event, ...]
+    duration: float
+
+
+# ---------------------------------------------------------------------------
+# Adapters
+# ---------------------------------------------------------------------------
+
+
+class _Controller:
+    """Uniform two-phase access to a controller block."""
+
+    def __init__(self, block: Any) -> None:
+        self.block = block
+        self.two_phase = hasattr(block, "compute_output") and hasattr(block, "update_state")
+        fn = block.compute_output if self.two_phase else block
+        try:
+            params = inspect.signature(fn).parameters
+        except (TypeError, ValueError):  # pragma: no cover
+            params = {}
+        self.ok_name = next((n for n in ("y_ok", "pv_ok") if n in params), None)
+        self.takes_ff = "ff" in params
+
+    def output(self, sp: float, y: float, ok: bool, ff: float = 0.0) -> float:
+        kw: dict[str, Any] = {}
+        if self.ok_name is not None:
+            kw[self.ok_name] = ok
+        elif not ok:
+            y = math.nan  # a block without a quality flag sees an invalid value
+        if self.takes_ff:
+            kw["ff"] = ff
+        if self.two_phase:
+            return float(self.block.compute_output(sp, y, **kw))
+        return float(self.block(sp, y, **kw))
+
+    def update(self, applied: float) -> None:
+        if self.two_phase:
+            self.block.update_state(applied)
+
+
+def _set_manual(block: Any, on: bool, value: float | None = None) -> None:
+    if value is not None:
+        if hasattr(block, "manual_value"):
+            block.manual_value = value
+        elif hasattr(block, "u_man"):
+            block.u_man = value
+    if hasattr(block, "manual"):
+        block.manual = on
+
+
+def _set_attr(block: Any, attr: str, value: Any) -> None:
+    cfg = getattr(block, "config", None)
+    if (
+        cfg is not None
+        and dataclasses.is_dataclass(cfg)
+        and attr in {f.name for f in dataclasses.fields(cfg)}
+        and hasattr(block, "configure")
+    ):
+        block.configure(**{attr: value})
+    else:
+        setattr(block, attr, value)
+
+
+def _set_plant_param(plant: Any, name: str, value: float) -> None:
+    if hasattr(plant, "set_parameter"):
+        plant.set_parameter(name, value)
+    elif hasattr(plant, "configure"):
+        plant.configure(**{name: value})
+    else:
+        setattr(plant, name, value)
+
+
+# ---------------------------------------------------------------------------
+# The time line
+# ---------------------------------------------------------------------------
+
+
+class _Setpoint:
+    """Setpoint profile: steps, and ramps at a given rate towards a target."""
+
+    def __init__(self, value: float) -> None:
+        self.value = self.target = value
+        self.rate = math.inf
+
+    def step_to(self, value: float, ramp: float | None) -> None:
+        self.target = value
+        if ramp is None:
+            self.value, self.rate = value, math.inf
+        else:
+            self.rate = ramp
+
+    def advance(self, h: float) -> float:
+        """Move towards the target by at most ``rate * h``; return the value."""
+        d = self.target - self.value
+        if d != 0.0:
+            lim = self.rate * h
+            self.value = self.target if abs(d) <= lim else self.value + math.copysign(lim, d)
+        return self.value
+
+
+class _Sensor:
+    """Measurement: saturation, seeded white noise, faults (``ok`` flag, NaN)."""
+
+    def __init__(self, spec: dict[str, Any], n: int, seed: int) -> None:
+        self.lo, self.hi = spec.get("y_min", -math.inf), spec.get("y_max", math.inf)
+        std = spec.get("noise_std", 0.0)
+        if std > 0:
+            self.noise = np.random.default_rng(seed).normal(0.0, std, n + 1).tolist()
+        else:
+            self.noise = None
+        self.ok = True
+        self.nan = False
+
+    def read(self, y: float, k: int) -> tuple[float, bool]:
+        ym = y + self.noise[k] if self.noise is not None else y
+        ym = min(max(ym, self.lo), self.hi)
+        if self.nan:
+            ym = math.nan
+        return ym, self.ok and not self.nan
+
+
+# ---------------------------------------------------------------------------
+# Simulation
+# ---------------------------------------------------------------------------
+
+
+def simulate(
+    scenario: Scenario,
+    controller: ControllerSpec | str,
+    case: Case | str | None = None,
+    *,
+    duration: float | None = None,
+) -> Run:
+    """Run one controller of ``scenario`` in one case and return its trace.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario (:func:`~ctrlblocks.sim.scenario.load_scenario`).
+    controller : ControllerSpec or str
+        The controller entry (or its name).
+    case : Case or str, optional
+        The case (or its name); default the first.
+    duration : float, optional
+        Stop earlier than the case's duration [s] (short runs in tests).
+    """
+    if isinstance(controller, str):
+        controller = next(c for c in scenario.controllers if c.name == controller)
+    if case is None:
+        case = scenario.cases[0]
+    elif isinstance(case, str):
+        case = scenario.case(case)
+    t_end = case.duration if duration is None else min(duration, case.duration)
+    sim = _Simulation(scenario, controller, case, t_end)
+    return sim.run()
+
+
+class _Simulation:
+    def __init__(self, sc: Scenario, ctrl: ControllerSpec, case: Case, t_end: float) -> None:
+        self.sc, self.ctrl_spec, self.case, self.t_end = sc, ctrl, case, t_end
+        self.ts = h = sc.ts
+        self.n = math.floor(t_end / h + 1e-9)
+        self.structure = sc.structure
+        mk = self._make
+        self.blocks: dict[str, Any] = {}
+        if self.structure == "override":
+            for i, spec in enumerate(ctrl.blocks["blocks"]):
+                self.blocks[f"blocks[{i}]"] = mk(spec, "block")
+            self.override_specs = ctrl.blocks["blocks"]
+        else:
+            for role, spec in ctrl.blocks.items():
+                if role != "model":
+                    self.blocks[role] = mk(spec, "block")
+        self.ctrls = {
+            role: _Controller(b)
+            for role, b in self.blocks.items()
+            if role != "feedforward" and self.structure != "open_loop"
+        }
+        self.plant = mk(sc.plant, "plant") if sc.plant else None
+        self.inner = mk(sc.inner_plant, "plant") if sc.inner_plant else None
+        if self.structure == "smith":
+            model: BlockSpec = ctrl.blocks["model"]
+            self.model = mk(model, "plant")
+            fast = dataclasses.replace(model, params={**model.params, "dead_time": 0.0})
+            self.model_fast = mk(fast, "plant")
+        self.sensor = _Sensor(dict(sc.sensor), self.n, sc.seed)
+        ini = sc.initial
+        self.loads = {"input": ini["load"], "output": 0.0, "inner": 0.0}
+        self.u0 = ini["u"]
+        self._reset_plants()
+        sp0 = ini["sp"]
+        if math.isnan(sp0):
+            sp0 = self._y_true() if self.plant is not None else 0.0
+        self.sp = _Setpoint(sp0)
+        self.rec: dict[str, list[float]] = {}
+
+    def _make(self, spec: BlockSpec, kind: str) -> Any:
+        return build(spec, self.ts, kind=kind, file=self.sc.file)
+
+    def _reset_plants(self) -> None:
+        u_in = self.u0 + self.loads["input"]
+        if self.inner is not None:
+            self.inner.reset(u_in)
+            self.plant.reset(self.inner.y + self.loads["inner"])
+        elif self.plant is not None:
+            self.plant.reset(u_in)
+        if self.structure == "smith":
+            self.model.reset(self.u0)
+            self.model_fast.reset(self.u0)
+
+    def _y_true(self) -> float:
+        return self.plant.y + self.loads["output"]
+
+    # -- events ------------------------------------------------------------------
+
+    def _target(self, ev: Event) -> Any:
+        name = ev.fields.get("target")
+        if name is None:
+            name = (
+                "primary"
+                if self.structure == "cascade"
+                else ("blocks[0]" if self.structure == "override" else "main")
+            )
+        if name in ("plant", "inner_plant"):
+            return self.plant if name == "plant" else self.inner
+        if name not in self.blocks:
+            raise ValueError(
+                f"{self.sc.file}: event at t={ev.t:g}: unknown target {name!r}; "
+                f"expected one of {', '.join(self.blocks)}"
+            )
+        return self.blocks[name]
+
+    def _apply(self, ev: Event) -> None:
+        f = ev.fields
+        k = ev.kind
+        if k == "setpoint":
+            self.sp.step_to(f["value"], f.get("ramp"))
+        elif k == "load":
+            self.loads[f.get("at", "input")] = f["value"]
+        elif k == "mode":
+            on = f["mode"] == "manual"
+            targets = self._mode_targets(ev)
+            for b in targets:
+                _set_manual(b, on, f.get("manual_value"))
+        elif k == "manual_value":
+            for b in self._mode_targets(ev):
+                _set_manual(b, bool(getattr(b, "manual", True)), f["value"])
+        elif k == "limits":
+            self._target(ev).set_limits(f["u_min"], f["u_max"])
+        elif k == "plant":
+            name = f.get("target", "plant")
+            plant = self.inner if name == "inner_plant" else self.plant
+            _set_plant_param(plant, f["param"], f["value"])
+        elif k == "sensor":
+            if "ok" in f:
+                self.sensor.ok = f["ok"]
+            if "nan" in f:
+                self.sensor.nan = f["nan"]
+        elif k == "set":
+            _set_attr(self._target(ev), f["attr"], f["value"])
+
+    def _mode_targets(self, ev: Event) -> list[Any]:
+        if "target" in ev.fields:
+            return [self._target(ev)]
+        if self.structure == "cascade":
+            return [self.blocks["secondary"]]  # manual acts on the MV
+        if self.structure == "override":
+            return [b for r, b in self.blocks.items() if r.startswith("blocks")]
+        return [self.blocks["main"]]
+
+    # -- one sample per structure --------------------------------------------------
+
+    def _record(self, **values: float) -> None:
+        for name, v in values.items():
+            self.rec.setdefault(name, []).append(v)
+
+    def _sample(self, k: int, record: bool) -> None:
+        sp = self.sp.value
+        s = self.structure
+        if s == "open_loop":
+            out = float(self.blocks["main"](sp))
+            if record:
+                self._record(sp=sp, y=out, ym=out, u=out, v=out, load=0.0)
+            return
+        y = self._y_true()
+        ym, ok = self.sensor.read(y, k)
+        extra: dict[str, float] = {}
+        load_in = self.loads["input"]
+        if s in ("single", "feedforward", "smith"):
+            c = self.ctrls["main"]
+            ff = 0.0
+            y_fb = ym
+            if s == "feedforward":
+                ff = float(self.blocks["feedforward"](load_in))
+                extra["ff"] = ff
+            if s == "smith":
+                y_fb = ym + self.model_fast.y - self.model.y
+                extra["y_pred"] = y_fb
+            v = c.output(sp, y_fb, ok, ff)
+            u = v
+            c.update(u)
+            self.plant.step(u + load_in)
+            if s == "smith":
+                self.model.step(u)
+                self.model_fast.step(u)
+        elif s == "cascade":
+            p, q = self.ctrls["primary"], self.ctrls["secondary"]
+            y2 = self.inner.y
+            v1 = p.output(sp, ym, ok)
+            v = q.output(v1, y2, True)
+            u = v
+            q.update(u)
+            prim, sec = self.blocks["primary"], self.blocks["secondary"]
+            if hasattr(prim, "awin"):
+                prim.awin = bool(getattr(sec, "awout", False))
+            p.update(v1)
+            self.inner.step(u + load_in)
+            self.plant.step(y2 + self.loads["inner"])
+            extra.update(y2=y2, sp2=v1)
+        elif s == "override":
+            y2 = self.inner.y
+            vs = []
+            for i, spec in enumerate(self.override_specs):
+                meas = ym if spec.extra.get("measure", "y") == "y" else y2
+                spi = spec.extra.get("sp", "sp")
+                spi = sp if spi == "sp" else float(spi)
+                vs.append(self.ctrls[f"blocks[{i}]"].output(spi, meas, ok))
+            v = min(vs) if self.ctrl_spec.options.get("selector", "min") == "min" else max(vs)
+            u = v
+            for i in range(len(vs)):
+                self.ctrls[f"blocks[{i}]"].update(u)
+            self.inner.step(u + load_in)
+            self.plant.step(y2 + self.loads["inner"])
+            extra["y2"] = y2
+            for i, vi in enumerate(vs):
+                extra[f"v{i + 1}"] = vi
+        else:  # pragma: no cover - guarded by the parser
+            raise ValueError(s)
+        if record:
+            self._record(sp=sp, y=y, ym=ym, u=u, v=v, load=load_in, **extra)
+
+    # -- run -----------------------------------------------------------------------
+
+    def _warmup(self) -> None:
+        """Hold every controller in manual at the initial MV for ``initial.warmup`` s.
+
+        The plant is in steady state, so the controllers' bumpless logic
+        initialises their states; then the initial mode is set.  Not recorded.
+        """
+        ini = self.sc.initial
+        nw = round(ini["warmup"] / self.ts)
+        manual_blocks = [b for r, b in self.blocks.items() if r in self.ctrls]
+        if self.structure == "cascade":
+            _set_manual(self.blocks["primary"], True, self.inner.y)
+            _set_manual(self.blocks["secondary"], True, self.u0)
+        else:
+            for b in manual_blocks:
+                _set_manual(b, True, self.u0)
+        for _ in range(nw):
+            self._sample(0, record=False)
+            self._reset_plants()  # keep the plant exactly at its steady state
+        on = ini["mode"] == "manual"
+        for b in manual_blocks:
+            if hasattr(b, "manual"):
+                b.manual = on
+
+    def run(self) -> Run:
+        if self.structure != "open_loop" and (
+            self.sc.initial["warmup"] > 0 or self.sc.initial["mode"] == "manual"
+        ):
+            self._warmup()
+        events = [e for e in self.case.events if e.t < self.t_end - 0.5 * self.ts or e.t == 0.0]
+        pending = list(events)
+        h = self.ts
+        for k in range(self.n):
+            t = k * h
+            if k > 0:
+                self.sp.advance(h)
+            while pending and pending[0].t <= t + 0.5 * h:
+                self._apply(pending.pop(0))
+            self._sample(k, record=True)
+            self._record(t=t)
+        signals = {name: np.asarray(v, dtype=float) for name, v in self.rec.items()}
+        return Run(
+            scenario=self.sc.name,
+            controller=self.ctrl_spec.name,
+            case=self.case.name,
+            ts=h,
+            signals=signals,
+            events=tuple(events),
+            duration=self.n * h,
+        )
+
+
+def event_times(events: Iterable[Event]) -> list[tuple[float, str]]:
+    """``(t, label)`` of events, for :func:`~ctrlblocks.sim.metrics.windows_from_events`."""
+    return [(e.t, e.label) for e in events]

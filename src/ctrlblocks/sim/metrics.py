@@ -1,0 +1,289 @@
+"""Performance metrics of a closed-loop run, per run and per event window.
+
+Every metric is computed from the sampled trace (time ``t``, setpoint ``r``,
+controlled variable ``y``, manipulated variable ``u``) of one window
+``t0 <= t_k < t1``.  Samples are equidistant with period ``h``; the control
+error is ``e_k = r_k - y_k``.  Integrals use the rectangle (left Riemann) sum
+that belongs to sampled data held over each period, so a hand calculation
+over a few samples gives the same number.
+
+Definitions (``k`` runs over the samples of the window, ``n`` of them):
+
+``iae``
+    integral of the absolute error, ``h * sum |e_k|``  [PV units * s].
+``ise``
+    integral of the squared error, ``h * sum e_k**2``  [PV units^2 * s].
+``itae``
+    time-weighted IAE, ``h * sum (t_k - t0) |e_k|``, time measured from the
+    start of the window  [PV units * s^2].
+``step``
+    the size of the step the window asks for, ``Δ = r_end - y_0``: final
+    setpoint minus the first value of ``y`` in the window [PV units].  A
+    window is a *step window* when ``|Δ| > step_tol``; otherwise it is a
+    regulation (load) window and the step-response metrics below are NaN.
+``overshoot``
+    step windows only: ``max(0, max_k s (y_k - r_end)) / |Δ|`` with
+    ``s = sign(Δ)``, a fraction of the step (0.25 = 25 %).
+``rise_time``
+    step windows only: time from the first sample at which ``y`` has covered
+    10 % of the step to the first sample at which it has covered 90 % [s];
+    NaN if 90 % is never reached.
+``settling_time``
+    time from ``t0`` to the first sample after which ``|y_k - r_end|`` stays
+    within the band until the end of the window [s].  The band is
+    ``band * |Δ|`` for a step window and ``band * max(|r_end|, peak_error)``
+    for a regulation window (default ``band = 0.02``: 2 %).  0 if ``y`` never
+    leaves the band; NaN if it is outside the band at the end of the window.
+``peak_error``
+    ``max |e_k|`` [PV units] (for a load window: the largest deviation).
+``final_error``
+    mean of ``|e_k|`` over the last 5 % of the window (at least one sample)
+    [PV units]: the offset that remains.
+``tv_u``
+    total variation of the MV, ``sum |u_k - u_{k-1}|`` over consecutive
+    samples inside the window [MV units]: how much the actuator moves.
+``max_rate_u``
+    largest ``|u_k - u_{k-1}| / h`` inside the window [MV units / s].
+``jump_u``
+    ``|u_first - u_before|``: the change of the MV at the first sample of the
+    window against the sample just before it (0 for the first window) [MV
+    units]: the bump of a mode switch.
+
+NaN values are written as ``null`` in ``metrics.json``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "METRIC_NAMES",
+    "Window",
+    "compute_metrics",
+    "final_error",
+    "iae",
+    "ise",
+    "itae",
+    "max_rate",
+    "overshoot",
+    "rise_time",
+    "settling_time",
+    "total_variation",
+    "windows_from_events",
+]
+
+METRIC_NAMES: tuple[str, ...] = (
+    "iae",
+    "ise",
+    "itae",
+    "overshoot",
+    "settling_time",
+    "rise_time",
+    "peak_error",
+    "final_error",
+    "tv_u",
+    "max_rate_u",
+    "jump_u",
+)
+"""Keys of the dictionary returned by :func:`compute_metrics`, in table order."""
+
+
+# ---------------------------------------------------------------------------
+# Single metrics over arrays (all inputs are 1-D numpy arrays of one window)
+# ---------------------------------------------------------------------------
+
+
+def iae(e: np.ndarray, h: float) -> float:
+    """Integral of the absolute error, ``h * sum |e_k|`` [PV units * s]."""
+    return float(h * np.sum(np.abs(e)))
+
+
+def ise(e: np.ndarray, h: float) -> float:
+    """Integral of the squared error, ``h * sum e_k**2`` [PV units^2 * s]."""
+    return float(h * np.sum(e * e))
+
+
+def itae(e: np.ndarray, t: np.ndarray, h: float) -> float:
+    """Time-weighted IAE, ``h * sum (t_k - t_0) |e_k|`` [PV units * s^2]."""
+    if len(t) == 0:
+        return 0.0
+    return float(h * np.sum((t - t[0]) * np.abs(e)))
+
+
+def overshoot(y: np.ndarray, r_end: float, step: float) -> float:
+    """Overshoot as a fraction of the step: ``max(0, max s (y - r_end)) / |step|``.
+
+    ``s = sign(step)``; NaN when ``step`` is 0.
+    """
+    if step == 0.0 or len(y) == 0:
+        return math.nan
+    s = 1.0 if step > 0 else -1.0
+    return float(max(0.0, float(np.max(s * (y - r_end)))) / abs(step))
+
+
+def rise_time(t: np.ndarray, y: np.ndarray, y0: float, step: float) -> float:
+    """Time from 10 % to 90 % of the step (first crossings) [s]; NaN if not reached."""
+    if step == 0.0 or len(y) == 0:
+        return math.nan
+    covered = (y - y0) / step
+    i10 = np.flatnonzero(covered >= 0.1)
+    i90 = np.flatnonzero(covered >= 0.9)
+    if len(i10) == 0 or len(i90) == 0:
+        return math.nan
+    return float(t[i90[0]] - t[i10[0]])
+
+
+def settling_time(t: np.ndarray, y: np.ndarray, r_end: float, band: float) -> float:
+    """Time from ``t[0]`` until ``|y - r_end| <= band`` holds to the end [s].
+
+    0 when ``y`` never leaves the band, NaN when it is outside at the end.
+    """
+    if len(y) == 0 or not math.isfinite(band):
+        return math.nan
+    outside = np.flatnonzero(~(np.abs(y - r_end) <= band))
+    if len(outside) == 0:
+        return 0.0
+    last = outside[-1]
+    if last == len(y) - 1:
+        return math.nan
+    return float(t[last + 1] - t[0])
+
+
+def final_error(e: np.ndarray) -> float:
+    """Mean ``|e|`` over the last 5 % of the window (at least one sample)."""
+    if len(e) == 0:
+        return math.nan
+    m = max(1, round(0.05 * len(e)))
+    return float(np.mean(np.abs(e[-m:])))
+
+
+def total_variation(u: np.ndarray) -> float:
+    """Total variation ``sum |u_k - u_{k-1}|`` [MV units]."""
+    if len(u) < 2:
+        return 0.0
+    return float(np.sum(np.abs(np.diff(u))))
+
+
+def max_rate(u: np.ndarray, h: float) -> float:
+    """Largest ``|u_k - u_{k-1}| / h`` [MV units / s]; 0 for fewer than two samples."""
+    if len(u) < 2:
+        return 0.0
+    return float(np.max(np.abs(np.diff(u))) / h)
+
+
+# ---------------------------------------------------------------------------
+# All metrics of one window
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Window:
+    """A time window ``t0 <= t < t1`` with a label (the event that opens it)."""
+
+    label: str
+    t0: float
+    t1: float
+
+
+def compute_metrics(
+    t: np.ndarray,
+    r: np.ndarray,
+    y: np.ndarray,
+    u: np.ndarray,
+    h: float,
+    *,
+    t0: float | None = None,
+    t1: float | None = None,
+    band: float = 0.02,
+    step_tol: float = 1e-9,
+) -> dict[str, float]:
+    """All metrics of the module docstring over the window ``t0 <= t < t1``.
+
+    Parameters
+    ----------
+    t, r, y, u : numpy.ndarray
+        Time [s], setpoint, controlled variable and MV of the whole run.
+    h : float
+        Sample time [s].
+    t0, t1 : float, optional
+        Window bounds (default: the whole run).  A sample belongs to the
+        window when ``t0 - h/2 <= t_k < t1 - h/2`` (robust to rounding of
+        event times).
+    band : float
+        Settling band as a fraction (default 2 %).
+    step_tol : float
+        Steps not larger than this count as no step [PV units].
+
+    Returns
+    -------
+    dict
+        ``{name: value}`` for every name in :data:`METRIC_NAMES`.
+    """
+    t = np.asarray(t, dtype=float)
+    lo = -math.inf if t0 is None else t0 - 0.5 * h
+    hi = math.inf if t1 is None else t1 - 0.5 * h
+    idx = np.flatnonzero((t >= lo) & (t < hi))
+    if len(idx) == 0:
+        return dict.fromkeys(METRIC_NAMES, math.nan)
+    sl = slice(idx[0], idx[-1] + 1)
+    tw, rw, yw, uw = (
+        t[sl],
+        np.asarray(r, float)[sl],
+        np.asarray(y, float)[sl],
+        np.asarray(u, float)[sl],
+    )
+    e = rw - yw
+    r_end = float(rw[-1])
+    y0 = float(yw[0])
+    step = r_end - y0
+    if abs(step) <= step_tol:
+        step = 0.0
+    peak = float(np.max(np.abs(e)))
+    if step != 0.0:
+        band_abs = band * abs(step)
+    else:
+        scale_ = max(abs(r_end), peak)
+        band_abs = band * scale_ if scale_ > 0 else math.nan
+    u_all = np.asarray(u, float)
+    jump = abs(float(u_all[idx[0]] - u_all[idx[0] - 1])) if idx[0] > 0 else 0.0
+    return {
+        "iae": iae(e, h),
+        "ise": ise(e, h),
+        "itae": itae(e, tw, h),
+        "overshoot": overshoot(yw, r_end, step),
+        "settling_time": settling_time(tw, yw, r_end, band_abs),
+        "rise_time": rise_time(tw, yw, y0, step),
+        "peak_error": peak,
+        "final_error": final_error(e),
+        "tv_u": total_variation(uw),
+        "max_rate_u": max_rate(uw, h),
+        "jump_u": jump,
+    }
+
+
+def windows_from_events(
+    events: Sequence[tuple[float, str]], t_end: float, *, first_label: str = "start"
+) -> list[Window]:
+    """Split ``[0, t_end)`` at the event times.
+
+    ``events`` are ``(time, label)`` pairs; events at the same time share one
+    window (labels joined with ``"; "``); an event at t = 0 labels the first
+    window.
+    """
+    times: dict[float, list[str]] = {}
+    for te, label in sorted(events, key=lambda p: p[0]):
+        if 0.0 <= te < t_end:
+            times.setdefault(round(te, 9), []).append(label)
+    starts = sorted(times)
+    if not starts or starts[0] > 0.0:
+        starts = [0.0, *starts]
+        times.setdefault(0.0, [first_label])
+    out = []
+    for i, ts in enumerate(starts):
+        te = starts[i + 1] if i + 1 < len(starts) else t_end
+        out.append(Window("; ".join(times[ts]), ts, te))
+    return out

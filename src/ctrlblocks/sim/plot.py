@@ -1,0 +1,132 @@
+"""Plots in the style of the sources' figures.
+
+One PNG per case: the upper axes show the controlled variable of every
+controller with the setpoint, the lower axes the manipulated variable (seed
+000, Figs. 5-7: "The upper diagram shows the controlled variable and the
+lower – manipulating variable"; seed 004's Simnon plots likewise).  One colour
+per controller; dotted vertical lines mark the events.  ``[plot]`` in the
+scenario chooses the signals (``upper``, ``lower``) and the axis labels.
+
+matplotlib is used with the non-interactive Agg backend, so plotting works
+without a display.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from .results import slug
+from .runner import ScenarioResult
+
+__all__ = ["plot_result"]
+
+_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"]
+_SIGNAL_STYLE = {
+    "sp": {"color": "black", "linestyle": "--", "linewidth": 1.0},
+}
+_LABELS = {
+    "sp": "setpoint",
+    "y": "y",
+    "ym": "y measured",
+    "u": "u",
+    "v": "controller output v",
+    "y2": "y2 (inner)",
+    "sp2": "secondary setpoint",
+    "ff": "feed-forward",
+    "y_pred": "predictor output",
+    "load": "load",
+}
+
+
+def plot_result(result: ScenarioResult, out_dir: Path, *, dpi: int = 100) -> list[Path]:
+    """Draw one PNG per case of ``result`` into ``out_dir``; return the files."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    sc = result.scenario
+    cfg: dict[str, Any] = dict(sc.plot)
+    upper = list(cfg.get("upper", ["sp", "y"]))
+    lower = list(cfg.get("lower", ["u"]))
+    files = []
+    for case in sc.cases:
+        runs = [r for r in result.runs if r.case == case.name]
+        if not runs:
+            continue
+        n_axes = 2 if lower else 1
+        fig, axes = plt.subplots(
+            n_axes, 1, sharex=True, figsize=(7.5, 5.2 if n_axes == 2 else 3.4), squeeze=False
+        )
+        ax_list = [a[0] for a in axes]
+        colors = {
+            c.name: (c.options.get("color") or _COLORS[i % len(_COLORS)])
+            for i, c in enumerate(sc.controllers)
+        }
+        for ax, names, label_key in zip(
+            ax_list, (upper, lower), ("upper_label", "lower_label"), strict=False
+        ):
+            _draw(ax, runs, names, colors, single=len(runs) == 1, legend=cfg.get("legend", {}))
+            ax.set_ylabel(cfg.get(label_key, _default_label(names)))
+            ax.grid(True, alpha=0.3)
+            for ev in runs[0].events:
+                if ev.t > 0:
+                    ax.axvline(ev.t, color="0.6", linestyle=":", linewidth=0.8)
+            ax.legend(fontsize=7, loc="best")
+        if "ylim_upper" in cfg:
+            ax_list[0].set_ylim(*cfg["ylim_upper"])
+        if "ylim_lower" in cfg and len(ax_list) > 1:
+            ax_list[1].set_ylim(*cfg["ylim_lower"])
+        ax_list[-1].set_xlabel("t [s]")
+        ax_list[-1].set_xlim(0.0, runs[0].duration)
+        title = cfg.get("title", sc.title)
+        if len(sc.cases) > 1:
+            title += f" — {case.name}"
+        if result.quick:
+            title += " (quick)"
+        ax_list[0].set_title(f"{title}\n{sc.source}", fontsize=9)
+        fig.tight_layout()
+        path = out_dir / f"{slug(case.name)}.png"
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+        files.append(path)
+    return files
+
+
+def _default_label(names: list[str]) -> str:
+    return ", ".join(_LABELS.get(n, n) for n in names if n != "sp") or "signal"
+
+
+def _draw(
+    ax: Any,
+    runs: list,
+    names: list[str],
+    colors: dict[str, str],
+    single: bool,
+    legend: dict[str, str],
+) -> None:
+    labels = _LABELS | dict(legend)
+    styles = ["-", "--", "-.", ":"]
+    sp_drawn = False
+    for run in runs:
+        t = run.signals["t"]
+        k = 0
+        for name in names:
+            if name not in run.signals:
+                continue
+            if name == "sp":
+                if not sp_drawn:
+                    ax.plot(t, run.signals["sp"], label=labels["sp"], **_SIGNAL_STYLE["sp"])
+                    sp_drawn = True
+                continue
+            if single:
+                color = _COLORS[k % len(_COLORS)]
+                label = labels.get(name, name)
+                ls = "-"
+            else:
+                color = colors[run.controller]
+                label = run.controller if k == 0 else f"{run.controller}: {labels.get(name, name)}"
+                ls = styles[k % len(styles)]
+            ax.plot(t, run.signals[name], color=color, linestyle=ls, linewidth=1.2, label=label)
+            k += 1

@@ -1,0 +1,109 @@
+"""Result files of a scenario run: traces, ``metrics.json``, plots.
+
+Layout of an output directory for scenario ``NAME``::
+
+    NAME/metrics.json            a list: one object per controller and case
+    NAME/claims.json             the source's claims, checked on the metrics
+    NAME/trace_<ctrl>_<case>.csv  (or .parquet when pyarrow is importable)
+    NAME/<case>.png              upper: CV and SP, lower: MV
+
+``metrics.json`` holds a list of objects with the keys ``scenario``,
+``controller``, ``case``, ``iae``, ``ise``, ``itae``, ``overshoot``,
+``settling_time``, ``tv_u`` (and the other metrics of
+:mod:`ctrlblocks.sim.metrics`; NaN as ``null``) and ``windows``, the same
+metrics per event window.
+"""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import re
+from pathlib import Path
+
+from .loop import Run
+from .runner import ScenarioResult
+
+__all__ = ["slug", "write_claims", "write_metrics", "write_result", "write_trace"]
+
+
+def slug(text: str) -> str:
+    """A file-name-safe form of ``text`` (letters, digits, ``-``, ``_``, ``.``)."""
+    s = re.sub(r"[^A-Za-z0-9_.\-]+", "_", text).strip("_")
+    return s or "x"
+
+
+def write_trace(run: Run, path: Path, fmt: str = "auto") -> Path:
+    """Write the signals of ``run`` to ``path`` without suffix; return the file written.
+
+    ``fmt`` is ``"csv"``, ``"parquet"`` (needs pyarrow) or ``"auto"`` (Parquet
+    when pyarrow is importable, else CSV).
+    """
+    if fmt == "auto":
+        fmt = "parquet" if importlib.util.find_spec("pyarrow") is not None else "csv"
+    names = ["t", *[n for n in run.signals if n != "t"]]
+    if fmt == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        out = path.with_suffix(".parquet")
+        pq.write_table(pa.table({n: run.signals[n] for n in names}), out)
+        return out
+    if fmt != "csv":
+        raise ValueError(f"unknown trace format {fmt!r} (csv, parquet, auto)")
+    out = path.with_suffix(".csv")
+    cols = [run.signals[n].tolist() for n in names]
+    with out.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(names)
+        for row in zip(*cols, strict=True):
+            w.writerow([repr(x) for x in row])
+    return out
+
+
+def write_metrics(result: ScenarioResult, path: Path) -> Path:
+    """Write ``result.metrics`` (a list, one object per controller and case) to ``path``."""
+    path.write_text(json.dumps(result.metrics, indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    return path
+
+
+def write_claims(result: ScenarioResult, path: Path) -> Path:
+    """Write the checked claims of ``result`` as a JSON list to ``path``."""
+    doc = [
+        {
+            "text": c.claim.text,
+            "source": c.claim.source,
+            "metric": c.claim.metric,
+            "case": c.claim.case,
+            "window": c.claim.window,
+            "holds": c.holds,
+            "detail": c.detail,
+        }
+        for c in result.claims
+    ]
+    path.write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    return path
+
+
+def write_result(
+    result: ScenarioResult, out_dir: Path, *, fmt: str = "auto", plots: bool = True
+) -> dict[str, list[Path]]:
+    """Write traces, ``metrics.json`` and plots of ``result`` under ``out_dir/NAME``.
+
+    Returns the written files grouped as ``{"traces", "metrics", "plots"}``.
+    """
+    d = Path(out_dir) / result.scenario.name
+    d.mkdir(parents=True, exist_ok=True)
+    files: dict[str, list[Path]] = {"traces": [], "metrics": [], "plots": []}
+    for run in result.runs:
+        files["traces"].append(
+            write_trace(run, d / f"trace_{slug(run.controller)}_{slug(run.case)}", fmt)
+        )
+    files["metrics"].append(write_metrics(result, d / "metrics.json"))
+    files["metrics"].append(write_claims(result, d / "claims.json"))
+    if plots:
+        from .plot import plot_result
+
+        files["plots"].extend(plot_result(result, d))
+    return files

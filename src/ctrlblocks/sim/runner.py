@@ -1,0 +1,189 @@
+"""Run a whole scenario: every controller in every case, metrics, claims.
+
+>>> from ctrlblocks.sim import load_scenario, run_scenario   # doctest: +SKIP
+>>> result = run_scenario(load_scenario("my.toml"))          # doctest: +SKIP
+>>> result.metrics[0]["iae"]                                 # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Any
+
+from .loop import Run, event_times, simulate
+from .metrics import METRIC_NAMES, compute_metrics, windows_from_events
+from .scenario import Claim, Scenario
+
+__all__ = ["ClaimResult", "ScenarioResult", "check_claim", "run_scenario"]
+
+
+@dataclasses.dataclass
+class ClaimResult:
+    """A claim of the source with the numbers that decide it."""
+
+    claim: Claim
+    holds: bool | None  # None: could not be decided (a metric was NaN)
+    detail: str
+
+
+@dataclasses.dataclass
+class ScenarioResult:
+    """All runs of a scenario with their metrics and the checked claims.
+
+    ``metrics`` is a list of dicts, one per controller and case, with the
+    keys ``scenario``, ``controller``, ``case`` and every metric of
+    :data:`~ctrlblocks.sim.metrics.METRIC_NAMES` over the whole run, plus
+    ``windows``: the same metrics per event window (with ``label``, ``t0``,
+    ``t1``).
+    """
+
+    scenario: Scenario
+    runs: list[Run]
+    metrics: list[dict[str, Any]]
+    claims: list[ClaimResult]
+    quick: bool
+
+    def metric(self, controller: str, case: str, name: str, window: int | None = None) -> float:
+        """One metric value (whole run, or of event window number ``window``)."""
+        for m in self.metrics:
+            if m["controller"] == controller and m["case"] == case:
+                src = m if window is None else m["windows"][window]
+                v = src[name]
+                return math.nan if v is None else float(v)
+        raise KeyError((controller, case))
+
+    @property
+    def all_claims_hold(self) -> bool:
+        """True when every claim holds (undecided claims count as failures)."""
+        return all(c.holds for c in self.claims)
+
+
+def run_scenario(
+    scenario: Scenario,
+    *,
+    quick: bool = False,
+    duration: float | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> ScenarioResult:
+    """Run every controller of ``scenario`` in every case.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The loaded scenario.
+    quick : bool
+        Stop each case at ``scenario.quick_duration`` (used by
+        ``reproduce --quick`` and the tests).
+    duration : float, optional
+        Stop each case at this time [s] (overrides ``quick``).
+    progress : callable, optional
+        Called with ``"controller / case"`` after each run (for a progress bar).
+    """
+    if duration is None and quick:
+        duration = scenario.quick_duration
+    band = float(scenario.metrics.get("band", 0.02))
+    want_windows = bool(scenario.metrics.get("windows", True))
+    runs: list[Run] = []
+    table: list[dict[str, Any]] = []
+    for case in scenario.cases:
+        for ctrl in scenario.controllers:
+            run = simulate(scenario, ctrl, case, duration=duration)
+            runs.append(run)
+            s = run.signals
+            whole = compute_metrics(s["t"], s["sp"], s["y"], s["u"], run.ts, band=band)
+            row: dict[str, Any] = {
+                "scenario": scenario.name,
+                "controller": ctrl.name,
+                "case": case.name,
+                **{k: _json_num(v) for k, v in whole.items()},
+            }
+            windows = []
+            if want_windows:
+                for w in windows_from_events(event_times(run.events), run.duration):
+                    m = compute_metrics(
+                        s["t"], s["sp"], s["y"], s["u"], run.ts, t0=w.t0, t1=w.t1, band=band
+                    )
+                    windows.append(
+                        {"label": w.label, "t0": w.t0, "t1": w.t1}
+                        | {k: _json_num(v) for k, v in m.items()}
+                    )
+            row["windows"] = windows
+            table.append(row)
+            if progress is not None:
+                progress(f"{ctrl.name} / {case.name}")
+    result = ScenarioResult(scenario, runs, table, [], quick or duration is not None)
+    result.claims = [check_claim(result, c) for c in scenario.claims]
+    return result
+
+
+def _json_num(v: float) -> float | None:
+    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else float(v)
+
+
+def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
+    """Decide ``claim`` on the metrics of ``result``."""
+    refs = claim.args["refs"]
+    case = claim.case or result.scenario.cases[0].name
+
+    def val(name: str) -> float:
+        try:
+            return result.metric(name, case, claim.metric, claim.window)
+        except (IndexError, KeyError):
+            return math.nan
+
+    m = claim.metric
+    where = f" (window {claim.window})" if claim.window is not None else ""
+    k = claim.kind
+    if k == "best":
+        vals = {c.name: val(c.name) for c in result.scenario.controllers}
+        if any(math.isnan(v) for v in vals.values()):
+            return ClaimResult(claim, None, f"{m}{where}: undefined for some controller")
+        best = min(vals, key=vals.__getitem__)
+        detail = ", ".join(f"{n}: {v:.4g}" for n, v in vals.items())
+        return ClaimResult(claim, best == refs[0], f"{m}{where} lowest for {best!r} ({detail})")
+    if k == "less":
+        a, b = val(refs[0]), val(refs[1])
+        f = claim.args.get("factor", 1.0)
+        if math.isnan(a) or math.isnan(b):
+            return ClaimResult(claim, None, f"{m}{where}: {refs[0]} {a}, {refs[1]} {b}")
+        rhs = f"{f:g} x " if f != 1.0 else ""
+        return ClaimResult(
+            claim, a < f * b, f"{m}{where}: {refs[0]} {a:.4g} < {rhs}{refs[1]} {b:.4g}"
+        )
+    a = val(refs[0])
+    if math.isnan(a):
+        return ClaimResult(claim, None, f"{m}{where} of {refs[0]} is undefined")
+    x = claim.args["value"]
+    if k == "below":
+        return ClaimResult(claim, a < x, f"{m}{where} of {refs[0]}: {a:.4g} < {x:g}")
+    if k == "above":
+        return ClaimResult(claim, a > x, f"{m}{where} of {refs[0]}: {a:.4g} > {x:g}")
+    if k == "between":
+        lo, hi = x
+        return ClaimResult(
+            claim, lo <= a <= hi, f"{m}{where} of {refs[0]}: {a:.4g} in [{lo:g}, {hi:g}]"
+        )
+    tol = claim.args["tol"]
+    return ClaimResult(
+        claim, abs(a - x) <= tol, f"{m}{where} of {refs[0]}: {a:.6g} = {x:g} ± {tol:g}"
+    )
+
+
+def metric_table(result: ScenarioResult, names: tuple[str, ...] = METRIC_NAMES) -> str:
+    """The comparison table of a scenario (one row per controller and case) as markdown."""
+    cols = ["controller", "case", *names]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for m in result.metrics:
+        cells = [m["controller"], m["case"]] + [_fmt(m[n]) for n in names]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _fmt(v: Any) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)

@@ -1,0 +1,802 @@
+"""Scenario files: one experiment as a TOML document, read and checked.
+
+A scenario names the process, the controllers to compare, the events on the
+time line, the claims to check and how to plot.  The format is described in
+``docs/simulator.md``; the shipped scenarios are in
+``ctrlblocks/scenarios/*.toml``.
+
+Every error in a file is reported as a :class:`ScenarioError` that names the
+file, the key path (``controllers[2].kp``, ``cases[0].events[3].t``) and what
+was expected, and the line for TOML syntax errors.  Blocks and plants are
+built once while loading, so a parameter a block refuses (its
+:class:`~ctrlblocks.blocks.base.ParameterError`) is reported here, with its
+key path, and not in the middle of a run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import inspect
+import math
+import re
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+from ..blocks.base import ParameterError
+
+__all__ = [
+    "EVENT_KINDS",
+    "STRUCTURES",
+    "BlockSpec",
+    "Case",
+    "Claim",
+    "ControllerSpec",
+    "Event",
+    "Scenario",
+    "ScenarioError",
+    "load_scenario",
+    "parse_scenario",
+]
+
+STRUCTURES: dict[str, tuple[str, ...]] = {
+    # structure -> roles of the blocks in one [[controllers]] entry
+    "single": ("main",),
+    "cascade": ("primary", "secondary"),
+    "override": ("blocks",),
+    "feedforward": ("main", "feedforward"),
+    "smith": ("main", "model"),
+    "open_loop": ("main",),
+}
+"""The loop structures and the blocks each controller entry needs."""
+
+EVENT_KINDS: dict[str, dict[str, tuple[type, ...]]] = {
+    # kind -> {field: accepted types}; "t" and "label" are common to all
+    "setpoint": {"value": (float,), "ramp": (float,)},
+    "load": {"value": (float,), "at": (str,)},
+    "mode": {"mode": (str,), "manual_value": (float,), "target": (str,)},
+    "manual_value": {"value": (float,), "target": (str,)},
+    "limits": {"u_min": (float,), "u_max": (float,), "target": (str,)},
+    "plant": {"param": (str,), "value": (float,), "target": (str,)},
+    "sensor": {"ok": (bool,), "nan": (bool,)},
+    "set": {"attr": (str,), "value": (float, bool, str), "target": (str,)},
+}
+"""Event kinds and their fields (see ``docs/simulator.md``)."""
+
+_REQUIRED_EVENT_FIELDS: dict[str, tuple[str, ...]] = {
+    "setpoint": ("value",),
+    "load": ("value",),
+    "mode": ("mode",),
+    "manual_value": ("value",),
+    "limits": ("u_min", "u_max"),
+    "plant": ("param", "value"),
+    "sensor": (),
+    "set": ("attr", "value"),
+}
+
+_LOAD_POINTS = ("input", "output", "inner")
+_CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
+_NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
+
+
+class ScenarioError(ValueError):
+    """A scenario file is malformed.
+
+    Attributes
+    ----------
+    file : str
+        The file (or ``"<string>"``).
+    key : str
+        Key path of the offending value, e.g. ``controllers[1].kp`` (empty for
+        syntax errors).
+    problem : str
+        What is wrong and what was expected.
+    line : int or None
+        Line number when the TOML parser reports one.
+    """
+
+    def __init__(self, file: str, key: str, problem: str, line: int | None = None) -> None:
+        self.file, self.key, self.problem, self.line = file, key, problem, line
+        where = file + (f", line {line}" if line else "")
+        msg = f"{where}: {key}: {problem}" if key else f"{where}: {problem}"
+        super().__init__(msg)
+
+
+# ---------------------------------------------------------------------------
+# The parsed scenario
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockSpec:
+    """A block or plant to build: a class name and its keyword arguments."""
+
+    type: str
+    params: Mapping[str, Any]
+    key: str  # key path in the file, for error messages
+    extra: Mapping[str, Any] = dataclasses.field(default_factory=dict)  # sim-only keys
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerSpec:
+    """One controller set compared in a scenario (one ``[[controllers]]`` entry)."""
+
+    name: str
+    blocks: Mapping[str, Any]  # role -> BlockSpec (override: "blocks" -> list[BlockSpec])
+    options: Mapping[str, Any]  # selector, color, ...
+
+
+@dataclasses.dataclass(frozen=True)
+class Event:
+    """One event on the time line."""
+
+    t: float
+    kind: str
+    fields: Mapping[str, Any]
+    label: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """A run condition (events and duration); every controller runs every case."""
+
+    name: str
+    duration: float
+    events: tuple[Event, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class Claim:
+    """A statement from the source, checked on the metrics after the runs."""
+
+    text: str
+    metric: str
+    kind: str
+    args: Mapping[str, Any]
+    case: str | None
+    window: int | None
+    source: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Scenario:
+    """A parsed, checked scenario (see the module docstring)."""
+
+    name: str
+    title: str
+    source: str
+    description: str
+    structure: str
+    ts: float
+    duration: float
+    quick_duration: float
+    seed: int
+    plant: BlockSpec | None
+    inner_plant: BlockSpec | None
+    sensor: Mapping[str, Any]
+    initial: Mapping[str, Any]
+    controllers: tuple[ControllerSpec, ...]
+    cases: tuple[Case, ...]
+    claims: tuple[Claim, ...]
+    plot: Mapping[str, Any]
+    metrics: Mapping[str, Any]
+    notes: str
+    file: str
+
+    def case(self, name: str) -> Case:
+        """The case called ``name``."""
+        for c in self.cases:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+
+# ---------------------------------------------------------------------------
+# Loading
+# ---------------------------------------------------------------------------
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and check the scenario file ``path``; raise :class:`ScenarioError` if malformed."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ScenarioError(str(p), "", f"cannot read the file ({exc.strerror})") from None
+    return parse_scenario(text, file=str(p))
+
+
+def parse_scenario(text: str, *, file: str = "<string>") -> Scenario:
+    """Parse scenario TOML ``text``; ``file`` names it in error messages."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
+        line = int(m.group(1)) if m else None
+        problem = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
+        raise ScenarioError(file, "", f"TOML syntax error: {problem}", line) from None
+    return _Parser(file).scenario(doc)
+
+
+class _Parser:
+    def __init__(self, file: str) -> None:
+        self.file = file
+
+    def fail(self, key: str, problem: str) -> ScenarioError:
+        return ScenarioError(self.file, key, problem)
+
+    # -- typed getters ---------------------------------------------------------
+
+    def table(self, doc: Mapping[str, Any], name: str, key: str, required: bool) -> dict:
+        if name not in doc:
+            if required:
+                raise self.fail(key, "missing table")
+            return {}
+        v = doc[name]
+        if not isinstance(v, dict):
+            raise self.fail(key, f"must be a table, got {_tname(v)}")
+        return v
+
+    def number(
+        self, d: Mapping[str, Any], name: str, key: str, *, default: Any = ..., positive=False
+    ) -> float:
+        if name not in d:
+            if default is ...:
+                raise self.fail(key, "missing (a number is required)")
+            return default
+        v = d[name]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.fail(key, f"must be a number, got {_tname(v)} {v!r}")
+        x = float(v)
+        if not math.isfinite(x) and positive:
+            raise self.fail(key, f"must be finite, got {v!r}")
+        if positive and x <= 0:
+            raise self.fail(key, f"must be > 0, got {v!r}")
+        return x
+
+    def string(self, d: Mapping[str, Any], name: str, key: str, *, default: Any = ...) -> str:
+        if name not in d:
+            if default is ...:
+                raise self.fail(key, "missing (a string is required)")
+            return default
+        v = d[name]
+        if not isinstance(v, str):
+            raise self.fail(key, f"must be a string, got {_tname(v)} {v!r}")
+        return v
+
+    def check_keys(self, d: Mapping[str, Any], allowed: set[str], key: str) -> None:
+        unknown = sorted(set(d) - allowed)
+        if unknown:
+            where = f"{key}.{unknown[0]}" if key else unknown[0]
+            raise self.fail(where, f"unknown key; expected one of: {', '.join(sorted(allowed))}")
+
+    # -- sections ----------------------------------------------------------------
+
+    def scenario(self, doc: dict[str, Any]) -> Scenario:
+        self.check_keys(
+            doc,
+            {
+                "scenario",
+                "plant",
+                "inner_plant",
+                "sensor",
+                "initial",
+                "controllers",
+                "cases",
+                "events",
+                "claims",
+                "plot",
+                "metrics",
+            },
+            "",
+        )
+        head = self.table(doc, "scenario", "scenario", required=True)
+        self.check_keys(
+            head,
+            {
+                "name",
+                "title",
+                "source",
+                "description",
+                "structure",
+                "ts",
+                "duration",
+                "quick_duration",
+                "seed",
+                "notes",
+            },
+            "scenario",
+        )
+        name = self.string(head, "name", "scenario.name")
+        if not _NAME_RE.match(name):
+            raise self.fail("scenario.name", f"must be letters, digits, _ . - only; got {name!r}")
+        title = self.string(head, "title", "scenario.title")
+        structure = self.string(head, "structure", "scenario.structure", default="single")
+        if structure not in STRUCTURES:
+            raise self.fail(
+                "scenario.structure", f"must be one of {', '.join(STRUCTURES)}; got {structure!r}"
+            )
+        ts = self.number(head, "ts", "scenario.ts", positive=True)
+        duration = self.number(head, "duration", "scenario.duration", positive=True)
+        quick = self.number(
+            head, "quick_duration", "scenario.quick_duration", default=duration, positive=True
+        )
+        seed = head.get("seed", 0)
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise self.fail("scenario.seed", f"must be an integer >= 0, got {seed!r}")
+
+        plant = None
+        inner = None
+        if structure != "open_loop":
+            plant = self.block_spec(self.table(doc, "plant", "plant", True), "plant", ts)
+        if structure in ("cascade", "override"):
+            inner = self.block_spec(
+                self.table(doc, "inner_plant", "inner_plant", True), "inner_plant", ts
+            )
+        elif "inner_plant" in doc:
+            raise self.fail(
+                "inner_plant", f"only for the cascade and override structures, not {structure!r}"
+            )
+        sensor = self.sensor(self.table(doc, "sensor", "sensor", False))
+        initial = self.initial(self.table(doc, "initial", "initial", False))
+
+        controllers = self.controllers(doc, structure, ts)
+        cases = self.cases(doc, duration)
+        claims = self.claims(doc, controllers, cases)
+        plot = self.table(doc, "plot", "plot", False)
+        self.check_keys(
+            plot,
+            {
+                "upper",
+                "lower",
+                "upper_label",
+                "lower_label",
+                "title",
+                "ylim_upper",
+                "ylim_lower",
+                "legend",
+            },
+            "plot",
+        )
+        if "legend" in plot and not (
+            isinstance(plot["legend"], dict)
+            and all(isinstance(v, str) for v in plot["legend"].values())
+        ):
+            raise self.fail("plot.legend", 'must be a table of signal = "legend text"')
+        for k in ("upper", "lower"):
+            if k in plot and (
+                not isinstance(plot[k], list) or not all(isinstance(s, str) for s in plot[k])
+            ):
+                raise self.fail(f"plot.{k}", "must be a list of signal names")
+        metrics = self.table(doc, "metrics", "metrics", False)
+        self.check_keys(metrics, {"band", "windows"}, "metrics")
+        if "band" in metrics:
+            self.number(metrics, "band", "metrics.band", positive=True)
+        if "windows" in metrics and not isinstance(metrics["windows"], bool):
+            raise self.fail("metrics.windows", "must be true or false")
+        return Scenario(
+            name=name,
+            title=title,
+            source=self.string(head, "source", "scenario.source", default=""),
+            description=self.string(head, "description", "scenario.description", default=""),
+            structure=structure,
+            ts=ts,
+            duration=duration,
+            quick_duration=min(quick, duration),
+            seed=seed,
+            plant=plant,
+            inner_plant=inner,
+            sensor=sensor,
+            initial=initial,
+            controllers=tuple(controllers),
+            cases=tuple(cases),
+            claims=tuple(claims),
+            plot=plot,
+            metrics=metrics,
+            notes=self.string(head, "notes", "scenario.notes", default=""),
+            file=self.file,
+        )
+
+    def sensor(self, d: dict[str, Any]) -> dict[str, Any]:
+        self.check_keys(d, {"y_min", "y_max", "noise_std", "noise_seed"}, "sensor")
+        out: dict[str, Any] = {}
+        out["y_min"] = self.number(d, "y_min", "sensor.y_min", default=-math.inf)
+        out["y_max"] = self.number(d, "y_max", "sensor.y_max", default=math.inf)
+        if out["y_min"] > out["y_max"]:
+            raise self.fail("sensor.y_min", f"is above sensor.y_max ({out['y_max']!r})")
+        out["noise_std"] = self.number(d, "noise_std", "sensor.noise_std", default=0.0)
+        if out["noise_std"] < 0:
+            raise self.fail("sensor.noise_std", f"must be >= 0, got {out['noise_std']!r}")
+        return out
+
+    def initial(self, d: dict[str, Any]) -> dict[str, Any]:
+        self.check_keys(d, {"u", "sp", "load", "mode", "warmup"}, "initial")
+        out = {
+            "u": self.number(d, "u", "initial.u", default=0.0),
+            "sp": self.number(d, "sp", "initial.sp", default=math.nan),
+            "load": self.number(d, "load", "initial.load", default=0.0),
+            "warmup": self.number(d, "warmup", "initial.warmup", default=0.0),
+            "mode": self.string(d, "mode", "initial.mode", default="auto"),
+        }
+        if out["mode"] not in ("auto", "manual"):
+            raise self.fail("initial.mode", f"must be 'auto' or 'manual', got {out['mode']!r}")
+        if out["warmup"] < 0:
+            raise self.fail("initial.warmup", "must be >= 0")
+        return out
+
+    # -- blocks and plants -------------------------------------------------------
+
+    def block_spec(
+        self,
+        d: dict[str, Any],
+        key: str,
+        ts: float,
+        *,
+        kind: str = "plant",
+        extra_keys: tuple[str, ...] = (),
+    ) -> BlockSpec:
+        if not isinstance(d, dict):
+            raise self.fail(key, f"must be a table, got {_tname(d)}")
+        tname = self.string(d, "type", f"{key}.type")
+        params = {k: v for k, v in d.items() if k != "type" and k not in extra_keys}
+        extra = {k: d[k] for k in extra_keys if k in d}
+        spec = BlockSpec(tname, params, key, extra)
+        # build once so that a refused parameter is reported with its key path
+        build(spec, ts, kind=kind, file=self.file)
+        return spec
+
+    def controllers(self, doc: dict[str, Any], structure: str, ts: float) -> list[ControllerSpec]:
+        entries = doc.get("controllers")
+        if entries is None:
+            raise self.fail("controllers", "missing: give at least one [[controllers]] entry")
+        if not isinstance(entries, list) or not entries:
+            raise self.fail("controllers", "must be a non-empty array of tables ([[controllers]])")
+        out: list[ControllerSpec] = []
+        names: set[str] = set()
+        for i, e in enumerate(entries):
+            key = f"controllers[{i}]"
+            if not isinstance(e, dict):
+                raise self.fail(key, f"must be a table, got {_tname(e)}")
+            name = self.string(e, "name", f"{key}.name")
+            if name in names:
+                raise self.fail(f"{key}.name", f"duplicate controller name {name!r}")
+            names.add(name)
+            options = {"color": e.get("color"), "style": e.get("style")}
+            if structure in ("single", "open_loop"):
+                spec = self.block_spec(
+                    {k: v for k, v in e.items() if k not in ("name", "color", "style")},
+                    key,
+                    ts,
+                    kind="block",
+                )
+                blocks: dict[str, Any] = {"main": spec}
+            elif structure == "cascade":
+                self.check_keys(e, {"name", "color", "style", "primary", "secondary"}, key)
+                blocks = {
+                    role: self.block_spec(
+                        self.table(e, role, f"{key}.{role}", True),
+                        f"{key}.{role}",
+                        ts,
+                        kind="block",
+                    )
+                    for role in ("primary", "secondary")
+                }
+            elif structure == "override":
+                self.check_keys(e, {"name", "color", "style", "selector", "blocks"}, key)
+                sel = self.string(e, "selector", f"{key}.selector", default="min")
+                if sel not in ("min", "max"):
+                    raise self.fail(f"{key}.selector", f"must be 'min' or 'max', got {sel!r}")
+                options["selector"] = sel
+                lst = e.get("blocks")
+                if not isinstance(lst, list) or len(lst) < 2:
+                    raise self.fail(
+                        f"{key}.blocks", "must be an array of at least two controller tables"
+                    )
+                specs = []
+                for j, b in enumerate(lst):
+                    bkey = f"{key}.blocks[{j}]"
+                    spec = self.block_spec(b, bkey, ts, kind="block", extra_keys=("measure", "sp"))
+                    meas = spec.extra.get("measure", "y")
+                    if meas not in ("y", "y2"):
+                        raise self.fail(f"{bkey}.measure", f"must be 'y' or 'y2', got {meas!r}")
+                    sp = spec.extra.get("sp", "sp")
+                    if sp != "sp" and (isinstance(sp, bool) or not isinstance(sp, (int, float))):
+                        raise self.fail(f"{bkey}.sp", f"must be 'sp' or a number, got {sp!r}")
+                    specs.append(spec)
+                blocks = {"blocks": specs}
+            elif structure == "feedforward":
+                self.check_keys(e, {"name", "color", "style", "main", "feedforward"}, key)
+                blocks = {
+                    "main": self.block_spec(
+                        self.table(e, "main", f"{key}.main", True), f"{key}.main", ts, kind="block"
+                    ),
+                    "feedforward": self.block_spec(
+                        self.table(e, "feedforward", f"{key}.feedforward", True),
+                        f"{key}.feedforward",
+                        ts,
+                        kind="block",
+                    ),
+                }
+            else:  # smith
+                self.check_keys(e, {"name", "color", "style", "main", "model"}, key)
+                model = self.block_spec(
+                    self.table(e, "model", f"{key}.model", True), f"{key}.model", ts
+                )
+                if "dead_time" not in model.params:
+                    raise self.fail(
+                        f"{key}.model.dead_time",
+                        "missing: the Smith predictor's model needs the dead time",
+                    )
+                blocks = {
+                    "main": self.block_spec(
+                        self.table(e, "main", f"{key}.main", True), f"{key}.main", ts, kind="block"
+                    ),
+                    "model": model,
+                }
+            out.append(ControllerSpec(name, blocks, options))
+        return out
+
+    # -- time line ---------------------------------------------------------------
+
+    def cases(self, doc: dict[str, Any], duration: float) -> list[Case]:
+        common = self.events(doc.get("events", []), "events", duration)
+        raw = doc.get("cases")
+        if raw is None:
+            return [Case("main", duration, tuple(common))]
+        if not isinstance(raw, list) or not raw:
+            raise self.fail("cases", "must be a non-empty array of tables ([[cases]])")
+        out = []
+        names = set()
+        for i, c in enumerate(raw):
+            key = f"cases[{i}]"
+            if not isinstance(c, dict):
+                raise self.fail(key, f"must be a table, got {_tname(c)}")
+            self.check_keys(c, {"name", "duration", "events"}, key)
+            name = self.string(c, "name", f"{key}.name")
+            if name in names:
+                raise self.fail(f"{key}.name", f"duplicate case name {name!r}")
+            names.add(name)
+            dur = self.number(c, "duration", f"{key}.duration", default=duration, positive=True)
+            ev = self.events(c.get("events", []), f"{key}.events", dur)
+            out.append(Case(name, dur, tuple(sorted([*common, *ev], key=lambda e: e.t))))
+        return out
+
+    def events(self, raw: Any, key: str, duration: float) -> list[Event]:
+        if not isinstance(raw, list):
+            raise self.fail(key, f"must be an array of tables ([[{key}]]), got {_tname(raw)}")
+        out = []
+        for i, e in enumerate(raw):
+            ekey = f"{key}[{i}]"
+            if not isinstance(e, dict):
+                raise self.fail(ekey, f"must be a table, got {_tname(e)}")
+            t = self.number(e, "t", f"{ekey}.t")
+            if not (0.0 <= t <= duration):
+                raise self.fail(
+                    f"{ekey}.t", f"must lie in 0..{duration:g} s (the duration), got {t!r}"
+                )
+            kind = self.string(e, "do", f"{ekey}.do")
+            if kind not in EVENT_KINDS:
+                raise self.fail(
+                    f"{ekey}.do",
+                    f"unknown event {kind!r}; expected one of: {', '.join(EVENT_KINDS)}",
+                )
+            spec = EVENT_KINDS[kind]
+            self.check_keys(e, {"t", "do", "label", *spec}, ekey)
+            fields: dict[str, Any] = {}
+            for f in _REQUIRED_EVENT_FIELDS[kind]:
+                if f not in e:
+                    raise self.fail(f"{ekey}.{f}", f"missing (required for a {kind!r} event)")
+            for f, types in spec.items():
+                if f not in e:
+                    continue
+                v = e[f]
+                ok = any(
+                    (tp is float and not isinstance(v, bool) and isinstance(v, (int, float)))
+                    or (tp is not float and isinstance(v, tp))
+                    for tp in types
+                )
+                if not ok:
+                    want = " or ".join("number" if tp is float else tp.__name__ for tp in types)
+                    raise self.fail(f"{ekey}.{f}", f"must be a {want}, got {_tname(v)} {v!r}")
+                fields[f] = float(v) if isinstance(v, int) and not isinstance(v, bool) else v
+            if kind == "load" and fields.get("at", "input") not in _LOAD_POINTS:
+                raise self.fail(f"{ekey}.at", f"must be one of {', '.join(_LOAD_POINTS)}")
+            if kind == "mode" and fields["mode"] not in ("auto", "manual"):
+                raise self.fail(
+                    f"{ekey}.mode", f"must be 'auto' or 'manual', got {fields['mode']!r}"
+                )
+            if kind == "setpoint" and "ramp" in fields and fields["ramp"] <= 0:
+                raise self.fail(f"{ekey}.ramp", "must be > 0 (a rate in units per second)")
+            label = self.string(e, "label", f"{ekey}.label", default=_default_label(kind, fields))
+            out.append(Event(t, kind, fields, label))
+        return out
+
+    # -- claims -------------------------------------------------------------------
+
+    def claims(
+        self, doc: dict[str, Any], controllers: list[ControllerSpec], cases: list[Case]
+    ) -> list[Claim]:
+        from .metrics import METRIC_NAMES
+
+        raw = doc.get("claims", [])
+        if not isinstance(raw, list):
+            raise self.fail("claims", "must be an array of tables ([[claims]])")
+        names = {c.name for c in controllers}
+        case_names = {c.name for c in cases}
+        out = []
+        for i, c in enumerate(raw):
+            key = f"claims[{i}]"
+            if not isinstance(c, dict):
+                raise self.fail(key, f"must be a table, got {_tname(c)}")
+            self.check_keys(
+                c,
+                {
+                    "text",
+                    "metric",
+                    "case",
+                    "window",
+                    "source",
+                    "controller",
+                    "tol",
+                    *_CLAIM_KINDS,
+                    "factor",
+                },
+                key,
+            )
+            text = self.string(c, "text", f"{key}.text")
+            metric = self.string(c, "metric", f"{key}.metric")
+            if metric not in METRIC_NAMES:
+                raise self.fail(
+                    f"{key}.metric",
+                    f"unknown metric {metric!r}; expected one of: {', '.join(METRIC_NAMES)}",
+                )
+            kinds = [k for k in _CLAIM_KINDS if k in c]
+            if len(kinds) != 1:
+                raise self.fail(key, f"give exactly one of {', '.join(_CLAIM_KINDS)}")
+            kind = kinds[0]
+            args: dict[str, Any] = {"value": c[kind]}
+            refs: list[str] = []
+            if kind == "less":
+                v = c[kind]
+                if not (isinstance(v, list) and len(v) == 2 and all(isinstance(s, str) for s in v)):
+                    raise self.fail(f"{key}.less", "must be [controller_a, controller_b]")
+                refs = list(v)
+                args["factor"] = self.number(
+                    c, "factor", f"{key}.factor", default=1.0, positive=True
+                )
+            elif kind == "best":
+                refs = [self.string(c, "best", f"{key}.best")]
+            else:
+                refs = [self.string(c, "controller", f"{key}.controller")]
+                if kind == "between":
+                    v = c[kind]
+                    if not (
+                        isinstance(v, list)
+                        and len(v) == 2
+                        and all(isinstance(x, (int, float)) for x in v)
+                    ):
+                        raise self.fail(f"{key}.between", "must be [low, high]")
+                else:
+                    self.number(c, kind, f"{key}.{kind}")
+                if kind == "approx":
+                    args["tol"] = self.number(c, "tol", f"{key}.tol", positive=True)
+            for r in refs:
+                if r not in names:
+                    raise self.fail(key, f"names controller {r!r}, which is not in [[controllers]]")
+            case = c.get("case")
+            if case is not None and case not in case_names:
+                raise self.fail(f"{key}.case", f"unknown case {case!r}")
+            if case is None and len(cases) > 1:
+                raise self.fail(f"{key}.case", "missing: the scenario has several cases")
+            window = c.get("window")
+            if window is not None and (isinstance(window, bool) or not isinstance(window, int)):
+                raise self.fail(f"{key}.window", "must be an event-window index (integer)")
+            out.append(
+                Claim(
+                    text=text,
+                    metric=metric,
+                    kind=kind,
+                    args=args | {"refs": refs},
+                    case=case if case is not None else cases[0].name,
+                    window=window,
+                    source=self.string(c, "source", f"{key}.source", default=""),
+                )
+            )
+        return out
+
+
+def _default_label(kind: str, f: Mapping[str, Any]) -> str:
+    if kind == "setpoint":
+        return f"SP -> {f['value']:g}" + (f" (ramp {f['ramp']:g}/s)" if "ramp" in f else "")
+    if kind == "load":
+        return f"load {f.get('at', 'input')} = {f['value']:g}"
+    if kind == "mode":
+        return f["mode"].upper()
+    if kind == "manual_value":
+        return f"manual value {f['value']:g}"
+    if kind == "limits":
+        return f"limits {f['u_min']:g}..{f['u_max']:g}"
+    if kind == "plant":
+        return f"{f['param']} = {f['value']:g}"
+    if kind == "sensor":
+        if f.get("nan"):
+            return "sensor NaN"
+        return "sensor ok" if f.get("ok", True) else "sensor fault"
+    return f"{f.get('attr')} = {f.get('value')}"
+
+
+def _tname(v: Any) -> str:
+    return {
+        dict: "a table",
+        list: "an array",
+        str: "a string",
+        bool: "a boolean",
+        int: "an integer",
+        float: "a number",
+    }.get(type(v), type(v).__name__)
+
+
+# ---------------------------------------------------------------------------
+# Building blocks and plants from specs
+# ---------------------------------------------------------------------------
+
+
+def _resolve(type_name: str, kind: str) -> Callable[..., Any] | None:
+    module = importlib.import_module(
+        "ctrlblocks.plants" if kind == "plant" else "ctrlblocks.blocks"
+    )
+    obj = getattr(module, type_name, None)
+    if obj is None or not callable(obj) or type_name.startswith("_"):
+        return None
+    return obj
+
+
+def available_types(kind: str) -> list[str]:
+    """Names usable as ``type`` for ``kind`` ``"plant"`` or ``"block"``."""
+    module = importlib.import_module(
+        "ctrlblocks.plants" if kind == "plant" else "ctrlblocks.blocks"
+    )
+    names = getattr(module, "__all__", [])
+    return sorted(n for n in names if inspect.isclass(getattr(module, n, None)))
+
+
+def build(spec: BlockSpec, ts: float, *, kind: str, file: str = "<scenario>") -> Any:
+    """Make the block or plant ``spec`` describes, with ``ts`` unless it sets its own.
+
+    Raises :class:`ScenarioError` naming the key path when the type is
+    unknown or the class refuses a parameter.
+    """
+    cls = _resolve(spec.type, kind)
+    if cls is None:
+        raise ScenarioError(
+            file,
+            f"{spec.key}.type",
+            f"unknown {kind} type {spec.type!r}; available: {', '.join(available_types(kind))}",
+        )
+    params = dict(spec.params)
+    config_cls = getattr(cls, "Config", None)
+    if dataclasses.is_dataclass(config_cls):
+        takes_ts = "ts" in {f.name for f in dataclasses.fields(config_cls)}
+    else:
+        try:
+            takes_ts = "ts" in inspect.signature(cls).parameters
+        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
+            takes_ts = False
+    if "ts" not in params and takes_ts:
+        params["ts"] = ts
+    try:
+        return cls(**params)
+    except ParameterError as exc:
+        raise ScenarioError(file, f"{spec.key}.{exc.field}", exc.message) from None
+    except TypeError as exc:
+        raise ScenarioError(file, spec.key, f"{spec.type}: {exc}") from None
+    except (ValueError, KeyError) as exc:
+        raise ScenarioError(file, spec.key, f"{spec.type} refused the parameters: {exc}") from None

@@ -1,0 +1,118 @@
+"""Metrics against values computed by hand from their docstring definitions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ctrlblocks.sim.metrics import (
+    compute_metrics,
+    final_error,
+    iae,
+    ise,
+    itae,
+    max_rate,
+    overshoot,
+    rise_time,
+    settling_time,
+    total_variation,
+    windows_from_events,
+)
+
+H = 0.5
+T = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5])
+R = np.ones(6)
+Y = np.array([0.0, 0.5, 1.2, 1.1, 0.99, 1.0])
+U = np.array([2.0, 1.0, -1.0, 0.0, 0.5, 0.5])
+E = R - Y  # 1, 0.5, -0.2, -0.1, 0.01, 0
+
+
+def test_iae_is_rectangle_sum_of_absolute_error():
+    # 0.5 * (1 + 0.5 + 0.2 + 0.1 + 0.01 + 0) = 0.905
+    assert iae(E, H) == pytest.approx(0.905, abs=1e-12)
+
+
+def test_ise_is_rectangle_sum_of_squared_error():
+    # 0.5 * (1 + 0.25 + 0.04 + 0.01 + 0.0001) = 0.65005
+    assert ise(E, H) == pytest.approx(0.65005, abs=1e-12)
+
+
+def test_itae_weights_by_time_from_window_start():
+    # 0.5 * (0*1 + 0.5*0.5 + 1*0.2 + 1.5*0.1 + 2*0.01 + 0) = 0.5 * 0.62 = 0.31
+    assert itae(E, T, H) == pytest.approx(0.31, abs=1e-12)
+    assert itae(E, T + 10.0, H) == pytest.approx(0.31, abs=1e-12)
+
+
+def test_overshoot_is_fraction_of_the_step():
+    assert overshoot(Y, 1.0, 1.0) == pytest.approx(0.2, abs=1e-12)
+    # a downward step 2 -> 0 with y reaching -0.5: 25 %
+    assert overshoot(np.array([2.0, 1.0, -0.5, 0.0]), 0.0, -2.0) == pytest.approx(0.25)
+    assert overshoot(np.array([0.0, 0.5, 0.9]), 1.0, 1.0) == 0.0
+    assert math.isnan(overshoot(Y, 1.0, 0.0))
+
+
+def test_rise_time_between_first_10_and_90_percent_crossings():
+    # 10 % first at t=0.5 (0.5), 90 % first at t=1.0 (1.2)
+    assert rise_time(T, Y, 0.0, 1.0) == pytest.approx(0.5)
+    assert math.isnan(rise_time(T, np.array([0, 0.2, 0.5, 0.6, 0.7, 0.8]), 0.0, 1.0))
+
+
+def test_settling_time_first_sample_after_last_exit_from_band():
+    # band 0.02: |y-1| = 1, .5, .2, .1, .01, 0 -> last outside at index 3 -> t[4] = 2.0
+    assert settling_time(T, Y, 1.0, 0.02) == pytest.approx(2.0)
+    assert settling_time(T, np.ones(6), 1.0, 0.02) == 0.0
+    assert math.isnan(settling_time(T, Y[::-1], 1.0, 0.02))
+
+
+def test_total_variation_and_max_rate_of_mv():
+    # |diff| = 1, 2, 1, 0.5, 0 -> TV 4.5, max rate 2 / 0.5 = 4
+    assert total_variation(U) == pytest.approx(4.5)
+    assert max_rate(U, H) == pytest.approx(4.0)
+
+
+def test_final_error_is_mean_over_last_five_percent():
+    e = np.concatenate([np.ones(95), np.full(5, 0.2)])
+    assert final_error(e) == pytest.approx(0.2)
+    assert final_error(np.array([3.0, -2.0])) == pytest.approx(2.0)
+
+
+def test_compute_metrics_window_selects_samples_and_measures_jump():
+    t = np.arange(10) * H
+    r = np.where(t >= 2.0, 1.0, 0.0)
+    y = np.where(t >= 2.5, 1.0, 0.0)
+    u = np.where(t >= 2.0, 3.0, 1.0)
+    m = compute_metrics(t, r, y, u, H, t0=2.0, t1=4.0)
+    # window samples t = 2.0, 2.5, 3.0, 3.5; e = 1, 0, 0, 0
+    assert m["iae"] == pytest.approx(0.5)
+    assert m["overshoot"] == 0.0
+    assert m["settling_time"] == pytest.approx(0.5)
+    assert m["rise_time"] == pytest.approx(0.0)
+    assert m["jump_u"] == pytest.approx(2.0)
+    assert m["tv_u"] == 0.0
+    whole = compute_metrics(t, r, y, u, H)
+    assert whole["iae"] == pytest.approx(0.5)
+    assert whole["jump_u"] == 0.0
+
+
+def test_regulation_window_has_no_step_metrics_but_a_settling_band():
+    t = np.arange(6) * H
+    r = np.full(6, 2.0)
+    y = np.array([2.0, 1.5, 1.8, 1.99, 2.0, 2.0])
+    m = compute_metrics(t, r, y, np.zeros(6), H)
+    assert math.isnan(m["overshoot"]) and math.isnan(m["rise_time"])
+    assert m["peak_error"] == pytest.approx(0.5)
+    # band 2 % of max(|r|, peak) = 0.04: last outside index 2 -> t = 1.5
+    assert m["settling_time"] == pytest.approx(1.5)
+
+
+def test_windows_split_at_event_times():
+    w = windows_from_events([(10.0, "sp"), (5.0, "load"), (5.0, "mode")], 20.0)
+    assert [(x.label, x.t0, x.t1) for x in w] == [
+        ("start", 0.0, 5.0),
+        ("load; mode", 5.0, 10.0),
+        ("sp", 10.0, 20.0),
+    ]
+    w0 = windows_from_events([(0.0, "auto")], 3.0)
+    assert [(x.label, x.t0, x.t1) for x in w0] == [("auto", 0.0, 3.0)]

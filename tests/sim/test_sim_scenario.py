@@ -1,0 +1,147 @@
+"""Scenario files: a malformed file gives an error naming the file, the key and the problem."""
+
+from __future__ import annotations
+
+import pytest
+
+from ctrlblocks.sim.scenario import ScenarioError, load_scenario, parse_scenario
+
+GOOD = """
+[scenario]
+name = "jar"
+title = "t"
+structure = "open_loop"
+ts = 0.1
+duration = 5.0
+
+[[controllers]]
+name = "a"
+type = "JumpAndRate"
+jhigh = 1.0
+
+[[events]]
+t = 1.0
+do = "setpoint"
+value = 2.0
+"""
+
+
+def _err(text: str) -> ScenarioError:
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, file="bad.toml")
+    return info.value
+
+
+def test_good_scenario_parses_with_defaults():
+    sc = parse_scenario(GOOD)
+    assert sc.name == "jar" and sc.structure == "open_loop"
+    assert sc.ts == 0.1 and sc.duration == 5.0 and sc.quick_duration == 5.0
+    assert [c.name for c in sc.cases] == ["main"]
+    ev = sc.cases[0].events[0]
+    assert (ev.t, ev.kind, ev.fields["value"], ev.label) == (1.0, "setpoint", 2.0, "SP -> 2")
+
+
+def test_toml_syntax_error_names_file_and_line():
+    e = _err(GOOD + "\n[broken\n")
+    assert e.file == "bad.toml"
+    assert e.line == GOOD.count("\n") + 2
+    assert "TOML syntax error" in str(e) and "bad.toml, line" in str(e)
+
+
+def test_missing_required_key_is_named():
+    e = _err(GOOD.replace("ts = 0.1\n", ""))
+    assert e.key == "scenario.ts" and "missing" in e.problem
+
+
+def test_wrong_type_is_named_with_the_value():
+    e = _err(GOOD.replace("duration = 5.0", 'duration = "long"'))
+    assert e.key == "scenario.duration"
+    assert "must be a number" in e.problem and "'long'" in e.problem
+
+
+def test_negative_sample_time_is_refused():
+    e = _err(GOOD.replace("ts = 0.1", "ts = -0.1"))
+    assert e.key == "scenario.ts" and "> 0" in e.problem
+
+
+def test_unknown_key_lists_the_expected_ones():
+    e = _err(GOOD.replace("[scenario]\n", "[scenario]\ncolour = 1\n"))
+    assert e.key == "scenario.colour" and "unknown key" in e.problem and "duration" in e.problem
+
+
+def test_unknown_structure_is_refused():
+    e = _err(GOOD.replace('"open_loop"', '"ring"'))
+    assert e.key == "scenario.structure" and "cascade" in e.problem
+
+
+def test_unknown_block_type_lists_available_types():
+    e = _err(GOOD.replace('"JumpAndRate"', '"Flux"'))
+    assert e.key == "controllers[0].type"
+    assert "unknown block type 'Flux'" in e.problem and "JumpAndRate" in e.problem
+
+
+def test_parameter_refused_by_the_block_is_reported_with_its_key_path():
+    e = _err(GOOD.replace("jhigh = 1.0", "jhigh = -1.0"))
+    assert e.key == "controllers[0].jlow/jhigh"
+    assert str(e).startswith("bad.toml: controllers[0].jlow/jhigh: ")
+
+
+def test_unknown_block_parameter_is_reported():
+    e = _err(GOOD.replace("jhigh = 1.0", "jump = 1.0"))
+    assert e.key == "controllers[0]" and "jump" in e.problem
+
+
+def test_event_outside_the_duration_is_refused():
+    e = _err(GOOD.replace("t = 1.0", "t = 9.0"))
+    assert e.key == "events[0].t" and "0..5 s" in e.problem
+
+
+def test_unknown_event_kind_is_refused():
+    e = _err(GOOD.replace('do = "setpoint"', 'do = "explode"'))
+    assert e.key == "events[0].do" and "setpoint" in e.problem
+
+
+def test_event_missing_its_value_is_refused():
+    e = _err(GOOD.replace("value = 2.0\n", ""))
+    assert e.key == "events[0].value" and "missing" in e.problem
+
+
+def test_event_field_of_wrong_type_is_refused():
+    e = _err(GOOD.replace("value = 2.0", "value = true"))
+    assert e.key == "events[0].value" and "must be a number" in e.problem
+
+
+def test_duplicate_controller_names_are_refused():
+    dup = GOOD + '\n[[controllers]]\nname = "a"\ntype = "JumpAndRate"\n'
+    e = _err(dup)
+    assert e.key == "controllers[1].name" and "duplicate" in e.problem
+
+
+def test_missing_controllers_is_refused():
+    text = GOOD[: GOOD.index("[[controllers]]")] + GOOD[GOOD.index("[[events]]") :]
+    e = _err(text)
+    assert e.key == "controllers" and "at least one" in e.problem
+
+
+def test_plant_required_for_closed_loop():
+    e = _err(GOOD.replace('"open_loop"', '"single"'))
+    assert e.key == "plant" and "missing" in e.problem
+
+
+def test_claim_on_unknown_metric_or_controller_is_refused():
+    claim = '\n[[claims]]\ntext = "x"\nmetric = "{m}"\ncontroller = "{c}"\nbelow = 1.0\n'
+    e = _err(GOOD + claim.format(m="speed", c="a"))
+    assert e.key == "claims[0].metric" and "iae" in e.problem
+    e = _err(GOOD + claim.format(m="iae", c="zz"))
+    assert e.key == "claims[0]" and "'zz'" in e.problem
+
+
+def test_claim_needs_exactly_one_kind():
+    e = _err(GOOD + '\n[[claims]]\ntext = "x"\nmetric = "iae"\ncontroller = "a"\n')
+    assert e.key == "claims[0]" and "exactly one" in e.problem
+
+
+def test_unreadable_file_names_the_file(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(tmp_path / "nope.toml")
+    assert "nope.toml" in str(info.value) and "cannot read" in str(info.value)
