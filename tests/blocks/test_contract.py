@@ -103,6 +103,12 @@ CASES: dict[str, Case] = {
         {"tr": -1.0},
         ErrorCode.BACK_CALC_T,
     ),
+    "PID": Case(
+        lambda: ctrlblocks.PID(kp=2.0, ti=1.0, td=0.3, ts=0.1, u_min=-5.0, u_max=5.0),
+        lambda b, k: b(1.0, 0.5 * _wave(k)),
+        {"ti": -1.0},
+        ErrorCode.BAD_PID_COEFFS,
+    ),
     "MaxSelector": Case(
         lambda: ctrlblocks.MaxSelector(),
         lambda b, k: b(_wave(k), _wave(k + 5), 0.2),

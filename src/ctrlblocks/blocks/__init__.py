@@ -5,6 +5,15 @@ from .jumprate import JumpAndRate
 from .leadlag import LeadLag
 from .manual import ManualStation
 from .monitor import CycleMonitor
+from .pid import PID, AntiWindup, Bumpless
+from .pid_forms import (
+    isa_to_parallel,
+    isa_to_series,
+    parallel_to_isa,
+    parallel_to_series,
+    series_to_isa,
+    series_to_parallel,
+)
 from .signals import (
     PT1,
     DeadBand,
@@ -20,9 +29,12 @@ from .signals import (
 )
 
 __all__ = [
+    "PID",
     "PT1",
+    "AntiWindup",
     "Block",
     "BlockConfig",
+    "Bumpless",
     "CycleMonitor",
     "DeadBand",
     "ErrorCode",
@@ -39,5 +51,11 @@ __all__ = [
     "Scale",
     "SteadyStateDetector",
     "deadband",
+    "isa_to_parallel",
+    "isa_to_series",
+    "parallel_to_isa",
+    "parallel_to_series",
     "scale",
+    "series_to_isa",
+    "series_to_parallel",
 ]

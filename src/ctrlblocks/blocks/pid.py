@@ -1,0 +1,863 @@
+"""The industrial PID block: seed 002 (CODESYS PID_Controller), seed 004 (Åström), seed 003 (NTNU).
+
+Control law (ISA form inside; see :mod:`.pid_forms` for ``form="parallel"``
+and ``form="series"``), after optional scaling of SP and PV to 0..100 %:
+
+* proportional action with setpoint weight ``b``, seed 004 (2.2), (2.7)::
+
+      P[k] = K (b r[k] - y[k])
+
+* integral action, ``dI/dt = (K/Ti) e + (u - v)/Tt`` (seed 004 Fig. 3.6 and
+  the Simnon module ``pid`` of Appendix A), ``e = r - y``.  The error part is
+  discretised by ``integral_method``:
+
+  - ``"forward"``  (seed 004 (2.8)): ``I[k] = I[k-1] + K h/Ti e[k-1]``
+  - ``"backward"``: ``I[k] = I[k-1] + K h/Ti e[k]``
+  - ``"tustin"``  (trapezoid, seed 002 2.3.1, seed 003 "I-leddet", default):
+    ``I[k] = I[k-1] + K h/(2 Ti) (e[k] + e[k-1])``
+
+  The tracking part ``(u - v)/Tt`` is applied in ``update_state`` once the
+  applied value ``u`` is known (seed 004 section 6, (6.6)), discretised by
+  implicit Euler, ``I += h/(Tt + h) (u - v)``: stable for every ``Tt > 0`` and
+  ``Tt -> 0`` sets ``v = u`` in one sample.
+
+* derivative action with setpoint weight ``c`` (``c = 0``: derivative on the
+  measurement, seed 004 (2.3), seed 003 "Derivasjonskick") and filter time
+  constant ``Tf = Td/N`` (seed 003 sum form; seed 004 (2.9))::
+
+      Tf dD/dt + D = K Td d/dt (c r - y)
+
+  discretised as seed 004 (2.13), ``D[k] = a D[k-1] + bd (w[k] - w[k-1])`` with
+  ``w = c r - y`` and, by ``derivative_method`` (``kd = K Td``):
+
+  - ``"forward"``  (2.10): ``a = 1 - h/Tf``,          ``bd = kd/Tf``
+  - ``"backward"`` (2.11): ``a = Tf/(Tf + h)``,        ``bd = kd/(Tf + h)`` (default)
+  - ``"tustin"``   (2.12): ``a = (2Tf - h)/(2Tf + h)``, ``bd = 2 kd/(2Tf + h)``
+    (seed 003 "D-leddet", with ``tau = Td/n``).
+
+* output ``v = P + I + D + FF`` (seed 004 (6.1); the feed-forward ``FF`` is
+  the ``ff`` input plus the lead-lag path of seed 003 version 4), limited to
+  ``[u_min, u_max]`` and passed through the output ramp.
+
+The velocity (incremental) algorithm (seed 002 2.3.1; seed 004 Figs. 2.2-2.5)
+adds the increments of the same P, I, D and FF terms to an output integrator
+that is limited itself.  Without integral action the integrator has the reset
+feedback of Fig. 2.4 (switch B of Fig. 2.5), time constant ``tt``, so that P
+and PD controllers keep the proper steady state ``P + D + FF + bias``.
+
+Everything around the law follows seed 002 section 2.3; see the class
+docstring and ``docs/blocks/pid.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from typing import Any
+
+from .base import (
+    Block,
+    BlockConfig,
+    ErrorCode,
+    Mode,
+    ParameterError,
+    is_finite,
+    require_choice,
+    require_finite,
+    require_limits,
+    require_nonnegative,
+    require_positive,
+)
+from .leadlag import LeadLag, LeadLagConfig
+from .pid_forms import FORMS, isa_parameters
+from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, deadband, scale
+
+__all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig"]
+
+log = logging.getLogger(__name__)
+
+
+class AntiWindup:
+    """Anti-windup methods (seed 002 ``enumAntiWindupMethods``)."""
+
+    CLAMPING = "clamping"
+    """Conditional integration: stop integrating while the output is limited
+    and the error drives it further into the limit (seed 002 2.3.12)."""
+    BACK_CALC_MODEL = "back_calc_model"
+    """Back-calculation with an actuator model (limits + output ramp), time
+    constant ``tt`` (seed 002 2.3.12; seed 004 Fig. 3.2 B)."""
+    BACK_CALC_REAL = "back_calc_real"
+    """Back-calculation with the measured actuator position ``actuator_pos``
+    (seed 002 2.3.12; seed 004 Fig. 3.2 A)."""
+    ALL = (CLAMPING, BACK_CALC_MODEL, BACK_CALC_REAL)
+
+
+class Bumpless:
+    """Bumpless manual-to-auto methods (seed 002 ``enumBumplessTransferMethods`` + Åström)."""
+
+    INTEGRATOR = "integrator"
+    """The integrator tracks the output in every non-auto mode and is set at the
+    switch so that the output continues exactly (seed 004 Fig. 4.4; default)."""
+    TRACK_SETPOINT = "track_setpoint"
+    """In non-auto modes the working setpoint follows the PV; after the switch
+    it ramps back to the SP with ``sp_rate`` (seed 002; needs ``sp_rate > 0``,
+    else 16#8202)."""
+    SUPPRESS_P_ACTION = "suppress_p_action"
+    """After the switch the P action is off until ``|e| <= dev_tol`` (seed 002)."""
+    ALL = (INTEGRATOR, TRACK_SETPOINT, SUPPRESS_P_ACTION)
+
+
+METHODS = ("forward", "backward", "tustin")
+_FORWARD, _BACKWARD, _TUSTIN = 0, 1, 2
+
+
+# ---------------------------------------------------------------------------
+# The control law: pure functions over floats (one implementation, DESIGN 2)
+# ---------------------------------------------------------------------------
+
+
+def derivative_coefficients(kd: float, tf: float, h: float, method: int) -> tuple[float, float]:
+    """``(a, bd)`` of seed 004 (2.13) for ``Tf dD/dt + D = kd dw/dt``.
+
+    ``method`` 0 forward (2.10), 1 backward (2.11), 2 Tustin (2.12);
+    ``kd = K Td``, ``Tf = Td/N``.  ``kd == 0`` gives ``(0, 0)`` (no derivative).
+    """
+    if kd == 0.0:
+        return 0.0, 0.0
+    if method == _FORWARD:
+        return 1.0 - h / tf, kd / tf
+    if method == _BACKWARD:
+        return tf / (tf + h), kd / (tf + h)
+    return (2.0 * tf - h) / (2.0 * tf + h), 2.0 * kd / (2.0 * tf + h)
+
+
+def integral_weights(method: int) -> tuple[float, float]:
+    """Weights ``(alpha, beta)`` of ``e[k-1]`` and ``e[k]`` in the integral increment."""
+    if method == _FORWARD:
+        return 1.0, 0.0
+    if method == _BACKWARD:
+        return 0.0, 1.0
+    return 0.5, 0.5
+
+
+def derivative_step(a: float, bd: float, d_prev: float, w: float, w_prev: float) -> float:
+    """Seed 004 (2.13): ``D[k] = a D[k-1] + bd (w[k] - w[k-1])`` with ``w = c r - y``."""
+    return a * d_prev + bd * (w - w_prev)
+
+
+def integral_increment(ki_h: float, alpha: float, beta: float, e_prev: float, e: float) -> float:
+    """``(K h / Ti) (alpha e[k-1] + beta e[k])``: (2.8), backward Euler or trapezoid."""
+    return ki_h * (alpha * e_prev + beta * e)
+
+
+def clamp(x: float, lo: float, hi: float) -> float:
+    """``min(max(x, lo), hi)``."""
+    return lo if x < lo else hi if x > hi else x
+
+
+def clamping_blocks(di: float, v: float, lo: float, hi: float) -> bool:
+    """Conditional integration (seed 002 CLAMPING): True if the increment ``di``
+    would drive the limited output ``v`` further into its limit."""
+    return (v > hi and di > 0.0) or (v < lo and di < 0.0)
+
+
+def tracking_gain(h: float, tt: float) -> float:
+    """Implicit-Euler gain ``h/(Tt + h)`` of the tracking term ``(u - v)/Tt``.
+
+    Seed 004 Fig. 3.6 and the Simnon module ``pid`` (``dI = ... + (v - u)/Tt``).
+    """
+    return h / (tt + h)
+
+
+# ---------------------------------------------------------------------------
+# Configuration
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class PIDConfig(BlockConfig):
+    """Configuration of :class:`PID` (seed 002 ``typePIDSettings`` and more).
+
+    Units: "%" means percent of the PV range when ``pv_range`` is given (seed
+    002 scaling), otherwise the engineering units of SP/PV.  The output is in
+    % (or in the user's units without scaling).
+
+    Attributes
+    ----------
+    kp : float
+        Gain [%/%], > 0 (seed 002: "must be positive"; use ``reverse`` for a
+        negative action).  Meaning per ``form`` (see :mod:`.pid_forms`).
+    ti : float
+        Integral time [s] (``form="parallel"``: 1/ki [s]); 0 = no integral action.
+    td : float
+        Derivative time [s] (``form="parallel"``: kd [s]); 0 = no derivative.
+    n : float
+        Derivative filter: ``Tf = Td/n`` (seed 003 ``n``, seed 004 ``N``), > 0.
+    b, c : float
+        Setpoint weights of P (seed 004 (2.2)) and D (``c = 0``: derivative on PV).
+    ts : float
+        Sample time [s] > 0.
+    u_min, u_max : float
+        Output limits [%] (seed 002 ``irOutLimitL/H``); infinite = no limit.
+    integral_method, derivative_method : str
+        ``"forward"``, ``"backward"`` or ``"tustin"`` (module docstring).
+    form : str
+        ``"isa"`` (default), ``"parallel"`` (independent gains) or ``"series"``.
+    algorithm : str
+        ``"positional"`` (default) or ``"velocity"`` (incremental, seed 002).
+    reverse : bool
+        Reverse action: the output falls when PV rises (seed 002 ``ixInverted``).
+    pv_range : tuple of float or None
+        ``(lo, hi)`` of SP and PV [eng. units] scaled to 0..100 % (seed 002
+        ``rangeLo/rangeHi``); None = no scaling.
+    sp_filter, pv_filter : float
+        PT1 time constants of the SP and PV filters [s]; 0 = off.
+    sp_rate : float
+        Setpoint ramp [%/s], >= 0; 0 = off.
+    out_rate : float
+        Output ramp [%/s], >= 0; 0 = off.  Active in every mode (seed 002 2.3.8).
+    anti_windup : str
+        One of :class:`AntiWindup`.
+    tt : float or None
+        Tracking / back-calculation time constant [s] > 0 (seed 002
+        ``irBackCalcFactor``, seed 004 ``Tt``).  None: ``ti_isa/5`` (seed 004
+        Fig. 3.9 uses ``Tt = Ti/5``), or ``ts`` without integral action.
+    bumpless : str
+        One of :class:`Bumpless`.
+    dev_tol : float
+        Deviation tolerance [%] in (0, 50] for SUPPRESS_P_ACTION (seed 002
+        ``irDeviationTolerance``).
+    deadband : float
+        Adaptive dead band half-width [%] (seed 002 2.3.10); 0 = off; negative
+        acts as its absolute value.
+    t_stab : float
+        Stabilisation time [s] > 0 of the adaptive dead band.
+    reset_value : float
+        Output (and integrator) value while ``reset_active`` (seed 002
+        ``irResetValue``); also the initial output.
+    safe_value : float or None
+        Output while SP/PV/FF are not finite; None = hold the last output.
+    ff_k, ff_t_lead, ff_t_lag : float
+        Lead-lag feed-forward ``ff_k (1 + ff_t_lead s)/(1 + ff_t_lag s)`` on the
+        ``dv`` input (seed 003 version 4, Tustin); ``ff_k = 0`` = off.
+    """
+
+    kp: float = 1.0
+    ti: float = 0.0
+    td: float = 0.0
+    n: float = 10.0
+    b: float = 1.0
+    c: float = 0.0
+    ts: float = 0.1
+    u_min: float = 0.0
+    u_max: float = 100.0
+    integral_method: str = "tustin"
+    derivative_method: str = "backward"
+    form: str = "isa"
+    algorithm: str = "positional"
+    reverse: bool = False
+    pv_range: tuple[float, float] | None = None
+    sp_filter: float = 0.0
+    pv_filter: float = 0.0
+    sp_rate: float = 0.0
+    out_rate: float = 0.0
+    anti_windup: str = AntiWindup.CLAMPING
+    tt: float | None = None
+    bumpless: str = Bumpless.INTEGRATOR
+    dev_tol: float = 1.0
+    deadband: float = 0.0
+    t_stab: float = 2.0
+    reset_value: float = 0.0
+    safe_value: float | None = None
+    ff_k: float = 0.0
+    ff_t_lead: float = 0.0
+    ff_t_lag: float = 1.0
+
+    def isa(self) -> tuple[float, float, float]:
+        """The ISA parameters ``(K, Ti, Td)`` of this configuration."""
+        return isa_parameters(self.form, self.kp, self.ti, self.td)
+
+    def validate(self) -> None:
+        coeffs = ErrorCode.BAD_PID_COEFFS
+        require_choice("form", self.form, FORMS)
+        kp = require_positive("kp", self.kp, coeffs)
+        require_nonnegative("ti", self.ti, coeffs)
+        require_nonnegative("td", self.td, coeffs)
+        require_positive("n", self.n, coeffs)
+        require_finite("b", self.b, coeffs)
+        require_finite("c", self.c, coeffs)
+        ts = require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
+        require_limits("u_min", self.u_min, "u_max", self.u_max)
+        require_choice("integral_method", self.integral_method, METHODS)
+        require_choice("derivative_method", self.derivative_method, METHODS)
+        require_choice("algorithm", self.algorithm, ("positional", "velocity"))
+        if not isinstance(self.reverse, bool):
+            raise ParameterError(ErrorCode.BAD_PARAMETER, "reverse", "must be a bool")
+        if self.pv_range is not None:
+            try:
+                lo, hi = self.pv_range
+            except (TypeError, ValueError):
+                raise ParameterError(
+                    ErrorCode.BAD_LIMITS, "pv_range", "must be None or a pair (lo, hi)"
+                ) from None
+            lo = require_finite("pv_range", lo, ErrorCode.BAD_LIMITS)
+            hi = require_finite("pv_range", hi, ErrorCode.BAD_LIMITS)
+            if lo == hi:
+                raise ParameterError(ErrorCode.BAD_LIMITS, "pv_range", "range is empty")
+        require_nonnegative("sp_filter", self.sp_filter, ErrorCode.BAD_TIME_CONSTANT)
+        require_nonnegative("pv_filter", self.pv_filter, ErrorCode.BAD_TIME_CONSTANT)
+        require_nonnegative("sp_rate", self.sp_rate, ErrorCode.BAD_RATE)
+        require_nonnegative("out_rate", self.out_rate, ErrorCode.BAD_RATE)
+        if self.anti_windup not in AntiWindup.ALL:
+            raise ParameterError(
+                ErrorCode.BAD_ANTIWINDUP,
+                "anti_windup",
+                f"must be one of {', '.join(AntiWindup.ALL)}; got {self.anti_windup!r}",
+            )
+        if self.tt is not None:
+            require_positive("tt", self.tt, ErrorCode.BACK_CALC_T)
+        require_choice("bumpless", self.bumpless, Bumpless.ALL)
+        if self.bumpless == Bumpless.TRACK_SETPOINT and self.sp_rate == 0.0:
+            raise ParameterError(
+                ErrorCode.CANT_TRACK_SETP,
+                "sp_rate",
+                "bumpless TRACK_SETPOINT needs a setpoint ramp sp_rate > 0 (seed 002)",
+            )
+        tol = require_finite("dev_tol", self.dev_tol, ErrorCode.BAD_DEV_TOL)
+        if not 0.0 <= tol <= 50.0 or (self.bumpless == Bumpless.SUPPRESS_P_ACTION and tol == 0):
+            raise ParameterError(
+                ErrorCode.BAD_DEV_TOL,
+                "dev_tol",
+                f"deviation tolerance must lie in 0..50 % (> 0 for SUPPRESS_P_ACTION); "
+                f"got {self.dev_tol!r}",
+            )
+        require_finite("deadband", self.deadband)
+        require_positive("t_stab", self.t_stab, ErrorCode.BAD_STAB_TIME)
+        require_finite("reset_value", self.reset_value)
+        if self.safe_value is not None:
+            require_finite("safe_value", self.safe_value)
+        require_finite("ff_k", self.ff_k)
+        LeadLagConfig(k=1.0, t_lead=self.ff_t_lead, t_lag=self.ff_t_lag, ts=ts).validate()
+        _k, _ti, td = isa_parameters(self.form, kp, self.ti, self.td)
+        if self.derivative_method == "forward" and td > 0.0 and td / self.n <= ts / 2.0:
+            raise ParameterError(
+                coeffs,
+                "td",
+                f"forward-difference derivative (seed 004 (2.10)) is unstable for "
+                f"Td/N <= ts/2 (Td={td!r}, N={self.n!r}, ts={ts!r}); use 'backward'",
+            )
+
+
+# ---------------------------------------------------------------------------
+# The block
+# ---------------------------------------------------------------------------
+
+
+def _law(c: PIDConfig) -> tuple[Any, ...]:
+    """The parameters whose change would make the positional output jump."""
+    return (c.isa(), c.n, c.b, c.c, c.reverse, c.pv_range, c.algorithm)
+
+
+_SUB_COMPUTE = ("_sp_filter", "_pv_filter", "_sp_ramp", "_out_ramp", "_ll")
+
+
+class PID(Block):
+    """Industrial PID block (seeds 002, 003, 004); see the module docstring for the law.
+
+    One cycle: ``u = pid(sp, pv)`` (optionally ``ff=`` feed-forward/offset [%],
+    ``dv=`` input of the lead-lag feed-forward path, ``dt=`` measured sample
+    time [s]).  Two-phase form (seed 004 section 6, Listing 6.3)::
+
+        v = pid.compute_output(sp, pv)   # ComputeOutput (no state committed)
+        u = shape(v)                     # ShapeOutput: selector, saturation, ...
+        pid.update_state(u)              # UpdateState with the applied value
+
+    Inputs as attributes (seed 002): ``manual``, ``manual_value`` (In/Out:
+    follows the applied output when not in manual), ``track``,
+    ``track_value``, ``hold``, ``reset_active`` (seed 002 ``reset``),
+    ``actuator_pos`` (for BACK_CALC_REAL), ``awin`` (freeze the integrator,
+    cascade).  Priority: RESET > TRACK > HOLD > MANUAL > AUTO (:class:`Mode`).
+
+    Readable: ``out``, ``p``, ``i``, ``d``, ``ff`` (terms of the last cycle),
+    ``mode``, ``limits_active`` (= ``awout``), ``error``, ``error_id``,
+    ``sp_w`` (working setpoint after filter/ramp, %), ``pv_f`` (filtered PV,
+    %), ``e`` (control deviation, %), ``deadband_active``, ``p_suppressed``.
+
+    Never raises on process data: NaN/inf ``sp``/``pv``/``ff``/``dv`` hold the
+    last output (or ``safe_value``), set ``BAD_INPUT`` and recover without a
+    bump; a bad ``dt`` holds the output and sets ``NO_CYCLE``.
+    """
+
+    Config = PIDConfig
+    config: PIDConfig
+    _state_fields = (
+        "out",
+        "p",
+        "i",
+        "d",
+        "ff",
+        "e",
+        "sp_w",
+        "pv_f",
+        "limits_active",
+        "manual_value",
+        "deadband_active",
+        "p_suppressed",
+        "_i",
+        "_d",
+        "_x",
+        "_bias",
+        "_w_prev",
+        "_e_prev",
+        "_p_prev",
+        "_d_prev",
+        "_ff_prev",
+        "_mode_prev",
+        "_cold",
+        "_reinit",
+        "_reinit_d",
+        "_db_hold",
+        "_limits_status",
+    )
+
+    def __init__(self, config: PIDConfig | None = None, /, **params: Any) -> None:
+        # mode inputs (seed 002); not part of the state, reset() leaves them
+        self.manual = False
+        self.track = False
+        self.track_value = 0.0
+        self.hold = False
+        self.reset_active = False
+        self.actuator_pos = math.nan
+        self.awin = False
+        self._subs: dict[str, Block] = {}
+        self._pending = False
+        super().__init__(config, **params)
+
+    # -- configuration ---------------------------------------------------------
+
+    def _apply_config(self, old: BlockConfig | None) -> None:
+        c = self._config
+        k, ti, td = c.isa()
+        self._k, self._ti, self._td = k, ti, td
+        self._ki = k / ti if ti > 0.0 else 0.0
+        self._kd = k * td
+        self._tf = td / c.n
+        self._imeth = METHODS.index(c.integral_method)
+        self._dmeth = METHODS.index(c.derivative_method)
+        self._alpha, self._beta = integral_weights(self._imeth)
+        self._tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else float(c.ts))
+        self._lo, self._hi = float(c.u_min), float(c.u_max)
+        self._sgn = -1.0 if c.reverse else 1.0
+        self._velocity = c.algorithm == "velocity"
+        self._range = (float(c.pv_range[0]), float(c.pv_range[1])) if c.pv_range else None
+        self._db = abs(float(c.deadband))
+        self._ts = float(c.ts)
+        self._set_h(self._ts)
+        ts = self._ts
+        self._sync("_sp_filter", PT1, t=c.sp_filter, ts=ts)
+        self._sync("_pv_filter", PT1, t=c.pv_filter, ts=ts)
+        self._sync("_sp_ramp", RateLimiter, rate_up=c.sp_rate, rate_down=c.sp_rate, ts=ts)
+        self._sync("_out_ramp", RateLimiter, rate_up=c.out_rate, rate_down=c.out_rate, ts=ts)
+        self._sync("_ll", LeadLag, k=c.ff_k, t_lead=c.ff_t_lead, t_lag=c.ff_t_lag, ts=ts)
+        self._sync("_det", SteadyStateDetector, tolerance=0.5, t_stab=c.t_stab, ts=ts)
+        window = max(1, round(c.t_stab / ts))
+        self._sync("_ma", MovingAverage, n=window)
+        if old is not None and _law(old) != _law(c):
+            # a change of the law is bumpless: the next cycle re-initialises the integrator
+            self._reinit = True
+
+    def _sync(self, name: str, cls: type[Block], **params: Any) -> None:
+        sub = self._subs.get(name)
+        if sub is None:
+            self._subs[name] = cls(**params)
+        elif any(getattr(sub.config, k) != v for k, v in params.items()):
+            sub.configure(**params)
+
+    def _set_h(self, h: float) -> None:
+        self._h = h
+        self._ad, self._bd = derivative_coefficients(self._kd, self._tf, h, self._dmeth)
+        self._ki_h = self._ki * h
+
+    def set_limits(self, u_min: float, u_max: float) -> None:
+        """Change the output limits at run time; never raises.
+
+        A reversed or NaN pair sets the status ``BAD_LIMITS`` (16#8201) and the
+        last valid limits stay in force until a valid pair is written.
+        """
+        try:
+            self.configure(u_min=u_min, u_max=u_max)
+        except (ParameterError, TypeError):
+            self._limits_status = ErrorCode.BAD_LIMITS
+            self.error_id = ErrorCode.BAD_LIMITS
+            return
+        self._limits_status = ErrorCode.NO_ERROR
+
+    @property
+    def u_min(self) -> float:
+        """Output low limit in force [%]."""
+        return self._lo
+
+    @property
+    def u_max(self) -> float:
+        """Output high limit in force [%]."""
+        return self._hi
+
+    # -- state -----------------------------------------------------------------
+
+    def _reset_state(self) -> None:
+        c = self._config
+        for sub in self._subs.values():
+            sub.reset()
+        u0 = clamp(float(c.reset_value), self._lo, self._hi)
+        self._subs["_out_ramp"].preset(u0)
+        self.out = u0
+        self.p = self.d = self.ff = self.e = 0.0
+        self.i = float(c.reset_value)
+        self.sp_w = self.pv_f = 0.0
+        self.limits_active = False
+        self.manual_value = u0
+        self.deadband_active = False
+        self.p_suppressed = False
+        self._i = float(c.reset_value)
+        self._x = u0
+        self._bias = float(c.reset_value)
+        self._d = 0.0
+        self._w_prev = self._e_prev = self._p_prev = self._d_prev = self._ff_prev = 0.0
+        self._mode_prev = -1
+        self._cold = True
+        self._reinit = False
+        self._reinit_d = False
+        self._db_hold = u0
+        self._limits_status = ErrorCode.NO_ERROR
+        self._pending = False
+
+    def snapshot(self) -> dict[str, Any]:
+        snap = super().snapshot()
+        snap["_subs"] = {name: sub.snapshot() for name, sub in self._subs.items()}
+        return snap
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        super().restore(snapshot)
+        for name, sub_snap in snapshot.get("_subs", {}).items():
+            self._subs[name].restore(sub_snap)
+        self._pending = False
+
+    # -- status ----------------------------------------------------------------
+
+    @property
+    def mode(self) -> Mode:
+        """The active mode from the inputs, by seed 002's priority (see :class:`Mode`)."""
+        if self.reset_active:
+            return Mode.RESET
+        if self.track:
+            return Mode.TRACK
+        if self.hold:
+            return Mode.HOLD
+        if self.manual:
+            return Mode.MANUAL
+        return Mode.AUTO
+
+    @property
+    def awout(self) -> bool:
+        """Anti-windup signal for a primary controller in cascade (= ``limits_active``)."""
+        return self.limits_active
+
+    @property
+    def tt(self) -> float:
+        """Tracking time constant in force [s] (``config.tt`` or its default)."""
+        return self._tt
+
+    # -- the cycle -------------------------------------------------------------
+
+    def __call__(
+        self, sp: float, pv: float, *, ff: float = 0.0, dv: float = 0.0, dt: float | None = None
+    ) -> float:
+        """Run one cycle: :meth:`compute_output`, then :meth:`update_state` with its own output."""
+        v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt)
+        self.update_state(v)
+        return self.out
+
+    def compute_output(
+        self, sp: float, pv: float, *, ff: float = 0.0, dv: float = 0.0, dt: float | None = None
+    ) -> float:
+        """ComputeOutput of seed 004 Listing 6.3: the limited output of this cycle.
+
+        Commits no state: calling it again in the same cycle (before
+        :meth:`update_state`) gives the same result for the same inputs.
+
+        Parameters
+        ----------
+        sp, pv : float
+            Setpoint and process value [eng. units; scaled when ``pv_range``].
+        ff : float
+            Feed-forward / offset added before the limits [%] (seed 002 ``offset``).
+        dv : float
+            Input of the lead-lag feed-forward path (seed 003 version 4).
+        dt : float, optional
+            Sample time of this cycle [s]; default ``ts``.
+
+        Returns
+        -------
+        float
+            The output ``v`` [%] (limited, ramped); also ``self.out``.
+        """
+        subs = self._subs
+        if self._pending:
+            for name in _SUB_COMPUTE:
+                sub = subs[name]
+                for f, val in self._saved[name].items():
+                    setattr(sub, f, val)
+        else:
+            self._saved = {
+                name: {f: getattr(subs[name], f) for f in subs[name]._state_fields}
+                for name in _SUB_COMPUTE
+            }
+            self._saved_out = self.out
+        self._pending = True
+        out_prev = self._saved_out
+        self._c_kind = 0  # 0 skip, 1 bad input, 2 normal
+        self._c_status = ErrorCode.NO_ERROR
+
+        h = self._cycle_time(dt, self._ts)
+        if h is None:
+            self._c_status = ErrorCode.NO_CYCLE
+            self.error_id = ErrorCode.NO_CYCLE
+            self.out = out_prev
+            return out_prev
+        if h != self._h:
+            self._set_h(h)
+        self._c_h = h
+        mode = self.mode
+        self._c_mode = mode
+        c = self._config
+        lo, hi = self._lo, self._hi
+
+        ok = is_finite(sp) and is_finite(pv) and is_finite(ff) and is_finite(dv)
+        target: float | None = None  # output target of a non-auto mode
+        if mode == Mode.MANUAL:
+            target = self.manual_value if is_finite(self.manual_value) else out_prev
+            ok = ok and is_finite(self.manual_value)
+        elif mode == Mode.TRACK:
+            target = self.track_value if is_finite(self.track_value) else out_prev
+            ok = ok and is_finite(self.track_value)
+        elif mode == Mode.HOLD:
+            target = out_prev
+        elif mode == Mode.RESET:
+            target = clamp(float(c.reset_value), lo, hi)
+            subs["_out_ramp"].preset(target)  # "immediately" (seed 002 2.3.5)
+
+        if not ok:
+            self._c_kind = 1
+            self._c_status = ErrorCode.BAD_INPUT
+            if target is None:
+                target = out_prev if c.safe_value is None else float(c.safe_value)
+            return self._finish(target, target, h)
+
+        # --- inputs: scaling, filters, setpoint ramp -------------------------
+        x_sp, x_pv = float(sp), float(pv)
+        if self._range is not None:
+            x_sp = scale(x_sp, self._range[0], self._range[1], 0.0, 100.0)
+            x_pv = scale(x_pv, self._range[0], self._range[1], 0.0, 100.0)
+        spf, pvf = subs["_sp_filter"], subs["_pv_filter"]
+        ramp = subs["_sp_ramp"]
+        if self._cold:
+            spf.preset(x_sp)
+            pvf.preset(x_pv)
+        sp_f = spf(x_sp, dt=h)
+        pv_f = pvf(x_pv, dt=h)
+        if c.bumpless == Bumpless.TRACK_SETPOINT and mode != Mode.AUTO:
+            ramp.preset(pv_f)  # seed 002: in manual the SP follows the PV
+            sp_w = pv_f
+        else:
+            if self._cold:
+                ramp.preset(sp_f)
+            sp_w = ramp(sp_f, dt=h)
+        ff_tot = float(ff)
+        if c.ff_k != 0.0:
+            ff_tot += subs["_ll"](float(dv), dt=h)
+
+        # --- P, D (computed in every mode so that the integrator can track) --
+        s = self._sgn
+        e = s * (sp_w - pv_f)
+        p = self._k * s * (c.b * sp_w - pv_f)
+        w = s * (c.c * sp_w - pv_f)
+        if self._cold or self._reinit_d:
+            w_prev, d_prev, e_prev = w, 0.0, e
+        else:
+            w_prev, d_prev, e_prev = self._w_prev, self._d, self._e_prev
+        d = derivative_step(self._ad, self._bd, d_prev, w, w_prev)
+
+        self._c_kind = 2
+        self._c_e, self._c_w, self._c_d, self._c_p, self._c_ff = e, w, d, p, ff_tot
+        self.sp_w, self.pv_f, self.e = sp_w, pv_f, e
+
+        # --- non-auto modes and the adaptive dead band -----------------------
+        transfer = mode == Mode.AUTO and (self._mode_prev not in (-1, Mode.AUTO) or self._reinit)
+        from_mode = mode == Mode.AUTO and self._mode_prev not in (-1, Mode.AUTO)
+        suppressed = self.p_suppressed
+        if from_mode and c.bumpless == Bumpless.SUPPRESS_P_ACTION:
+            suppressed = True
+        if suppressed and abs(e) <= c.dev_tol:
+            if not transfer:
+                transfer = True  # P comes back: re-initialise the integrator
+            suppressed = False
+        db_hold = False
+        if mode == Mode.AUTO and self._db > 0.0 and self.deadband_active:
+            if deadband(e, self._db) == 0.0:
+                db_hold = True
+                target = self._db_hold
+            else:
+                transfer = True  # dead band released: continue without a bump
+        self._c_suppressed = suppressed
+        self._c_db_hold = db_hold
+        p_used = 0.0 if suppressed else p
+        self._c_p_used = p_used
+
+        if target is not None:
+            self._c_i = self._i
+            return self._finish(target, target, h)
+
+        # --- auto ----------------------------------------------------------------
+        if self._velocity:
+            v_raw = self._velocity_output(p_used, d, ff_tot, e, e_prev, out_prev, transfer)
+        else:
+            if transfer:
+                i_k = out_prev - p_used - d - ff_tot
+            elif self._ki == 0.0 or self._cold or self.awin:
+                i_k = self._i
+            else:
+                di = integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
+                i_k = self._i + di
+                if c.anti_windup == AntiWindup.CLAMPING and clamping_blocks(
+                    di, p_used + i_k + d + ff_tot, lo, hi
+                ):
+                    i_k = self._i
+            self._c_i = i_k
+            v_raw = p_used + i_k + d + ff_tot
+        return self._finish(v_raw, None, h)
+
+    def _velocity_output(
+        self,
+        p: float,
+        d: float,
+        ff: float,
+        e: float,
+        e_prev: float,
+        out_prev: float,
+        transfer: bool,
+    ) -> float:
+        """Velocity algorithm (seed 002 2.3.1; seed 004 Figs. 2.2, 2.4, 2.5)."""
+        if transfer:
+            self._c_bias = out_prev - p - d - ff
+            self._c_i = out_prev - p - d - ff
+            return out_prev
+        if self._cold:
+            p_prev = d_prev = ff_prev = 0.0
+        else:
+            p_prev, d_prev, ff_prev = self._p_prev, self._d_prev, self._ff_prev
+        x = self._x + (p - p_prev) + (d - d_prev) + (ff - ff_prev)
+        self._c_bias = self._bias
+        if self._ki != 0.0:  # switch A of Fig. 2.5: the increments of I
+            if not (self._cold or self.awin):
+                x += integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
+        else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
+            x += tracking_gain(self._c_h, self._tt) * (p + d + ff + self._bias - x)
+        self._c_i = x - p - d - ff
+        return x
+
+    def _finish(self, v_raw: float, target: float | None, h: float) -> float:
+        """Limits, output ramp, status; stores the cycle for :meth:`update_state`."""
+        lo, hi = self._lo, self._hi
+        v_lim = clamp(v_raw, lo, hi)
+        ramp = self._subs["_out_ramp"]
+        out = ramp(v_lim, dt=h)
+        self._c_vraw = v_raw
+        self.limits_active = v_raw > hi or v_raw < lo or ramp.limiting
+        self.out = out
+        if self._c_kind == 2:
+            self.p = self._c_p_used
+            self.d = self._c_d
+            self.ff = self._c_ff
+            self.i = self._c_i if target is None else out - self.p - self.d - self.ff
+        status = self._c_status or self._limits_status
+        self.error_id = status
+        return out
+
+    def update_state(self, applied: float) -> None:
+        """UpdateState of seed 004 Listing 6.3 with the value actually applied [%].
+
+        In auto the integrator tracks ``applied`` with time constant ``tt``
+        (seed 004 Fig. 3.6); with CLAMPING on ``applied - out``, with
+        BACK_CALC_MODEL on ``applied - v`` (``v`` before limits), with
+        BACK_CALC_REAL on ``actuator_pos - v``.  In the other modes (and while
+        the dead band holds the output) the integrator is set so that
+        ``P + I + D + FF = applied``.  A non-finite ``applied`` counts as ``out``.
+        """
+        if not self._pending:
+            log.debug("PID.update_state without compute_output: ignored")
+            return
+        self._pending = False
+        if self._c_kind == 0:
+            return
+        u = float(applied) if is_finite(applied) else self.out
+        mode = self._c_mode
+        if mode != Mode.MANUAL:
+            self.manual_value = u
+        if self._c_kind == 1:  # bad input: nothing is known, re-initialise on recovery
+            self._reinit = self._reinit_d = True
+            self._mode_prev = mode
+            return
+        c = self._config
+        p, d, ff = self._c_p_used, self._c_d, self._c_ff
+        auto = mode == Mode.AUTO and not self._c_db_hold
+        if self._velocity:
+            if auto:
+                track_to = u
+                if c.anti_windup == AntiWindup.BACK_CALC_REAL and is_finite(self.actuator_pos):
+                    track_to = float(self.actuator_pos)
+                self._x = self.out + tracking_gain(self._c_h, self._tt) * (track_to - self.out)
+                self._bias = self._c_bias
+            else:
+                self._x = u
+                self._bias = u - p - d - ff
+            self._p_prev, self._d_prev, self._ff_prev = p, d, ff
+        elif auto:
+            i_k = self._c_i
+            if self._ki != 0.0:
+                if c.anti_windup == AntiWindup.CLAMPING:
+                    ref, v = u, self.out
+                elif c.anti_windup == AntiWindup.BACK_CALC_MODEL:
+                    ref, v = u, self._c_vraw
+                else:
+                    ref = float(self.actuator_pos) if is_finite(self.actuator_pos) else u
+                    v = self._c_vraw
+                i_k += tracking_gain(self._c_h, self._tt) * (ref - v)
+            self._i = i_k
+        else:
+            self._i = u - p - d - ff
+        self._d = d
+        self._w_prev = self._c_w
+        self._e_prev = self._c_e
+        self.p_suppressed = self._c_suppressed
+        self._update_deadband(mode, u)
+        self._mode_prev = mode
+        self._cold = self._reinit = self._reinit_d = False
+
+    def _update_deadband(self, mode: Mode, u: float) -> None:
+        """Adaptive dead band of seed 002 2.3.10 (steady-state detector + moving average)."""
+        if self._db == 0.0:
+            return
+        det, ma = self._subs["_det"], self._subs["_ma"]
+        inside = deadband(self._c_e, self._db) == 0.0
+        if mode != Mode.AUTO or not inside:
+            self.deadband_active = False
+            det.reset()
+            ma(u)
+            return
+        det(0.0, dt=self._c_h)  # counts the time spent inside the band
+        if not self.deadband_active:
+            ma(u)
+            if det.steady:
+                self.deadband_active = True
+                self._db_hold = ma.out
