@@ -83,10 +83,10 @@ def jar_output(u: float, x: float, jlow: float, jhigh: float) -> float:
     """Output ``y = x + sat(u - x, jlow, jhigh)`` (seed 004 Appendix A, system ``jar``)."""
     e = u - x
     if e > jhigh:
-        e = jhigh
-    elif e < jlow:
-        e = jlow
-    return x + e
+        return x + jhigh
+    if e < jlow:
+        return x + jlow
+    return u  # exactly the input (x + (u - x) may differ from u by rounding)
 
 
 def jar_state_update(x: float, u: float, h: float, rlow: float, rhigh: float) -> float:
