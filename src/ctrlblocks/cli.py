@@ -14,6 +14,8 @@ import click
 # command name -> "module:attribute"; each module owns its command.
 _COMMANDS: dict[str, str] = {
     "demo": "ctrlblocks.demo:demo",
+    "identify": "ctrlblocks.tuning.cli:identify",
+    "tune": "ctrlblocks.tuning.cli:tune",
     "reproduce": "ctrlblocks.sim.cli:reproduce",
     "run": "ctrlblocks.sim.cli:run",
 }

@@ -1,0 +1,76 @@
+"""Tuning: from a bump test to PID and ADRC settings.
+
+* :mod:`.identify` -- FOPDT/SOPDT/integrating models from step-response
+  records (two-point methods, least squares) and the CSV reader;
+* :mod:`.halfrule` -- Skogestad's half rule and the inverse half-rule of
+  seed 000 for the ADRC ``b0``;
+* :mod:`.adrc` -- ADRC bandwidth tuning and a ready ``ctrlblocks.ADRC``
+  configuration;
+* :mod:`.pid_rules` -- SIMC, AMIGO, Ziegler-Nichols, Tyreus-Luyben and
+  lambda tuning in ISA form;
+* :mod:`.relay` -- relay-feedback auto-tuning and bump-test pre-tuning
+  against a simulated plant.
+
+The guide is docs/tuning.md.
+"""
+
+from .adrc import ADRCTuning, adrc_bandwidth, adrc_config, adrc_tuning
+from .halfrule import InverseHalfRule, half_rule, inverse_half_rule
+from .identify import (
+    FOPDT,
+    SOPDT,
+    DataFileError,
+    Integrating,
+    StepData,
+    fit_fopdt,
+    fit_integrating,
+    fit_sopdt,
+    read_step_csv,
+    sundaresan_krishnaswamy,
+    two_point,
+)
+from .pid_rules import (
+    PIDTuning,
+    amigo,
+    lambda_tuning,
+    pid_from_model,
+    simc,
+    tyreus_luyben,
+    ziegler_nichols_closed,
+    ziegler_nichols_open,
+)
+from .relay import BumpTestResult, RelayResult, bump_test, relay_autotune, step_pretune
+
+__all__ = [
+    "FOPDT",
+    "SOPDT",
+    "ADRCTuning",
+    "BumpTestResult",
+    "DataFileError",
+    "Integrating",
+    "InverseHalfRule",
+    "PIDTuning",
+    "RelayResult",
+    "StepData",
+    "adrc_bandwidth",
+    "adrc_config",
+    "adrc_tuning",
+    "amigo",
+    "bump_test",
+    "fit_fopdt",
+    "fit_integrating",
+    "fit_sopdt",
+    "half_rule",
+    "inverse_half_rule",
+    "lambda_tuning",
+    "pid_from_model",
+    "read_step_csv",
+    "relay_autotune",
+    "simc",
+    "step_pretune",
+    "sundaresan_krishnaswamy",
+    "two_point",
+    "tyreus_luyben",
+    "ziegler_nichols_closed",
+    "ziegler_nichols_open",
+]

@@ -1,0 +1,100 @@
+"""Make the bump-test example and the figure of docs/tuning.md.
+
+Run from the repository root::
+
+    .venv/bin/python docs/figures/make_tuning_figures.py
+
+Writes
+* docs/examples/bump_k2.csv (and the same file as tests/tuning/data/bump_k2.csv):
+  a simulated bump test on process (10b) of seed 000,
+  0.73/((7.3 s + 1)(2.2 s + 1)(1.4 s + 1)), sampled every 0.5 s, at the
+  operating point MV = 2.0 bar, PV = 1.46 bar, MV step +0.5 bar at t = 10 s,
+  Gaussian PV noise of standard deviation 0.002 bar (0.5 % of the PV change),
+  seed 4;
+* docs/figures/tuning_identify.png: the record against the least-squares FOPDT
+  and SOPDT models.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from ctrlblocks.plants.linear import PTn
+from ctrlblocks.tuning import fit_fopdt, fit_sopdt
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def simulate() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    ts, u0, du, t_step, t_end = 0.5, 2.0, 0.5, 10.0, 80.0
+    plant = PTn(0.73, (7.3, 2.2, 1.4), ts)
+    plant.reset(u0)
+    rng = np.random.default_rng(4)
+    n = round(t_end / ts) + 1
+    t = np.arange(n) * ts
+    u = np.where(t >= t_step, u0 + du, u0)
+    y = np.empty(n)
+    for k in range(n):
+        y[k] = plant.y
+        plant.step(u[k])
+    y += rng.normal(0.0, 0.002, n)
+    return t, u, y
+
+
+def write_csv(path: Path, t, u, y) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time_s", "p_supply_bar", "p3_bar"])
+        for row in zip(t, u, y, strict=True):
+            w.writerow([f"{row[0]:.1f}", f"{row[1]:.3f}", f"{row[2]:.5f}"])
+
+
+def figure(t, u, y, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fo, so = fit_fopdt(t, u, y), fit_sopdt(t, u, y)
+    fig, (ax, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 5.0), height_ratios=(3, 1.3))
+    ax.plot(t, y, ".", ms=3, color="0.5", label="bump test (10b) + noise")
+    ax.plot(
+        t,
+        fo.response(t, u),
+        color="C3",
+        label=f"FOPDT k={fo.gain:.3f}, T={fo.time_constant:.2f} s, L={fo.dead_time:.2f} s",
+    )
+    ax.plot(
+        t,
+        so.response(t, u),
+        "--",
+        color="C2",
+        label=f"SOPDT T1={so.time_constant:.2f} s, T2={so.time_constant_2:.2f} s, "
+        f"L={so.dead_time:.2f} s",
+    )
+    ax.set_ylabel("p3 [bar]")
+    ax.legend(loc="lower right", fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_title("ctrlblocks identify: least-squares fits to a bump test", fontsize=10)
+    ax_u.step(t, u, where="post")
+    ax_u.set_ylabel("p_s [bar]")
+    ax_u.set_xlabel("time [s]")
+    ax_u.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    t, u, y = simulate()
+    for p in (ROOT / "docs/examples/bump_k2.csv", ROOT / "tests/tuning/data/bump_k2.csv"):
+        write_csv(p, t, u, y)
+    figure(t, u, y, ROOT / "docs/figures/tuning_identify.png")
+
+
+if __name__ == "__main__":
+    main()

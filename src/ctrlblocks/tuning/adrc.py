@@ -1,0 +1,271 @@
+"""ADRC bandwidth tuning (seed 000, section 3.3) and a ready ADRC configuration.
+
+Seed 000, section 3.3 (after Gao 2003, its reference [5]):
+
+* controller bandwidth ``omega_c = (3..5)/tau_set`` for the desired
+  closed-loop settling time ``tau_set``, "depending on the process relative
+  order";
+* observer bandwidth ``omega_o = (3..10) omega_c``, its upper end limited by
+  the sample time ``ts`` and the measurement noise;
+* ``b0`` from the FOPDT model by the inverse half-rule
+  (:mod:`ctrlblocks.tuning.halfrule`).
+
+Choice of the factor per order.  With the bandwidth parametrisation the ideal
+closed loop has all ``n`` poles at ``-omega_c``; its 2 % settling time is
+``x_n/omega_c`` with ``x_1 = ln 50 = 3.91``, ``x_2 = 5.83``, ``x_3 = 7.52``
+(solutions of ``e^{-x} sum_{j<n} x^j/j! = 0.02``).  The factor used is
+``x_n`` clipped to the seed's range: **3.91 for n = 1, 5 for n = 2 and 3**.
+So a first-order loop is designed to settle in ``tau_set``; for n = 2 and 3
+the seed's range gives an ideal settling time of ``1.17 tau_set`` and
+``1.50 tau_set`` (reported as ``settling_time_model``).  Pass ``factor`` to
+override.
+
+Observer: ``omega_o = 5 omega_c`` by default (the ratio of seed 000 Table 2
+for n = 2 and 3: 1.75/0.35).  The Euler observer (4a) with the gains
+``l_i = C(n+1, i) omega_o^i`` is stable only for ``omega_o ts`` below
+0.828 (n = 1), 0.520 (n = 2), 0.378 (n = 3) (spectral radius of the error
+recursion of (4a) equal to one), and follows the continuous design
+closely only well below that; the check here asks
+``omega_o ts <= MAX_OMEGA_O_TS = 0.2`` (Table 2: 1.75 x 0.1 = 0.175) and
+lowers ``omega_o`` to that bound with a warning.  Without ``ts`` a sample
+time with ``omega_o ts <= 0.1`` is suggested (1, 2 or 5 times a power of ten).
+
+Default settling time when none is given: ``tau_set = 2 (T + T0)``, about
+60 % of the open-loop 98 % settling time ``T0 + 4 T``: a cautious first
+tuning, to be shortened on the running loop (seed 000 itself retuned from the
+estimates, Table 2).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..blocks.base import ErrorCode, ParameterError, require_finite, require_positive
+from .halfrule import inverse_half_rule
+
+__all__ = [
+    "MAX_OMEGA_O_TS",
+    "SETTLING_FACTOR",
+    "ADRCTuning",
+    "adrc_bandwidth",
+    "adrc_config",
+    "adrc_tuning",
+]
+
+SETTLING_TIME_2PCT = {1: 3.912023005428146, 2: 5.83392170191749, 3: 7.516603875609483}
+"""2 % settling time of ``1/(s/omega_c + 1)^n`` times ``omega_c`` (see the module docstring)."""
+
+SETTLING_FACTOR = {n: min(5.0, max(3.0, x)) for n, x in SETTLING_TIME_2PCT.items()}
+"""``omega_c tau_set`` per order: the exact 2 % value clipped to the seed's 3..5."""
+
+MAX_OMEGA_O_TS = 0.2
+"""Largest ``omega_o ts`` accepted for the Euler observer (4a)."""
+
+OMEGA_O_STABILITY = {1: 2.0 * (math.sqrt(2.0) - 1.0), 2: 0.5198, 3: 0.3784}
+"""``omega_o ts`` at which the Euler observer (4a) becomes unstable."""
+
+
+@dataclass(frozen=True)
+class ADRCTuning:
+    """Result of :func:`adrc_bandwidth` / :func:`adrc_tuning`.
+
+    Attributes
+    ----------
+    order : int
+    omega_c, omega_o : float
+        Controller and observer bandwidths [rad/s].
+    ts : float
+        Sample time [s] (given or suggested).
+    settling_time : float
+        The requested ``tau_set`` [s].
+    settling_time_model : float
+        2 % settling time of the ideal closed loop with these bandwidths [s].
+    b0, b0_min, b0_max : float
+        Scaling parameter and its range (NaN from :func:`adrc_bandwidth`).
+    warnings : list of str
+    """
+
+    order: int
+    omega_c: float
+    omega_o: float
+    ts: float
+    settling_time: float
+    settling_time_model: float
+    b0: float = math.nan
+    b0_min: float = math.nan
+    b0_max: float = math.nan
+    warnings: list[str] = field(default_factory=list)
+
+
+def adrc_bandwidth(
+    settling_time: float,
+    order: int,
+    ts: float | None = None,
+    *,
+    factor: float | None = None,
+    observer_ratio: float = 5.0,
+) -> ADRCTuning:
+    """Controller and observer bandwidths from a desired settling time.
+
+    ``omega_c = factor/settling_time`` (``factor = SETTLING_FACTOR[order]``
+    unless given: 3.91, 5, 5), ``omega_o = observer_ratio omega_c``, then the
+    sample-time check of the module docstring.
+
+    Parameters
+    ----------
+    settling_time : float
+        Desired closed-loop settling time ``tau_set`` [s].
+    order : int
+        ADRC order n (1..3).
+    ts : float, optional
+        Controller sample time [s]; suggested if not given.
+    factor : float, optional
+        ``omega_c tau_set``; seed 000 gives 3..5 (outside: a warning).
+    observer_ratio : float
+        ``omega_o/omega_c``; seed 000 gives 3..10 (outside: a warning).
+
+    Returns
+    -------
+    ADRCTuning
+        With ``b0`` NaN (see :func:`adrc_tuning`).
+    """
+    tau = require_positive("settling_time", settling_time, ErrorCode.BAD_TIME_CONSTANT)
+    order = _order(order)
+    warnings: list[str] = []
+    f = SETTLING_FACTOR[order] if factor is None else require_positive("factor", factor)
+    if not 3.0 <= f <= 5.0:
+        warnings.append(f"factor {f:g} is outside seed 000's omega_c = (3..5)/tau_set")
+    ratio = require_positive("observer_ratio", observer_ratio, ErrorCode.BAD_BANDWIDTH)
+    if not 3.0 <= ratio <= 10.0:
+        warnings.append(f"observer_ratio {ratio:g} is outside seed 000's omega_o = (3..10) omega_c")
+    omega_c = f / tau
+    omega_o = ratio * omega_c
+    if ts is None:
+        ts = _nice_floor(0.1 / omega_o)
+    else:
+        ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
+        if omega_o * ts > MAX_OMEGA_O_TS:
+            new = MAX_OMEGA_O_TS / ts
+            warnings.append(
+                f"omega_o = {omega_o:.4g} rad/s is too fast for ts = {ts:g} s (omega_o ts = "
+                f"{omega_o * ts:.3g} > {MAX_OMEGA_O_TS}); lowered to {new:.4g} rad/s"
+            )
+            omega_o = new
+            if omega_o < 3.0 * omega_c:
+                warnings.append(
+                    f"omega_o is now only {omega_o / omega_c:.2g} x omega_c (seed 000: >= 3): "
+                    "use a shorter sample time or a longer settling time"
+                )
+    return ADRCTuning(
+        order,
+        omega_c,
+        omega_o,
+        float(ts),
+        tau,
+        SETTLING_TIME_2PCT[order] / omega_c,
+        warnings=warnings,
+    )
+
+
+def adrc_tuning(
+    gain: float,
+    time_constant: float,
+    dead_time: float,
+    order: int,
+    *,
+    settling_time: float | None = None,
+    ts: float | None = None,
+    factor: float | None = None,
+    observer_ratio: float = 5.0,
+) -> ADRCTuning:
+    """Full ADRC tuning from an FOPDT model: ``b0`` range and bandwidths.
+
+    ``b0`` by :func:`~ctrlblocks.tuning.halfrule.inverse_half_rule` (seed
+    000, (5)-(9); ``b0 = b0_min`` for n = 3 as the seed advises), bandwidths
+    by :func:`adrc_bandwidth` with ``settling_time`` defaulting to
+    ``2 (T + T0)``.
+
+    Parameters
+    ----------
+    gain, time_constant, dead_time : float
+        FOPDT model k [PV/MV], T [s], T0 [s].
+    order : int
+        ADRC order n (1..3).
+    settling_time, ts, factor, observer_ratio
+        See :func:`adrc_bandwidth`.
+    """
+    ihr = inverse_half_rule(gain, time_constant, dead_time, order)
+    if settling_time is None:
+        settling_time = 2.0 * (float(time_constant) + float(dead_time))
+    bw = adrc_bandwidth(settling_time, order, ts, factor=factor, observer_ratio=observer_ratio)
+    return ADRCTuning(
+        bw.order,
+        bw.omega_c,
+        bw.omega_o,
+        bw.ts,
+        bw.settling_time,
+        bw.settling_time_model,
+        ihr.b0,
+        ihr.b0_min,
+        ihr.b0_max,
+        [*ihr.warnings, *bw.warnings],
+    )
+
+
+def adrc_config(
+    gain: float,
+    time_constant: float,
+    dead_time: float,
+    order: int,
+    *,
+    settling_time: float | None = None,
+    ts: float | None = None,
+    u_min: float = -math.inf,
+    u_max: float = math.inf,
+    t_ref: float = 0.0,
+    factor: float | None = None,
+    observer_ratio: float = 5.0,
+) -> dict[str, float | int]:
+    """Keyword arguments for ``ctrlblocks.ADRC(**config)`` from an FOPDT model.
+
+    Returns ``{"order", "b0", "omega_c", "omega_o", "ts", "u_min", "u_max",
+    "t_ref"}`` from :func:`adrc_tuning`; ``u_min``/``u_max`` are the MV limits
+    and ``t_ref`` [s] the time constant of the set-point reference trajectory
+    (seed 000, Fig. 2: ``T_ref``), passed through.
+    """
+    tun = adrc_tuning(
+        gain,
+        time_constant,
+        dead_time,
+        order,
+        settling_time=settling_time,
+        ts=ts,
+        factor=factor,
+        observer_ratio=observer_ratio,
+    )
+    return {
+        "order": tun.order,
+        "b0": tun.b0,
+        "omega_c": tun.omega_c,
+        "omega_o": tun.omega_o,
+        "ts": tun.ts,
+        "u_min": float(u_min),
+        "u_max": float(u_max),
+        "t_ref": require_finite("t_ref", t_ref),
+    }
+
+
+def _order(order: int) -> int:
+    if isinstance(order, bool) or order not in (1, 2, 3):
+        raise ParameterError(ErrorCode.BAD_ORDER, "order", f"must be 1, 2 or 3, got {order!r}")
+    return int(order)
+
+
+def _nice_floor(x: float) -> float:
+    """Largest 1, 2 or 5 times a power of ten that is <= x."""
+    e = math.floor(math.log10(x))
+    for m in (5.0, 2.0, 1.0):
+        if m * 10.0**e <= x * (1 + 1e-12):
+            return float(f"{m * 10.0**e:.12g}")
+    return float(f"{10.0 ** (e - 1) * 5.0:.12g}")  # pragma: no cover - unreachable

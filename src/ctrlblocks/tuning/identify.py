@@ -1,0 +1,727 @@
+"""Process models from step-response (bump test) records.
+
+Models (``t`` in s, ``k`` in PV unit per MV unit)::
+
+    FOPDT        k e^{-theta s} / (T s + 1)
+    SOPDT        k e^{-theta s} / ((T1 s + 1)(T2 s + 1)),   T1 >= T2
+    Integrating  k e^{-theta s} / s                          (k in PV unit per MV unit per s)
+
+Methods
+-------
+* :func:`two_point` -- the two-point method of seed 000's reference [18]
+  (T. E. Marlin, *Process Control*, McGraw-Hill 1995, section 6.3): with
+  ``t28`` and ``t63`` the times after the step at which the response reaches
+  28.3 % and 63.2 % of its final change,
+  ``T = 1.5 (t63 - t28)``, ``theta = t63 - T``, ``k = dy/du``.
+  (28.3 % and 63.2 % are the FOPDT response at ``theta + T/3`` and
+  ``theta + T``.)  Seed 000 obtained its FOPDT models (10a)/(10b) this way.
+* :func:`sundaresan_krishnaswamy` -- Sundaresan & Krishnaswamy, *Estimation
+  of time delay, time constant parameters in time, frequency and Laplace
+  domains*, Can. J. Chem. Eng. 56 (1978) 257-262: with ``t1`` at 35.3 % and
+  ``t2`` at 85.3 %, ``T = 0.67 (t2 - t1)``, ``theta = 1.3 t1 - 0.29 t2``.
+* :func:`fit_fopdt`, :func:`fit_sopdt`, :func:`fit_integrating` -- least
+  squares over the whole record (``scipy.optimize.least_squares``).  The model
+  output is computed exactly for the recorded MV held constant between samples
+  (zero-order hold), by superposition of delayed step responses, so the MV may
+  have any shape, size and sign, the step may come at any time, and the dead
+  time is not restricted to whole samples.  The linear parameters (gain,
+  baseline ``y0``, and the drift of an integrating process) are solved by
+  linear least squares inside the nonlinear search (variable projection);
+  the nonlinear ones start from a coarse grid search.
+
+The record must start at steady state (for an integrating process: at a
+constant slope), before the MV moves.
+
+Every result carries ``fit``, the normalised RMS error
+``rms(y - y_model) / (max(y) - min(y))`` (0 is perfect; noise of standard
+deviation sigma on a step of size A alone gives about sigma/A), and a list of
+``warnings`` (record too short to reach steady state, poor fit, noisy record
+for a two-point method).
+
+Reading files: :func:`read_step_csv` reads a CSV with a header row and picks
+the columns by name; every problem raises one :class:`DataFileError` naming
+the file, line and column.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import interpolate, optimize
+
+__all__ = [
+    "FOPDT",
+    "SOPDT",
+    "DataFileError",
+    "Integrating",
+    "StepData",
+    "fit_fopdt",
+    "fit_integrating",
+    "fit_sopdt",
+    "read_step_csv",
+    "sundaresan_krishnaswamy",
+    "two_point",
+]
+
+_log = logging.getLogger(__name__)
+
+MIN_SAMPLES = 10
+"""Fewest samples a record must have."""
+
+_MAX_CHANGES = 2000
+"""Above this many MV changes the MV is quantised (0.1 % of its range) to keep the fit fast."""
+
+
+# ---------------------------------------------------------------------------
+# Results
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FOPDT:
+    """First order plus dead time ``k e^{-theta s}/(T s + 1)``.
+
+    Attributes
+    ----------
+    gain : float
+        Static gain k [PV unit / MV unit].
+    time_constant : float
+        T [s].
+    dead_time : float
+        theta [s].
+    fit : float
+        Normalised RMS error against the data (NaN if not from data).
+    warnings : list of str
+        Problems found with the record or the fit.
+    method : str
+        How the model was obtained.
+    u0, y0 : float
+        Operating point: steady-state MV and PV before the first MV change.
+    """
+
+    gain: float
+    time_constant: float
+    dead_time: float
+    fit: float = math.nan
+    warnings: list[str] = field(default_factory=list)
+    method: str = ""
+    u0: float = 0.0
+    y0: float = 0.0
+
+    def response(self, t: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
+        """Model output for the MV record ``u`` (held between samples) at times ``t``."""
+        t, u = np.asarray(t, float), np.asarray(u, float)
+        x = _superpose(t, u, self.dead_time, _fopdt_step(self.time_constant))
+        return self.y0 + self.gain * (u[0] - self.u0 + x)
+
+    def as_dict(self) -> dict[str, object]:
+        """The keys of ``ctrlblocks identify --json``."""
+        return {
+            "model": "fopdt",
+            "gain": self.gain,
+            "time_constant": self.time_constant,
+            "dead_time": self.dead_time,
+            "fit": self.fit,
+            "method": self.method,
+            "warnings": list(self.warnings),
+        }
+
+
+@dataclass(frozen=True)
+class SOPDT:
+    """Second order plus dead time ``k e^{-theta s}/((T1 s + 1)(T2 s + 1))``, T1 >= T2.
+
+    Attributes are those of :class:`FOPDT` (``time_constant`` is T1 [s]) plus
+    ``time_constant_2`` (T2 [s]).
+    """
+
+    gain: float
+    time_constant: float
+    dead_time: float
+    time_constant_2: float
+    fit: float = math.nan
+    warnings: list[str] = field(default_factory=list)
+    method: str = ""
+    u0: float = 0.0
+    y0: float = 0.0
+
+    def response(self, t: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
+        """Model output for the MV record ``u`` (held between samples) at times ``t``."""
+        t, u = np.asarray(t, float), np.asarray(u, float)
+        step = _sopdt_step(self.time_constant, self.time_constant_2)
+        return self.y0 + self.gain * (u[0] - self.u0 + _superpose(t, u, self.dead_time, step))
+
+    def as_dict(self) -> dict[str, object]:
+        """The keys of ``ctrlblocks identify --json``."""
+        return {
+            "model": "sopdt",
+            "gain": self.gain,
+            "time_constant": self.time_constant,
+            "time_constant_2": self.time_constant_2,
+            "dead_time": self.dead_time,
+            "fit": self.fit,
+            "method": self.method,
+            "warnings": list(self.warnings),
+        }
+
+
+@dataclass(frozen=True)
+class Integrating:
+    """Integrating process with dead time ``k e^{-theta s}/s``.
+
+    Attributes
+    ----------
+    gain : float
+        k [PV unit / (MV unit s)]: the PV slope per unit of MV away from ``u0``.
+    dead_time : float
+        theta [s].
+    fit, warnings, method : see :class:`FOPDT`.
+    u0 : float
+        Balancing MV: the MV at which the PV does not move.
+    y0 : float
+        PV at the first sample.
+    t0 : float
+        Time of the first sample [s].
+    """
+
+    gain: float
+    dead_time: float
+    fit: float = math.nan
+    warnings: list[str] = field(default_factory=list)
+    method: str = ""
+    u0: float = 0.0
+    y0: float = 0.0
+    t0: float = 0.0
+
+    def response(self, t: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
+        """Model output for the MV record ``u`` (held between samples) at times ``t``.
+
+        Before the record the MV is taken to have been ``u[0]`` for ever, so
+        the PV drifts at ``gain (u[0] - u0)`` from the first sample on.
+        """
+        t, u = np.asarray(t, float), np.asarray(u, float)
+        drift = self.gain * (u[0] - self.u0) * (t - self.t0)
+        return self.y0 + drift + self.gain * _superpose(t, u, self.dead_time, _ramp)
+
+    def as_dict(self) -> dict[str, object]:
+        """The keys of ``ctrlblocks identify --json``."""
+        return {
+            "model": "integrating",
+            "gain": self.gain,
+            "dead_time": self.dead_time,
+            "fit": self.fit,
+            "method": self.method,
+            "warnings": list(self.warnings),
+        }
+
+
+Model = FOPDT | SOPDT | Integrating
+
+
+# ---------------------------------------------------------------------------
+# Reading records
+# ---------------------------------------------------------------------------
+
+
+class DataFileError(ValueError):
+    """A bump-test file cannot be used; names the file, line and column.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    line : int or None
+        1-based line number in the file (the header is line 1), if the
+        problem is on one line.
+    column : str or None
+        Column name, if the problem is in one column.
+    reason : str
+        What is wrong.
+    """
+
+    def __init__(self, path: str | Path, line: int | None, column: str | None, reason: str) -> None:
+        self.path = str(path)
+        self.line = line
+        self.column = column
+        self.reason = reason
+        where = self.path
+        if line is not None:
+            where += f", line {line}"
+        if column is not None:
+            where += f", column '{column}'"
+        super().__init__(f"{where}: {reason}")
+
+
+@dataclass(frozen=True)
+class StepData:
+    """A bump-test record: time [s], MV and PV as float arrays."""
+
+    t: NDArray[np.float64]
+    u: NDArray[np.float64]
+    y: NDArray[np.float64]
+    path: str = ""
+
+
+def read_step_csv(path: str | Path, time: str = "t", u: str = "u", y: str = "y") -> StepData:
+    """Read a bump test from a CSV file with a header row.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.  Delimiter ``,`` ``;`` or tab (detected); lines starting with
+        ``#`` and blank lines are skipped; extra columns are ignored.
+    time, u, y : str
+        Names of the time [s], MV and PV columns (exact, surrounding spaces
+        ignored).
+
+    Returns
+    -------
+    StepData
+
+    Raises
+    ------
+    DataFileError
+        Unreadable file, no header, missing column, non-numeric or non-finite
+        cell, time not strictly increasing, fewer than ``MIN_SAMPLES`` rows,
+        or no change in the MV column.  The message names file, line and
+        column.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise DataFileError(
+            path, None, None, f"cannot read the file ({exc.strerror or exc})"
+        ) from None
+    except UnicodeDecodeError:
+        raise DataFileError(path, None, None, "not a UTF-8 text file") from None
+    lines = [
+        (i + 1, ln)
+        for i, ln in enumerate(text.splitlines())
+        if ln.strip() and not ln.lstrip().startswith("#")
+    ]
+    if not lines:
+        raise DataFileError(
+            path, None, None, "the file is empty (a header row with column names is needed)"
+        )
+    header_no, header = lines[0]
+    delimiter = max(",;\t", key=header.count)
+    names = [c.strip() for c in next(csv.reader([header], delimiter=delimiter))]
+    cols: dict[str, int] = {}
+    for want in (time, u, y):
+        if want not in names:
+            raise DataFileError(
+                path, header_no, want, f"no such column; the header has: {', '.join(names)}"
+            )
+        cols[want] = names.index(want)
+    values: dict[str, list[float]] = {time: [], u: [], y: []}
+    line_of: list[int] = []
+    for line_no, row in zip(
+        (n for n, _ in lines[1:]),
+        csv.reader((ln for _, ln in lines[1:]), delimiter=delimiter),
+        strict=True,
+    ):
+        for name, idx in cols.items():
+            if idx >= len(row) or not row[idx].strip():
+                raise DataFileError(path, line_no, name, "empty cell")
+            cell = row[idx].strip()
+            try:
+                x = float(cell)
+            except ValueError:
+                raise DataFileError(path, line_no, name, f"{cell!r} is not a number") from None
+            if not math.isfinite(x):
+                raise DataFileError(path, line_no, name, f"{cell!r} is not a finite number")
+            values[name].append(x)
+        line_of.append(line_no)
+        tv = values[time]
+        if len(tv) > 1 and tv[-1] <= tv[-2]:
+            raise DataFileError(
+                path,
+                line_no,
+                time,
+                f"time {tv[-1]:g} is not after {tv[-2]:g} on line {line_of[-2]} "
+                "(time must increase strictly)",
+            )
+    n = len(line_of)
+    if n < MIN_SAMPLES:
+        raise DataFileError(
+            path,
+            line_of[-1] if line_of else header_no,
+            None,
+            f"only {n} data row(s); at least {MIN_SAMPLES} are needed",
+        )
+    uv = np.asarray(values[u])
+    if np.ptp(uv) <= 1e-12 * max(1.0, float(np.max(np.abs(uv)))):
+        raise DataFileError(
+            path,
+            None,
+            u,
+            f"the MV never changes (constant {uv[0]:g}): there is no step to identify from",
+        )
+    return StepData(np.asarray(values[time]), uv, np.asarray(values[y]), str(path))
+
+
+# ---------------------------------------------------------------------------
+# Two-point methods
+# ---------------------------------------------------------------------------
+
+
+def two_point(t: ArrayLike, u: ArrayLike, y: ArrayLike) -> FOPDT:
+    """FOPDT by Marlin's two-point method (28.3 % / 63.2 %).
+
+    ``T = 1.5 (t63 - t28)``, ``theta = t63 - T``, ``k = dy/du`` with the times
+    measured from the MV step (seed 000, reference [18]: Marlin, *Process
+    Control*, 1995).  See :func:`_step_analysis` for how the step, the
+    baseline and the final value are found.  Meant for clean records with a
+    single MV step; use :func:`fit_fopdt` for noisy ones.
+
+    Parameters
+    ----------
+    t : array_like
+        Time [s], strictly increasing.
+    u, y : array_like
+        MV and PV samples (MV held from each sample to the next).
+
+    Returns
+    -------
+    FOPDT
+    """
+    return _two_point(
+        t, u, y, (0.283, 0.632), lambda t1, t2: (1.5 * (t2 - t1), t2 - 1.5 * (t2 - t1)), "two-point"
+    )
+
+
+def sundaresan_krishnaswamy(t: ArrayLike, u: ArrayLike, y: ArrayLike) -> FOPDT:
+    """FOPDT by Sundaresan and Krishnaswamy (35.3 % / 85.3 %).
+
+    ``T = 0.67 (t2 - t1)``, ``theta = 1.3 t1 - 0.29 t2`` (Sundaresan &
+    Krishnaswamy, Can. J. Chem. Eng. 56 (1978) 257-262), ``t1``/``t2`` the
+    times after the step at 35.3 % / 85.3 % of the final change.  Arguments
+    and result as :func:`two_point`.
+    """
+    return _two_point(
+        t, u, y, (0.353, 0.853), lambda t1, t2: (0.67 * (t2 - t1), 1.3 * t1 - 0.29 * t2), "sk"
+    )
+
+
+def _two_point(t, u, y, fractions, rule, method) -> FOPDT:
+    t, u, y = _check_record(t, u, y)
+    s = _step_analysis(t, u, y)
+    warnings = list(s["warnings"])
+    tc = [
+        _crossing_time(t, y, s["y_start"] + f * s["dy"], s["i_step"]) - s["t_step"]
+        for f in fractions
+    ]
+    T, theta = rule(*tc)
+    if theta < 0.0:
+        warnings.append(f"the rule gave a negative dead time ({theta:.4g} s); set to 0")
+        theta = 0.0
+    if T <= 0.0:
+        raise ValueError(f"{method}: the response gives a non-positive time constant ({T:.4g} s)")
+    gain = s["dy"] / s["du"]
+    model = FOPDT(gain, T, theta, method=method, u0=s["u_start"], y0=s["y_start"])
+    fit = _nrmse(y, model.response(t, u))
+    t_end = t[-1] - s["t_step"]
+    if t_end < theta + 4.0 * T:
+        warnings.append(_short_record(t_end, theta + 4.0 * T))
+    return FOPDT(gain, T, theta, fit, warnings, method, s["u_start"], s["y_start"])
+
+
+def _step_analysis(t: NDArray, u: NDArray, y: NDArray) -> dict:
+    """Find the MV step and the PV baseline/final value for the two-point methods.
+
+    The step is at the sample with the largest MV change (``u[i] - u[i-1]``);
+    the MV is taken to switch at ``t[i]``.  Baseline: mean PV over the samples
+    before the step (``y[0]`` if there is only one).  Final value: mean PV over
+    the last 5 % of the record (at least 3 samples).
+    """
+    du_all = np.diff(u)
+    i = int(np.argmax(np.abs(du_all))) + 1
+    warnings: list[str] = []
+    n_end = max(3, len(t) // 20)
+    u_start, u_end = float(np.mean(u[:i])), float(np.mean(u[-n_end:]))
+    y_start, y_end = float(np.mean(y[:i])), float(np.mean(y[-n_end:]))
+    du, dy = u_end - u_start, y_end - y_start
+    if np.sum(np.abs(du_all) > 0.01 * abs(du)) > 1:
+        warnings.append("the MV changes more than once; two-point methods assume a single step")
+    if dy == 0.0:
+        raise ValueError("the PV does not change: no step response to analyse")
+    if i >= 3:
+        noise = float(np.std(y[:i])) / abs(dy)
+        if noise > 0.01:
+            warnings.append(
+                f"noisy record (PV noise {100 * noise:.1f} % of the step): crossing times are "
+                "uncertain; prefer the least-squares fit"
+            )
+    return {
+        "i_step": i,
+        "t_step": float(t[i]),
+        "u_start": u_start,
+        "y_start": y_start,
+        "du": du,
+        "dy": dy,
+        "warnings": warnings,
+    }
+
+
+def _crossing_time(t: NDArray, y: NDArray, level: float, i0: int) -> float:
+    """First time after sample ``i0`` at which ``y`` reaches ``level``.
+
+    A cubic spline through the samples around the crossing is solved for the
+    crossing (exact to O(h^4) for a smooth record).
+    """
+    sign = 1.0 if level >= y[max(i0 - 1, 0)] else -1.0
+    above = np.nonzero(sign * (y[i0:] - level) >= 0.0)[0]
+    if len(above) == 0:
+        raise ValueError(f"the PV never reaches {level:.6g}")
+    j = i0 + int(above[0])
+    if j == 0 or y[j] == level:
+        return float(t[j])
+    lo, hi = max(j - 4, 0), min(j + 4, len(t))
+    spline = interpolate.CubicSpline(t[lo:hi], y[lo:hi]) if hi - lo >= 4 else None
+    if spline is None:
+        return float(np.interp(level, [y[j - 1], y[j]], [t[j - 1], t[j]]))
+    try:
+        return float(
+            optimize.brentq(lambda x: float(spline(x)) - level, t[j - 1], t[j], xtol=1e-12)
+        )
+    except ValueError:  # spline wiggles past the bracket: fall back to linear
+        return float(t[j - 1] + (level - y[j - 1]) * (t[j] - t[j - 1]) / (y[j] - y[j - 1]))
+
+
+# ---------------------------------------------------------------------------
+# Least squares
+# ---------------------------------------------------------------------------
+
+
+def fit_fopdt(t: ArrayLike, u: ArrayLike, y: ArrayLike) -> FOPDT:
+    """Least-squares FOPDT fit to the whole record.
+
+    Minimises ``sum (y - y0 - k x(t; T, theta))^2`` where ``x`` is the exact
+    response of ``e^{-theta s}/(T s + 1)`` to the recorded MV changes (ZOH);
+    ``k`` and ``y0`` are solved linearly for each ``(T, theta)``.
+
+    Parameters
+    ----------
+    t : array_like
+        Time [s], strictly increasing.
+    u, y : array_like
+        MV and PV samples.
+
+    Returns
+    -------
+    FOPDT
+    """
+    t, u, y = _check_record(t, u, y)
+    dt_min, span = _time_scales(t)
+    grid = [
+        (T, th) for T in np.geomspace(dt_min, span, 14) for th in np.linspace(0.0, 0.6 * span, 13)
+    ]
+    p = _fit(t, u, y, lambda q: _fopdt_step(q[0]), grid, [(dt_min / 10, 10 * span), (0.0, span)])
+    T, theta = p["q"]
+    model = FOPDT(p["k"], T, theta, method="lsq", u0=float(u[0]), y0=p["y0"])
+    return _finish(model, t, u, y, theta + 4.0 * T, p)
+
+
+def fit_sopdt(t: ArrayLike, u: ArrayLike, y: ArrayLike) -> SOPDT:
+    """Least-squares SOPDT fit (``T1 >= T2``) to the whole record.
+
+    As :func:`fit_fopdt` with the step response of
+    ``1/((T1 s + 1)(T2 s + 1))``: ``1 - e^{-t/T1}(1 + (t/T1) phi(x))``,
+    ``x = -t (T1 - T2)/(T1 T2)``, ``phi(x) = (e^x - 1)/x`` (equal to the
+    textbook ``1 - (T1 e^{-t/T1} - T2 e^{-t/T2})/(T1 - T2)`` and exact also
+    for ``T1 = T2``).  Starts from the FOPDT fit, split by the inverse half
+    rule at several ratios.
+    """
+    t, u, y = _check_record(t, u, y)
+    dt_min, span = _time_scales(t)
+    f = fit_fopdt(t, u, y)
+    T, th = f.time_constant, f.dead_time
+    grid = []
+    for share in (0.1, 0.3, 0.6, 0.9):
+        t2 = max(2.0 * th * share, 0.05 * T)
+        grid.append((max(T - t2 / 2.0, t2), t2, max(th - t2 / 2.0, 0.0)))
+    grid.append((0.7 * T, 0.7 * T, 0.5 * th))
+
+    def step(q):
+        return _sopdt_step(max(q[0], q[1]), min(q[0], q[1]))
+
+    bounds = [(dt_min / 10, 10 * span), (dt_min / 100, 10 * span), (0.0, span)]
+    p = _fit(t, u, y, step, grid, bounds, polish_all=True)
+    T1, T2, theta = p["q"]
+    T1, T2 = max(T1, T2), min(T1, T2)
+    model = SOPDT(p["k"], T1, theta, T2, method="lsq-sopdt", u0=float(u[0]), y0=p["y0"])
+    return _finish(model, t, u, y, theta + 4.0 * T1 + 2.0 * T2, p)
+
+
+def fit_integrating(t: ArrayLike, u: ArrayLike, y: ArrayLike) -> Integrating:
+    """Least-squares fit of ``k e^{-theta s}/s`` (level-like processes).
+
+    ``y = y0 + d (t - t[0]) + k x(t; theta)`` with ``x`` the delayed ramp
+    response to the MV changes; ``k``, ``y0`` and the initial drift ``d`` are
+    linear.  The balancing MV is ``u0 = u[0] - d/k``.
+    """
+    t, u, y = _check_record(t, u, y)
+    _, span = _time_scales(t)
+    grid = [(th,) for th in np.linspace(0.0, 0.6 * span, 25)]
+    p = _fit(t, u, y, lambda q: _ramp, grid, [(0.0, span)], drift=True)
+    (theta,) = p["q"]
+    k = p["k"]
+    u0 = float(u[0] - p["drift"] / k) if k != 0.0 else float(u[0])
+    model = Integrating(k, theta, method="integrating", u0=u0, y0=p["y0"], t0=float(t[0]))
+    return _finish(model, t, u, y, None, p)
+
+
+def _fit(t, u, y, make_step, grid, bounds, drift=False, polish_all=False) -> dict:
+    """Variable-projection least squares: grid search, then ``least_squares``."""
+    changes = _changes(t, u)
+    cols0 = [np.ones_like(t)]
+    if drift:
+        cols0.append(t - t[0])
+
+    def solve(q):
+        x = _superpose_changes(t, changes, q[-1], make_step(q))
+        a = np.column_stack([x, *cols0])
+        coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+        return coef, y - a @ coef
+
+    scored = sorted(grid, key=lambda q: float(np.sum(solve(np.asarray(q, float))[1] ** 2)))
+    starts = scored[: 3 if not polish_all else len(scored)]
+    lo = np.array([b[0] for b in bounds])
+    hi = np.array([b[1] for b in bounds])
+    best = None
+    for q0 in starts:
+        q0 = np.clip(np.asarray(q0, float), lo, hi)
+        sol = optimize.least_squares(
+            lambda q: solve(q)[1], q0, bounds=(lo, hi), x_scale="jac", method="trf"
+        )
+        if best is None or sol.cost < best.cost:
+            best = sol
+    coef, res = solve(best.x)
+    out = {
+        "q": [float(v) for v in best.x],
+        "k": float(coef[0]),
+        "y0": float(coef[1]),
+        "res": res,
+        "at_bound": [
+            bool(np.isclose(v, b[1], rtol=1e-6)) for v, b in zip(best.x, bounds, strict=True)
+        ],
+    }
+    if drift:
+        out["drift"] = float(coef[2])
+    return out
+
+
+def _finish(model, t, u, y, settle, p):
+    warnings = []
+    fit = _nrmse(y, model.response(t, u))
+    if settle is not None:
+        t_last = _changes(t, u)[0][-1]
+        if t[-1] - t_last < settle:
+            warnings.append(_short_record(t[-1] - t_last, settle))
+    if any(p["at_bound"]):
+        warnings.append(
+            "a parameter hit the upper end of its search range: the record may be too short"
+        )
+    if fit > 0.05:
+        warnings.append(
+            f"poor fit (normalised RMS error {fit:.3f}); check the model type and the record"
+        )
+    for w in warnings:
+        _log.info("%s: %s", model.method, w)
+    return type(model)(**{**model.__dict__, "fit": fit, "warnings": warnings})
+
+
+# ---------------------------------------------------------------------------
+# Helpers: step responses and superposition
+# ---------------------------------------------------------------------------
+
+
+def _fopdt_step(T: float):
+    T = float(T)
+    return lambda s: -np.expm1(-s / T)
+
+
+def _sopdt_step(T1: float, T2: float):
+    T1, T2 = float(T1), float(T2)
+
+    def step(s):
+        x = -s * (T1 - T2) / (T1 * T2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            phi = np.where(
+                np.abs(x) < 1e-8, 1.0 + x / 2.0, np.expm1(x) / np.where(x == 0.0, 1.0, x)
+            )
+        return 1.0 - np.exp(-s / T1) * (1.0 + (s / T1) * phi)
+
+    return step
+
+
+def _ramp(s):
+    return s
+
+
+def _changes(t: NDArray, u: NDArray) -> tuple[NDArray, NDArray]:
+    """Times and sizes of the MV changes (the MV switches at the sample time)."""
+    du = np.diff(u)
+    rng = float(np.ptp(u))
+    keep = np.abs(du) > 1e-12 * max(rng, 1e-300)
+    if np.count_nonzero(keep) > _MAX_CHANGES:
+        q = 1e-3 * rng
+        uq = np.round(u / q) * q
+        du = np.diff(uq)
+        keep = du != 0.0
+    return t[1:][keep], du[keep]
+
+
+def _superpose_changes(t: NDArray, changes: tuple[NDArray, NDArray], theta: float, step) -> NDArray:
+    tk, duk = changes
+    s = t[:, None] - tk[None, :] - theta
+    return np.where(s > 0.0, step(np.maximum(s, 0.0)), 0.0) @ duk
+
+
+def _superpose(t: NDArray, u: NDArray, theta: float, step) -> NDArray:
+    """Response of ``e^{-theta s} G(s)`` (unit step response ``step``) to the MV changes."""
+    return _superpose_changes(t, _changes(t, u), theta, step)
+
+
+def _check_record(t, u, y) -> tuple[NDArray, NDArray, NDArray]:
+    t, u, y = (np.asarray(a, dtype=float).ravel() for a in (t, u, y))
+    if not (len(t) == len(u) == len(y)):
+        raise ValueError(f"t, u and y must have the same length (got {len(t)}, {len(u)}, {len(y)})")
+    if len(t) < MIN_SAMPLES:
+        raise ValueError(f"at least {MIN_SAMPLES} samples are needed, got {len(t)}")
+    for name, a in (("t", t), ("u", u), ("y", y)):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(
+                f"{name} contains NaN or inf (first at index {int(np.argmin(np.isfinite(a)))})"
+            )
+    if np.any(np.diff(t) <= 0.0):
+        raise ValueError(
+            "time must increase strictly (first violation at index "
+            f"{int(np.argmax(np.diff(t) <= 0)) + 1})"
+        )
+    if np.ptp(u) <= 1e-12 * max(1.0, float(np.max(np.abs(u)))):
+        raise ValueError("the MV never changes: there is no step to identify from")
+    return t, u, y
+
+
+def _time_scales(t: NDArray) -> tuple[float, float]:
+    return float(np.min(np.diff(t))), float(t[-1] - t[0])
+
+
+def _nrmse(y: NDArray, y_model: NDArray) -> float:
+    rng = float(np.ptp(y))
+    return float(np.sqrt(np.mean((y - y_model) ** 2)) / rng) if rng > 0 else math.inf
+
+
+def _short_record(have: float, need: float) -> str:
+    return (
+        f"the record ends {have:.4g} s after the last MV change, but the model needs about "
+        f"{need:.4g} s to settle (98 %): the gain and time constants are uncertain"
+    )
