@@ -65,6 +65,7 @@ from typing import Any
 
 import numpy as np
 
+from ..plants import Actuator, Noise, Sensor
 from .scenario import BlockSpec, Case, ControllerSpec, Event, Scenario, build
 
 __all__ = ["Run", "simulate"]
@@ -186,27 +187,6 @@ class _Setpoint:
         return self.value
 
 
-class _Sensor:
-    """Measurement: saturation, seeded white noise, faults (``ok`` flag, NaN)."""
-
-    def __init__(self, spec: dict[str, Any], n: int, seed: int) -> None:
-        self.lo, self.hi = spec.get("y_min", -math.inf), spec.get("y_max", math.inf)
-        std = spec.get("noise_std", 0.0)
-        if std > 0:
-            self.noise = np.random.default_rng(seed).normal(0.0, std, n + 1).tolist()
-        else:
-            self.noise = None
-        self.ok = True
-        self.nan = False
-
-    def read(self, y: float, k: int) -> tuple[float, bool]:
-        ym = y + self.noise[k] if self.noise is not None else y
-        ym = min(max(ym, self.lo), self.hi)
-        if self.nan:
-            ym = math.nan
-        return ym, self.ok and not self.nan
-
-
 # ---------------------------------------------------------------------------
 # Simulation
 # ---------------------------------------------------------------------------
@@ -264,40 +244,65 @@ class _Simulation:
             for role, b in self.blocks.items()
             if role != "feedforward" and self.structure != "open_loop"
         }
-        self.plant = mk(sc.plant, "plant") if sc.plant else None
-        self.inner = mk(sc.inner_plant, "plant") if sc.inner_plant else None
+        self.plant: Any = None  # the measured chain: Sensor(Actuator(model)) or Sensor(model)
+        self.inner: Any = None  # cascade/override: Actuator(inner model)
+        self.model_plant: Any = None  # the bare process model (for parameter switches)
+        if sc.plant is not None:
+            self._make_process()
         if self.structure == "smith":
             model: BlockSpec = ctrl.blocks["model"]
             self.model = mk(model, "plant")
             fast = dataclasses.replace(model, params={**model.params, "dead_time": 0.0})
             self.model_fast = mk(fast, "plant")
-        self.sensor = _Sensor(dict(sc.sensor), self.n, sc.seed)
+        self.sensor_ok = True
         ini = sc.initial
-        self.loads = {"input": ini["load"], "output": 0.0, "inner": 0.0}
+        self.inner_load = 0.0
         self.u0 = ini["u"]
+        if self.plant is not None:
+            self.actuator.load = ini["load"]
         self._reset_plants()
         sp0 = ini["sp"]
         if math.isnan(sp0):
-            sp0 = self._y_true() if self.plant is not None else 0.0
+            sp0 = self.plant.y_true if self.plant is not None else 0.0
         self.sp = _Setpoint(sp0)
         self.rec: dict[str, list[float]] = {}
+
+    def _make_process(self) -> None:
+        """Wrap the models in the plants' Actuator and Sensor (``[actuator]``, ``[sensor]``)."""
+        sc = self.sc
+        act, sen = dict(sc.actuator), dict(sc.sensor)
+        noise = None
+        if sen.get("noise", 0.0) > 0.0:
+            noise = Noise(
+                sen["noise"],
+                kind=sen.get("noise_kind", "uniform"),
+                t_corr=sen.get("noise_t_corr", 0.0),
+                ts=self.ts,
+                seed=sc.seed,
+            )
+        self.model_plant = self._make(sc.plant, "plant")
+        sensor_args = {"noise": noise, "y_min": sen["y_min"], "y_max": sen["y_max"]}
+        if sc.inner_plant is not None:
+            self.inner_model = self._make(sc.inner_plant, "plant")
+            self.inner = Actuator(self.inner_model, **act)
+            self.actuator = self.inner
+            self.plant = Sensor(self.model_plant, **sensor_args)
+        else:
+            self.plant = Sensor(Actuator(self.model_plant, **act), **sensor_args)
+            self.actuator = self.plant.find(Actuator)
 
     def _make(self, spec: BlockSpec, kind: str) -> Any:
         return build(spec, self.ts, kind=kind, file=self.sc.file)
 
     def _reset_plants(self) -> None:
-        u_in = self.u0 + self.loads["input"]
         if self.inner is not None:
-            self.inner.reset(u_in)
-            self.plant.reset(self.inner.y + self.loads["inner"])
+            self.inner.reset(self.u0)
+            self.plant.reset(self.inner.y + self.inner_load)
         elif self.plant is not None:
-            self.plant.reset(u_in)
+            self.plant.reset(self.u0)
         if self.structure == "smith":
             self.model.reset(self.u0)
             self.model_fast.reset(self.u0)
-
-    def _y_true(self) -> float:
-        return self.plant.y + self.loads["output"]
 
     # -- events ------------------------------------------------------------------
 
@@ -310,7 +315,7 @@ class _Simulation:
                 else ("blocks[0]" if self.structure == "override" else "main")
             )
         if name in ("plant", "inner_plant"):
-            return self.plant if name == "plant" else self.inner
+            return self.model_plant if name == "plant" else self.inner_model
         if name not in self.blocks:
             raise ValueError(
                 f"{self.sc.file}: event at t={ev.t:g}: unknown target {name!r}; "
@@ -324,7 +329,13 @@ class _Simulation:
         if k == "setpoint":
             self.sp.step_to(f["value"], f.get("ramp"))
         elif k == "load":
-            self.loads[f.get("at", "input")] = f["value"]
+            at = f.get("at", "input")
+            if at == "input":
+                self.actuator.load = f["value"]
+            elif at == "output":
+                self.plant.load = f["value"]
+            else:
+                self.inner_load = f["value"]
         elif k == "mode":
             on = f["mode"] == "manual"
             targets = self._mode_targets(ev)
@@ -337,13 +348,13 @@ class _Simulation:
             self._target(ev).set_limits(f["u_min"], f["u_max"])
         elif k == "plant":
             name = f.get("target", "plant")
-            plant = self.inner if name == "inner_plant" else self.plant
+            plant = self.inner_model if name == "inner_plant" else self.model_plant
             _set_plant_param(plant, f["param"], f["value"])
         elif k == "sensor":
             if "ok" in f:
-                self.sensor.ok = f["ok"]
+                self.sensor_ok = f["ok"]
             if "nan" in f:
-                self.sensor.nan = f["nan"]
+                self.plant.fault = math.nan if f["nan"] else None
         elif k == "set":
             _set_attr(self._target(ev), f["attr"], f["value"])
 
@@ -370,10 +381,11 @@ class _Simulation:
             if record:
                 self._record(sp=sp, y=out, ym=out, u=out, v=out, load=0.0)
             return
-        y = self._y_true()
-        ym, ok = self.sensor.read(y, k)
+        y = self.plant.y_true
+        ym = self.plant.y
+        ok = self.sensor_ok and math.isfinite(ym)
         extra: dict[str, float] = {}
-        load_in = self.loads["input"]
+        load_in = self.actuator.load
         if s in ("single", "feedforward", "smith"):
             c = self.ctrls["main"]
             ff = 0.0
@@ -387,7 +399,7 @@ class _Simulation:
             v = c.output(sp, y_fb, ok, ff)
             u = v
             c.update(u)
-            self.plant.step(u + load_in)
+            self.plant.step(u)
             if s == "smith":
                 self.model.step(u)
                 self.model_fast.step(u)
@@ -402,8 +414,8 @@ class _Simulation:
             if hasattr(prim, "awin"):
                 prim.awin = bool(getattr(sec, "awout", False))
             p.update(v1)
-            self.inner.step(u + load_in)
-            self.plant.step(y2 + self.loads["inner"])
+            self.inner.step(u)
+            self.plant.step(y2 + self.inner_load)
             extra.update(y2=y2, sp2=v1)
         elif s == "override":
             y2 = self.inner.y
@@ -417,15 +429,16 @@ class _Simulation:
             u = v
             for i in range(len(vs)):
                 self.ctrls[f"blocks[{i}]"].update(u)
-            self.inner.step(u + load_in)
-            self.plant.step(y2 + self.loads["inner"])
+            self.inner.step(u)
+            self.plant.step(y2 + self.inner_load)
             extra["y2"] = y2
             for i, vi in enumerate(vs):
                 extra[f"v{i + 1}"] = vi
         else:  # pragma: no cover - guarded by the parser
             raise ValueError(s)
         if record:
-            self._record(sp=sp, y=y, ym=ym, u=u, v=v, load=load_in, **extra)
+            u_act = self.actuator.u
+            self._record(sp=sp, y=y, ym=ym, u=u, v=v, u_act=u_act, load=load_in, **extra)
 
     # -- run -----------------------------------------------------------------------
 

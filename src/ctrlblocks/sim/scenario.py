@@ -64,7 +64,7 @@ EVENT_KINDS: dict[str, dict[str, tuple[type, ...]]] = {
     "mode": {"mode": (str,), "manual_value": (float,), "target": (str,)},
     "manual_value": {"value": (float,), "target": (str,)},
     "limits": {"u_min": (float,), "u_max": (float,), "target": (str,)},
-    "plant": {"param": (str,), "value": (float,), "target": (str,)},
+    "plant": {"param": (str,), "value": (float, str, bool), "target": (str,)},
     "sensor": {"ok": (bool,), "nan": (bool,)},
     "set": {"attr": (str,), "value": (float, bool, str), "target": (str,)},
 }
@@ -181,6 +181,7 @@ class Scenario:
     plant: BlockSpec | None
     inner_plant: BlockSpec | None
     sensor: Mapping[str, Any]
+    actuator: Mapping[str, Any]
     initial: Mapping[str, Any]
     controllers: tuple[ControllerSpec, ...]
     cases: tuple[Case, ...]
@@ -346,6 +347,7 @@ class _Parser:
                 "inner_plant", f"only for the cascade and override structures, not {structure!r}"
             )
         sensor = self.sensor(self.table(doc, "sensor", "sensor", False))
+        actuator = self.actuator(self.table(doc, "actuator", "actuator", False))
         initial = self.initial(self.table(doc, "initial", "initial", False))
 
         controllers = self.controllers(doc, structure, ts)
@@ -395,6 +397,7 @@ class _Parser:
             plant=plant,
             inner_plant=inner,
             sensor=sensor,
+            actuator=actuator,
             initial=initial,
             controllers=tuple(controllers),
             cases=tuple(cases),
@@ -406,15 +409,35 @@ class _Parser:
         )
 
     def sensor(self, d: dict[str, Any]) -> dict[str, Any]:
-        self.check_keys(d, {"y_min", "y_max", "noise_std", "noise_seed"}, "sensor")
+        self.check_keys(d, {"y_min", "y_max", "noise", "noise_kind", "noise_t_corr"}, "sensor")
         out: dict[str, Any] = {}
         out["y_min"] = self.number(d, "y_min", "sensor.y_min", default=-math.inf)
         out["y_max"] = self.number(d, "y_max", "sensor.y_max", default=math.inf)
         if out["y_min"] > out["y_max"]:
             raise self.fail("sensor.y_min", f"is above sensor.y_max ({out['y_max']!r})")
-        out["noise_std"] = self.number(d, "noise_std", "sensor.noise_std", default=0.0)
-        if out["noise_std"] < 0:
-            raise self.fail("sensor.noise_std", f"must be >= 0, got {out['noise_std']!r}")
+        out["noise"] = self.number(d, "noise", "sensor.noise", default=0.0)
+        if out["noise"] < 0:
+            raise self.fail("sensor.noise", f"must be >= 0, got {out['noise']!r}")
+        kind = self.string(d, "noise_kind", "sensor.noise_kind", default="uniform")
+        if kind not in ("uniform", "gaussian"):
+            raise self.fail("sensor.noise_kind", f"must be 'uniform' or 'gaussian', got {kind!r}")
+        out["noise_kind"] = kind
+        out["noise_t_corr"] = self.number(d, "noise_t_corr", "sensor.noise_t_corr", default=0.0)
+        if out["noise_t_corr"] < 0:
+            raise self.fail("sensor.noise_t_corr", "must be >= 0")
+        return out
+
+    def actuator(self, d: dict[str, Any]) -> dict[str, Any]:
+        self.check_keys(d, {"u_min", "u_max", "rate"}, "actuator")
+        out = {
+            "u_min": self.number(d, "u_min", "actuator.u_min", default=-math.inf),
+            "u_max": self.number(d, "u_max", "actuator.u_max", default=math.inf),
+            "rate": self.number(d, "rate", "actuator.rate", default=math.inf),
+        }
+        if out["u_min"] > out["u_max"]:
+            raise self.fail("actuator.u_min", f"is above actuator.u_max ({out['u_max']!r})")
+        if not out["rate"] > 0:
+            raise self.fail("actuator.rate", f"must be > 0, got {out['rate']!r}")
         return out
 
     def initial(self, d: dict[str, Any]) -> dict[str, Any]:
