@@ -257,3 +257,81 @@ def test_dead_time_block_snapshot_and_nan():
     assert d.step(math.nan) == 1.0  # NaN repeats the last input
     d.restore(snap)
     assert d.step(2.0) == 1.0 and d.step(0.0) == 2.0
+
+
+# --- run-time parameter changes ------------------------------------------------
+
+
+def test_gain_change_keeps_the_output_and_reaches_the_new_steady_state():
+    # gain at the input: after k 2 -> 3 the output moves as 2 + (3-2)(1 - e^(-t/T)) for PT1
+    p = PT1(2.0, 5.0, TS)
+    p.reset(1.0)
+    p.set_parameter("k", 3.0)
+    assert p.y == pytest.approx(2.0, rel=1e-12)
+    y = _run(p, np.ones(50))
+    t = np.arange(51) * TS
+    assert np.max(np.abs(y - (2.0 + 1.0 * (1.0 - np.exp(-t / 5.0))))) <= 1e-12
+
+
+def test_time_constant_change_equals_a_fresh_model_from_the_same_state():
+    u = _rand_input(80, seed=8)
+    a = PT2(1.0, 3.0, 1.0, TS)
+    for uk in u[:40]:
+        a.step(float(uk))
+    x = a.state
+    a.set_parameter("t1", 6.0)
+    b = PT2(1.0, 6.0, 1.0, TS)
+    b.set_state(x)
+    assert [a.step(float(uk)) for uk in u[40:]] == [b.step(float(uk)) for uk in u[40:]]
+    assert a.t1 == 6.0 and "t1=6.0" in repr(a)
+
+
+def test_ptn_time_constants_change_keeps_their_number():
+    p = PTn(0.73, (7.3, 2.2, 1.4), TS)
+    p.set_parameter("t", (6.0, 2.0, 1.0))
+    assert p.t == (6.0, 2.0, 1.0)
+    with pytest.raises(ParameterError) as exc:
+        p.set_parameter("t", (6.0, 2.0))
+    assert exc.value.code == ErrorCode.BAD_PARAMETER
+    assert p.t == (6.0, 2.0, 1.0)  # the old value stays
+
+
+def test_dead_time_change_keeps_the_input_history():
+    # inputs 1..10, then the dead time grows from 0.2 s to 0.4 s: the next outputs
+    # of a pure-delay-like PT1 use the inputs of 4 samples ago, which were kept
+    a = PT1(1.0, 1.0, TS, dead_time=0.2)
+    b = PT1(1.0, 1.0, TS, dead_time=0.4)
+    for v in range(1, 11):
+        a.step(float(v))
+        b.step(float(v))
+    a.set_state(b.state)
+    a.set_parameter("dead_time", 0.4)
+    assert a.dead_samples == 4
+    assert [a.step(0.0) for _ in range(6)] == [b.step(0.0) for _ in range(6)]
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "code"),
+    [
+        ("t", -1.0, ErrorCode.BAD_TIME_CONSTANT),
+        ("k", math.inf, ErrorCode.BAD_PARAMETER),
+        ("dead_time", -0.1, ErrorCode.BAD_TIME_CONSTANT),
+        ("colour", 1.0, ErrorCode.BAD_PARAMETER),
+    ],
+)
+def test_bad_run_time_parameter_is_refused_and_the_model_kept(name, value, code):
+    p = PT1(2.0, 5.0, TS)
+    p.reset(1.0)
+    with pytest.raises(ParameterError) as exc:
+        p.set_parameter(name, value)
+    assert exc.value.code == code
+    assert (p.k, p.t, p.dead_time) == (2.0, 5.0, 0.0)
+    assert p.step(1.0) == pytest.approx(2.0, rel=1e-12)
+
+
+def test_generic_linear_plant_accepts_only_dead_time_at_run_time():
+    p = LinearPlant([1.0], [1.0, 1.0], ts=TS)
+    p.set_parameter("dead_time", 0.3)
+    assert p.dead_samples == 3
+    with pytest.raises(ParameterError):
+        p.set_parameter("k", 2.0)

@@ -207,3 +207,14 @@ def test_bad_configuration_is_refused(kwargs, code):
     with pytest.raises(ParameterError) as exc:
         ThreeTank(**kwargs)
     assert exc.value.code == code
+
+
+def test_set_parameter_switches_the_outlet_and_refuses_unknown_names():
+    plant = ThreeTank()
+    plant.set_parameter("outlet", "b")
+    assert plant.outlet == "b" and plant.r_out == OUTLETS["b"]
+    with pytest.raises(ParameterError) as exc:
+        plant.set_parameter("outlet", "c")
+    assert exc.value.code == ErrorCode.BAD_PARAMETER and plant.outlet == "b"
+    with pytest.raises(ParameterError):
+        plant.set_parameter("volume", 1.0)

@@ -51,12 +51,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy import signal
 
-from ..blocks.base import ErrorCode, ParameterError, require_nonnegative, require_positive
+from ..blocks.base import (
+    ErrorCode,
+    ParameterError,
+    require_finite,
+    require_nonnegative,
+    require_positive,
+)
 from .base import Plant
 
 __all__ = [
@@ -355,6 +361,64 @@ class LinearPlant(Plant):
         self.u = float(snap["u"])
         self._y = lti_output(self._x, self._c)
 
+    # -- run-time parameter changes ----------------------------------------------
+
+    _params: ClassVar[tuple[str, ...]] = ()
+
+    def set_parameter(self, name: str, value: Any) -> None:
+        """Change a model parameter at run time, keeping the state.
+
+        ``"dead_time"`` works for every linear plant: the input history is
+        kept (the newest inputs fill the resized buffer; a longer buffer is
+        padded with the oldest value known).  The convenience models also
+        accept their own parameters (``k``, ``t``, ``t1``, ``t2``, ``zeta``):
+        their states are physical (lag outputs, with the gain at the input), so
+        the output does not jump; it moves to the new steady state with the new
+        dynamics.  A refused value raises :class:`ParameterError` and leaves
+        the model unchanged.
+        """
+        if name == "dead_time":
+            new = require_nonnegative("dead_time", value, ErrorCode.BAD_TIME_CONSTANT)
+            hist = self._history()
+            self.dead_time = new
+            self._discretise()
+            self._rebuffer(hist)
+            return
+        if name not in self._params:
+            known = ", ".join(("dead_time", *self._params))
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER,
+                name,
+                f"not a run-time parameter of {type(self).__name__} (known: {known})",
+            )
+        old = getattr(self, name)
+        setattr(self, name, self._check(name, value))
+        try:
+            self.a_c, self.b_c, self.c_c = self._realisation()
+        except Exception:
+            setattr(self, name, old)
+            raise
+        self._discretise()
+        self._y = lti_output(self._x, self._c)
+
+    def _check(self, name: str, value: Any) -> Any:  # pragma: no cover - overridden
+        return value
+
+    def _realisation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+        return self.a_c, self.b_c, self.c_c
+
+    def _history(self) -> list[float]:
+        """Past inputs in the buffer, newest first."""
+        n, pos = self._buf_len, self._pos
+        return [self._buf[(pos - 1 - i) % n] for i in range(n)]
+
+    def _rebuffer(self, hist: list[float]) -> None:
+        n = self._buf_len
+        buf = [0.0] * n
+        for i in range(n):
+            buf[(-1 - i) % n] = hist[i] if i < len(hist) else hist[-1]
+        self._buf, self._pos = buf, 0
+
     def __repr__(self) -> str:
         dt = f", dead_time={self.dead_time!r}" if self.dead_time else ""
         return (
@@ -366,14 +430,49 @@ def _lag(name: str, t: Any) -> float:
     return require_positive(name, t, ErrorCode.BAD_TIME_CONSTANT)
 
 
-def _gain(k: Any) -> float:
-    from ..blocks.base import require_finite
+class _Model(LinearPlant):
+    """A convenience model: named parameters, a physical realisation, ``set_parameter``."""
 
-    return require_finite("k", k)
+    def __init__(self, ts: float, dead_time: float) -> None:
+        a, b, c = self._realisation()
+        super().__init__(A=a, B=b, C=c, ts=ts, dead_time=dead_time)
+
+    def _check(self, name: str, value: Any) -> Any:
+        if name == "k":
+            return require_finite("k", value)
+        if name == "zeta":
+            return require_nonnegative("zeta", value)
+        if name == "t" and isinstance(getattr(self, "t", None), tuple):
+            ts = tuple(_lag(f"t[{i}]", v) for i, v in enumerate(np.atleast_1d(value)))
+            if not ts:
+                raise ParameterError(ErrorCode.BAD_TIME_CONSTANT, "t", "give at least one")
+            return ts
+        return _lag(name, value)
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{n}={getattr(self, n)!r}" for n in self._params)
+        return f"{type(self).__name__}({args}, ts={self.ts!r}, dead_time={self.dead_time!r})"
 
 
-class PT1(LinearPlant):
+def _lag_chain(k: float, t: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Series of lags, states = lag outputs: ``t_i dx_i/dt = x_(i-1) - x_i``, ``x_0 = k u``."""
+    n = len(t)
+    a = np.zeros((n, n))
+    b = np.zeros((n, 1))
+    for i, ti in enumerate(t):
+        a[i, i] = -1.0 / ti
+        if i:
+            a[i, i - 1] = 1.0 / ti
+    b[0, 0] = k / t[0]
+    c = np.zeros((1, n))
+    c[0, -1] = 1.0
+    return a, b, c
+
+
+class PT1(_Model):
     """First-order lag ``k e^(-dead_time s) / (t s + 1)`` (seed 002 ``LSim_PT1``).
+
+    State: the output, ``t dy/dt = k u - y``.
 
     Parameters
     ----------
@@ -387,12 +486,14 @@ class PT1(LinearPlant):
         Input dead time [s], >= 0.
     """
 
-    def __init__(self, k: float, t: float, ts: float, dead_time: float = 0.0) -> None:
-        self.k, self.t = _gain(k), _lag("t", t)
-        super().__init__([self.k], [self.t, 1.0], ts=ts, dead_time=dead_time)
+    _params = ("k", "t")
 
-    def __repr__(self) -> str:
-        return f"PT1(k={self.k!r}, t={self.t!r}, ts={self.ts!r}, dead_time={self.dead_time!r})"
+    def __init__(self, k: float, t: float, ts: float, dead_time: float = 0.0) -> None:
+        self.k, self.t = require_finite("k", k), _lag("t", t)
+        super().__init__(ts, dead_time)
+
+    def _realisation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _lag_chain(self.k, (self.t,))
 
 
 class FOPDT(PT1):
@@ -408,55 +509,61 @@ class FOPDT(PT1):
         return f"FOPDT(k={self.k!r}, t={self.t!r}, dead_time={self.dead_time!r}, ts={self.ts!r})"
 
 
-class PTn(LinearPlant):
+class PTn(_Model):
     """Chain of first-order lags ``k e^(-dead_time s) / prod_i (t_i s + 1)``.
 
     The form of the pneumatic process models (10a) and (10b) of seed 000:
-    ``PTn(0.73, (7.3, 2.2, 1.4), ts=0.1)`` is (10b).
+    ``PTn(0.73, (7.3, 2.2, 1.4), ts=0.1)`` is (10b).  States: the outputs of
+    the lags in order, the gain at the input (``t_1 dx_1/dt = k u - x_1``,
+    ``t_i dx_i/dt = x_(i-1) - x_i``, ``y = x_n``).
 
     Parameters
     ----------
     k : float
         Static gain.
     t : sequence of float
-        Time constants [s], each > 0, at least one.
+        Time constants [s], each > 0, at least one; ``set_parameter("t",
+        (...))`` must keep their number.
     ts : float
         Sample time [s].
     dead_time : float
         Input dead time [s].
     """
 
+    _params = ("k", "t")
+
     def __init__(self, k: float, t: Sequence[float], ts: float, dead_time: float = 0.0) -> None:
-        self.k = _gain(k)
-        ts_list = [_lag(f"t[{i}]", ti) for i, ti in enumerate(t)]
-        if not ts_list:
-            raise ParameterError(ErrorCode.BAD_TIME_CONSTANT, "t", "give at least one")
-        self.t = tuple(ts_list)
-        den = np.array([1.0])
-        for ti in self.t:
-            den = np.polymul(den, [ti, 1.0])
-        super().__init__([self.k], den, ts=ts, dead_time=dead_time)
+        self.k = require_finite("k", k)
+        self.t: tuple[float, ...] = ()
+        self.t = self._check("t", t)
+        super().__init__(ts, dead_time)
 
-    def __repr__(self) -> str:
-        return f"PTn(k={self.k!r}, t={self.t!r}, ts={self.ts!r}, dead_time={self.dead_time!r})"
+    def _realisation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if hasattr(self, "_x") and len(self.t) != len(self._x):
+            raise ParameterError(ErrorCode.BAD_PARAMETER, "t", "must keep the number of lags")
+        return _lag_chain(self.k, self.t)
 
 
-class PT2(PTn):
-    """Second-order lag ``k e^(-dead_time s) / ((t1 s + 1)(t2 s + 1))``."""
+class PT2(_Model):
+    """Second-order lag ``k e^(-dead_time s) / ((t1 s + 1)(t2 s + 1))``.
+
+    States as in :class:`PTn`.
+    """
+
+    _params = ("k", "t1", "t2")
 
     def __init__(self, k: float, t1: float, t2: float, ts: float, dead_time: float = 0.0) -> None:
-        super().__init__(k, (t1, t2), ts, dead_time)
-        self.t1, self.t2 = self.t
+        self.k, self.t1, self.t2 = require_finite("k", k), _lag("t1", t1), _lag("t2", t2)
+        super().__init__(ts, dead_time)
 
-    def __repr__(self) -> str:
-        return (
-            f"PT2(k={self.k!r}, t1={self.t1!r}, t2={self.t2!r}, ts={self.ts!r}, "
-            f"dead_time={self.dead_time!r})"
-        )
+    def _realisation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _lag_chain(self.k, (self.t1, self.t2))
 
 
-class PT2Osc(LinearPlant):
+class PT2Osc(_Model):
     """Second-order lag in damping form ``k e^(-dead_time s) / (t^2 s^2 + 2 zeta t s + 1)``.
+
+    States: ``y`` and ``dy/dt``.
 
     Parameters
     ----------
@@ -472,22 +579,23 @@ class PT2Osc(LinearPlant):
         Input dead time [s].
     """
 
+    _params = ("k", "t", "zeta")
+
     def __init__(self, k: float, t: float, zeta: float, ts: float, dead_time: float = 0.0) -> None:
-        self.k, self.t = _gain(k), _lag("t", t)
+        self.k, self.t = require_finite("k", k), _lag("t", t)
         self.zeta = require_nonnegative("zeta", zeta)
-        den = [self.t**2, 2.0 * self.zeta * self.t, 1.0]
-        super().__init__([self.k], den, ts=ts, dead_time=dead_time)
+        super().__init__(ts, dead_time)
 
-    def __repr__(self) -> str:
-        return (
-            f"PT2Osc(k={self.k!r}, t={self.t!r}, zeta={self.zeta!r}, ts={self.ts!r}, "
-            f"dead_time={self.dead_time!r})"
-        )
+    def _realisation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        w2 = 1.0 / (self.t * self.t)
+        a = np.array([[0.0, 1.0], [-w2, -2.0 * self.zeta / self.t]])
+        return a, np.array([[0.0], [self.k * w2]]), np.array([[1.0, 0.0]])
 
 
-class IT1(LinearPlant):
+class IT1(_Model):
     """Integrator with lag ``k e^(-dead_time s) / (s (t s + 1))`` (seed 002 ``LSim_IT1``).
 
+    States: the lag output ``x`` (``t dx/dt = k u - x``) and ``y`` (``dy/dt = x``).
     Integrating: ``reset(u0)`` gives the zero state (the output stays at 0 only
     for ``u0 = 0``; otherwise it ramps with slope ``k u0``).
 
@@ -503,9 +611,12 @@ class IT1(LinearPlant):
         Input dead time [s].
     """
 
-    def __init__(self, k: float, t: float, ts: float, dead_time: float = 0.0) -> None:
-        self.k, self.t = _gain(k), _lag("t", t)
-        super().__init__([self.k], [self.t, 1.0, 0.0], ts=ts, dead_time=dead_time)
+    _params = ("k", "t")
 
-    def __repr__(self) -> str:
-        return f"IT1(k={self.k!r}, t={self.t!r}, ts={self.ts!r}, dead_time={self.dead_time!r})"
+    def __init__(self, k: float, t: float, ts: float, dead_time: float = 0.0) -> None:
+        self.k, self.t = require_finite("k", k), _lag("t", t)
+        super().__init__(ts, dead_time)
+
+    def _realisation(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        a = np.array([[-1.0 / self.t, 0.0], [1.0, 0.0]])
+        return a, np.array([[self.k / self.t], [0.0]]), np.array([[0.0, 1.0]])

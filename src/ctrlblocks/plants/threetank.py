@@ -222,6 +222,24 @@ class ThreeTank(Plant):
         self.r_out = self.outlets[name]
         self._g = self._coefficients(self.r_out)
 
+    def set_parameter(self, name: str, value: Any) -> None:
+        """Run-time change: ``set_parameter("outlet", "b")`` is ``plant.outlet = "b"``.
+
+        Also ``"substeps"`` (int >= 1).  Other names raise ``BAD_PARAMETER``.
+        """
+        if name == "outlet":
+            self.outlet = value
+        elif name == "substeps":
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ParameterError(ErrorCode.BAD_PARAMETER, "substeps", "must be an int >= 1")
+            self.substeps = value
+        else:
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER,
+                name,
+                "not a run-time parameter of ThreeTank (known: outlet, substeps)",
+            )
+
     def _coefficients(self, r_out: float) -> tuple[float, float, float, float, float, float]:
         ra, rb, rc = self.resistances
         v1, v2, v3 = VOLUMES
