@@ -6,12 +6,16 @@ checked against values evaluated by hand.
 
 from __future__ import annotations
 
+import doctest
+import importlib
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy import signal
 
+import ctrlblocks
 from ctrlblocks import (
     PT1,
     DeadBand,
@@ -303,3 +307,31 @@ def test_selectors_leave_out_bad_inputs() -> None:
     assert lo.error_id == ErrorCode.BAD_INPUT
     assert lo(math.nan, math.inf) == 2.0  # none finite: hold
     assert lo(4.0, 5.0) == 4.0 and lo.error_id == ErrorCode.NO_ERROR
+
+
+# ---------------------------------------------------------------------------
+# The examples in the docstrings and in docs/blocks/small-blocks.md run
+# ---------------------------------------------------------------------------
+
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "blocks" / "small-blocks.md"
+
+
+@pytest.mark.parametrize("module", ["signals", "leadlag", "jumprate", "manual", "monitor"])
+def test_docstring_examples_run(module: str) -> None:
+    mod = importlib.import_module(f"ctrlblocks.blocks.{module}")
+    result = doctest.testmod(mod)
+    assert result.attempted > 0 and result.failed == 0
+
+
+def test_docs_page_examples_run() -> None:
+    result = doctest.testfile(str(DOCS), module_relative=False, globs=dict(vars(ctrlblocks)))
+    assert result.attempted >= 5 and result.failed == 0
+
+
+def test_docs_page_usage_example_prints_its_numbers(capsys: pytest.CaptureFixture[str]) -> None:
+    text = DOCS.read_text()
+    start = text.index("```python\nimport math")
+    code = text[start + len("```python\n") : text.index("```\n", start + 10)]
+    exec(compile(code, str(DOCS), "exec"), {})
+    lines = capsys.readouterr().out.splitlines()
+    assert lines == ["30 PV bad: BAD_INPUT", "49.987 40.0 20.027 20.027", "100 0.25 1 1"]

@@ -152,7 +152,7 @@ class PT1(Block):
     --------
     >>> f = PT1(t=2.0, ts=0.1)
     >>> round(f(1.0), 6)
-    0.04877
+    0.048771
     """
 
     Config = PT1Config
