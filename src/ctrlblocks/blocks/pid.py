@@ -571,15 +571,29 @@ class PID(Block):
     # -- the cycle -------------------------------------------------------------
 
     def __call__(
-        self, sp: float, pv: float, *, ff: float = 0.0, dv: float = 0.0, dt: float | None = None
+        self,
+        sp: float,
+        pv: float,
+        *,
+        ff: float = 0.0,
+        dv: float = 0.0,
+        dt: float | None = None,
+        pv_ok: bool = True,
     ) -> float:
         """Run one cycle: :meth:`compute_output`, then :meth:`update_state` with its own output."""
-        v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt)
+        v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt, pv_ok=pv_ok)
         self.update_state(v)
         return self.out
 
     def compute_output(
-        self, sp: float, pv: float, *, ff: float = 0.0, dv: float = 0.0, dt: float | None = None
+        self,
+        sp: float,
+        pv: float,
+        *,
+        ff: float = 0.0,
+        dv: float = 0.0,
+        dt: float | None = None,
+        pv_ok: bool = True,
     ) -> float:
         """ComputeOutput of seed 004 Listing 6.3: the limited output of this cycle.
 
@@ -596,6 +610,9 @@ class PID(Block):
             Input of the lead-lag feed-forward path (seed 003 version 4).
         dt : float, optional
             Sample time of this cycle [s]; default ``ts``.
+        pv_ok : bool
+            Quality flag of the measurement; False is treated like a NaN PV
+            (status ``BAD_MEASUREMENT``).
 
         Returns
         -------
@@ -634,6 +651,9 @@ class PID(Block):
         lo, hi = self._lo, self._hi
 
         ok = is_finite(sp) and is_finite(pv) and is_finite(ff) and is_finite(dv)
+        bad = ErrorCode.BAD_INPUT if not ok else ErrorCode.NO_ERROR
+        if not pv_ok:
+            ok, bad = False, ErrorCode.BAD_MEASUREMENT
         target: float | None = None  # output target of a non-auto mode
         if mode == Mode.MANUAL:
             target = self.manual_value if is_finite(self.manual_value) else out_prev
@@ -647,9 +667,11 @@ class PID(Block):
             target = clamp(float(c.reset_value), lo, hi)
             subs["_out_ramp"].preset(target)  # "immediately" (seed 002 2.3.5)
 
+        if mode == Mode.RESET:
+            self._limits_status = ErrorCode.NO_ERROR  # seed 002: reset clears the errors
         if not ok:
             self._c_kind = 1
-            self._c_status = ErrorCode.BAD_INPUT
+            self._c_status = bad or ErrorCode.BAD_INPUT
             if target is None:
                 target = out_prev if c.safe_value is None else float(c.safe_value)
             return self._finish(target, target, h)
