@@ -387,6 +387,16 @@ class PID(Block):
     Never raises on process data: NaN/inf ``sp``/``pv``/``ff``/``dv`` hold the
     last output (or ``safe_value``), set ``BAD_INPUT`` and recover without a
     bump; a bad ``dt`` holds the output and sets ``NO_CYCLE``.
+
+    Examples
+    --------
+    >>> pid = PID(kp=2.0, ti=1.0, ts=0.1, u_min=-10.0, u_max=10.0)
+    >>> pid(1.0, 0.0)  # P = K (b r - y) = 2; the first cycle adds no integral
+    2.0
+    >>> round(pid(1.0, 0.0), 12)  # trapezoid: + K h/(2 Ti) (e[k] + e[k-1]) = 0.2
+    2.2
+    >>> pid(float("nan"), 0.0), pid.error_name  # bad SP: output held
+    (2.2, 'BAD_INPUT')
     """
 
     Config = PIDConfig
