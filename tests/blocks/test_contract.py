@@ -31,6 +31,12 @@ def _wave(k: int) -> float:
 
 
 CASES: dict[str, Case] = {
+    "ADRC": Case(
+        lambda: ctrlblocks.ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1, u_max=5.0),
+        lambda b, k: b(_wave(k // 10), 0.5 * _wave(k + 3)),
+        {"order": 4},
+        ErrorCode.BAD_ORDER,
+    ),
     "PT1": Case(
         lambda: ctrlblocks.PT1(t=2.0, ts=0.1, y0=0.5),
         lambda b, k: b(_wave(k)),

@@ -1,5 +1,6 @@
 """The function blocks, as a PLC library would list them."""
 
+from .adrc import ADRC
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
 from .jumprate import JumpAndRate
 from .leadlag import LeadLag
@@ -29,6 +30,7 @@ from .signals import (
 )
 
 __all__ = [
+    "ADRC",
     "PID",
     "PT1",
     "AntiWindup",

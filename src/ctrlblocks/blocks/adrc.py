@@ -1,0 +1,946 @@
+"""The general-purpose ADRC function block of Nowak et al. (seed 000).
+
+Source
+------
+P. Nowak, K. Stebel, T. Klopot, J. Czeczot, M. Fratczak, P. Laszczyk:
+*Flexible function block for industrial applications of active disturbance
+rejection controller*, Archives of Control Sciences 28 (2018) -- file
+``seeds/000_b2df519ac8dec8ff.txt``; equation numbers below are the paper's.
+
+Model and controller (section 2)
+--------------------------------
+The process is modelled as ``Y^(n) = h + b0 u`` (n = ADRC order, h = *total
+disturbance*), written as the extended state-space chain (1).  The extended
+state observer (ESO) (2) estimates ``Y, Y', ..., Y^(n-1)`` and ``h``; the
+control law (3) cancels ``h`` and imposes an n-th order linear loop.
+
+One code path for n = 1, 2, 3 (section 3.2)
+--------------------------------------------
+The ESO (2) is discretised by the Euler method with step ``ts`` and computed
+*backwards*, so that the newest ``x4`` reaches ``Y_hat`` in the same cycle
+(4a)::
+
+    e_o   = Y_i - Y_hat_{i-1}
+    x4_i  = x4_{i-1}    + ts l4 e_o
+    aux_i = x4_i + b0 u_{i-1}
+    x3_i  = x3_{i-1}    + ts (l3 e_o + k3 aux_i)
+    x2_i  = x2_{i-1}    + ts (p2 x3_i + l2 e_o + k2 aux_i)
+    Y_hat_i = Y_hat_{i-1} + ts (p1 x2_i + l1 e_o + k1 aux_i)
+
+and the control law is (4b)::
+
+    u_i = (kp (Y_sp,i - Y_hat_i) - kd1 x2_i - kd2 x3_i - x4_i) / b0
+
+The switches come from the two low bits ``n1 n0`` of n (section 3.2):
+``p1 = n1``, ``p2 = n1 n0``, ``k1 = (not n1) n0``, ``k2 = n1 (not n0)``,
+``k3 = p2``:
+
+===  ==  ==  ==  ==  ==  ===========================================
+ n   p1  p2  k1  k2  k3  chain used
+===  ==  ==  ==  ==  ==  ===========================================
+ 1   0   0   1   0   0   Y_hat' = x4 + b0 u;  x4 = h
+ 2   1   0   0   1   0   Y_hat' = x2, x2' = x4 + b0 u
+ 3   1   1   0   0   1   Y_hat' = x2, x2' = x3, x3' = x4 + b0 u
+===  ==  ==  ==  ==  ==  ===========================================
+
+Whatever n, ``x4`` is the estimate of the total disturbance h.
+
+Gains from bandwidths (section 3.3, Gao's parameterisation)
+-----------------------------------------------------------
+The observer error of the chain of n+1 integrators with output injection
+``L`` has the characteristic polynomial
+``s^(n+1) + l1 s^n + ... + l_{n} s + l4`` (the last gain always acts on x4).
+Placing all n+1 roots at ``-omega_o`` means matching it with
+``(s + omega_o)^(n+1) = sum_j C(n+1, j) omega_o^j s^(n+1-j)``.  Likewise the
+loop ``Y^(n) = kp (Y_sp - Y) - kd1 Y' - kd2 Y''`` has the characteristic
+polynomial ``s^n + kd_{n-1} s^(n-1) + ... + kd1 s + kp``, matched with
+``(s + omega_c)^n``.  Hence (``wo = omega_o``, ``wc = omega_c``):
+
+===  =======  ========  ========  =======  =====  =======  =====
+ n   l1       l2        l3        l4       kp     kd1      kd2
+===  =======  ========  ========  =======  =====  =======  =====
+ 1   2 wo     0         0         wo^2     wc     0        0
+ 2   3 wo     3 wo^2    0         wo^3     wc^2   2 wc     0
+ 3   4 wo     6 wo^2    4 wo^3    wo^4     wc^3   3 wc^2   3 wc
+===  =======  ========  ========  =======  =====  =======  =====
+
+(:func:`adrc_gains` computes this table from the binomial coefficients.)
+
+Poles of the discretised loop ("Euler images")
+----------------------------------------------
+Because (4a) uses the *new* lower state in each upper recursion, it is a
+semi-implicit Euler scheme, not plain forward Euler.  For a chain of m
+integrators closed with the binomial gains of bandwidth w (``a = w ts``), the
+recursion gives ``(z-1)^m + sum_j a_j ts^j z^(j-1) (z-1)^(m-j) = 0``, i.e.::
+
+    z P_m(z) = (z - 1)^(m+1) + ((1 + a) z - 1)^m
+
+whose m roots (z = 0 excluded) are the discrete poles: the observer has
+``P_{n+1}`` with ``a = omega_o ts``, the controller (on the observer's own
+model) ``P_n`` with ``a = omega_c ts``.  ``P_m`` has a root at z = -1 when
+``(2 + a)^m = 2^(m+1)``, so the Euler observer is unstable beyond
+``omega_o ts = 2^((m+1)/m) - 2`` (0.828, 0.520, 0.378 for n = 1, 2, 3).
+
+Exact discretisation (option ``discretisation="exact"``)
+--------------------------------------------------------
+The current observer of Herbst (2013, ref. [10] of seed 000; also [11, 19]):
+``x_pred = Phi x + Gamma u_{i-1}``, ``x_i = x_pred + Lc (Y_i - x_pred[0])``,
+with ``Phi = exp(A ts)`` and ``Gamma`` the zero-order-hold images of the
+chain (1) and ``Lc`` placed (Ackermann) so that all n+1 poles of
+``(I - Lc C) Phi`` lie at ``z = exp(-omega_o ts)``.  For consistency the
+controller gains are placed the same way on the ZOH chain (all n poles at
+``exp(-omega_c ts)``); they tend to the table above as ``omega_c ts -> 0``.
+This is a ctrlblocks option, not the paper's block.
+
+Trustworthy range (status ``WARN_DISCRETISATION``, 16#8301)
+------------------------------------------------------------
+Euler: the block warns when any root of ``P_{n+1}(omega_o ts)`` or
+``P_n(omega_c ts)`` has a modulus above ``exp(-a/2)``, i.e. when a mode of the
+discretised observer (or controller) decays less than half as fast as the
+bandwidth asks, or oscillates from a negative real pole.  The bounds
+(``EULER_LIMIT``) are found numerically from the roots of ``P_m`` and checked
+by the tests: ``a <= 0.735, 0.484, 0.360`` for m = 2, 3, 4 (and 1.477 for
+m = 1), just below the stability limits above.  Exact: the poles are exact for
+every ``a``, but a bandwidth near the Nyquist frequency ``pi/ts`` cannot be
+read as the continuous design any more (the observer time constant is shorter
+than a sample; its poles ``exp(-a)`` approach the dead-beat z = 0); the block
+warns when ``omega_o ts > pi/2`` or ``omega_c ts > pi/2`` (half the Nyquist
+frequency).
+
+Function-block behaviour (sections 4 and 5)
+-------------------------------------------
+See :class:`ADRC` for limits and anti-windup (4.1), bumpless MAN/AUTO by (11)
+(4.2), the optional anti-backoff action (12a)/(12b) (4.3) and the inputs and
+outputs of Fig. 2 (section 5).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from .base import (
+    Block,
+    BlockConfig,
+    ErrorCode,
+    Mode,
+    ParameterError,
+    is_finite,
+    require_choice,
+    require_finite,
+    require_limits,
+    require_nonnegative,
+    require_positive,
+)
+from .signals import PT1
+
+__all__ = [
+    "ADRC",
+    "ADRCConfig",
+    "adrc_gains",
+    "adrc_switches",
+    "control_law",
+    "eso_euler",
+    "eso_exact",
+    "euler_pole_polynomial",
+]
+
+#: Largest ``a = omega ts`` for which every root of the Euler image ``P_m``
+#: (module docstring) has modulus <= exp(-a/2), for m = 1..4 (chain length).
+#: Computed from the roots of ``P_m`` by bisection; checked by the tests.
+EULER_LIMIT: dict[int, float] = {1: 1.477, 2: 0.735, 3: 0.484, 4: 0.360}
+
+#: Largest ``omega ts`` trusted for the exact discretisation (half Nyquist).
+EXACT_LIMIT: float = math.pi / 2.0
+
+_ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
+
+
+# ---------------------------------------------------------------------------
+# Pure per-cycle arithmetic (floats only; one implementation of the law)
+# ---------------------------------------------------------------------------
+
+
+def adrc_switches(n: int) -> tuple[float, float, float, float, float]:
+    """Switches ``(p1, p2, k1, k2, k3)`` from the two low bits of the order n.
+
+    Seed 000, section 3.2: ``p1 = n1``, ``p2 = n1 n0``, ``k1 = not(n1) n0``,
+    ``k2 = n1 not(n0)``, ``k3 = p2`` where ``n = 2 n1 + n0``.
+    """
+    n1 = float((n >> 1) & 1)
+    n0 = float(n & 1)
+    p1 = n1
+    p2 = n1 * n0
+    k1 = (1.0 - n1) * n0
+    k2 = n1 * (1.0 - n0)
+    k3 = p2
+    return p1, p2, k1, k2, k3
+
+
+def adrc_gains(
+    n: int, omega_c: float, omega_o: float
+) -> tuple[float, float, float, float, float, float, float]:
+    """Gao's bandwidth gains ``(l1, l2, l3, l4, kp, kd1, kd2)`` for order n.
+
+    Observer: ``(s + omega_o)^(n+1)``; controller: ``(s + omega_c)^n``
+    (seed 000, section 3.3; derivation and table in the module docstring).
+    ``l4`` always multiplies the x4 (total disturbance) recursion.
+    """
+    m = n + 1
+    lo = [math.comb(m, j) * omega_o**j for j in range(1, m + 1)]  # l1 .. l_m
+    l1 = lo[0]
+    l2 = lo[1] if n >= 2 else 0.0
+    l3 = lo[2] if n >= 3 else 0.0
+    l4 = lo[-1]
+    kc = [math.comb(n, j) * omega_c**j for j in range(1, n + 1)]  # a_1 .. a_n
+    kp = kc[-1]
+    kd1 = kc[-2] if n >= 2 else 0.0
+    kd2 = kc[-3] if n >= 3 else 0.0
+    return l1, l2, l3, l4, kp, kd1, kd2
+
+
+def euler_pole_polynomial(m: int, a: float) -> np.ndarray:
+    """Coefficients (highest power first) of the Euler image ``P_m(z)``.
+
+    ``z P_m(z) = (z - 1)^(m+1) + ((1 + a) z - 1)^m`` (module docstring): the
+    characteristic polynomial of the semi-implicit Euler recursion (4a) of a
+    chain of m integrators closed with binomial gains of bandwidth ``a/ts``.
+    """
+    zp = np.poly1d([1.0, -1.0]) ** (m + 1) + np.poly1d([1.0 + a, -1.0]) ** m
+    return np.asarray(zp.coeffs[:-1], dtype=float)
+
+
+def eso_euler(
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_prev: float,
+    y: float,
+    w4: float,
+    ts: float,
+    b0: float,
+    l1: float,
+    l2: float,
+    l3: float,
+    l4: float,
+    p1: float,
+    p2: float,
+    k1: float,
+    k2: float,
+    k3: float,
+) -> tuple[float, float, float, float]:
+    """One step of the Euler ESO (4a) of seed 000, computed x4 -> x3 -> x2 -> Y_hat.
+
+    ``w4`` multiplies the x4 increment: 1 runs it, 0 freezes x4 (anti-windup,
+    section 4.1) while the other states keep running.  Returns
+    ``(Y_hat_i, x2_i, x3_i, x4_i)``.
+    """
+    e = y - yh
+    x4n = x4 + w4 * ts * l4 * e
+    aux = x4n + b0 * u_prev
+    x3n = x3 + ts * (l3 * e + k3 * aux)
+    x2n = x2 + ts * (p2 * x3n + l2 * e + k2 * aux)
+    yhn = yh + ts * (p1 * x2n + l1 * e + k1 * aux)
+    return yhn, x2n, x3n, x4n
+
+
+def eso_exact(
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_prev: float,
+    y: float,
+    w4: float,
+    f01: float,
+    f02: float,
+    f03: float,
+    f12: float,
+    f13: float,
+    f23: float,
+    g0: float,
+    g1: float,
+    g2: float,
+    c0: float,
+    c1: float,
+    c2: float,
+    c3: float,
+) -> tuple[float, float, float, float]:
+    """One step of the exact (ZOH) current observer (Herbst) in the 4-state layout.
+
+    Prediction ``x_pred = Phi x + Gamma u_prev`` (``Phi`` upper triangular with
+    unit diagonal: ``f01 .. f23``; ``Gamma = (g0, g1, g2, 0)``), correction
+    ``x = x_pred + Lc (y - x_pred[0])`` with ``Lc = (c0, c1, c2, c3)``.
+    ``w4 = 0`` freezes x4 (its prediction is x4 itself).
+    """
+    p0 = yh + f01 * x2 + f02 * x3 + f03 * x4 + g0 * u_prev
+    p1 = x2 + f12 * x3 + f13 * x4 + g1 * u_prev
+    p2 = x3 + f23 * x4 + g2 * u_prev
+    e = y - p0
+    return p0 + c0 * e, p1 + c1 * e, p2 + c2 * e, x4 + w4 * c3 * e
+
+
+def control_law(
+    r: float,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    b0: float,
+    kp: float,
+    kd1: float,
+    kd2: float,
+) -> float:
+    """ADRC control law (4b) of seed 000 (the reference ``r`` replaces Y_sp when filtered)."""
+    return (kp * (r - yh) - kd1 * x2 - kd2 * x3 - x4) / b0
+
+
+def x4_update_allowed(rule: int, awin: bool, sat: int, du: float) -> float:
+    """Anti-windup decision for the x4 update of this cycle: 1.0 run, 0.0 freeze.
+
+    ``sat`` is +1 (-1) when the control law (4b) of the previous cycle was
+    above u_max (below u_min), else 0; ``du`` is the change of this cycle's u
+    that the x4 update causes.  ``rule``: 0 ``"off"``; 1 ``"freeze"`` (seed 000,
+    section 4.1, literally: x4 frozen while u is outside its range);
+    2 ``"directional"``: freeze only an update that pushes u further beyond
+    the limit it violates, so an update that brings u back towards the range
+    always runs (this cannot lock at a limit, see :class:`ADRC`).  ``awin``
+    freezes unconditionally (cascade, section 5), whatever the rule.
+    """
+    if awin:
+        return 0.0
+    if rule == 0 or sat == 0:
+        return 1.0
+    if rule == 1:
+        return 0.0
+    if (sat > 0 and du > 0.0) or (sat < 0 and du < 0.0):
+        return 0.0
+    return 1.0
+
+
+def solve_x4(
+    u_target: float,
+    u_law: float,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    s_yh: float,
+    s_x2: float,
+    s_x3: float,
+    s_u: float,
+) -> tuple[float, float, float, float]:
+    """Re-solve x4 so that the control law gives ``u_target`` (seed 000, (11)).
+
+    All states of cycle i are affine in x4_i (the backward recursion (4a)
+    passes x4_i on through aux_i with the constant sensitivities ``s_yh``,
+    ``s_x2``, ``s_x3``), and so is u_i with slope ``s_u``.  Shifting x4_i by
+    ``d = (u_target - u_law)/s_u`` and the other states by ``s d`` makes (4b)
+    return ``u_target``: the exact form of (11), used for bumpless MAN -> AUTO,
+    resume after a bad measurement and retuning.
+    """
+    d = (u_target - u_law) / s_u
+    return yh + s_yh * d, x2 + s_x2 * d, x3 + s_x3 * d, x4 + d
+
+
+def _clamp(u: float, lo: float, hi: float) -> float:
+    return hi if u > hi else lo if u < lo else u
+
+
+# ---------------------------------------------------------------------------
+# Configuration
+# ---------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class ADRCConfig(BlockConfig):
+    """Configuration of :class:`ADRC` (the tuning and parameterisation inputs of Fig. 2).
+
+    Attributes
+    ----------
+    order : int
+        ADRC order n = 1, 2 or 3 (section 3.1).
+    b0 : float
+        Scaling parameter b0 > 0 [units of Y^(n) per unit of u].
+    omega_c : float
+        Controller bandwidth [rad/s], > 0.
+    omega_o : float
+        Observer (ESO) bandwidth [rad/s], > 0; the paper advises 3..10 omega_c.
+    ts : float
+        Sample time [s], > 0.
+    u_min, u_max : float
+        Limits of the manipulated variable (infinite = none).  Runtime changes:
+        :meth:`ADRC.set_limits`.
+    t_ref : float
+        Time constant [s] of the reference trajectory (first-order filter of
+        the setpoint, section 5); 0 = off.
+    discretisation : str
+        ``"euler"``: the paper's (4a) (default); ``"exact"``: ZOH current
+        observer and discretely placed controller poles (module docstring).
+    u_sf : float
+        Safe value of u applied while the measurement is invalid (section 5),
+        limited to [u_min, u_max].
+    u0 : float
+        Output after ``reset()``; the first cycle starts bumplessly from it.
+    anti_windup : str or bool
+        ``"directional"`` (default, also ``True``), ``"freeze"`` (section 4.1
+        read literally) or ``"off"`` (also ``False``).
+    u_real_on : bool
+        Use the measured actuator value ``u_real`` in the ESO (section 5).
+    anti_backoff : bool
+        Enable the derivative anti-backoff action (12a)/(12b) (section 4.3);
+        off by default as in the paper.
+    y_sat : float
+        Upper saturation of the sensor (for the anti-backoff action).
+    y_sat_lo : float
+        Lower saturation of the sensor (for the anti-backoff action).
+    tau_wait : float
+        Time [s] u is frozen after Y leaves the saturation; ``0`` = the
+        paper's ``3.5/omega_o`` (section 4.3 advises 3..4 / omega_o).
+    """
+
+    order: int = 2
+    b0: float = 1.0
+    omega_c: float = 1.0
+    omega_o: float = 5.0
+    ts: float = 0.1
+    u_min: float = -math.inf
+    u_max: float = math.inf
+    t_ref: float = 0.0
+    discretisation: str = "euler"
+    u_sf: float = 0.0
+    u0: float = 0.0
+    anti_windup: Any = "directional"
+    u_real_on: bool = False
+    anti_backoff: bool = False
+    y_sat: float = math.inf
+    y_sat_lo: float = -math.inf
+    tau_wait: float = 0.0
+
+    def validate(self) -> None:
+        if isinstance(self.order, bool) or self.order not in (1, 2, 3):
+            raise ParameterError(
+                ErrorCode.BAD_ORDER, "order", f"must be 1, 2 or 3, got {self.order!r}"
+            )
+        require_positive("b0", self.b0, ErrorCode.BAD_B0)
+        require_positive("omega_c", self.omega_c, ErrorCode.BAD_BANDWIDTH)
+        require_positive("omega_o", self.omega_o, ErrorCode.BAD_BANDWIDTH)
+        require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
+        require_limits("u_min", self.u_min, "u_max", self.u_max)
+        require_nonnegative("t_ref", self.t_ref, ErrorCode.BAD_TIME_CONSTANT)
+        require_choice("discretisation", self.discretisation, ("euler", "exact"))
+        require_finite("u_sf", self.u_sf)
+        require_finite("u0", self.u0)
+        aw = self.anti_windup
+        if not (isinstance(aw, bool) or aw in ("directional", "freeze", "off")):
+            raise ParameterError(
+                ErrorCode.BAD_ANTIWINDUP,
+                "anti_windup",
+                f"must be 'directional', 'freeze', 'off', True or False; got {aw!r}",
+            )
+        for name in ("u_real_on", "anti_backoff"):
+            if not isinstance(getattr(self, name), bool):
+                raise ParameterError(
+                    ErrorCode.BAD_PARAMETER,
+                    name,
+                    f"must be True or False, got {getattr(self, name)!r}",
+                )
+        require_limits("y_sat_lo", self.y_sat_lo, "y_sat", self.y_sat)
+        require_nonnegative("tau_wait", self.tau_wait, ErrorCode.BAD_TIME_CONSTANT)
+
+
+# ---------------------------------------------------------------------------
+# Coefficients for one sample time
+# ---------------------------------------------------------------------------
+
+
+def _exact_coefficients(
+    n: int, b0: float, omega_c: float, omega_o: float, ts: float
+) -> tuple[tuple[float, ...], tuple[float, float, float]]:
+    """ZOH matrices, current-observer gain and controller gains (Ackermann).
+
+    Returns ``(f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3)`` in
+    the 4-state layout and ``(kp, kd1, kd2)``.
+    """
+    p1, p2, k1, k2, k3 = adrc_switches(n)
+    a4 = np.zeros((4, 4))
+    a4[0, 1], a4[1, 2] = p1, p2
+    a4[0, 3], a4[1, 3], a4[2, 3] = k1, k2, k3
+    b4 = b0 * np.array([k1, k2, k3, 0.0])
+    phi = np.eye(4)
+    gam_int = np.eye(4) * ts
+    term = np.eye(4)
+    for k in range(1, 5):  # A is nilpotent: the series ends at A^3
+        term = term @ a4 * ts / k
+        phi = phi + term
+        gam_int = gam_int + term * ts / (k + 1)
+    gam = gam_int @ b4
+    idx = {1: [0, 3], 2: [0, 1, 3], 3: [0, 1, 2, 3]}[n]
+    m = n + 1
+    phi_r = phi[np.ix_(idx, idx)]
+    c_r = np.zeros(m)
+    c_r[0] = 1.0
+    # observer: prediction gain Lp by Ackermann, current gain Lc = Phi^-1 Lp
+    zo = math.exp(-omega_o * ts)
+    obs = np.array([c_r @ np.linalg.matrix_power(phi_r, k) for k in range(m)])
+    p_phi = _poly_of_matrix(phi_r, np.poly([zo] * m))
+    e_last = np.zeros(m)
+    e_last[-1] = 1.0
+    lp = p_phi @ np.linalg.solve(obs, e_last)
+    lc_r = np.linalg.solve(phi_r, lp)
+    lc = np.zeros(4)
+    lc[idx] = lc_r
+    # controller on the n-chain with unit input (b0 u + h acts as one input)
+    phi_c = phi_r[:n, :n]
+    gam_c = (gam[idx] / b0)[:n]
+    ctrb = np.column_stack([np.linalg.matrix_power(phi_c, k) @ gam_c for k in range(n)])
+    zc = math.exp(-omega_c * ts)
+    e_n = np.zeros(n)
+    e_n[-1] = 1.0
+    kvec = np.linalg.solve(ctrb.T, e_n) @ _poly_of_matrix(phi_c, np.poly([zc] * n))
+    kk = [float(v) for v in kvec] + [0.0] * (3 - n)
+    coef = (
+        float(phi[0, 1]),
+        float(phi[0, 2]),
+        float(phi[0, 3]),
+        float(phi[1, 2]),
+        float(phi[1, 3]),
+        float(phi[2, 3]),
+        float(gam[0]),
+        float(gam[1]),
+        float(gam[2]),
+        *(float(v) for v in lc),
+    )
+    return coef, (kk[0], kk[1], kk[2])
+
+
+def _poly_of_matrix(mat: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """``p(M)`` for the polynomial with coefficients ``coeffs`` (highest first)."""
+    out = np.zeros_like(mat)
+    for c in coeffs:
+        out = out @ mat + c * np.eye(mat.shape[0])
+    return out
+
+
+def discretisation_trusted(
+    n: int, omega_c: float, omega_o: float, ts: float, discretisation: str
+) -> bool:
+    """True when ``omega_o ts`` and ``omega_c ts`` lie in the trusted range (module docstring)."""
+    if discretisation == "exact":
+        return omega_o * ts <= EXACT_LIMIT and omega_c * ts <= EXACT_LIMIT
+    return omega_o * ts <= EULER_LIMIT[n + 1] and omega_c * ts <= EULER_LIMIT[n]
+
+
+# ---------------------------------------------------------------------------
+# The block
+# ---------------------------------------------------------------------------
+
+
+class ADRC(Block):
+    """ADRC function block of seed 000 for orders 1..3 (one code path).
+
+    ``u = adrc(sp, y)`` runs one cycle: ESO (4a), control law (4b), limits.
+
+    Parameters
+    ----------
+    See :class:`ADRCConfig`: ``order, b0, omega_c, omega_o, ts, u_min, u_max,
+    t_ref, discretisation, u_sf, u0, anti_windup, u_real_on, anti_backoff,
+    y_sat, y_sat_lo, tau_wait``.
+
+    Inputs (attributes written between cycles, like PLC inputs)
+    -----------------------------------------------------------
+    manual : bool
+        MAN mode (A_M input): u = ``u_man`` (limited), the ESO runs on the
+        applied u and x4 is re-solved from (11) every cycle, so that the next
+        AUTO cycle starts exactly at the last applied u (section 4.2).
+    u_man : float
+        Manual value (alias ``manual_value``).
+    awin : bool
+        Freeze the x4 update (this block is a primary controller whose
+        secondary is at a limit; section 5).
+
+    Outputs
+    -------
+    u / out (applied value computed this cycle), ``u_raw`` (4b before the
+    limits), ``e = sp - y``, ``y``, ``y_ref``, ``x = (Y_hat, x2, x3, x4)``,
+    ``awout`` (u_raw beyond a limit), ``error``, ``error_id``, ``warning``.
+
+    Anti-windup (section 4.1) and why the default rule is *directional*
+    ---------------------------------------------------------------------
+    The paper freezes x4 while the computed u is outside (u_min, u_max).  Read
+    literally this can lock: if x4 is frozen at a value below ``-b0 u_max``
+    (for example the limit was lowered while u was high, or the ESO
+    over-estimated a disturbance), the other ESO states settle around the
+    frozen x4 with a constant output error, and (4b) stays above u_max even
+    when Y is above the setpoint -- forever.  The default rule freezes only an
+    x4 update that would push u *further* beyond the violated limit; an update
+    that brings u back is always applied.  At a limit x4 can then only move
+    towards the value that releases the output, which keeps the paper's
+    "immediate reversal" (x4 cannot wind up) and cannot lock (at a steady
+    state with u = u_max and Y > sp, the innovation drives x4 to ``-b0
+    u_max`` where (4b) is below u_max).  Both cases are closed-loop tests.
+
+    Two-phase form (seed 004, section 6)
+    ------------------------------------
+    ``v = compute_output(sp, y)`` computes the cycle without committing (it can
+    be called again with other inputs); ``update_state(applied)`` commits it
+    with the value actually applied, which drives the ESO in the next cycle.
+
+    Fallbacks (never raise in the cycle)
+    ------------------------------------
+    * ``y_ok`` false or Y NaN/inf: u = ``u_sf`` (``u_man`` in MAN) in the same
+      cycle, ESO frozen, ``BAD_MEASUREMENT`` / ``BAD_INPUT``; when Y returns the
+      first cycle re-solves x4 so that u continues from the applied value.
+    * setpoint NaN/inf: hold the last applied u (as one MAN cycle), ``BAD_INPUT``.
+    * ``u_man`` NaN/inf in MAN: hold the last applied u, ``BAD_INPUT``.
+    * bad ``dt``: hold everything, ``NO_CYCLE``.
+    * ``set_limits`` with a reversed or NaN pair: ``BAD_LIMITS`` status, the
+      last valid limits stay.
+
+    Examples
+    --------
+    >>> adrc = ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1,
+    ...             u_min=0.0, u_max=5.0)
+    >>> u = adrc(1.0, 0.0)
+    """
+
+    Config = ADRCConfig
+    config: ADRCConfig
+    _state_fields = (
+        "out",
+        "u_raw",
+        "e",
+        "y",
+        "y_ref",
+        "awout",
+        "_yh",
+        "_x2",
+        "_x3",
+        "_x4",
+        "_u_prev",
+        "_ref",
+        "_started",
+        "_track",
+        "_sat",
+        "_ab_sat",
+        "_ab_wait",
+    )
+
+    # -- configuration -------------------------------------------------------
+
+    def __init__(self, config: ADRCConfig | None = None, /, **params: Any) -> None:
+        self.manual = False
+        self.u_man = 0.0
+        self.awin = False
+        self._limits_bad = False
+        self._pending: tuple[Any, ...] | None = None
+        super().__init__(config, **params)
+
+    def _apply_config(self, old: BlockConfig | None) -> None:
+        c = self._config
+        self._n = int(c.order)
+        self._ts = float(c.ts)
+        self._b0 = float(c.b0)
+        self._rule = _ANTI_WINDUP[c.anti_windup]
+        self._exact = c.discretisation == "exact"
+        self._h = -1.0
+        self._coefficients(self._ts)
+        self._ref_filter = PT1(t=float(c.t_ref), ts=self._ts, method="exact")
+        if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):
+            self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
+            self._limits_bad = False
+        self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else 3.5 / float(c.omega_o)
+        if old is not None and hasattr(self, "_track"):
+            assert isinstance(old, ADRCConfig)
+            tuning = ("order", "b0", "omega_c", "omega_o", "ts", "discretisation")
+            if any(getattr(old, f) != getattr(c, f) for f in tuning):
+                # bumpless retuning: the next cycle re-solves x4 by (11)
+                self._track = True
+                if self._n < 3:
+                    self._x3 = 0.0
+                if self._n < 2:
+                    self._x2 = 0.0
+
+    def _coefficients(self, h: float) -> None:
+        """Derive the per-cycle coefficients for the sample time ``h`` [s]."""
+        if h == self._h:
+            return
+        c = self._config
+        n, b0 = self._n, self._b0
+        p1, p2, k1, k2, k3 = adrc_switches(n)
+        l1, l2, l3, l4, kp, kd1, kd2 = adrc_gains(n, float(c.omega_c), float(c.omega_o))
+        if self._exact:
+            coef, (kp, kd1, kd2) = _exact_coefficients(n, b0, float(c.omega_c), float(c.omega_o), h)
+            self._eso = eso_exact
+            self._eso_coef = coef
+            s_yh = s_x2 = s_x3 = 0.0  # the current observer does not pass x4_i on
+        else:
+            self._eso = eso_euler
+            self._eso_coef = (h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3)
+            s_x3 = h * k3
+            s_x2 = h * (p2 * s_x3 + k2)
+            s_yh = h * (p1 * s_x2 + k1)
+        self._gains = (l1, l2, l3, l4, kp, kd1, kd2)
+        self._switches = (p1, p2, k1, k2, k3)
+        self._law = (b0, kp, kd1, kd2)
+        self._sens = (s_yh, s_x2, s_x3, -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0)
+        self._warn = not discretisation_trusted(
+            n, float(c.omega_c), float(c.omega_o), h, c.discretisation
+        )
+        self._h = h
+
+    def _reset_state(self) -> None:
+        c = self._config
+        self._h = -1.0
+        self._coefficients(self._ts)
+        u0 = _clamp(float(c.u0), self._u_lo, self._u_hi)
+        self.out = self.u_raw = u0
+        self.e = self.y = self.y_ref = 0.0
+        self.awout = False
+        self._yh = self._x2 = self._x3 = self._x4 = 0.0
+        self._u_prev = u0
+        self._ref = 0.0
+        self._started = False
+        self._track = False
+        self._sat = 0
+        self._ab_sat = 0
+        self._ab_wait = 0.0
+        self._pending = None
+        if self._warn:
+            self.error_id = ErrorCode.WARN_DISCRETISATION
+
+    # -- inputs and outputs ----------------------------------------------------
+
+    @property
+    def u(self) -> float:
+        """Manipulated variable of the last cycle (limited), same as ``out``."""
+        return self.out
+
+    @property
+    def x(self) -> tuple[float, float, float, float]:
+        """ESO state vector ``(Y_hat, x2, x3, x4)``; x4 estimates the total disturbance h."""
+        return (self._yh, self._x2, self._x3, self._x4)
+
+    @property
+    def manual_value(self) -> float:
+        """Alias of ``u_man`` (the name the PID block uses)."""
+        return self.u_man
+
+    @manual_value.setter
+    def manual_value(self, value: float) -> None:
+        self.u_man = value
+
+    @property
+    def mode(self) -> Mode:
+        """``Mode.MANUAL`` or ``Mode.AUTO`` (set ``manual`` or assign a Mode)."""
+        return Mode.MANUAL if self.manual else Mode.AUTO
+
+    @mode.setter
+    def mode(self, value: Mode) -> None:
+        if value not in (Mode.AUTO, Mode.MANUAL):
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER, "mode", f"ADRC supports AUTO and MANUAL, got {value!r}"
+            )
+        self.manual = value == Mode.MANUAL
+
+    @property
+    def u_min(self) -> float:
+        """Lower limit of u in force."""
+        return self._u_lo
+
+    @property
+    def u_max(self) -> float:
+        """Upper limit of u in force."""
+        return self._u_hi
+
+    @property
+    def warning(self) -> bool:
+        """True when omega_o ts or omega_c ts is outside the trusted range (16#8301)."""
+        return self._warn
+
+    @property
+    def gains(self) -> dict[str, float]:
+        """The gains in force: ``l1..l4`` (continuous, Gao) and ``kp, kd1, kd2`` (as used)."""
+        l1, l2, l3, l4, _, _, _ = self._gains
+        _, kp, kd1, kd2 = self._law
+        return {"l1": l1, "l2": l2, "l3": l3, "l4": l4, "kp": kp, "kd1": kd1, "kd2": kd2}
+
+    @property
+    def switches(self) -> dict[str, float]:
+        """The switches ``p1, p2, k1, k2, k3`` of (4a) for the configured order."""
+        return dict(zip(("p1", "p2", "k1", "k2", "k3"), self._switches, strict=True))
+
+    def set_limits(self, u_min: float, u_max: float) -> None:
+        """Write the limits of u (updatable every cycle, section 4.1); never raises.
+
+        A reversed or NaN pair sets ``BAD_LIMITS`` (16#8201) as a status and the
+        last valid limits stay in force until a valid pair is written.
+        """
+        try:
+            lo, hi = require_limits("u_min", u_min, "u_max", u_max)
+        except ParameterError:
+            self._limits_bad = True
+            self.error_id = ErrorCode.BAD_LIMITS
+            return
+        self._u_lo, self._u_hi = lo, hi
+        self._limits_bad = False
+
+    # -- the cycle ---------------------------------------------------------------
+
+    def __call__(
+        self,
+        sp: float,
+        y: float,
+        *,
+        y_ok: bool = True,
+        u_real: float | None = None,
+        dt: float | None = None,
+    ) -> float:
+        """Run one cycle; return the manipulated variable u.
+
+        ``u_real`` is used for the ESO when ``u_real_on`` is configured (a
+        missing or NaN ``u_real`` then falls back to u and sets ``BAD_INPUT``).
+        """
+        v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
+        applied = v
+        if self._config.u_real_on and self._pending is not None:
+            if u_real is not None and is_finite(u_real):
+                applied = float(u_real)
+            elif self.error_id in (ErrorCode.NO_ERROR, ErrorCode.WARN_DISCRETISATION):
+                self.error_id = ErrorCode.BAD_INPUT
+        self.update_state(applied)
+        return v
+
+    def compute_output(
+        self, sp: float, y: float, *, y_ok: bool = True, dt: float | None = None
+    ) -> float:
+        """Compute this cycle's u without committing the state (seed 004, section 6).
+
+        Idempotent within a cycle: it always starts from the committed state.
+        """
+        self._pending = None
+        h = self._cycle_time(dt, self._ts)
+        if h is None:
+            return self.out
+        self._coefficients(h)
+        lo, hi = self._u_lo, self._u_hi
+        err = ErrorCode.NO_ERROR
+        y_valid = bool(y_ok) and is_finite(y)
+        if not y_ok:
+            err = ErrorCode.BAD_MEASUREMENT
+        elif not is_finite(y):
+            err = ErrorCode.BAD_INPUT
+        sp_valid = is_finite(sp)
+        if not sp_valid and err == ErrorCode.NO_ERROR:
+            err = ErrorCode.BAD_INPUT
+        manual = bool(self.manual)
+        if manual:
+            if is_finite(self.u_man):
+                target = _clamp(float(self.u_man), lo, hi)
+            else:
+                target = _clamp(self._u_prev, lo, hi)
+                if err == ErrorCode.NO_ERROR:
+                    err = ErrorCode.BAD_INPUT
+        else:
+            target = _clamp(self._u_prev, lo, hi)
+
+        yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
+        ref = self._ref
+        started = self._started
+        ab_sat, ab_wait = self._ab_sat, self._ab_wait
+        if not y_valid:
+            # measurement invalid: safe value (manual value in MAN), ESO frozen
+            u = target if manual else _clamp(float(self._config.u_sf), lo, hi)
+            u_raw = u
+            track_next = True
+            awout = False
+            sat = 0
+            y_out = self.y
+            e = self.e
+        else:
+            yf = float(y)
+            if not started:
+                # first valid measurement: start the ESO at rest on it
+                yh, x2, x3, x4 = yf, 0.0, 0.0, -self._b0 * self._u_prev
+                ref = yf
+                started = True
+            r_in = float(sp) if sp_valid else ref
+            if manual and self._config.t_ref > 0.0:
+                ref = yf
+            else:
+                self._ref_filter.out = ref
+                ref = self._ref_filter(r_in, h)
+            tracking = manual or not sp_valid or self._track
+            b0, kp, kd1, kd2 = self._law
+            s_yh, s_x2, s_x3, s_u = self._sens
+            z = self._eso(yh, x2, x3, x4, self._u_prev, yf, 1.0, *self._eso_coef)
+            u_free = control_law(ref, *z, b0, kp, kd1, kd2)
+            if tracking:
+                yh, x2, x3, x4 = solve_x4(target, u_free, *z, s_yh, s_x2, s_x3, s_u)
+                u_raw = target
+                u = target
+                track_next = manual or not sp_valid
+            else:
+                du = s_u * (z[3] - x4)
+                w4 = x4_update_allowed(self._rule, bool(self.awin), self._sat, du)
+                if w4 == 1.0:
+                    yh, x2, x3, x4 = z
+                    u_raw = u_free
+                else:
+                    yh, x2, x3, x4 = self._eso(
+                        yh, x2, x3, x4, self._u_prev, yf, 0.0, *self._eso_coef
+                    )
+                    u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+                u = _clamp(u_raw, lo, hi)
+                track_next = False
+            awout = (u_raw > hi or u_raw < lo) and not tracking
+            sat = (1 if u_raw > hi else -1 if u_raw < lo else 0) if not tracking else 0
+            y_out = yf
+            e = float(sp) - yf if sp_valid else self.e
+        if err == ErrorCode.NO_ERROR and self._limits_bad:
+            err = ErrorCode.BAD_LIMITS
+        if err == ErrorCode.NO_ERROR and self._warn:
+            err = ErrorCode.WARN_DISCRETISATION
+        self.error_id = err
+        self.out = u
+        self.u_raw = u_raw
+        self.awout = awout
+        self.y = y_out
+        self.e = e
+        self.y_ref = ref
+        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait)
+        return u
+
+    def update_state(self, applied: float) -> None:
+        """Commit the cycle computed by :meth:`compute_output`.
+
+        ``applied`` is the u actually applied to the process (after external
+        saturation, selectors, a cascade); it drives the ESO in the next cycle.
+        A NaN/inf ``applied`` is replaced by the block's own u (``BAD_INPUT``).
+        Without a preceding ``compute_output`` this does nothing.
+        """
+        if self._pending is None:
+            return
+        if is_finite(applied):
+            a = float(applied)
+        else:
+            a = self.out
+            self.error_id = ErrorCode.BAD_INPUT
+        (
+            self._yh,
+            self._x2,
+            self._x3,
+            self._x4,
+            self._ref,
+            self._started,
+            self._track,
+            self._sat,
+            self._ab_sat,
+            self._ab_wait,
+        ) = self._pending
+        self._u_prev = a
+        self._pending = None

@@ -1,0 +1,542 @@
+"""ADRC block of seed 000 (Nowak et al. 2018): equations, gains, poles, closed loops.
+
+The linear references are built by hand from (4a)/(4b) (matrices written out
+below, not taken from the block) and run with scipy.signal.dlsim; the exact
+discretisation is checked against scipy's matrix exponential and
+python-control's Ackermann placement.
+"""
+
+from __future__ import annotations
+
+import math
+
+import control
+import numpy as np
+import pytest
+import scipy.linalg
+from scipy import signal
+
+from ctrlblocks import ADRC, ErrorCode, Mode, ParameterError
+from ctrlblocks.blocks.adrc import EULER_LIMIT, adrc_gains, adrc_switches, euler_pole_polynomial
+from ctrlblocks.plants import PTn
+
+TS = 0.1
+#: Table 2 of seed 000: order -> (b0, omega_o, omega_c)
+TABLE2 = {1: (0.3, 0.9, 0.3), 2: (0.05, 1.75, 0.35), 3: (0.025, 1.75, 0.35)}
+K10B = 0.73
+T10B = [7.3, 2.2, 1.4]
+
+# switches written out from section 3.2 for n = 1 (01), 2 (10), 3 (11)
+SWITCHES = {1: (0, 0, 1, 0, 0), 2: (1, 0, 0, 1, 0), 3: (1, 1, 0, 0, 1)}
+
+
+def hand_gains(n: int, wc: float, wo: float) -> tuple[float, ...]:
+    """(l1, l2, l3, l4, kp, kd1, kd2) expanded by hand from (s+wo)^(n+1), (s+wc)^n."""
+    return {
+        1: (2 * wo, 0.0, 0.0, wo**2, wc, 0.0, 0.0),
+        2: (3 * wo, 3 * wo**2, 0.0, wo**3, wc**2, 2 * wc, 0.0),
+        3: (4 * wo, 6 * wo**2, 4 * wo**3, wo**4, wc**3, 3 * wc**2, 3 * wc),
+    }[n]
+
+
+def make(n: int, **kw: object) -> ADRC:
+    b0, wo, wc = TABLE2[n]
+    params = {"order": n, "b0": b0, "omega_o": wo, "omega_c": wc, "ts": TS}
+    params.update(kw)
+    return ADRC(**params)
+
+
+# ---------------------------------------------------------------------------
+# Switches and gains
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_switches_follow_the_two_low_bits_of_the_order(n: int) -> None:
+    assert adrc_switches(n) == SWITCHES[n]
+    assert tuple(make(n).switches.values()) == SWITCHES[n]
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_gains_place_all_continuous_poles_at_minus_the_bandwidths(n: int) -> None:
+    wc, wo = 0.35, 1.75
+    g = adrc_gains(n, wc, wo)
+    assert g == pytest.approx(hand_gains(n, wc, wo), rel=1e-15)
+    l1, l2, l3, l4, kp, kd1, kd2 = g
+    obs = [1.0, *[l1, l2, l3][:n], l4]  # s^(n+1) + l1 s^n + ... + l4
+    ctl = [1.0, *[kd2, kd1][3 - n :], kp] if n > 1 else [1.0, kp]
+    assert np.roots(obs) == pytest.approx([-wo] * (n + 1), abs=2e-3 * wo)
+    assert np.poly([-wo] * (n + 1)) == pytest.approx(obs, rel=1e-12)
+    assert np.poly([-wc] * n) == pytest.approx(ctl, rel=1e-12)
+
+
+def test_table2_n3_gains_are_the_hand_values() -> None:
+    g = make(3).gains
+    # wo = 1.75, wc = 0.35: l = 7, 18.375, 21.4375, 9.37890625; kp = 0.042875
+    assert g["l1"] == pytest.approx(7.0)
+    assert g["l2"] == pytest.approx(18.375)
+    assert g["l3"] == pytest.approx(21.4375)
+    assert g["l4"] == pytest.approx(9.37890625)
+    assert (g["kp"], g["kd1"], g["kd2"]) == pytest.approx((0.042875, 0.3675, 1.05))
+
+
+# ---------------------------------------------------------------------------
+# The block equals the linear system of (4a)/(4b) (limits wide)
+# ---------------------------------------------------------------------------
+
+
+def euler_matrices(n: int, b0: float, wc: float, wo: float, ts: float):
+    """State [Y_hat, x2, x3, x4, u_prev], input [r, y], output u: from (4a)/(4b) by hand."""
+    l1, l2, l3, l4, kp, kd1, kd2 = hand_gains(n, wc, wo)
+    p1, p2, k1, k2, k3 = SWITCHES[n]
+    yh, x2, x3, x4, up, r, y = range(7)
+
+    def step(row: int, coeffs: dict[int, float]) -> np.ndarray:
+        s = np.eye(7)
+        for j, c in coeffs.items():
+            s[row, j] += c
+        return s
+
+    s4 = step(x4, {y: ts * l4, yh: -ts * l4})
+    s3 = step(x3, {y: ts * l3, yh: -ts * l3, x4: ts * k3, up: ts * k3 * b0})
+    s2 = step(x2, {x3: ts * p2, y: ts * l2, yh: -ts * l2, x4: ts * k2, up: ts * k2 * b0})
+    s1 = step(yh, {x2: ts * p1, y: ts * l1, yh: -ts * l1, x4: ts * k1, up: ts * k1 * b0})
+    law = np.zeros(7)
+    law[[r, yh, x2, x3, x4]] = np.array([kp, -kp, -kd1, -kd2, -1.0]) / b0
+    m1 = s1 @ s2 @ s3 @ s4
+    m = m1.copy()
+    m[up, :] = law @ m1
+    return m[:5, :5], m[:5, 5:], (law @ m1)[None, :5], (law @ m1)[None, 5:]
+
+
+def exact_matrices(n: int, b0: float, wc: float, wo: float, ts: float):
+    """Same layout for the exact option: ZOH (scipy expm) + Ackermann (python-control)."""
+    m = n + 1
+    a = np.diag(np.ones(m - 1), 1)
+    b = np.zeros(m)
+    b[n - 1] = b0
+    big = np.zeros((m + 1, m + 1))
+    big[:m, :m], big[:m, m] = a, b
+    eb = scipy.linalg.expm(big * ts)
+    phi, gam = eb[:m, :m], eb[:m, m]
+    c = np.zeros((1, m))
+    c[0, 0] = 1.0
+    lp = np.asarray(control.acker(phi.T, c.T, [math.exp(-wo * ts)] * m)).ravel()
+    lc = np.linalg.solve(phi, lp)
+    kk = np.asarray(
+        control.acker(phi[:n, :n], (gam[:n] / b0)[:, None], [math.exp(-wc * ts)] * n)
+    ).ravel()
+    k = np.zeros(m)
+    k[:n] = kk
+    k[n] = 1.0  # x4 is cancelled
+    # state [chain (m), u_prev]; block layout maps chain -> (yh, x2.., x4)
+    ic = np.eye(m) - np.outer(lc, c)
+    a_obs = ic @ phi
+    g_obs = ic @ gam
+    # u = (kp r - k . x_new) / b0
+    law_x = -k / b0
+    amat = np.zeros((m + 1, m + 1))
+    bmat = np.zeros((m + 1, 2))
+    amat[:m, :m], amat[:m, m], bmat[:m, 1] = a_obs, g_obs, lc
+    amat[m, :] = law_x @ amat[:m, :]
+    bmat[m, :] = law_x @ bmat[:m, :] + np.array([k[0] / b0, 0.0])
+    cmat, dmat = amat[m : m + 1, :], bmat[m : m + 1, :]
+    return amat, bmat, cmat, dmat
+
+
+def _inputs(n_samples: int) -> np.ndarray:
+    k = np.arange(n_samples)
+    r = 1.0 + 0.5 * (k > 20) - 0.8 * (k > 70) + 0.1 * np.sin(0.05 * k)
+    y = 0.2 + 0.3 * np.sin(0.11 * k) + 0.1 * np.cos(0.37 * k) + 0.01 * k
+    return np.column_stack([r, y])
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_euler_block_equals_hand_built_state_space_of_4a_4b(n: int) -> None:
+    b0, wc, wo, u0 = 0.4, 0.8, 3.0, 0.7
+    block = ADRC(order=n, b0=b0, omega_c=wc, omega_o=wo, ts=TS, u0=u0)
+    a, b, c, d = euler_matrices(n, b0, wc, wo, TS)
+    inp = _inputs(120)
+    x0 = np.array([inp[0, 1], 0.0, 0.0, -b0 * u0, u0])
+    _, ref, _ = signal.dlsim((a, b, c, d, TS), inp, x0=x0)
+    out = np.array([block(r, y) for r, y in inp])
+    assert np.max(np.abs(out - ref[:, 0])) < 1e-9
+    assert max(abs(v) for v in out) > 1.0  # the trace is not trivial
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_exact_block_equals_zoh_current_observer_with_acker_gains(n: int) -> None:
+    b0, wc, wo, u0 = 0.4, 0.8, 3.0, 0.7
+    block = ADRC(order=n, b0=b0, omega_c=wc, omega_o=wo, ts=TS, u0=u0, discretisation="exact")
+    a, b, c, d = exact_matrices(n, b0, wc, wo, TS)
+    inp = _inputs(120)
+    x0 = np.zeros(n + 2)
+    x0[0], x0[n], x0[n + 1] = inp[0, 1], -b0 * u0, u0
+    _, ref, _ = signal.dlsim((a, b, c, d, TS), inp, x0=x0)
+    out = np.array([block(r, y) for r, y in inp])
+    assert np.max(np.abs(out - ref[:, 0])) < 1e-9
+
+
+def _closed_loop_poles(a, b, pm, gm):
+    """Eigenvalues of controller (a, b: state incl. u_prev last) + plant (pm, gm) with y = q1."""
+    nq, ns = pm.shape[0], a.shape[0]
+    cq = np.zeros(nq)
+    cq[0] = 1.0
+    e_up = np.zeros(ns)
+    e_up[-1] = 1.0
+    by = b[:, 1]
+    top = np.hstack([pm, np.outer(gm, e_up)])
+    bot = np.hstack([np.outer(by, cq @ pm), a + np.outer(by, cq @ gm) @ e_up[None, :]])
+    eig = np.linalg.eigvals(np.vstack([top, bot]))
+    return _drop(eig, 0.0, 1)  # u_prev is a copy of u: a structural pole at 0
+
+
+def _drop(eig: np.ndarray, target: float, count: int) -> np.ndarray:
+    """Remove ``count`` structural eigenvalues equal to ``target`` (unused ESO states)."""
+    for _ in range(count):
+        i = int(np.argmin(np.abs(eig - target)))
+        assert abs(eig[i] - target) < 1e-9
+        eig = np.delete(eig, i)
+    return eig
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_euler_eso_poles_are_the_euler_image_of_omega_o(n: int) -> None:
+    b0, wo, wc = TABLE2[n]
+    a, _, _, _ = euler_matrices(n, b0, wc, wo, TS)
+    # the ESO alone: (Y_hat, x2, x3, x4) with u_prev and y as inputs (first 4x4 block)
+    eig = _drop(np.linalg.eigvals(a[:4, :4]), 1.0, 3 - n)
+    expected = euler_pole_polynomial(n + 1, wo * TS)
+    assert np.real(np.poly(eig)) == pytest.approx(expected, abs=1e-12)
+    # and the image tends to exp(-wo ts) for fine sampling: slowest pole vs exact
+    assert np.max(np.abs(eig)) == pytest.approx(math.exp(-wo * TS), abs=0.06)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_euler_controller_poles_are_the_euler_image_of_omega_c(n: int) -> None:
+    # (4b) with exact state knowledge on the ESO's own model (the semi-implicit
+    # chain of (4a) driven by aux = h + b0 u): v = b0 u + h = kp (r - Y) - kd1 Y' - kd2 Y''
+    _, wo, wc = TABLE2[n]
+    kp, kd1, kd2 = hand_gains(n, wc, wo)[4:]
+    k = [kp, kd1, kd2][:n]
+    a = np.eye(n)
+    a[n - 1, :] -= TS * np.array(k)  # bottom state first, with the old states
+    for j in range(n - 2, -1, -1):  # each upper state adds ts times the new lower one
+        a[j, :] = a[j, :] + TS * a[j + 1, :]
+    eig = np.linalg.eigvals(a)
+    assert np.real(np.poly(eig)) == pytest.approx(euler_pole_polynomial(n, wc * TS), abs=1e-12)
+
+
+def test_euler_image_polynomial_matches_hand_expansion_for_two_states() -> None:
+    # m = 2: (z-1)^2 + 2a(z-1) + a^2 z = z^2 - (2 - 2a - a^2) z + (1 - 2a)
+    a = 0.175
+    assert euler_pole_polynomial(2, a) == pytest.approx([1.0, -(2 - 2 * a - a * a), 1 - 2 * a])
+    assert euler_pole_polynomial(1, a) == pytest.approx([1.0, -(1 - a)])
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_exact_closed_loop_poles_are_exp_minus_bandwidth_times_ts(n: int) -> None:
+    b0, wo, wc = TABLE2[n]
+    a, b, _, _ = exact_matrices(n, b0, wc, wo, TS)
+    m = n
+    ac = np.diag(np.ones(m - 1), 1)
+    bc = np.zeros(m)
+    bc[-1] = b0
+    big = np.zeros((m + 1, m + 1))
+    big[:m, :m], big[:m, m] = ac, bc
+    eb = scipy.linalg.expm(big * TS)
+    eig = _closed_loop_poles(a, b, eb[:m, :m], eb[:m, m])
+    expected = np.poly([math.exp(-wo * TS)] * (n + 1) + [math.exp(-wc * TS)] * n)
+    assert np.real(np.poly(eig)) == pytest.approx(expected, abs=1e-9)
+
+
+def test_exact_controller_gains_tend_to_gao_gains_for_fast_sampling() -> None:
+    block = ADRC(order=3, b0=1.0, omega_c=1.0, omega_o=5.0, ts=1e-4, discretisation="exact")
+    g = block.gains
+    assert (g["kp"], g["kd1"], g["kd2"]) == pytest.approx((1.0, 3.0, 3.0), rel=1e-3)
+
+
+def test_exact_observer_gains_match_herbst_closed_form_for_n1() -> None:
+    # Herbst (2013), current observer n = 1: Lc = (1 - beta^2, (1 - beta)^2 / ts)
+    wo, ts = 2.0, 0.1
+    beta = math.exp(-wo * ts)
+    block = ADRC(order=1, b0=1.0, omega_c=0.5, omega_o=wo, ts=ts, discretisation="exact")
+    c0, c3 = block._eso_coef[9], block._eso_coef[12]
+    assert (c0, c3) == pytest.approx((1 - beta**2, (1 - beta) ** 2 / ts), rel=1e-12)
+
+
+# ---------------------------------------------------------------------------
+# Closed loop on (10b) with the Table 2 tunings
+# ---------------------------------------------------------------------------
+
+
+def run_loop(block: ADRC, n_steps: int, sp, load, plant=None, record=None):
+    plant = plant or PTn(k=K10B, t=T10B, ts=TS)
+    ys, us = [], []
+    for k in range(n_steps):
+        if record is not None:
+            record(k, block)
+        y = plant.y
+        u = block(sp(k), y)
+        plant.step(u + load(k))
+        ys.append(y)
+        us.append(u)
+    return np.array(ys), np.array(us)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_table2_loop_is_offset_free_under_load_and_x4_is_the_lumped_disturbance(n: int) -> None:
+    block = make(n, u_min=0.0, u_max=5.0)
+    r, d = 2.0, -0.5
+    ys, us = run_loop(block, 2500, lambda k: r, lambda k: d if k >= 800 else 0.0)
+    assert abs(ys[-1] - r) < 1e-6
+    # steady state of K2(s): y = 0.73 (u + d)  =>  u = r/0.73 - d
+    assert us[-1] == pytest.approx(r / K10B - d, abs=1e-5)
+    # model Y^(n) = h + b0 u at rest: h = -b0 u
+    b0 = TABLE2[n][0]
+    assert block.x[3] == pytest.approx(-b0 * (r / K10B - d), abs=1e-6)
+    assert not block.error and block.error_id == 0
+
+
+# ---------------------------------------------------------------------------
+# Anti-windup (section 4.1)
+# ---------------------------------------------------------------------------
+
+
+def _release(us: np.ndarray, ys: np.ndarray, r: float, u_max: float) -> tuple[int, int, int]:
+    first = int(np.argmax(us >= u_max))
+    leave = first + int(np.argmax(us[first:] < u_max))
+    cross = int(np.argmax(ys >= r))
+    return first, leave, cross
+
+
+@pytest.mark.parametrize(("n", "leave_on", "leave_off"), [(1, 36, 116), (2, 11, 60)])
+def test_x4_freeze_releases_u_max_at_once_and_far_sooner_than_without(
+    n: int, leave_on: int, leave_off: int
+) -> None:
+    r = 3.0
+    res = {}
+    for aw in ("directional", "freeze", "off"):
+        block = make(n, u_min=0.0, u_max=5.0, anti_windup=aw)
+        ys, us = run_loop(block, 400, lambda k: r, lambda k: 0.0)
+        assert us.max() == 5.0
+        res[aw] = _release(us, ys, r, 5.0)
+    for aw in ("directional", "freeze"):
+        _, leave, cross = res[aw]
+        assert leave <= cross + 1  # no later than one sample after e changes sign
+        assert leave == leave_on
+    assert res["off"][1] == leave_off
+    assert res["off"][1] - res["directional"][1] >= 45  # >= 4.5 s later without the freeze
+
+
+def _upset(n: int, aw: str, side: str) -> tuple[np.ndarray, np.ndarray, ADRC]:
+    """Steady at r = 2, then a limit is moved past u (t = 100 s), then a load upset (200 s)."""
+    u_ss = 2.0 / K10B
+    block = make(n, u_min=0.0, u_max=5.0, anti_windup=aw, u0=u_ss)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    plant.reset(u_ss)
+
+    def record(k: int, b: ADRC) -> None:
+        if k == 1000:
+            b.set_limits(0.0, 2.0) if side == "hi" else b.set_limits(3.5, 5.0)
+
+    d = 1.0 if side == "hi" else -1.0
+    ys, us = run_loop(block, 4000, lambda k: 2.0, lambda k: d if k >= 2000 else 0.0, plant, record)
+    return ys, us, block
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("side", ["hi", "lo"])
+def test_literal_freeze_locks_at_a_limit_after_an_upset(n: int, side: str) -> None:
+    ys, us, _ = _upset(n, "freeze", side)
+    # u stays at the limit although the measurement is on the wrong side of sp
+    lim = 2.0 if side == "hi" else 3.5
+    assert np.all(us[-1000:] == lim)
+    y_end = K10B * (lim + (1.0 if side == "hi" else -1.0))  # 2.19 or 1.825
+    assert ys[-1] == pytest.approx(y_end, abs=1e-3)
+    assert abs(ys[-1] - 2.0) > 0.17
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("side", ["hi", "lo"])
+def test_directional_freeze_cannot_lock_and_returns_to_setpoint(n: int, side: str) -> None:
+    ys, us, block = _upset(n, "directional", side)
+    assert us[1999] == (2.0 if side == "hi" else 3.5)  # at the limit before the upset
+    assert ys[-1] == pytest.approx(2.0, abs=1e-4)
+    d = 1.0 if side == "hi" else -1.0
+    assert us[-1] == pytest.approx(2.0 / K10B - d, abs=1e-3)  # 1.7397 / 3.7397
+    assert not block.awout
+
+
+def test_awout_is_set_while_the_law_is_beyond_a_limit() -> None:
+    block = make(2, u_min=0.0, u_max=5.0)
+    assert block(3.0, 0.0) == 5.0
+    assert block.awout and block.u_raw > 5.0
+    block2 = make(2, u_min=0.0, u_max=5.0)
+    block2(0.0, 0.0)
+    assert not block2.awout
+
+
+def test_awin_freezes_x4() -> None:
+    block = make(2)
+    block(1.0, 0.0)
+    block.awin = True
+    x4 = block.x[3]
+    for y in (0.1, 0.3, 0.2):
+        block(1.0, y)
+        assert block.x[3] == x4
+    block.awin = False
+    block(1.0, 0.5)
+    assert block.x[3] != x4
+
+
+# ---------------------------------------------------------------------------
+# MAN/AUTO (section 4.2)
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("transient", [False, True])
+def test_manual_to_auto_is_bumpless(n: int, transient: bool) -> None:
+    block = make(n, u_min=0.0, u_max=5.0)
+    block.manual = True
+    block.manual_value = 2.0
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    n_man = 60 if transient else 1500  # 6 s: plant still rising; 150 s: at rest
+    for _ in range(n_man):
+        u = block(1.8, plant.y)
+        plant.step(u)
+        assert u == 2.0
+    assert block.mode == Mode.MANUAL
+    block.manual = False
+    assert block.mode == Mode.AUTO
+    u_auto = block(1.8, plant.y)
+    assert abs(u_auto - 2.0) < 1e-9
+    plant.step(u_auto)
+    # and AUTO then acts: offset-free at the setpoint
+    for _ in range(2500):
+        plant.step(block(1.8, plant.y))
+    assert plant.y == pytest.approx(1.8, abs=1e-5)
+
+
+def test_manual_value_is_limited_and_bad_manual_value_holds() -> None:
+    block = make(2, u_min=0.0, u_max=5.0)
+    block.mode = Mode.MANUAL
+    block.u_man = 7.0
+    assert block(1.0, 0.0) == 5.0
+    block.u_man = math.nan
+    assert block(1.0, 0.0) == 5.0
+    assert block.error_id == ErrorCode.BAD_INPUT
+    with pytest.raises(ParameterError):
+        block.mode = Mode.TRACK
+
+
+# ---------------------------------------------------------------------------
+# Measurement validity, NaN, dt
+# ---------------------------------------------------------------------------
+
+
+def test_invalid_measurement_gives_safe_value_in_the_same_cycle_and_resumes_bumplessly() -> None:
+    block = make(2, u_min=0.0, u_max=5.0, u_sf=1.5)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    for _ in range(300):
+        plant.step(block(2.0, plant.y))
+    x = block.x
+    u = block(2.0, plant.y, y_ok=False)
+    assert u == 1.5
+    assert block.error_id == ErrorCode.BAD_MEASUREMENT and block.error
+    assert block.x == x  # ESO frozen
+    plant.step(u)
+    for _ in range(20):
+        plant.step(block(2.0, math.nan))
+        assert block.out == 1.5 and block.error_id == ErrorCode.BAD_INPUT
+    assert block.x == x
+    u = block(2.0, plant.y)
+    assert abs(u - 1.5) < 1e-9  # resume without a bump
+    assert block.error_id == ErrorCode.NO_ERROR
+    plant.step(u)
+    for _ in range(2500):
+        plant.step(block(2.0, plant.y))
+    assert plant.y == pytest.approx(2.0, abs=1e-5)
+
+
+def test_bad_setpoint_holds_the_output_and_recovers() -> None:
+    block = make(2)
+    for _ in range(10):
+        u = block(1.0, 0.2)
+    u1 = block(math.inf, 0.2)
+    assert u1 == u and block.error_id == ErrorCode.BAD_INPUT
+    u2 = block(1.0, 0.2)
+    assert abs(u2 - u) < 1e-9 and block.error_id == 0
+
+
+def test_bad_dt_holds_everything() -> None:
+    block = make(2)
+    block(1.0, 0.2)
+    snap = block.snapshot()
+    assert block(1.0, 0.5, dt=-1.0) == snap["out"]
+    assert block.error_id == ErrorCode.NO_CYCLE
+    assert block.x == (snap["_yh"], snap["_x2"], snap["_x3"], snap["_x4"])
+
+
+# ---------------------------------------------------------------------------
+# Configuration errors and limits
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("change", "code"),
+    [
+        ({"order": 4}, ErrorCode.BAD_ORDER),
+        ({"order": 0}, ErrorCode.BAD_ORDER),
+        ({"b0": 0.0}, ErrorCode.BAD_B0),
+        ({"b0": -1.0}, ErrorCode.BAD_B0),
+        ({"omega_c": 0.0}, ErrorCode.BAD_BANDWIDTH),
+        ({"omega_o": math.nan}, ErrorCode.BAD_BANDWIDTH),
+        ({"u_min": 5.0, "u_max": 0.0}, ErrorCode.BAD_LIMITS),
+        ({"ts": 0.0}, ErrorCode.NO_CYCLE),
+        ({"t_ref": -1.0}, ErrorCode.BAD_TIME_CONSTANT),
+        ({"anti_windup": "maybe"}, ErrorCode.BAD_ANTIWINDUP),
+        ({"discretisation": "tustin"}, ErrorCode.BAD_PARAMETER),
+    ],
+)
+def test_bad_configuration_raises_with_its_code(change: dict, code: ErrorCode) -> None:
+    with pytest.raises(ParameterError) as info:
+        make(2, **change)
+    assert info.value.code == code
+
+
+def test_set_limits_never_raises_and_keeps_the_last_valid_pair() -> None:
+    block = make(2, u_min=0.0, u_max=5.0)
+    block.set_limits(4.0, 1.0)
+    assert block.error_id == ErrorCode.BAD_LIMITS
+    assert (block.u_min, block.u_max) == (0.0, 5.0)
+    block(10.0, 0.0)
+    assert block.out == 5.0 and block.error_id == ErrorCode.BAD_LIMITS
+    block.set_limits(math.nan, 1.0)
+    block.set_limits(0.0, 3.0)
+    assert block(10.0, 0.0) == 3.0 and block.error_id == 0
+
+
+def test_discretisation_warning_flags_an_untrusted_euler_observer() -> None:
+    ok = make(3)  # wo ts = 0.175 for four states: trusted
+    assert not ok.warning and ok.error_id == 0
+    bad = make(3, omega_o=4.0)  # 0.4 > 0.360
+    assert bad.warning
+    bad(1.0, 0.0)
+    assert bad.error_id == ErrorCode.WARN_DISCRETISATION and not bad.error
+    exact = make(3, omega_o=4.0, discretisation="exact")
+    assert not exact.warning
+    assert make(1, omega_o=20.0, discretisation="exact").warning  # 2.0 > pi/2
+
+
+@pytest.mark.parametrize("m", [1, 2, 3, 4])
+def test_euler_limit_is_where_a_pole_first_decays_slower_than_half_the_bandwidth(m: int) -> None:
+    lim = EULER_LIMIT[m]
+
+    def worst(a: float) -> float:
+        return float(np.max(np.abs(np.roots(euler_pole_polynomial(m, a))))) / math.exp(-a / 2)
+
+    grid = np.linspace(0.01, lim, 200)
+    assert all(worst(a) <= 1.0 for a in grid)
+    assert worst(lim + 0.002) > 1.0
