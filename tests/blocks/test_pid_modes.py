@@ -274,3 +274,26 @@ def test_adaptive_deadband_holds_the_moving_average_and_releases_without_a_bump(
     assert not pid.deadband_active
     assert abs(u - before) < BUMP
     assert pid(50.0, 53.0) < u - 0.05  # and the controller acts again
+
+
+def test_pv_and_sp_filters_are_first_order_lags_preset_to_the_first_value() -> None:
+    ts, t_pv, t_sp = 0.1, 2.0, 0.5
+    pid = PID(kp=1.0, ts=ts, pv_filter=t_pv, sp_filter=t_sp, u_min=-100, u_max=100)
+    pid(10.0, 5.0)
+    assert (pid.sp_w, pid.pv_f) == (10.0, 5.0)
+    a_pv, a_sp = math.exp(-ts / t_pv), math.exp(-ts / t_sp)
+    for k in range(1, 30):
+        u = pid(20.0, 6.0)
+        assert pid.pv_f == pytest.approx(6.0 - a_pv**k, abs=1e-12)
+        assert pid.sp_w == pytest.approx(20.0 - 10.0 * a_sp**k, abs=1e-12)
+        assert u == pytest.approx(pid.sp_w - pid.pv_f, abs=1e-12)
+
+
+def test_setpoint_ramp_limits_the_rate_of_the_working_setpoint() -> None:
+    pid = PID(kp=1.0, ts=0.1, sp_rate=4.0, u_min=-100, u_max=100)  # 0.4 per sample
+    pid(10.0, 0.0)
+    sps = []
+    for _ in range(6):
+        pid(11.0, 0.0)
+        sps.append(pid.sp_w)
+    assert sps == pytest.approx([10.4, 10.8, 11.0, 11.0, 11.0, 11.0], abs=1e-12)
