@@ -76,9 +76,10 @@ def _manual_then_auto(pid: PID, plant: Plant, *, steady: bool) -> tuple[float, f
     return u, pid(50.0, plant.y), pid
 
 
+@pytest.mark.parametrize("algorithm", ["positional", "velocity"])
 @pytest.mark.parametrize("method", Bumpless.ALL)
-def test_manual_to_auto_is_bumpless_in_steady_state(method: str) -> None:
-    pid = _pid(bumpless=method, sp_rate=5.0)
+def test_manual_to_auto_is_bumpless_in_steady_state(method: str, algorithm: str) -> None:
+    pid = _pid(bumpless=method, sp_rate=5.0, algorithm=algorithm)
     before, at, _ = _manual_then_auto(pid, Plant(), steady=True)
     assert before == 30.0
     assert abs(at - before) < BUMP
@@ -220,9 +221,19 @@ def test_lead_lag_feed_forward_path_is_seed_003_version_4() -> None:
 # --- anti-windup inputs -----------------------------------------------------------
 
 
-def test_back_calc_real_tracks_the_measured_actuator_position() -> None:
+@pytest.mark.parametrize("algorithm", ["positional", "velocity"])
+def test_back_calc_real_tracks_the_measured_actuator_position(algorithm: str) -> None:
     # dI = K/Ti e + (pos - v)/Tt  ->  fixed point v - pos = (K/Ti) e (Tt + h) (implicit Euler)
-    pid = PID(kp=1.0, ti=1.0, ts=0.1, u_min=-1e3, u_max=1e3, anti_windup="back_calc_real", tt=0.5)
+    pid = PID(
+        kp=1.0,
+        ti=1.0,
+        ts=0.1,
+        u_min=-1e3,
+        u_max=1e3,
+        anti_windup="back_calc_real",
+        tt=0.5,
+        algorithm=algorithm,
+    )
     pid.actuator_pos = 30.0  # actuator stuck at 30 %
     for _ in range(300):
         pid(1.0, 0.0)
