@@ -7,8 +7,6 @@ tustin = 'tustin'), simulated with ``forced_response`` and summed.
 
 from __future__ import annotations
 
-import itertools
-
 import control
 import numpy as np
 import pytest
@@ -67,9 +65,6 @@ def _run(pid: PID, r: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.array([pid(float(ri), float(yi)) for ri, yi in zip(r, y, strict=True)])
 
 
-CASES = list(itertools.product(FORMS, ("forward", "backward", "tustin"), repeat=1))
-
-
 @pytest.mark.parametrize(
     ("form", "imeth", "dmeth"),
     [(f, i, d) for f in FORMS for i in CT_METHOD for d in CT_METHOD],
@@ -126,3 +121,44 @@ def test_first_sample_p_term_is_kp_times_b_r_minus_y() -> None:
     pid = PID(kp=2.0, ti=1.0, b=0.4, ts=0.1, u_min=-100, u_max=100)
     assert pid(5.0, 1.0) == pytest.approx(2.0 * (0.4 * 5.0 - 1.0), abs=1e-12)
     assert pid.p == pytest.approx(2.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("dmeth", list(CT_METHOD))
+def test_forward_integral_equals_astrom_listing_6_3_recursions(dmeth: str) -> None:
+    """Seed 004 (6.4)-(6.6), coded by hand: u = b k r - (k + b_i) y + I + x.
+
+    With ``D[k] = x[k] - b_i y[k]`` (6.3) the state is ``x = a_i D[k-1] + b_i y[k-1]``
+    and ``x[k+1] = a_i x[k] + b_i (1 - a_i) y[k]`` (the seed prints ``-b_i`` in
+    (6.2) and ``-b_i (1 + a_i)`` in (6.4), a sign slip: with those signs (6.3)
+    does not follow from (2.13)).
+    """
+    k, ti, td, n, b, h = 2.0, 1.5, 0.5, 5.0, 0.6, H
+    tf = td / n
+    a_i, b_i = {
+        "forward": (1 - h * n / td, k * n),  # (2.10)
+        "backward": (td / (td + n * h), k * td * n / (td + n * h)),  # (2.11)
+        "tustin": (
+            (2 * td - h * n) / (2 * td + h * n),
+            2 * k * n * td / (2 * td + h * n),
+        ),  # (2.12)
+    }[dmeth]
+    assert tf > h / 2
+    pid = PID(
+        kp=k,
+        ti=ti,
+        td=td,
+        n=n,
+        b=b,
+        ts=h,
+        u_min=-1e9,
+        u_max=1e9,
+        integral_method="forward",
+        derivative_method=dmeth,
+    )
+    r, y = _sequence(4), _sequence(5)
+    i_state = x = 0.0  # rest: D[-1] = 0, y[-1] = y[0] = 0
+    for rk, yk in zip(r, y, strict=True):
+        u = b * k * rk - (k + b_i) * yk + i_state + x  # (6.5) ComputeOutput
+        assert pid(float(rk), float(yk)) == pytest.approx(u, abs=1e-9)
+        i_state += k * h / ti * (rk - yk)  # (6.6) UpdateState
+        x = a_i * x + b_i * (1 - a_i) * yk
