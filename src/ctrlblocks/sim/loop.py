@@ -260,6 +260,8 @@ class _Simulation:
         self.u0 = ini["u"]
         if self.plant is not None:
             self.actuator.load = ini["load"]
+            if not math.isnan(ini["y"]):
+                self.u0 = self._u_for_y(ini["y"])
         self._reset_plants()
         sp0 = ini["sp"]
         if math.isnan(sp0):
@@ -290,6 +292,20 @@ class _Simulation:
         else:
             self.plant = Sensor(Actuator(self.model_plant, **act), **sensor_args)
             self.actuator = self.plant.find(Actuator)
+
+    def _u_for_y(self, y0: float) -> float:
+        """The MV whose steady state gives the output ``y0`` (``initial.y``)."""
+        chain = [self.model_plant] if self.inner is None else [self.inner_model, self.model_plant]
+        gain = 1.0
+        if len(chain) == 1 and hasattr(chain[0], "u_for_y"):
+            return float(chain[0].u_for_y(y0)) - self.actuator.load
+        for m in chain:
+            gain *= float(getattr(m, "dc_gain", math.nan))
+        if not math.isfinite(gain) or gain == 0.0:
+            raise ValueError(
+                f"{self.sc.file}: initial.y needs a plant with a finite, non-zero static gain"
+            )
+        return y0 / gain - self.actuator.load
 
     def _make(self, spec: BlockSpec, kind: str) -> Any:
         return build(spec, self.ts, kind=kind, file=self.sc.file)
@@ -382,7 +398,7 @@ class _Simulation:
                 self._record(sp=sp, y=out, ym=out, u=out, v=out, load=0.0)
             return
         y = self.plant.y_true
-        ym = self.plant.y
+        ym = self.plant.y if record else y  # warm-up: no noise, no sensor effects
         ok = self.sensor_ok and math.isfinite(ym)
         extra: dict[str, float] = {}
         load_in = self.actuator.load
@@ -445,8 +461,9 @@ class _Simulation:
     def _warmup(self) -> None:
         """Hold every controller in manual at the initial MV for ``initial.warmup`` s.
 
-        The plant is in steady state, so the controllers' bumpless logic
-        initialises their states; then the initial mode is set.  Not recorded.
+        The plant is in steady state and measured without noise, so the
+        controllers' bumpless logic initialises their states consistently; then
+        the initial mode is set.  Not recorded.
         """
         ini = self.sc.initial
         nw = round(ini["warmup"] / self.ts)

@@ -12,6 +12,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from .loop import Run, event_times, simulate
 from .metrics import METRIC_NAMES, compute_metrics, windows_from_events
 from .scenario import Claim, Scenario
@@ -127,13 +129,17 @@ def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
     refs = claim.args["refs"]
     case = claim.case or result.scenario.cases[0].name
 
+    signal = claim.args.get("signal")
+
     def val(name: str) -> float:
         try:
+            if signal is not None:
+                return _signal_stat(result, name, case, signal, claim.metric, claim.window)
             return result.metric(name, case, claim.metric, claim.window)
         except (IndexError, KeyError):
             return math.nan
 
-    m = claim.metric
+    m = claim.metric if signal is None else f"{claim.metric}({signal})"
     where = f" (window {claim.window})" if claim.window is not None else ""
     k = claim.kind
     if k == "best":
@@ -169,6 +175,28 @@ def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
     return ClaimResult(
         claim, abs(a - x) <= tol, f"{m}{where} of {refs[0]}: {a:.6g} = {x:g} ± {tol:g}"
     )
+
+
+def _signal_stat(
+    result: ScenarioResult, controller: str, case: str, signal: str, stat: str, window: int | None
+) -> float:
+    """``max``/``min``/``final``/``mean`` of a trace signal over the run or an event window."""
+    run = next(r for r in result.runs if r.controller == controller and r.case == case)
+    x = run.signals[signal]
+    t = run.signals["t"]
+    if window is not None:
+        w = windows_from_events(event_times(run.events), run.duration)[window]
+        sel = (t >= w.t0 - 0.5 * run.ts) & (t < w.t1 - 0.5 * run.ts)
+        x = x[sel]
+    if len(x) == 0:
+        return math.nan
+    if stat == "max":
+        return float(np.max(x))
+    if stat == "min":
+        return float(np.min(x))
+    if stat == "final":
+        return float(x[-1])
+    return float(np.mean(x))
 
 
 def metric_table(result: ScenarioResult, names: tuple[str, ...] = METRIC_NAMES) -> str:

@@ -19,6 +19,7 @@ import dataclasses
 import importlib
 import inspect
 import math
+import pkgutil
 import re
 import sys
 from collections.abc import Callable, Mapping
@@ -82,6 +83,8 @@ _REQUIRED_EVENT_FIELDS: dict[str, tuple[str, ...]] = {
 }
 
 _LOAD_POINTS = ("input", "output", "inner")
+SIGNAL_STATS = ("max", "min", "final", "mean")
+"""Statistics of a trace signal that a claim with ``signal = "..."`` can check."""
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
 
@@ -288,6 +291,7 @@ class _Parser:
                 "scenario",
                 "plant",
                 "inner_plant",
+                "actuator",
                 "sensor",
                 "initial",
                 "controllers",
@@ -441,9 +445,12 @@ class _Parser:
         return out
 
     def initial(self, d: dict[str, Any]) -> dict[str, Any]:
-        self.check_keys(d, {"u", "sp", "load", "mode", "warmup"}, "initial")
+        self.check_keys(d, {"u", "y", "sp", "load", "mode", "warmup"}, "initial")
+        if "u" in d and "y" in d:
+            raise self.fail("initial.y", "give either initial.u or initial.y, not both")
         out = {
             "u": self.number(d, "u", "initial.u", default=0.0),
+            "y": self.number(d, "y", "initial.y", default=math.nan),
             "sp": self.number(d, "sp", "initial.sp", default=math.nan),
             "load": self.number(d, "load", "initial.load", default=0.0),
             "warmup": self.number(d, "warmup", "initial.warmup", default=0.0),
@@ -664,6 +671,7 @@ class _Parser:
                 {
                     "text",
                     "metric",
+                    "signal",
                     "case",
                     "window",
                     "source",
@@ -676,7 +684,16 @@ class _Parser:
             )
             text = self.string(c, "text", f"{key}.text")
             metric = self.string(c, "metric", f"{key}.metric")
-            if metric not in METRIC_NAMES:
+            signal = c.get("signal")
+            if signal is not None:
+                if not isinstance(signal, str):
+                    raise self.fail(f"{key}.signal", "must be a signal name such as 'y2'")
+                if metric not in SIGNAL_STATS:
+                    raise self.fail(
+                        f"{key}.metric",
+                        f"with a signal, must be one of {', '.join(SIGNAL_STATS)}; got {metric!r}",
+                    )
+            elif metric not in METRIC_NAMES:
                 raise self.fail(
                     f"{key}.metric",
                     f"unknown metric {metric!r}; expected one of: {', '.join(METRIC_NAMES)}",
@@ -727,7 +744,7 @@ class _Parser:
                     text=text,
                     metric=metric,
                     kind=kind,
-                    args=args | {"refs": refs},
+                    args=args | {"refs": refs, "signal": signal},
                     case=case if case is not None else cases[0].name,
                     window=window,
                     source=self.string(c, "source", f"{key}.source", default=""),
@@ -748,7 +765,7 @@ def _default_label(kind: str, f: Mapping[str, Any]) -> str:
     if kind == "limits":
         return f"limits {f['u_min']:g}..{f['u_max']:g}"
     if kind == "plant":
-        return f"{f['param']} = {f['value']:g}"
+        return f"{f['param']} = {f['value']}"
     if kind == "sensor":
         if f.get("nan"):
             return "sensor NaN"
@@ -777,6 +794,13 @@ def _resolve(type_name: str, kind: str) -> Callable[..., Any] | None:
         "ctrlblocks.plants" if kind == "plant" else "ctrlblocks.blocks"
     )
     obj = getattr(module, type_name, None)
+    if obj is None and not type_name.startswith("_"):
+        # not (yet) re-exported by the package: look in its modules
+        for info in pkgutil.iter_modules(module.__path__):
+            sub = importlib.import_module(f"{module.__name__}.{info.name}")
+            if type_name in getattr(sub, "__all__", ()):
+                obj = getattr(sub, type_name)
+                break
     if obj is None or not callable(obj) or type_name.startswith("_"):
         return None
     return obj
