@@ -23,23 +23,37 @@ override.
 Observer: ``omega_o = 5 omega_c`` by default (the ratio of seed 000 Table 2
 for n = 2 and 3: 1.75/0.35).  The Euler observer (4a) with the gains
 ``l_i = C(n+1, i) omega_o^i`` is stable only for ``omega_o ts`` below
-0.828 (n = 1), 0.520 (n = 2), 0.378 (n = 3) (spectral radius of the error
-recursion of (4a) equal to one), and follows the continuous design
+0.828 (n = 1), 0.520 (n = 2), 0.378 (n = 3) (see :mod:`ctrlblocks.blocks.adrc`,
+which warns from 0.735/0.484/0.360 on), and follows the continuous design
 closely only well below that; the check here asks
 ``omega_o ts <= MAX_OMEGA_O_TS = 0.2`` (Table 2: 1.75 x 0.1 = 0.175) and
 lowers ``omega_o`` to that bound with a warning.  Without ``ts`` a sample
 time with ``omega_o ts <= 0.1`` is suggested (1, 2 or 5 times a power of ten).
 
-Default settling time when none is given: ``tau_set = 2 (T + T0)``, about
-60 % of the open-loop 98 % settling time ``T0 + 4 T``: a cautious first
-tuning, to be shortened on the running loop (seed 000 itself retuned from the
-estimates, Table 2).
+Measurement noise: with ``noise_std`` (standard deviation of the PV noise)
+and ``u_noise_max`` (acceptable standard deviation of the MV), the MV noise
+of the configured block is measured by running :class:`ctrlblocks.blocks.adrc.ADRC`
+itself on 2000 samples of seeded white noise (one implementation of the
+control law, no formula copied), and ``omega_o`` is lowered in steps of 10 %
+down to ``3 omega_c`` until the MV noise is acceptable (a warning says so,
+or says that even ``3 omega_c`` is too noisy).
+
+Default settling time when none is given: ``tau_set = 1.5 (T + T0)``, about
+40 % of the open-loop 98 % settling time ``T0 + 4 T``.  On the seed's
+processes (10a)/(10b) with their FOPDT fits, n = 2 and this default settle in
+29 s and 23 s (2 %) with about 1 % overshoot (tests/tuning/test_adrc.py), a
+cautious first tuning to be shortened on the running loop (seed 000 itself
+retuned from the estimates, Table 2).  For n = 1 on a process whose FOPDT
+has a large dead time the estimate ``b0 = k/T`` is far too small (seed 000:
+the final b0 was 3 times larger) and the loop oscillates: a warning says so.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from ..blocks.base import ErrorCode, ParameterError, require_finite, require_positive
 from .halfrule import inverse_half_rule
@@ -51,6 +65,7 @@ __all__ = [
     "adrc_bandwidth",
     "adrc_config",
     "adrc_tuning",
+    "mv_noise",
 ]
 
 SETTLING_TIME_2PCT = {1: 3.912023005428146, 2: 5.83392170191749, 3: 7.516603875609483}
@@ -178,13 +193,15 @@ def adrc_tuning(
     ts: float | None = None,
     factor: float | None = None,
     observer_ratio: float = 5.0,
+    noise_std: float | None = None,
+    u_noise_max: float | None = None,
 ) -> ADRCTuning:
     """Full ADRC tuning from an FOPDT model: ``b0`` range and bandwidths.
 
     ``b0`` by :func:`~ctrlblocks.tuning.halfrule.inverse_half_rule` (seed
     000, (5)-(9); ``b0 = b0_min`` for n = 3 as the seed advises), bandwidths
     by :func:`adrc_bandwidth` with ``settling_time`` defaulting to
-    ``2 (T + T0)``.
+    ``1.5 (T + T0)``, then the optional MV-noise check (module docstring).
 
     Parameters
     ----------
@@ -194,23 +211,72 @@ def adrc_tuning(
         ADRC order n (1..3).
     settling_time, ts, factor, observer_ratio
         See :func:`adrc_bandwidth`.
+    noise_std, u_noise_max : float, optional
+        PV noise standard deviation and acceptable MV noise standard
+        deviation (give both); ``omega_o`` is lowered to meet it.
     """
     ihr = inverse_half_rule(gain, time_constant, dead_time, order)
+    T, T0 = float(time_constant), float(dead_time)
     if settling_time is None:
-        settling_time = 2.0 * (float(time_constant) + float(dead_time))
+        settling_time = 1.5 * (T + T0)
     bw = adrc_bandwidth(settling_time, order, ts, factor=factor, observer_ratio=observer_ratio)
+    warnings = [*ihr.warnings, *bw.warnings]
+    if order == 1 and T0 > 0.25 * T:
+        warnings.append(
+            f"order 1 with T0/T = {T0 / T:.2f}: the process is of higher order and b0 = k/T is "
+            "too small (seed 000, Table 2: 3 times); expect oscillation, prefer order 2"
+        )
+    omega_o = bw.omega_o
+    if noise_std is not None or u_noise_max is not None:
+        if noise_std is None or u_noise_max is None:
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER, "noise_std/u_noise_max", "give both or neither"
+            )
+        omega_o, w = _limit_mv_noise(
+            order, ihr.b0, bw.omega_c, omega_o, bw.ts,
+            require_positive("noise_std", noise_std), require_positive("u_noise_max", u_noise_max),
+        )  # fmt: skip
+        warnings += w
     return ADRCTuning(
-        bw.order,
-        bw.omega_c,
-        bw.omega_o,
-        bw.ts,
-        bw.settling_time,
-        bw.settling_time_model,
-        ihr.b0,
-        ihr.b0_min,
-        ihr.b0_max,
-        [*ihr.warnings, *bw.warnings],
-    )
+        bw.order, bw.omega_c, omega_o, bw.ts, bw.settling_time, bw.settling_time_model,
+        ihr.b0, ihr.b0_min, ihr.b0_max, warnings,
+    )  # fmt: skip
+
+
+def mv_noise(
+    order: int, b0: float, omega_c: float, omega_o: float, ts: float, noise_std: float
+) -> float:
+    """Standard deviation of the ADRC output for white PV noise of ``noise_std``.
+
+    Runs :class:`ctrlblocks.blocks.adrc.ADRC` (no limits, set point 0) on 2000
+    samples of seeded Gaussian noise and discards the first 500.
+    """
+    from ..blocks.adrc import ADRC
+
+    block = ADRC(order=order, b0=b0, omega_c=omega_c, omega_o=omega_o, ts=ts)
+    rng = np.random.default_rng(0)
+    u = np.array([block(0.0, float(e)) for e in rng.normal(0.0, noise_std, 2000)])
+    return float(np.std(u[500:]))
+
+
+def _limit_mv_noise(order, b0, omega_c, omega_o, ts, noise_std, u_noise_max):
+    warnings: list[str] = []
+    sd = mv_noise(order, b0, omega_c, omega_o, ts, noise_std)
+    start = omega_o
+    while sd > u_noise_max and omega_o > 3.0 * omega_c * (1 + 1e-9):
+        omega_o = max(0.9 * omega_o, 3.0 * omega_c)
+        sd = mv_noise(order, b0, omega_c, omega_o, ts, noise_std)
+    if omega_o < start:
+        warnings.append(
+            f"omega_o lowered from {start:.4g} to {omega_o:.4g} rad/s for an MV noise of "
+            f"{sd:.3g} (limit {u_noise_max:g})"
+        )
+    if sd > u_noise_max:
+        warnings.append(
+            f"MV noise {sd:.3g} exceeds {u_noise_max:g} even with omega_o = 3 omega_c: "
+            "filter the PV, lower the order or lengthen the settling time"
+        )
+    return omega_o, warnings
 
 
 def adrc_config(
@@ -226,6 +292,8 @@ def adrc_config(
     t_ref: float = 0.0,
     factor: float | None = None,
     observer_ratio: float = 5.0,
+    noise_std: float | None = None,
+    u_noise_max: float | None = None,
 ) -> dict[str, float | int]:
     """Keyword arguments for ``ctrlblocks.ADRC(**config)`` from an FOPDT model.
 
@@ -243,6 +311,8 @@ def adrc_config(
         ts=ts,
         factor=factor,
         observer_ratio=observer_ratio,
+        noise_std=noise_std,
+        u_noise_max=u_noise_max,
     )
     return {
         "order": tun.order,

@@ -191,7 +191,11 @@ def tune_pid(
     tau_c: float | None,
     as_json: bool,
 ) -> None:
-    """PID (ISA form: kp, ti, td) by SIMC, AMIGO, Ziegler-Nichols or lambda tuning."""
+    """PID (ISA form: kp, ti, td) by SIMC, AMIGO, Ziegler-Nichols or lambda tuning.
+
+    kp is printed as a magnitude with reverse = true for a negative process
+    gain, ready for ctrlblocks.PID(kp=, ti=, td=, reverse=).
+    """
     from . import pid_rules as r
 
     try:
@@ -207,7 +211,7 @@ def tune_pid(
             tun = r.lambda_tuning(gain, time_constant, dead_time, lam=tau_c, controller=controller)
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
-    out = {"kp": tun.kp, "ti": tun.ti, "td": tun.td, "rule": tun.rule, "form": tun.form}
+    out = {**tun.as_kwargs(), "rule": tun.rule, "form": tun.form}
     if tun.note:
         out["note"] = tun.note
     _emit(out, as_json, f"PID ({tun.rule}, {tun.form} form)")

@@ -5,9 +5,12 @@ All results are for the ISA ("standard", "ideal", non-interacting) form that
 
     u = kp (e + 1/ti * integral(e) dt + td * de/dt)
 
-``ti = 0`` means no integral action, ``td = 0`` no derivative action.  A rule
+``ti = 0`` means no integral action, ``td = 0`` no derivative action.  The
+PID block wants ``kp > 0`` and ``reverse=True`` for a negative action:
+:meth:`PIDTuning.as_kwargs` gives exactly that.  A rule
 given in series (interacting) form ``kc (1 + 1/(tau_I s)) (1 + tau_D s)`` is
-converted with (seed 004, Åström 1987, (2.5))::
+converted with (seed 004, Åström 1987, (2.5);
+:func:`ctrlblocks.blocks.pid_forms.series_to_isa`)::
 
     kp = kc (1 + tau_D/tau_I),  ti = tau_I + tau_D,  td = tau_I tau_D / (tau_I + tau_D)
 
@@ -63,6 +66,7 @@ from ..blocks.base import (
     require_nonnegative,
     require_positive,
 )
+from ..blocks.pid_forms import series_to_isa
 from .identify import FOPDT, SOPDT
 
 __all__ = [
@@ -70,7 +74,6 @@ __all__ = [
     "amigo",
     "lambda_tuning",
     "pid_from_model",
-    "series_to_isa",
     "simc",
     "tyreus_luyben",
     "ziegler_nichols_closed",
@@ -87,7 +90,8 @@ class PIDTuning:
     Attributes
     ----------
     kp : float
-        Proportional gain [MV unit / PV unit].
+        Proportional gain [MV unit / PV unit]; negative for a negative
+        process gain (see :meth:`as_kwargs`).
     ti : float
         Integral time [s]; 0 = no integral action.
     td : float
@@ -107,21 +111,14 @@ class PIDTuning:
     form: str = "ISA"
     note: str = ""
 
-    def as_kwargs(self) -> dict[str, float]:
-        """``{"kp", "ti", "td"}``: pass as ``ctrlblocks.PID(**tuning.as_kwargs(), ...)``."""
-        return {"kp": self.kp, "ti": self.ti, "td": self.td}
+    def as_kwargs(self) -> dict[str, float | bool]:
+        """Keyword arguments for ``ctrlblocks.PID(**tuning.as_kwargs(), ts=..., ...)``.
 
-
-def series_to_isa(kc: float, tau_i: float, tau_d: float) -> tuple[float, float, float]:
-    """Series (interacting) PID to ISA form (seed 004, Åström 1987, (2.5)).
-
-    ``kp = kc (1 + tau_D/tau_I)``, ``ti = tau_I + tau_D``,
-    ``td = tau_I tau_D/(tau_I + tau_D)``.  With ``tau_I = 0`` (no integral
-    action) the series form is ``kc (1 + tau_D s)``: returned unchanged.
-    """
-    if tau_i == 0.0 or tau_d == 0.0:
-        return kc, tau_i, tau_d
-    return kc * (1.0 + tau_d / tau_i), tau_i + tau_d, tau_i * tau_d / (tau_i + tau_d)
+        ``{"kp": |kp|, "ti", "td", "reverse": kp < 0}``: the PID block takes a
+        positive gain and a ``reverse`` flag for a negative process gain
+        (seed 002 ``ixInverted``).
+        """
+        return {"kp": abs(self.kp), "ti": self.ti, "td": self.td, "reverse": self.kp < 0.0}
 
 
 def simc(
@@ -148,8 +145,8 @@ def simc(
         converted to ISA form.
     tau_c : float, optional
         Desired closed-loop time constant [s]; default ``L`` (Skogestad's
-        "tight control"; if ``L = 0`` the default is ``T/10``... set it
-        explicitly for a delay-free model).
+        "tight control"); for a model without dead time ``T/10`` (a
+        ctrlblocks choice: set it explicitly for a delay-free model).
     integrating : bool
         Use the integrating-process rule ``kc = 1/(k (tau_c + L))``,
         ``tau_I = 4 (tau_c + L)``.
