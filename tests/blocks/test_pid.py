@@ -183,3 +183,14 @@ def test_bad_dt_holds_the_output_with_no_cycle(dt: float) -> None:
     now.pop("error_id")
     assert now == snap
     assert pid(1.0, 0.0) != u and pid.error_id == 0
+
+
+def test_numpy_inputs_give_plain_float_outputs_and_states() -> None:
+    pid = PID(kp=1.0, ti=1.0, td=0.2, ts=0.1)
+    pid.manual, pid.manual_value = True, np.float64(3.0)
+    pid(np.float64(1.0), np.float64(0.5), ff=np.float64(0.1))
+    pid.manual = False
+    u = pid(np.float64(1.0), np.float64(0.5), ff=np.float64(0.1), dv=np.float64(0.0))
+    assert type(u) is float
+    for name in ("out", "p", "i", "d", "ff", "e", "manual_value", "_i", "_d", "_w_prev"):
+        assert type(getattr(pid, name)) is float, name

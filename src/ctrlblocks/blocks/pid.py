@@ -666,10 +666,10 @@ class PID(Block):
             ok, bad = False, ErrorCode.BAD_MEASUREMENT
         target: float | None = None  # output target of a non-auto mode
         if mode == Mode.MANUAL:
-            target = self.manual_value if is_finite(self.manual_value) else out_prev
+            target = float(self.manual_value) if is_finite(self.manual_value) else out_prev
             ok = ok and is_finite(self.manual_value)
         elif mode == Mode.TRACK:
-            target = self.track_value if is_finite(self.track_value) else out_prev
+            target = float(self.track_value) if is_finite(self.track_value) else out_prev
             ok = ok and is_finite(self.track_value)
         elif mode == Mode.HOLD:
             target = out_prev
