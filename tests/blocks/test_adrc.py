@@ -540,3 +540,238 @@ def test_euler_limit_is_where_a_pole_first_decays_slower_than_half_the_bandwidth
     grid = np.linspace(0.01, lim, 200)
     assert all(worst(a) <= 1.0 for a in grid)
     assert worst(lim + 0.002) > 1.0
+
+
+# ---------------------------------------------------------------------------
+# Two-phase form, u_real (section 5)
+# ---------------------------------------------------------------------------
+
+
+def test_compute_output_is_idempotent_and_commits_only_on_update_state() -> None:
+    block = make(2, u_max=5.0)
+    for k in range(30):
+        block(1.0, 0.01 * k)
+    x = block.x
+    v1 = block.compute_output(1.0, 0.4)
+    v2 = block.compute_output(1.0, 0.4)
+    assert v1 == v2 and block.x == x
+    block.compute_output(3.0, 0.1)  # another candidate, then the real one
+    v3 = block.compute_output(1.0, 0.4)
+    assert v3 == v1
+    block.update_state(v3)
+    assert block.x != x
+    x2 = block.x
+    block.update_state(0.0)  # no pending cycle: nothing happens
+    assert block.x == x2
+
+
+def test_call_equals_compute_output_plus_update_state_with_own_output() -> None:
+    a, b = make(3, u_min=0.0, u_max=5.0), make(3, u_min=0.0, u_max=5.0)
+    for r, y in _inputs(150):
+        ua = a(3 * r, y)
+        ub = b.compute_output(3 * r, y)
+        b.update_state(ub)
+        assert ua == ub
+    assert a.snapshot() == b.snapshot()
+
+
+def test_u_real_drives_the_eso_like_an_applied_value() -> None:
+    a = make(2, u_real_on=True)
+    b = make(2)
+    for k, (r, y) in enumerate(_inputs(100)):
+        u_act = 0.5 * math.sin(0.2 * k)
+        ua = a(r, y, u_real=u_act)
+        ub = b.compute_output(r, y)
+        b.update_state(u_act)
+        assert ua == ub
+    assert a.x == b.x
+
+
+def test_u_real_on_with_slow_actuator_is_offset_free_and_x4_sees_the_real_u() -> None:
+    n = 2
+    b0 = TABLE2[n][0]
+    block = make(n, u_min=0.0, u_max=5.0, u_real_on=True)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    act = 0.0  # actuator: first-order lag, 2 s
+    a = math.exp(-TS / 2.0)
+    for _ in range(3000):
+        u = block(2.0, plant.y, u_real=act)
+        act = a * act + (1 - a) * u
+        plant.step(act - 0.3)
+    assert plant.y == pytest.approx(2.0, abs=1e-5)
+    assert block.x[3] == pytest.approx(-b0 * act, abs=1e-6)
+
+
+def test_missing_u_real_falls_back_to_own_output_with_bad_input() -> None:
+    a, b = make(2, u_real_on=True), make(2)
+    ua = a(1.0, 0.0, u_real=None)
+    ub = b(1.0, 0.0)
+    assert ua == ub and a.error_id == ErrorCode.BAD_INPUT
+    a(1.0, 0.1, u_real=math.nan)
+    b(1.0, 0.1)
+    assert a.x == b.x
+    a.update_state(math.nan)  # no pending cycle: ignored
+
+
+def test_external_saturation_through_update_state_keeps_the_loop_offset_free() -> None:
+    # the block without limits, an external saturation at 0..5 (seed 004, section 6)
+    block = make(2)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    for k in range(3000):
+        v = block.compute_output(3.0 if k < 1500 else 1.0, plant.y)
+        applied = min(max(v, 0.0), 5.0)
+        block.update_state(applied)
+        plant.step(applied)
+    assert plant.y == pytest.approx(1.0, abs=1e-5)
+    assert block.x[3] == pytest.approx(-0.05 * applied, abs=1e-6)
+
+
+# ---------------------------------------------------------------------------
+# Reference trajectory, retuning
+# ---------------------------------------------------------------------------
+
+
+def test_reference_trajectory_is_a_first_order_filter_of_the_setpoint() -> None:
+    t_ref = 2.0
+    a = math.exp(-TS / t_ref)
+    block = make(2, t_ref=t_ref)
+    plain = make(2)
+    for k in range(60):
+        sp = 1.0 if k >= 10 else 0.0
+        u = block(sp, 0.0)
+        expected = 1.0 - a ** (k - 9) if k >= 10 else 0.0
+        assert block.y_ref == pytest.approx(expected, abs=1e-12)
+        # the law uses y_ref in place of the setpoint
+        assert u == pytest.approx(plain(expected, 0.0), abs=1e-12)
+        assert block.e == sp  # e = sp - y
+
+
+def test_reference_trajectory_starts_from_the_measurement_after_manual() -> None:
+    block = make(2, t_ref=2.0)
+    block.manual = True
+    block.u_man = 1.0
+    for _ in range(5):
+        block(3.0, 0.7)
+    assert block.y_ref == 0.7
+    block.manual = False
+    block(3.0, 0.7)
+    a = math.exp(-TS / 2.0)
+    assert block.y_ref == pytest.approx(a * 0.7 + (1 - a) * 3.0, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"b0": 0.08},
+        {"omega_c": 0.5},
+        {"omega_o": 1.2},
+        {"order": 3, "b0": 0.025},
+        {"order": 1, "b0": 0.3, "omega_o": 0.9, "omega_c": 0.3},
+        {"discretisation": "exact"},
+    ],
+)
+def test_online_retuning_is_bumpless(change: dict) -> None:
+    block = make(2, u_min=0.0, u_max=5.0)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    for _ in range(60):  # in the transient of a setpoint step
+        u = block(2.0, plant.y)
+        plant.step(u)
+    block.configure(**change)
+    u_new = block(2.0, plant.y)
+    assert abs(u_new - u) < 1e-9
+    plant.step(u_new)
+    for _ in range(3000):
+        plant.step(block(2.0, plant.y))
+    assert plant.y == pytest.approx(2.0, abs=1e-4)
+    if block.config.order < 3:
+        assert block.x[2] == 0.0
+
+
+def test_limits_change_is_not_a_retune() -> None:
+    block = make(2)
+    for _ in range(5):
+        block(1.0, 0.0)
+    block.configure(u_max=0.5)
+    assert block.u_max == 0.5
+    assert block(1.0, 0.0) == 0.5
+
+
+# ---------------------------------------------------------------------------
+# Derivative anti-backoff (section 4.3, Fig. 1 conditions)
+# ---------------------------------------------------------------------------
+
+
+def _fig1(anti_backoff: bool) -> tuple[np.ndarray, np.ndarray, ADRC]:
+    """(10b), n = 3, b0 = 0.023, wo = 1.75, wc = 0.35, Y_sat = 1.9, load at t = 10 s."""
+    u_ss = 1.8 / K10B
+    block = ADRC(
+        order=3,
+        b0=0.023,
+        omega_o=1.75,
+        omega_c=0.35,
+        ts=TS,
+        u_min=0.0,
+        u_max=5.0,
+        u0=u_ss,
+        anti_backoff=anti_backoff,
+        y_sat=1.9,
+    )
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    plant.reset(u_ss)
+    ys, us = [], []
+    for k in range(700):
+        y = plant.y
+        u = block(1.8, min(y, 1.9))
+        plant.step(u + (1.5 if k >= 100 else 0.0))
+        ys.append(y)
+        us.append(u)
+    return np.array(ys), np.array(us), block
+
+
+def test_anti_backoff_removes_the_jump_when_the_sensor_saturates() -> None:
+    ys, us, _ = _fig1(False)
+    ys_ab, us_ab, _ = _fig1(True)
+    reach = int(np.argmax(ys >= 1.9))
+    assert reach == int(np.argmax(ys_ab >= 1.9)) == 142  # t = 14.2 s
+    # without: derivative backoff kicks u by more than 0.5 within two samples
+    assert abs(us[reach + 1] - us[reach - 1]) > 0.5
+    # with (12a)/(12b): no jump at all in the cycle the saturation is reached
+    assert abs(us_ab[reach] - us_ab[reach - 1]) < 1e-9
+    assert np.max(np.abs(np.diff(us_ab))) < 0.12 < np.max(np.abs(np.diff(us)))
+    assert ys_ab.max() < 2.05 < ys.max()
+
+
+def test_anti_backoff_holds_u_for_tau_wait_after_the_return() -> None:
+    ys, us, _ = _fig1(True)
+    back = 142 + int(np.argmax(ys[142:] < 1.9))
+    assert back == 323
+    n_wait = round(3.5 / 1.75 / TS)  # tau_wait = 3.5 / omega_o = 2 s = 20 samples
+    # held for the 20 samples of tau_wait and the bumpless cycle that ends it
+    assert np.all(us[back : back + n_wait + 1] == us[back - 1])
+    assert us[back + n_wait + 1] != us[back - 1]
+
+
+def test_anti_backoff_states_satisfy_4b_and_rest_of_4a() -> None:
+    from ctrlblocks.blocks.adrc import anti_backoff_states, control_law
+
+    for n in (1, 2, 3):
+        l1, l2, l3, l4, kp, kd1, kd2 = hand_gains(n, 0.35, 1.75)
+        p1, p2, k1, k2, k3 = SWITCHES[n]
+        b0, r, ysat, u_prev = 0.023, 1.8, 1.9, 2.7
+        yh, x2, x3, x4 = anti_backoff_states(
+            ysat, r, u_prev, l1, l2, l3, l4, b0, kp, kd1, kd2, p1, p2, k1, k2, k3
+        )
+        assert control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2) == pytest.approx(u_prev, abs=1e-12)
+        e, aux = ysat - yh, x4 + b0 * u_prev
+        # increments of x3, x2, Y_hat in (4a) vanish at Y = Y_sat
+        assert l3 * e + k3 * aux == pytest.approx(0.0, abs=1e-12)
+        assert p2 * x3 + l2 * e + k2 * aux == pytest.approx(0.0, abs=1e-12)
+        assert p1 * x2 + l1 * e + k1 * aux == pytest.approx(0.0, abs=1e-12)
+        gamma = p1 * kd1 * l1 + p2 * kd2 * l2 + k1 * l1 + k2 * l2 + k3 * l3
+        assert yh == pytest.approx((kp * r + gamma * ysat) / (kp + gamma), rel=1e-15)
+
+
+def test_non_boolean_switch_is_a_bad_parameter() -> None:
+    with pytest.raises(ParameterError) as info:
+        make(2, u_real_on="yes")
+    assert info.value.code == ErrorCode.BAD_PARAMETER

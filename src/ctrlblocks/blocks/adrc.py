@@ -142,6 +142,7 @@ __all__ = [
     "ADRCConfig",
     "adrc_gains",
     "adrc_switches",
+    "anti_backoff_states",
     "control_law",
     "eso_euler",
     "eso_exact",
@@ -345,6 +346,53 @@ def solve_x4(
     """
     d = (u_target - u_law) / s_u
     return yh + s_yh * d, x2 + s_x2 * d, x3 + s_x3 * d, x4 + d
+
+
+def anti_backoff_states(
+    y_sat: float,
+    r: float,
+    u_prev: float,
+    l1: float,
+    l2: float,
+    l3: float,
+    l4: float,
+    b0: float,
+    kp: float,
+    kd1: float,
+    kd2: float,
+    p1: float,
+    p2: float,
+    k1: float,
+    k2: float,
+    k3: float,
+) -> tuple[float, float, float, float]:
+    """ESO states when Y reaches the sensor saturation ``y_sat``: (12a)/(12b) of seed 000.
+
+    Re-derived from (4a) (section 4.3): with Y frozen at ``y_sat`` the ESO is
+    put at rest, i.e. the increments of Y_hat, x2 and x3 in (4a) vanish:
+
+    * ``p1 x2 + l1 e + k1 aux = 0``  ->  ``x2 = -p1 (l1 e + k1 aux)``,
+    * ``p2 x3 + l2 e + k2 aux = 0``  ->  ``x3 = -p2 (l2 e + k2 aux)``,
+    * ``k1 l1 e + k2 l2 e + k3 l3 e + (k1 + k2 + k3) aux = 0`` (the equation of
+      the state that receives aux) -> ``x4 = -(k1 l1 + k2 l2 + k3 l3) e
+      - (k1 + k2 + k3) b0 u_prev``,
+
+    with ``e = y_sat - Y_hat`` and ``aux = x4 + b0 u_prev``.  (The extraction
+    of (12a) prints ``- k aux`` inside the brackets; the sign is immaterial
+    because ``p1 k1 = p2 k2 = 0`` for every n.)  Inserting them in (4b) and
+    asking ``u_i = u_{i-1}`` gives ``kp (r - Y_hat) + Gamma e = 0`` with
+    ``Gamma = p1 kd1 l1 + p2 kd2 l2 + k1 l1 + k2 l2 + k3 l3``, hence (12b)
+    ``Y_hat = (kp r + Gamma y_sat) / (kp + Gamma)``.  The same ``e`` (with
+    this Y_hat) is used in (12a), so that u does not jump at all.
+    """
+    gamma = p1 * kd1 * l1 + p2 * kd2 * l2 + k1 * l1 + k2 * l2 + k3 * l3
+    yh = (kp * r + gamma * y_sat) / (kp + gamma)
+    e = y_sat - yh
+    x4 = -(k1 * l1 + k2 * l2 + k3 * l3) * e - (k1 + k2 + k3) * b0 * u_prev
+    aux = x4 + b0 * u_prev
+    x3 = -p2 * (l2 * e + k2 * aux)
+    x2 = -p1 * (l1 * e + k1 * aux)
+    return yh, x2, x3, x4
 
 
 def _clamp(u: float, lo: float, hi: float) -> float:
@@ -895,8 +943,30 @@ class ADRC(Block):
                         yh, x2, x3, x4, self._u_prev, yf, 0.0, *self._eso_coef
                     )
                     u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+                end_wait = False
+                if self._config.anti_backoff:
+                    c = self._config
+                    now = 1 if yf >= c.y_sat else -1 if yf <= c.y_sat_lo else 0
+                    if now != 0 and ab_sat == 0:
+                        # Y has just reached the sensor saturation: (12a)/(12b)
+                        ysat = float(c.y_sat if now > 0 else c.y_sat_lo)
+                        yh, x2, x3, x4 = anti_backoff_states(
+                            ysat, ref, self._u_prev, *self._gains[:4], *self._law, *self._switches
+                        )
+                        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+                        ab_wait = 0.0
+                    elif now == 0 and ab_sat != 0:
+                        ab_wait = self._tau_wait  # Y has left the saturation
+                    ab_sat = now
+                    if ab_wait > 0.0:
+                        # hold u for tau_wait while the ESO converges (section 4.3)
+                        u_raw = _clamp(self._u_prev, lo, hi)
+                        ab_wait = max(ab_wait - h, 0.0)
+                        if ab_wait < 1e-9 * h:
+                            ab_wait = 0.0
+                            end_wait = True
                 u = _clamp(u_raw, lo, hi)
-                track_next = False
+                track_next = end_wait  # leave the wait bumplessly, x4 by (11)
             awout = (u_raw > hi or u_raw < lo) and not tracking
             sat = (1 if u_raw > hi else -1 if u_raw < lo else 0) if not tracking else 0
             y_out = yf
