@@ -194,3 +194,25 @@ def test_numpy_inputs_give_plain_float_outputs_and_states() -> None:
     assert type(u) is float
     for name in ("out", "p", "i", "d", "ff", "e", "manual_value", "_i", "_d", "_w_prev"):
         assert type(getattr(pid, name)) is float, name
+
+
+def test_compute_output_again_with_other_inputs_replaces_the_first_attempt() -> None:
+    kw = dict(kp=1.0, ti=1.0, td=0.2, ts=0.1, u_min=-10, u_max=10, sp_filter=0.5, sp_rate=2.0)
+    a, b = PID(**kw), PID(**kw)
+    for k in range(10):
+        a(1.0, _pv(k))
+        b(1.0, _pv(k))
+    a.compute_output(5.0, 3.0, ff=1.0)  # a first attempt, then the real inputs
+    v = a.compute_output(2.0, 0.4)
+    a.update_state(v)
+    assert v == b(2.0, 0.4)
+    assert a.snapshot() == b.snapshot()
+
+
+def test_per_call_dt_is_the_integration_step() -> None:
+    pid = PID(kp=2.0, ti=4.0, ts=0.1, u_min=-100, u_max=100, integral_method="backward")
+    pid(1.0, 0.0)
+    pid(1.0, 0.0, dt=0.5)  # backward Euler: + K dt/Ti e = 2 * 0.5/4 * 1
+    assert pid.i == pytest.approx(0.25, abs=1e-12)
+    pid(1.0, 0.0)  # back to ts
+    assert pid.i == pytest.approx(0.30, abs=1e-12)
