@@ -14,6 +14,7 @@ REFUSED = [
     ({"u_min": 80.0, "u_max": 20.0}, ErrorCode.BAD_LIMITS),  # ERR_BAD_LIMITS
     ({"u_min": math.nan}, ErrorCode.BAD_LIMITS),
     ({"pv_range": (5.0, 5.0)}, ErrorCode.BAD_LIMITS),
+    ({"pv_range": (10.0, 0.0)}, ErrorCode.BAD_LIMITS),
     ({"bumpless": "track_setpoint", "sp_rate": 0.0}, ErrorCode.CANT_TRACK_SETP),
     ({"sp_rate": -1.0}, ErrorCode.BAD_RATE),  # ERR_BAD_RATE
     ({"out_rate": -0.5}, ErrorCode.BAD_RATE),

@@ -303,8 +303,10 @@ class PIDConfig(BlockConfig):
                 ) from None
             lo = require_finite("pv_range", lo, ErrorCode.BAD_LIMITS)
             hi = require_finite("pv_range", hi, ErrorCode.BAD_LIMITS)
-            if lo == hi:
-                raise ParameterError(ErrorCode.BAD_LIMITS, "pv_range", "range is empty")
+            if not lo < hi:
+                raise ParameterError(
+                    ErrorCode.BAD_LIMITS, "pv_range", f"needs lo < hi, got {self.pv_range!r}"
+                )
         require_nonnegative("sp_filter", self.sp_filter, ErrorCode.BAD_TIME_CONSTANT)
         require_nonnegative("pv_filter", self.pv_filter, ErrorCode.BAD_TIME_CONSTANT)
         require_nonnegative("sp_rate", self.sp_rate, ErrorCode.BAD_RATE)
