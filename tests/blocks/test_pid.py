@@ -216,3 +216,27 @@ def test_per_call_dt_is_the_integration_step() -> None:
     assert pid.i == pytest.approx(0.25, abs=1e-12)
     pid(1.0, 0.0)  # back to ts
     assert pid.i == pytest.approx(0.30, abs=1e-12)
+
+
+def test_clamping_also_stops_the_integrator_while_the_output_ramp_limits() -> None:
+    pid = PID(kp=1.0, ti=1.0, ts=0.1, u_min=-100, u_max=100, out_rate=1.0)  # 0.1 per cycle
+    pid(0.0, 0.0)
+    for k in range(1, 30):
+        u = pid(10.0, 0.0)  # wants 10 + I: the ramp holds it back
+        assert u == pytest.approx(0.1 * k, abs=1e-12) and pid.limits_active
+        assert pid.i == 0.0
+    free = PID(
+        kp=1.0,
+        ti=1.0,
+        ts=0.1,
+        u_min=-100,
+        u_max=100,
+        out_rate=1.0,
+        anti_windup="back_calc_model",
+        tt=1e9,
+    )
+    free(0.0, 0.0)
+    for _ in range(29):
+        free(10.0, 0.0)
+    # trapezoid: 0.1 (0 + 10)/2 in the step cycle, then 0.1 * 10 per cycle: winds up
+    assert free.i == pytest.approx(0.5 + 28 * 1.0, rel=1e-8)

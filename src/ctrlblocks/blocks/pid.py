@@ -83,7 +83,8 @@ class AntiWindup:
 
     CLAMPING = "clamping"
     """Conditional integration: stop integrating while the output is limited
-    and the error drives it further into the limit (seed 002 2.3.12)."""
+    (by ``u_min``/``u_max`` or by the output ramp) and the error drives it
+    further into the limit (seed 002 2.3.12)."""
     BACK_CALC_MODEL = "back_calc_model"
     """Back-calculation with an actuator model (limits + output ramp), time
     constant ``tt`` (seed 002 2.3.12; seed 004 Fig. 3.2 B)."""
@@ -160,6 +161,16 @@ def clamping_blocks(di: float, v: float, lo: float, hi: float) -> bool:
     """Conditional integration (seed 002 CLAMPING): True if the increment ``di``
     would drive the limited output ``v`` further into its limit."""
     return (v > hi and di > 0.0) or (v < lo and di < 0.0)
+
+
+def ramp_blocks(di: float, v: float, y_prev: float, step_max: float) -> bool:
+    """Conditional integration at the output ramp: True if the ramp (largest step
+    ``step_max`` per cycle, 0 = no ramp) holds the output back in the direction
+    the increment ``di`` pushes."""
+    if step_max <= 0.0:
+        return False
+    step = v - y_prev
+    return (step > step_max and di > 0.0) or (step < -step_max and di < 0.0)
 
 
 def tracking_gain(h: float, tt: float) -> float:
@@ -763,10 +774,12 @@ class PID(Block):
             else:
                 di = integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
                 i_k = self._i + di
-                if c.anti_windup == AntiWindup.CLAMPING and clamping_blocks(
-                    di, p_used + i_k + d + ff_tot, lo, hi
-                ):
-                    i_k = self._i
+                if c.anti_windup == AntiWindup.CLAMPING:
+                    v = p_used + i_k + d + ff_tot
+                    if clamping_blocks(di, v, lo, hi) or ramp_blocks(
+                        di, clamp(v, lo, hi), subs["_out_ramp"].out, c.out_rate * h
+                    ):
+                        i_k = self._i
             self._c_i = i_k
             v_raw = p_used + i_k + d + ff_tot
         return self._finish(v_raw, None, h)
