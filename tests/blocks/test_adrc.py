@@ -256,13 +256,19 @@ def test_exact_controller_gains_tend_to_gao_gains_for_fast_sampling() -> None:
     assert (g["kp"], g["kd1"], g["kd2"]) == pytest.approx((1.0, 3.0, 3.0), rel=1e-3)
 
 
-def test_exact_observer_gains_match_herbst_closed_form_for_n1() -> None:
-    # Herbst (2013), current observer n = 1: Lc = (1 - beta^2, (1 - beta)^2 / ts)
+@pytest.mark.parametrize("n", [1, 2])
+def test_exact_observer_gains_match_herbst_closed_forms(n: int) -> None:
+    # Herbst (2013), current observer: n = 1: (1 - b^2, (1 - b)^2 / T);
+    # n = 2: (1 - b^3, 3/(2T) (1 - b)^2 (1 + b), (1 - b)^3 / T^2), b = exp(-wo T)
     wo, ts = 2.0, 0.1
-    beta = math.exp(-wo * ts)
-    block = ADRC(order=1, b0=1.0, omega_c=0.5, omega_o=wo, ts=ts, discretisation="exact")
-    c0, c3 = block._eso_coef[9], block._eso_coef[12]
-    assert (c0, c3) == pytest.approx((1 - beta**2, (1 - beta) ** 2 / ts), rel=1e-12)
+    be = math.exp(-wo * ts)
+    block = ADRC(order=n, b0=1.0, omega_c=0.5, omega_o=wo, ts=ts, discretisation="exact")
+    c0, c1, c2, c3 = block._eso_coef[9:]
+    if n == 1:
+        expected = (1 - be**2, 0.0, 0.0, (1 - be) ** 2 / ts)
+    else:
+        expected = (1 - be**3, 1.5 * (1 - be) ** 2 * (1 + be) / ts, 0.0, (1 - be) ** 3 / ts**2)
+    assert (c0, c1, c2, c3) == pytest.approx(expected, rel=1e-12, abs=1e-15)
 
 
 # ---------------------------------------------------------------------------

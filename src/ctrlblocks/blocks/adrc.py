@@ -761,6 +761,11 @@ class ADRC(Block):
         if self._warn:
             self.error_id = ErrorCode.WARN_DISCRETISATION
 
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped."""
+        super().restore(snapshot)
+        self._pending = None
+
     # -- inputs and outputs ----------------------------------------------------
 
     @property
