@@ -28,7 +28,8 @@ Structures (``scenario.structure``)
     primary controller's output is the secondary's setpoint; the secondary's
     ``awout`` (at a limit) is written to the primary's ``awin`` before the
     primary updates its state (the AW handshake of seed 000, section 5, and
-    seed 004, section 3 "Cascade Control").
+    seed 004, section 3 "Cascade Control"); ``aw_handshake = false`` in the
+    controller entry leaves it out, for comparison.
 ``override``
     two or more controllers, each on ``y`` or ``y2``; a min (or max) selector
     picks the applied ``u`` and every controller tracks it (seed 004,
@@ -427,7 +428,7 @@ class _Simulation:
             u = v
             q.update(u)
             prim, sec = self.blocks["primary"], self.blocks["secondary"]
-            if hasattr(prim, "awin"):
+            if hasattr(prim, "awin") and self.ctrl_spec.options.get("aw_handshake", True):
                 prim.awin = bool(getattr(sec, "awout", False))
             p.update(v1)
             self.inner.step(u)

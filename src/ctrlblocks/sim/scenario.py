@@ -509,7 +509,13 @@ class _Parser:
                 )
                 blocks: dict[str, Any] = {"main": spec}
             elif structure == "cascade":
-                self.check_keys(e, {"name", "color", "style", "primary", "secondary"}, key)
+                self.check_keys(
+                    e, {"name", "color", "style", "primary", "secondary", "aw_handshake"}, key
+                )
+                hs = e.get("aw_handshake", True)
+                if not isinstance(hs, bool):
+                    raise self.fail(f"{key}.aw_handshake", f"must be true or false, got {hs!r}")
+                options["aw_handshake"] = hs
                 blocks = {
                     role: self.block_spec(
                         self.table(e, role, f"{key}.{role}", True),
