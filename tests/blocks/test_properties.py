@@ -32,6 +32,8 @@ from ctrlblocks import (
     deadband,
 )
 
+from .test_contract import CASES
+
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, allow_infinity=False)
@@ -219,10 +221,6 @@ def _make(name: str) -> Block:
     """The block from MAKERS, else from the contract test's CASES, else with its defaults."""
     maker = MAKERS.get(name)
     if maker is None:
-        try:
-            from test_contract import CASES  # sibling module (pytest puts its folder on sys.path)
-        except ImportError:  # pragma: no cover - other import modes
-            CASES = {}
         case = CASES.get(name)
         maker = case.make if case is not None else getattr(ctrlblocks, name)
     return maker()
