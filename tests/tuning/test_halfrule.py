@@ -109,3 +109,15 @@ def test_impossible_inputs_are_refused_with_a_code(args, code):
     with pytest.raises(ParameterError) as info:
         inverse_half_rule(*args)
     assert info.value.code == code
+
+
+def test_table2_estimates_come_from_one_fopdt_of_the_real_setup():
+    # Seed 000 Table 2 prints the b0 estimates for the pneumatic setup but not
+    # its FOPDT.  The four numbers (n = 1: 0.099, n = 2: 0.025, n = 3:
+    # [0.025, 0.13]) are all reproduced by one FOPDT, found by least squares:
+    # k = 0.859, T = 8.665 s, T0 = 3.086 s.
+    k, T, T0 = 0.859, 8.665, 3.086
+    assert round(inverse_half_rule(k, T, T0, 1).b0, 3) == 0.099
+    assert round(inverse_half_rule(k, T, T0, 2).b0, 3) == 0.025
+    r3 = inverse_half_rule(k, T, T0, 3)
+    assert (round(r3.b0_min, 3), round(r3.b0_max, 2)) == (0.025, 0.13)

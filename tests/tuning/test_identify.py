@@ -268,3 +268,13 @@ def test_sample_bump_test_file_identifies_process_10b():
     assert m.gain == pytest.approx(0.73, rel=0.01)
     s = fit_sopdt(d.t, d.u, d.y)
     assert s.fit < m.fit  # the third-order process is better described by SOPDT
+
+
+def test_lsq_with_a_noisy_measured_mv_is_fast_and_accurate():
+    t = np.arange(0.0, 600.0, 0.2)  # 3000 samples, the MV "changes" at every one
+    rng = np.random.default_rng(3)
+    u = np.where(t >= 50.0, 3.0, 1.0)
+    y = FOPDT(2.0, 15.0, 4.2, u0=1.0, y0=3.0).response(t, u) + rng.normal(0.0, 0.04, len(t))
+    m = fit_fopdt(t, u + rng.normal(0.0, 0.01, len(t)), y)
+    assert (m.gain, m.time_constant, m.dead_time) == pytest.approx((2.0, 15.0, 4.2), rel=0.03)
+    assert m.warnings == []

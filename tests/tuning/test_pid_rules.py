@@ -120,3 +120,11 @@ def test_bad_model_or_option_is_refused(call):
     with pytest.raises(ParameterError) as info:
         call()
     assert info.value.code in (ErrorCode.BAD_PARAMETER, ErrorCode.BAD_TIME_CONSTANT)
+
+
+def test_amigo_pid_sets_the_setpoint_weight_by_normalised_dead_time():
+    assert amigo(K, T, L).b == 0.0  # L/(L+T) = 0.17 <= 0.5
+    assert amigo(K, 1.0, 3.0).b == 1.0  # 0.75 > 0.5
+    assert amigo(K, T, L).as_kwargs()["b"] == 0.0
+    assert amigo(K, T, L, controller="pi").b is None
+    assert "b" not in simc(K, T, L).as_kwargs()

@@ -74,8 +74,8 @@ _log = logging.getLogger(__name__)
 MIN_SAMPLES = 10
 """Fewest samples a record must have."""
 
-_MAX_CHANGES = 2000
-"""Above this many MV changes the MV is quantised (0.1 % of its range) to keep the fit fast."""
+_MAX_CHANGES = 400
+"""Above this many MV changes (a noisy measured MV) the MV is simplified, see :func:`_changes`."""
 
 
 # ---------------------------------------------------------------------------
@@ -622,7 +622,8 @@ def _finish(model, t, u, y, settle, p):
     warnings = []
     fit = _nrmse(y, model.response(t, u))
     if settle is not None:
-        t_last = _changes(t, u)[0][-1]
+        tk, duk = _changes(t, u)
+        t_last = tk[np.abs(duk) >= 0.1 * np.max(np.abs(duk))][-1]  # last real move
         if t[-1] - t_last < settle:
             warnings.append(_short_record(t[-1] - t_last, settle))
     if any(p["at_bound"]):
@@ -667,16 +668,35 @@ def _ramp(s):
 
 
 def _changes(t: NDArray, u: NDArray) -> tuple[NDArray, NDArray]:
-    """Times and sizes of the MV changes (the MV switches at the sample time)."""
+    """Times and sizes of the MV changes (the MV switches at the sample time).
+
+    The cost of the exact superposition grows with the number of changes.  A
+    measured MV with noise changes at every sample; above ``_MAX_CHANGES``
+    changes it is replaced by a hysteresis-quantised copy (a new level only
+    when the MV leaves a band of +-delta around the held one; delta starts at
+    0.5 % of the MV range and doubles until few enough changes remain).  This
+    filters MV measurement noise and keeps every real move larger than 2 delta.
+    """
     du = np.diff(u)
     rng = float(np.ptp(u))
     keep = np.abs(du) > 1e-12 * max(rng, 1e-300)
-    if np.count_nonzero(keep) > _MAX_CHANGES:
-        q = 1e-3 * rng
-        uq = np.round(u / q) * q
+    delta = 0.005 * rng
+    while np.count_nonzero(keep) > _MAX_CHANGES:
+        uq = _hysteresis_quantise(u, delta)
         du = np.diff(uq)
         keep = du != 0.0
+        delta *= 2.0
     return t[1:][keep], du[keep]
+
+
+def _hysteresis_quantise(u: NDArray, delta: float) -> NDArray:
+    out = np.empty_like(u)
+    level = float(u[0])
+    for i, x in enumerate(u.tolist()):
+        if abs(x - level) > delta:
+            level = x
+        out[i] = level
+    return out
 
 
 def _superpose_changes(t: NDArray, changes: tuple[NDArray, NDArray], theta: float, step) -> NDArray:

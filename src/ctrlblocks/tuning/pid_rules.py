@@ -32,7 +32,8 @@ AMIGO -- Åström & Hägglund, *Advanced PID Control*, ISA 2006, section 7.6
     PI:  ``kp = 0.15/k + (0.35 - L T/(L + T)^2) T/(k L)``,
     ``ti = 0.35 L + 13 L T^2/(T^2 + 12 L T + 7 L^2)``;
     PID: ``kp = (0.2 + 0.45 T/L)/k``, ``ti = (0.4 L + 0.8 T)/(L + 0.1 T) L``,
-    ``td = 0.5 L T/(0.3 L + T)``.
+    ``td = 0.5 L T/(0.3 L + T)``, with set-point weight ``b = 0`` for
+    ``L/(L + T) <= 0.5`` and ``b = 1`` above (returned as ``b``).
     Integrating: PI ``kp = 0.35/(k L)``, ``ti = 13.4 L``; PID ``kp = 0.45/(k L)``,
     ``ti = 8 L``, ``td = 0.5 L``.
 Ziegler-Nichols -- Ziegler & Nichols, *Optimum settings for automatic
@@ -102,6 +103,9 @@ class PIDTuning:
         Always ``"ISA"`` (series results are converted, see ``note``).
     note : str
         Remarks (conversion from series form, choices made).
+    b : float or None
+        Set-point weight of the proportional term when the rule prescribes
+        one (AMIGO); None otherwise (the PID block's default applies).
     """
 
     kp: float
@@ -110,15 +114,25 @@ class PIDTuning:
     rule: str
     form: str = "ISA"
     note: str = ""
+    b: float | None = None
 
     def as_kwargs(self) -> dict[str, float | bool]:
         """Keyword arguments for ``ctrlblocks.PID(**tuning.as_kwargs(), ts=..., ...)``.
 
-        ``{"kp": |kp|, "ti", "td", "reverse": kp < 0}``: the PID block takes a
-        positive gain and a ``reverse`` flag for a negative process gain
-        (seed 002 ``ixInverted``).
+        ``{"kp": |kp|, "ti", "td", "reverse": kp < 0}`` (plus ``"b"`` when
+        the rule sets a set-point weight): the PID block takes a positive gain
+        and a ``reverse`` flag for a negative process gain (seed 002
+        ``ixInverted``).
         """
-        return {"kp": abs(self.kp), "ti": self.ti, "td": self.td, "reverse": self.kp < 0.0}
+        out: dict[str, float | bool] = {
+            "kp": abs(self.kp),
+            "ti": self.ti,
+            "td": self.td,
+            "reverse": self.kp < 0.0,
+        }
+        if self.b is not None:
+            out["b"] = self.b
+        return out
 
 
 def simc(
@@ -193,8 +207,8 @@ def amigo(
 
     Formulas in the module docstring.  ``controller`` is ``"pi"`` or
     ``"pid"``.  The PID rule is stated for ``0.1 <= L/(L + T) <= 1`` (a note
-    is added outside); AMIGO pairs it with set-point weighting (b = 0 for
-    ``L/(L+T) <= 0.5``), which the ISA ``kp, ti, td`` here do not carry.
+    is added outside) and comes with the set-point weight ``b = 0`` for
+    ``L/(L+T) <= 0.5``, else 1 (in ``b``; the PI rule leaves ``b`` unset).
     """
     k = _gain(gain)
     L = require_positive("dead_time", dead_time, ErrorCode.BAD_TIME_CONSTANT)
@@ -203,7 +217,7 @@ def amigo(
     if integrating:
         if controller == "pi":
             return PIDTuning(0.35 / (k * L), 13.4 * L, 0.0, "amigo")
-        return PIDTuning(0.45 / (k * L), 8.0 * L, 0.5 * L, "amigo")
+        return PIDTuning(0.45 / (k * L), 8.0 * L, 0.5 * L, "amigo", b=0.0)  # tau = 0
     T = require_positive("time_constant", time_constant, ErrorCode.BAD_TIME_CONSTANT)
     if controller == "pi":
         kp = 0.15 / k + (0.35 - L * T / (L + T) ** 2) * T / (k * L)
@@ -215,7 +229,7 @@ def amigo(
     kp = (0.2 + 0.45 * T / L) / k
     ti = (0.4 * L + 0.8 * T) / (L + 0.1 * T) * L
     td = 0.5 * L * T / (0.3 * L + T)
-    return PIDTuning(kp, ti, td, "amigo", note=note)
+    return PIDTuning(kp, ti, td, "amigo", note=note, b=0.0 if tau <= 0.5 else 1.0)
 
 
 def ziegler_nichols_open(
