@@ -781,3 +781,30 @@ def test_non_boolean_switch_is_a_bad_parameter() -> None:
     with pytest.raises(ParameterError) as info:
         make(2, u_real_on="yes")
     assert info.value.code == ErrorCode.BAD_PARAMETER
+
+
+@pytest.mark.parametrize("disc", ["euler", "exact"])
+def test_per_call_dt_equals_a_block_configured_with_that_sample_time(disc: str) -> None:
+    a = make(3, discretisation=disc)
+    b = make(3, discretisation=disc, ts=0.05)
+    for r, y in _inputs(80):
+        assert a(r, y, dt=0.05) == pytest.approx(b(r, y), abs=1e-12)
+    assert a.x == pytest.approx(b.x, abs=1e-12)
+    c = make(3, omega_o=1.75, discretisation=disc)
+    c(1.0, 0.0, dt=1.0)  # omega_o dt = 1.75: outside every trusted range
+    assert c.error_id == ErrorCode.WARN_DISCRETISATION
+
+
+def test_numpy_inputs_leave_plain_floats_in_the_state() -> None:
+    block = make(2, u_real_on=True)
+    for k in range(5):
+        block(np.float64(1.0), np.float64(0.1 * k), y_ok=np.bool_(True), u_real=np.float64(0.2))
+    snap = block.snapshot()
+    for name in ("out", "u_raw", "e", "y", "y_ref", "_yh", "_x2", "_x3", "_x4", "_u_prev", "_ref"):
+        assert type(snap[name]) is float, name
+
+
+def test_negative_tau_wait_is_a_bad_time_constant() -> None:
+    with pytest.raises(ParameterError) as info:
+        make(3, anti_backoff=True, y_sat=1.9, tau_wait=-1.0)
+    assert info.value.code == ErrorCode.BAD_TIME_CONSTANT
