@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from ctrlblocks.sim import ScenarioResult, run_scenario
-from ctrlblocks.sim.report import load_shipped, shipped_scenarios
+from ctrlblocks.sim.report import load_shipped, shipped_scenarios, table1_inverse_half_rule
 
 VERDICTS: dict[str, list[bool]] = {
     "astrom_fig31_33": [True, True, True],
@@ -148,3 +148,9 @@ def test_nowak_fig7_adrc_moves_mv_least_but_loses_tracking_iae():
     assert iae["PID_FT"] < iae["PID_PT"] < iae["ADRC n=2"]
     dist = {c: r.metric(c, "disturbance", "iae") for c in ("ADRC n=2", "PID_PT", "PID_FT")}
     assert dist["ADRC n=2"] < dist["PID_FT"] < dist["PID_PT"]
+
+
+def test_table1_inverse_half_rule_matches_the_paper():
+    table, checks = table1_inverse_half_rule()
+    assert len(checks) == 6 and all(c.holds for c in checks), [c.detail for c in checks]
+    assert "| K2 (10b), inverse half-rule b0_min, n = 3 | 0.0236 | 0.02358 |" in table

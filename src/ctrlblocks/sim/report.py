@@ -9,6 +9,7 @@ checked on the metrics and marked as holding or not, honestly.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.resources
 from collections.abc import Sequence
 from pathlib import Path
@@ -18,7 +19,13 @@ from .results import slug
 from .runner import ScenarioResult, metric_table
 from .scenario import Scenario, load_scenario
 
-__all__ = ["REPORT_METRICS", "render_report", "shipped_scenarios"]
+__all__ = [
+    "REPORT_METRICS",
+    "TableCheck",
+    "render_report",
+    "shipped_scenarios",
+    "table1_inverse_half_rule",
+]
 
 REPORT_METRICS = ("iae", "ise", "itae", "overshoot", "settling_time", "tv_u", "max_rate_u")
 """Columns of the per-scenario tables in the report."""
@@ -46,8 +53,67 @@ def load_shipped(names: Sequence[str] = ()) -> list[Scenario]:
     return scenarios
 
 
-def render_report(results: Sequence[ScenarioResult], *, quick: bool, seconds: float) -> str:
-    """The markdown of ``report.md`` (paths of plots are relative to the report)."""
+@dataclasses.dataclass
+class TableCheck:
+    """One number of a source's table recomputed by ctrlblocks."""
+
+    text: str
+    holds: bool
+    detail: str
+
+
+def table1_inverse_half_rule() -> tuple[str, list[TableCheck]]:
+    """Seed 000, Table 1: the inverse half-rule applied to the FOPDT models (10a)/(10b).
+
+    Recomputed with :func:`ctrlblocks.tuning.halfrule.inverse_half_rule` from the
+    FOPDT parameters printed in (10a)/(10b); the "true" b0 from the transfer
+    functions.  A printed value holds when it equals ours rounded to the
+    printed digits.
+    """
+    from ..tuning.halfrule import inverse_half_rule
+
+    k1 = inverse_half_rule(0.56, 11.0, 3.3, 2)
+    k2 = inverse_half_rule(0.73, 8.3, 3.0, 3)
+    true1 = 0.56 / (9.5 * 4.2)
+    true2 = 0.73 / (7.3 * 2.2 * 1.4)
+    rows = [
+        ("K1 (10a), true b0 = k/(T1 T2)", true1, 0.014, 3),
+        ("K1 (10a), inverse half-rule, n = 2", k1.b0, 0.011, 3),
+        ("K2 (10b), true b0 = k/(T1 T2 T3)", true2, 0.0325, 4),
+        ("K2 (10b), inverse half-rule b0_min, n = 3", k2.b0_min, 0.0236, 4),
+        ("K2 (10b), inverse half-rule b0_max, n = 3", k2.b0_max, 0.1022, 4),
+    ]
+    lines = [
+        "| quantity | paper | ctrlblocks |",
+        "|---|---|---|",
+    ]
+    checks = []
+    for text, ours, paper, digits in rows:
+        lines.append(f"| {text} | {paper:g} | {ours:.5f} |")
+        holds = round(ours, digits) == round(paper, digits)
+        checks.append(
+            TableCheck(
+                f"Table 1: {text} = {paper:g}", holds, f"{ours:.5f} rounds to {ours:.{digits}f}"
+            )
+        )
+    inside = k2.b0_min <= true2 <= k2.b0_max
+    checks.append(
+        TableCheck(
+            "Table 1: the true b0 of K2 falls inside [b0_min, b0_max], closer to b0_min",
+            inside and (true2 - k2.b0_min) < (k2.b0_max - true2),
+            f"{k2.b0_min:.4f} <= {true2:.4f} <= {k2.b0_max:.4f}",
+        )
+    )
+    return "\n".join(lines), checks
+
+
+def render_report(
+    results: Sequence[ScenarioResult], *, quick: bool, seconds: float, tables: bool = True
+) -> str:
+    """The markdown of ``report.md`` (paths of plots are relative to the report).
+
+    ``tables``: add the recomputed tables of the sources (seed 000, Table 1).
+    """
     lines = [
         "# ctrlblocks: the sources' experiments, reproduced",
         "",
@@ -60,8 +126,10 @@ def render_report(results: Sequence[ScenarioResult], *, quick: bool, seconds: fl
             "**Quick mode:** every case was cut to its `quick_duration`; numbers and "
             "claims refer to the shortened runs.  Run `ctrlblocks reproduce` for the full report.",
         ]
-    n_claims = sum(len(r.claims) for r in results)
+    table1, table_checks = table1_inverse_half_rule() if tables else ("", [])
+    n_claims = sum(len(r.claims) for r in results) + len(table_checks)
     n_hold = sum(1 for r in results for c in r.claims if c.holds)
+    n_hold += sum(1 for c in table_checks if c.holds)
     lines += [
         "",
         f"**{n_hold} of {n_claims} claims of the sources hold in simulation.** "
@@ -76,6 +144,12 @@ def render_report(results: Sequence[ScenarioResult], *, quick: bool, seconds: fl
         lines.append(
             f"| [{r.scenario.title}](#{slug(r.scenario.name).lower()}) | {r.scenario.source} "
             f"| {len(r.runs)} | {held}/{len(r.claims)} |"
+        )
+    if table_checks:
+        held = sum(1 for c in table_checks if c.holds)
+        lines.append(
+            f"| [Inverse half-rule, Table 1](#table1) | seed 000, Table 1 | – "
+            f"| {held}/{len(table_checks)} |"
         )
     lines += [
         "",
@@ -102,4 +176,22 @@ def render_report(results: Sequence[ScenarioResult], *, quick: bool, seconds: fl
                 mark = {True: "✅ holds", False: "❌ does not hold", None: "❔ undecided"}[c.holds]
                 src = f" ({c.claim.source})" if c.claim.source else ""
                 lines.append(f"- {mark}: {c.claim.text}{src} — {c.detail}")
+    if table_checks:
+        lines += [
+            "",
+            '<a id="table1"></a>',
+            "",
+            "## Inverse half-rule (Table 1)",
+            "",
+            "*Source:* seed 000, section 3.3, Table 1  ·  b0 from the FOPDT approximations "
+            "printed in (10a)/(10b), computed by `ctrlblocks.tuning.inverse_half_rule`.",
+            "",
+            table1,
+            "",
+            "Claims:",
+            "",
+        ]
+        for c in table_checks:
+            mark = "✅ holds" if c.holds else "❌ does not hold"
+            lines.append(f"- {mark}: {c.text} — {c.detail}")
     return "\n".join(lines) + "\n"
