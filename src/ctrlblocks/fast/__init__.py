@@ -1,0 +1,26 @@
+"""Speed: compiled closed loops, banks of many loops and parallel sweeps.
+
+Everything here runs the blocks' own pure functions (DESIGN.md principle 2):
+numba compiles and inlines them when the ``fast`` extra is installed
+(``pip install 'ctrlblocks[fast]'``); without numba the same functions run
+interpreted (slower, same results).  See ``docs/performance.md``.
+
+* :func:`closed_loop` -- one PID/ADRC block with a linear plant or the
+  three-tank process, compiled (:mod:`.loops`);
+* :class:`PIDBank`, :class:`ADRCBank` -- many independent loops, each with its own
+  tunings and plant (:mod:`.bank`);
+* :func:`sweep` -- many scenario runs on a ``concurrent.futures`` executor
+  (process pool by default) or a Dask cluster (:mod:`.sweep`).
+"""
+
+from ._jit import HAVE_NUMBA
+from .kernels import UnsupportedConfig
+from .loops import LoopResult, closed_loop, reference_loop
+
+__all__ = [
+    "HAVE_NUMBA",
+    "LoopResult",
+    "UnsupportedConfig",
+    "closed_loop",
+    "reference_loop",
+]

@@ -1,0 +1,357 @@
+"""One cycle of a block or a plant over plain floats, built from the blocks' own functions.
+
+Each kernel here is the per-cycle *sequence* of one block in its plain
+configuration (what ``PID.__call__`` / ``ADRC.__call__`` do for it), written
+only with the module-level pure functions of the blocks -- the single
+implementation of each control law (DESIGN.md principle 2):
+
+* :func:`pid_step` calls :func:`ctrlblocks.blocks.pid.derivative_step`
+  (seed 004 (2.13)), ``integral_increment`` ((2.8)/Tustin), ``clamp``,
+  ``clamping_blocks`` (seed 002 CLAMPING) and the back-calculation gain that
+  the block precomputes with ``tracking_gain`` (seed 004 Fig. 3.6);
+* :func:`adrc_step` calls :func:`ctrlblocks.blocks.adrc.eso_euler` (seed 000
+  (4a)), ``control_law`` ((4b)), ``x4_update_allowed`` (section 4.1) and
+  ``solve_x4`` ((11));
+* :func:`lti3_step` is the exact ZOH update (2) of
+  :class:`ctrlblocks.plants.LinearPlant` for up to three states held in local
+  variables (``plants.linear.lti_step`` works on lists, which compiled code
+  would allocate every sample); the plant ``ThreeTank`` is stepped by its own
+  ``threetank_rk4``.
+
+The kernels take and return floats only, so numba compiles them (they are
+registered with :func:`~ctrlblocks.fast._jit.jitable`) and inlines them into
+the time loops of :mod:`.loops` and :mod:`.bank`, with the state in local
+variables; without numba the same kernels run interpreted.  The tests check
+every kernel against the blocks sample by sample (to 1e-12), including
+limits, manual mode, bumpless transfer and both anti-windup methods.
+
+Parameter tuples are built from a configured block by :func:`pid_params` and
+:func:`adrc_params` (which refuse configurations the kernels do not cover).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..blocks import adrc as _adrc
+from ..blocks import pid as _pid
+from ..blocks.signals import pt1_coefficient
+from ..plants import threetank as _tt
+from ._jit import jitable
+
+__all__ = [
+    "ADRC_PARAMS",
+    "PID_PARAMS",
+    "UnsupportedConfig",
+    "adrc_params",
+    "adrc_step",
+    "lti3_params",
+    "lti3_step",
+    "pid_params",
+    "pid_step",
+]
+
+# the blocks' pure functions, callable (and inlined) from compiled code
+for _f in (
+    _pid.derivative_step,
+    _pid.integral_increment,
+    _pid.clamp,
+    _pid.clamping_blocks,
+    _pid.tracking_gain,
+    _adrc.eso_euler,
+    _adrc.control_law,
+    _adrc.x4_update_allowed,
+    _adrc.solve_x4,
+    _adrc._clamp,
+    _tt.threetank_rk4,
+):
+    jitable(_f)
+
+derivative_step = _pid.derivative_step
+integral_increment = _pid.integral_increment
+clamp = _pid.clamp
+clamping_blocks = _pid.clamping_blocks
+eso_euler = _adrc.eso_euler
+control_law = _adrc.control_law
+x4_update_allowed = _adrc.x4_update_allowed
+solve_x4 = _adrc.solve_x4
+adrc_clamp = _adrc._clamp
+
+
+class UnsupportedConfig(ValueError):
+    """The block's configuration uses a feature the compiled kernels do not cover."""
+
+
+# ---------------------------------------------------------------------------
+# PID
+# ---------------------------------------------------------------------------
+
+PID_PARAMS = ("k", "sgn", "b", "c", "ad", "bd", "ki_h", "alpha", "beta", "lo", "hi", "aw", "g")
+"""Names of the entries of the PID parameter tuple (all floats)."""
+
+
+def pid_params(pid: Any) -> tuple[float, ...]:
+    """The parameter tuple of :func:`pid_step` for a configured :class:`~ctrlblocks.PID`.
+
+    Raises
+    ------
+    UnsupportedConfig
+        For the velocity algorithm, PV scaling, SP/PV filters, SP or output
+        ramps, the lead-lag feed-forward, the adaptive dead band, bumpless
+        methods other than ``"integrator"`` and anti-windup ``back_calc_real``.
+    """
+    c = pid.config
+    bad = []
+    if c.algorithm != "positional":
+        bad.append("algorithm")
+    if c.pv_range is not None:
+        bad.append("pv_range")
+    for name in ("sp_filter", "pv_filter", "sp_rate", "out_rate", "ff_k", "deadband"):
+        if getattr(c, name) != 0.0:
+            bad.append(name)
+    if c.bumpless != _pid.Bumpless.INTEGRATOR:
+        bad.append("bumpless")
+    if c.anti_windup not in (_pid.AntiWindup.CLAMPING, _pid.AntiWindup.BACK_CALC_MODEL):
+        bad.append("anti_windup")
+    if bad:
+        raise UnsupportedConfig(f"PID options not covered by the compiled kernel: {bad}")
+    h = float(c.ts)
+    k, ti, _td = c.isa()
+    kd = k * c.isa()[2]
+    tf = c.isa()[2] / c.n
+    dmeth = _pid.METHODS.index(c.derivative_method)
+    ad, bd = _pid.derivative_coefficients(kd, tf, h, dmeth)
+    ki = k / ti if ti > 0.0 else 0.0
+    alpha, beta = _pid.integral_weights(_pid.METHODS.index(c.integral_method))
+    tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else h)
+    aw = 0.0 if c.anti_windup == _pid.AntiWindup.CLAMPING else 1.0
+    return (
+        float(k),
+        -1.0 if c.reverse else 1.0,
+        float(c.b),
+        float(c.c),
+        float(ad),
+        float(bd),
+        float(ki * h),
+        float(alpha),
+        float(beta),
+        float(c.u_min),
+        float(c.u_max),
+        aw,
+        float(_pid.tracking_gain(h, tt)),
+    )
+
+
+def pid_step(
+    sp: float,
+    pv: float,
+    ff: float,
+    manual: bool,
+    u_man: float,
+    cold: bool,
+    transfer: bool,
+    i: float,
+    d: float,
+    w_prev: float,
+    e_prev: float,
+    out_prev: float,
+    prm: tuple[float, ...],
+) -> tuple[float, float, float, float, float, float, float]:
+    """One cycle of :class:`~ctrlblocks.PID` (positional, ISA inside) with ``applied = out``.
+
+    ``manual`` gives the output ``u_man`` (limited) and sets the integrator so
+    that ``P + I + D + FF`` equals it (bumpless, seed 004 Fig. 4.4);
+    ``transfer`` (first auto cycle after manual) continues from ``out_prev``;
+    ``cold`` (first cycle after reset) starts the derivative and integral
+    histories on this sample.  ``prm`` is :func:`pid_params`.
+
+    Returns
+    -------
+    tuple
+        ``(out, v_raw, i_shown, i_new, d, w, e)``: the limited output, the
+        output before the limits, the integral term of this cycle (``PID.i``),
+        the integrator state for the next cycle, the D term (state), ``w = c r
+        - y`` and ``e = r - y`` (histories for the next cycle).
+    """
+    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
+    e = sgn * (sp - pv)
+    p = k * sgn * (b * sp - pv)
+    w = sgn * (c * sp - pv)
+    if cold:
+        w_prev = w
+        d = 0.0
+        e_prev = e
+    dn = derivative_step(ad, bd, d, w, w_prev)
+    if manual:
+        out = clamp(u_man, lo, hi)
+        i_new = out - p - dn - ff
+        return out, u_man, i_new, i_new, dn, w, e
+    if transfer:
+        i_k = out_prev - p - dn - ff
+    elif ki_h == 0.0 or cold:
+        i_k = i
+    else:
+        di = integral_increment(ki_h, alpha, beta, e_prev, e)
+        i_k = i + di
+        if aw == 0.0 and clamping_blocks(di, p + i_k + dn + ff, lo, hi):
+            i_k = i
+    v_raw = p + i_k + dn + ff
+    out = clamp(v_raw, lo, hi)
+    i_new = i_k
+    if ki_h != 0.0:
+        i_new = i_k + g * (out - out) if aw == 0.0 else i_k + g * (out - v_raw)
+    return out, v_raw, i_k, i_new, dn, w, e
+
+
+# ---------------------------------------------------------------------------
+# ADRC
+# ---------------------------------------------------------------------------
+
+ADRC_PARAMS = (
+    "ts", "b0", "l1", "l2", "l3", "l4", "p1", "p2", "k1", "k2", "k3",
+    "kp", "kd1", "kd2", "s_yh", "s_x2", "s_x3", "s_u", "lo", "hi", "rule", "a_ref",
+)  # fmt: skip
+"""Names of the entries of the ADRC parameter tuple (all floats)."""
+
+
+def adrc_params(adrc: Any) -> tuple[float, ...]:
+    """The parameter tuple of :func:`adrc_step` for a configured :class:`~ctrlblocks.ADRC`.
+
+    Raises
+    ------
+    UnsupportedConfig
+        For ``discretisation="exact"``, ``u_real_on`` and ``anti_backoff``.
+    """
+    c = adrc.config
+    bad = [n for n in ("u_real_on", "anti_backoff") if getattr(c, n, False)]
+    if c.discretisation != "euler":
+        bad.append("discretisation")
+    if bad:
+        raise UnsupportedConfig(f"ADRC options not covered by the compiled kernel: {bad}")
+    adrc._coefficients(float(c.ts))
+    h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3 = adrc._eso_coef
+    _b0, kp, kd1, kd2 = adrc._law
+    s_yh, s_x2, s_x3, s_u = adrc._sens
+    return tuple(
+        float(v)
+        for v in (
+            h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
+            s_yh, s_x2, s_x3, s_u, adrc.u_min, adrc.u_max, adrc._rule,
+            pt1_coefficient(float(c.t_ref), h, "exact"),
+        )
+    )  # fmt: skip
+
+
+def adrc_step(
+    sp: float,
+    y: float,
+    manual: bool,
+    u_man: float,
+    started: bool,
+    track: bool,
+    sat: int,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_prev: float,
+    ref: float,
+    prm: tuple[float, ...],
+) -> tuple[float, float, float, float, float, float, float, bool, int]:
+    """One cycle of :class:`~ctrlblocks.ADRC` (Euler ESO (4a), law (4b)) with ``applied = u``.
+
+    ``started`` is False before the first measurement (the ESO then starts at
+    rest on it); ``track`` re-solves x4 by (11) in this cycle (manual mode and
+    the first auto cycle after it); ``sat`` is +1/-1/0 when the previous raw
+    output was above/below/inside the limits (anti-windup, section 4.1).
+    ``prm`` is :func:`adrc_params`.
+
+    Returns
+    -------
+    tuple
+        ``(u, u_raw, yh, x2, x3, x4, ref, track_next, sat_next)``.
+    """
+    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
+     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
+    target = adrc_clamp(u_man, lo, hi) if manual else adrc_clamp(u_prev, lo, hi)
+    if not started:
+        yh = y
+        x2 = 0.0
+        x3 = 0.0
+        x4 = -b0 * u_prev
+        ref = y
+    # manual with a reference filter: the reference follows y (ADRC.compute_output)
+    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * 1.0 * sp
+    tracking = manual or track
+    z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
+                               p1, p2, k1, k2, k3)  # fmt: skip
+    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+    if tracking:
+        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
+        return target, target, yh, x2, x3, x4, ref, manual, 0
+    du = s_u * (z3 - x4)
+    w4 = x4_update_allowed(int(rule), False, sat, du)
+    if w4 == 1.0:
+        yh, x2, x3, x4 = z0, z1, z2, z3
+        u_raw = u_free
+    else:
+        yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
+                                   p1, p2, k1, k2, k3)  # fmt: skip
+        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+    u = adrc_clamp(u_raw, lo, hi)
+    sat_next = 1 if u_raw > hi else -1 if u_raw < lo else 0
+    return u, u_raw, yh, x2, x3, x4, ref, False, sat_next
+
+
+# ---------------------------------------------------------------------------
+# Plants
+# ---------------------------------------------------------------------------
+
+
+def lti3_params(plant: Any) -> tuple[float, ...]:
+    """``(phi (9, row-major), gamma0 (3), gamma1 (3), c (3))`` of a LinearPlant of order <= 3.
+
+    Lower orders are padded with zeros (which leave the update exact).
+    """
+    n = plant.n_states
+    if n > 3:
+        raise UnsupportedConfig(f"compiled loops cover linear plants up to order 3, got {n}")
+    phi = [[0.0] * 3 for _ in range(3)]
+    g0, g1, cc = [0.0] * 3, [0.0] * 3, [0.0] * 3
+    for i in range(n):
+        for j in range(n):
+            phi[i][j] = float(plant.phi[i, j])
+        g0[i], g1[i], cc[i] = float(plant.gamma0[i]), float(plant.gamma1[i]), float(plant.c[i])
+    return (*phi[0], *phi[1], *phi[2], *g0, *g1, *cc)
+
+
+def lti3_step(
+    x0: float, x1: float, x2: float, u0: float, u1: float, pp: tuple[float, ...]
+) -> tuple[float, float, float, float]:
+    """``x = Phi x + Gamma0 u0 + Gamma1 u1``, ``y = C x`` (LinearPlant (2)); returns ``(x, y)``.
+
+    Same order of operations as ``plants.linear.lti_step``/``lti_output``.
+    """
+    (f00, f01, f02, f10, f11, f12, f20, f21, f22,
+     a0, a1, a2, b0, b1, b2, c0, c1, c2) = pp  # fmt: skip
+    n0 = a0 * u0 + b0 * u1
+    n0 += f00 * x0
+    n0 += f01 * x1
+    n0 += f02 * x2
+    n1 = a1 * u0 + b1 * u1
+    n1 += f10 * x0
+    n1 += f11 * x1
+    n1 += f12 * x2
+    n2 = a2 * u0 + b2 * u1
+    n2 += f20 * x0
+    n2 += f21 * x1
+    n2 += f22 * x2
+    y = 0.0
+    y += c0 * n0
+    y += c1 * n1
+    y += c2 * n2
+    return n0, n1, n2, y
+
+
+for _f in (pid_step, adrc_step, lti3_step):
+    jitable(_f)
