@@ -171,3 +171,15 @@ def test_tune_impossible_model_exits_1_with_a_message(args):
 def test_tune_unknown_rule_is_a_usage_error():
     r = run("tune", "pid", "--gain", 1, "--time-constant", 5, "--dead-time", 1, "--rule", "magic")
     assert r.exit_code == 2
+
+
+def test_tune_adrc_noise_options_lower_omega_o():
+    pytest.importorskip("ctrlblocks.blocks.adrc")
+    base = ["tune", "adrc", "--gain", 0.73, "--time-constant", 8.3, "--dead-time", 3, "--order", 2,
+            "--ts", 0.1, "--json"]  # fmt: skip
+    free = json.loads(run(*base).output)
+    limited = json.loads(run(*base, "--noise-std", 0.002, "--u-noise-max", 0.03).output)
+    assert limited["omega_o"] < free["omega_o"]
+    assert limited["omega_c"] == free["omega_c"]
+    r = run(*base, "--noise-std", 0.002)
+    assert r.exit_code == 1 and "give both or neither" in r.output

@@ -128,6 +128,8 @@ def _with_model(f):
 @click.option(
     "--observer-ratio", type=float, default=5.0, show_default=True, help="omega_o / omega_c."
 )
+@click.option("--noise-std", type=float, help="PV noise standard deviation (with --u-noise-max).")
+@click.option("--u-noise-max", type=float, help="Acceptable MV noise standard deviation.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def tune_adrc(
     gain: float,
@@ -137,6 +139,8 @@ def tune_adrc(
     settling_time: float | None,
     ts: float | None,
     observer_ratio: float,
+    noise_std: float | None,
+    u_noise_max: float | None,
     as_json: bool,
 ) -> None:
     """ADRC: b0 by the inverse half-rule, omega_c and omega_o by bandwidth tuning."""
@@ -146,6 +150,7 @@ def tune_adrc(
         r = adrc_tuning(
             gain, time_constant, dead_time, order,
             settling_time=settling_time, ts=ts, observer_ratio=observer_ratio,
+            noise_std=noise_std, u_noise_max=u_noise_max,
         )  # fmt: skip
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None

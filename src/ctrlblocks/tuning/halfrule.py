@@ -13,8 +13,9 @@ constant to the smallest retained one and the other half to the dead time:
   ``theta = theta_0 + tau_3/2 + sum_{i>=4} tau_i + sum_j T_inv_j + h/2``
 
 where ``h`` is the sample time of a digital controller (Skogestad adds h/2 for
-the zero-order hold).  Left-half-plane zeros need Skogestad's extra rules
-(T1-T3 of his eq. (4)) and are not supported here.
+the zero-order hold).  Left-half-plane zeros need Skogestad's additional approximation rules for
+numerator terms and are not supported here.  (Seed 000's reference list
+prints the volume as 11; the paper is in volume 13.)
 
 Inverse half-rule (seed 000, section 3.3, eqs. (5)-(9) and Table 1).  Given
 an FOPDT ``k e^{-T0 s}/(T s + 1)`` and an assumed ADRC order ``n`` of a

@@ -9,7 +9,7 @@ Models (``t`` in s, ``k`` in PV unit per MV unit)::
 Methods
 -------
 * :func:`two_point` -- the two-point method of seed 000's reference [18]
-  (T. E. Marlin, *Process Control*, McGraw-Hill 1995, section 6.3): with
+  (T. E. Marlin, *Process Control*, McGraw-Hill 1995, chapter 6): with
   ``t28`` and ``t63`` the times after the step at which the response reaches
   28.3 % and 63.2 % of its final change,
   ``T = 1.5 (t63 - t28)``, ``theta = t63 - T``, ``k = dy/du``.

@@ -21,13 +21,13 @@ negative ``kp`` (reverse acting), as the formulas say.
 Rules
 -----
 SIMC -- Skogestad, *Simple analytic rules for model reduction and PID
-    controller tuning*, J. Process Control 13 (2003) 291-309, eqs. (20)-(23)
+    controller tuning*, J. Process Control 13 (2003) 291-309, the SIMC rules
     with the tuning parameter ``tau_c`` (default ``tau_c = L``, "tight
-    control", his eq. (41)):
+    control"):
     ``kc = T/(k (tau_c + L))``, ``tau_I = min(T, 4 (tau_c + L))``,
     ``tau_D = T2`` (series form, SOPDT only; PI for FOPDT).
     Integrating: ``kc = 1/(k (tau_c + L))``, ``tau_I = 4 (tau_c + L)``.
-AMIGO -- Åström & Hägglund, *Advanced PID Control*, ISA 2006, section 7.6
+AMIGO -- Åström & Hägglund, *Advanced PID Control*, ISA 2006, chapter 7
     (step-response AMIGO), ISA form:
     PI:  ``kp = 0.15/k + (0.35 - L T/(L + T)^2) T/(k L)``,
     ``ti = 0.35 L + 13 L T^2/(T^2 + 12 L T + 7 L^2)``;
@@ -38,7 +38,7 @@ AMIGO -- Åström & Hägglund, *Advanced PID Control*, ISA 2006, section 7.6
     ``ti = 8 L``, ``td = 0.5 L``.
 Ziegler-Nichols -- Ziegler & Nichols, *Optimum settings for automatic
     controllers*, Trans. ASME 64 (1942) 759-768, as tabulated by Åström &
-    Hägglund (2006, Table 6.1/6.2) in ISA form.  Step response with
+    Hägglund (2006, chapter 6) in ISA form.  Step response with
     ``a = k L/T``: P ``kp = 1/a``; PI ``0.9/a, ti = 3 L``; PID ``1.2/a, ti = 2 L,
     td = L/2``.  Ultimate gain ``ku`` and period ``pu``: P ``0.5 ku``;
     PI ``0.45 ku, ti = pu/1.2``; PID ``0.6 ku, ti = pu/2, td = pu/8``.
@@ -144,7 +144,7 @@ def simc(
     tau_c: float | None = None,
     integrating: bool = False,
 ) -> PIDTuning:
-    """Skogestad's SIMC rule (J. Process Control 13 (2003) 291-309, (20)-(23)).
+    """Skogestad's SIMC rule (J. Process Control 13 (2003) 291-309).
 
     Parameters
     ----------
@@ -203,7 +203,7 @@ def amigo(
     controller: str = "pid",
     integrating: bool = False,
 ) -> PIDTuning:
-    """AMIGO step-response rules (Åström & Hägglund, Advanced PID Control, 2006, 7.6).
+    """AMIGO step-response rules (Åström & Hägglund, Advanced PID Control, 2006, ch. 7).
 
     Formulas in the module docstring.  ``controller`` is ``"pi"`` or
     ``"pid"``.  The PID rule is stated for ``0.1 <= L/(L + T) <= 1`` (a note
@@ -239,7 +239,7 @@ def ziegler_nichols_open(
 
     With ``a = k L/T``: P ``kp = 1/a``; PI ``kp = 0.9/a, ti = 3 L``;
     PID ``kp = 1.2/a, ti = 2 L, td = L/2`` (ISA form as in Åström & Hägglund
-    2006, Table 6.1).
+    2006, chapter 6).
     """
     k = _gain(gain)
     T = require_positive("time_constant", time_constant, ErrorCode.BAD_TIME_CONSTANT)
