@@ -121,9 +121,9 @@ def test_lsq_fopdt_recovers_model_from_record_with_1pct_noise(seed):
     assert 0.003 < m.fit < 0.02  # ~ noise/step range
 
 
-def sopdt_record(seed, *, noise=0.01):
+def sopdt_record(seed, *, noise=0.01, dt=0.05):
     """Noisy SOPDT bump test of (10a) with 1.5 s dead time, step up at t = 6 s."""
-    t = np.arange(0.0, 120.0 + 0.1, 0.2)
+    t = np.arange(0.0, 120.0 + dt / 2, dt)
     u = np.where(t >= 6.0, 45.0, 40.0)
     y = SOPDT(0.56, 9.5, 1.5, 4.2, u0=40.0, y0=20.0).response(t, u)
     return t, u, y + np.random.default_rng(seed).normal(0.0, noise * 0.56 * 5.0, len(t))
@@ -140,13 +140,33 @@ def test_sopdt_response_equals_scipy_step_response():
         np.testing.assert_allclose(y[after], ref, atol=1e-9)
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_lsq_sopdt_recovers_model_from_record_with_1pct_noise(seed):
-    m = fit_sopdt(*sopdt_record(seed))
-    assert m.gain == pytest.approx(0.56, rel=0.03)
-    assert m.time_constant == pytest.approx(9.5, rel=0.05)
-    assert m.time_constant_2 == pytest.approx(4.2, rel=0.05)
-    assert m.dead_time == pytest.approx(1.5, rel=0.05)
+def test_lsq_sopdt_recovers_exact_model_without_noise():
+    m = fit_sopdt(*sopdt_record(0, noise=0.0))
+    assert (m.gain, m.time_constant, m.time_constant_2, m.dead_time) == pytest.approx(
+        (0.56, 9.5, 4.2, 1.5), rel=1e-5
+    )
+
+
+def test_lsq_sopdt_recovers_model_from_records_with_1pct_noise():
+    # 20 noise seeds, 2400 samples each.  Gain and T1 are always within
+    # 3 %/5 %.  T2 and the dead time trade off against each other (half a
+    # small lag looks like dead time: the half rule), so they scatter more
+    # (standard deviation 2.2 % and 2.8 % here; 5.5 % and 6.9 % with 600
+    # samples): at least 90 % of the seeds within 5 %, none beyond 10 %.
+    # The fit is never worse than the true parameters (it finds the optimum).
+    err = []
+    for seed in range(1, 21):
+        t, u, y = sopdt_record(seed)
+        m = fit_sopdt(t, u, y)
+        true = SOPDT(0.56, 9.5, 1.5, 4.2, u0=40.0, y0=20.0)
+        assert np.sum((y - m.response(t, u)) ** 2) <= np.sum((y - true.response(t, u)) ** 2)
+        err.append(
+            [m.gain / 0.56, m.time_constant / 9.5, m.time_constant_2 / 4.2, m.dead_time / 1.5]
+        )
+    err = np.abs(np.array(err) - 1.0)
+    assert np.all(err[:, 0] < 0.03) and np.all(err[:, 1] < 0.05)
+    assert np.mean(err[:, 2] < 0.05) >= 0.9 and np.mean(err[:, 3] < 0.05) >= 0.9
+    assert np.all(err[:, 2:] < 0.10)
 
 
 def test_lsq_handles_any_mv_shape_a_doublet():
