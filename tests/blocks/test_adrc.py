@@ -840,3 +840,14 @@ def test_fig6_scenario_reverses_immediately_at_both_limits(aw: str) -> None:
     assert es[3999] < 0 < es[4000]
     assert us_a[4000] > 0.0
     assert us_a[-1] == pytest.approx(1.5 / K10B - 1.0, abs=1e-4)
+
+
+def test_auto_to_manual_holds_the_output_because_u_man_follows_it() -> None:
+    block = make(2, u_min=0.0, u_max=5.0)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    for _ in range(50):
+        u = block(2.0, plant.y)
+        plant.step(u)
+    assert block.u_man == u == block.manual_value
+    block.manual = True
+    assert block(2.0, plant.y) == u

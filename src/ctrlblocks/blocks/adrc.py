@@ -606,7 +606,8 @@ class ADRC(Block):
         applied u and x4 is re-solved from (11) every cycle, so that the next
         AUTO cycle starts exactly at the last applied u (section 4.2).
     u_man : float
-        Manual value (alias ``manual_value``).
+        Manual value (alias ``manual_value``).  In/Out as in the PID block:
+        outside MAN it follows the applied u, so AUTO -> MAN holds the output.
     awin : bool
         Freeze the x4 update (this block is a primary controller whose
         secondary is at a limit; section 5).
@@ -660,6 +661,7 @@ class ADRC(Block):
     config: ADRCConfig
     _state_fields = (
         "out",
+        "u_man",
         "u_raw",
         "e",
         "y",
@@ -751,6 +753,7 @@ class ADRC(Block):
         self.awout = False
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = u0
+        self.u_man = u0
         self._ref = 0.0
         self._started = False
         self._track = False
@@ -1018,4 +1021,6 @@ class ADRC(Block):
             self._ab_wait,
         ) = self._pending
         self._u_prev = a
+        if not self.manual:
+            self.u_man = a  # In/Out as in the PID: AUTO -> MAN holds the output
         self._pending = None
