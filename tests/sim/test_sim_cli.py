@@ -101,3 +101,15 @@ def test_trace_format_auto_is_parquet_with_pyarrow_else_csv(tmp_path):
         assert table.column_names[:3] == ["t", "sp", "y"]
         y = table.column("y").to_pylist()
         assert y[700] == pytest.approx(3.5 - math.exp(-4.0), abs=1e-12)
+
+
+def test_docs_simulator_example_runs():
+    from pathlib import Path
+
+    text = (Path(__file__).parents[2] / "docs" / "simulator.md").read_text(encoding="utf-8")
+    code = text.split("## For the README tour")[1].split("```python")[1].split("```")[0]
+    ns: dict = {}
+    exec(compile(code, "docs/simulator.md", "exec"), ns)
+    metrics = ns["result"].metrics
+    assert [m["controller"] for m in metrics] == ["PI", "ADRC"]
+    assert all(0.0 < m["iae"] < 20.0 for m in metrics)

@@ -848,7 +848,8 @@ def build(spec: BlockSpec, ts: float, *, kind: str, file: str = "<scenario>") ->
     try:
         return cls(**params)
     except ParameterError as exc:
-        raise ScenarioError(file, f"{spec.key}.{exc.field}", exc.message) from None
+        problem = f"{exc.message} (error 16#{exc.code:04X} {exc.code.name})"
+        raise ScenarioError(file, f"{spec.key}.{exc.field}", problem) from None
     except TypeError as exc:
         raise ScenarioError(file, spec.key, f"{spec.type}: {exc}") from None
     except (ValueError, KeyError) as exc:
