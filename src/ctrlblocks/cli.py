@@ -18,6 +18,9 @@ _COMMANDS: dict[str, str] = {
     "tune": "ctrlblocks.tuning.cli:tune",
     "reproduce": "ctrlblocks.sim.cli:reproduce",
     "run": "ctrlblocks.sim.cli:run",
+    "serve": "ctrlblocks.runtime.cli:serve",
+    "plant-server": "ctrlblocks.runtime.cli:plant_server",
+    "history": "ctrlblocks.runtime.cli:history",
 }
 
 

@@ -1,0 +1,154 @@
+"""``ctrlblocks serve``, ``ctrlblocks plant-server`` and ``ctrlblocks history``."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import signal
+from pathlib import Path
+
+import click
+
+__all__ = ["history", "plant_server", "serve"]
+
+
+def _install_stop(loop: asyncio.AbstractEventLoop, stop: asyncio.Event) -> None:
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            loop.add_signal_handler(sig, stop.set)
+        except (NotImplementedError, RuntimeError):  # pragma: no cover - non-Unix
+            signal.signal(sig, lambda *_: loop.call_soon_threadsafe(stop.set))
+
+
+@click.command()
+@click.argument("config", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--check", is_flag=True, help="Only load and check the configuration.")
+@click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
+def serve(config: Path, check: bool, verbose: int) -> None:
+    """Run the loops of CONFIG (TOML) against their process I/O until SIGINT/SIGTERM.
+
+    On stop every MV goes to its stop value (else its safe value) and the
+    historian is flushed.  See docs/runtime.md for the file format.
+    """
+    from .config import RuntimeConfigError, load_config
+    from .runtime import Runtime
+
+    logging.basicConfig(
+        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(verbose, 2)],
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        cfg = load_config(config)
+    except RuntimeConfigError as exc:
+        raise click.ClickException(str(exc)) from None
+    if check:
+        click.echo(f"{config}: {len(cfg.loops)} loop(s), {len(cfg.connections)} connection(s): OK")
+        return
+
+    async def main() -> None:
+        rt = Runtime(cfg)
+        _install_stop(asyncio.get_running_loop(), rt._stop)
+        await rt.run()
+
+    asyncio.run(main())
+
+
+@click.command("plant-server")
+@click.argument("scenario", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--case", default=None, help="Case of the scenario whose events to play.")
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to bind.")
+@click.option("--opcua-port", type=int, default=4840, show_default=True, help="0 = off.")
+@click.option("--modbus-port", type=int, default=5020, show_default=True, help="0 = off.")
+@click.option(
+    "--sync",
+    type=click.Choice(["clock", "write"]),
+    default="clock",
+    show_default=True,
+    help="clock: the plant steps every ts; write: one step per MV write (lock-step).",
+)
+@click.option("--float", "float_signals", multiple=True, help="OPC UA variable served as Float.")
+@click.option(
+    "--word-order", type=click.Choice(["big", "little"]), default="big", show_default=True
+)
+@click.option("--certificate", type=click.Path(exists=True, dir_okay=False), default=None)
+@click.option("--private-key", type=click.Path(exists=True, dir_okay=False), default=None)
+@click.option("--trust", multiple=True, type=click.Path(exists=True), help="Trusted client cert.")
+@click.option("--user", "users", multiple=True, help="USER:PASSWORD (with security).")
+def plant_server(
+    scenario: Path,
+    case: str | None,
+    host: str,
+    opcua_port: int,
+    modbus_port: int,
+    sync: str,
+    float_signals: tuple[str, ...],
+    word_order: str,
+    certificate: str | None,
+    private_key: str | None,
+    trust: tuple[str, ...],
+    users: tuple[str, ...],
+) -> None:
+    """Serve the plant of SCENARIO over OPC UA and Modbus TCP until SIGINT/SIGTERM.
+
+    Variables: pv, mv (written by the controller), sp, mode, manual_value,
+    u_min, u_max, k -- OPC UA ns=2;s=NAME, Modbus holding registers 0, 2, 4,
+    ... (FLOAT32).  See docs/runtime.md.
+    """
+    from ..sim import ScenarioError, load_scenario
+    from .plant_server import PlantProcess, PlantServer
+
+    logging.basicConfig(level=logging.WARNING)
+    try:
+        process = PlantProcess(load_scenario(scenario), case)
+    except (ScenarioError, ValueError, KeyError) as exc:
+        raise click.ClickException(str(exc)) from None
+    user_map = {}
+    for u in users:
+        name, sep, pw = u.partition(":")
+        if not sep:
+            raise click.BadParameter(f"{u!r}: expected USER:PASSWORD", param_hint="--user")
+        user_map[name] = pw
+    try:
+        server = PlantServer(
+            process,
+            host=host,
+            opcua_port=opcua_port or None,
+            modbus_port=modbus_port or None,
+            sync=sync,
+            float_signals=float_signals,
+            word_order=word_order,
+            certificate=certificate,
+            private_key=private_key,
+            trusted=trust,
+            users=user_map,
+        )
+    except ValueError as exc:
+        raise click.ClickException(str(exc)) from None
+
+    async def main() -> None:
+        stop = asyncio.Event()
+        _install_stop(asyncio.get_running_loop(), stop)
+        await server.start()
+        if server.opcua_url:
+            click.echo(f"OPC UA: {server.opcua_url}")
+        if server.modbus_port:
+            click.echo(f"Modbus TCP: {host}:{server.modbus_port}")
+        try:
+            await stop.wait()
+        finally:
+            await server.stop()
+
+    asyncio.run(main())
+
+
+@click.command()
+@click.argument("database")
+@click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--loop", default=None, help="Only this loop.")
+@click.option("--postgres", is_flag=True, help="DATABASE is a PostgreSQL DSN.")
+def history(database: str, out: Path, loop: str | None, postgres: bool) -> None:
+    """Export the historian DATABASE (SQLite file) to OUT (.csv or .parquet)."""
+    from .historian import export_history
+
+    path = export_history(database, out, loop=loop, postgres=postgres)
+    click.echo(f"wrote {path}")

@@ -1,0 +1,591 @@
+"""The runtime's configuration file (TOML): connections, loops, historian.
+
+A minimal file that runs one PID loop against an OPC UA server::
+
+    [connections.plc]
+    protocol = "opcua"
+    url = "opc.tcp://127.0.0.1:4840"
+
+    [[loops]]
+    name = "level"
+    ts = 0.1
+    block = { type = "PID", kp = 2.0, ti = 8.0, u_min = 0.0, u_max = 100.0 }
+    pv = "plc:ns=2;s=pv"
+    mv = "plc:ns=2;s=mv"
+    sp = 50.0
+    safe_value = 0.0
+
+A binding is either a constant (a number; a mode name for ``mode``) or a
+string ``"CONNECTION:ADDRESS"`` (the address as the protocol spells it:
+``ns=2;s=pv`` for OPC UA, ``hr:0``/``ir:4`` for Modbus FLOAT32 registers, any
+name for the in-memory adapter).  ``docs/runtime.md`` lists every key.
+
+Every error names the file, the key path (``loops[1].block.kp``) and the
+problem, as :class:`RuntimeConfigError`; the blocks are built while loading
+(with the simulator's :func:`~ctrlblocks.sim.scenario.build`, so a block
+table here is the same as a ``[[controllers]]`` block of a scenario), and a
+parameter a block refuses is reported with its key path.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10 only
+    import tomli as tomllib
+
+__all__ = [
+    "PROTOCOLS",
+    "Binding",
+    "ConnectionConfig",
+    "HistorianConfig",
+    "LoopConfig",
+    "RuntimeConfig",
+    "RuntimeConfigError",
+    "load_config",
+    "parse_config",
+]
+
+PROTOCOLS = ("opcua", "modbus", "memory")
+"""Protocols of ``[connections.NAME]``."""
+
+MODES = ("auto", "manual")
+"""Modes a loop can be put in (from a binding or a command)."""
+
+SECURITY_MODES = ("none", "Basic256Sha256_SignAndEncrypt")
+"""OPC UA security settings of a connection."""
+
+_NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
+
+
+class RuntimeConfigError(ValueError):
+    """A runtime configuration file is malformed.
+
+    ``file``, ``key`` (key path, e.g. ``loops[0].pv``) and ``problem`` are
+    attributes; the message reads ``FILE: KEY: PROBLEM``.
+    """
+
+    def __init__(self, file: str, key: str, problem: str, line: int | None = None) -> None:
+        self.file, self.key, self.problem, self.line = file, key, problem, line
+        where = file + (f", line {line}" if line else "")
+        super().__init__(f"{where}: {key}: {problem}" if key else f"{where}: {problem}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Binding:
+    """Where a loop signal comes from or goes to.
+
+    Either ``connection`` and ``address`` (process I/O) or a constant
+    ``value`` (``connection`` is None).
+    """
+
+    connection: str | None = None
+    address: str = ""
+    value: Any = None
+
+    @property
+    def is_io(self) -> bool:
+        """True when the signal is process I/O (not a constant)."""
+        return self.connection is not None
+
+    def __str__(self) -> str:
+        return f"{self.connection}:{self.address}" if self.is_io else repr(self.value)
+
+
+@dataclasses.dataclass(frozen=True)
+class ConnectionConfig:
+    """One ``[connections.NAME]`` table (see ``docs/runtime.md``)."""
+
+    name: str
+    protocol: str
+    url: str = ""
+    host: str = "127.0.0.1"
+    port: int = 502
+    unit: int = 1
+    word_order: str = "big"
+    timeout: float = 0.5
+    reconnect_min: float = 0.1
+    reconnect_max: float = 5.0
+    security: str = "none"
+    certificate: str | None = None
+    private_key: str | None = None
+    server_certificate: str | None = None
+    user: str | None = None
+    password: str | None = None
+    application_uri: str = "urn:ctrlblocks:runtime"
+    stale_after: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class LoopConfig:
+    """One ``[[loops]]`` entry: a block, its sample time, bindings and fault settings."""
+
+    name: str
+    ts: float
+    block_type: str
+    block_params: Mapping[str, Any]
+    pv: Binding
+    mv: Binding
+    sp: Binding
+    mode: Binding
+    manual_value: Binding | None
+    u_min: Binding | None
+    u_max: Binding | None
+    safe_value: float
+    stop_value: float | None
+    on_bad_pv: str
+    warn_limit: float | None
+    alarm_limit: float | None
+    write_retries: int
+    key: str
+
+    def bindings(self) -> dict[str, Binding]:
+        """The signal bindings by name (only those that are set)."""
+        names = ("pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max")
+        return {n: b for n in names if (b := getattr(self, n)) is not None}
+
+
+@dataclasses.dataclass(frozen=True)
+class HistorianConfig:
+    """The ``[historian]`` table."""
+
+    backend: str = "sqlite"
+    path: str = "ctrlblocks-history.sqlite"
+    dsn: str = ""
+    flush_interval: float = 1.0
+    batch: int = 1000
+    retention_days: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class RuntimeConfig:
+    """A parsed, checked runtime configuration."""
+
+    name: str
+    connections: Mapping[str, ConnectionConfig]
+    loops: tuple[LoopConfig, ...]
+    historian: HistorianConfig
+    file: str
+
+    def build_blocks(self) -> dict[str, Any]:
+        """A fresh block for every loop (name -> block)."""
+        return {lc.name: build_block(lc, self.file) for lc in self.loops}
+
+
+def load_config(path: str | Path) -> RuntimeConfig:
+    """Read and check the runtime configuration file ``path``."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise RuntimeConfigError(str(p), "", f"cannot read the file ({exc.strerror})") from None
+    return parse_config(text, file=str(p), base=p.parent)
+
+
+def parse_config(text: str, *, file: str = "<string>", base: Path | None = None) -> RuntimeConfig:
+    """Parse runtime configuration TOML ``text``; relative paths are resolved against ``base``."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
+        problem = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
+        raise RuntimeConfigError(
+            file, "", f"TOML syntax error: {problem}", int(m.group(1)) if m else None
+        ) from None
+    return _Parser(file, base or Path.cwd()).config(doc)
+
+
+def build_block(lc: LoopConfig, file: str = "<config>") -> Any:
+    """Make the block of loop ``lc`` (errors name the key path)."""
+    from ..sim.scenario import BlockSpec, ScenarioError, build
+
+    spec = BlockSpec(lc.block_type, dict(lc.block_params), f"{lc.key}.block")
+    try:
+        return build(spec, lc.ts, kind="block", file=file)
+    except ScenarioError as exc:
+        raise RuntimeConfigError(file, exc.key, exc.problem) from None
+
+
+# ---------------------------------------------------------------------------
+
+
+def _tname(v: Any) -> str:
+    return {
+        dict: "a table",
+        list: "an array",
+        str: "a string",
+        bool: "a boolean",
+        int: "an integer",
+        float: "a number",
+    }.get(type(v), type(v).__name__)
+
+
+class _Parser:
+    def __init__(self, file: str, base: Path) -> None:
+        self.file = file
+        self.base = base
+
+    def fail(self, key: str, problem: str) -> RuntimeConfigError:
+        return RuntimeConfigError(self.file, key, problem)
+
+    def keys(self, d: Mapping[str, Any], allowed: set[str], key: str) -> None:
+        unknown = sorted(set(d) - allowed)
+        if unknown:
+            where = f"{key}.{unknown[0]}" if key else unknown[0]
+            raise self.fail(where, f"unknown key; expected one of: {', '.join(sorted(allowed))}")
+
+    def number(
+        self, d: Mapping[str, Any], name: str, key: str, default: Any = ..., *, positive=False
+    ) -> Any:
+        if name not in d:
+            if default is ...:
+                raise self.fail(key, "missing (a number is required)")
+            return default
+        v = d[name]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.fail(key, f"must be a number, got {_tname(v)} {v!r}")
+        x = float(v)
+        if math.isnan(x):
+            raise self.fail(key, "must not be NaN")
+        if positive and not (math.isfinite(x) and x > 0):
+            raise self.fail(key, f"must be a finite number > 0, got {v!r}")
+        return x
+
+    def integer(self, d: Mapping[str, Any], name: str, key: str, default: int, lo: int = 0) -> int:
+        v = d.get(name, default)
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            raise self.fail(key, f"must be an integer >= {lo}, got {v!r}")
+        return v
+
+    def string(self, d: Mapping[str, Any], name: str, key: str, default: Any = ...) -> Any:
+        if name not in d:
+            if default is ...:
+                raise self.fail(key, "missing (a string is required)")
+            return default
+        v = d[name]
+        if not isinstance(v, str):
+            raise self.fail(key, f"must be a string, got {_tname(v)} {v!r}")
+        return v
+
+    def choice(self, d: Mapping[str, Any], name: str, key: str, choices, default: Any = ...) -> str:
+        v = self.string(d, name, key, default)
+        if v not in choices:
+            raise self.fail(key, f"must be one of {', '.join(choices)}; got {v!r}")
+        return v
+
+    def path(self, d: Mapping[str, Any], name: str, key: str) -> str | None:
+        v = self.string(d, name, key, None)
+        if v is None:
+            return None
+        p = Path(v)
+        return str(p if p.is_absolute() else self.base / p)
+
+    # -- sections -------------------------------------------------------------
+
+    def config(self, doc: dict[str, Any]) -> RuntimeConfig:
+        self.keys(doc, {"runtime", "connections", "loops", "historian"}, "")
+        head = doc.get("runtime", {})
+        if not isinstance(head, dict):
+            raise self.fail("runtime", f"must be a table, got {_tname(head)}")
+        self.keys(head, {"name"}, "runtime")
+        name = self.string(head, "name", "runtime.name", "ctrlblocks")
+        conns_raw = doc.get("connections", {})
+        if not isinstance(conns_raw, dict):
+            raise self.fail("connections", "must be a table of [connections.NAME] tables")
+        conns = {n: self.connection(n, c) for n, c in conns_raw.items()}
+        loops_raw = doc.get("loops")
+        if not isinstance(loops_raw, list) or not loops_raw:
+            raise self.fail("loops", "missing: give at least one [[loops]] entry")
+        loops: list[LoopConfig] = []
+        for i, raw in enumerate(loops_raw):
+            lc = self.loop(raw, f"loops[{i}]", conns)
+            if any(other.name == lc.name for other in loops):
+                raise self.fail(f"loops[{i}].name", f"duplicate loop name {lc.name!r}")
+            loops.append(lc)
+        # an MV is written by one loop only
+        seen: dict[str, str] = {}
+        for lc in loops:
+            if lc.mv.is_io:
+                k = str(lc.mv)
+                if k in seen:
+                    raise self.fail(f"{lc.key}.mv", f"{k} is already written by loop {seen[k]!r}")
+                seen[k] = lc.name
+        hist = self.historian(doc.get("historian", {}))
+        cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file)
+        for lc in loops:  # build once: a refused parameter is reported here
+            build_block(lc, self.file)
+        return cfg
+
+    def connection(self, name: str, c: Any) -> ConnectionConfig:
+        key = f"connections.{name}"
+        if not _NAME_RE.match(name):
+            raise self.fail(key, "connection names are letters, digits, _ . - only")
+        if not isinstance(c, dict):
+            raise self.fail(key, f"must be a table, got {_tname(c)}")
+        protocol = self.choice(c, "protocol", f"{key}.protocol", PROTOCOLS)
+        common = {"protocol", "timeout", "reconnect_min", "reconnect_max"}
+        per = {
+            "opcua": {
+                "url",
+                "security",
+                "certificate",
+                "private_key",
+                "server_certificate",
+                "user",
+                "password",
+                "password_env",
+                "application_uri",
+                "stale_after",
+            },
+            "modbus": {"host", "port", "unit", "word_order"},
+            "memory": set(),
+        }[protocol]
+        self.keys(c, common | per, key)
+        kw: dict[str, Any] = {"name": name, "protocol": protocol}
+        kw["timeout"] = self.number(c, "timeout", f"{key}.timeout", 0.5, positive=True)
+        kw["reconnect_min"] = self.number(
+            c, "reconnect_min", f"{key}.reconnect_min", 0.1, positive=True
+        )
+        kw["reconnect_max"] = self.number(
+            c, "reconnect_max", f"{key}.reconnect_max", 5.0, positive=True
+        )
+        if kw["reconnect_max"] < kw["reconnect_min"]:
+            raise self.fail(f"{key}.reconnect_max", "must be >= reconnect_min")
+        if protocol == "opcua":
+            url = self.string(c, "url", f"{key}.url")
+            if not url.startswith("opc.tcp://"):
+                raise self.fail(f"{key}.url", f"must start with opc.tcp://, got {url!r}")
+            kw["url"] = url
+            kw["security"] = self.choice(c, "security", f"{key}.security", SECURITY_MODES, "none")
+            for f in ("certificate", "private_key", "server_certificate"):
+                kw[f] = self.path(c, f, f"{key}.{f}")
+            if kw["security"] != "none":
+                for f in ("certificate", "private_key", "server_certificate"):
+                    if kw[f] is None:
+                        raise self.fail(
+                            f"{key}.{f}",
+                            f"missing: security {kw['security']!r} needs the client certificate, "
+                            "its private key and the trusted server certificate",
+                        )
+            kw["user"] = self.string(c, "user", f"{key}.user", None)
+            pw = self.string(c, "password", f"{key}.password", None)
+            env = self.string(c, "password_env", f"{key}.password_env", None)
+            if pw is not None and env is not None:
+                raise self.fail(f"{key}.password_env", "give password or password_env, not both")
+            if env is not None:
+                pw = os.environ.get(env)
+                if pw is None:
+                    raise self.fail(f"{key}.password_env", f"environment variable {env} is not set")
+            if pw is not None and kw["user"] is None:
+                raise self.fail(f"{key}.user", "missing: a password needs a user")
+            kw["password"] = pw
+            kw["application_uri"] = self.string(
+                c, "application_uri", f"{key}.application_uri", "urn:ctrlblocks:runtime"
+            )
+            kw["stale_after"] = self.number(c, "stale_after", f"{key}.stale_after", 0.0)
+            if kw["stale_after"] < 0:
+                raise self.fail(f"{key}.stale_after", "must be >= 0 (0 = off)")
+        elif protocol == "modbus":
+            kw["host"] = self.string(c, "host", f"{key}.host", "127.0.0.1")
+            kw["port"] = self.integer(c, "port", f"{key}.port", 502, 1)
+            if kw["port"] > 65535:
+                raise self.fail(f"{key}.port", "must be <= 65535")
+            kw["unit"] = self.integer(c, "unit", f"{key}.unit", 1, 0)
+            kw["word_order"] = self.choice(
+                c, "word_order", f"{key}.word_order", ("big", "little"), "big"
+            )
+        return ConnectionConfig(**kw)
+
+    def binding(
+        self, raw: Any, key: str, conns: Mapping[str, ConnectionConfig], *, mode=False
+    ) -> Binding:
+        if isinstance(raw, str):
+            if mode and raw in MODES:
+                return Binding(value=raw)
+            conn, sep, address = raw.partition(":")
+            if not sep or not address:
+                expected = "a mode name (auto, manual) or " if mode else ""
+                raise self.fail(key, f'must be {expected}"CONNECTION:ADDRESS", got {raw!r}')
+            if conn not in conns:
+                known = ", ".join(conns) or "none defined"
+                raise self.fail(key, f"unknown connection {conn!r} (connections: {known})")
+            if conns[conn].protocol == "modbus":
+                _check_modbus_address(address, key, self)
+            return Binding(conn, address)
+        if not mode and not isinstance(raw, bool) and isinstance(raw, (int, float)):
+            if math.isnan(float(raw)):
+                raise self.fail(key, "must not be NaN")
+            return Binding(value=float(raw))
+        what = "a mode name or an I/O address" if mode else 'a number or "CONNECTION:ADDRESS"'
+        raise self.fail(key, f"must be {what}, got {_tname(raw)} {raw!r}")
+
+    def loop(self, raw: Any, key: str, conns: Mapping[str, ConnectionConfig]) -> LoopConfig:
+        if not isinstance(raw, dict):
+            raise self.fail(key, f"must be a table, got {_tname(raw)}")
+        allowed = {
+            "name",
+            "ts",
+            "block",
+            "pv",
+            "mv",
+            "sp",
+            "mode",
+            "manual_value",
+            "u_min",
+            "u_max",
+            "safe_value",
+            "stop_value",
+            "on_bad_pv",
+            "warn_limit",
+            "alarm_limit",
+            "write_retries",
+        }
+        self.keys(raw, allowed, key)
+        name = self.string(raw, "name", f"{key}.name")
+        if not _NAME_RE.match(name):
+            raise self.fail(f"{key}.name", "loop names are letters, digits, _ . - only")
+        ts = self.number(raw, "ts", f"{key}.ts", positive=True)
+        block = raw.get("block")
+        if not isinstance(block, dict):
+            raise self.fail(f"{key}.block", 'missing: a table such as { type = "PID", kp = 1.0 }')
+        btype = self.string(block, "type", f"{key}.block.type")
+        if btype not in ("PID", "ADRC"):
+            raise self.fail(f"{key}.block.type", f"the runtime runs PID or ADRC, got {btype!r}")
+        params = {k: v for k, v in block.items() if k != "type"}
+        if "ts" in params:
+            raise self.fail(f"{key}.block.ts", "set the sample time once, as the loop's ts")
+        for sig in ("pv", "mv"):
+            if sig not in raw:
+                raise self.fail(f"{key}.{sig}", 'missing (an I/O address "CONNECTION:ADDRESS")')
+        pv = self.binding(raw["pv"], f"{key}.pv", conns)
+        mv = self.binding(raw["mv"], f"{key}.mv", conns)
+        for sig, b in (("pv", pv), ("mv", mv)):
+            if not b.is_io:
+                raise self.fail(f"{key}.{sig}", 'must be an I/O address "CONNECTION:ADDRESS"')
+        if "sp" not in raw:
+            raise self.fail(f"{key}.sp", 'missing (a number or "CONNECTION:ADDRESS")')
+        sp = self.binding(raw["sp"], f"{key}.sp", conns)
+        mode = self.binding(raw.get("mode", "auto"), f"{key}.mode", conns, mode=True)
+        opt = {}
+        for sig in ("manual_value", "u_min", "u_max"):
+            opt[sig] = self.binding(raw[sig], f"{key}.{sig}", conns) if sig in raw else None
+        if (opt["u_min"] is None) != (opt["u_max"] is None):
+            raise self.fail(f"{key}.u_min", "bind u_min and u_max together (or neither)")
+        for sig in ("u_min", "u_max"):
+            if opt[sig] is not None and not opt[sig].is_io:
+                raise self.fail(
+                    f"{key}.{sig}", "constant limits belong in the block table (block.u_min ...)"
+                )
+        if "safe_value" not in raw:
+            raise self.fail(
+                f"{key}.safe_value",
+                "missing: the MV on a measurement fault and on stop (a number) is required",
+            )
+        safe = self.number(raw, "safe_value", f"{key}.safe_value")
+        if not math.isfinite(safe):
+            raise self.fail(f"{key}.safe_value", "must be finite")
+        stop = self.number(raw, "stop_value", f"{key}.stop_value", None)
+        if stop is not None and not math.isfinite(stop):
+            raise self.fail(f"{key}.stop_value", "must be finite")
+        if btype == "ADRC":
+            on_bad = self.choice(raw, "on_bad_pv", f"{key}.on_bad_pv", ("safe",), "safe")
+            if "u_sf" in params:
+                raise self.fail(f"{key}.block.u_sf", "set the loop's safe_value instead")
+            params["u_sf"] = safe
+        else:
+            on_bad = self.choice(raw, "on_bad_pv", f"{key}.on_bad_pv", ("safe", "hold"), "safe")
+            if "safe_value" in params:
+                raise self.fail(
+                    f"{key}.block.safe_value", "set the loop's safe_value and on_bad_pv instead"
+                )
+            params["safe_value"] = safe if on_bad == "safe" else None
+        warn = self.number(raw, "warn_limit", f"{key}.warn_limit", None)
+        alarm = self.number(raw, "alarm_limit", f"{key}.alarm_limit", None)
+        for n, v in (("warn_limit", warn), ("alarm_limit", alarm)):
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise self.fail(f"{key}.{n}", f"must be a finite number > 0, got {v!r}")
+        w, a = (warn if warn is not None else 1.5 * ts), (alarm if alarm is not None else 2 * ts)
+        if a < w:
+            raise self.fail(f"{key}.alarm_limit", f"must be >= warn_limit ({w!r})")
+        retries = self.integer(raw, "write_retries", f"{key}.write_retries", 1, 0)
+        return LoopConfig(
+            name=name,
+            ts=ts,
+            block_type=btype,
+            block_params=params,
+            pv=pv,
+            mv=mv,
+            sp=sp,
+            mode=mode,
+            manual_value=opt["manual_value"],
+            u_min=opt["u_min"],
+            u_max=opt["u_max"],
+            safe_value=safe,
+            stop_value=stop,
+            on_bad_pv=on_bad,
+            warn_limit=warn,
+            alarm_limit=alarm,
+            write_retries=retries,
+            key=key,
+        )
+
+    def historian(self, h: Any) -> HistorianConfig:
+        if not isinstance(h, dict):
+            raise self.fail("historian", f"must be a table, got {_tname(h)}")
+        self.keys(
+            h,
+            {"backend", "path", "dsn", "dsn_env", "flush_interval", "batch", "retention_days"},
+            "historian",
+        )
+        backend = self.choice(
+            h, "backend", "historian.backend", ("sqlite", "postgresql", "none"), "sqlite"
+        )
+        path = self.path(h, "path", "historian.path") or str(
+            self.base / "ctrlblocks-history.sqlite"
+        )
+        dsn = self.string(h, "dsn", "historian.dsn", "")
+        env = self.string(h, "dsn_env", "historian.dsn_env", None)
+        if env is not None:
+            dsn = os.environ.get(env, "")
+            if not dsn:
+                raise self.fail("historian.dsn_env", f"environment variable {env} is not set")
+        if backend == "postgresql" and not dsn:
+            raise self.fail("historian.dsn", "missing: the postgresql backend needs a dsn")
+        flush = self.number(h, "flush_interval", "historian.flush_interval", 1.0, positive=True)
+        batch = self.integer(h, "batch", "historian.batch", 1000, 1)
+        keep = self.number(h, "retention_days", "historian.retention_days", 0.0)
+        if keep < 0 or not math.isfinite(keep):
+            raise self.fail("historian.retention_days", "must be >= 0 (0 = keep everything)")
+        return HistorianConfig(backend, path, dsn, flush, batch, keep)
+
+
+_MODBUS_RE = re.compile(r"^(?:(hr|ir):)?(\d+)$")
+
+
+def parse_modbus_address(address: str) -> tuple[str, int]:
+    """``"hr:10"`` -> ``("hr", 10)``; a bare number is a holding register."""
+    m = _MODBUS_RE.match(address.strip())
+    if m is None:
+        raise ValueError(address)
+    return (m.group(1) or "hr"), int(m.group(2))
+
+
+def _check_modbus_address(address: str, key: str, parser: _Parser) -> None:
+    try:
+        _, reg = parse_modbus_address(address)
+    except ValueError:
+        raise parser.fail(
+            key, f"Modbus address must be hr:N or ir:N (FLOAT32 at register N), got {address!r}"
+        ) from None
+    if reg > 65534:
+        raise parser.fail(key, "Modbus register must be <= 65534 (a FLOAT32 takes two)")

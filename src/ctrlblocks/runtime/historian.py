@@ -1,0 +1,383 @@
+"""The historian: every cycle of every loop, and an audit trail, in SQLite or PostgreSQL.
+
+Schema (the same in both databases; ``docs/runtime.md`` explains each column)::
+
+    runs    (run_id, started, stopped, name)
+    samples (run_id, loop, cycle, t_wall, t, dt, sp, pv, mv, mode,
+             error_id, pv_ok, write_ok, overrun)      key (run_id, loop, cycle)
+    audit   (id, t_wall, who, loop, action, old, new, ok, message)
+
+* SQLite (default, embedded): WAL journal, ``synchronous=NORMAL``; rows are
+  buffered and written in batches (every ``flush_interval`` seconds or
+  ``batch`` rows) in one transaction.  SQLite stores NaN as NULL; the export
+  gives NaN back.
+* PostgreSQL (psycopg 3): the same tables (``DOUBLE PRECISION``/``BIGINT``).
+
+Every start of the runtime opens a new run (``run_id`` + 1) and appends; a
+graceful stop flushes the buffer, so no sample is lost across a restart.
+``retention_days > 0`` deletes samples (and audit rows) older than that at
+open and once an hour.
+"""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import logging
+import math
+import sqlite3
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .loop import Sample
+
+__all__ = [
+    "SAMPLE_COLUMNS",
+    "Historian",
+    "PostgresHistorian",
+    "SQLiteHistorian",
+    "export_history",
+    "open_historian",
+]
+
+log = logging.getLogger(__name__)
+
+SAMPLE_COLUMNS = (
+    "run_id",
+    "loop",
+    "cycle",
+    "t_wall",
+    "t",
+    "dt",
+    "sp",
+    "pv",
+    "mv",
+    "mode",
+    "error_id",
+    "pv_ok",
+    "write_ok",
+    "overrun",
+)
+"""Columns of the ``samples`` table, in order."""
+
+AUDIT_COLUMNS = ("id", "t_wall", "who", "loop", "action", "old", "new", "ok", "message")
+
+_SQLITE_SCHEMA = """
+CREATE TABLE IF NOT EXISTS runs (
+    run_id INTEGER PRIMARY KEY, started REAL NOT NULL, stopped REAL, name TEXT);
+CREATE TABLE IF NOT EXISTS samples (
+    run_id INTEGER NOT NULL, loop TEXT NOT NULL, cycle INTEGER NOT NULL,
+    t_wall REAL NOT NULL, t REAL, dt REAL, sp REAL, pv REAL, mv REAL, mode TEXT,
+    error_id INTEGER, pv_ok INTEGER, write_ok INTEGER, overrun INTEGER,
+    PRIMARY KEY (run_id, loop, cycle));
+CREATE INDEX IF NOT EXISTS samples_loop_time ON samples (loop, t_wall);
+CREATE TABLE IF NOT EXISTS audit (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, t_wall REAL NOT NULL, who TEXT, loop TEXT,
+    action TEXT, old TEXT, new TEXT, ok INTEGER, message TEXT);
+"""
+
+_PG_SCHEMA = """
+CREATE TABLE IF NOT EXISTS runs (
+    run_id BIGINT PRIMARY KEY, started DOUBLE PRECISION NOT NULL,
+    stopped DOUBLE PRECISION, name TEXT);
+CREATE TABLE IF NOT EXISTS samples (
+    run_id BIGINT NOT NULL, loop TEXT NOT NULL, cycle BIGINT NOT NULL,
+    t_wall DOUBLE PRECISION NOT NULL, t DOUBLE PRECISION, dt DOUBLE PRECISION,
+    sp DOUBLE PRECISION, pv DOUBLE PRECISION, mv DOUBLE PRECISION, mode TEXT,
+    error_id BIGINT, pv_ok SMALLINT, write_ok SMALLINT, overrun SMALLINT,
+    PRIMARY KEY (run_id, loop, cycle));
+CREATE INDEX IF NOT EXISTS samples_loop_time ON samples (loop, t_wall);
+CREATE TABLE IF NOT EXISTS audit (
+    id BIGSERIAL PRIMARY KEY, t_wall DOUBLE PRECISION NOT NULL, who TEXT, loop TEXT,
+    action TEXT, old TEXT, new TEXT, ok SMALLINT, message TEXT);
+"""
+
+
+def _row(run_id: int, s: Sample) -> tuple[Any, ...]:
+    return (
+        run_id,
+        s.loop,
+        s.cycle,
+        s.t_wall,
+        s.t,
+        s.dt,
+        s.sp,
+        s.pv,
+        s.mv,
+        s.mode,
+        s.error_id,
+        int(s.pv_ok),
+        int(s.write_ok),
+        int(s.overrun),
+    )
+
+
+class Historian:
+    """Buffered writer of samples and audit rows (base of the two databases).
+
+    ``record`` only appends to a buffer (cheap, in the cycle); ``flush``
+    writes the buffer in one transaction (the runtime calls it from a worker
+    thread every ``flush_interval``).
+    """
+
+    placeholder = "?"
+    schema = _SQLITE_SCHEMA
+
+    def __init__(self, *, name: str = "ctrlblocks", retention_days: float = 0.0) -> None:
+        self.name = name
+        self.retention_days = float(retention_days)
+        self.run_id = 0
+        self.rows_written = 0
+        self._buf: list[tuple[Any, ...]] = []
+        self._buf_lock = threading.Lock()
+        self._db_lock = threading.Lock()
+        self._conn: Any = None
+        self._last_retention = 0.0
+
+    # -- database specifics (overridden) ------------------------------------------
+
+    def _connect(self) -> Any:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _executescript(self, sql: str) -> None:
+        cur = self._conn.cursor()
+        for stmt in sql.split(";"):
+            if stmt.strip():
+                cur.execute(stmt)
+        self._conn.commit()
+
+    def _sql(self, sql: str) -> str:
+        return sql.replace("?", self.placeholder)
+
+    # -- life cycle -----------------------------------------------------------------
+
+    def open(self) -> None:
+        """Create the tables if needed, start a new run, apply the retention."""
+        with self._db_lock:
+            self._conn = self._connect()
+            self._executescript(self.schema)
+            cur = self._conn.cursor()
+            cur.execute("SELECT COALESCE(MAX(run_id), 0) FROM runs")
+            self.run_id = int(cur.fetchone()[0]) + 1
+            cur.execute(
+                self._sql("INSERT INTO runs (run_id, started, name) VALUES (?, ?, ?)"),
+                (self.run_id, time.time(), self.name),
+            )
+            self._conn.commit()
+        self.apply_retention()
+
+    def close(self) -> None:
+        """Flush, mark the run stopped, close."""
+        if self._conn is None:
+            return
+        self.flush()
+        with self._db_lock:
+            cur = self._conn.cursor()
+            cur.execute(
+                self._sql("UPDATE runs SET stopped = ? WHERE run_id = ?"),
+                (time.time(), self.run_id),
+            )
+            self._conn.commit()
+            self._conn.close()
+            self._conn = None
+
+    # -- writing ----------------------------------------------------------------------
+
+    def record(self, sample: Sample) -> None:
+        """Buffer one sample (written by the next :meth:`flush`)."""
+        with self._buf_lock:
+            self._buf.append(_row(self.run_id, sample))
+
+    @property
+    def pending(self) -> int:
+        """Samples buffered and not yet written."""
+        return len(self._buf)
+
+    def flush(self) -> int:
+        """Write the buffered samples in one transaction; return how many."""
+        with self._buf_lock:
+            rows, self._buf = self._buf, []
+        if not rows:
+            return 0
+        cols = ", ".join(SAMPLE_COLUMNS)
+        marks = ", ".join([self.placeholder] * len(SAMPLE_COLUMNS))
+        try:
+            with self._db_lock:
+                cur = self._conn.cursor()
+                cur.executemany(f"INSERT INTO samples ({cols}) VALUES ({marks})", rows)
+                self._conn.commit()
+        except Exception:
+            with self._buf_lock:  # keep them for the next try
+                self._buf[:0] = rows
+            raise
+        self.rows_written += len(rows)
+        if self.retention_days > 0 and time.time() - self._last_retention > 3600.0:
+            self.apply_retention()
+        return len(rows)
+
+    def audit(
+        self,
+        who: str,
+        loop: str,
+        action: str,
+        old: Any,
+        new: Any,
+        ok: bool,
+        message: str = "",
+    ) -> None:
+        """Write one audit row at once (who changed what, when, and whether it was accepted)."""
+        with self._db_lock:
+            cur = self._conn.cursor()
+            cur.execute(
+                self._sql(
+                    "INSERT INTO audit (t_wall, who, loop, action, old, new, ok, message) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?)"
+                ),
+                (
+                    time.time(),
+                    who,
+                    loop,
+                    action,
+                    json.dumps(old, default=str),
+                    json.dumps(new, default=str),
+                    int(ok),
+                    message,
+                ),
+            )
+            self._conn.commit()
+
+    def apply_retention(self) -> None:
+        """Delete samples and audit rows older than ``retention_days`` (0: keep all)."""
+        self._last_retention = time.time()
+        if self.retention_days <= 0:
+            return
+        cutoff = time.time() - self.retention_days * 86400.0
+        with self._db_lock:
+            cur = self._conn.cursor()
+            cur.execute(self._sql("DELETE FROM samples WHERE t_wall < ?"), (cutoff,))
+            cur.execute(self._sql("DELETE FROM audit WHERE t_wall < ?"), (cutoff,))
+            self._conn.commit()
+
+    # -- reading ------------------------------------------------------------------------
+
+    def query(self, sql: str, params: Sequence[Any] = ()) -> list[tuple[Any, ...]]:
+        """Run a read query (``?`` placeholders) and return all rows."""
+        with self._db_lock:
+            cur = self._conn.cursor()
+            cur.execute(self._sql(sql), tuple(params))
+            rows = cur.fetchall()
+            self._conn.commit()
+        return rows
+
+    def samples(self, loop: str | None = None) -> list[dict[str, Any]]:
+        """All samples (of one loop), ordered by run and cycle; NULL floats as NaN."""
+        where, params = ("WHERE loop = ?", (loop,)) if loop else ("", ())
+        rows = self.query(
+            f"SELECT {', '.join(SAMPLE_COLUMNS)} FROM samples {where} ORDER BY run_id, loop, cycle",
+            params,
+        )
+        return [_as_dict(r) for r in rows]
+
+    def audit_rows(self) -> list[dict[str, Any]]:
+        """The audit trail, oldest first."""
+        rows = self.query(f"SELECT {', '.join(AUDIT_COLUMNS)} FROM audit ORDER BY id")
+        return [dict(zip(AUDIT_COLUMNS, r, strict=True)) for r in rows]
+
+
+def _as_dict(r: Sequence[Any]) -> dict[str, Any]:
+    d = dict(zip(SAMPLE_COLUMNS, r, strict=True))
+    for k in ("t", "dt", "sp", "pv", "mv"):
+        if d[k] is None:
+            d[k] = math.nan
+    return d
+
+
+class SQLiteHistorian(Historian):
+    """The embedded historian (SQLite, WAL)."""
+
+    def __init__(self, path: str | Path, **kw: Any) -> None:
+        super().__init__(**kw)
+        self.path = str(path)
+
+    def _connect(self) -> Any:
+        conn = sqlite3.connect(self.path, check_same_thread=False, timeout=10.0)
+        conn.execute("PRAGMA journal_mode=WAL")
+        conn.execute("PRAGMA synchronous=NORMAL")
+        return conn
+
+
+class PostgresHistorian(Historian):
+    """The server historian (PostgreSQL via psycopg 3), same schema as SQLite."""
+
+    placeholder = "%s"
+    schema = _PG_SCHEMA
+
+    def __init__(self, dsn: str, **kw: Any) -> None:
+        super().__init__(**kw)
+        self.dsn = dsn
+
+    def _connect(self) -> Any:
+        try:
+            import psycopg
+        except ImportError as exc:  # pragma: no cover - depends on the install
+            raise ImportError(
+                "the PostgreSQL historian needs psycopg: pip install 'ctrlblocks[runtime]'"
+            ) from exc
+        return psycopg.connect(self.dsn, connect_timeout=10)
+
+
+def open_historian(config: Any, *, name: str = "ctrlblocks") -> Historian | None:
+    """The opened historian of a ``[historian]`` configuration (None: ``backend = "none"``)."""
+    if config.backend == "none":
+        return None
+    h: Historian
+    if config.backend == "postgresql":
+        h = PostgresHistorian(config.dsn, name=name, retention_days=config.retention_days)
+    else:
+        h = SQLiteHistorian(config.path, name=name, retention_days=config.retention_days)
+    h.open()
+    return h
+
+
+def export_history(
+    source: str | Path,
+    out: str | Path,
+    *,
+    fmt: str = "auto",
+    loop: str | None = None,
+    postgres: bool = False,
+) -> Path:
+    """Export the samples of a historian database to CSV or Parquet.
+
+    ``source`` is a SQLite file (or a PostgreSQL DSN with ``postgres=True``);
+    ``fmt`` is ``"csv"``, ``"parquet"`` (needs pyarrow) or ``"auto"`` (from
+    the suffix of ``out``).  Returns the written path.
+    """
+    out = Path(out)
+    if fmt == "auto":
+        fmt = "parquet" if out.suffix.lower() == ".parquet" else "csv"
+    h: Historian = PostgresHistorian(str(source)) if postgres else SQLiteHistorian(source)
+    h._conn = h._connect()
+    try:
+        rows = h.samples(loop)
+    finally:
+        h._conn.close()
+    if fmt == "parquet":
+        if importlib.util.find_spec("pyarrow") is None:
+            raise ImportError("Parquet export needs pyarrow: pip install pyarrow")
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.table({c: [r[c] for r in rows] for c in SAMPLE_COLUMNS})
+        pq.write_table(table, out)
+        return out
+    with out.open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(SAMPLE_COLUMNS)
+        for r in rows:
+            w.writerow([r[c] for c in SAMPLE_COLUMNS])
+    return out

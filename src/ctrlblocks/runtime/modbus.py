@@ -1,0 +1,127 @@
+"""Modbus TCP client adapter (pymodbus, tested with 3.16): FLOAT32 values in register pairs.
+
+Addresses are ``hr:N`` (holding registers N, N+1; read with function 3,
+written with function 16) or ``ir:N`` (input registers, read only, function
+4); a bare ``N`` is a holding register.  A value is an IEEE 754 single
+(FLOAT32) in two 16-bit registers, each register big-endian as Modbus
+prescribes; ``word_order`` says which register holds the high word:
+
+===========  ===================  =====================
+word_order   register N           register N+1
+===========  ===================  =====================
+``"big"``    high word (AB)       low word (CD)   "ABCD"
+``"little"`` low word (CD)        high word (AB)  "CDAB"
+===========  ===================  =====================
+
+A value is written as the nearest FLOAT32, so a loop running on Modbus sees
+its values rounded to about 7 significant digits.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Sequence
+
+from .config import ConnectionConfig, parse_modbus_address
+from .io import Adapter, IOFault, Reading, bad, checked
+
+__all__ = ["ModbusAdapter", "float32_to_registers", "registers_to_float32"]
+
+
+def float32_to_registers(value: float, word_order: str = "big") -> tuple[int, int]:
+    """Two 16-bit registers holding ``value`` as FLOAT32 (see the module table).
+
+    >>> [hex(r) for r in float32_to_registers(1.0)]
+    ['0x3f80', '0x0']
+    >>> [hex(r) for r in float32_to_registers(1.0, "little")]
+    ['0x0', '0x3f80']
+    """
+    hi, lo = struct.unpack(">HH", struct.pack(">f", value))
+    return (hi, lo) if word_order == "big" else (lo, hi)
+
+
+def registers_to_float32(regs: Sequence[int], word_order: str = "big") -> float:
+    """The FLOAT32 in two registers (inverse of :func:`float32_to_registers`)."""
+    a, b = int(regs[0]), int(regs[1])
+    hi, lo = (a, b) if word_order == "big" else (b, a)
+    return struct.unpack(">f", struct.pack(">HH", hi, lo))[0]
+
+
+def _pymodbus():
+    try:
+        from pymodbus.client import AsyncModbusTcpClient
+    except ImportError as exc:  # pragma: no cover - depends on the install
+        raise ImportError(
+            "the Modbus adapter needs pymodbus: pip install 'ctrlblocks[runtime]'"
+        ) from exc
+    return AsyncModbusTcpClient
+
+
+class ModbusAdapter(Adapter):
+    """Modbus TCP client (see the module docstring)."""
+
+    def __init__(self, config: ConnectionConfig) -> None:
+        self.config = config
+        self._client = None
+        self._order = config.word_order
+
+    async def connect(self) -> None:
+        client_cls = _pymodbus()
+        c = self.config
+        client = client_cls(c.host, port=c.port, timeout=c.timeout, retries=0, reconnect_delay=0.0)
+        ok = await client.connect()
+        if not ok:
+            client.close()
+            raise IOFault(f"Modbus TCP {c.host}:{c.port}: connection refused")
+        self._client = client
+
+    async def close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+
+    def _live(self):
+        if self._client is None or not self._client.connected:
+            raise IOFault("Modbus connection closed")
+        return self._client
+
+    async def read(self, addresses: Sequence[str]) -> list[Reading]:
+        client = self._live()
+        out: list[Reading] = []
+        for a in addresses:
+            kind, reg = parse_modbus_address(a)
+            fn = client.read_holding_registers if kind == "hr" else client.read_input_registers
+            try:
+                rr = await fn(reg, count=2, device_id=self.config.unit)
+            except Exception as exc:
+                raise IOFault(f"Modbus read {a}: {exc}") from exc
+            if rr.isError():
+                out.append(bad(f"Modbus exception {getattr(rr, 'exception_code', '?')} on {a}"))
+                continue
+            out.append(checked(registers_to_float32(rr.registers, self._order)))
+        return out
+
+    async def write(self, items: Sequence[tuple[str, float]]) -> list[str | None]:
+        client = self._live()
+        res: list[str | None] = []
+        for a, v in items:
+            kind, reg = parse_modbus_address(a)
+            if kind != "hr":
+                res.append(f"{a}: input registers are read-only")
+                continue
+            x = float(v)
+            if math.isfinite(x) and abs(x) > 3.4028234663852886e38:
+                res.append(f"{a}: {x!r} does not fit a FLOAT32")
+                continue
+            regs = list(float32_to_registers(x, self._order))
+            try:
+                rr = await client.write_registers(reg, regs, device_id=self.config.unit)
+            except Exception as exc:
+                raise IOFault(f"Modbus write {a}: {exc}") from exc
+            res.append(
+                f"Modbus exception {getattr(rr, 'exception_code', '?')} on {a}"
+                if rr.isError()
+                else None
+            )
+        return res

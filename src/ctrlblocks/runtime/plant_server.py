@@ -1,0 +1,526 @@
+"""A simulated plant served over OPC UA and Modbus TCP (``ctrlblocks plant-server``).
+
+:class:`PlantProcess` is the process side of a scenario (``structure =
+"single"``): the plant built by the simulator's
+:func:`~ctrlblocks.sim.scenario.build` inside the plants' ``Actuator`` and
+``Sensor`` wrappers, exactly as :func:`ctrlblocks.sim.simulate` wires it, and
+the scenario's time line.  At sample ``k`` (time ``k ts``) it applies the
+events due (setpoint steps and ramps, loads, plant parameters, sensor faults,
+and the controller-side events mode / manual value / limits, which it
+*publishes* for the runtime to read), publishes the measurement, and steps the
+plant by ``ts`` with the MV it receives.
+
+:class:`PlantServer` serves one process over OPC UA and/or Modbus TCP.
+Variables (OPC UA ``ns=2;s=NAME``; Modbus holding registers, FLOAT32, two
+registers each):
+
+========  ========  ==============================================  =========
+name      register  meaning                                         access
+========  ========  ==============================================  =========
+pv        0         measured process value (NaN after a sensor       read
+                    NaN event; bad status while the sensor is
+                    faulty, NaN on Modbus)
+mv        2         manipulated variable (the runtime writes it)     read/write
+sp        4         setpoint of the scenario's time line             read
+mode      6         0 = auto, 1 = manual (mode events)               read
+manual    8         manual value (NaN until a mode/manual event)     read
+u_min     10        MV limits (NaN until a limits event)             read
+u_max     12                                                         read
+k         14        sample counter                                   read
+========  ========  ==============================================  =========
+
+``sync = "write"`` (lock-step, for tests and hardware-in-the-loop checks):
+each write of ``mv`` steps the plant once, so a runtime that reads PV,
+computes and writes MV once per cycle sees exactly the sample sequence of
+:func:`ctrlblocks.sim.simulate`.  ``sync = "clock"``: the plant steps every
+``ts`` of wall-clock time with the last MV written.
+
+Not served: the simulator's ``initial.warmup`` (the plant starts in its steady
+state; the runtime's blocks start from their own initial state) and events of
+kind ``set`` (they act inside a controller).
+
+Fault injection for tests (attributes of :class:`PlantServer`): ``delay``
+(Modbus requests answered ``delay`` seconds late), ``force_nan`` (PV reads
+NaN), ``reject_mv`` (Modbus MV writes refused; on OPC UA use
+:meth:`PlantServer.set_mv_writable`), ``stale`` (OPC UA PV with a source
+timestamp an hour old).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import datetime as _dt
+import logging
+import math
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from ..plants import Actuator, Noise, Sensor
+from ..sim.scenario import Event, Scenario, build
+
+__all__ = ["MODBUS_REGISTERS", "SIGNALS", "PlantProcess", "PlantServer"]
+
+log = logging.getLogger(__name__)
+
+SIGNALS = ("pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max", "k")
+"""Variables of the plant server, in register order."""
+
+MODBUS_REGISTERS = {name: 2 * i for i, name in enumerate(SIGNALS)}
+"""Holding register of each variable (FLOAT32 in two registers)."""
+
+NAMESPACE = "urn:ctrlblocks:plant"
+
+
+class _Setpoint:
+    """Setpoint profile of a scenario: steps, and ramps towards a target (as the simulator)."""
+
+    def __init__(self, value: float) -> None:
+        self.value = self.target = value
+        self.rate = math.inf
+
+    def step_to(self, value: float, ramp: float | None) -> None:
+        self.target = value
+        if ramp is None:
+            self.value, self.rate = value, math.inf
+        else:
+            self.rate = ramp
+
+    def advance(self, h: float) -> None:
+        d = self.target - self.value
+        if d != 0.0:
+            lim = self.rate * h
+            self.value = self.target if abs(d) <= lim else self.value + math.copysign(lim, d)
+
+
+class PlantProcess:
+    """The process side of a single-loop scenario, stepped sample by sample.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario with ``structure = "single"``.
+    case : str, optional
+        The case whose events to play (default the first).
+    """
+
+    def __init__(self, scenario: Scenario, case: str | None = None) -> None:
+        if scenario.structure != "single":
+            raise ValueError(
+                f"{scenario.file}: the plant server serves single loops; "
+                f"structure {scenario.structure!r} is not supported"
+            )
+        self.scenario = scenario
+        self.case = scenario.cases[0] if case is None else scenario.case(case)
+        for ev in self.case.events:
+            if ev.kind == "set":
+                raise ValueError(
+                    f"{scenario.file}: event at t={ev.t:g} of kind 'set' acts inside the "
+                    "controller; the plant server cannot serve it"
+                )
+        self.ts = h = scenario.ts
+        sen, act = dict(scenario.sensor), dict(scenario.actuator)
+        noise = None
+        if sen.get("noise", 0.0) > 0.0:
+            noise = Noise(
+                sen["noise"],
+                kind=sen.get("noise_kind", "uniform"),
+                t_corr=sen.get("noise_t_corr", 0.0),
+                ts=h,
+                seed=scenario.seed,
+            )
+        self.model = build(scenario.plant, h, kind="plant", file=scenario.file)  # type: ignore[arg-type]
+        self.plant = Sensor(
+            Actuator(self.model, **act), noise=noise, y_min=sen["y_min"], y_max=sen["y_max"]
+        )
+        self.actuator = self.plant.find(Actuator)
+        ini = scenario.initial
+        self.actuator.load = ini["load"]
+        u0 = ini["u"]
+        if not math.isnan(ini["y"]):
+            if hasattr(self.model, "u_for_y"):
+                u0 = float(self.model.u_for_y(ini["y"])) - self.actuator.load
+            else:
+                u0 = ini["y"] / float(self.model.dc_gain) - self.actuator.load
+        self.u0 = u0
+        self.plant.reset(u0)
+        sp0 = ini["sp"]
+        self._sp = _Setpoint(self.plant.y_true if math.isnan(sp0) else sp0)
+        self.mode = 1.0 if ini["mode"] == "manual" else 0.0
+        self.manual_value = math.nan
+        self.u_min = math.nan
+        self.u_max = math.nan
+        self.sensor_ok = True
+        self.mv = u0
+        self.k = 0
+        self._pending: list[Event] = list(self.case.events)
+        self._apply_due()
+
+    # -- the time line ----------------------------------------------------------
+
+    @property
+    def t(self) -> float:
+        """Time of the current sample [s]."""
+        return self.k * self.ts
+
+    @property
+    def duration(self) -> float:
+        """Duration of the case [s]."""
+        return self.case.duration
+
+    def _apply_due(self) -> None:
+        t, h = self.t, self.ts
+        while self._pending and self._pending[0].t <= t + 0.5 * h:
+            self._apply(self._pending.pop(0))
+
+    def _apply(self, ev: Event) -> None:
+        f, k = ev.fields, ev.kind
+        if k == "setpoint":
+            self._sp.step_to(f["value"], f.get("ramp"))
+        elif k == "load":
+            at = f.get("at", "input")
+            if at == "input":
+                self.actuator.load = f["value"]
+            elif at == "output":
+                self.plant.load = f["value"]
+            else:
+                log.warning("load at %r is not served (single loop); ignored", at)
+        elif k == "mode":
+            self.mode = 1.0 if f["mode"] == "manual" else 0.0
+            if "manual_value" in f:
+                self.manual_value = f["manual_value"]
+        elif k == "manual_value":
+            self.manual_value = f["value"]
+        elif k == "limits":
+            self.u_min, self.u_max = f["u_min"], f["u_max"]
+        elif k == "plant":
+            if hasattr(self.model, "set_parameter"):
+                self.model.set_parameter(f["param"], f["value"])
+            else:
+                setattr(self.model, f["param"], f["value"])
+        elif k == "sensor":
+            if "ok" in f:
+                self.sensor_ok = f["ok"]
+            if "nan" in f:
+                self.plant.fault = math.nan if f["nan"] else None
+
+    # -- signals and the step ---------------------------------------------------------
+
+    @property
+    def pv(self) -> float:
+        """The measurement of the current sample."""
+        return float(self.plant.y)
+
+    @property
+    def sp(self) -> float:
+        """The setpoint of the current sample."""
+        return float(self._sp.value)
+
+    def values(self) -> dict[str, float]:
+        """Every served variable of the current sample."""
+        return {
+            "pv": self.pv,
+            "mv": float(self.mv),
+            "sp": self.sp,
+            "mode": self.mode,
+            "manual_value": self.manual_value,
+            "u_min": self.u_min,
+            "u_max": self.u_max,
+            "k": float(self.k),
+        }
+
+    def step(self, u: float) -> None:
+        """Apply ``u`` for one sample; then go to the next sample (events, setpoint)."""
+        self.mv = u
+        self.plant.step(u)
+        self.k += 1
+        self._sp.advance(self.ts)
+        self._apply_due()
+
+
+# ---------------------------------------------------------------------------
+# The servers
+# ---------------------------------------------------------------------------
+
+
+class _PasswordUsers:
+    """asyncua user manager: user/password pairs (no anonymous access)."""
+
+    def __init__(self, users: dict[str, str]) -> None:
+        self.users = dict(users)
+
+    def get_user(self, iserver: Any, username=None, password=None, certificate=None):
+        from asyncua.crypto.permission_rules import User, UserRole
+
+        if username is not None and self.users.get(username) == password:
+            return User(role=UserRole.User, name=username)
+        return None
+
+
+class PlantServer:
+    """Serves a :class:`PlantProcess` over OPC UA and/or Modbus TCP (see the module docstring).
+
+    Parameters
+    ----------
+    process : PlantProcess
+        The simulated process.
+    host : str
+        Address to bind (default ``127.0.0.1``: loopback only).
+    opcua_port, modbus_port : int or None
+        Ports to serve on (None: that protocol is off; 0: any free port, see
+        :attr:`opcua_url` / :attr:`modbus_port` after :meth:`start`).
+    sync : str
+        ``"write"`` (step on each MV write) or ``"clock"`` (step every ``ts``).
+    float_signals : iterable of str
+        OPC UA variables served as ``Float`` (FLOAT32) instead of ``Double``.
+    word_order : str
+        Modbus FLOAT32 word order, ``"big"`` or ``"little"``.
+    certificate, private_key : path, optional
+        OPC UA server certificate (DER) and key (PEM): with them the server
+        offers only Basic256Sha256 SignAndEncrypt.
+    trusted : iterable of paths
+        Client certificates (files or directories) the server accepts;
+        empty = none (never any certificate by default).
+    users : dict, optional
+        ``{user: password}``; required with security (no anonymous login).
+    """
+
+    def __init__(
+        self,
+        process: PlantProcess,
+        *,
+        host: str = "127.0.0.1",
+        opcua_port: int | None = 4840,
+        modbus_port: int | None = 5020,
+        sync: str = "write",
+        float_signals: Iterable[str] = (),
+        word_order: str = "big",
+        certificate: str | Path | None = None,
+        private_key: str | Path | None = None,
+        trusted: Iterable[str | Path] = (),
+        users: dict[str, str] | None = None,
+    ) -> None:
+        if sync not in ("write", "clock"):
+            raise ValueError(f"sync must be 'write' or 'clock', got {sync!r}")
+        if (certificate is None) != (private_key is None):
+            raise ValueError("give both the server certificate and its private key")
+        if certificate is not None and not users:
+            raise ValueError("a secured server needs users (no anonymous login)")
+        self.process = process
+        self.host = host
+        self.opcua_port = opcua_port
+        self.modbus_port = modbus_port
+        self.sync = sync
+        self.float_signals = set(float_signals)
+        unknown = self.float_signals - set(SIGNALS)
+        if unknown:
+            raise ValueError(f"unknown signals {sorted(unknown)}; signals: {SIGNALS}")
+        self.word_order = word_order
+        self.certificate, self.private_key = certificate, private_key
+        self.trusted = list(trusted)
+        self.users = dict(users or {})
+        # fault injection
+        self.delay = 0.0
+        self.force_nan = False
+        self.reject_mv = False
+        self.stale = False
+        self.mv_writes = 0
+        self._opcua: Any = None
+        self._modbus: Any = None
+        self._clock_task: asyncio.Task[None] | None = None
+        self.opcua_url = ""
+
+    # -- life cycle -------------------------------------------------------------------
+
+    async def start(self) -> None:
+        """Start the configured servers (and the plant clock with ``sync="clock"``)."""
+        if self.opcua_port is not None:
+            await self._start_opcua()
+        if self.modbus_port is not None:
+            await self._start_modbus()
+        if self.sync == "clock":
+            self._clock_task = asyncio.create_task(self._run_clock())
+
+    async def stop(self) -> None:
+        """Stop every server (clients see the connection drop)."""
+        if self._clock_task is not None:
+            self._clock_task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._clock_task
+            self._clock_task = None
+        if self._modbus is not None:
+            await self._modbus.shutdown()
+            self._modbus = None
+        if self._opcua is not None:
+            await self._opcua.stop()
+            self._opcua = None
+
+    async def __aenter__(self) -> PlantServer:
+        await self.start()
+        return self
+
+    async def __aexit__(self, *exc: Any) -> None:
+        await self.stop()
+
+    async def _run_clock(self) -> None:
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
+        k = 0
+        while True:
+            k += 1
+            await asyncio.sleep(max(0.0, t0 + k * self.process.ts - loop.time()))
+            self.process.step(self.process.mv)
+
+    def _mv_written(self, u: float) -> None:
+        self.mv_writes += 1
+        if self.sync == "write":
+            self.process.step(u)
+        else:
+            self.process.mv = u
+
+    def _value(self, name: str) -> float:
+        v = self.process.values()[name]
+        if name == "pv" and self.force_nan:
+            return math.nan
+        return v
+
+    # -- OPC UA ----------------------------------------------------------------------------
+
+    async def _start_opcua(self) -> None:
+        try:
+            from asyncua import Server, ua
+        except ImportError as exc:  # pragma: no cover - depends on the install
+            raise ImportError(
+                "the OPC UA server needs asyncua: pip install 'ctrlblocks[runtime]'"
+            ) from exc
+        from .opcua import trust_list_validator
+
+        secured = self.certificate is not None
+        server = Server(user_manager=_PasswordUsers(self.users) if secured else None)
+        await server.init()
+        port = self.opcua_port or _free_port(self.host)
+        self.opcua_port = port
+        self.opcua_url = f"opc.tcp://{self.host}:{port}/ctrlblocks/plant"
+        server.set_endpoint(self.opcua_url)
+        server.set_server_name("ctrlblocks plant server")
+        if secured:
+            await server.load_certificate(str(self.certificate))
+            await server.load_private_key(str(self.private_key))
+            server.set_security_policy([ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt])
+            server.set_identity_tokens([ua.UserNameIdentityToken])
+            server.set_certificate_validator(trust_list_validator(self.trusted))
+        else:
+            server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        idx = await server.register_namespace(NAMESPACE)
+        obj = await server.nodes.objects.add_object(idx, "Plant")
+        for name in SIGNALS:
+            vt = ua.VariantType.Float if name in self.float_signals else ua.VariantType.Double
+            nodeid = ua.NodeId(name, idx)
+            var = await obj.add_variable(nodeid, name, ua.Variant(self._value(name), vt))
+            if name == "mv":
+                await var.set_writable(True)
+                server.set_attribute_value_setter(nodeid, self._opcua_mv_setter)
+            else:
+                server.set_attribute_value_callback(nodeid, self._opcua_reader(name, vt))
+        await server.start()
+        self._opcua = server
+
+    def _opcua_reader(self, name: str, vt: Any) -> Any:
+        from asyncua import ua
+
+        def read(nodeid: Any, attr: Any) -> Any:
+            now = _dt.datetime.now(_dt.timezone.utc)
+            if name == "pv" and self.stale:
+                now -= _dt.timedelta(hours=1)
+            if name == "pv" and not self.process.sensor_ok:
+                return ua.DataValue(
+                    ua.Variant(self._value(name), vt),
+                    StatusCode=ua.StatusCode(ua.StatusCodes.BadSensorFailure),
+                    SourceTimestamp=now,
+                )
+            return ua.DataValue(ua.Variant(self._value(name), vt), SourceTimestamp=now)
+
+        return read
+
+    def _opcua_mv_setter(self, node: Any, attr: Any, value: Any) -> None:
+        node.attributes[attr].value = value
+        try:
+            u = float(value.Value.Value)
+        except (TypeError, ValueError, AttributeError):
+            return
+        self._mv_written(u)
+
+    async def set_mv_writable(self, writable: bool) -> None:
+        """Make the OPC UA ``mv`` variable writable or not (a rejected write for tests)."""
+        from asyncua import ua
+
+        if self._opcua is None:
+            return
+        idx = await self._opcua.get_namespace_index(NAMESPACE)
+        node = self._opcua.get_node(ua.NodeId("mv", idx))
+        await node.set_writable(writable)
+
+    # -- Modbus -----------------------------------------------------------------------------
+
+    async def _start_modbus(self) -> None:
+        try:
+            from pymodbus.server import ModbusTcpServer
+            from pymodbus.simulator import DataType, SimData, SimDevice
+        except ImportError as exc:  # pragma: no cover
+            raise ImportError(
+                "the Modbus server needs pymodbus: pip install 'ctrlblocks[runtime]'"
+            ) from exc
+        n = 2 * len(SIGNALS)
+        device = SimDevice(
+            id=0,
+            simdata=[SimData(0, count=n, values=0, datatype=DataType.REGISTERS)],
+            action=self._modbus_action,
+        )
+        port = self.modbus_port or _free_port(self.host)
+        self.modbus_port = port
+        server = ModbusTcpServer(device, address=(self.host, port))
+        await server.serve_forever(background=True)
+        self._modbus = server
+
+    async def _modbus_action(
+        self,
+        function_code: int,
+        start_address: int,
+        address: int,
+        count: int,
+        registers: list[int],
+        set_values: list[int] | list[bool] | None,
+    ) -> Any:
+        from pymodbus.constants import ExcCodes
+
+        from .modbus import float32_to_registers, registers_to_float32
+
+        if self.delay > 0.0:
+            await asyncio.sleep(self.delay)
+        mv_reg = MODBUS_REGISTERS["mv"]
+        if set_values:
+            lo, hi = address, address + len(set_values)
+            if lo != mv_reg or hi != mv_reg + 2:
+                return ExcCodes.ILLEGAL_ADDRESS  # only the MV (both registers) is writable
+            if self.reject_mv:
+                return ExcCodes.ILLEGAL_VALUE
+            u = registers_to_float32([int(v) for v in set_values], self.word_order)
+            self._mv_written(u)
+        for name, reg in MODBUS_REGISTERS.items():
+            if name == "mv" and set_values:
+                continue  # written by this request
+            v = self._value(name)
+            if name == "pv" and not self.process.sensor_ok:
+                v = math.nan
+            i = reg - start_address
+            registers[i], registers[i + 1] = float32_to_registers(v, self.word_order)
+        return None
+
+
+def _free_port(host: str) -> int:
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        return int(s.getsockname()[1])

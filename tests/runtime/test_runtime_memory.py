@@ -1,0 +1,364 @@
+"""The runtime on virtual time with in-memory I/O: scheduling, faults, commands, stop."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+import pytest
+
+from ctrlblocks.blocks import ADRC, PID
+from ctrlblocks.blocks.base import ErrorCode
+from ctrlblocks.runtime import (
+    CommandError,
+    FakeClock,
+    MemoryAdapter,
+    MemoryBus,
+    Runtime,
+    SQLiteHistorian,
+    parse_config,
+)
+
+from .conftest import loop_toml
+
+ADRC_BLOCK = (
+    '{ type = "ADRC", order = 1, b0 = 1.0, omega_c = 2.0, omega_o = 8.0, '
+    "u_min = -5.0, u_max = 5.0 }"
+)
+
+
+class FirstOrder:
+    """A test plant on the bus: y[k+1] = a y[k] + (1 - a) u[k], stepped on each MV write."""
+
+    def __init__(self, bus: MemoryBus, a: float = 0.9, pv: str = "pv", mv: str = "mv") -> None:
+        self.bus, self.a, self.pv = bus, a, pv
+        bus.values[pv] = 0.0
+        bus.values[mv] = 0.0
+        self.mv = mv
+
+    def __call__(self, address: str, u: float) -> None:
+        if address == self.mv:
+            y = self.bus.values[self.pv]
+            if math.isfinite(y):
+                self.bus.values[self.pv] = self.a * y + (1.0 - self.a) * u
+
+
+def make(loops: str, buses: dict[str, MemoryBus], tmp_path=None, historian: bool = False):
+    conns = "".join(f'[connections.{n}]\nprotocol = "memory"\n' for n in buses)
+    cfg = parse_config(conns + loops + '\n[historian]\nbackend = "none"\n')
+    clock = FakeClock()
+    hist = None
+    if historian:
+        hist = SQLiteHistorian(tmp_path / "h.sqlite")
+        hist.open()
+    samples = []
+    rt = Runtime(
+        cfg,
+        clock=clock,
+        adapters={n: MemoryAdapter(b) for n, b in buses.items()},
+        historian=hist,
+        on_sample=samples.append,
+    )
+    return rt, clock, samples
+
+
+async def run(rt, clock, t_end):
+    await rt.start()
+    await clock.run_until(t_end)
+
+
+def test_cycles_run_on_absolute_deadlines():
+    bus = MemoryBus()
+    FirstOrder(bus)
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(loop_toml(ts=0.1), {"io": bus})
+
+    async def main():
+        await run(rt, clock, 1.0)
+        await rt.stop()
+
+    asyncio.run(main())
+    times = [s.t for s in samples]
+    assert times == pytest.approx([0.1 * k for k in range(11)], abs=1e-12)
+    assert [s.cycle for s in samples] == list(range(11))
+    assert all(not s.overrun and s.dt == 0.1 for s in samples)
+
+
+def test_loop_equals_the_block_called_by_hand():
+    """The runtime's loop is exactly PID(sp, pv) per cycle on the plant's samples."""
+    bus = MemoryBus()
+    plant = FirstOrder(bus)
+    bus.on_write = plant
+    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus})
+
+    async def main():
+        await run(rt, clock, 2.0)
+        await rt.stop()
+
+    asyncio.run(main())
+    ref = PID(kp=1.0, ti=1.0, u_min=-10.0, u_max=10.0, ts=0.1, safe_value=0.0)
+    y = 0.0
+    for s in samples:
+        assert s.pv == y
+        u = ref(1.0, y)
+        assert s.mv == u
+        y = 0.9 * y + (1.0 - 0.9) * u
+    assert len(samples) == 21
+
+
+def test_bad_pv_gives_adrc_safe_value_in_the_same_cycle_and_recovers_bumplessly():
+    bus = MemoryBus()
+    plant = FirstOrder(bus)
+    bus.on_write = plant
+    rt, clock, samples = make(
+        loop_toml(ts=0.1, block=ADRC_BLOCK, sp="1.0", safe_value=-1.5), {"io": bus}
+    )
+
+    async def main():
+        await run(rt, clock, 0.95)  # cycles 0..9
+        bus.bad.add("pv")
+        await clock.run_until(1.45)  # cycles 10..14 with bad quality
+        bus.bad.clear()
+        await clock.run_until(2.0)
+        await rt.stop()
+
+    asyncio.run(main())
+    by = {s.cycle: s for s in samples}
+    assert by[9].pv_ok and by[9].mv != -1.5
+    for k in range(10, 15):
+        assert not by[k].pv_ok
+        assert by[k].mv == -1.5
+        assert by[k].error_id == ErrorCode.BAD_MEASUREMENT
+    # first good cycle continues from the applied safe value (seed 000 eq. 11)
+    assert by[15].pv_ok
+    assert by[15].mv == pytest.approx(-1.5, abs=1e-12)
+    assert by[16].mv != by[15].mv  # and control resumes
+    # the stop value (= safe value) is written last
+    assert bus.writes[-1] == ("mv", -1.5)
+
+
+@pytest.mark.parametrize(
+    ("on_bad", "expected"),
+    [("hold", "previous"), ("safe", 2.5)],
+)
+def test_pid_holds_or_goes_to_safe_value_on_nan_pv(on_bad, expected):
+    bus = MemoryBus()
+    plant = FirstOrder(bus)
+    bus.on_write = plant
+    rt, clock, samples = make(
+        loop_toml(ts=0.1, sp="1.0", safe_value=2.5, extra=f'on_bad_pv = "{on_bad}"'),
+        {"io": bus},
+    )
+
+    async def main():
+        await run(rt, clock, 0.45)  # cycles 0..4
+        bus.values["pv"] = math.nan
+        await clock.run_until(0.75)
+        await rt.stop()
+
+    asyncio.run(main())
+    by = {s.cycle: s for s in samples}
+    want = by[4].mv if expected == "previous" else expected
+    for k in (5, 6, 7):
+        assert not by[k].pv_ok
+        assert by[k].mv == want
+
+
+def test_overrun_is_flagged_and_the_next_cycle_uses_the_measured_period():
+    bus = MemoryBus()
+    plant = FirstOrder(bus)
+    bus.on_write = plant
+    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus})
+    reads = {"n": 0}
+
+    def slow_read():
+        reads["n"] += 1
+        if reads["n"] == 6:  # cycle 5 takes 0.25 s: deadlines 0.6 and 0.7 are missed
+            clock.advance(0.25)
+
+    bus.on_read = slow_read
+
+    async def main():
+        await run(rt, clock, 1.2)
+        await rt.stop()
+
+    asyncio.run(main())
+    by = {s.cycle: s for s in samples}
+    assert by[6].t == pytest.approx(0.8)  # phase kept: next deadline after 0.75
+    assert by[6].overrun and by[6].dt == pytest.approx(0.3)
+    assert not by[7].overrun and by[7].dt == 0.1
+    assert rt.loops["loop"].monitor.overruns == 1
+    # replay: the block saw dt = 0.3 in cycle 6 and ts elsewhere
+    ref = PID(kp=1.0, ti=1.0, u_min=-10.0, u_max=10.0, ts=0.1, safe_value=0.0)
+    for k in range(len(samples)):
+        s = by[k]
+        assert ref(1.0, s.pv, dt=0.3 if k == 6 else None) == s.mv
+
+
+def test_rejected_write_is_retried_reported_and_other_loops_keep_running():
+    a, b = MemoryBus(), MemoryBus()
+    a.on_write, b.on_write = FirstOrder(a), FirstOrder(b)
+    attempts = []
+    a_write = MemoryAdapter.write
+
+    loops = loop_toml(name="a", conn="a", extra="write_retries = 2") + loop_toml(name="b", conn="b")
+    rt, clock, samples = make(loops, {"a": a, "b": b})
+
+    async def counting_write(self, items):
+        attempts.append(items)
+        return await a_write(self, items)
+
+    rt.connections["a"].adapter.write = counting_write.__get__(rt.connections["a"].adapter)
+
+    async def main():
+        await run(rt, clock, 0.25)  # cycles 0..2 fine
+        a.reject.add("mv")
+        attempts.clear()
+        await clock.run_until(0.55)  # cycles 3..5 rejected
+        st = rt.state("a")
+        st["attempts"] = len(attempts)
+        a.reject.clear()
+        await clock.run_until(0.65)
+        await rt.stop()
+        return st
+
+    st = asyncio.run(main())
+    assert st["attempts"] == 3 * 3  # 1 + 2 retries per cycle
+    assert st["write_ok"] is False and st["write_error"] == "write rejected"
+    assert st["write_failures"] == 3
+    a_s = [s for s in samples if s.loop == "a"]
+    b_s = [s for s in samples if s.loop == "b"]
+    assert [s.write_ok for s in a_s[:7]] == [True] * 3 + [False] * 3 + [True]
+    assert all(s.write_ok and s.pv_ok for s in b_s)
+    assert len(b_s) == len(a_s) == 7
+
+
+def test_lost_connection_reconnects_with_exponential_backoff():
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    bus.down = True
+    rt, clock, samples = make(
+        '[connections.io]\nprotocol = "memory"\nreconnect_min = 0.1\nreconnect_max = 0.4\n'
+        + loop_toml(ts=0.05, safe_value=0.7),
+        {},
+    )
+    adapter = MemoryAdapter(bus)
+    connects = []
+    orig = adapter.connect
+
+    async def connect():
+        connects.append(round(clock.now(), 9))
+        await orig()
+
+    adapter.connect = connect
+    rt.connections["io"].adapter = adapter
+
+    async def main():
+        await run(rt, clock, 1.6)
+        bus.down = False
+        await clock.run_until(2.5)
+        await rt.stop()
+
+    asyncio.run(main())
+    # t = 0 first try, then back-off 0.1, 0.2, 0.4, 0.4, ... after each failure
+    assert connects[:6] == pytest.approx([0.0, 0.1, 0.3, 0.7, 1.1, 1.5])
+    assert connects[6] == pytest.approx(1.9)  # the bus is up again: connected
+    assert len(connects) == 7
+    before = [s for s in samples if s.t < 1.9 - 1e-9]
+    after = [s for s in samples if s.t > 1.9 + 1e-9]
+    assert all(not s.pv_ok and s.mv == 0.7 for s in before)
+    assert all(s.pv_ok for s in after)
+    assert rt.connections["io"].reconnects == 1
+
+
+def test_commands_are_validated_applied_bumplessly_and_audited(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus}, tmp_path, historian=True)
+
+    async def main():
+        await run(rt, clock, 0.95)
+        out_before = rt.state("loop")["mv"]
+        rt.command("loop", user="alice", mode="manual")
+        st = rt.state("loop")
+        assert st["mode"] == "manual" and st["manual_value"] == out_before
+        await clock.run_until(1.05)  # one manual cycle: the output does not jump
+        assert samples[-1].mv == out_before
+        rt.command("loop", user="alice", manual_value=3.0)
+        with pytest.raises(CommandError) as e1:
+            rt.command("loop", user="bob", u_min=5.0, u_max=1.0)
+        assert e1.value.code == ErrorCode.BAD_LIMITS
+        with pytest.raises(CommandError) as e2:
+            rt.command("loop", user="bob", tunings={"kp": -1.0})
+        assert e2.value.code == ErrorCode.BAD_PID_COEFFS
+        assert rt.loops["loop"].block.config.kp == 1.0  # old tuning in force
+        with pytest.raises(CommandError):
+            rt.command("loop", user="bob", mode="cascade")
+        rt.command("loop", user="carol", tunings={"kp": 2.0, "ti": 0.5}, u_min=-1.0, u_max=4.0)
+        rt.command("loop", user="carol", mode="auto", sp=2.0)
+        await clock.run_until(1.5)
+        await rt.stop()
+
+    asyncio.run(main())
+    blk = rt.loops["loop"].block
+    assert (blk.config.kp, blk.config.ti, blk.u_min, blk.u_max) == (2.0, 0.5, -1.0, 4.0)
+    assert rt.loops["loop"].sp == 2.0
+    h = SQLiteHistorian(tmp_path / "h.sqlite")
+    h._conn = h._connect()
+    audit = h.audit_rows()
+    who_ok = [(r["who"], r["action"], r["ok"]) for r in audit]
+    assert who_ok[:6] == [
+        ("alice", "mode", 1),
+        ("alice", "manual_value", 1),
+        ("bob", "u_max,u_min", 0),
+        ("bob", "tunings", 0),
+        ("bob", "mode", 0),
+        ("carol", "tunings,u_max,u_min", 1),
+    ]
+    assert '"kp": 1.0' in audit[5]["old"]  # the old tuning is recorded
+    assert who_ok[-1] == ("runtime", "stop", 1)
+
+
+def test_signals_bound_to_io_cannot_be_commanded():
+    bus = MemoryBus({"sp": 1.0})
+    bus.on_write = FirstOrder(bus)
+    rt, _, _ = make(loop_toml(sp='"io:sp"'), {"io": bus})
+    with pytest.raises(CommandError, match="bound to I/O"):
+        rt.command("loop", user="x", sp=3.0)
+
+
+def test_stop_writes_stop_values_and_flushes_every_sample(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(
+        loop_toml(ts=0.1, block=ADRC_BLOCK, safe_value=0.5, extra="stop_value = -0.25"),
+        {"io": bus},
+        tmp_path,
+        historian=True,
+    )
+
+    async def main():
+        await run(rt, clock, 0.9)
+        await rt.stop()
+
+    asyncio.run(main())
+    assert bus.writes[-1] == ("mv", -0.25)
+    h = SQLiteHistorian(tmp_path / "h.sqlite")
+    h._conn = h._connect()
+    assert len(h.samples()) == len(samples) == 10
+
+
+def test_adrc_block_call_matches_a_replay():
+    """ADRC through the runtime equals the block called by hand with the same data."""
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(loop_toml(ts=0.1, block=ADRC_BLOCK, sp="1.0"), {"io": bus})
+
+    async def main():
+        await run(rt, clock, 1.0)
+        await rt.stop()
+
+    asyncio.run(main())
+    ref = ADRC(order=1, b0=1.0, omega_c=2.0, omega_o=8.0, u_min=-5.0, u_max=5.0, ts=0.1)
+    for s in samples:
+        assert ref(1.0, s.pv) == s.mv
