@@ -71,7 +71,8 @@ Poles of the discretised loop ("Euler images")
 Because (4a) uses the *new* lower state in each upper recursion, it is a
 semi-implicit Euler scheme, not plain forward Euler.  For a chain of m
 integrators closed with the binomial gains of bandwidth w (``a = w ts``), the
-recursion gives ``(z-1)^m + sum_j a_j ts^j z^(j-1) (z-1)^(m-j) = 0``, i.e.::
+recursion gives ``(z-1)^m + sum_j c_j ts^j z^(j-1) (z-1)^(m-j) = 0`` with the
+continuous coefficients ``c_j = C(m, j) w^j``, i.e.::
 
     z P_m(z) = (z - 1)^(m+1) + ((1 + a) z - 1)^m
 
@@ -97,7 +98,7 @@ Trustworthy range (status ``WARN_DISCRETISATION``, 16#8301)
 Euler: the block warns when any root of ``P_{n+1}(omega_o ts)`` or
 ``P_n(omega_c ts)`` has a modulus above ``exp(-a/2)``, i.e. when a mode of the
 discretised observer (or controller) decays less than half as fast as the
-bandwidth asks, or oscillates from a negative real pole.  The bounds
+bandwidth asks.  The bounds
 (``EULER_LIMIT``) are found numerically from the roots of ``P_m`` and checked
 by the tests: ``a <= 0.735, 0.484, 0.360`` for m = 2, 3, 4 (and 1.477 for
 m = 1), just below the stability limits above.  Exact: the poles are exact for
