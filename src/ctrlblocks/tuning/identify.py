@@ -578,31 +578,50 @@ def fit_integrating(t: ArrayLike, u: ArrayLike, y: ArrayLike) -> Integrating:
     return _finish(model, t, u, y, None, p)
 
 
+_FIT_SAMPLES = 1500
+"""Grid search and the search from several starts use at most about this many samples."""
+
+
 def _fit(t, u, y, make_step, grid, bounds, drift=False, polish_all=False) -> dict:
-    """Variable-projection least squares: grid search, then ``least_squares``."""
+    """Variable-projection least squares: grid search, then ``least_squares``.
+
+    On a long record the grid search and the searches from the best starts
+    run on every k-th sample (at most ``_FIT_SAMPLES``); the best result is
+    then polished on the whole record.
+    """
     changes = _changes(t, u)
-    cols0 = [np.ones_like(t)]
-    if drift:
-        cols0.append(t - t[0])
-
-    def solve(q):
-        x = _superpose_changes(t, changes, q[-1], make_step(q))
-        a = np.column_stack([x, *cols0])
-        coef, *_ = np.linalg.lstsq(a, y, rcond=None)
-        return coef, y - a @ coef
-
-    scored = sorted(grid, key=lambda q: float(np.sum(solve(np.asarray(q, float))[1] ** 2)))
-    starts = scored[: 3 if not polish_all else len(scored)]
     lo = np.array([b[0] for b in bounds])
     hi = np.array([b[1] for b in bounds])
-    best = None
-    for q0 in starts:
+
+    def make_solver(idx):
+        tt, yy = t[idx], y[idx]
+        cols0 = [np.ones_like(tt)] + ([tt - t[0]] if drift else [])
+
+        def solve(q):
+            x = _superpose_changes(tt, changes, q[-1], make_step(q))
+            a = np.column_stack([x, *cols0])
+            coef, *_ = np.linalg.lstsq(a, yy, rcond=None)
+            return coef, yy - a @ coef
+
+        return solve
+
+    def search(solve, q0):
         q0 = np.clip(np.asarray(q0, float), lo, hi)
-        sol = optimize.least_squares(
+        return optimize.least_squares(
             lambda q: solve(q)[1], q0, bounds=(lo, hi), x_scale="jac", method="trf"
         )
-        if best is None or sol.cost < best.cost:
-            best = sol
+
+    step = -(-len(t) // _FIT_SAMPLES)  # ceil
+    coarse = make_solver(slice(None, None, step))
+    scored = sorted(grid, key=lambda q: float(np.sum(coarse(np.asarray(q, float))[1] ** 2)))
+    best = min(
+        (search(coarse, q0) for q0 in scored[: 3 if not polish_all else len(scored)]),
+        key=lambda sol: sol.cost,
+    )
+    solve = coarse
+    if step > 1:
+        solve = make_solver(slice(None))
+        best = search(solve, best.x)
     coef, res = solve(best.x)
     out = {
         "q": [float(v) for v in best.x],
@@ -672,8 +691,9 @@ def _changes(t: NDArray, u: NDArray) -> tuple[NDArray, NDArray]:
 
     The cost of the exact superposition grows with the number of changes.  A
     measured MV with noise changes at every sample; above ``_MAX_CHANGES``
-    changes it is replaced by a hysteresis-quantised copy (a new level only
-    when the MV leaves a band of +-delta around the held one; delta starts at
+    changes (fewer for long records: at most 2e6/N, at least 50) it is
+    replaced by a hysteresis-quantised copy (a new level only when the MV
+    leaves a band of +-delta around the held one; delta starts at
     0.5 % of the MV range and doubles until few enough changes remain).  This
     filters MV measurement noise and keeps every real move larger than 2 delta.
     """
@@ -681,7 +701,8 @@ def _changes(t: NDArray, u: NDArray) -> tuple[NDArray, NDArray]:
     rng = float(np.ptp(u))
     keep = np.abs(du) > 1e-12 * max(rng, 1e-300)
     delta = 0.005 * rng
-    while np.count_nonzero(keep) > _MAX_CHANGES:
+    limit = min(_MAX_CHANGES, max(50, 2_000_000 // len(t)))  # bounds the cost N x changes
+    while np.count_nonzero(keep) > limit:
         uq = _hysteresis_quantise(u, delta)
         du = np.diff(uq)
         keep = du != 0.0
