@@ -146,3 +146,47 @@ def test_unreadable_file_names_the_file(tmp_path):
     with pytest.raises(ScenarioError) as info:
         load_scenario(tmp_path / "nope.toml")
     assert "nope.toml" in str(info.value) and "cannot read" in str(info.value)
+
+
+TUNED = """
+[scenario]
+name = "tuned"
+title = "t"
+ts = 0.1
+duration = 10.0
+{structure}
+
+[plant]
+type = "FOPDT"
+k = 2.0
+t = 5.0
+dead_time = 1.0
+
+[[controllers]]
+name = "pid"
+type = "PID"
+u_min = -100.0
+u_max = 100.0
+[controllers.tune]
+rule = "{rule}"
+du = {du}
+"""
+
+
+def test_tune_from_bump_test_fills_the_block_parameters():
+    sc = parse_scenario(TUNED.format(structure="", rule="simc", du=1.0))
+    spec = sc.controllers[0].blocks["main"]
+    info = spec.extra["tuned"]
+    assert info["gain"] == pytest.approx(2.0, rel=1e-3)
+    assert info["time_constant"] == pytest.approx(5.0, rel=1e-2)
+    assert info["dead_time"] == pytest.approx(1.0, abs=0.05)
+    # SIMC PI for an FOPDT with tau_c = theta: kp = T / (k (tau_c + theta)) = 5 / (2 * 2)
+    assert spec.params["kp"] == pytest.approx(1.25, rel=0.02)
+    assert spec.params["ti"] == pytest.approx(5.0, rel=0.02)
+
+
+def test_tune_errors_are_named():
+    e = _err(TUNED.format(structure="", rule="magic", du=1.0))
+    assert e.key == "controllers[0].tune.rule" and "amigo" in e.problem
+    e = _err(TUNED.format(structure="", rule="amigo", du=0.0))
+    assert e.key == "controllers[0].tune.du" and "non-zero" in e.problem

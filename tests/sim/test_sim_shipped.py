@@ -29,6 +29,7 @@ VERDICTS: dict[str, list[bool]] = {
     "nowak_fig7": [False, True, True, True, True, True],
     # estimated b0: n = 2 is better than the final value in IAE; n = 1 oscillates
     "nowak_table2_b0": [True, False, False, True, True, True],
+    "tuned_three_tank": [True, True, True, True],
 }
 
 
@@ -154,3 +155,14 @@ def test_table1_inverse_half_rule_matches_the_paper():
     table, checks = table1_inverse_half_rule()
     assert len(checks) == 6 and all(c.holds for c in checks), [c.detail for c in checks]
     assert "| K2 (10b), inverse half-rule b0_min, n = 3 | 0.0236 | 0.02358 |" in table
+
+
+def test_tuned_scenario_identifies_the_three_tank_model_and_tunes_both():
+    (sc,) = load_shipped(["tuned_three_tank"])
+    pid, adrc = (c.blocks["main"] for c in sc.controllers)
+    info = pid.extra["tuned"]
+    # the FOPDT of the bump test is close to the paper's (10b) approximation 0.73 e^-3s/(8.3s+1)
+    assert info["gain"] == pytest.approx(0.73, rel=0.02)
+    assert 2.5 < info["dead_time"] < 3.5 and 6.5 < info["time_constant"] < 8.5
+    assert pid.params["kp"] == info["parameters"]["kp"] > 0
+    assert adrc.params["order"] == 2 and 0.02 < adrc.params["b0"] < 0.035

@@ -107,6 +107,22 @@ def table1_inverse_half_rule() -> tuple[str, list[TableCheck]]:
     return "\n".join(lines), checks
 
 
+def _tuned_lines(sc: Scenario) -> list[str]:
+    out = []
+    for c in sc.controllers:
+        for spec in c.blocks.values():
+            info = getattr(spec, "extra", {}).get("tuned") if not isinstance(spec, list) else None
+            if not info:
+                continue
+            params = ", ".join(f"{k} = {v:.4g}" for k, v in info["parameters"].items())
+            out.append(
+                f"- {c.name}: bump {info['du']:+g} from u = {info['u0']:.4g}; FOPDT k = "
+                f"{info['gain']:.4g}, T = {info['time_constant']:.4g} s, T0 = "
+                f"{info['dead_time']:.4g} s; rule {info['rule']}: {params}"
+            )
+    return out
+
+
 def render_report(
     results: Sequence[ScenarioResult], *, quick: bool, seconds: float, tables: bool = True
 ) -> str:
@@ -166,6 +182,10 @@ def render_report(
             lines += ["", " ".join(sc.description.split())]
         if sc.notes:
             lines += ["", "*Notes:* " + " ".join(sc.notes.split())]
+        tuned = _tuned_lines(sc)
+        if tuned:
+            lines += ["", "Tuned from a simulated bump test when the scenario was loaded:", ""]
+            lines += tuned
         for case in sc.cases:
             png = f"{sc.name}/{slug(case.name)}.png"
             lines += ["", f"![{sc.title} — {case.name}]({png})"]

@@ -354,7 +354,7 @@ class _Parser:
         actuator = self.actuator(self.table(doc, "actuator", "actuator", False))
         initial = self.initial(self.table(doc, "initial", "initial", False))
 
-        controllers = self.controllers(doc, structure, ts)
+        controllers = self.controllers(doc, structure, ts, plant, initial)
         cases = self.cases(doc, duration)
         claims = self.claims(doc, controllers, cases)
         plot = self.table(doc, "plot", "plot", False)
@@ -472,18 +472,35 @@ class _Parser:
         *,
         kind: str = "plant",
         extra_keys: tuple[str, ...] = (),
+        tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
     ) -> BlockSpec:
         if not isinstance(d, dict):
             raise self.fail(key, f"must be a table, got {_tname(d)}")
         tname = self.string(d, "type", f"{key}.type")
-        params = {k: v for k, v in d.items() if k != "type" and k not in extra_keys}
+        params = {k: v for k, v in d.items() if k not in ("type", "tune") and k not in extra_keys}
         extra = {k: d[k] for k in extra_keys if k in d}
+        if "tune" in d:
+            if tune_plant is None or tune_plant[0] is None:
+                raise self.fail(
+                    f"{key}.tune",
+                    "tuning from a bump test needs the single, feedforward or smith structure",
+                )
+            tuned, info = self.tune(d["tune"], f"{key}.tune", tname, ts, *tune_plant)
+            params = {**params, **tuned}
+            extra = {**extra, "tuned": info}
         spec = BlockSpec(tname, params, key, extra)
         # build once so that a refused parameter is reported with its key path
         build(spec, ts, kind=kind, file=self.file)
         return spec
 
-    def controllers(self, doc: dict[str, Any], structure: str, ts: float) -> list[ControllerSpec]:
+    def controllers(
+        self,
+        doc: dict[str, Any],
+        structure: str,
+        ts: float,
+        plant_spec: BlockSpec | None = None,
+        initial: Mapping[str, Any] | None = None,
+    ) -> list[ControllerSpec]:
         entries = doc.get("controllers")
         if entries is None:
             raise self.fail("controllers", "missing: give at least one [[controllers]] entry")
@@ -506,6 +523,7 @@ class _Parser:
                     key,
                     ts,
                     kind="block",
+                    tune_plant=(plant_spec, initial) if structure == "single" else None,
                 )
                 blocks: dict[str, Any] = {"main": spec}
             elif structure == "cascade":
@@ -552,7 +570,11 @@ class _Parser:
                 self.check_keys(e, {"name", "color", "style", "main", "feedforward"}, key)
                 blocks = {
                     "main": self.block_spec(
-                        self.table(e, "main", f"{key}.main", True), f"{key}.main", ts, kind="block"
+                        self.table(e, "main", f"{key}.main", True),
+                        f"{key}.main",
+                        ts,
+                        kind="block",
+                        tune_plant=(plant_spec, initial),
                     ),
                     "feedforward": self.block_spec(
                         self.table(e, "feedforward", f"{key}.feedforward", True),
@@ -573,12 +595,105 @@ class _Parser:
                     )
                 blocks = {
                     "main": self.block_spec(
-                        self.table(e, "main", f"{key}.main", True), f"{key}.main", ts, kind="block"
+                        self.table(e, "main", f"{key}.main", True),
+                        f"{key}.main",
+                        ts,
+                        kind="block",
+                        tune_plant=(plant_spec, initial),
                     ),
                     "model": model,
                 }
             out.append(ControllerSpec(name, blocks, options))
         return out
+
+    def tune(
+        self,
+        d: Any,
+        key: str,
+        block_type: str,
+        ts: float,
+        plant_spec: BlockSpec,
+        initial: Mapping[str, Any] | None,
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Tune from a simulated bump test on the scenario's plant (``[controllers.tune]``).
+
+        The plant (without actuator and sensor) is stepped by ``du`` from the
+        initial MV; :func:`ctrlblocks.tuning.fit_fopdt` fits an FOPDT; a PID
+        rule (``amigo``, ``simc``, ``zn``, ``lambda``) or the ADRC tuning of
+        seed 000 (inverse half-rule + bandwidths, ``rule = "adrc"``) gives the
+        parameters, which replace those of the block table.
+        """
+        from .. import tuning
+
+        if not isinstance(d, dict):
+            raise self.fail(key, f"must be a table, got {_tname(d)}")
+        self.check_keys(d, {"rule", "du", "duration", "controller", "order", "settling_time"}, key)
+        rule = self.string(d, "rule", f"{key}.rule")
+        pid_rules = ("amigo", "simc", "zn", "lambda")
+        if block_type == "ADRC":
+            if rule != "adrc":
+                raise self.fail(f"{key}.rule", f"for an ADRC must be 'adrc', got {rule!r}")
+        elif rule not in pid_rules:
+            raise self.fail(f"{key}.rule", f"must be one of {', '.join(pid_rules)}; got {rule!r}")
+        du = self.number(d, "du", f"{key}.du")
+        if du == 0.0:
+            raise self.fail(f"{key}.du", "must be non-zero (the size of the bump)")
+        duration = self.number(d, "duration", f"{key}.duration", default=None, positive=True)
+        plant = build(plant_spec, ts, kind="plant", file=self.file)
+        ini = dict(initial or {})
+        u0 = float(ini.get("u", 0.0))
+        y0 = ini.get("y", math.nan)
+        if y0 is not None and not math.isnan(y0):
+            if hasattr(plant, "u_for_y"):
+                u0 = float(plant.u_for_y(y0))
+            elif math.isfinite(getattr(plant, "dc_gain", math.nan)):
+                u0 = y0 / plant.dc_gain
+        try:
+            t, u, y = tuning.bump_test(plant, du, u0=u0, duration=duration)
+            model = tuning.fit_fopdt(t, u, y)
+            info: dict[str, Any] = {
+                "rule": rule,
+                "du": du,
+                "u0": u0,
+                "gain": model.gain,
+                "time_constant": model.time_constant,
+                "dead_time": model.dead_time,
+            }
+            if block_type == "ADRC":
+                order = d.get("order", 2)
+                if order not in (1, 2, 3) or isinstance(order, bool):
+                    raise self.fail(f"{key}.order", f"must be 1, 2 or 3, got {order!r}")
+                st = self.number(
+                    d, "settling_time", f"{key}.settling_time", default=None, positive=True
+                )
+                res = tuning.adrc_tuning(
+                    model.gain,
+                    model.time_constant,
+                    model.dead_time,
+                    order,
+                    settling_time=st,
+                    ts=ts,
+                )
+                tuned = {
+                    "order": order,
+                    "b0": res.b0,
+                    "omega_c": res.omega_c,
+                    "omega_o": res.omega_o,
+                }
+            else:
+                ctrl = self.string(d, "controller", f"{key}.controller", default="pid")
+                if ctrl not in ("pi", "pid"):
+                    raise self.fail(f"{key}.controller", f"must be 'pi' or 'pid', got {ctrl!r}")
+                res = tuning.pid_from_model(model, rule, controller=ctrl)
+                tuned = {"kp": abs(res.kp), "ti": res.ti, "td": res.td}
+                if res.kp < 0:
+                    tuned["reverse"] = True
+                if res.b is not None:
+                    tuned["b"] = res.b
+        except ParameterError as exc:
+            raise self.fail(key, f"tuning failed: {exc}") from None
+        info["parameters"] = dict(tuned)
+        return tuned, info
 
     # -- time line ---------------------------------------------------------------
 
