@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -70,3 +71,56 @@ async def wait_for(pred, timeout: float = 10.0, step: float = 0.01) -> None:
         if loop.time() > t_end:
             raise AssertionError("condition not reached in time")
         await asyncio.sleep(step)
+
+
+class ServerThread:
+    """An event loop in a background thread that hosts servers (as another process would)."""
+
+    def __init__(self) -> None:
+        self.loop = asyncio.new_event_loop()
+        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
+        self.thread.start()
+
+    def call(self, coro, timeout: float = 60.0):
+        return asyncio.run_coroutine_threadsafe(coro, self.loop).result(timeout)
+
+    def close(self) -> None:
+        self.loop.call_soon_threadsafe(self.loop.stop)
+        self.thread.join(10.0)
+        self.loop.close()
+
+
+@pytest.fixture(scope="session")
+def opcua_plant():
+    """One OPC UA plant server (127.0.0.1, any free port) for the tests that need a plain one.
+
+    Starting an asyncua server costs about 3 s (its standard address space),
+    so the tests share it: each sets ``server.process`` to a fresh
+    :class:`PlantProcess` and resets the fault switches.  Stopped at the end.
+    """
+    from ctrlblocks.runtime import PlantProcess, PlantServer
+    from ctrlblocks.sim import load_scenario
+
+    th = ServerThread()
+    server = PlantServer(
+        PlantProcess(load_scenario(DATA / "pid_pt2.toml")), opcua_port=0, modbus_port=None
+    )
+    th.call(server.start())
+    try:
+        yield th, server
+    finally:
+        th.call(server.stop())
+        th.close()
+
+
+def fresh(th: ServerThread, server, process):
+    """Give the shared server a new process and clear its fault switches."""
+
+    async def reset():
+        server.process = process
+        server.force_nan = server.reject_mv = server.stale = False
+        server.delay = 0.0
+        await server.set_mv_writable(True)
+
+    th.call(reset())
+    return server

@@ -515,6 +515,8 @@ class _Parser:
             if v is not None and not (math.isfinite(v) and v > 0):
                 raise self.fail(f"{key}.{n}", f"must be a finite number > 0, got {v!r}")
         w, a = (warn if warn is not None else 1.5 * ts), (alarm if alarm is not None else 2 * ts)
+        if alarm is None and a < w:
+            alarm = a = w  # the default alarm limit (2 ts) never undercuts the warning limit
         if a < w:
             raise self.fail(f"{key}.alarm_limit", f"must be >= warn_limit ({w!r})")
         retries = self.integer(raw, "write_retries", f"{key}.write_retries", 1, 0)

@@ -327,6 +327,7 @@ class PlantServer:
         self.stale = False
         self.mv_writes = 0
         self._opcua: Any = None
+        self._killed_opcua: Any = None
         self._modbus: Any = None
         self._clock_task: asyncio.Task[None] | None = None
         self.opcua_url = ""
@@ -355,6 +356,24 @@ class PlantServer:
         if self._opcua is not None:
             await self._opcua.stop()
             self._opcua = None
+
+    async def kill(self) -> None:
+        """Drop every client and stop serving, keeping the servers' objects (fault tests)."""
+        if self._modbus is not None:
+            await self._modbus.shutdown()
+            self._modbus = None
+        if self._opcua is not None:
+            await self._opcua.stop()
+            self._killed_opcua = self._opcua
+            self._opcua = None
+
+    async def revive(self) -> None:
+        """Serve again on the same ports after :meth:`kill`."""
+        if self._killed_opcua is not None:
+            await self._killed_opcua.start()
+            self._opcua, self._killed_opcua = self._killed_opcua, None
+        if self.modbus_port is not None and self._modbus is None:
+            await self._start_modbus()
 
     async def __aenter__(self) -> PlantServer:
         await self.start()
