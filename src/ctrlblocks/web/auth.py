@@ -1,0 +1,219 @@
+"""Operators and their logins: scrypt password hashes in a users file, session tokens.
+
+Who may do what:
+
+* a *viewer* (anyone who can reach the page, no login) watches: loop list,
+  trends, history, CSV, audit trail;
+* an *operator* (a user in the users file, logged in) may also change a loop:
+  mode, manual value, setpoint, limits, tunings.
+
+The users file is JSON, written with mode 0600::
+
+    {"version": 1,
+     "users": {"alice": {"role": "operator", "scrypt": {"n": 16384, "r": 8, "p": 1},
+                         "salt": "<32 hex digits>", "hash": "<64 hex digits>"}}}
+
+A password is never stored or logged: only ``hashlib.scrypt(password,
+salt=<16 random bytes per user>, n=2**14, r=8, p=1, dklen=32)`` and its salt
+(scrypt, RFC 7914; the parameters are the interactive-login values of
+RFC 7914, section 2), compared in constant time (:func:`hmac.compare_digest`).
+Create operators with ``ctrlblocks operator add NAME``.
+
+A login gives a random session token (``secrets.token_urlsafe(32)``) in an
+``HttpOnly``, ``SameSite=Strict`` cookie; sessions live in the server's
+memory (a restart logs everybody out) and expire after ``SESSION_HOURS``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import hmac
+import json
+import os
+import re
+import secrets
+import time
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "ROLES",
+    "SESSION_HOURS",
+    "SessionStore",
+    "UserError",
+    "UserStore",
+    "hash_password",
+    "verify_password",
+]
+
+ROLES = ("operator",)
+"""Roles a user in the users file can have (viewers need no account)."""
+
+SESSION_HOURS = 8.0
+"""Lifetime of a login session [h] (one shift)."""
+
+SCRYPT = {"n": 2**14, "r": 8, "p": 1}
+"""scrypt cost parameters for new hashes (RFC 7914, section 2: interactive logins)."""
+
+_NAME_RE = re.compile(r"^[A-Za-z0-9_.@\-]{1,64}$")
+MIN_PASSWORD = 8
+"""Shortest password accepted when an operator is created [characters]."""
+
+
+class UserError(ValueError):
+    """A bad user name or password, or an unknown user, in the users file tools."""
+
+
+def hash_password(password: str, salt: bytes | None = None, **cost: int) -> dict[str, Any]:
+    """Hash ``password`` with scrypt and a fresh 16-byte salt; return the stored record.
+
+    Parameters
+    ----------
+    password : str
+        The password (UTF-8 encoded before hashing).
+    salt : bytes, optional
+        Only for tests; default 16 bytes from :func:`secrets.token_bytes`.
+    **cost : int
+        ``n``, ``r``, ``p`` overriding :data:`SCRYPT`.
+
+    Returns
+    -------
+    dict
+        ``{"scrypt": {"n", "r", "p"}, "salt": hex, "hash": hex}``.
+    """
+    params = {**SCRYPT, **cost}
+    salt = secrets.token_bytes(16) if salt is None else salt
+    digest = _scrypt(password, salt, params)
+    return {"scrypt": params, "salt": salt.hex(), "hash": digest.hex()}
+
+
+def verify_password(password: str, record: dict[str, Any]) -> bool:
+    """True when ``password`` matches a record made by :func:`hash_password` (constant time)."""
+    try:
+        salt = bytes.fromhex(record["salt"])
+        expected = bytes.fromhex(record["hash"])
+        params = {k: int(record["scrypt"][k]) for k in ("n", "r", "p")}
+    except (KeyError, TypeError, ValueError):
+        return False
+    return hmac.compare_digest(_scrypt(password, salt, params), expected)
+
+
+def _scrypt(password: str, salt: bytes, params: dict[str, int]) -> bytes:
+    n, r, p = params["n"], params["r"], params["p"]
+    return hashlib.scrypt(
+        password.encode("utf-8"), salt=salt, n=n, r=r, p=p, dklen=32, maxmem=256 * r * n + 2**20
+    )
+
+
+class UserStore:
+    """The users file (see the module docstring); ``path=None`` keeps it in memory only.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        JSON file; read if it exists, written by :meth:`add` and :meth:`remove`.
+    """
+
+    def __init__(self, path: str | Path | None = None) -> None:
+        self.path = Path(path) if path is not None else None
+        self._users: dict[str, dict[str, Any]] = {}
+        if self.path is not None and self.path.exists():
+            doc = json.loads(self.path.read_text(encoding="utf-8"))
+            users = doc.get("users", {}) if isinstance(doc, dict) else {}
+            if not isinstance(users, dict):
+                raise UserError(f"{self.path}: 'users' must be a table")
+            self._users = users
+
+    def names(self) -> list[str]:
+        """User names, sorted."""
+        return sorted(self._users)
+
+    def role(self, name: str) -> str | None:
+        """The role of ``name`` (None: no such user)."""
+        u = self._users.get(name)
+        return None if u is None else str(u.get("role", "operator"))
+
+    def add(self, name: str, password: str, role: str = "operator", **cost: int) -> None:
+        """Create or replace user ``name`` (password at least :data:`MIN_PASSWORD` characters)."""
+        if not _NAME_RE.match(name):
+            raise UserError("user names are 1-64 letters, digits and _ . @ - only")
+        if len(password) < MIN_PASSWORD:
+            raise UserError(f"the password must have at least {MIN_PASSWORD} characters")
+        if role not in ROLES:
+            raise UserError(f"role must be one of {ROLES}, got {role!r}")
+        self._users[name] = {"role": role, **hash_password(password, **cost)}
+        self._save()
+
+    def remove(self, name: str) -> None:
+        """Delete user ``name``."""
+        if name not in self._users:
+            raise UserError(f"no user {name!r}")
+        del self._users[name]
+        self._save()
+
+    def verify(self, name: str, password: str) -> bool:
+        """True when ``name`` exists and ``password`` is its password."""
+        u = self._users.get(name)
+        if u is None:
+            # same work as for a real user, so the time does not tell which names exist
+            verify_password(password, _DUMMY)
+            return False
+        return verify_password(password, u)
+
+    def _save(self) -> None:
+        if self.path is None:
+            return
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump({"version": 1, "users": self._users}, f, indent=2, sort_keys=True)
+        os.replace(tmp, self.path)
+
+
+_DUMMY = hash_password("not a password", salt=b"\0" * 16)
+
+
+@dataclasses.dataclass
+class Session:
+    """One login."""
+
+    user: str
+    role: str
+    expires: float
+
+
+class SessionStore:
+    """Session tokens in memory (token -> :class:`Session`)."""
+
+    def __init__(self, hours: float = SESSION_HOURS) -> None:
+        self.hours = hours
+        self._sessions: dict[str, Session] = {}
+
+    def create(self, user: str, role: str) -> str:
+        """Start a session for ``user``; return its token."""
+        self._purge()
+        token = secrets.token_urlsafe(32)
+        self._sessions[token] = Session(user, role, time.time() + 3600.0 * self.hours)
+        return token
+
+    def get(self, token: str | None) -> Session | None:
+        """The live session of ``token`` (None: no token, unknown or expired)."""
+        if not token:
+            return None
+        s = self._sessions.get(token)
+        if s is None or s.expires < time.time():
+            self._sessions.pop(token, None)
+            return None
+        return s
+
+    def end(self, token: str | None) -> None:
+        """Log out."""
+        if token:
+            self._sessions.pop(token, None)
+
+    def _purge(self) -> None:
+        now = time.time()
+        for t in [t for t, s in self._sessions.items() if s.expires < now]:
+            del self._sessions[t]

@@ -1,0 +1,154 @@
+"""Live data for the faceplate: a ring buffer of recent samples per loop, and the loop states.
+
+The :class:`LiveHub` is hooked into the runtime's ``on_sample`` callback (it
+keeps a callback that was already there and calls it first).  Every sample of
+every loop goes into the loop's ring buffer (the last ``seconds`` of the
+trend); each WebSocket client keeps a cursor per loop and gets, at every push,
+the samples it has not seen yet (so a 20 Hz loop shows every one of its
+samples, whatever the push period) together with the current state of every
+loop.
+
+Everything sent is plain JSON: NaN and infinities become ``null``
+(:func:`json_safe`), because JSON has no NaN.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import threading
+from typing import Any
+
+__all__ = ["LiveHub", "alarms", "json_safe"]
+
+SAMPLE_FIELDS = ("seq", "t", "sp", "pv", "mv", "manual", "error_id")
+"""Columns of a trend batch: a sequence number per loop, wall-clock time [s since
+the epoch], SP, PV, MV, 1 when the loop was in MAN, the block's error code."""
+
+
+def json_safe(x: Any) -> Any:
+    """``x`` with every non-finite float replaced by None (recursively), tuples as lists."""
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {str(k): json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v) for v in x]
+    if x is None or isinstance(x, (bool, int, str)):
+        return x
+    if hasattr(x, "item"):  # numpy scalar
+        return json_safe(x.item())
+    return str(x)
+
+
+def _tuning_value(v: Any) -> Any:
+    """A tuning for JSON: infinities as the strings "inf"/"-inf" (the page shows and sends them)."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    return v
+
+
+def alarms(state: dict[str, Any]) -> list[str]:
+    """What an operator must see at a glance for one loop state (empty list: all is well)."""
+    out = []
+    if state.get("error"):
+        out.append(f"block 16#{int(state['error_id']):04X} {state.get('error_name', '')}")
+    elif state.get("error_id"):
+        out.append(f"warning 16#{int(state['error_id']):04X} {state.get('error_name', '')}")
+    if not state.get("pv_ok", True) and state.get("cycle", 0):
+        out.append(f"PV bad: {state.get('pv_reason', '')}")
+    if not state.get("write_ok", True):
+        out.append(f"MV write: {state.get('write_error', '')}")
+    for sig, why in (state.get("input_errors") or {}).items():
+        out.append(f"{sig} input: {why}")
+    if state.get("overrun"):
+        out.append("cycle overrun")
+    for name, c in (state.get("connections") or {}).items():
+        if not c.get("connected", True):
+            out.append(f"connection {name} down: {c.get('last_error', '')}")
+    return out
+
+
+class LiveHub:
+    """Recent samples of every loop of a runtime, for the live trends.
+
+    Parameters
+    ----------
+    runtime : Runtime
+        The runtime (``loop_names``, ``states``, ``on_sample``).
+    seconds : float
+        Length of the trend buffer [s] (per loop, at its sample time).
+    """
+
+    def __init__(self, runtime: Any, seconds: float = 300.0) -> None:
+        self.runtime = runtime
+        self.seconds = float(seconds)
+        self._lock = threading.Lock()
+        self._buf: dict[str, collections.deque[tuple[Any, ...]]] = {}
+        self._seq: dict[str, int] = {}
+        for name in runtime.loop_names():
+            ts = runtime.loops[name].ts if hasattr(runtime, "loops") else 0.1
+            self._buf[name] = collections.deque(maxlen=max(10, int(self.seconds / ts) + 1))
+            self._seq[name] = 0
+        self._chained = runtime.on_sample
+        runtime.on_sample = self.on_sample
+
+    def detach(self) -> None:
+        """Give the runtime its previous ``on_sample`` back."""
+        if self.runtime.on_sample == self.on_sample:
+            self.runtime.on_sample = self._chained
+
+    def on_sample(self, s: Any) -> None:
+        """Runtime callback: keep the sample (and call a callback that was there before)."""
+        if self._chained is not None:
+            self._chained(s)
+        with self._lock:
+            buf = self._buf.get(s.loop)
+            if buf is None:
+                return
+            self._seq[s.loop] += 1
+            buf.append(
+                (
+                    self._seq[s.loop],
+                    s.t_wall,
+                    s.sp,
+                    s.pv,
+                    s.mv,
+                    1 if s.mode == "manual" else 0,
+                    s.error_id,
+                )
+            )
+
+    def cursor(self) -> dict[str, int]:
+        """A cursor that has seen nothing yet (the next :meth:`since` sends the whole buffer)."""
+        return dict.fromkeys(self._buf, 0)
+
+    def since(self, cursor: dict[str, int]) -> dict[str, dict[str, list[Any]]]:
+        """Samples newer than ``cursor`` per loop, as columns; advances ``cursor`` in place."""
+        out: dict[str, dict[str, list[Any]]] = {}
+        with self._lock:
+            for name, buf in self._buf.items():
+                last = cursor.get(name, 0)
+                if not buf or buf[-1][0] <= last:
+                    continue
+                rows = []
+                for r in reversed(buf):  # newest first, stop at what the client has
+                    if r[0] <= last:
+                        break
+                    rows.append(r)
+                rows.reverse()
+                cursor[name] = rows[-1][0]
+                out[name] = {
+                    f: [json_safe(r[i]) for r in rows] for i, f in enumerate(SAMPLE_FIELDS)
+                }
+        return out
+
+    def states(self) -> list[dict[str, Any]]:
+        """Every loop's state (the runtime's ``state``) with its ``alarms``, JSON-safe."""
+        out = []
+        for st in self.runtime.states():
+            st = dict(st)
+            st["alarms"] = alarms(st)
+            st["tunings"] = {k: _tuning_value(v) for k, v in st.get("tunings", {}).items()}
+            out.append(json_safe(st))
+        return out
