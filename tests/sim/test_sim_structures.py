@@ -330,3 +330,15 @@ ok = true
     assert s["u"][29] == pytest.approx(1.0, abs=1e-9)  # steady before the fault
     assert s["u"][-1] == pytest.approx(1.0, abs=0.05)  # recovers
     assert math.isfinite(s["ym"][40])
+
+
+def test_sensor_ok_flag_reaches_pid_as_pv_ok():
+    text = EVENTS.replace('do = "sensor"\nnan = true', 'do = "sensor"\nok = false').replace(
+        'do = "sensor"\nnan = false', 'do = "sensor"\nok = true'
+    )
+    s = simulate(parse_scenario(text), "pi").signals
+    t = s["t"]
+    bad = (t >= 8.0 - 1e-9) & (t < 10.0 - 1e-9)
+    assert np.all(np.isfinite(s["ym"][bad]))  # the value is there, only flagged invalid
+    assert np.all(s["u"][bad] == s["u"][79])  # the PID holds its last output
+    assert s["u"][101] != s["u"][79]  # and moves again after recovery
