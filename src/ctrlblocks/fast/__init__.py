@@ -14,12 +14,15 @@ interpreted (slower, same results).  See ``docs/performance.md``.
 """
 
 from ._jit import HAVE_NUMBA
+from .bank import BankResult, PIDBank
 from .kernels import UnsupportedConfig
 from .loops import LoopResult, closed_loop, reference_loop
 
 __all__ = [
     "HAVE_NUMBA",
+    "BankResult",
     "LoopResult",
+    "PIDBank",
     "UnsupportedConfig",
     "closed_loop",
     "reference_loop",

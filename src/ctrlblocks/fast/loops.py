@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from ..plants import threetank as _tt
-from ._jit import HAVE_NUMBA, jit, jitable
+from ._jit import HAVE_NUMBA, jit, jitable, python_function
 from .kernels import (
     UnsupportedConfig,
     adrc_params,
@@ -66,9 +66,9 @@ class LoopResult:
     y: np.ndarray
     u: np.ndarray
     compiled: bool
-    """True when the loop ran compiled by numba (else interpreted or reference)."""
+    """True when the loop ran compiled by numba."""
     path: str
-    """``"compiled"``, ``"interpreted"`` (same kernels, no numba) or ``"reference"`` (blocks)."""
+    """``"compiled"``, ``"python"`` (the same loop interpreted) or ``"blocks"`` (the objects)."""
 
 
 # ---------------------------------------------------------------------------
@@ -302,7 +302,7 @@ def closed_loop(
     manual: Any = None,
     u_man: Any = None,
     noise: Any = None,
-    compiled: bool = True,
+    engine: str = "auto",
 ) -> LoopResult:
     """Run the closed loop ``controller`` + ``plant`` for ``n`` samples, compiled when possible.
 
@@ -327,8 +327,11 @@ def closed_loop(
     noise : array_like, optional
         Measurement noise per sample, added to the plant output before the
         controller (``y[k]`` in the result includes it).
-    compiled : bool
-        False runs :func:`reference_loop` (the block objects) instead.
+    engine : str
+        ``"auto"``: the compiled loop (numba), or the same loop interpreted
+        when numba is absent; ``"python"``: the same loop interpreted even
+        with numba; ``"blocks"``: :func:`reference_loop` (the block objects).
+        A configuration the kernels do not cover always runs ``"blocks"``.
 
     Returns
     -------
@@ -344,21 +347,26 @@ def closed_loop(
     nz = np.zeros(0) if noise is None else np.ascontiguousarray(noise, dtype=float)
     if nz.shape[0] not in (0, n):
         raise ValueError(f"noise has {nz.shape[0]} samples, expected {n}")
+    if engine not in ("auto", "python", "blocks"):
+        raise ValueError(f"engine must be 'auto', 'python' or 'blocks', got {engine!r}")
     ev_k, ev_kind, ev_val = _events(n, sig)
-    if compiled:
+    if engine != "blocks":
         try:
             loop, prm, cs = _controller_arrays(controller)
             kind, pp, ps, buf, pos = _plant_arrays(plant)
         except UnsupportedConfig as exc:
             log.info("closed_loop: %s; running the blocks instead", exc)
-            compiled = False
-    if not compiled:
+            engine = "blocks"
+    if engine == "blocks":
         return reference_loop(controller, plant, sp, n=n, load=load, ff=ff, manual=manual,
                               u_man=u_man, noise=noise)  # fmt: skip
     y_out = np.empty(n)
     u_out = np.empty(n)
+    compiled = HAVE_NUMBA and engine == "auto"
+    if not compiled:
+        loop = python_function(loop)
     loop(prm, cs, kind, pp, ps, buf.copy(), pos, ev_k, ev_kind, ev_val, nz, y_out, u_out)
-    return LoopResult(y_out, u_out, HAVE_NUMBA, "compiled" if HAVE_NUMBA else "interpreted")
+    return LoopResult(y_out, u_out, compiled, "compiled" if compiled else "python")
 
 
 def _controller_arrays(controller: Any) -> tuple[Any, tuple[float, ...], np.ndarray]:
@@ -418,4 +426,4 @@ def reference_loop(
         y_out[k] = y
         u_out[k] = u
         plant.step(u + ld[k])
-    return LoopResult(y_out, u_out, False, "reference")
+    return LoopResult(y_out, u_out, False, "blocks")

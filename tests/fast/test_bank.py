@@ -1,0 +1,95 @@
+"""A bank of N loops equals N block loops run one by one (sample by sample, 1e-12)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ctrlblocks import PID
+from ctrlblocks.fast import HAVE_NUMBA, PIDBank, UnsupportedConfig, reference_loop
+from ctrlblocks.fast.bank import _expm_batch
+from ctrlblocks.plants import PTn
+
+ENGINES = ["python", *(["auto"] if HAVE_NUMBA else [])]
+N_LOOPS = 12
+STEPS = 300
+
+
+def _random_loops(seed: int = 3):
+    rng = np.random.default_rng(seed)
+    return dict(
+        kp=rng.uniform(1.0, 6.0, N_LOOPS),
+        ti=np.where(rng.random(N_LOOPS) < 0.2, 0.0, rng.uniform(2.0, 10.0, N_LOOPS)),
+        td=rng.uniform(0.0, 2.0, N_LOOPS),
+        k=rng.uniform(0.5, 1.5, N_LOOPS),
+        t=rng.uniform(0.5, 5.0, (N_LOOPS, 3)),
+        u_max=rng.uniform(1.2, 3.0, N_LOOPS),
+    )
+
+
+def _reference(p, j, sp, aw="clamping"):
+    pid = PID(kp=p["kp"][j], ti=p["ti"][j], td=p["td"][j], ts=0.1, u_min=0.0,
+              u_max=p["u_max"][j], anti_windup=aw)  # fmt: skip
+    plant = PTn(k=p["k"][j], t=tuple(p["t"][j]), ts=0.1)
+    r = reference_loop(pid, plant, np.full(STEPS, sp[j]))
+    return plant.y, r.u[-1], float(np.sum(np.abs(sp[j] - r.y)) * 0.1)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("aw", ["clamping", "back_calc_model"])
+def test_bank_from_arrays_equals_the_blocks_loop_by_loop(engine, aw):
+    p = _random_loops()
+    sp = np.linspace(0.5, 2.0, N_LOOPS)  # high setpoints saturate (anti-windup matters)
+    bank = PIDBank.from_arrays(kp=p["kp"], ti=p["ti"], td=p["td"], ts=0.1, u_min=0.0,
+                               u_max=p["u_max"], plant_k=p["k"], plant_t=p["t"],
+                               anti_windup=aw)  # fmt: skip
+    res = bank.run(sp, STEPS, chunk=5, engine=engine)
+    for j in range(N_LOOPS):
+        y, u, iae = _reference(p, j, sp, aw)
+        assert res.y[j] == pytest.approx(y, abs=1e-12)
+        assert res.u[j] == pytest.approx(u, abs=1e-12)
+        assert res.iae[j] == pytest.approx(iae, abs=1e-9)
+    assert np.any(res.u == p["u_max"])  # some loops end at their limit
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_bank_from_blocks_continues_their_state_and_can_be_run_in_pieces(engine):
+    p = _random_loops(5)
+    pids = [PID(kp=p["kp"][j], ti=p["ti"][j], td=p["td"][j], ts=0.1, u_min=0.0, u_max=3.0)
+            for j in range(N_LOOPS)]  # fmt: skip
+    plants = [PTn(k=p["k"][j], t=tuple(p["t"][j]), ts=0.1) for j in range(N_LOOPS)]
+    for pid, plant in zip(pids, plants, strict=True):  # some history before the bank
+        for _ in range(10):
+            plant.step(pid(1.0, plant.y))
+    bank = PIDBank(pids, plants)
+    bank.run(1.0, 100, engine=engine)
+    res = bank.run(1.0, 50, engine=engine)
+    for pid, plant in zip(pids, plants, strict=True):
+        reference_loop(pid, plant, np.full(150, 1.0))
+    np.testing.assert_allclose(res.y, [pl.y for pl in plants], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.u, [c.out for c in pids], rtol=0, atol=1e-12)
+
+
+def test_bank_state_is_under_200_bytes_per_loop():
+    bank = PIDBank.from_arrays(kp=1.0, ti=5.0, td=0.0, ts=0.1, plant_k=1.0,
+                               plant_t=np.ones((4, 2)))  # fmt: skip
+    assert bank.state_bytes == 80  # (i, d, w, e, out, cold) + (x0, x1, x2, y), float64
+    assert bank.param_bytes == 224  # 13 PID + 15 plant floats
+
+
+def test_batched_matrix_exponential_matches_scipy():
+    from scipy import linalg
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(0.0, 1.5, (20, 4, 4))  # norms up to ~10: several squarings
+    got = _expm_batch(a)
+    for j in range(20):
+        ref = linalg.expm(a[j])
+        assert np.max(np.abs(got[j] - ref)) <= 1e-12 * np.max(np.abs(ref))
+
+
+def test_bank_refuses_dead_time_and_mixed_sample_times():
+    with pytest.raises(UnsupportedConfig, match="dead time"):
+        PIDBank([PID(kp=1.0, ts=0.1)], [PTn(k=1.0, t=(1.0,), ts=0.1, dead_time=0.2)])
+    with pytest.raises(UnsupportedConfig, match="sample time"):
+        PIDBank([PID(kp=1.0, ts=0.1)], [PTn(k=1.0, t=(1.0,), ts=0.2)])
