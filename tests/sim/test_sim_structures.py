@@ -342,3 +342,17 @@ def test_sensor_ok_flag_reaches_pid_as_pv_ok():
     assert np.all(np.isfinite(s["ym"][bad]))  # the value is there, only flagged invalid
     assert np.all(s["u"][bad] == s["u"][79])  # the PID holds its last output
     assert s["u"][101] != s["u"][79]  # and moves again after recovery
+
+
+def test_feedforward_needs_a_controller_with_an_ff_input():
+    from ctrlblocks.sim import ScenarioError
+
+    text = FEEDFORWARD.replace(
+        "[controllers.main]\n" + _pi(1.0, 4.0),
+        '[controllers.main]\ntype = "ADRC"\norder = 1\nb0 = 1.0\nomega_c = 1.0\nomega_o = 4.0\n',
+        1,
+    )
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text)
+    assert info.value.key == "controllers[0].main.type"
+    assert "no feed-forward input 'ff'" in info.value.problem

@@ -77,10 +77,12 @@ class Run:
     """The trace of one controller in one case.
 
     ``signals`` maps names to arrays of equal length: always ``t`` [s], ``sp``,
-    ``y`` (process output incl. output load), ``ym`` (measured), ``u``
-    (applied MV, before an input load), ``v`` (controller output before
-    shaping), ``load``; plus structure-specific ones (``y2``, ``sp2``, ``v1``,
-    ``v2``, ..., ``ff``, ``y_pred``).
+    ``y`` (process output incl. output load, without noise), ``ym``
+    (measured), ``u`` (MV from the controllers), ``v`` (controller output
+    before shaping), ``u_act`` (input applied to the process after load, rate
+    and range of the actuator), ``load`` (input load); plus structure-specific
+    ones (``y2``, ``sp2``, ``v1``, ``v2``, ..., ``ff``, ``y_pred``).  The
+    open-loop structure records ``sp`` (input) and ``y = u = v`` (output).
     """
 
     scenario: str

@@ -583,6 +583,14 @@ class _Parser:
                         kind="block",
                     ),
                 }
+                main_block = build(blocks["main"], ts, kind="block", file=self.file)
+                fn = getattr(main_block, "compute_output", main_block)
+                if "ff" not in inspect.signature(fn).parameters:
+                    raise self.fail(
+                        f"{key}.main.type",
+                        f"{blocks['main'].type} has no feed-forward input 'ff'; "
+                        "the feedforward structure needs one (e.g. PID)",
+                    )
             else:  # smith
                 self.check_keys(e, {"name", "color", "style", "main", "model"}, key)
                 model = self.block_spec(
