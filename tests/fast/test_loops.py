@@ -159,3 +159,25 @@ def test_unsupported_configuration_runs_the_blocks():
 def test_bad_engine_is_refused():
     with pytest.raises(ValueError, match="engine"):
         closed_loop(PID(kp=1.0, ts=0.1), PTn(k=1.0, t=(1.0,), ts=0.1), 1.0, n=3, engine="gpu")
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_outlet_valve_switch_of_the_three_tank_equals_blocks(engine):
+    outlet = ["a"] * 200 + ["b"] * 300 + ["a"] * 200
+    sig = {"sp": np.full(N, 1.5), "outlet": outlet}
+
+    def plant():
+        p = ThreeTank(ts=0.1)
+        p.reset(p.u_for_y(1.5))
+        return p
+
+    res, _ = _compare(
+        lambda: PID(
+            kp=6.31, ti=5.4, td=1.36, n=5.0, ts=0.1, u_min=0.0, u_max=5.0, reset_value=2.19
+        ),
+        plant,
+        engine,
+        sig,
+    )
+    # valve "b" halves R_out: p3 drops below the setpoint until the PID recovers
+    assert res.y[205] < 1.5 - 0.01

@@ -141,8 +141,8 @@ def _plant_step(kind, x0, x1, x2, u_hold, up, buf, pos, dsamp, nbuf, lti, g, hsu
 
 
 @jitable
-def _apply_event(kind, v, sp, load, ff, man, um):
-    """Set the signal ``kind`` (0 sp, 1 load, 2 ff, 3 manual, 4 u_man) to ``v``."""
+def _apply_event(kind, v, sp, load, ff, man, um, g3o):
+    """Set signal ``kind`` (0 sp, 1 load, 2 ff, 3 manual, 4 u_man, 5 outlet g3o) to ``v``."""
     if kind == 0:
         sp = v
     elif kind == 1:
@@ -151,9 +151,11 @@ def _apply_event(kind, v, sp, load, ff, man, um):
         ff = v
     elif kind == 3:
         man = v != 0.0
-    else:
+    elif kind == 4:
         um = v
-    return sp, load, ff, man, um
+    else:
+        g3o = v
+    return sp, load, ff, man, um, g3o
 
 
 @jit
@@ -167,7 +169,7 @@ def _pid_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_o
     nbuf = buf.shape[0]
     lti = (pp[0], pp[1], pp[2], pp[3], pp[4], pp[5], pp[6], pp[7], pp[8], pp[9],
            pp[10], pp[11], pp[12], pp[13], pp[14], pp[15], pp[16], pp[17])  # fmt: skip
-    g = (pp[0], pp[1], pp[2], pp[3], pp[4], pp[5])
+    g3o = pp[5]
     hsub, nsub, lo, hi = pp[6], int(pp[7]), pp[8], pp[9]
     y = ps[5]
     has_noise = noise.shape[0] > 0
@@ -177,7 +179,9 @@ def _pid_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_o
     n_ev = ev_k.shape[0]
     for k in range(y_out.shape[0]):
         while ev < n_ev and ev_k[ev] == k:
-            sp, load, ff, man, um = _apply_event(ev_kind[ev], ev_val[ev], sp, load, ff, man, um)
+            sp, load, ff, man, um, g3o = _apply_event(
+                ev_kind[ev], ev_val[ev], sp, load, ff, man, um, g3o
+            )
             ev += 1
         ym = y + noise[k] if has_noise else y
         transfer = (not man) and was_manual
@@ -189,8 +193,9 @@ def _pid_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_o
         y_out[k] = ym
         u_out[k] = out
         x0, x1, x2, y, u_hold, pos = _plant_step(
-            kind, x0, x1, x2, u_hold, out + load, buf, pos, dsamp, nbuf, lti, g, hsub, nsub, lo, hi
-        )
+            kind, x0, x1, x2, u_hold, out + load, buf, pos, dsamp, nbuf, lti,
+            (pp[0], pp[1], pp[2], pp[3], pp[4], g3o), hsub, nsub, lo, hi,
+        )  # fmt: skip
     return i, d, w_prev, e_prev, out
 
 
@@ -206,7 +211,7 @@ def _adrc_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_
     nbuf = buf.shape[0]
     lti = (pp[0], pp[1], pp[2], pp[3], pp[4], pp[5], pp[6], pp[7], pp[8], pp[9],
            pp[10], pp[11], pp[12], pp[13], pp[14], pp[15], pp[16], pp[17])  # fmt: skip
-    g = (pp[0], pp[1], pp[2], pp[3], pp[4], pp[5])
+    g3o = pp[5]
     hsub, nsub, lo, hi = pp[6], int(pp[7]), pp[8], pp[9]
     y = ps[5]
     has_noise = noise.shape[0] > 0
@@ -216,7 +221,9 @@ def _adrc_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_
     n_ev = ev_k.shape[0]
     for k in range(y_out.shape[0]):
         while ev < n_ev and ev_k[ev] == k:
-            sp, load, ff, man, um = _apply_event(ev_kind[ev], ev_val[ev], sp, load, ff, man, um)
+            sp, load, ff, man, um, g3o = _apply_event(
+                ev_kind[ev], ev_val[ev], sp, load, ff, man, um, g3o
+            )
             ev += 1
         ym = y + noise[k] if has_noise else y
         u, _ur, yh, e2, e3, e4, ref, track, sat = adrc_step(
@@ -227,8 +234,9 @@ def _adrc_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_
         y_out[k] = ym
         u_out[k] = u
         x0, x1, x2, y, u_hold, pos = _plant_step(
-            kind, x0, x1, x2, u_hold, u + load, buf, pos, dsamp, nbuf, lti, g, hsub, nsub, lo, hi
-        )
+            kind, x0, x1, x2, u_hold, u + load, buf, pos, dsamp, nbuf, lti,
+            (pp[0], pp[1], pp[2], pp[3], pp[4], g3o), hsub, nsub, lo, hi,
+        )  # fmt: skip
     return yh, e2, e3, e4, u_prev
 
 
@@ -237,7 +245,7 @@ def _adrc_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_
 # ---------------------------------------------------------------------------
 
 
-_SIGNALS = ("sp", "load", "ff", "manual", "u_man")
+_SIGNALS = ("sp", "load", "ff", "manual", "u_man", "outlet")
 
 
 def _signals(n: int | None, sp: Any, **others: Any) -> tuple[int, dict[str, np.ndarray]]:
@@ -270,7 +278,9 @@ def _events(n: int, sig: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.nda
     """
     ks, kinds, vals = [], [], []
     for kind, name in enumerate(_SIGNALS):
-        v = sig[name]
+        v = sig.get(name)
+        if v is None and name == "outlet":
+            continue
         a = np.asarray(0.0 if v is None else v, dtype=float)
         if a.ndim == 0:
             idx, val = np.zeros(1, dtype=np.int64), a.reshape(1)
@@ -302,6 +312,7 @@ def closed_loop(
     manual: Any = None,
     u_man: Any = None,
     noise: Any = None,
+    outlet: Any = None,
     engine: str = "auto",
 ) -> LoopResult:
     """Run the closed loop ``controller`` + ``plant`` for ``n`` samples, compiled when possible.
@@ -327,6 +338,9 @@ def closed_loop(
     noise : array_like, optional
         Measurement noise per sample, added to the plant output before the
         controller (``y[k]`` in the result includes it).
+    outlet : sequence of str, optional
+        Outlet valve of the :class:`~ctrlblocks.plants.ThreeTank` per sample
+        (``plant.outlet = outlet[k]`` before sample k; seed 000 Fig. 7).
     engine : str
         ``"auto"``: the compiled loop (numba), or the same loop interpreted
         when numba is absent; ``"python"``: the same loop interpreted even
@@ -339,7 +353,12 @@ def closed_loop(
         ``y`` (measurement seen by the controller) and ``u`` per sample;
         ``path`` says which implementation ran.
     """
-    sig = {"sp": sp, "load": load, "ff": ff, "manual": manual, "u_man": u_man}
+    sig: dict[str, Any] = {"sp": sp, "load": load, "ff": ff, "manual": manual, "u_man": u_man}
+    if outlet is not None:
+        if not isinstance(plant, _tt.ThreeTank):
+            raise ValueError("outlet= is an input of the ThreeTank plant only")
+        g3o = {name: plant._coefficients(r)[5] for name, r in plant.outlets.items()}
+        sig["outlet"] = [g3o[v] for v in outlet]
     if n is None:
         n = int(np.shape(sp)[0]) if np.ndim(sp) else None
         if n is None:
@@ -359,7 +378,7 @@ def closed_loop(
             engine = "blocks"
     if engine == "blocks":
         return reference_loop(controller, plant, sp, n=n, load=load, ff=ff, manual=manual,
-                              u_man=u_man, noise=noise)  # fmt: skip
+                              u_man=u_man, noise=noise, outlet=outlet)  # fmt: skip
     y_out = np.empty(n)
     u_out = np.empty(n)
     compiled = HAVE_NUMBA and engine == "auto"
@@ -402,6 +421,7 @@ def reference_loop(
     manual: Any = None,
     u_man: Any = None,
     noise: Any = None,
+    outlet: Any = None,
 ) -> LoopResult:
     """The loop of :func:`closed_loop` calling the block and plant objects (advances them)."""
     from ..blocks.pid import PID
@@ -415,6 +435,8 @@ def reference_loop(
     spv, ffv, ld = s["sp"].tolist(), s["ff"].tolist(), s["load"].tolist()
     man, um = [bool(v) for v in s["manual"]], s["u_man"].tolist()
     for k in range(n):
+        if outlet is not None and plant.outlet != outlet[k]:
+            plant.outlet = outlet[k]
         y = plant.y + nz[k] if noise is not None else plant.y
         controller.manual = man[k]
         if man[k]:
