@@ -128,5 +128,14 @@ def _draw(
                 color = colors[run.controller]
                 label = run.controller if k == 0 else f"{run.controller}: {labels.get(name, name)}"
                 ls = styles[k % len(styles)]
-            ax.plot(t, run.signals[name], color=color, linestyle=ls, linewidth=1.2, label=label)
+            lw = 1.2 if single or name not in ("u", "u_act", "v") else 0.9
+            ax.plot(
+                t,
+                run.signals[name],
+                color=color,
+                linestyle=ls,
+                linewidth=lw,
+                label=label,
+                alpha=1.0 if single else 0.85,
+            )
             k += 1

@@ -107,6 +107,31 @@ def table1_inverse_half_rule() -> tuple[str, list[TableCheck]]:
     return "\n".join(lines), checks
 
 
+def window_tables(result: ScenarioResult, metric: str = "iae") -> list[str]:
+    """Markdown lines: ``metric`` per event window (columns) and controller (rows), per case.
+
+    Only for cases with more than one window.
+    """
+    out: list[str] = []
+    for case in result.scenario.cases:
+        rows = [m for m in result.metrics if m["case"] == case.name]
+        if not rows or len(rows[0]["windows"]) < 2:
+            continue
+        wins = rows[0]["windows"]
+        head = [f"{w['label']} ({w['t0']:g} s)" for w in wins]
+        title = f"{metric.upper()} per event window" + (
+            f" — {case.name}" if len(result.scenario.cases) > 1 else ""
+        )
+        out += ["", f"{title}:", ""]
+        out.append("| controller | " + " | ".join(head) + " |")
+        out.append("|---|" + "---|" * len(head))
+        for m in rows:
+            vals = [w[metric] for w in m["windows"]]
+            cells = ["–" if v is None else f"{v:.4g}" for v in vals]
+            out.append(f"| {m['controller']} | " + " | ".join(cells) + " |")
+    return out
+
+
 def _tuned_lines(sc: Scenario) -> list[str]:
     out = []
     for c in sc.controllers:
@@ -190,6 +215,7 @@ def render_report(
             png = f"{sc.name}/{slug(case.name)}.png"
             lines += ["", f"![{sc.title} — {case.name}]({png})"]
         lines += ["", metric_table(r, REPORT_METRICS)]
+        lines += window_tables(r)
         if r.claims:
             lines += ["", "Claims:", ""]
             for c in r.claims:
