@@ -90,14 +90,14 @@ def test_bad_settling_time_or_order_is_refused():
     assert info.value.code == ErrorCode.BAD_ORDER
 
 
-# --- with the ADRC block (written in parallel; skipped until it is importable) ---
+# --- with the ADRC block in the loop ---
 
 
 def _closed_loop(cfg, k, taus, t_end=120.0):
-    adrc_mod = pytest.importorskip("ctrlblocks.blocks.adrc")
+    from ctrlblocks import ADRC
     from ctrlblocks.plants.linear import PTn
 
-    ctrl = adrc_mod.ADRC(**cfg)
+    ctrl = ADRC(**cfg)
     plant = PTn(k, taus, cfg["ts"])
     plant.reset(1.0)
     y0, ys = plant.y, []
@@ -122,7 +122,6 @@ def test_default_second_order_tuning_settles_the_seeds_processes_near_the_design
 
 
 def test_noise_limit_lowers_the_observer_bandwidth_until_mv_noise_is_acceptable():
-    pytest.importorskip("ctrlblocks.blocks.adrc")
     from ctrlblocks.tuning.adrc import mv_noise
 
     free = adrc_tuning(0.73, 8.3, 3.0, 2, ts=0.1)

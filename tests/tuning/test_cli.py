@@ -174,7 +174,6 @@ def test_tune_unknown_rule_is_a_usage_error():
 
 
 def test_tune_adrc_noise_options_lower_omega_o():
-    pytest.importorskip("ctrlblocks.blocks.adrc")
     base = ["tune", "adrc", "--gain", 0.73, "--time-constant", 8.3, "--dead-time", 3, "--order", 2,
             "--ts", 0.1, "--json"]  # fmt: skip
     free = json.loads(run(*base).output)
