@@ -98,7 +98,7 @@ class OpcUaAdapter(Adapter):
         except Exception as exc:
             with contextlib.suppress(Exception):
                 await client.disconnect()
-            raise IOFault(f"OPC UA connect {c.url}: {exc or type(exc).__name__}") from exc
+            raise IOFault(f"OPC UA connect {c.url}: {str(exc) or type(exc).__name__}") from exc
         self._client = client
         self._types = {}
 
@@ -143,7 +143,7 @@ class OpcUaAdapter(Adapter):
         try:
             dvs = await client.read_attributes(nodes, ua.AttributeIds.Value)
         except (ConnectionError, OSError, TimeoutError) as exc:
-            raise IOFault(f"OPC UA read: {exc or type(exc).__name__}") from exc
+            raise IOFault(f"OPC UA read: {str(exc) or type(exc).__name__}") from exc
         except ua.UaError as exc:
             raise IOFault(f"OPC UA read: {exc}") from exc
         now = _dt.datetime.now(_dt.timezone.utc)

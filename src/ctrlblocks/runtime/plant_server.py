@@ -245,14 +245,27 @@ class PlantProcess:
 
 
 class _PasswordUsers:
-    """asyncua user manager: user/password pairs (no anonymous access)."""
+    """asyncua user manager: user/password, on an encrypted channel with a trusted certificate.
 
-    def __init__(self, users: dict[str, str]) -> None:
+    asyncua (2.1) lets a client that skips the endpoint check activate a
+    session over an unencrypted channel even when the server offers only
+    SignAndEncrypt endpoints.  This manager therefore refuses every session
+    whose secure channel carries no client certificate (no encryption) or an
+    untrusted one, before it looks at the password.
+    """
+
+    def __init__(self, users: dict[str, str], trusted: set[str]) -> None:
         self.users = dict(users)
+        self.trusted = trusted
 
     def get_user(self, iserver: Any, username=None, password=None, certificate=None):
         from asyncua.crypto.permission_rules import User, UserRole
 
+        from .opcua import fingerprint
+
+        if not certificate or fingerprint(bytes(certificate)) not in self.trusted:
+            log.warning("refused a session without an encrypted, trusted channel")
+            return None
         if username is not None and self.users.get(username) == password:
             return User(role=UserRole.User, name=username)
         return None
@@ -416,7 +429,9 @@ class PlantServer:
         from .opcua import trust_list_validator
 
         secured = self.certificate is not None
-        server = Server(user_manager=_PasswordUsers(self.users) if secured else None)
+        validator = trust_list_validator(self.trusted)
+        users = _PasswordUsers(self.users, validator.fingerprints) if secured else None
+        server = Server(user_manager=users)
         await server.init()
         port = self.opcua_port or _free_port(self.host)
         self.opcua_port = port
@@ -428,7 +443,7 @@ class PlantServer:
             await server.load_private_key(str(self.private_key))
             server.set_security_policy([ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt])
             server.set_identity_tokens([ua.UserNameIdentityToken])
-            server.set_certificate_validator(trust_list_validator(self.trusted))
+            server.set_certificate_validator(validator)
         else:
             server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
         idx = await server.register_namespace(NAMESPACE)
