@@ -356,3 +356,11 @@ def test_feedforward_needs_a_controller_with_an_ff_input():
         parse_scenario(text)
     assert info.value.key == "controllers[0].main.type"
     assert "no feed-forward input 'ff'" in info.value.problem
+
+
+def test_limits_event_in_a_cascade_acts_on_the_secondary():
+    text = CASCADE + '\n[[events]]\nt = 40.0\ndo = "limits"\nu_min = 0.0\nu_max = 0.5\n'
+    s = simulate(parse_scenario(text), "with handshake").signals
+    t = s["t"]
+    assert np.all(s["u"][t >= 40.0 - 1e-9] <= 0.5 + 1e-12)
+    assert s["u"][t < 40.0].max() == pytest.approx(1.2)

@@ -363,8 +363,9 @@ class _Simulation:
         elif k == "manual_value":
             for b in self._mode_targets(ev):
                 _set_manual(b, bool(getattr(b, "manual", True)), f["value"])
-        elif k == "limits":
-            self._target(ev).set_limits(f["u_min"], f["u_max"])
+        elif k == "limits":  # the MV limits: same default targets as a mode switch
+            for b in self._mode_targets(ev):
+                b.set_limits(f["u_min"], f["u_max"])
         elif k == "plant":
             name = f.get("target", "plant")
             plant = self.inner_model if name == "inner_plant" else self.model_plant
