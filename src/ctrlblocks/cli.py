@@ -20,6 +20,7 @@ _COMMANDS: dict[str, str] = {
     "run": "ctrlblocks.sim.cli:run",
     "serve": "ctrlblocks.runtime.cli:serve",
     "plant-server": "ctrlblocks.runtime.cli:plant_server",
+    "operator": "ctrlblocks.web.cli:operator",
     "history": "ctrlblocks.runtime.cli:history",
 }
 

@@ -54,28 +54,44 @@ def _missing_web() -> click.ClickException:
     help="Demo only: historian SQLite file (default: a temporary file).",
 )
 @_USERS_OPTION
-@click.option("-v", "--verbose", is_flag=True, help="Log the runtime's and the server's messages.")
+@click.option("--check", is_flag=True, help="Only load and check CONFIG.")
+@click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
+@click.pass_context
 def serve(
+    ctx: click.Context,
     config: str | None,
     host: str,
     port: int,
     web: bool,
     history: Path | None,
     users_file: Path,
-    verbose: bool,
+    check: bool,
+    verbose: int,
 ) -> None:
     """Run the loops of CONFIG (runtime TOML) with the web faceplate.
 
     Without CONFIG: the demo, a simulated plant in real time (ADRC on the
     three-tank process and a PI flow loop).  Open the printed address in a
     browser; anyone can watch, operators log in to change loops (create one
-    with 'ctrlblocks operator add NAME').  Ctrl-C stops: safe values are
-    written, the historian flushes.
+    with 'ctrlblocks operator add NAME').  Ctrl-C stops: every MV goes to its
+    stop (else safe) value and the historian flushes.  --no-web runs the
+    loops only.
     """
-    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING)
-    from .auth import UserStore
+    if config is not None and (check or not web):
+        from ..runtime.cli import serve as runtime_serve  # the runtime's own command
 
-    users = UserStore(users_file)
+        ctx.invoke(runtime_serve, config=Path(config), check=check, verbose=verbose)
+        return
+    logging.basicConfig(
+        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(verbose, 2)],
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    from .auth import UserError, UserStore
+
+    try:
+        users = UserStore(users_file)
+    except (UserError, ValueError) as exc:
+        raise click.ClickException(f"{users_file}: {exc}") from None
     tmp = None
     if config is None:
         from .demo import demo_runtime
@@ -85,10 +101,16 @@ def serve(
             history = Path(tmp.name) / "history.sqlite"
         runtime, _ = demo_runtime(history)
     else:
-        from ..runtime import Runtime, load_config
+        from ..runtime import Runtime, RuntimeConfigError, load_config
 
-        runtime = Runtime(load_config(config))
+        try:
+            runtime = Runtime(load_config(config))
+        except RuntimeConfigError as exc:
+            raise click.ClickException(str(exc)) from None
     try:
+        if check:
+            click.echo(f"demo: {len(runtime.loop_names())} loop(s): OK")
+            return
         if not web:
             click.echo(f"running {len(runtime.loop_names())} loop(s); Ctrl-C stops")
             _run_headless(runtime)
@@ -96,7 +118,13 @@ def serve(
         try:
             from .server import make_server
 
-            server = make_server(runtime, host=host, port=port, users=users)
+            server = make_server(
+                runtime,
+                host=host,
+                port=port,
+                users=users,
+                log_level="info" if verbose else "warning",
+            )
         except ImportError:
             raise _missing_web() from None
         shown = f"[{host}]" if ":" in host else host

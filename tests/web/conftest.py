@@ -1,0 +1,167 @@
+"""Helpers of the faceplate tests: a small fast plant, a runtime on it, an app, operators.
+
+The runtime runs in real time (it is what the faceplate shows), on a plant
+that moves fast: loop ``fast`` is a PI controller (kp = 1, ti = 0.5 s) on a
+first-order lag (gain 1, T = 0.5 s), ts = 0.05 s, so the closed loop is a
+first-order lag with time constant 0.5 s (ti = T cancels the plant pole:
+L(s) = kp / (ti s)); loop ``level`` is a first-order ADRC (b0 = k/T = 2) on the
+same lag.  Both start in their steady state at SP = PV = MV = 1.  Tests wait
+for data through the WebSocket push or Playwright's waits, never by sleeping.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from ctrlblocks.plants import PT1, process
+
+TS = 0.05
+
+TEST_TOML = """
+[runtime]
+name = "faceplate test"
+
+[connections.sim]
+protocol = "memory"
+
+[[loops]]
+name = "fast"
+ts = 0.05
+pv = "sim:fast.pv"
+mv = "sim:fast.mv"
+sp = 1.0
+safe_value = 0.0
+block = { type = "PID", kp = 1.0, ti = 0.5, reset_value = 1.0, u_min = 0.0, u_max = 5.0 }
+
+[[loops]]
+name = "level"
+ts = 0.05
+pv = "sim:level.pv"
+mv = "sim:level.mv"
+sp = 1.0
+safe_value = 0.0
+
+[loops.block]
+type = "ADRC"
+order = 1
+b0 = 2.0
+omega_c = 3.0
+omega_o = 6.0
+u0 = 1.0
+u_min = 0.0
+u_max = 5.0
+
+[historian]
+path = "@HISTORY@"
+flush_interval = 0.1
+"""
+
+OPERATOR = ("alice", "correct horse battery")
+"""The test operator (user name, password)."""
+
+
+def lag_plants() -> dict[str, Any]:
+    """The two first-order lags, steady at y = 1 (u = 1)."""
+    out = {}
+    for name in ("fast", "level"):
+        p = process(PT1(k=1.0, t=0.5, ts=TS))
+        p.reset(1.0)
+        out[name] = p
+    return out
+
+
+def make_runtime(tmp_path: Path) -> Any:
+    """A runtime of :data:`TEST_TOML` on :func:`lag_plants`, historian in ``tmp_path``."""
+    from ctrlblocks.web.demo import simulated_runtime
+
+    text = TEST_TOML.replace('"@HISTORY@"', json.dumps(str(tmp_path / "history.sqlite")))
+    rt, _ = simulated_runtime(text, lag_plants())
+    return rt
+
+
+def make_users(tmp_path: Path) -> Any:
+    """A users file with :data:`OPERATOR` (cheap scrypt cost, so tests stay fast)."""
+    from ctrlblocks.web import UserStore
+
+    users = UserStore(tmp_path / "users.json")
+    users.add(*OPERATOR, n=2**10)
+    return users
+
+
+@pytest.fixture
+def users(tmp_path: Path) -> Any:
+    return make_users(tmp_path)
+
+
+@pytest.fixture
+def app(tmp_path: Path, users: Any) -> Any:
+    pytest.importorskip("fastapi")
+    from ctrlblocks.web import create_app
+
+    return create_app(make_runtime(tmp_path), users=users)
+
+
+@pytest.fixture
+def client(app: Any) -> Any:
+    """A TestClient whose start/stop runs the app's lifespan (runtime start/stop)."""
+    from fastapi.testclient import TestClient
+
+    with TestClient(app) as c:
+        yield c
+
+
+def login(client: Any, user: str = OPERATOR[0], password: str = OPERATOR[1]) -> Any:
+    return client.post("/api/login", json={"user": user, "password": password})
+
+
+def wait_push(client: Any, until: Any, limit: int = 400) -> dict[str, Any]:
+    """Read WebSocket pushes until ``until(update)`` is true; return that update.
+
+    Fails after ``limit`` pushes (40 s at 10 Hz): the condition never came.
+    """
+    with client.websocket_connect("/ws") as ws:
+        hello = ws.receive_json()
+        assert hello["type"] == "hello"
+        for _ in range(limit):
+            msg = ws.receive_json()
+            if until(msg):
+                return msg
+    raise AssertionError(f"condition not reached in {limit} pushes")
+
+
+def state_of(update: dict[str, Any], loop: str) -> dict[str, Any]:
+    return next(s for s in update["loops"] if s["name"] == loop)
+
+
+def wait_cycles(client: Any, loop: str, n: int) -> dict[str, Any]:
+    """Wait until ``loop`` has run ``n`` more cycles than now; return its state."""
+    start = client.get(f"/api/loops/{loop}").json()["cycle"]
+    upd = wait_push(client, lambda m: state_of(m, loop)["cycle"] >= start + n)
+    return state_of(upd, loop)
+
+
+def history(client: Any, loop: str, seconds: float = 120.0) -> dict[str, list[Any]]:
+    """Columns of the loop's history of the last ``seconds`` (all rows, no decimation)."""
+    now = time.time()
+    r = client.get(
+        f"/api/loops/{loop}/history",
+        params={"start": now - seconds, "end": now + 1.0, "max_points": 10**6},
+    )
+    assert r.status_code == 200, r.text
+    return r.json()["columns"]
+
+
+def mode_switches(cols: dict[str, list[Any]]) -> list[int]:
+    """Row indices where the mode differs from the previous row."""
+    m = cols["mode"]
+    return [k for k in range(1, len(m)) if m[k] != m[k - 1]]
+
+
+def finite(x: Any) -> bool:
+    return isinstance(x, (int, float)) and math.isfinite(x)
