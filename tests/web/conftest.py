@@ -11,9 +11,14 @@ for data through the WebSocket push or Playwright's waits, never by sleeping.
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import json
 import math
+import tempfile
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -165,3 +170,77 @@ def mode_switches(cols: dict[str, list[Any]]) -> list[int]:
 
 def finite(x: Any) -> bool:
     return isinstance(x, (int, float)) and math.isfinite(x)
+
+
+# -- a real server and a real browser ------------------------------------------------------------
+
+CHROMIUM = "/usr/bin/chromium"
+"""Debian's Chromium (``apt-get install chromium``; ``.ci/run`` installs it)."""
+
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
+@contextlib.contextmanager
+def running_server(runtime: Any, users: Any) -> Iterator[str]:
+    """Serve the faceplate of ``runtime`` on 127.0.0.1 (a free port) in a thread; yield its URL.
+
+    The socket is bound and listening before the thread starts, so a client
+    can connect at once (it waits in the backlog until uvicorn accepts).
+    Stops the server (and with it the runtime) on exit.
+    """
+    from ctrlblocks.web.server import bind_socket, make_server
+
+    sock = bind_socket("127.0.0.1", 0)
+    port = sock.getsockname()[1]
+    server = make_server(runtime, host="127.0.0.1", port=port, users=users)
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            asyncio.run(server.serve(sockets=[sock]))
+        except BaseException as exc:  # reported by the test
+            errors.append(exc)
+
+    thread = threading.Thread(target=run, name="faceplate-server", daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{port}/"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=20)
+        sock.close()
+    assert not thread.is_alive(), "the faceplate server did not stop"
+    assert not errors, errors
+
+
+@contextlib.contextmanager
+def chromium_context(viewport: tuple[int, int] = (1400, 1000)) -> Iterator[Any]:
+    """A headless Chromium (Debian's, by path) with a new empty profile, driven by Playwright."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    if not Path(CHROMIUM).exists():
+        pytest.skip(f"{CHROMIUM} not found (apt-get install chromium; .ci/run does)")
+    with (
+        tempfile.TemporaryDirectory(prefix="ctrlblocks-chromium-") as profile,
+        sync_api.sync_playwright() as pw,
+    ):
+        ctx = pw.chromium.launch_persistent_context(
+            profile,
+            executable_path=CHROMIUM,
+            args=CHROMIUM_ARGS,
+            headless=True,
+            bypass_csp=True,  # Playwright's waits evaluate script text
+            viewport={"width": viewport[0], "height": viewport[1]},
+        )
+        try:
+            yield ctx
+        finally:
+            ctx.close()

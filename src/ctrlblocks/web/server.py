@@ -65,7 +65,7 @@ def make_server(
         )
     app = create_app(runtime, users=users, start_runtime=start_runtime, **app_kw)
     config = uvicorn.Config(
-        app, host=host, port=port, log_level=log_level, lifespan="on", ws="websockets"
+        app, host=host, port=port, log_level=log_level, lifespan="on", ws="auto"
     )
     return uvicorn.Server(config)
 
