@@ -116,3 +116,21 @@ def test_windows_split_at_event_times():
     ]
     w0 = windows_from_events([(0.0, "auto")], 3.0)
     assert [(x.label, x.t0, x.t1) for x in w0] == [("auto", 0.0, 3.0)]
+
+
+def test_window_is_a_step_window_when_setpoint_changes_or_loop_is_far_from_it():
+    t = np.arange(8) * H
+    y = np.array([1.0, 1.0, 1.00002, 1.2, 1.1, 1.0, 1.0, 1.0])
+    # load window: the setpoint does not change and y starts 2e-5 off it: no step
+    r = np.ones(8)
+    m = compute_metrics(t, r, y, np.zeros(8), H, t0=1.0)
+    assert math.isnan(m["overshoot"]) and m["peak_error"] == pytest.approx(0.2)
+    # a small setpoint change (0.5 %) at the window start is a step window
+    r2 = np.where(t >= 1.0, 1.005, 1.0)
+    m2 = compute_metrics(t, r2, y, np.zeros(8), H, t0=1.0)
+    # Δ = 1.005 - 1.00002 = 0.00498, overshoot (1.2 - 1.005) / 0.00498
+    assert m2["overshoot"] == pytest.approx(0.195 / 0.00498)
+    # far from the setpoint without a change (a MAN -> AUTO switch): a step window
+    m3 = compute_metrics(t, np.full(8, 1.5), y, np.zeros(8), H, t0=1.0)
+    assert m3["overshoot"] == 0.0  # Δ = 1.5 - 1.00002, y never passes 1.5
+    assert math.isnan(m3["rise_time"])  # 90 % of the step never reached

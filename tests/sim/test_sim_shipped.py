@@ -29,6 +29,7 @@ VERDICTS: dict[str, list[bool]] = {
     "nowak_fig7": [False, True, True, True, True, True],
     # estimated b0: n = 2 is better than the final value in IAE; n = 1 oscillates
     "nowak_table2_b0": [True, False, False, True, True, True],
+    "nowak_smith": [True, True, True],
     "tuned_three_tank": [True, True, True, True],
 }
 

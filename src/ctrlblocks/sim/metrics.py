@@ -19,7 +19,10 @@ Definitions (``k`` runs over the samples of the window, ``n`` of them):
 ``step``
     the size of the step the window asks for, ``Δ = r_end - y_0``: final
     setpoint minus the first value of ``y`` in the window [PV units].  A
-    window is a *step window* when ``|Δ| > step_tol``; otherwise it is a
+    window is a *step window* when the setpoint changes at its start
+    (``r_end`` differs from the setpoint of the sample before the window) or
+    when ``|Δ| > step_tol · max(|r_end|, |y_0|)`` (default 1 %: the loop is
+    far from the setpoint, e.g. at a MAN -> AUTO switch); otherwise it is a
     regulation (load) window and the step-response metrics below are NaN.
 ``overshoot``
     step windows only: ``max(0, max_k s (y_k - r_end)) / |Δ|`` with
@@ -199,7 +202,7 @@ def compute_metrics(
     t0: float | None = None,
     t1: float | None = None,
     band: float = 0.02,
-    step_tol: float = 1e-9,
+    step_tol: float = 0.01,
 ) -> dict[str, float]:
     """All metrics of the module docstring over the window ``t0 <= t < t1``.
 
@@ -216,7 +219,8 @@ def compute_metrics(
     band : float
         Settling band as a fraction (default 2 %).
     step_tol : float
-        Steps not larger than this count as no step [PV units].
+        Relative size below which ``|r_end - y_0|`` counts as no step when the
+        setpoint did not change at the window start (default 1 %).
 
     Returns
     -------
@@ -240,7 +244,9 @@ def compute_metrics(
     r_end = float(rw[-1])
     y0 = float(yw[0])
     step = r_end - y0
-    if abs(step) <= step_tol:
+    r_all = np.asarray(r, float)
+    sp_changed = idx[0] > 0 and abs(r_end - float(r_all[idx[0] - 1])) > 0.0
+    if not sp_changed and abs(step) <= step_tol * max(abs(r_end), abs(y0)):
         step = 0.0
     peak = float(np.max(np.abs(e)))
     if step != 0.0:
