@@ -8,10 +8,16 @@
  * usage: adrc_loop N REPEATS ts b0 l1 l2 l3 l4 p1 p2 k1 k2 k3 kp kd1 kd2 s_u lo hi a_ref
  *                  phi[9] g0[3] c[3] sp
  * prints: ns_per_step (min over repeats) ns_median y_final u_final
+ * Built by benchmarks/run.py with the system compiler: cc -O2 (and -DRECORD=0
+ * for the bare loop that keeps no traces).
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
+
+#ifndef RECORD
+#define RECORD 1 /* -DRECORD=0: the bare loop, no traces */
+#endif
 
 static double now(void) {
     struct timespec t;
@@ -43,6 +49,8 @@ int main(int argc, char **argv) {
     const double *f = p + 18, *g = p + 27, *cc = p + 30;
     double sp = p[33];
     double *t = malloc(sizeof(double) * reps);
+    /* a simulation records its traces, as ctrlblocks.fast.closed_loop does */
+    double *y_rec = malloc(sizeof(double) * n), *u_rec = malloc(sizeof(double) * n);
     double y_fin = 0, u_fin = 0;
     for (int r = 0; r < reps; r++) {
         double x0 = 0, x1 = 0, x2 = 0, y = 0;
@@ -71,6 +79,10 @@ int main(int argc, char **argv) {
             u = clampd(u_raw, lo, hi);
             sat = u_raw > hi ? 1 : u_raw < lo ? -1 : 0;
             u_prev = u;
+#if RECORD
+            y_rec[s] = y;
+            u_rec[s] = u;
+#endif
             double n0 = g[0] * u + f[0] * x0 + f[1] * x1 + f[2] * x2;
             double n1 = g[1] * u + f[3] * x0 + f[4] * x1 + f[5] * x2;
             double n2 = g[2] * u + f[6] * x0 + f[7] * x1 + f[8] * x2;
@@ -85,6 +97,9 @@ int main(int argc, char **argv) {
     for (int r = 1; r < reps; r++) if (t[r] < tmin) tmin = t[r];
     qsort(t, reps, sizeof(double), cmp);
     printf("%.4f %.4f %.17g %.17g\n", tmin, t[reps / 2], y_fin, u_fin);
+    if (n > 0 && y_rec[n - 1] != y_rec[n - 1]) printf("nan\n"); /* keep the traces */
     free(t);
+    free(y_rec);
+    free(u_rec);
     return 0;
 }

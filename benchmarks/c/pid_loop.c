@@ -7,11 +7,16 @@
  *
  * usage: pid_loop N REPEATS k sgn b c ad bd ki_h alpha beta lo hi phi[9] g0[3] c[3] sp
  * prints: ns_per_step (min over repeats) ns_median y_final u_final
- * Built by benchmarks/run.py with the system compiler: cc -O2.
+ * Built by benchmarks/run.py with the system compiler: cc -O2 (and -DRECORD=0
+ * for the bare loop that keeps no traces).
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
+
+#ifndef RECORD
+#define RECORD 1 /* -DRECORD=0: the bare loop, no traces */
+#endif
 
 static double now(void) {
     struct timespec t;
@@ -40,6 +45,8 @@ int main(int argc, char **argv) {
     const double *f = p + 11, *g = p + 20, *cc = p + 23;
     double sp = p[26];
     double *t = malloc(sizeof(double) * reps);
+    /* a simulation records its traces, as ctrlblocks.fast.closed_loop does */
+    double *y_rec = malloc(sizeof(double) * n), *u_rec = malloc(sizeof(double) * n);
     double y_fin = 0, u_fin = 0;
     for (int r = 0; r < reps; r++) {
         double i = 0, d = 0, w_prev = 0, e_prev = 0, out = 0;
@@ -65,6 +72,10 @@ int main(int argc, char **argv) {
             w_prev = w;
             e_prev = e;
             cold = 0;
+#if RECORD
+            y_rec[s] = y;
+            u_rec[s] = out;
+#endif
             double n0 = g[0] * out + f[0] * x0 + f[1] * x1 + f[2] * x2;
             double n1 = g[1] * out + f[3] * x0 + f[4] * x1 + f[5] * x2;
             double n2 = g[2] * out + f[6] * x0 + f[7] * x1 + f[8] * x2;
@@ -79,6 +90,9 @@ int main(int argc, char **argv) {
     for (int r = 1; r < reps; r++) if (t[r] < tmin) tmin = t[r];
     qsort(t, reps, sizeof(double), cmp);
     printf("%.4f %.4f %.17g %.17g\n", tmin, t[reps / 2], y_fin, u_fin);
+    if (n > 0 && y_rec[n - 1] != y_rec[n - 1]) printf("nan\n"); /* keep the traces */
     free(t);
+    free(y_rec);
+    free(u_rec);
     return 0;
 }

@@ -197,9 +197,9 @@ def pid_step(
             i_k = i
     v_raw = p + i_k + dn + ff
     out = clamp(v_raw, lo, hi)
-    i_new = i_k
-    if ki_h != 0.0:
-        i_new = i_k + g * (out - out) if aw == 0.0 else i_k + g * (out - v_raw)
+    # update_state with applied = out: clamping tracks ``applied - out`` = 0 (so the
+    # integrator is i_k), back-calculation tracks ``applied - v_raw`` (seed 004 Fig. 3.6)
+    i_new = i_k + g * (out - v_raw) if ki_h != 0.0 and aw != 0.0 else i_k
     return out, v_raw, i_k, i_new, dn, w, e
 
 

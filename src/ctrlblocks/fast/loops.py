@@ -89,7 +89,9 @@ def _plant_arrays(plant: Any) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, 
     if hasattr(plant, "phi") and hasattr(plant, "gamma1"):
         pp = np.array(lti3_params(plant), dtype=float)
         x = [float(v) for v in plant._x] + [0.0] * (3 - plant.n_states)
-        ps = np.array([*x, float(plant.dead_samples), plant.u, plant.y], dtype=float)
+        # dsamp = -1 marks "no dead time" (Gamma1 = 0): the loop then skips the buffer
+        dsamp = -1.0 if plant.dead_time == 0.0 else float(plant.dead_samples)
+        ps = np.array([*x, dsamp, plant.u, plant.y], dtype=float)
         buf = np.array(plant._buf, dtype=float)
         return PLANT_LTI3, pp, ps, buf, int(plant._pos)
     raise UnsupportedConfig(f"no compiled model for plant {type(plant).__name__}")
@@ -102,6 +104,8 @@ def _delay(buf, pos, dsamp, nbuf, u):
     ``u0 = u[k-d]``, ``u1 = u[k-d-1]`` (``plants.linear`` (2)); without dead time
     the buffer is bypassed (``u0 = u``, ``u1`` = the previous input).
     """
+    if dsamp < 0:  # no dead time at all (Gamma1 = 0): the buffer is not needed
+        return u, 0.0, pos
     if dsamp == 0:
         buf[pos] = u
         return u, buf[1 - pos], 1 - pos

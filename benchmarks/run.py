@@ -1,0 +1,469 @@
+"""ctrlblocks against the peers a user would pick instead, side by side in one run.
+
+Usage (from the repository root, with the ``bench`` extra installed:
+``pip install -e '.[bench]'``)::
+
+    python benchmarks/run.py            # full run, ~2-3 minutes
+    python benchmarks/run.py --quick    # fewer repeats, ~1 minute
+    python benchmarks/run.py --markdown docs/performance-table.md
+
+Timings on a shared machine jump between levels, so every comparison runs
+both sides *interleaved* (A, B, A, B, ...) and reports the ratio of the
+minima and the ratio of the medians (issue 6).  The C references
+(``benchmarks/c/*.c``) are compiled here with the system compiler
+(``cc -O2``) into a temporary folder; nothing binary is kept.
+
+Comparisons (targets of issue 6):
+
+1. ``PID`` block call from Python vs ``simple_pid.PID`` call (<= 0.5x);
+2. ``ADRC`` block call vs ``pyadrc.StateSpace`` step (<= 0.1x);
+3. compiled closed loop (``ctrlblocks.fast.closed_loop``) vs C -O2, PID and
+   ADRC n = 2 on a 3rd-order plant (<= 1.5x);
+4. bank of N loops (``PIDBank``) per loop-step vs the C single-loop floor
+   (<= 0.7x, state <= 200 bytes per loop);
+5. the seed 000 Fig. 7 scenario (ADRC n = 2, PID_PT, PID_FT on the
+   three-tank process, tracking and disturbance cases) compiled vs the same
+   loops as python-control ``nlsys`` systems with saturation (>= 10,000x).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+
+Row = dict[str, object]
+
+
+# ---------------------------------------------------------------------------
+# timing helpers
+# ---------------------------------------------------------------------------
+
+
+def interleaved(fns: dict[str, Callable[[], float]], repeats: int) -> dict[str, list[float]]:
+    """Call every ``fn`` (returns ns per unit) in turn, ``repeats`` times; the lists of results."""
+    out: dict[str, list[float]] = {k: [] for k in fns}
+    for _ in range(repeats):
+        for k, fn in fns.items():
+            out[k].append(fn())
+    return out
+
+
+def per_call(fn: Callable[[], object], number: int) -> Callable[[], float]:
+    """A timer: ns per call of ``fn`` over ``number`` calls."""
+
+    def run() -> float:
+        t0 = time.perf_counter_ns()
+        for _ in range(number):
+            fn()
+        return (time.perf_counter_ns() - t0) / number
+
+    return run
+
+
+def row(name: str, ours: list[float], peer: list[float], target: str, ok: Callable[[float], bool],
+        peer_name: str, unit: str = "ns") -> Row:  # fmt: skip
+    r_min = min(ours) / min(peer)
+    r_med = statistics.median(ours) / statistics.median(peer)
+    return {
+        "comparison": name,
+        "ctrlblocks": f"{min(ours):.4g} / {statistics.median(ours):.4g} {unit}",
+        "peer": f"{peer_name}: {min(peer):.4g} / {statistics.median(peer):.4g} {unit}",
+        "ratio min/min": r_min,
+        "ratio med/med": r_med,
+        "target": target,
+        "met": "yes" if ok(r_min) and ok(r_med) else ("min only" if ok(r_min) else "no"),
+    }
+
+
+# ---------------------------------------------------------------------------
+# 1, 2: one call from Python
+# ---------------------------------------------------------------------------
+
+
+def bench_pid_call(repeats: int) -> Row:
+    from simple_pid import PID as SimplePID
+
+    from ctrlblocks import PID
+
+    pid = PID(kp=2.0, ti=10.0, td=0.5, ts=0.1, u_min=0.0, u_max=100.0)
+    # simple-pid with the same features: P, I, D on measurement, output limits
+    peer = SimplePID(2.0, 0.2, 1.0, setpoint=1.0, sample_time=None, output_limits=(0.0, 100.0))
+    for _ in range(3):
+        pid(1.0, 0.5)
+        peer(0.5, dt=0.1)
+    res = interleaved(
+        {"ours": per_call(lambda: pid(1.0, 0.5), 20000),
+         "peer": per_call(lambda: peer(0.5, dt=0.1), 20000)},
+        repeats,
+    )  # fmt: skip
+    return row("PID block call", res["ours"], res["peer"], "<= 0.5x", lambda r: r <= 0.5,
+               "simple-pid call")  # fmt: skip
+
+
+def bench_adrc_call(repeats: int) -> Row:
+    from pyadrc import StateSpace
+
+    from ctrlblocks import ADRC
+
+    adrc = ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1, u_min=0.0, u_max=5.0)
+    peer = StateSpace(2, 0.1, 0.05, 0.35, 5.0, m_lim=(0.0, 5.0))
+    for _ in range(3):
+        adrc(1.0, 0.5)
+        peer(0.5, 1.0, 1.0)
+    res = interleaved(
+        {"ours": per_call(lambda: adrc(1.0, 0.5), 20000),
+         "peer": per_call(lambda: peer(0.5, 1.0, 1.0), 5000)},
+        repeats,
+    )  # fmt: skip
+    return row("ADRC block call", res["ours"], res["peer"], "<= 0.1x", lambda r: r <= 0.1,
+               "pyadrc StateSpace step")  # fmt: skip
+
+
+# ---------------------------------------------------------------------------
+# 3: compiled closed loop vs C
+# ---------------------------------------------------------------------------
+
+
+def build_c(tmp: Path) -> dict[str, Path]:
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        raise SystemExit("no C compiler (cc) found: the C references need one")
+    exe = {}
+    for name in ("pid_loop", "adrc_loop"):
+        for record in (1, 0):
+            out = tmp / f"{name}_{record}"
+            src = str(HERE / "c" / f"{name}.c")
+            subprocess.run([cc, "-O2", f"-DRECORD={record}", "-o", str(out), src], check=True)
+            exe[name if record else f"{name}_bare"] = out
+    return exe
+
+
+def _loop_setup():
+    from ctrlblocks import ADRC, PID
+    from ctrlblocks.fast.kernels import adrc_params, lti3_params, pid_params
+    from ctrlblocks.plants import PTn
+
+    def plant():
+        return PTn(k=0.73, t=(7.3, 2.2, 1.4), ts=0.1)  # seed 000 (10b)
+
+    def pid():
+        return PID(kp=5.69, ti=16.65, td=2.91, ts=0.1, u_min=0.0, u_max=5.0)
+
+    def adrc():
+        return ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1, u_min=0.0, u_max=5.0)
+
+    pp = lti3_params(plant())
+    plant_args = [repr(v) for v in (*pp[:12], *pp[15:18])]
+    prm = pid_params(pid())
+    pid_args = [repr(v) for v in prm[:11]]
+    ap = adrc_params(adrc())
+    adrc_args = [repr(v) for v in (*ap[:14], ap[17], ap[18], ap[19], ap[21])]
+    return plant, pid, adrc, pid_args + plant_args, adrc_args + plant_args
+
+
+def c_timer(
+    exe: Path, n: int, args: list[str], sp: float = 1.0
+) -> tuple[Callable[[], float], list[float]]:
+    last: list[float] = []
+
+    def run() -> float:
+        r = subprocess.run([str(exe), str(n), "1", *args, repr(sp)], capture_output=True,
+                           text=True, check=True)  # fmt: skip
+        f = r.stdout.split()
+        last[:] = [float(f[2]), float(f[3])]
+        return float(f[0])
+
+    return run, last
+
+
+def bench_loops(exe: dict[str, Path], repeats: int, n: int) -> tuple[list[Row], float]:
+    from ctrlblocks.fast import closed_loop
+
+    plant, pid, adrc, pid_args, adrc_args = _loop_setup()
+    rows = []
+    floor = []
+    for name, make, cexe, cargs in (("PID", pid, exe["pid_loop"], pid_args),
+                                    ("ADRC n=2", adrc, exe["adrc_loop"], adrc_args)):  # fmt: skip
+        ctrl, pl = make(), plant()
+        closed_loop(ctrl, pl, sp=1.0, n=10)  # compile
+        result = {}
+
+        def ours(ctrl=ctrl, pl=pl, result=result) -> float:
+            t0 = time.perf_counter_ns()
+            r = closed_loop(ctrl, pl, sp=1.0, n=n)
+            dt = (time.perf_counter_ns() - t0) / n
+            result["y"], result["u"] = r.y[-1], r.u[-1]
+            return dt
+
+        c_run, c_last = c_timer(cexe, n, cargs)
+        c_bare, _ = c_timer(exe[cexe.name.rsplit("_", 1)[0] + "_bare"], n, cargs)
+        res = interleaved({"ours": ours, "c": c_run, "bare": c_bare}, repeats)
+        same = abs(result["y"] - c_last[0]) <= 1e-12 and abs(result["u"] - c_last[1]) <= 1e-12
+        r = row(f"compiled closed loop, {name} + 3rd-order plant", res["ours"], res["c"],
+                "<= 1.5x", lambda x: x <= 1.5, "C -O2 (records y, u)")  # fmt: skip
+        bare = row("", res["ours"], res["bare"], "", lambda x: True, "")
+        r["note"] = (
+            ("final y, u equal to C's" if same else "final y/u differ from C!")
+            + f"; C without traces {min(res['bare']):.3g} ns: ratio {bare['ratio min/min']:.2f}"
+            f" (min) / {bare['ratio med/med']:.2f} (median)"
+        )
+        rows.append(r)
+        if name == "PID":
+            floor = res["bare"]
+    return rows, floor
+
+
+# ---------------------------------------------------------------------------
+# 4: bank of N loops
+# ---------------------------------------------------------------------------
+
+
+def bench_bank(exe: dict[str, Path], repeats: int, sizes: list[int], work: int) -> list[Row]:
+    from ctrlblocks.fast import PIDBank
+
+    _plant, _pid, _adrc, pid_args, _ = _loop_setup()
+    c_run, _ = c_timer(exe["pid_loop_bare"], 1_000_000, pid_args)  # the floor: no traces
+    rows = []
+    rng = np.random.default_rng(1)
+    for n_loops in sizes:
+        bank = PIDBank.from_arrays(
+            kp=rng.uniform(2.0, 6.0, n_loops), ti=rng.uniform(5.0, 17.0, n_loops),
+            td=rng.uniform(0.5, 3.0, n_loops), n=5.0, ts=0.1, u_min=0.0, u_max=5.0,
+            plant_k=rng.uniform(0.5, 1.0, n_loops),
+            plant_t=np.sort(rng.uniform(1.0, 8.0, (n_loops, 3)), axis=1)[:, ::-1],
+        )  # fmt: skip
+        steps = max(5, work // n_loops)
+        bank.run(1.0, 2)  # compile
+
+        def ours(bank=bank, steps=steps, n_loops=n_loops) -> float:
+            t0 = time.perf_counter_ns()
+            bank.run(1.0, steps)
+            return (time.perf_counter_ns() - t0) / (steps * n_loops)
+
+        res = interleaved({"ours": ours, "c": c_run}, repeats)
+        r = row(f"bank of {n_loops:,} PID loops, per loop-step", res["ours"], res["c"],
+                "<= 0.7x", lambda x: x <= 0.7, "C -O2 single loop, no traces")  # fmt: skip
+        r["note"] = (f"state {bank.state_bytes} B/loop (+{bank.param_bytes} B parameters); "
+                     f"{steps} steps")  # fmt: skip
+        rows.append(r)
+    return rows
+
+
+# ---------------------------------------------------------------------------
+# 5: seed 000 Fig. 7 scenario vs python-control nlsys
+# ---------------------------------------------------------------------------
+
+
+def _fig7_runs():
+    """The runs of scenarios/nowak_fig7.toml: 3 controllers x 2 cases (signals per sample)."""
+    from ctrlblocks import ADRC, PID
+    from ctrlblocks.plants import ThreeTank
+
+    ts = 0.1
+    tank = ThreeTank(ts=ts)
+    u0 = tank.u_for_y(1.5)
+    ctrls = {
+        "ADRC n=2": lambda: ADRC(order=2, b0=0.05, omega_o=1.75, omega_c=0.35, ts=ts,
+                                 u_min=0.0, u_max=5.0, u0=u0),
+        "PID_PT": lambda: PID(kp=5.69, ti=16.65, td=2.91, n=5.0, ts=ts, u_min=0.0, u_max=5.0,
+                              reset_value=u0),
+        "PID_FT": lambda: PID(kp=6.31, ti=5.40, td=1.36, n=5.0, ts=ts, u_min=0.0, u_max=5.0,
+                              reset_value=u0),
+    }  # fmt: skip
+    cases = {}
+    n = round(140.0 / ts)
+    sp = np.full(n, 1.5)
+    sp[100:700] = 2.0
+    cases["tracking"] = {"sp": sp, "load": np.zeros(n), "outlet": ["a"] * n}
+    n = round(260.0 / ts)
+    load = np.zeros(n)
+    load[100:700] = 0.5
+    outlet = ["a"] * 1300 + ["b"] * 650 + ["a"] * (n - 1950)
+    cases["disturbance"] = {"sp": np.full(n, 1.5), "load": load, "outlet": outlet}
+    rng = np.random.default_rng(7)
+    for c in cases.values():
+        c["noise"] = rng.normal(0.0, 0.001, len(c["sp"]))
+
+    def plant():
+        p = ThreeTank(ts=ts)
+        p.reset(u0)
+        return p
+
+    return ctrls, cases, plant
+
+
+def _nlsys_loop(make_ctrl, plant_factory, sig):
+    """The same closed loop as a discrete-time python-control ``nlsys`` with saturation.
+
+    State: the controller's and the plant's states; inputs: sp, load, noise,
+    outlet coefficient.  The update function is what a python-control user
+    writes: numpy state vector in, numpy state vector out, ``np.clip`` for the
+    MV limits; the control law inside calls ctrlblocks' kernels.
+    """
+    import control
+
+    from ctrlblocks import PID
+    from ctrlblocks.fast.kernels import adrc_params, adrc_step, pid_params, pid_step
+    from ctrlblocks.plants import threetank as tt
+
+    ctrl = make_ctrl()
+    plant = plant_factory()
+    is_pid = isinstance(ctrl, PID)
+    prm = pid_params(ctrl) if is_pid else adrc_params(ctrl)
+    g5 = plant._g[:5]
+    hsub, nsub = plant.ts / plant.substeps, plant.substeps
+    g3o = {name: plant._coefficients(r)[5] for name, r in plant.outlets.items()}
+    if is_pid:
+        x0c = [ctrl._i, ctrl._d, ctrl._w_prev, ctrl._e_prev, ctrl.out, 1.0]
+    else:
+        x0c = [ctrl._yh, ctrl._x2, ctrl._x3, ctrl._x4, ctrl._u_prev, ctrl._ref, 0.0, 0.0, 0.0]
+    nc = len(x0c)
+    x0 = np.array([*x0c, plant._p1, plant._p2, plant._p3, plant.u])
+
+    def control_output(x, u_in):
+        y = x[nc + 2] - tt.P_ATM + u_in[2]
+        if is_pid:
+            i, d, w, e, out, cold = x[:6]
+            r = pid_step(u_in[0], y, 0.0, False, 0.0, cold != 0.0, False, i, d, w, e, out, prm)
+            return r[0], (r[3], r[4], r[5], r[6], r[0], 0.0)
+        yh, e2, e3, e4, up, ref, started, track, sat = x[:9]
+        r = adrc_step(u_in[0], y, False, 0.0, started != 0.0, track != 0.0, int(sat),
+                      yh, e2, e3, e4, up, ref, prm)  # fmt: skip
+        return r[0], (r[2], r[3], r[4], r[5], r[0], r[6], 1.0, float(r[7]), float(r[8]))
+
+    def updfcn(t, x, u_in, params):
+        u, xc = control_output(x, u_in)
+        ps = np.clip(u + u_in[1], plant.u_min, plant.u_max)  # actuator saturation
+        p = tt.threetank_rk4(x[nc], x[nc + 1], x[nc + 2], ps + tt.P_ATM, (*g5, u_in[3]),
+                             hsub, nsub)  # fmt: skip
+        return np.array([*xc, *p, ps])
+
+    def outfcn(t, x, u_in, params):
+        u, _ = control_output(x, u_in)
+        return np.array([x[nc + 2] - tt.P_ATM + u_in[2], u])
+
+    sys_ = control.nlsys(updfcn, outfcn, inputs=4, outputs=2, states=len(x0), dt=0.1)
+    n = len(sig["sp"])
+    u_in = np.vstack([sig["sp"], sig["load"], sig["noise"], [g3o[v] for v in sig["outlet"]]])
+    resp = control.input_output_response(sys_, np.arange(n) * 0.1, u_in, x0)
+    return resp.outputs[0], resp.outputs[1]
+
+
+def bench_fig7(repeats: int) -> Row:
+    from ctrlblocks.fast import closed_loop
+
+    ctrls, cases, plant = _fig7_runs()
+
+    def ours() -> float:
+        t0 = time.perf_counter_ns()
+        for make in ctrls.values():
+            for sig in cases.values():
+                closed_loop(make(), plant(), **sig)
+        return (time.perf_counter_ns() - t0) / 1e6  # ms
+
+    def nlsys() -> float:
+        t0 = time.perf_counter_ns()
+        for make in ctrls.values():
+            for sig in cases.values():
+                _nlsys_loop(make, plant, sig)
+        return (time.perf_counter_ns() - t0) / 1e6
+
+    ours()  # compile
+    # same numbers on both sides (one run each)
+    worst = 0.0
+    for make in ctrls.values():
+        for sig in cases.values():
+            a = closed_loop(make(), plant(), **sig)
+            y, u = _nlsys_loop(make, plant, sig)
+            worst = max(worst, float(np.max(np.abs(a.y - y))), float(np.max(np.abs(a.u - u))))
+    res = interleaved({"ours": ours, "nlsys": nlsys}, repeats)
+    name = "seed 000 Fig. 7 scenario (6 runs, 24,000 samples)"
+    r = row(name, res["ours"], res["nlsys"], ">= 10,000x faster", lambda x: x <= 1e-4,
+            "python-control nlsys", unit="ms")  # fmt: skip
+    r["note"] = (
+        f"speed-up {1 / r['ratio min/min']:,.0f}x (min) / {1 / r['ratio med/med']:,.0f}x "
+        f"(median); max |difference| {worst:.1e}"
+    )
+    return r
+
+
+# ---------------------------------------------------------------------------
+# report
+# ---------------------------------------------------------------------------
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import numba
+
+    cc = shutil.which("cc") or "cc"
+    ccv = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout.splitlines()
+    return (
+        f"{cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}; "
+        f"Python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}; "
+        f"{ccv[0] if ccv else cc} -O2"
+    )
+
+
+def markdown(rows: list[Row]) -> str:
+    cols = ["comparison", "ctrlblocks", "peer", "ratio min/min", "ratio med/med", "target", "met"]
+    lines = ["| " + " | ".join(cols) + " | note |", "|" + "---|" * (len(cols) + 1)]
+    for r in rows:
+        cells = [f"{r[c]:.3g}" if isinstance(r[c], float) else str(r[c]) for c in cols]
+        lines.append("| " + " | ".join(cells) + f" | {r.get('note', '')} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repeats and samples")
+    ap.add_argument("--markdown", type=Path, help="also write the table to this file")
+    args = ap.parse_args(argv)
+    reps = 7 if args.quick else 15
+    n_loop = 200_000 if args.quick else 1_000_000
+    sizes = [10_000, 100_000] if args.quick else [10_000, 100_000, 1_000_000]
+    rows: list[Row] = []
+    print(f"machine: {machine()}", flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = build_c(Path(tmp))
+        for label, fn in (
+            ("PID call", lambda: [bench_pid_call(reps)]),
+            ("ADRC call", lambda: [bench_adrc_call(reps)]),
+            ("compiled loops", lambda: bench_loops(exe, reps, n_loop)[0]),
+            ("bank", lambda: bench_bank(exe, max(3, reps // 3), sizes, 4_000_000)),
+            ("Fig. 7 vs nlsys", lambda: [bench_fig7(3 if args.quick else 5)]),
+        ):
+            t0 = time.perf_counter()
+            new = fn()
+            rows.extend(new)
+            print(f"  {label}: done in {time.perf_counter() - t0:.0f} s", file=sys.stderr,
+                  flush=True)  # fmt: skip
+    table = markdown(rows)
+    print(table)
+    if args.markdown:
+        args.markdown.write_text(f"Machine: {machine()}\n\n{table}\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
