@@ -119,7 +119,8 @@ def window_tables(result: ScenarioResult, metric: str = "iae") -> list[str]:
             continue
         wins = rows[0]["windows"]
         head = [f"{w['label']} ({w['t0']:g} s)" for w in wins]
-        title = f"{metric.upper()} per event window" + (
+        name = "Overshoot [%]" if metric == "overshoot" else metric.upper()
+        title = f"{name} per event window" + (
             f" — {case.name}" if len(result.scenario.cases) > 1 else ""
         )
         out += ["", f"{title}:", ""]
@@ -127,6 +128,8 @@ def window_tables(result: ScenarioResult, metric: str = "iae") -> list[str]:
         out.append("|---|" + "---|" * len(head))
         for m in rows:
             vals = [w[metric] for w in m["windows"]]
+            if metric == "overshoot":
+                vals = [None if v is None else 100.0 * v for v in vals]
             cells = ["–" if v is None else f"{v:.4g}" for v in vals]
             out.append(f"| {m['controller']} | " + " | ".join(cells) + " |")
     return out
@@ -214,8 +217,15 @@ def render_report(
         for case in sc.cases:
             png = f"{sc.name}/{slug(case.name)}.png"
             lines += ["", f"![{sc.title} — {case.name}]({png})"]
-        lines += ["", metric_table(r, REPORT_METRICS)]
-        lines += window_tables(r)
+        multi = any(len(m["windows"]) > 1 for m in r.metrics)
+        if multi:  # overshoot/settling of a whole run mixing several events would mislead
+            cols = tuple(n for n in REPORT_METRICS if n not in ("overshoot", "settling_time"))
+            lines += ["", "Whole run:", "", metric_table(r, cols)]
+            lines += window_tables(r, "iae")
+            if any(w["overshoot"] is not None for m in r.metrics for w in m["windows"]):
+                lines += window_tables(r, "overshoot")
+        else:
+            lines += ["", metric_table(r, REPORT_METRICS)]
         if r.claims:
             lines += ["", "Claims:", ""]
             for c in r.claims:
