@@ -8,6 +8,7 @@ and opens the faceplate at http://127.0.0.1:8000.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import os
 import tempfile
@@ -134,7 +135,10 @@ def serve(
                 f"no operators in {users_file}: everybody can only watch; "
                 "add one with: ctrlblocks operator add NAME"
             )
-        server.run()
+        # uvicorn stops gracefully on Ctrl-C / SIGTERM (lifespan: runtime.stop) and then
+        # re-raises the interrupt: that is a normal end here
+        with contextlib.suppress(KeyboardInterrupt):
+            server.run()
     finally:
         if tmp is not None:
             tmp.cleanup()

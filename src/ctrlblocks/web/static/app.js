@@ -217,7 +217,7 @@ function buildTunings() {
     const v = st.tunings[k];
     const tr = document.createElement("tr");
     tr.dataset.key = k;
-    if (main.includes(k)) tr.className = "main";
+    tr.className = main.includes(k) ? "main" : "extra";
     const th = document.createElement("th");
     th.textContent = k;
     const cur = document.createElement("td");
@@ -305,6 +305,10 @@ $("btn-tunings").addEventListener("click", async () => {
   if (await command({ tunings: t }, "tuning " + Object.keys(t).join(", "))) buildTunings();
 });
 $("btn-tunings-reset").addEventListener("click", buildTunings);
+$("btn-tunings-all").addEventListener("click", (ev) => {
+  const all = document.querySelector("fieldset.tunings").classList.toggle("all");
+  ev.target.textContent = all ? "Main parameters" : "All parameters";
+});
 
 // ---------------------------------------------------------------- live trend
 

@@ -1,0 +1,97 @@
+"""``ctrlblocks operator`` and ``ctrlblocks serve`` (the web module's command)."""
+
+from __future__ import annotations
+
+import json
+
+from click.testing import CliRunner
+
+from ctrlblocks.cli import main
+from ctrlblocks.web.cli import serve
+
+
+def test_operator_add_list_remove(tmp_path, monkeypatch):
+    users = tmp_path / "users.json"
+    monkeypatch.setenv("OP_PW", "a long password")
+    r = CliRunner().invoke(
+        main, ["operator", "add", "alice", "--users", str(users), "--password-env", "OP_PW"]
+    )
+    assert r.exit_code == 0, r.output
+    assert "a long password" not in users.read_text()
+    assert list(json.loads(users.read_text())["users"]) == ["alice"]
+    r = CliRunner().invoke(main, ["operator", "list", "--users", str(users)])
+    assert r.output.split() == ["alice"]
+    r = CliRunner().invoke(main, ["operator", "remove", "alice", "--users", str(users)])
+    assert r.exit_code == 0
+    r = CliRunner().invoke(main, ["operator", "remove", "alice", "--users", str(users)])
+    assert r.exit_code != 0 and "no user 'alice'" in r.output
+
+
+def test_operator_add_asks_twice_for_the_password_and_refuses_short_ones(tmp_path):
+    users = tmp_path / "users.json"
+    r = CliRunner().invoke(
+        main,
+        ["operator", "add", "bob", "--users", str(users)],
+        input="a long password\na long password\n",
+    )
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(
+        main, ["operator", "add", "eve", "--users", str(users)], input="short\nshort\n"
+    )
+    assert r.exit_code != 0 and "at least 8 characters" in r.output
+
+
+def test_serve_without_config_checks_the_demo(tmp_path):
+    r = CliRunner().invoke(serve, ["--check", "--users", str(tmp_path / "u.json")])
+    assert r.exit_code == 0, r.output
+    assert "demo: 2 loop(s): OK" in r.output
+
+
+def test_serve_check_of_a_config_is_the_runtimes_check(tmp_path):
+    cfg = tmp_path / "loops.toml"
+    cfg.write_text(
+        '[connections.sim]\nprotocol = "memory"\n\n[[loops]]\nname = "a"\nts = 0.1\n'
+        'block = { type = "PID", kp = 1.0, ti = 1.0 }\npv = "sim:pv"\nmv = "sim:mv"\n'
+        "sp = 0.0\nsafe_value = 0.0\n"
+    )
+    r = CliRunner().invoke(serve, [str(cfg), "--check"])
+    assert r.exit_code == 0, r.output
+    assert "1 loop(s), 1 connection(s): OK" in r.output
+
+
+def test_serve_demo_in_one_command_shows_the_faceplate_and_stops_on_sigint(tmp_path):
+    import signal
+    import socket
+    import subprocess
+    import sys
+    import threading
+
+    import httpx
+
+    with socket.socket() as s:  # a free port on the loopback interface
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    cmd = [sys.executable, "-m", "ctrlblocks.web", "--port", str(port), "-v"]
+    cmd += ["--users", str(tmp_path / "u.json"), "--history", str(tmp_path / "h.sqlite")]
+    proc = subprocess.Popen(
+        cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    watchdog = threading.Timer(60.0, proc.kill)  # a hung server fails the test, not the run
+    watchdog.start()
+    try:
+        for line in proc.stderr:  # uvicorn logs this once it listens
+            if "Application startup complete" in line:
+                break
+        info = httpx.get(f"http://127.0.0.1:{port}/api/info").json()
+        assert info["loops"] == ["pressure", "flow"] and info["role"] == "viewer"
+        page = httpx.get(f"http://127.0.0.1:{port}/")
+        assert "uPlot" in page.text
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+        watchdog.cancel()
+    assert proc.returncode == 0, err
+    assert f"faceplate: http://127.0.0.1:{port}/" in out
+    assert "no operators" in out
+    assert "runtime ctrlblocks demo: stopped" in err  # graceful stop: safe values, flush
+    assert (tmp_path / "h.sqlite").exists()
