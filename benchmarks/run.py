@@ -23,7 +23,9 @@ Comparisons (targets of issue 6):
    (<= 0.7x, state <= 200 bytes per loop);
 5. the seed 000 Fig. 7 scenario (ADRC n = 2, PID_PT, PID_FT on the
    three-tank process, tracking and disturbance cases) compiled vs the same
-   loops as python-control ``nlsys`` systems with saturation (>= 10,000x).
+   loops as python-control ``nlsys`` systems with saturation (>= 10,000x);
+6. a sweep of the Fig. 7 scenario on a process pool vs one process
+   (near-linear scaling to the cores).
 """
 
 from __future__ import annotations
@@ -401,6 +403,44 @@ def bench_fig7(repeats: int) -> Row:
 
 
 # ---------------------------------------------------------------------------
+# 6: sweeps scale to the cores
+# ---------------------------------------------------------------------------
+
+
+def _warm() -> None:
+    import ctrlblocks.sim.runner  # noqa: F401  (imports done before the clock starts)
+
+
+def bench_sweep(repeats: int) -> Row:
+    import concurrent.futures as cf
+
+    from ctrlblocks.fast import sweep
+
+    vary = {"controllers[2].kp": [4.0, 5.0, 6.31, 7.0], "controllers[1].ti": [12.0, 16.65]}
+    cores = os.cpu_count() or 1
+
+    def serial() -> float:
+        t0 = time.perf_counter()
+        sweep("nowak_fig7", vary, executor="serial")
+        return time.perf_counter() - t0
+
+    def pooled() -> float:
+        with cf.ProcessPoolExecutor(max_workers=cores, initializer=_warm) as ex:
+            for f in [ex.submit(int) for _ in range(cores)]:
+                f.result()  # workers up before the clock starts
+            t0 = time.perf_counter()
+            sweep("nowak_fig7", vary, executor=ex)
+            return time.perf_counter() - t0
+
+    res = interleaved({"pool": pooled, "serial": serial}, repeats)
+    name = f"sweep, 8 sets of nowak_fig7, {cores} processes vs 1"
+    r = row(name, res["pool"], res["serial"], f"~1/{cores} (near-linear)",
+            lambda x: x <= 1.2 / cores, "serial", unit="s")  # fmt: skip
+    r["note"] = f"speed-up {1 / r['ratio min/min']:.2f}x on {cores} cores"
+    return r
+
+
+# ---------------------------------------------------------------------------
 # report
 # ---------------------------------------------------------------------------
 
@@ -452,6 +492,7 @@ def main(argv: list[str] | None = None) -> int:
             ("compiled loops", lambda: bench_loops(exe, reps, n_loop)[0]),
             ("bank", lambda: bench_bank(exe, max(3, reps // 3), sizes, 4_000_000)),
             ("Fig. 7 vs nlsys", lambda: [bench_fig7(3 if args.quick else 5)]),
+            ("sweep", lambda: [bench_sweep(1 if args.quick else 3)]),
         ):
             t0 = time.perf_counter()
             new = fn()

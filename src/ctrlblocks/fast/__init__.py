@@ -17,13 +17,18 @@ from ._jit import HAVE_NUMBA
 from .bank import BankResult, PIDBank
 from .kernels import UnsupportedConfig
 from .loops import LoopResult, closed_loop, reference_loop
+from .sweep import SweepError, dask_executor, sweep, write_rows
 
 __all__ = [
     "HAVE_NUMBA",
     "BankResult",
     "LoopResult",
     "PIDBank",
+    "SweepError",
     "UnsupportedConfig",
     "closed_loop",
+    "dask_executor",
     "reference_loop",
+    "sweep",
+    "write_rows",
 ]

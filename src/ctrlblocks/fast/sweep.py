@@ -1,0 +1,298 @@
+"""Sweeps: run a scenario for many parameter sets on a ``concurrent.futures`` executor.
+
+A sweep varies keys of a scenario file (TOML) over lists of values and runs
+every combination with :func:`ctrlblocks.sim.run_scenario` (the simulator's
+own loading, wiring and metrics; nothing is re-implemented here).  Each run is
+independent and seeded by the scenario, so the order and the place of
+execution do not change the numbers: a sweep on a process pool, on a Dask
+cluster or in a plain loop gives the same rows.
+
+Keys are the key paths of the scenario file, as its error messages print them:
+``controllers[1].kp``, ``plant.substeps``, ``sensor.noise``,
+``cases[0].events[1].value``, ``scenario.seed``.
+
+Executors
+---------
+* default: :class:`concurrent.futures.ProcessPoolExecutor` with one process
+  per core (near-linear scaling: the runs share nothing);
+* ``executor="serial"``: in this process, one after the other;
+* any :class:`concurrent.futures.Executor` you pass, e.g. a thread pool, or
+* a Dask cluster: :func:`dask_executor` (``pip install 'ctrlblocks[dask]'``)
+  returns the ``concurrent.futures`` executor of a ``distributed.Client`` --
+  a ``LocalCluster`` by default, or the scheduler at ``address`` to go beyond
+  one machine.  The sweep code is the same for all of them.
+
+Example
+-------
+>>> from ctrlblocks.fast import sweep
+>>> rows = sweep("nowak_fig7", {"controllers[2].kp": [5.0, 6.31]},
+...              duration=20.0, executor="serial")                  # doctest: +SKIP
+>>> sorted({r["controllers[2].kp"] for r in rows})                   # doctest: +SKIP
+[5.0, 6.31]
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import itertools
+import logging
+import os
+import re
+import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = [
+    "SweepError",
+    "apply_key",
+    "dask_executor",
+    "parameter_sets",
+    "read_scenario_text",
+    "run_one",
+    "sweep",
+    "write_rows",
+]
+
+log = logging.getLogger("ctrlblocks.fast")
+
+_KEY_RE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)")
+
+
+class SweepError(ValueError):
+    """A sweep key or value does not fit the scenario."""
+
+
+def read_scenario_text(scenario: str | Path) -> tuple[str, str]:
+    """``(text, file)`` of a scenario file, or of a shipped scenario given by name."""
+    p = Path(scenario)
+    if p.is_file():
+        return p.read_text(encoding="utf-8"), str(p)
+    name = p.name[:-5] if p.name.endswith(".toml") else p.name
+    shipped = resources.files("ctrlblocks") / "scenarios" / f"{name}.toml"
+    if shipped.is_file():
+        return shipped.read_text(encoding="utf-8"), f"{name}.toml"
+    raise SweepError(f"no scenario file {scenario!s} (and no shipped scenario {name!r})")
+
+
+def apply_key(doc: dict[str, Any], key: str, value: Any) -> None:
+    """Set ``doc[key path] = value`` in a parsed scenario document (in place).
+
+    ``key`` is dotted with list indices, e.g. ``controllers[1].kp``.  Every
+    step but the last must exist; the last may be new (the scenario parser
+    then judges it).
+    """
+    parts = key.split(".")
+    node: Any = doc
+    for n, part in enumerate(parts):
+        m = _KEY_RE.fullmatch(part)
+        if m is None:
+            raise SweepError(f"bad key {key!r} (expected e.g. controllers[1].kp)")
+        name, idx = m.group(1), [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
+        last = n == len(parts) - 1
+        if not isinstance(node, dict):
+            raise SweepError(f"{key}: {'.'.join(parts[:n])} is not a table")
+        if last and not idx:
+            node[name] = value
+            return
+        if name not in node:
+            raise SweepError(f"{key}: the scenario has no {'.'.join([*parts[:n], name])!r}")
+        node = node[name]
+        for j, i in enumerate(idx):
+            if not isinstance(node, list) or i >= len(node):
+                raise SweepError(f"{key}: index [{i}] is out of range")
+            if last and j == len(idx) - 1:
+                node[i] = value
+                return
+            node = node[i]
+
+
+def parameter_sets(vary: Mapping[str, Sequence[Any]]) -> list[dict[str, Any]]:
+    """Every combination of the varied values (Cartesian product, first key slowest)."""
+    keys = list(vary)
+    for k in keys:
+        if len(vary[k]) == 0:
+            raise SweepError(f"{k}: no values to vary")
+    return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*vary.values())]
+
+
+def run_one(
+    text: str,
+    file: str,
+    params: Mapping[str, Any],
+    quick: bool = False,
+    duration: float | None = None,
+) -> list[dict[str, Any]]:
+    """Run one parameter set; one row per controller and case (metrics, no traces).
+
+    A module-level function of plain arguments, so that any executor (process
+    pool, Dask) can ship it to a worker.
+    """
+    from ..sim.runner import run_scenario
+    from ..sim.scenario import _Parser
+
+    doc = tomllib.loads(text)
+    for k, v in params.items():
+        apply_key(doc, k, v)
+    sc = _Parser(file).scenario(doc)
+    result = run_scenario(sc, quick=quick, duration=duration)
+    claims = {
+        f"claim {i}": (None if c.holds is None else bool(c.holds))
+        for i, c in enumerate(result.claims)
+    }
+    rows = []
+    for m in result.metrics:
+        row = dict(params)
+        row.update({k: v for k, v in m.items() if k not in ("windows", "scenario")})
+        row.update(claims)
+        rows.append(row)
+    return rows
+
+
+def sweep(
+    scenario: str | Path,
+    vary: Mapping[str, Sequence[Any]],
+    *,
+    executor: cf.Executor | str | None = None,
+    quick: bool = False,
+    duration: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Run ``scenario`` for every combination of the values in ``vary``.
+
+    Parameters
+    ----------
+    scenario : str or Path
+        A scenario file, or the name of a shipped scenario (``"nowak_fig7"``).
+    vary : mapping
+        Key path -> list of values (see the module docstring).
+    executor : Executor, "serial" or None
+        Where the runs go; None = a process pool with one worker per core
+        (made and shut down here).
+    quick, duration
+        As :func:`ctrlblocks.sim.run_scenario`.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each finished run.
+
+    Returns
+    -------
+    list of dict
+        One row per parameter set, controller and case, in the order of
+        :func:`parameter_sets`: the varied values, ``controller``, ``case``,
+        every metric and ``claim i`` (True/False/None).
+    """
+    text, file = read_scenario_text(scenario)
+    sets = parameter_sets(vary)
+    # refuse a bad key or value before sending work anywhere
+    from ..sim.scenario import ScenarioError, _Parser
+
+    for params in sets:
+        doc = tomllib.loads(text)
+        for k, v in params.items():
+            apply_key(doc, k, v)
+        try:
+            _Parser(file).scenario(doc)
+        except ScenarioError as exc:
+            raise SweepError(f"{params}: {exc}") from None
+    total = len(sets)
+    results: list[list[dict[str, Any]] | None] = [None] * total
+    if executor == "serial":
+        for i, params in enumerate(sets):
+            results[i] = run_one(text, file, params, quick, duration)
+            if progress is not None:
+                progress(i + 1, total)
+        return _flatten(results)
+    own = executor is None
+    ex: cf.Executor = (
+        cf.ProcessPoolExecutor(max_workers=min(total, os.cpu_count() or 1))
+        if executor is None
+        else executor  # type: ignore[assignment]
+    )
+    try:
+        futures = {
+            ex.submit(run_one, text, file, params, quick, duration): i
+            for i, params in enumerate(sets)
+        }
+        for done, fut in enumerate(cf.as_completed(futures), start=1):
+            results[futures[fut]] = fut.result()
+            if progress is not None:
+                progress(done, total)
+    finally:
+        if own:
+            ex.shutdown()
+    return _flatten(results)
+
+
+def _flatten(results: Iterable[list[dict[str, Any]] | None]) -> list[dict[str, Any]]:
+    return [row for rows in results if rows is not None for row in rows]
+
+
+def dask_executor(address: str | None = None, **cluster_kwargs: Any) -> cf.Executor:
+    """A ``concurrent.futures`` executor on a Dask cluster (``pip install 'ctrlblocks[dask]'``).
+
+    ``address`` of a running scheduler (``"tcp://host:8786"``), or None for a
+    ``distributed.LocalCluster`` on this machine (``cluster_kwargs`` go to
+    it, e.g. ``n_workers=2, processes=True``).  The executor's ``shutdown()``
+    closes the client (and the local cluster).
+    """
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "the Dask executor needs the 'dask' extra: pip install 'ctrlblocks[dask]'"
+        ) from None
+    if address is None:
+        cluster = LocalCluster(**cluster_kwargs)
+        client = Client(cluster)
+    else:
+        cluster = None
+        client = Client(address)
+    ex = client.get_executor()
+    base_shutdown = ex.shutdown
+
+    def shutdown(wait: bool = True, **kw: Any) -> None:
+        base_shutdown(wait=wait)
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+    ex.shutdown = shutdown  # type: ignore[method-assign]
+    return ex
+
+
+def write_rows(rows: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
+    """Write the sweep rows to Parquet (pyarrow), or to CSV when pyarrow is absent.
+
+    A path ending in ``.csv`` always gives CSV.  Returns the path written
+    (``.csv`` instead of ``.parquet`` on the fallback).
+    """
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    cols: list[str] = []
+    for r in rows:
+        cols.extend(k for k in r if k not in cols)
+    if p.suffix != ".csv":
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError:
+            log.warning("pyarrow is not installed: writing CSV instead of Parquet")
+            p = p.with_suffix(".csv")
+        else:
+            table = pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows])
+            pq.write_table(table, p)
+            return p
+    import csv
+
+    with p.open("w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=cols)
+        w.writeheader()
+        for r in rows:
+            w.writerow({c: "" if r.get(c) is None else r.get(c) for c in cols})
+    return p

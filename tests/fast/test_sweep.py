@@ -1,0 +1,131 @@
+"""Sweeps give the same rows as sequential runs of the simulator, on any executor."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import csv
+import math
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from ctrlblocks.cli import main
+from ctrlblocks.fast.sweep import (
+    SweepError,
+    apply_key,
+    parameter_sets,
+    read_scenario_text,
+    sweep,
+    write_rows,
+)
+from ctrlblocks.sim import parse_scenario, run_scenario
+
+VARY = {"controllers[2].kp": [5.0, 6.31], "sensor.noise": [0.0, 0.002]}
+DURATION = 4.0
+
+
+def _rows_equal(a, b):
+    assert len(a) == len(b)
+    for ra, rb in zip(a, b, strict=True):
+        assert ra.keys() == rb.keys()
+        for k in ra:
+            va, vb = ra[k], rb[k]
+            if isinstance(va, float) and isinstance(vb, float) and math.isnan(va):
+                assert math.isnan(vb)
+            else:
+                assert va == vb, k
+
+
+def test_apply_key_sets_nested_tables_and_list_items():
+    doc = {"controllers": [{"kp": 1.0}, {"kp": 2.0}], "sensor": {"noise": 0.0}}
+    apply_key(doc, "controllers[1].kp", 7.5)
+    apply_key(doc, "sensor.noise", 0.01)
+    assert doc == {"controllers": [{"kp": 1.0}, {"kp": 7.5}], "sensor": {"noise": 0.01}}
+    with pytest.raises(SweepError, match="out of range"):
+        apply_key(doc, "controllers[5].kp", 1.0)
+    with pytest.raises(SweepError, match="has no"):
+        apply_key(doc, "plant.k", 1.0)
+
+
+def test_parameter_sets_are_the_cartesian_product():
+    sets = parameter_sets({"a": [1, 2], "b": ["x", "y", "z"]})
+    assert len(sets) == 6
+    assert sets[0] == {"a": 1, "b": "x"} and sets[-1] == {"a": 2, "b": "z"}
+
+
+def test_serial_sweep_equals_runs_of_the_edited_scenario_file():
+    rows = sweep("nowak_fig7", {"controllers[2].kp": [5.0, 6.31]}, executor="serial",
+                 duration=DURATION)  # fmt: skip
+    text, _ = read_scenario_text("nowak_fig7")
+    assert "kp = 6.31" in text
+    edited = parse_scenario(text.replace("kp = 6.31", "kp = 5.0"))
+    ref = run_scenario(edited, duration=DURATION)
+    mine = [r for r in rows if r["controllers[2].kp"] == 5.0]
+    assert len(mine) == len(ref.metrics) == 6  # 3 controllers x 2 cases
+    for r, m in zip(mine, ref.metrics, strict=True):
+        assert (r["controller"], r["case"]) == (m["controller"], m["case"])
+        assert r["iae"] == m["iae"] and r["tv_u"] == m["tv_u"]
+    # the varied gain changes the PID_FT rows only
+    other = [r for r in rows if r["controllers[2].kp"] == 6.31]
+    assert [r["iae"] for r in other if r["controller"] == "ADRC n=2"] == [
+        r["iae"] for r in mine if r["controller"] == "ADRC n=2"
+    ]
+    assert [r["iae"] for r in other if r["controller"] == "PID_FT"] != [
+        r["iae"] for r in mine if r["controller"] == "PID_FT"
+    ]
+
+
+def test_process_pool_sweep_equals_the_serial_sweep():
+    serial = sweep("nowak_fig7", VARY, executor="serial", duration=DURATION)
+    with cf.ProcessPoolExecutor(max_workers=2) as ex:
+        pooled = sweep("nowak_fig7", VARY, executor=ex, duration=DURATION)
+    assert len(serial) == 4 * 6
+    _rows_equal(serial, pooled)
+
+
+def test_dask_local_cluster_sweep_equals_the_serial_sweep():
+    pytest.importorskip("distributed")
+    from ctrlblocks.fast import dask_executor
+
+    vary = {"controllers[2].kp": [5.0, 6.31]}
+    serial = sweep("nowak_fig7", vary, executor="serial", duration=DURATION)
+    ex = dask_executor(n_workers=1, processes=False, dashboard_address=None)
+    try:
+        on_dask = sweep("nowak_fig7", vary, executor=ex, duration=DURATION)
+    finally:
+        ex.shutdown()
+    _rows_equal(serial, on_dask)
+
+
+def test_bad_value_is_refused_before_any_run():
+    with pytest.raises(SweepError, match="kp"):
+        sweep("nowak_fig7", {"controllers[2].kp": [-1.0]}, executor="serial", duration=DURATION)
+
+
+def test_rows_fall_back_to_csv_without_pyarrow(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    path = write_rows([{"a": 1.0, "b": None}, {"a": 2.0, "c": "x"}], tmp_path / "r.parquet")
+    assert path.suffix == ".csv"
+    with path.open() as f:
+        got = list(csv.DictReader(f))
+    assert got == [{"a": "1.0", "b": "", "c": ""}, {"a": "2.0", "b": "", "c": "x"}]
+
+
+def test_cli_sweep_writes_one_row_per_set_controller_and_case(tmp_path):
+    out = tmp_path / "sweep.csv"
+    res = CliRunner().invoke(
+        main,
+        ["sweep", "nowak_fig7", "--vary", "controllers[2].kp=5,6.31", "--serial",
+         "--duration", str(DURATION), "--out", str(out)],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "2 parameter sets, 12 rows" in res.output
+    with out.open() as f:
+        rows = list(csv.DictReader(f))
+    assert [r["controllers[2].kp"] for r in rows] == ["5"] * 6 + ["6.31"] * 6
+
+
+def test_cli_sweep_rejects_a_malformed_vary():
+    res = CliRunner().invoke(main, ["sweep", "nowak_fig7", "--vary", "kp"])
+    assert res.exit_code != 0 and "KEY=v1,v2" in res.output
