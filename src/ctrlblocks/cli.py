@@ -22,6 +22,7 @@ _COMMANDS: dict[str, str] = {
     "plant-server": "ctrlblocks.runtime.cli:plant_server",
     "operator": "ctrlblocks.web.cli:operator",
     "history": "ctrlblocks.runtime.cli:history",
+    "sweep": "ctrlblocks.fast.cli:sweep_command",
 }
 
 
