@@ -6,28 +6,34 @@ The main entry points:
 * :func:`simulate` runs one controller in one case and returns its trace;
 * :func:`run_scenario` runs all controllers in all cases, computes the
   metrics (per run and per event window) and checks the source's claims;
-* :func:`write_result` writes traces, ``metrics.json`` and plots.
+* :func:`write_result` writes traces, ``metrics.json`` and plots;
+* :func:`load_shipped` loads the scenarios that ship with the package
+  (``ctrlblocks reproduce`` runs them all).
 
 See ``docs/simulator.md`` for the scenario format.
 """
 
 from .loop import Run, simulate
 from .metrics import METRIC_NAMES, compute_metrics
+from .report import load_shipped, shipped_scenarios
 from .results import write_result
-from .runner import ScenarioResult, metric_table, run_scenario
+from .runner import ClaimResult, ScenarioResult, metric_table, run_scenario
 from .scenario import Scenario, ScenarioError, load_scenario, parse_scenario
 
 __all__ = [
     "METRIC_NAMES",
+    "ClaimResult",
     "Run",
     "Scenario",
     "ScenarioError",
     "ScenarioResult",
     "compute_metrics",
     "load_scenario",
+    "load_shipped",
     "metric_table",
     "parse_scenario",
     "run_scenario",
+    "shipped_scenarios",
     "simulate",
     "write_result",
 ]
