@@ -95,3 +95,16 @@ def test_serve_demo_in_one_command_shows_the_faceplate_and_stops_on_sigint(tmp_p
     assert "no operators" in out
     assert "runtime ctrlblocks demo: stopped" in err  # graceful stop: safe values, flush
     assert (tmp_path / "h.sqlite").exists()
+
+
+def test_docs_page_shows_the_screenshot_and_its_error_example_is_the_blocks_code():
+    from pathlib import Path
+
+    from ctrlblocks.blocks.base import ErrorCode
+
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    text = (docs / "faceplate.md").read_text(encoding="utf-8")
+    assert "](figures/faceplate.png)" in text
+    assert (docs / "figures" / "faceplate.png").read_bytes()[:4] == b"\x89PNG"
+    code = ErrorCode.BAD_B0
+    assert f'"code":{int(code)},"code_hex":"16#{int(code):04X}","name":"{code.name}"' in text
