@@ -364,3 +364,114 @@ def test_limits_event_in_a_cascade_acts_on_the_secondary():
     t = s["t"]
     assert np.all(s["u"][t >= 40.0 - 1e-9] <= 0.5 + 1e-12)
     assert s["u"][t < 40.0].max() == pytest.approx(1.2)
+
+
+MEASURED_MV = """
+[scenario]
+name = "mv"
+title = "t"
+ts = 0.01
+duration = 40.0
+
+[plant]
+type = "LinearPlant"
+num = [1.0]
+den = [1.0, 0.0]
+
+[actuator]
+u_min = -0.1
+u_max = 0.1
+
+[initial]
+sp = 0.0
+
+[[controllers]]
+name = "model, wrong limits"
+type = "PID"
+kp = 1.0
+ti = 1.0
+u_min = -1.0
+u_max = 1.0
+anti_windup = "back_calc_model"
+tt = 0.05
+integral_method = "backward"
+
+[[controllers]]
+name = "measured actuator"
+type = "PID"
+kp = 1.0
+ti = 1.0
+u_min = -1.0
+u_max = 1.0
+anti_windup = "back_calc_real"
+tt = 0.05
+integral_method = "backward"
+
+[[events]]
+t = 0.0
+do = "setpoint"
+value = 1.0
+"""
+
+
+def test_measured_actuator_position_feeds_back_calc_real():
+    """Fig. 3.2 A of seed 004: tracking the measured actuator output avoids windup even
+    when the controller's own limits (±1) do not match the actuator's (±0.1)."""
+    r = run_scenario(parse_scenario(MEASURED_MV))
+    wrong = r.metric("model, wrong limits", "main", "overshoot")
+    real = r.metric("measured actuator", "main", "overshoot")
+    assert wrong > 0.3
+    assert real < 0.1
+
+
+U_REAL = """
+[scenario]
+name = "ur"
+title = "t"
+ts = 0.1
+duration = 60.0
+
+[plant]
+type = "PT2"
+k = 1.0
+t1 = 4.0
+t2 = 1.0
+
+[actuator]
+u_min = 0.0
+u_max = 1.2
+
+[initial]
+sp = 0.0
+
+[[controllers]]
+name = "u_real off"
+type = "ADRC"
+order = 2
+b0 = 0.25
+omega_c = 1.0
+omega_o = 5.0
+
+[[controllers]]
+name = "u_real on"
+type = "ADRC"
+order = 2
+b0 = 0.25
+omega_c = 1.0
+omega_o = 5.0
+u_real_on = true
+
+[[events]]
+t = 1.0
+do = "setpoint"
+value = 1.0
+"""
+
+
+def test_measured_actuator_output_feeds_adrc_u_real():
+    """Seed 000, section 5: with u_real the ESO sees the input the process really got,
+    here an actuator that saturates at 1.2 while the ADRC has no limits of its own."""
+    r = run_scenario(parse_scenario(U_REAL))
+    off = r.metric("u_real off", "main", "overshoot")
+    on = r.metric("u_real on", "main", "overshoot")
+    assert on < 0.5 * off

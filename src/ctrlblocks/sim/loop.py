@@ -17,7 +17,11 @@ Every sample ``k`` (time ``t_k = k ts``) runs Listing 6.3 of seed 004
    applied (``update_state(u)``), so tracking anti-windup and selectors use
    simultaneous values (seed 004, section 6: "it is essential that
    simultaneous values of the tracking signal and the regulator output are
-   used"); the plant advances by ``ts``.
+   used"); the plant advances by ``ts``.  In the single-loop structures
+   the actuator's real output of the sample (after its load, rate and range)
+   is wired to blocks configured for a measured MV: the PID's
+   ``actuator_pos`` (BACK_CALC_REAL) and the ADRC's ``u_real``
+   (``u_real_on``).
 
 Structures (``scenario.structure``)
 -----------------------------------
@@ -125,9 +129,23 @@ class _Controller:
             return float(self.block.compute_output(sp, y, **kw))
         return float(self.block(sp, y, **kw))
 
-    def update(self, applied: float) -> None:
-        if self.two_phase:
-            self.block.update_state(applied)
+    def update(self, applied: float, measured: float | None = None) -> None:
+        """UpdateState with the applied value.
+
+        ``measured`` is the actuator's real output of this sample (after load,
+        rate and range).  It is wired where the block is configured to use a
+        measured MV: the PID's ``actuator_pos`` input (BACK_CALC_REAL, seed
+        002) and the ADRC's ``u_real`` (``u_real_on``, seed 000 section 5).
+        """
+        if not self.two_phase:
+            return
+        b = self.block
+        if measured is not None:
+            if hasattr(b, "actuator_pos"):
+                b.actuator_pos = measured
+            if getattr(getattr(b, "config", None), "u_real_on", False):
+                applied = measured
+        b.update_state(applied)
 
 
 def _set_manual(block: Any, on: bool, value: float | None = None) -> None:
@@ -418,8 +436,8 @@ class _Simulation:
                 extra["y_pred"] = y_fb
             v = c.output(sp, y_fb, ok, ff)
             u = v
-            c.update(u)
-            self.plant.step(u)
+            self.plant.step(u)  # DA: the actuator shapes u (load, rate, range)
+            c.update(u, measured=self.actuator.u)
             if s == "smith":
                 self.model.step(u)
                 self.model_fast.step(u)
