@@ -244,3 +244,16 @@ def chromium_context(viewport: tuple[int, int] = (1400, 1000)) -> Iterator[Any]:
             yield ctx
         finally:
             ctx.close()
+
+
+def pi_step_bound(cols: dict[str, list[Any]], k: int, kp: float = 1.0, ti: float = 0.5) -> float:
+    """Largest MV change a PI (b = 1, Tustin or Euler integral) can make at row ``k`` in AUTO.
+
+    Velocity form: du_k = kp (e_k - e_(k-1)) + kp dt_k / ti * (a mix of e_k and e_(k-1)),
+    so |du_k| <= kp |e_k - e_(k-1)| + kp dt_k / ti * max(|e_k|, |e_(k-1)|), e = SP - PV,
+    with the period actually used (dt_k, longer after an overrun).  A transfer to AUTO
+    that is not bumpless (a restart from a stale integrator) jumps by more than this.
+    """
+    e = [s - p for s, p in zip(cols["sp"], cols["pv"], strict=True)]
+    dt = cols["dt"][k]
+    return kp * abs(e[k] - e[k - 1]) + kp * dt / ti * max(abs(e[k]), abs(e[k - 1])) + 1e-9
