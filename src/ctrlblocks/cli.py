@@ -13,7 +13,6 @@ import click
 
 # command name -> "module:attribute"; each module owns its command.
 _COMMANDS: dict[str, str] = {
-    "demo": "ctrlblocks.demo:demo",
     "identify": "ctrlblocks.tuning.cli:identify",
     "tune": "ctrlblocks.tuning.cli:tune",
     "reproduce": "ctrlblocks.sim.cli:reproduce",
