@@ -340,7 +340,7 @@ def _nlsys_loop(make_ctrl, plant_factory, sig):
         if is_pid:
             i, d, w, e, out, cold = x[:6]
             r = pid_step(u_in[0], y, 0.0, False, 0.0, cold != 0.0, False, i, d, w, e, out, prm)
-            return r[0], (r[3], r[4], r[5], r[6], r[0], 0.0)
+            return r[0], (r[4], r[5], r[6], r[7], r[0], 0.0)
         yh, e2, e3, e4, up, ref, started, track, sat = x[:9]
         r = adrc_step(u_in[0], y, False, 0.0, started != 0.0, track != 0.0, int(sat),
                       yh, e2, e3, e4, up, ref, prm)  # fmt: skip

@@ -136,12 +136,13 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
-from .signals import PT1
+from .signals import PT1, pt1_coefficient
 
 __all__ = [
     "ADRC",
     "ADRCConfig",
     "adrc_gains",
+    "adrc_step",
     "adrc_switches",
     "anti_backoff_states",
     "control_law",
@@ -157,6 +158,8 @@ EULER_LIMIT: dict[int, float] = {1: 1.477, 2: 0.735, 3: 0.484, 4: 0.360}
 
 #: Largest ``omega ts`` trusted for the exact discretisation (half Nyquist).
 EXACT_LIMIT: float = math.pi / 2.0
+
+_INF, _NINF = math.inf, -math.inf
 
 _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 
@@ -398,6 +401,69 @@ def anti_backoff_states(
 
 def _clamp(u: float, lo: float, hi: float) -> float:
     return hi if u > hi else lo if u < lo else u
+
+
+def adrc_step(
+    sp: float,
+    y: float,
+    manual: bool,
+    u_man: float,
+    started: bool,
+    track: bool,
+    sat: int,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_prev: float,
+    ref: float,
+    prm: tuple[float, ...],
+) -> tuple[float, float, float, float, float, float, float, bool, int]:
+    """One whole cycle of the Euler ADRC with ``applied = u``, from the functions above.
+
+    The per-call fast lane of :class:`ADRC` (auto mode, Euler, no ``u_real``,
+    no anti-backoff) and the compiled loops of :mod:`ctrlblocks.fast` run this
+    one function; it is :meth:`ADRC.compute_output` followed by
+    :meth:`ADRC.update_state` for that configuration: reference filter, ESO
+    (4a) by :func:`eso_euler`, law (4b) by :func:`control_law`, the x4
+    anti-windup rule (section 4.1) by :func:`x4_update_allowed`, limits, and
+    in manual mode (or on the first auto cycle after it, ``track``) x4 solved
+    by (11) with :func:`solve_x4`.  ``started`` is False before the first
+    measurement (the ESO then starts at rest on it); ``sat`` is +1/-1/0 when
+    the previous raw output was above/below/inside the limits.  ``prm = (ts,
+    b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3,
+    s_u, u_min, u_max, rule, a_ref)`` (``a_ref``: pole of the reference filter).
+
+    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next)``.
+    """
+    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
+     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
+    target = _clamp(u_man, lo, hi) if manual else _clamp(u_prev, lo, hi)
+    if not started:
+        yh = y
+        x2 = 0.0
+        x3 = 0.0
+        x4 = -b0 * u_prev
+        ref = y
+    # in manual with a reference filter the reference follows y (ADRC.compute_output)
+    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * 1.0 * sp
+    z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
+                               p1, p2, k1, k2, k3)  # fmt: skip
+    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+    if manual or track:
+        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
+        return target, target, yh, x2, x3, x4, ref, manual, 0
+    du = s_u * (z3 - x4)
+    if x4_update_allowed(int(rule), False, sat, du) == 1.0:
+        yh, x2, x3, x4 = z0, z1, z2, z3
+        u_raw = u_free
+    else:
+        yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
+                                   p1, p2, k1, k2, k3)  # fmt: skip
+        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+    u = _clamp(u_raw, lo, hi)
+    sat_next = 1 if u_raw > hi else -1 if u_raw < lo else 0
+    return u, u_raw, yh, x2, x3, x4, ref, False, sat_next
 
 
 # ---------------------------------------------------------------------------
@@ -693,6 +759,8 @@ class ADRC(Block):
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
+        self._prm: tuple[float, ...] | None = None
+        self._lean = c.discretisation == "euler" and not c.u_real_on and not c.anti_backoff
         self._n = int(c.order)
         self._ts = float(c.ts)
         self._b0 = float(c.b0)
@@ -743,6 +811,7 @@ class ADRC(Block):
             n, float(c.omega_c), float(c.omega_o), h, c.discretisation
         )
         self._h = h
+        self._prm = None
 
     def _reset_state(self) -> None:
         c = self._config
@@ -845,6 +914,7 @@ class ADRC(Block):
             return
         self._u_lo, self._u_hi = lo, hi
         self._limits_bad = False
+        self._prm = None
 
     # -- the cycle ---------------------------------------------------------------
 
@@ -862,6 +932,21 @@ class ADRC(Block):
         ``u_real`` is used for the ESO when ``u_real_on`` is configured (a
         missing or NaN ``u_real`` then falls back to u and sets ``BAD_INPUT``).
         """
+        if (
+            self._lean
+            and dt is None
+            and y_ok is True
+            and self._started
+            and self._h == self._ts
+            and self._pending is None
+            and not (self._track or self.manual or self.awin)
+        ):
+            try:
+                finite = _NINF < sp < _INF and _NINF < y < _INF
+            except TypeError:
+                finite = False
+            if finite:
+                return self._fast_cycle(float(sp), float(y))
         v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
         applied = v
         if self._config.u_real_on and self._pending is not None:
@@ -871,6 +956,47 @@ class ADRC(Block):
                 self.error_id = ErrorCode.BAD_INPUT
         self.update_state(applied)
         return v
+
+    def _fast_cycle(self, sp: float, y: float) -> float:
+        """Fast lane of ``__call__``: the whole auto cycle as one :func:`adrc_step` call.
+
+        Same result and state as :meth:`compute_output` + :meth:`update_state`
+        (tests/fast/test_lanes.py checks it cycle by cycle).
+        """
+        prm = self._prm
+        if prm is None:
+            prm = self._prm = self._kernel_params()
+        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, _track, self._sat) = adrc_step(
+            sp, y, False, 0.0, True, False, self._sat, self._yh, self._x2, self._x3, self._x4,
+            self._u_prev, self._ref, prm,
+        )  # fmt: skip
+        self.error_id = (
+            ErrorCode.BAD_LIMITS
+            if self._limits_bad
+            else ErrorCode.WARN_DISCRETISATION
+            if self._warn
+            else ErrorCode.NO_ERROR
+        )
+        self.out = u
+        self.u_raw = u_raw
+        self.awout = u_raw > self._u_hi or u_raw < self._u_lo
+        self.y = y
+        self.e = sp - y
+        self.y_ref = self._ref = ref
+        self._u_prev = self.u_man = u
+        return u
+
+    def _kernel_params(self) -> tuple[float, ...]:
+        """The ``prm`` tuple of :func:`adrc_step` for the coefficients and limits in force."""
+        h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3 = self._eso_coef
+        _b0, kp, kd1, kd2 = self._law
+        s_yh, s_x2, s_x3, s_u = self._sens
+        a_ref = pt1_coefficient(float(self._config.t_ref), h, "exact")
+        return tuple(
+            float(v)
+            for v in (h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2,
+                      s_x3, s_u, self._u_lo, self._u_hi, self._rule, a_ref)
+        )  # fmt: skip
 
     def compute_output(
         self, sp: float, y: float, *, y_ok: bool = True, dt: float | None = None

@@ -73,7 +73,7 @@ from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
 from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, deadband, scale
 
-__all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig"]
+__all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig", "pid_step"]
 
 log = logging.getLogger(__name__)
 
@@ -110,6 +110,7 @@ class Bumpless:
 
 
 METHODS = ("forward", "backward", "tustin")
+_INF, _NINF = math.inf, -math.inf
 _FORWARD, _BACKWARD, _TUSTIN = 0, 1, 2
 
 
@@ -179,6 +180,71 @@ def tracking_gain(h: float, tt: float) -> float:
     Seed 004 Fig. 3.6 and the Simnon module ``pid`` (``dI = ... + (v - u)/Tt``).
     """
     return h / (tt + h)
+
+
+def pid_step(
+    sp: float,
+    pv: float,
+    ff: float,
+    manual: bool,
+    u_man: float,
+    cold: bool,
+    transfer: bool,
+    i: float,
+    d: float,
+    w_prev: float,
+    e_prev: float,
+    out_prev: float,
+    prm: tuple[float, ...],
+) -> tuple[float, float, float, float, float, float, float, float]:
+    """One whole cycle of the positional PID with ``applied = out``, from the functions above.
+
+    The per-call fast lane of :class:`PID` (plain configuration, see
+    ``PID._lean``) and the compiled loops and banks of :mod:`ctrlblocks.fast`
+    run this one function; it is :meth:`PID.compute_output` followed by
+    :meth:`PID.update_state` for that configuration (same operations in the
+    same order, so the results are identical).  ``prm = (K, sgn, b, c, a, bd,
+    K h/Ti, alpha, beta, u_min, u_max, aw, g)``: gain, action sign, setpoint
+    weights, derivative coefficients (2.13), integral gain and weights,
+    limits, anti-windup (0 clamping, 1 back-calculation) and tracking gain
+    ``h/(Tt + h)``.  ``manual`` outputs ``u_man`` (limited) and sets the
+    integrator so that ``P + I + D + FF`` equals it (seed 004 Fig. 4.4);
+    ``transfer`` (first auto cycle after manual) continues from ``out_prev``;
+    ``cold`` (first cycle after a reset) starts the histories on this sample.
+
+    Returns ``(out, v_raw, p, i_shown, i_new, d, w, e)``: the limited output,
+    the output before the limits, the P term, the I term of this cycle, the
+    integrator for the next cycle, the D term, ``w = c r - y`` and
+    ``e = r - y`` (with the action sign).
+    """
+    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
+    e = sgn * (sp - pv)
+    p = k * sgn * (b * sp - pv)
+    w = sgn * (c * sp - pv)
+    if cold:
+        w_prev = w
+        d = 0.0
+        e_prev = e
+    dn = derivative_step(ad, bd, d, w, w_prev)
+    if manual:
+        out = clamp(u_man, lo, hi)
+        i_new = out - p - dn - ff
+        return out, u_man, p, i_new, i_new, dn, w, e
+    if transfer:
+        i_k = out_prev - p - dn - ff
+    elif ki_h == 0.0 or cold:
+        i_k = i
+    else:
+        di = integral_increment(ki_h, alpha, beta, e_prev, e)
+        i_k = i + di
+        if aw == 0.0 and clamping_blocks(di, p + i_k + dn + ff, lo, hi):
+            i_k = i
+    v_raw = p + i_k + dn + ff
+    out = clamp(v_raw, lo, hi)
+    # update_state with applied = out: clamping tracks ``applied - out`` = 0 (the
+    # integrator stays i_k), back-calculation ``applied - v_raw`` (seed 004 Fig. 3.6)
+    i_new = i_k + g * (out - v_raw) if ki_h != 0.0 and aw != 0.0 else i_k
+    return out, v_raw, p, i_k, i_new, dn, w, e
 
 
 # ---------------------------------------------------------------------------
@@ -460,7 +526,21 @@ class PID(Block):
     # -- configuration ---------------------------------------------------------
 
     def _apply_config(self, old: BlockConfig | None) -> None:
+        if old is not None:
+            self._sync_subs()
         c = self._config
+        self._lean = (
+            c.algorithm == "positional"
+            and c.pv_range is None
+            and c.sp_filter == 0.0
+            and c.pv_filter == 0.0
+            and c.sp_rate == 0.0
+            and c.out_rate == 0.0
+            and c.ff_k == 0.0
+            and c.deadband == 0.0
+            and c.bumpless == Bumpless.INTEGRATOR
+            and c.anti_windup in (AntiWindup.CLAMPING, AntiWindup.BACK_CALC_MODEL)
+        )
         k, ti, td = c.isa()
         self._k, self._ti, self._td = k, ti, td
         self._ki = k / ti if ti > 0.0 else 0.0
@@ -501,6 +581,10 @@ class PID(Block):
         self._h = h
         self._ad, self._bd = derivative_coefficients(self._kd, self._tf, h, self._dmeth)
         self._ki_h = self._ki * h
+        aw = 0.0 if self._config.anti_windup == AntiWindup.CLAMPING else 1.0
+        self._prm = (self._k, self._sgn, float(self._config.b), float(self._config.c),
+                     self._ad, self._bd, self._ki_h, self._alpha, self._beta, self._lo,
+                     self._hi, aw, tracking_gain(h, self._tt))  # fmt: skip
 
     def set_limits(self, u_min: float, u_max: float) -> None:
         """Change the output limits at run time; never raises.
@@ -530,6 +614,7 @@ class PID(Block):
 
     def _reset_state(self) -> None:
         c = self._config
+        self._lean_ran = False
         for sub in self._subs.values():
             sub.reset()
         u0 = clamp(float(c.reset_value), self._lo, self._hi)
@@ -555,12 +640,33 @@ class PID(Block):
         self._limits_status = ErrorCode.NO_ERROR
         self._pending = False
 
+    def _sync_subs(self) -> None:
+        """Bring the (inactive) filters and ramps up to date after fast-lane cycles.
+
+        The fast lane (:func:`pid_step`) does not call the sub-blocks, which
+        are pass-throughs in the configurations it serves; their outputs are
+        set here to what those calls would have left, before a snapshot or a
+        reconfiguration that may switch them on.
+        """
+        if not getattr(self, "_lean_ran", False):
+            return
+        subs = self._subs
+        subs["_sp_filter"].out = subs["_sp_ramp"].out = self.sp_w
+        subs["_pv_filter"].out = self.pv_f
+        subs["_out_ramp"].out = self.out
+        for name in ("_sp_filter", "_pv_filter", "_sp_ramp", "_out_ramp"):
+            subs[name].error_id = ErrorCode.NO_ERROR
+        subs["_sp_ramp"].limiting = subs["_out_ramp"].limiting = False
+        self._lean_ran = False
+
     def snapshot(self) -> dict[str, Any]:
+        self._sync_subs()
         snap = super().snapshot()
         snap["_subs"] = {name: sub.snapshot() for name, sub in self._subs.items()}
         return snap
 
     def restore(self, snapshot: dict[str, Any]) -> None:
+        self._lean_ran = False
         super().restore(snapshot)
         for name, sub_snap in snapshot.get("_subs", {}).items():
             self._subs[name].restore(sub_snap)
@@ -603,7 +709,41 @@ class PID(Block):
         dt: float | None = None,
         pv_ok: bool = True,
     ) -> float:
-        """Run one cycle: :meth:`compute_output`, then :meth:`update_state` with its own output."""
+        """Run one cycle: :meth:`compute_output`, then :meth:`update_state` with its own output.
+
+        Fast lane: in plain auto operation (no filters, ramps, scaling, dead
+        band, lead-lag, velocity form; finite inputs; ``ts`` sample time) the
+        cycle is one call of :func:`pid_step`, which gives exactly the same
+        result as the two phases.
+        """
+        if (
+            self._lean
+            and dt is None
+            and pv_ok is True
+            and dv == 0.0
+            and self._mode_prev == 0
+            and not (self._cold or self._reinit or self._pending)
+            and self._h == self._ts
+            and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
+        ):
+            try:
+                finite = _NINF < sp < _INF and _NINF < pv < _INF and _NINF < ff < _INF
+            except TypeError:
+                finite = False
+            if finite:
+                sp, pv, ff = float(sp), float(pv), float(ff)
+                (out, v_raw, self.p, self.i, self._i, self._d, self._w_prev, e) = pid_step(
+                    sp, pv, ff, False, 0.0, False, False, self._i, self._d, self._w_prev,
+                    self._e_prev, self.out, self._prm,
+                )  # fmt: skip
+                self.d = self._d
+                self.e = self._e_prev = e
+                self.sp_w, self.pv_f, self.ff = sp, pv, ff
+                self.out = self.manual_value = out
+                self.limits_active = v_raw > self._hi or v_raw < self._lo
+                self.error_id = self._limits_status
+                self._lean_ran = True
+                return out
         v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt, pv_ok=pv_ok)
         self.update_state(v)
         return self.out

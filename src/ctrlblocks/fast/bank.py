@@ -104,7 +104,7 @@ def _run(prm, pp, st, x, sp, n_steps, chunk, iae, h):
                      pp[j, 12], pp[j, 13], pp[j, 14])  # fmt: skip
                 y = x[j, 3]
                 cold = st[j, 5] != 0.0
-                out, _vr, _ish, i, d, w, e = pid_step(
+                out, _vr, _p, _ish, i, d, w, e = pid_step(
                     sp[j], y, 0.0, False, 0.0, cold, False,
                     st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], r,
                 )  # fmt: skip

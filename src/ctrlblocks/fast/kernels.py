@@ -5,11 +5,13 @@ configuration (what ``PID.__call__`` / ``ADRC.__call__`` do for it), written
 only with the module-level pure functions of the blocks -- the single
 implementation of each control law (DESIGN.md principle 2):
 
-* :func:`pid_step` calls :func:`ctrlblocks.blocks.pid.derivative_step`
+* :func:`pid_step` is :func:`ctrlblocks.blocks.pid.pid_step` (the PID's own
+  fast lane), which calls :func:`ctrlblocks.blocks.pid.derivative_step`
   (seed 004 (2.13)), ``integral_increment`` ((2.8)/Tustin), ``clamp``,
   ``clamping_blocks`` (seed 002 CLAMPING) and the back-calculation gain that
   the block precomputes with ``tracking_gain`` (seed 004 Fig. 3.6);
-* :func:`adrc_step` calls :func:`ctrlblocks.blocks.adrc.eso_euler` (seed 000
+* :func:`adrc_step` is :func:`ctrlblocks.blocks.adrc.adrc_step` (the ADRC's
+  own fast lane), which calls :func:`ctrlblocks.blocks.adrc.eso_euler` (seed 000
   (4a)), ``control_law`` ((4b)), ``x4_update_allowed`` (section 4.1) and
   ``solve_x4`` ((11));
 * :func:`lti3_step` is the exact ZOH update (2) of
@@ -35,7 +37,6 @@ from typing import Any
 
 from ..blocks import adrc as _adrc
 from ..blocks import pid as _pid
-from ..blocks.signals import pt1_coefficient
 from ..plants import threetank as _tt
 from ._jit import jitable
 
@@ -64,6 +65,8 @@ for _f in (
     _adrc.solve_x4,
     _adrc._clamp,
     _tt.threetank_rk4,
+    _pid.pid_step,
+    _adrc.adrc_step,
 ):
     jitable(_f)
 
@@ -115,92 +118,11 @@ def pid_params(pid: Any) -> tuple[float, ...]:
         bad.append("anti_windup")
     if bad:
         raise UnsupportedConfig(f"PID options not covered by the compiled kernel: {bad}")
-    h = float(c.ts)
-    k, ti, _td = c.isa()
-    kd = k * c.isa()[2]
-    tf = c.isa()[2] / c.n
-    dmeth = _pid.METHODS.index(c.derivative_method)
-    ad, bd = _pid.derivative_coefficients(kd, tf, h, dmeth)
-    ki = k / ti if ti > 0.0 else 0.0
-    alpha, beta = _pid.integral_weights(_pid.METHODS.index(c.integral_method))
-    tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else h)
-    aw = 0.0 if c.anti_windup == _pid.AntiWindup.CLAMPING else 1.0
-    return (
-        float(k),
-        -1.0 if c.reverse else 1.0,
-        float(c.b),
-        float(c.c),
-        float(ad),
-        float(bd),
-        float(ki * h),
-        float(alpha),
-        float(beta),
-        float(c.u_min),
-        float(c.u_max),
-        aw,
-        float(_pid.tracking_gain(h, tt)),
-    )
+    pid._set_h(float(c.ts))
+    return tuple(float(v) for v in pid._prm)
 
 
-def pid_step(
-    sp: float,
-    pv: float,
-    ff: float,
-    manual: bool,
-    u_man: float,
-    cold: bool,
-    transfer: bool,
-    i: float,
-    d: float,
-    w_prev: float,
-    e_prev: float,
-    out_prev: float,
-    prm: tuple[float, ...],
-) -> tuple[float, float, float, float, float, float, float]:
-    """One cycle of :class:`~ctrlblocks.PID` (positional, ISA inside) with ``applied = out``.
-
-    ``manual`` gives the output ``u_man`` (limited) and sets the integrator so
-    that ``P + I + D + FF`` equals it (bumpless, seed 004 Fig. 4.4);
-    ``transfer`` (first auto cycle after manual) continues from ``out_prev``;
-    ``cold`` (first cycle after reset) starts the derivative and integral
-    histories on this sample.  ``prm`` is :func:`pid_params`.
-
-    Returns
-    -------
-    tuple
-        ``(out, v_raw, i_shown, i_new, d, w, e)``: the limited output, the
-        output before the limits, the integral term of this cycle (``PID.i``),
-        the integrator state for the next cycle, the D term (state), ``w = c r
-        - y`` and ``e = r - y`` (histories for the next cycle).
-    """
-    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
-    e = sgn * (sp - pv)
-    p = k * sgn * (b * sp - pv)
-    w = sgn * (c * sp - pv)
-    if cold:
-        w_prev = w
-        d = 0.0
-        e_prev = e
-    dn = derivative_step(ad, bd, d, w, w_prev)
-    if manual:
-        out = clamp(u_man, lo, hi)
-        i_new = out - p - dn - ff
-        return out, u_man, i_new, i_new, dn, w, e
-    if transfer:
-        i_k = out_prev - p - dn - ff
-    elif ki_h == 0.0 or cold:
-        i_k = i
-    else:
-        di = integral_increment(ki_h, alpha, beta, e_prev, e)
-        i_k = i + di
-        if aw == 0.0 and clamping_blocks(di, p + i_k + dn + ff, lo, hi):
-            i_k = i
-    v_raw = p + i_k + dn + ff
-    out = clamp(v_raw, lo, hi)
-    # update_state with applied = out: clamping tracks ``applied - out`` = 0 (so the
-    # integrator is i_k), back-calculation tracks ``applied - v_raw`` (seed 004 Fig. 3.6)
-    i_new = i_k + g * (out - v_raw) if ki_h != 0.0 and aw != 0.0 else i_k
-    return out, v_raw, i_k, i_new, dn, w, e
+pid_step = _pid.pid_step
 
 
 # ---------------------------------------------------------------------------
@@ -229,78 +151,10 @@ def adrc_params(adrc: Any) -> tuple[float, ...]:
     if bad:
         raise UnsupportedConfig(f"ADRC options not covered by the compiled kernel: {bad}")
     adrc._coefficients(float(c.ts))
-    h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3 = adrc._eso_coef
-    _b0, kp, kd1, kd2 = adrc._law
-    s_yh, s_x2, s_x3, s_u = adrc._sens
-    return tuple(
-        float(v)
-        for v in (
-            h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
-            s_yh, s_x2, s_x3, s_u, adrc.u_min, adrc.u_max, adrc._rule,
-            pt1_coefficient(float(c.t_ref), h, "exact"),
-        )
-    )  # fmt: skip
+    return adrc._kernel_params()
 
 
-def adrc_step(
-    sp: float,
-    y: float,
-    manual: bool,
-    u_man: float,
-    started: bool,
-    track: bool,
-    sat: int,
-    yh: float,
-    x2: float,
-    x3: float,
-    x4: float,
-    u_prev: float,
-    ref: float,
-    prm: tuple[float, ...],
-) -> tuple[float, float, float, float, float, float, float, bool, int]:
-    """One cycle of :class:`~ctrlblocks.ADRC` (Euler ESO (4a), law (4b)) with ``applied = u``.
-
-    ``started`` is False before the first measurement (the ESO then starts at
-    rest on it); ``track`` re-solves x4 by (11) in this cycle (manual mode and
-    the first auto cycle after it); ``sat`` is +1/-1/0 when the previous raw
-    output was above/below/inside the limits (anti-windup, section 4.1).
-    ``prm`` is :func:`adrc_params`.
-
-    Returns
-    -------
-    tuple
-        ``(u, u_raw, yh, x2, x3, x4, ref, track_next, sat_next)``.
-    """
-    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
-     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
-    target = adrc_clamp(u_man, lo, hi) if manual else adrc_clamp(u_prev, lo, hi)
-    if not started:
-        yh = y
-        x2 = 0.0
-        x3 = 0.0
-        x4 = -b0 * u_prev
-        ref = y
-    # manual with a reference filter: the reference follows y (ADRC.compute_output)
-    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * 1.0 * sp
-    tracking = manual or track
-    z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
-                               p1, p2, k1, k2, k3)  # fmt: skip
-    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
-    if tracking:
-        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
-        return target, target, yh, x2, x3, x4, ref, manual, 0
-    du = s_u * (z3 - x4)
-    w4 = x4_update_allowed(int(rule), False, sat, du)
-    if w4 == 1.0:
-        yh, x2, x3, x4 = z0, z1, z2, z3
-        u_raw = u_free
-    else:
-        yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
-                                   p1, p2, k1, k2, k3)  # fmt: skip
-        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-    u = adrc_clamp(u_raw, lo, hi)
-    sat_next = 1 if u_raw > hi else -1 if u_raw < lo else 0
-    return u, u_raw, yh, x2, x3, x4, ref, False, sat_next
+adrc_step = _adrc.adrc_step
 
 
 # ---------------------------------------------------------------------------
@@ -353,5 +207,5 @@ def lti3_step(
     return n0, n1, n2, y
 
 
-for _f in (pid_step, adrc_step, lti3_step):
+for _f in (lti3_step,):
     jitable(_f)

@@ -189,7 +189,7 @@ def _pid_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_o
             ev += 1
         ym = y + noise[k] if has_noise else y
         transfer = (not man) and was_manual
-        out, _vr, _ish, i, d, w_prev, e_prev = pid_step(
+        out, _vr, _p, _ish, i, d, w_prev, e_prev = pid_step(
             sp, ym, ff, man, um, cold, transfer, i, d, w_prev, e_prev, out, prm
         )
         cold = False
