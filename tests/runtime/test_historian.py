@@ -1,0 +1,151 @@
+"""The historian: N cycles in, N rows out, across restarts; SQLite and PostgreSQL; export."""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import math
+import os
+import sqlite3
+import time
+
+import pytest
+
+from ctrlblocks.runtime import (
+    FakeClock,
+    MemoryAdapter,
+    MemoryBus,
+    PostgresHistorian,
+    Runtime,
+    SQLiteHistorian,
+    export_history,
+    parse_config,
+)
+from ctrlblocks.runtime.historian import SAMPLE_COLUMNS
+from ctrlblocks.runtime.loop import Sample
+
+from .conftest import loop_toml
+
+PG_DSN = os.environ.get("CTRLBLOCKS_TEST_PG_DSN", "")
+
+
+def run_runtime(historian, t_end: float, bus: MemoryBus) -> int:
+    """Run two loops for ``t_end`` s of virtual time; return the number of cycles per loop."""
+    cfg = parse_config(
+        '[connections.io]\nprotocol = "memory"\n'
+        + loop_toml(name="a", ts=0.1)
+        + loop_toml(name="b", ts=0.1, pv="pv2", mv="mv2")
+        + '[historian]\nbackend = "none"\n'
+    )
+    clock = FakeClock()
+    rt = Runtime(cfg, clock=clock, adapters={"io": MemoryAdapter(bus)}, historian=historian)
+
+    async def main():
+        await rt.start()
+        await clock.run_until(t_end)
+        await rt.stop()
+
+    asyncio.run(main())
+    return rt.loops["a"].cycle_count
+
+
+def bus() -> MemoryBus:
+    return MemoryBus({"pv": 0.5, "mv": 0.0, "pv2": math.nan, "mv2": 0.0})
+
+
+def check_two_runs(make_historian):
+    h1 = make_historian()
+    h1.open()
+    n1 = run_runtime(h1, 2.0, bus())
+    h2 = make_historian()  # a restart: a new run appended to the same database
+    h2.open()
+    n2 = run_runtime(h2, 1.0, bus())
+    h2._conn = h2._connect()
+    rows = h2.samples()
+    runs = h2.query("SELECT run_id, stopped IS NOT NULL FROM runs ORDER BY run_id")
+    h2._conn.close()
+    assert (n1, n2) == (21, 11)
+    assert len(rows) == 2 * (n1 + n2)  # N cycles in, N rows out, both loops
+    assert runs == [(1, 1), (2, 1)]
+    for run, n in ((1, n1), (2, n2)):
+        for loop in ("a", "b"):
+            cycles = [r["cycle"] for r in rows if r["run_id"] == run and r["loop"] == loop]
+            assert cycles == list(range(n))
+    a = [r for r in rows if r["loop"] == "a"]
+    b = [r for r in rows if r["loop"] == "b"]
+    assert all(r["pv"] == 0.5 and r["pv_ok"] == 1 for r in a)
+    assert all(math.isnan(r["pv"]) and r["pv_ok"] == 0 for r in b)  # NaN survives
+    assert all(r["mode"] == "auto" and r["sp"] == 1.0 for r in rows)
+    return rows
+
+
+def test_sqlite_keeps_every_sample_across_a_restart(tmp_path):
+    path = tmp_path / "h.sqlite"
+    check_two_runs(lambda: SQLiteHistorian(path))
+    with sqlite3.connect(path) as c:
+        assert c.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+
+
+def test_flush_writes_the_buffer_in_one_batch(tmp_path):
+    h = SQLiteHistorian(tmp_path / "h.sqlite")
+    h.open()
+    s = Sample("x", 0, time.time(), 0.0, 0.1, 1.0, 0.5, 0.2, "auto", 0, True, True, False)
+    for k in range(250):
+        h.record(Sample(**{**s.__dict__, "cycle": k}))
+    assert h.pending == 250
+    assert len(h.samples()) == 0  # nothing written before the flush
+    assert h.flush() == 250
+    assert h.pending == 0 and len(h.samples()) == 250
+    h.close()
+
+
+def test_retention_deletes_old_samples_at_open(tmp_path):
+    path = tmp_path / "h.sqlite"
+    h = SQLiteHistorian(path, retention_days=1.0)
+    h.open()
+    now = time.time()
+    for k, age_days in enumerate((3.0, 1.5, 0.5, 0.0)):
+        h.record(Sample("x", k, now - age_days * 86400.0, 0, 0.1, 1, 1, 1, "auto", 0, 1, 1, 0))
+    h.close()
+    h2 = SQLiteHistorian(path, retention_days=1.0)
+    h2.open()
+    assert [r["cycle"] for r in h2.samples()] == [2, 3]
+    h2.close()
+
+
+def test_export_to_csv_and_parquet(tmp_path):
+    path = tmp_path / "h.sqlite"
+    h = SQLiteHistorian(path)
+    h.open()
+    run_runtime(h, 0.5, bus())
+    out = export_history(path, tmp_path / "a.csv", loop="a")
+    with out.open() as f:
+        rows = list(csv.reader(f))
+    assert tuple(rows[0]) == SAMPLE_COLUMNS
+    assert len(rows) == 1 + 6
+    assert [int(r[2]) for r in rows[1:]] == list(range(6))
+    pq = pytest.importorskip("pyarrow.parquet")
+    out = export_history(path, tmp_path / "all.parquet")
+    table = pq.read_table(out)
+    assert table.num_rows == 12 and tuple(table.column_names) == SAMPLE_COLUMNS
+
+
+@pytest.mark.skipif(
+    not PG_DSN,
+    reason="no PostgreSQL server: set CTRLBLOCKS_TEST_PG_DSN "
+    "(.ci/run starts one with tests/runtime/ci_postgres.sh)",
+)
+def test_postgresql_keeps_every_sample_across_a_restart():
+    import psycopg
+
+    with psycopg.connect(PG_DSN) as c:
+        for t in ("samples", "runs", "audit"):
+            c.execute(f"DROP TABLE IF EXISTS {t}")
+    rows = check_two_runs(lambda: PostgresHistorian(PG_DSN))
+    assert rows[0]["run_id"] == 1
+    h = PostgresHistorian(PG_DSN)
+    h.open()
+    h.audit("alice", "a", "sp", {"sp": 1.0}, {"sp": 2.0}, True)
+    audit = [(r["who"], r["action"], r["ok"]) for r in h.audit_rows()]
+    assert audit == [("runtime", "stop", 1)] * 4 + [("alice", "sp", 1)]  # 2 runs x 2 loops
+    h.close()
