@@ -160,6 +160,8 @@ EULER_LIMIT: dict[int, float] = {1: 1.477, 2: 0.735, 3: 0.484, 4: 0.360}
 EXACT_LIMIT: float = math.pi / 2.0
 
 _INF, _NINF = math.inf, -math.inf
+_NO_ERROR, _BAD_LIMITS = ErrorCode.NO_ERROR, ErrorCode.BAD_LIMITS
+_WARN = ErrorCode.WARN_DISCRETISATION
 
 _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 
@@ -970,13 +972,7 @@ class ADRC(Block):
             sp, y, False, 0.0, True, False, self._sat, self._yh, self._x2, self._x3, self._x4,
             self._u_prev, self._ref, prm,
         )  # fmt: skip
-        self.error_id = (
-            ErrorCode.BAD_LIMITS
-            if self._limits_bad
-            else ErrorCode.WARN_DISCRETISATION
-            if self._warn
-            else ErrorCode.NO_ERROR
-        )
+        self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
         self.out = u
         self.u_raw = u_raw
         self.awout = u_raw > self._u_hi or u_raw < self._u_lo
