@@ -1,0 +1,109 @@
+"""``ctrlblocks plant-server`` and ``ctrlblocks serve`` as processes, stopped by SIGTERM."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+from click.testing import CliRunner
+
+from ctrlblocks.cli import main
+from ctrlblocks.runtime import SQLiteHistorian
+
+from .conftest import DATA
+
+pytestmark = pytest.mark.loopback
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def config_text(port: int, db) -> str:
+    return f"""
+[connections.rig]
+protocol = "modbus"
+port = {port}
+timeout = 0.5
+
+[[loops]]
+name = "pt2"
+ts = 0.05
+block = {{ type = "PID", kp = 1.2, ti = 0.5, u_min = -10.0, u_max = 10.0 }}
+pv = "rig:hr:0"
+mv = "rig:hr:2"
+sp = "rig:hr:4"
+safe_value = 0.25
+stop_value = -1.0
+
+[historian]
+path = "{db}"
+flush_interval = 0.2
+"""
+
+
+def test_check_reports_the_loops_and_errors_name_the_key(tmp_path):
+    cfg = tmp_path / "loops.toml"
+    cfg.write_text(config_text(5020, tmp_path / "h.sqlite"))
+    r = CliRunner().invoke(main, ["serve", str(cfg), "--check"])
+    assert r.exit_code == 0 and "1 loop(s), 1 connection(s): OK" in r.output
+    cfg.write_text(config_text(5020, tmp_path / "h.sqlite").replace("kp = 1.2", "kp = 0"))
+    r = CliRunner().invoke(main, ["serve", str(cfg), "--check"])
+    assert r.exit_code == 1 and "loops[0].block.kp" in r.output
+
+
+def test_plant_server_and_serve_run_a_loop_and_stop_on_sigterm(tmp_path):
+    port = free_port()
+    db = tmp_path / "h.sqlite"
+    cfg = tmp_path / "loops.toml"
+    cfg.write_text(config_text(port, db))
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    cmd = [sys.executable, "-c", "from ctrlblocks.cli import main; main()"]
+    plant = subprocess.Popen(
+        [*cmd, "plant-server", str(DATA / "pid_pt2.toml"), "--opcua-port", "0",
+         "--modbus-port", str(port)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    serve = None
+    try:
+        assert plant.stdout.readline().startswith(f"Modbus TCP: 127.0.0.1:{port}")
+        serve = subprocess.Popen(
+            [*cmd, "serve", str(cfg)],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        )  # fmt: skip
+        t_end = time.monotonic() + 20.0
+        rows = []
+        while time.monotonic() < t_end:
+            time.sleep(0.2)
+            if db.exists():
+                h = SQLiteHistorian(db)
+                h._conn = h._connect()
+                rows = [r for r in h.samples() if r["pv_ok"]]
+                h._conn.close()
+                if len(rows) >= 20:
+                    break
+        assert len(rows) >= 20
+        serve.send_signal(signal.SIGTERM)
+        assert serve.wait(15) == 0
+    finally:
+        for p in (serve, plant):
+            if p is not None and p.poll() is None:
+                p.send_signal(signal.SIGTERM)
+                p.wait(15)
+    assert plant.returncode == 0
+    h = SQLiteHistorian(db)
+    h._conn = h._connect()
+    stop = [r for r in h.audit_rows() if r["action"] == "stop"]
+    runs = h.query("SELECT stopped IS NOT NULL FROM runs")
+    n = len(h.samples())
+    h._conn.close()
+    assert stop and stop[0]["ok"] == 1 and '"mv": -1.0' in stop[0]["new"]
+    assert runs == [(1,)]  # the run was closed: the historian flushed on SIGTERM
+    assert n >= 20
