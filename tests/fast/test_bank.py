@@ -36,14 +36,15 @@ def _reference(p, j, sp, aw="clamping"):
 
 
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("aw", ["clamping", "back_calc_model"])
-def test_bank_from_arrays_equals_the_blocks_loop_by_loop(engine, aw):
+@pytest.mark.parametrize(("aw", "parallel"), [("clamping", False), ("back_calc_model", False),
+                                              ("clamping", True)])  # fmt: skip
+def test_bank_from_arrays_equals_the_blocks_loop_by_loop(engine, aw, parallel):
     p = _random_loops()
     sp = np.linspace(0.5, 2.0, N_LOOPS)  # high setpoints saturate (anti-windup matters)
     bank = PIDBank.from_arrays(kp=p["kp"], ti=p["ti"], td=p["td"], ts=0.1, u_min=0.0,
                                u_max=p["u_max"], plant_k=p["k"], plant_t=p["t"],
                                anti_windup=aw)  # fmt: skip
-    res = bank.run(sp, STEPS, chunk=5, engine=engine)
+    res = bank.run(sp, STEPS, chunk=5, engine=engine, parallel=parallel)
     for j in range(N_LOOPS):
         y, u, iae = _reference(p, j, sp, aw)
         assert res.y[j] == pytest.approx(y, abs=1e-12)

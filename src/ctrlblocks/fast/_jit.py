@@ -21,7 +21,7 @@ import os
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-__all__ = ["HAVE_NUMBA", "jit", "jitable", "python_function"]
+__all__ = ["HAVE_NUMBA", "jit", "jit_parallel", "jitable", "prange", "python_function"]
 
 log = logging.getLogger("ctrlblocks.fast")
 
@@ -54,11 +54,22 @@ def jit(fn: F) -> F:
     return _numba.njit(fastmath=False, cache=False, nogil=True)(fn)  # type: ignore[no-any-return]
 
 
+def jit_parallel(fn: F) -> F:
+    """``numba.njit(fn, parallel=True)``: ``prange`` loops run on all cores; or ``fn``."""
+    if _numba is None:
+        return fn
+    return _numba.njit(fastmath=False, cache=False, nogil=True, parallel=True)(fn)  # type: ignore[no-any-return]
+
+
 def jitable(fn: F) -> F:
     """Make ``fn`` callable from compiled code; return ``fn`` itself (unchanged)."""
     if _numba is not None:
         _register_jitable(fn)
     return fn
+
+
+prange: Any = range if _numba is None else _numba.prange
+"""``numba.prange`` (parallel loop in :func:`jit_parallel` code), ``range`` without numba."""
 
 
 def python_function(fn: Callable[..., Any]) -> Callable[..., Any]:

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..blocks import pid as _pid
-from ._jit import HAVE_NUMBA, jit, jitable, python_function
+from ._jit import HAVE_NUMBA, jit, jit_parallel, jitable, prange, python_function
 from .kernels import UnsupportedConfig, lti3_params, lti3_step, pid_params, pid_step
 
 __all__ = ["BankResult", "PIDBank"]
@@ -88,38 +88,53 @@ def _fill_rows(out, k, ti, td, n, b, c, h, lo, hi, reverse, dmeth, imeth, aw, tt
             out[j, m] = row[m]
 
 
+@jitable
+def _run_chunk(prm, pp, st, x, sp, n_steps, c0, c1, iae, h):
+    """``n_steps`` samples of loops ``c0 .. c1-1`` (time outside, loops inside)."""
+    for _k in range(n_steps):
+        for j in range(c0, c1):
+            r = (prm[j, 0], prm[j, 1], prm[j, 2], prm[j, 3], prm[j, 4], prm[j, 5],
+                 prm[j, 6], prm[j, 7], prm[j, 8], prm[j, 9], prm[j, 10], prm[j, 11],
+                 prm[j, 12])  # fmt: skip
+            q = (pp[j, 0], pp[j, 1], pp[j, 2], pp[j, 3], pp[j, 4], pp[j, 5], pp[j, 6],
+                 pp[j, 7], pp[j, 8], pp[j, 9], pp[j, 10], pp[j, 11], 0.0, 0.0, 0.0,
+                 pp[j, 12], pp[j, 13], pp[j, 14])  # fmt: skip
+            y = x[j, 3]
+            cold = st[j, 5] != 0.0
+            out, _vr, _p, _ish, i, d, w, e = pid_step(
+                sp[j], y, 0.0, False, 0.0, cold, False,
+                st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], r,
+            )  # fmt: skip
+            st[j, 0] = i
+            st[j, 1] = d
+            st[j, 2] = w
+            st[j, 3] = e
+            st[j, 4] = out
+            st[j, 5] = 0.0
+            iae[j] += abs(sp[j] - y) * h
+            x0, x1, x2, yn = lti3_step(x[j, 0], x[j, 1], x[j, 2], out, 0.0, q)
+            x[j, 0] = x0
+            x[j, 1] = x1
+            x[j, 2] = x2
+            x[j, 3] = yn
+
+
 @jit
 def _run(prm, pp, st, x, sp, n_steps, chunk, iae, h):
-    """``n_steps`` samples of every loop, in chunks of ``chunk`` loops (time outside)."""
+    """Every loop, chunk after chunk, on one core."""
     n_loops = prm.shape[0]
     for c0 in range(0, n_loops, chunk):
-        c1 = min(c0 + chunk, n_loops)
-        for _k in range(n_steps):
-            for j in range(c0, c1):
-                r = (prm[j, 0], prm[j, 1], prm[j, 2], prm[j, 3], prm[j, 4], prm[j, 5],
-                     prm[j, 6], prm[j, 7], prm[j, 8], prm[j, 9], prm[j, 10], prm[j, 11],
-                     prm[j, 12])  # fmt: skip
-                q = (pp[j, 0], pp[j, 1], pp[j, 2], pp[j, 3], pp[j, 4], pp[j, 5], pp[j, 6],
-                     pp[j, 7], pp[j, 8], pp[j, 9], pp[j, 10], pp[j, 11], 0.0, 0.0, 0.0,
-                     pp[j, 12], pp[j, 13], pp[j, 14])  # fmt: skip
-                y = x[j, 3]
-                cold = st[j, 5] != 0.0
-                out, _vr, _p, _ish, i, d, w, e = pid_step(
-                    sp[j], y, 0.0, False, 0.0, cold, False,
-                    st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], r,
-                )  # fmt: skip
-                st[j, 0] = i
-                st[j, 1] = d
-                st[j, 2] = w
-                st[j, 3] = e
-                st[j, 4] = out
-                st[j, 5] = 0.0
-                iae[j] += abs(sp[j] - y) * h
-                x0, x1, x2, yn = lti3_step(x[j, 0], x[j, 1], x[j, 2], out, 0.0, q)
-                x[j, 0] = x0
-                x[j, 1] = x1
-                x[j, 2] = x2
-                x[j, 3] = yn
+        _run_chunk(prm, pp, st, x, sp, n_steps, c0, min(c0 + chunk, n_loops), iae, h)
+
+
+@jit_parallel
+def _run_parallel(prm, pp, st, x, sp, n_steps, chunk, iae, h):
+    """The chunks spread over all cores (they share nothing)."""
+    n_loops = prm.shape[0]
+    n_chunks = (n_loops + chunk - 1) // chunk
+    for m in prange(n_chunks):
+        c0 = m * chunk
+        _run_chunk(prm, pp, st, x, sp, n_steps, c0, min(c0 + chunk, n_loops), iae, h)
 
 
 class PIDBank:
@@ -245,14 +260,25 @@ class PIDBank:
         """Current plant outputs (length N)."""
         return self.x[:, 3].copy()
 
-    def run(self, sp: Any, n_steps: int, *, chunk: int = 64, engine: str = "auto") -> BankResult:
+    def run(
+        self,
+        sp: Any,
+        n_steps: int,
+        *,
+        chunk: int = 64,
+        engine: str = "auto",
+        parallel: bool = False,
+    ) -> BankResult:
         """Run every loop for ``n_steps`` samples with setpoint ``sp`` (scalar or per loop).
 
         Continues from the current states (call again to go on).  ``chunk``
-        loops are run together (time outside, loops inside); ``engine="python"``
-        runs the same code interpreted (as without numba).
+        loops are run together (time outside, loops inside); ``parallel``
+        spreads the chunks over all cores; ``engine="python"`` runs the same
+        code interpreted (as without numba).
         """
-        fn = _run if engine == "auto" else python_function(_run)
+        fn = _run_parallel if parallel else _run
+        if engine != "auto":
+            fn = python_function(fn)
         spa = np.ascontiguousarray(np.broadcast_to(np.asarray(sp, dtype=float), (self.n,)))
         iae = np.zeros(self.n)
         fn(self.prm, self.pp, self.st, self.x, spa, int(n_steps), int(chunk), iae, self.ts)
