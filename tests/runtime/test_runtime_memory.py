@@ -362,3 +362,47 @@ def test_adrc_block_call_matches_a_replay():
     ref = ADRC(order=1, b0=1.0, omega_c=2.0, omega_o=8.0, u_min=-5.0, u_max=5.0, ts=0.1)
     for s in samples:
         assert ref(1.0, s.pv) == s.mv
+
+
+def test_read_timeout_gives_safe_value_in_that_cycle_and_three_drop_the_connection():
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(
+        '[connections.io]\nprotocol = "memory"\ntimeout = 0.02\nreconnect_min = 0.3\n'
+        + loop_toml(ts=0.1, block=ADRC_BLOCK, safe_value=0.4),
+        {},
+    )
+    rt.connections["io"].adapter = MemoryAdapter(bus)
+    hang = {"on": False}
+
+    async def maybe_hang():
+        if hang["on"]:
+            await asyncio.sleep(1.0)  # real time: longer than the 20 ms timeout
+
+    bus.on_read = maybe_hang
+
+    async def step_to(t):  # a timeout takes real time: let each cycle finish
+        while clock.now() < t - 1e-9:
+            await clock.run_until(min(t, clock.now() + 0.1))
+            await asyncio.sleep(0.05)
+            await clock.settle()
+
+    async def main():
+        await run(rt, clock, 0.45)  # cycles 0..4
+        hang["on"] = True
+        await step_to(0.65)  # cycles 5, 6: timeouts
+        st = rt.state("loop")
+        await step_to(0.75)  # cycle 7: third timeout -> connection dropped
+        connected = rt.connections["io"].connected
+        hang["on"] = False
+        await step_to(1.5)
+        await rt.stop()
+        return st, connected
+
+    st, connected = asyncio.run(main())
+    by = {s.cycle: s for s in samples}
+    assert st["pv_reason"] == "read timeout"
+    assert [by[k].mv for k in (5, 6, 7)] == [0.4, 0.4, 0.4]
+    assert not any(by[k].pv_ok for k in (5, 6, 7))
+    assert connected is False
+    assert rt.connections["io"].reconnects == 1 and by[14].pv_ok

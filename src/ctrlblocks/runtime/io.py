@@ -17,7 +17,7 @@ A :class:`Connection` supervises one adapter for the loops:
   reconnects with exponential back-off (``reconnect_min`` doubling up to
   ``reconnect_max``); while it is down, reads return at once with bad
   quality, so other loops' cycles are not delayed;
-* three timeouts in a row count as a lost connection.
+* three read (or three write) timeouts in a row count as a lost connection.
 """
 
 from __future__ import annotations
@@ -126,7 +126,7 @@ class Connection:
         self.reconnects = 0
         self.read_faults = 0
         self.write_faults = 0
-        self._timeouts = 0
+        self._timeouts = {"read": 0, "write": 0}
         self._task: asyncio.Task[None] | None = None
         self._closing = False
         self._lock = asyncio.Lock()
@@ -144,7 +144,7 @@ class Connection:
         timeout = max(4.0 * self.config.timeout, 2.0)
         await asyncio.wait_for(self.adapter.connect(), timeout)
         self.connected = True
-        self._timeouts = 0
+        self._timeouts = {"read": 0, "write": 0}
         log.info("connection %s: connected", self.name)
 
     def _lost(self, exc: BaseException | str) -> None:
@@ -192,6 +192,11 @@ class Connection:
 
     # -- I/O -------------------------------------------------------------------
 
+    def _timed_out(self, kind: str) -> bool:
+        """Count a timeout; True when ``MAX_TIMEOUTS`` of this kind came in a row."""
+        self._timeouts[kind] += 1
+        return self._timeouts[kind] >= self.MAX_TIMEOUTS
+
     async def _locked(self, fn: Callable[[Any], Any], arg: Any) -> Any:
         async with self._lock:  # one request at a time per connection
             return await fn(arg)
@@ -206,15 +211,14 @@ class Connection:
             )
         except asyncio.TimeoutError:
             self.read_faults += 1
-            self._timeouts += 1
-            if self._timeouts >= self.MAX_TIMEOUTS:
-                self._lost(f"{self._timeouts} read timeouts in a row")
+            if self._timed_out("read"):
+                self._lost(f"{self.MAX_TIMEOUTS} read timeouts in a row")
             return [bad("read timeout")] * len(addresses)
         except Exception as exc:  # any protocol failure is a connection fault
             self.read_faults += 1
             self._lost(exc)
             return [bad(f"read failed: {exc}")] * len(addresses)
-        self._timeouts = 0
+        self._timeouts["read"] = 0
         return out
 
     async def write(self, items: Sequence[tuple[str, float]]) -> list[str | None]:
@@ -228,15 +232,14 @@ class Connection:
             )
         except asyncio.TimeoutError:
             self.write_faults += 1
-            self._timeouts += 1
-            if self._timeouts >= self.MAX_TIMEOUTS:
-                self._lost(f"{self._timeouts} timeouts in a row")
+            if self._timed_out("write"):
+                self._lost(f"{self.MAX_TIMEOUTS} write timeouts in a row")
             return ["write timeout"] * len(items)
         except Exception as exc:
             self.write_faults += 1
             self._lost(exc)
             return [f"write failed: {exc}"] * len(items)
-        self._timeouts = 0
+        self._timeouts["write"] = 0
         if any(r is not None for r in res):
             self.write_faults += 1
         return res
