@@ -34,6 +34,7 @@ name = "faceplate test"
 
 [connections.sim]
 protocol = "memory"
+timeout = 5.0  # in-memory I/O never waits; a busy machine must not look like a fault
 
 [[loops]]
 name = "fast"

@@ -400,3 +400,17 @@ def test_a_runtime_run_by_another_thread_gets_commands_through_submit(tmp_path: 
         loop.call_soon_threadsafe(loop.stop)
         thread.join(timeout=10)
         loop.close()
+
+
+def test_five_failed_logins_lock_the_name_for_a_minute(client):
+    from ctrlblocks.web.app import LOCKOUT_FAILURES
+
+    for _ in range(LOCKOUT_FAILURES):
+        assert login(client, OPERATOR[0], "guess").status_code == 401
+    r = login(client)  # even the right password now
+    assert r.status_code == 429 and "too many failed logins" in r.json()["error"]["message"]
+    assert "ctrlblocks_session" not in r.cookies
+    assert login(client, "bob", "guess").status_code == 401  # other names are not locked
+    rows = [a for a in audit(client) if a["who"] == "alice"]
+    assert rows[0]["message"] == "refused: too many failed logins"  # newest first
+    assert len(rows) == LOCKOUT_FAILURES + 1

@@ -77,6 +77,12 @@ def log_in(page: Any) -> None:
     assert page.text_content("#who") == "alice"
 
 
+def wait_message(page: Any, text: str) -> str:
+    """Wait until the message line contains ``text``; return the whole message."""
+    page.wait_for_function("t => document.querySelector('#msg').textContent.includes(t)", arg=text)
+    return page.text_content("#msg")
+
+
 def wait_cycles(page: Any, loop: str, n: int) -> None:
     c = js(page, f"faceplate.states[{loop!r}].cycle")
     page.wait_for_function("([l, c]) => window.faceplate.states[l].cycle >= c", arg=[loop, c + n])
@@ -108,9 +114,9 @@ def test_a_change_without_login_is_refused(page: Any, url: str) -> None:
     assert page.is_visible("#login-form")
     page.fill("#sp-input", "1.4")
     page.click("#btn-sp")
-    page.wait_for_selector("#msg.refused")
-    msg = page.text_content("#msg")
-    assert "setpoint refused" in msg and "log in as an operator" in msg
+    msg = wait_message(page, "setpoint refused")
+    assert "log in as an operator" in msg
+    assert page.get_attribute("#msg", "class") == "refused"
     assert server_state(page, url, "fast")["sp"] == 1.0
     page.click("#audit-box summary")
     page.wait_for_selector("#audit tbody tr.refused")
@@ -154,8 +160,8 @@ def test_operator_changes_the_setpoint_and_the_pv_follows(page: Any, url: str) -
     log_in(page)
     page.fill("#sp-input", "1.5")
     page.click("#btn-sp")
-    page.wait_for_selector("#msg.ok")
-    assert "setpoint accepted" in page.text_content("#msg")
+    wait_message(page, "fast: setpoint accepted")
+    assert page.get_attribute("#msg", "class") == "ok"
     assert server_state(page, url, "fast")["sp"] == 1.5
     # closed loop: first-order, time constant 0.5 s -> 90 % after 1.15 s
     page.wait_for_function("() => window.faceplate.states.fast.pv > 1.45")
@@ -167,14 +173,13 @@ def test_a_refused_tuning_shows_the_blocks_error_code(page: Any, url: str) -> No
     log_in(page)
     page.fill("#tunings input[data-key=kp]", "-1")
     page.click("#btn-tunings")
-    page.wait_for_selector("#msg.refused")
+    msg = wait_message(page, "tuning kp refused")
     code = ErrorCode.BAD_PID_COEFFS
-    msg = page.text_content("#msg")
-    assert f"16#{int(code):04X} {code.name}" in msg and "tunings.kp" in msg
+    assert f"16#{int(code):04X} {code.name}: tunings.kp: must be > 0" in msg
     assert server_state(page, url, "fast")["tunings"]["kp"] == 1.0
     page.fill("#tunings input[data-key=kp]", "2")
     page.click("#btn-tunings")
-    page.wait_for_selector("#msg.ok")
+    wait_message(page, "tuning kp accepted")
     assert server_state(page, url, "fast")["tunings"]["kp"] == 2.0
     page.wait_for_function(
         "() => document.querySelector('#tunings tr[data-key=kp] td').textContent === '2'"

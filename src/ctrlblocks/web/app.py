@@ -16,6 +16,7 @@ route                                   who       what
 ``GET /api/loops/NAME/history.csv``     anyone    the same as a CSV download (every sample)
 ``GET /api/audit``                      anyone    the audit trail (who changed what, when)
 ``POST /api/login``, ``/api/logout``    anyone    ``{"user": .., "password": ..}``; a cookie
+                                                  (5 failures in 60 s lock the name for 60 s)
 ``POST /api/loops/NAME/command``        operator  ``{"mode": "manual", "manual_value": 40}``,
                                                   ``{"sp": 2.0}``, ``{"u_min": 0, "u_max": 80}``,
                                                   ``{"tunings": {"kp": 1.5}}`` (any together)
@@ -66,6 +67,11 @@ log = logging.getLogger(__name__)
 
 COOKIE = "ctrlblocks_session"
 """Name of the session cookie."""
+
+LOCKOUT_FAILURES = 5
+LOCKOUT_SECONDS = 60.0
+"""After LOCKOUT_FAILURES failed logins of one user name within LOCKOUT_SECONDS, further
+logins of that name are refused (429) until the oldest failure is LOCKOUT_SECONDS old."""
 
 HISTORY_COLUMNS = (
     "t_wall",
@@ -175,6 +181,7 @@ def create_app(
     """
     users = users if users is not None else UserStore(None)
     sessions = SessionStore()
+    failures: dict[str, list[float]] = {}  # user name -> times of failed logins
     hub = LiveHub(runtime, seconds=trend_seconds)
 
     @contextlib.asynccontextmanager
@@ -365,10 +372,20 @@ def create_app(
         user, password = body.get("user"), body.get("password")
         if not isinstance(user, str) or not isinstance(password, str):
             return _error(400, "give user and password as strings", "user")
+        now = time.time()
+        recent = [t for t in failures.get(user, []) if now - t < LOCKOUT_SECONDS]
+        failures[user] = recent
+        if len(recent) >= LOCKOUT_FAILURES:
+            audit(user, "", "login", None, False, "refused: too many failed logins")
+            return _error(
+                429, f"too many failed logins: try again in {LOCKOUT_SECONDS:g} s", "user"
+            )
         ok = await asyncio.to_thread(users.verify, user, password)
         audit(user, "", "login", None, ok, "" if ok else "wrong user name or password")
         if not ok:
+            recent.append(now)
             return _error(401, "wrong user name or password", "password")
+        failures.pop(user, None)
         role = users.role(user) or "operator"
         token = sessions.create(user, role)
         resp = JSONResponse({"ok": True, "user": user, "role": role})
