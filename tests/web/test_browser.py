@@ -105,6 +105,25 @@ def test_page_shows_the_loops_and_the_trend_moves(page: Any, tmp_path_factory: A
     page.wait_for_function("x => window.faceplate.chart.scales.x.max > x + 0.5", arg=x0)
     assert js(page, "faceplate.chart.data[0].length") >= n0 + 20
     assert float(page.text_content("#v-pv")) == pytest.approx(1.0, abs=1e-3)
+    # pan: half a window (2 min) back; zoom: drag across the chart; Live follows again
+    lo, hi = js(page, "[faceplate.chart.scales.x.min, faceplate.chart.scales.x.max]")
+    page.click("#pan-left")
+    lo2, hi2 = js(page, "[faceplate.chart.scales.x.min, faceplate.chart.scales.x.max]")
+    assert js(page, "faceplate.follow") is False
+    assert hi2 - lo2 == pytest.approx(120.0)
+    assert (lo2, hi2) == (pytest.approx(lo - 60.0, abs=2.0), pytest.approx(hi - 60.0, abs=2.0))
+    box = page.locator("#trend .u-over").bounding_box()
+    y = box["y"] + box["height"] / 2
+    page.mouse.move(box["x"] + 0.25 * box["width"], y)
+    page.mouse.down()
+    page.mouse.move(box["x"] + 0.5 * box["width"], y, steps=5)
+    page.mouse.up()
+    lo3, hi3 = js(page, "[faceplate.chart.scales.x.min, faceplate.chart.scales.x.max]")
+    assert hi3 - lo3 == pytest.approx(0.25 * 120.0, rel=0.05)  # a quarter of the window
+    assert lo3 == pytest.approx(lo2 + 0.25 * 120.0, abs=2.0)
+    page.click("#btn-live")
+    assert js(page, "faceplate.follow") is True
+    page.wait_for_function("x => window.faceplate.chart.scales.x.max >= x", arg=hi)
     shot = artifacts(tmp_path_factory) / "faceplate.png"
     page.screenshot(path=str(shot), full_page=True)
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
