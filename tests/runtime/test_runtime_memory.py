@@ -152,8 +152,11 @@ def test_pid_holds_or_goes_to_safe_value_on_nan_pv(on_bad, expected):
 
     async def main():
         await run(rt, clock, 0.45)  # cycles 0..4
+        y = bus.values["pv"]
         bus.values["pv"] = math.nan
-        await clock.run_until(0.75)
+        await clock.run_until(0.75)  # cycles 5..7
+        bus.values["pv"] = y
+        await clock.run_until(1.0)
         await rt.stop()
 
     asyncio.run(main())
@@ -162,6 +165,9 @@ def test_pid_holds_or_goes_to_safe_value_on_nan_pv(on_bad, expected):
     for k in (5, 6, 7):
         assert not by[k].pv_ok
         assert by[k].mv == want
+    # recovery without a bump: the integrator is re-initialised to the applied MV
+    assert by[8].pv_ok and by[8].mv == pytest.approx(want, abs=1e-12)
+    assert by[9].mv != pytest.approx(want, abs=1e-9)
 
 
 def test_overrun_is_flagged_and_the_next_cycle_uses_the_measured_period():
@@ -406,3 +412,22 @@ def test_read_timeout_gives_safe_value_in_that_cycle_and_three_drop_the_connecti
     assert not any(by[k].pv_ok for k in (5, 6, 7))
     assert connected is False
     assert rt.connections["io"].reconnects == 1 and by[14].pv_ok
+
+
+def test_the_examples_of_docs_runtime_md_load(monkeypatch):
+    import re
+    from pathlib import Path
+
+    doc = (Path(__file__).parents[2] / "docs" / "runtime.md").read_text()
+    blocks = re.findall(r"```toml\n(.*?)```", doc, re.S)
+    loops = [b for b in blocks if "[[loops]]" in b]
+    conns = [b for b in blocks if "[[loops]]" not in b]
+    assert len(loops) == 2 and len(conns) == 1
+    for b in loops:
+        cfg = parse_config(b)
+        assert len(cfg.loops) == 1 and cfg.build_blocks()
+    monkeypatch.setenv("PLC_PASSWORD", "x")
+    loop = loops[0][loops[0].index("[[loops]]") :]
+    cfg = parse_config(conns[0] + "\n" + loop)
+    c = cfg.connections["plc"]
+    assert (c.security, c.user, c.password) == ("Basic256Sha256_SignAndEncrypt", "runtime", "x")
