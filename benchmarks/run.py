@@ -3,8 +3,8 @@
 Usage (from the repository root, with the ``bench`` extra installed:
 ``pip install -e '.[bench]'``)::
 
-    python benchmarks/run.py            # full run, ~2-3 minutes
-    python benchmarks/run.py --quick    # fewer repeats, ~1 minute
+    python benchmarks/run.py            # full run, about a minute
+    python benchmarks/run.py --quick    # fewer repeats, about 30 s
     python benchmarks/run.py --markdown docs/performance-table.md
 
 Timings on a shared machine jump between levels, so every comparison runs
