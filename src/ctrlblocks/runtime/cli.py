@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import signal
+from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -12,12 +13,13 @@ import click
 __all__ = ["history", "plant_server", "serve"]
 
 
-def _install_stop(loop: asyncio.AbstractEventLoop, stop: asyncio.Event) -> None:
+def _install_stop(loop: asyncio.AbstractEventLoop, stop: Callable[[], None]) -> None:
+    """Call ``stop`` on SIGINT and SIGTERM."""
     for sig in (signal.SIGINT, signal.SIGTERM):
         try:
-            loop.add_signal_handler(sig, stop.set)
+            loop.add_signal_handler(sig, stop)
         except (NotImplementedError, RuntimeError):  # pragma: no cover - non-Unix
-            signal.signal(sig, lambda *_: loop.call_soon_threadsafe(stop.set))
+            signal.signal(sig, lambda *_: loop.call_soon_threadsafe(stop))
 
 
 @click.command()
@@ -47,7 +49,7 @@ def serve(config: Path, check: bool, verbose: int) -> None:
 
     async def main() -> None:
         rt = Runtime(cfg)
-        _install_stop(asyncio.get_running_loop(), rt._stop)
+        _install_stop(asyncio.get_running_loop(), rt.request_stop)
         await rt.run()
 
     asyncio.run(main())
@@ -127,7 +129,7 @@ def plant_server(
 
     async def main() -> None:
         stop = asyncio.Event()
-        _install_stop(asyncio.get_running_loop(), stop)
+        _install_stop(asyncio.get_running_loop(), stop.set)
         await server.start()
         if server.opcua_url:
             click.echo(f"OPC UA: {server.opcua_url}")
