@@ -142,6 +142,25 @@ def test_a_change_without_login_is_refused(page: Any, url: str) -> None:
     assert page.text_content("#audit tbody tr td:nth-child(2)") == "anonymous"
 
 
+def test_a_viewer_sees_the_history_and_downloads_it_as_csv(page: Any, url: str) -> None:
+    wait_cycles(page, "fast", 10)
+    page.click("#history-box summary")
+    page.click("#btn-history")
+    page.wait_for_function(
+        "() => /^[0-9]+ samples/.test(document.querySelector('#hist-info').textContent)"
+    )
+    n = int(page.text_content("#hist-info").split()[0])
+    assert n >= 10
+    assert js(page, "faceplate.histChart.data[0].length") == n
+    href = page.get_attribute("#csv-link", "href")
+    assert href.startswith("api/loops/fast/history.csv?start=")
+    with page.expect_download() as dl:
+        page.click("#csv-link")
+    lines = Path(dl.value.path()).read_text().splitlines()
+    assert lines[0].startswith("t_wall,run_id,cycle,t,dt,sp,pv,mv,mode")
+    assert len(lines) >= n + 1  # every sample of the period (the plot may thin them)
+
+
 def test_operator_switches_to_man_and_back_without_a_bump(page: Any, url: str) -> None:
     log_in(page)
     t0 = time.time()
