@@ -14,13 +14,14 @@ interpreted (slower, same results).  See ``docs/performance.md``.
 """
 
 from ._jit import HAVE_NUMBA
-from .bank import BankResult, PIDBank
+from .bank import ADRCBank, BankResult, PIDBank
 from .kernels import UnsupportedConfig
 from .loops import LoopResult, closed_loop, reference_loop
 from .sweep import SweepError, dask_executor, sweep, write_rows
 
 __all__ = [
     "HAVE_NUMBA",
+    "ADRCBank",
     "BankResult",
     "LoopResult",
     "PIDBank",

@@ -43,9 +43,17 @@ import numpy as np
 
 from ..blocks import pid as _pid
 from ._jit import HAVE_NUMBA, jit, jit_parallel, jitable, prange, python_function
-from .kernels import UnsupportedConfig, lti3_params, lti3_step, pid_params, pid_step
+from .kernels import (
+    UnsupportedConfig,
+    adrc_params,
+    adrc_step,
+    lti3_params,
+    lti3_step,
+    pid_params,
+    pid_step,
+)
 
-__all__ = ["BankResult", "PIDBank"]
+__all__ = ["ADRCBank", "BankResult", "PIDBank"]
 
 _N_PID = 13
 _N_PLANT = 15  # phi (9), gamma0 (3), c (3): no dead time in a bank
@@ -155,21 +163,9 @@ class PIDBank:
     """
 
     def __init__(self, pids: Sequence[Any], plants: Sequence[Any]) -> None:
-        if len(pids) != len(plants) or not pids:
-            raise ValueError("give one plant per PID (and at least one loop)")
-        ts = {float(p.config.ts) for p in pids} | {float(p.ts) for p in plants}
-        if len(ts) != 1:
-            raise UnsupportedConfig(f"all loops of a bank share one sample time, got {ts}")
+        ts = {_check_ts(pids, plants)}
         prm = np.array([pid_params(p) for p in pids], dtype=float)
-        pp = np.empty((len(plants), _N_PLANT))
-        x = np.zeros((len(plants), 4))
-        for j, pl in enumerate(plants):
-            if pl.dead_time != 0.0:
-                raise UnsupportedConfig("plants in a bank have no dead time")
-            q = lti3_params(pl)
-            pp[j] = (*q[:12], *q[15:18])
-            x[j, : pl.n_states] = pl.state
-            x[j, 3] = pl.y
+        pp, x = _plant_rows(plants)
         st = np.zeros((len(pids), 6))
         for j, p in enumerate(pids):
             if p._mode_prev not in (-1, 0) or (p._reinit and not p._cold):
@@ -279,6 +275,112 @@ class PIDBank:
         fn = _run_parallel if parallel else _run
         if engine != "auto":
             fn = python_function(fn)
+        spa = np.ascontiguousarray(np.broadcast_to(np.asarray(sp, dtype=float), (self.n,)))
+        iae = np.zeros(self.n)
+        fn(self.prm, self.pp, self.st, self.x, spa, int(n_steps), int(chunk), iae, self.ts)
+        return BankResult(self.x[:, 3].copy(), self.st[:, 4].copy(), iae)
+
+
+def _plant_rows(plants: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Parameter rows ``(phi, gamma0, c)`` and states ``(x0, x1, x2, y)`` of LinearPlants."""
+    pp = np.empty((len(plants), _N_PLANT))
+    x = np.zeros((len(plants), 4))
+    for j, pl in enumerate(plants):
+        if getattr(pl, "dead_time", None) != 0.0:
+            raise UnsupportedConfig("plants in a bank are LinearPlants without dead time")
+        q = lti3_params(pl)
+        pp[j] = (*q[:12], *q[15:18])
+        x[j, : pl.n_states] = pl.state
+        x[j, 3] = pl.y
+    return pp, x
+
+
+def _check_ts(blocks: Sequence[Any], plants: Sequence[Any]) -> float:
+    if len(blocks) != len(plants) or not blocks:
+        raise ValueError("give one plant per controller (and at least one loop)")
+    ts = {float(b.config.ts) for b in blocks} | {float(p.ts) for p in plants}
+    if len(ts) != 1:
+        raise UnsupportedConfig(f"all loops of a bank share one sample time, got {ts}")
+    return ts.pop()
+
+
+# ---------------------------------------------------------------------------
+# ADRC bank
+# ---------------------------------------------------------------------------
+
+
+@jitable
+def _run_adrc_chunk(prm, pp, st, x, sp, n_steps, c0, c1, iae, h):
+    """``n_steps`` samples of ADRC loops ``c0 .. c1-1`` (time outside, loops inside)."""
+    for _k in range(n_steps):
+        for j in range(c0, c1):
+            r = (prm[j, 0], prm[j, 1], prm[j, 2], prm[j, 3], prm[j, 4], prm[j, 5],
+                 prm[j, 6], prm[j, 7], prm[j, 8], prm[j, 9], prm[j, 10], prm[j, 11],
+                 prm[j, 12], prm[j, 13], prm[j, 14], prm[j, 15], prm[j, 16], prm[j, 17],
+                 prm[j, 18], prm[j, 19], prm[j, 20], prm[j, 21])  # fmt: skip
+            q = (pp[j, 0], pp[j, 1], pp[j, 2], pp[j, 3], pp[j, 4], pp[j, 5], pp[j, 6],
+                 pp[j, 7], pp[j, 8], pp[j, 9], pp[j, 10], pp[j, 11], 0.0, 0.0, 0.0,
+                 pp[j, 12], pp[j, 13], pp[j, 14])  # fmt: skip
+            y = x[j, 3]
+            u, _ur, yh, e2, e3, e4, ref, track, sat = adrc_step(
+                sp[j], y, False, 0.0, st[j, 6] != 0.0, st[j, 7] != 0.0, int(st[j, 8]),
+                st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], st[j, 5], r,
+            )  # fmt: skip
+            st[j, 0] = yh
+            st[j, 1] = e2
+            st[j, 2] = e3
+            st[j, 3] = e4
+            st[j, 4] = u
+            st[j, 5] = ref
+            st[j, 6] = 1.0
+            st[j, 7] = 1.0 if track else 0.0
+            st[j, 8] = sat
+            iae[j] += abs(sp[j] - y) * h
+            x0, x1, x2, yn = lti3_step(x[j, 0], x[j, 1], x[j, 2], u, 0.0, q)
+            x[j, 0] = x0
+            x[j, 1] = x1
+            x[j, 2] = x2
+            x[j, 3] = yn
+
+
+@jit
+def _run_adrc(prm, pp, st, x, sp, n_steps, chunk, iae, h):
+    n_loops = prm.shape[0]
+    for c0 in range(0, n_loops, chunk):
+        _run_adrc_chunk(prm, pp, st, x, sp, n_steps, c0, min(c0 + chunk, n_loops), iae, h)
+
+
+class ADRCBank:
+    """N independent loops ADRC (Euler, auto) + linear plant, built from block objects.
+
+    Each loop has its own order, b0, bandwidths, limits and plant; the state
+    per loop is ``(Y_hat, x2, x3, x4, u_prev, ref, started, track, sat)`` and
+    the plant's ``(x0, x1, x2, y)``: 104 bytes.  The kernel is
+    :func:`ctrlblocks.blocks.adrc.adrc_step`, the ADRC's own fast lane.
+    """
+
+    def __init__(self, adrcs: Sequence[Any], plants: Sequence[Any]) -> None:
+        self.ts = _check_ts(adrcs, plants)
+        self.prm = np.array([adrc_params(a) for a in adrcs], dtype=float)
+        self.pp, self.x = _plant_rows(plants)
+        self.st = np.array(
+            [(a._yh, a._x2, a._x3, a._x4, a._u_prev, a._ref, float(a._started),
+              float(a._track), float(a._sat)) for a in adrcs]
+        )  # fmt: skip
+        for a in adrcs:
+            if a.manual or a.awin:
+                raise UnsupportedConfig("bank loops run in auto without awin")
+        self.n = len(adrcs)
+        self.compiled = HAVE_NUMBA
+
+    @property
+    def state_bytes(self) -> int:
+        """Bytes of state per loop (ADRC + plant)."""
+        return int(self.st.itemsize * self.st.shape[1] + self.x.itemsize * self.x.shape[1])
+
+    def run(self, sp: Any, n_steps: int, *, chunk: int = 64, engine: str = "auto") -> BankResult:
+        """Run every loop for ``n_steps`` samples (continues from the current states)."""
+        fn = _run_adrc if engine == "auto" else python_function(_run_adrc)
         spa = np.ascontiguousarray(np.broadcast_to(np.asarray(sp, dtype=float), (self.n,)))
         iae = np.zeros(self.n)
         fn(self.prm, self.pp, self.st, self.x, spa, int(n_steps), int(chunk), iae, self.ts)
