@@ -10,9 +10,11 @@ vectorised second copy of the law (DESIGN.md principle 2).
 Why not "vectorised numpy over the arrays"?  That would be a second,
 array-shaped implementation of the PID (and numpy's temporaries make it slower
 than the compiled bank: one pass over memory per operation).  Instead the bank
-runs the loops in chunks of ``chunk`` loops that fit in the L1 cache, time
-outside and loops inside, so that the processor overlaps the independent loops
-(a single loop is limited by the latency of its own dependency chain).
+runs four loops at a time for the whole run, their states and parameters in
+local variables, so that the processor overlaps four independent chains (a
+single loop is limited by the latency of its own chain of dependent
+operations).  The ADRC bank runs chunks of loops that stay in the L1 cache,
+time outside and loops inside.
 
 State per loop: the PID's ``(i, d, w_prev, e_prev, out)`` and the plant's three
 states: 64 bytes (:attr:`PIDBank.state_bytes`); the parameters add 13 PID and 15
@@ -97,52 +99,105 @@ def _fill_rows(out, k, ti, td, n, b, c, h, lo, hi, reverse, dmeth, imeth, aw, tt
 
 
 @jitable
-def _run_chunk(prm, pp, st, x, sp, n_steps, c0, c1, iae, h):
-    """``n_steps`` samples of loops ``c0 .. c1-1`` (time outside, loops inside)."""
+def _load(prm, pp, st, x, j):
+    """Parameters and state of loop ``j`` as locals."""
+    r = (prm[j, 0], prm[j, 1], prm[j, 2], prm[j, 3], prm[j, 4], prm[j, 5], prm[j, 6],
+         prm[j, 7], prm[j, 8], prm[j, 9], prm[j, 10], prm[j, 11], prm[j, 12])  # fmt: skip
+    q = (pp[j, 0], pp[j, 1], pp[j, 2], pp[j, 3], pp[j, 4], pp[j, 5], pp[j, 6], pp[j, 7],
+         pp[j, 8], pp[j, 9], pp[j, 10], pp[j, 11], 0.0, 0.0, 0.0, pp[j, 12], pp[j, 13],
+         pp[j, 14])  # fmt: skip
+    return (r, q, st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], st[j, 5] != 0.0,
+            x[j, 0], x[j, 1], x[j, 2], x[j, 3])  # fmt: skip
+
+
+@jitable
+def _store(st, x, iae, j, i, d, w, e, out, x0, x1, x2, y, s):
+    """Write the locals of loop ``j`` back (the history is warm now)."""
+    st[j, 0] = i
+    st[j, 1] = d
+    st[j, 2] = w
+    st[j, 3] = e
+    st[j, 4] = out
+    st[j, 5] = 0.0
+    x[j, 0] = x0
+    x[j, 1] = x1
+    x[j, 2] = x2
+    x[j, 3] = y
+    iae[j] += s
+
+
+@jitable
+def _sample(sp, r, q, i, d, w, e, out, cold, x0, x1, x2, y, s, h):
+    """One sample of one loop: the PID (:func:`pid_step`), the IAE sum, the plant."""
+    out, _vr, _p, _ish, i, d, w, e = pid_step(sp, y, 0.0, False, 0.0, cold, False,
+                                              i, d, w, e, out, r)  # fmt: skip
+    s += abs(sp - y) * h
+    x0, x1, x2, y = lti3_step(x0, x1, x2, out, 0.0, q)
+    return i, d, w, e, out, x0, x1, x2, y, s
+
+
+@jitable
+def _run_one(prm, pp, st, x, sp, n_steps, j, iae, h):
+    """``n_steps`` samples of loop ``j``, its state in local variables."""
+    r, q, i, d, w, e, out, cold, x0, x1, x2, y = _load(prm, pp, st, x, j)
+    s = 0.0
     for _k in range(n_steps):
-        for j in range(c0, c1):
-            r = (prm[j, 0], prm[j, 1], prm[j, 2], prm[j, 3], prm[j, 4], prm[j, 5],
-                 prm[j, 6], prm[j, 7], prm[j, 8], prm[j, 9], prm[j, 10], prm[j, 11],
-                 prm[j, 12])  # fmt: skip
-            q = (pp[j, 0], pp[j, 1], pp[j, 2], pp[j, 3], pp[j, 4], pp[j, 5], pp[j, 6],
-                 pp[j, 7], pp[j, 8], pp[j, 9], pp[j, 10], pp[j, 11], 0.0, 0.0, 0.0,
-                 pp[j, 12], pp[j, 13], pp[j, 14])  # fmt: skip
-            y = x[j, 3]
-            cold = st[j, 5] != 0.0
-            out, _vr, _p, _ish, i, d, w, e = pid_step(
-                sp[j], y, 0.0, False, 0.0, cold, False,
-                st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], r,
-            )  # fmt: skip
-            st[j, 0] = i
-            st[j, 1] = d
-            st[j, 2] = w
-            st[j, 3] = e
-            st[j, 4] = out
-            st[j, 5] = 0.0
-            iae[j] += abs(sp[j] - y) * h
-            x0, x1, x2, yn = lti3_step(x[j, 0], x[j, 1], x[j, 2], out, 0.0, q)
-            x[j, 0] = x0
-            x[j, 1] = x1
-            x[j, 2] = x2
-            x[j, 3] = yn
+        i, d, w, e, out, x0, x1, x2, y, s = _sample(sp[j], r, q, i, d, w, e, out, cold,
+                                                    x0, x1, x2, y, s, h)  # fmt: skip
+        cold = False
+    _store(st, x, iae, j, i, d, w, e, out, x0, x1, x2, y, s)
+
+
+@jitable
+def _run_four(prm, pp, st, x, sp, n_steps, j, iae, h):
+    """Loops ``j .. j+3`` together, all in local variables.
+
+    One loop is limited by the latency of its own chain of dependent
+    operations; four independent chains side by side let the processor
+    overlap them (about 2.5x the throughput of one loop at a time).
+    """
+    ra, qa, ia, da, wa, ea, oa, ca, xa0, xa1, xa2, ya = _load(prm, pp, st, x, j)
+    rb, qb, ib, db, wb, eb, ob, cb, xb0, xb1, xb2, yb = _load(prm, pp, st, x, j + 1)
+    rc, qc, ic, dc, wc, ec, oc, cc, xc0, xc1, xc2, yc = _load(prm, pp, st, x, j + 2)
+    rd, qd, id_, dd, wd, ed, od, cd, xd0, xd1, xd2, yd = _load(prm, pp, st, x, j + 3)
+    spa, spb, spc, spd = sp[j], sp[j + 1], sp[j + 2], sp[j + 3]
+    sa = sb = sc = sd = 0.0
+    for _k in range(n_steps):
+        ia, da, wa, ea, oa, xa0, xa1, xa2, ya, sa = _sample(
+            spa, ra, qa, ia, da, wa, ea, oa, ca, xa0, xa1, xa2, ya, sa, h)  # fmt: skip
+        ib, db, wb, eb, ob, xb0, xb1, xb2, yb, sb = _sample(
+            spb, rb, qb, ib, db, wb, eb, ob, cb, xb0, xb1, xb2, yb, sb, h)  # fmt: skip
+        ic, dc, wc, ec, oc, xc0, xc1, xc2, yc, sc = _sample(
+            spc, rc, qc, ic, dc, wc, ec, oc, cc, xc0, xc1, xc2, yc, sc, h)  # fmt: skip
+        id_, dd, wd, ed, od, xd0, xd1, xd2, yd, sd = _sample(
+            spd, rd, qd, id_, dd, wd, ed, od, cd, xd0, xd1, xd2, yd, sd, h)  # fmt: skip
+        ca = cb = cc = cd = False
+    _store(st, x, iae, j, ia, da, wa, ea, oa, xa0, xa1, xa2, ya, sa)
+    _store(st, x, iae, j + 1, ib, db, wb, eb, ob, xb0, xb1, xb2, yb, sb)
+    _store(st, x, iae, j + 2, ic, dc, wc, ec, oc, xc0, xc1, xc2, yc, sc)
+    _store(st, x, iae, j + 3, id_, dd, wd, ed, od, xd0, xd1, xd2, yd, sd)
 
 
 @jit
-def _run(prm, pp, st, x, sp, n_steps, chunk, iae, h):
-    """Every loop, chunk after chunk, on one core."""
+def _run(prm, pp, st, x, sp, n_steps, iae, h):
+    """Every loop for ``n_steps`` samples, four at a time, on one core."""
     n_loops = prm.shape[0]
-    for c0 in range(0, n_loops, chunk):
-        _run_chunk(prm, pp, st, x, sp, n_steps, c0, min(c0 + chunk, n_loops), iae, h)
+    n4 = n_loops - n_loops % 4
+    for j in range(0, n4, 4):
+        _run_four(prm, pp, st, x, sp, n_steps, j, iae, h)
+    for j in range(n4, n_loops):
+        _run_one(prm, pp, st, x, sp, n_steps, j, iae, h)
 
 
 @jit_parallel
-def _run_parallel(prm, pp, st, x, sp, n_steps, chunk, iae, h):
-    """The chunks spread over all cores (they share nothing)."""
+def _run_parallel(prm, pp, st, x, sp, n_steps, iae, h):
+    """The groups of four spread over all cores (they share nothing)."""
     n_loops = prm.shape[0]
-    n_chunks = (n_loops + chunk - 1) // chunk
-    for m in prange(n_chunks):
-        c0 = m * chunk
-        _run_chunk(prm, pp, st, x, sp, n_steps, c0, min(c0 + chunk, n_loops), iae, h)
+    n4 = n_loops - n_loops % 4
+    for m in prange(n4 // 4):
+        _run_four(prm, pp, st, x, sp, n_steps, 4 * m, iae, h)
+    for j in range(n4, n_loops):
+        _run_one(prm, pp, st, x, sp, n_steps, j, iae, h)
 
 
 class PIDBank:
@@ -257,27 +312,21 @@ class PIDBank:
         return self.x[:, 3].copy()
 
     def run(
-        self,
-        sp: Any,
-        n_steps: int,
-        *,
-        chunk: int = 64,
-        engine: str = "auto",
-        parallel: bool = False,
+        self, sp: Any, n_steps: int, *, engine: str = "auto", parallel: bool = False
     ) -> BankResult:
         """Run every loop for ``n_steps`` samples with setpoint ``sp`` (scalar or per loop).
 
-        Continues from the current states (call again to go on).  ``chunk``
-        loops are run together (time outside, loops inside); ``parallel``
-        spreads the chunks over all cores; ``engine="python"`` runs the same
-        code interpreted (as without numba).
+        Continues from the current states (call again to go on).  Loops run
+        four at a time with their states in local variables; ``parallel``
+        spreads them over all cores; ``engine="python"`` runs the same code
+        interpreted (as without numba).
         """
         fn = _run_parallel if parallel else _run
         if engine != "auto":
             fn = python_function(fn)
         spa = np.ascontiguousarray(np.broadcast_to(np.asarray(sp, dtype=float), (self.n,)))
         iae = np.zeros(self.n)
-        fn(self.prm, self.pp, self.st, self.x, spa, int(n_steps), int(chunk), iae, self.ts)
+        fn(self.prm, self.pp, self.st, self.x, spa, int(n_steps), iae, self.ts)
         return BankResult(self.x[:, 3].copy(), self.st[:, 4].copy(), iae)
 
 
