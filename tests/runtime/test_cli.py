@@ -14,6 +14,7 @@ from click.testing import CliRunner
 
 from ctrlblocks.cli import main
 from ctrlblocks.runtime import SQLiteHistorian
+from ctrlblocks.runtime.cli import serve as runtime_serve
 
 from .conftest import DATA
 
@@ -49,13 +50,18 @@ flush_interval = 0.2
 """
 
 
+def test_commands_are_registered():
+    names = main.list_commands(None)
+    assert {"serve", "plant-server", "history"} <= set(names)
+
+
 def test_check_reports_the_loops_and_errors_name_the_key(tmp_path):
     cfg = tmp_path / "loops.toml"
     cfg.write_text(config_text(5020, tmp_path / "h.sqlite"))
-    r = CliRunner().invoke(main, ["serve", str(cfg), "--check"])
+    r = CliRunner().invoke(runtime_serve, [str(cfg), "--check"])
     assert r.exit_code == 0 and "1 loop(s), 1 connection(s): OK" in r.output
     cfg.write_text(config_text(5020, tmp_path / "h.sqlite").replace("kp = 1.2", "kp = 0"))
-    r = CliRunner().invoke(main, ["serve", str(cfg), "--check"])
+    r = CliRunner().invoke(runtime_serve, [str(cfg), "--check"])
     assert r.exit_code == 1 and "loops[0].block.kp" in r.output
 
 
@@ -75,7 +81,7 @@ def test_plant_server_and_serve_run_a_loop_and_stop_on_sigterm(tmp_path):
     try:
         assert plant.stdout.readline().startswith(f"Modbus TCP: 127.0.0.1:{port}")
         serve = subprocess.Popen(
-            [*cmd, "serve", str(cfg)],
+            [sys.executable, "-c", "from ctrlblocks.runtime.cli import serve; serve()", str(cfg)],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
         )  # fmt: skip
         t_end = time.monotonic() + 20.0
