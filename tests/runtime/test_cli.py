@@ -113,3 +113,62 @@ def test_plant_server_and_serve_run_a_loop_and_stop_on_sigterm(tmp_path):
     assert stop and stop[0]["ok"] == 1 and '"mv": -1.0' in stop[0]["new"]
     assert runs == [(1,)]  # the run was closed: the historian flushed on SIGTERM
     assert n >= 20
+
+
+def test_plant_server_process_killed_hard_then_restarted_loop_reconnects(tmp_path):
+    """SIGKILL the plant-server process mid-run: the loop goes to its safe value in the
+    cycle that notices, reconnects to the new process, and continues without a bump."""
+    import asyncio
+
+    from ctrlblocks.runtime import Runtime, parse_config
+
+    port = free_port()
+    db = tmp_path / "h.sqlite"
+    text = config_text(port, db).replace("timeout = 0.5", "timeout = 0.3\nreconnect_max = 0.2")
+    text = text.replace('type = "PID", kp = 1.2, ti = 0.5', 'type = "ADRC", order = 1, b0 = 4.0')
+    cmd = [sys.executable, "-c", "from ctrlblocks.cli import main; main()", "plant-server"]
+    args = [str(DATA / "pid_pt2.toml"), "--opcua-port", "0", "--modbus-port", str(port)]
+
+    def start_plant():
+        p = subprocess.Popen([*cmd, *args], stdout=subprocess.PIPE, text=True)
+        assert p.stdout.readline().startswith("Modbus TCP")
+        return p
+
+    async def main():
+        plant = await asyncio.to_thread(start_plant)
+        rt = Runtime(parse_config(text))
+        await rt.start()
+        lp = rt.loops["pt2"]
+        try:
+            while lp.cycle_count < 20:
+                await asyncio.sleep(0.05)
+            plant.kill()  # SIGKILL: no goodbye
+            await asyncio.to_thread(plant.wait)
+            n = lp.cycle_count
+            while lp.cycle_count < n + 10:
+                await asyncio.sleep(0.05)
+            plant = await asyncio.to_thread(start_plant)
+            for _ in range(400):
+                if lp.pv_ok and rt.connections["rig"].reconnects:
+                    break
+                await asyncio.sleep(0.05)
+            n = lp.cycle_count
+            while lp.cycle_count < n + 10:
+                await asyncio.sleep(0.05)
+        finally:
+            await rt.stop()
+            plant.send_signal(signal.SIGTERM)
+            await asyncio.to_thread(plant.wait, 15)
+
+    asyncio.run(main())
+    h = SQLiteHistorian(db)
+    h._conn = h._connect()
+    rows = h.samples()
+    h._conn.close()
+    ok = [bool(r["pv_ok"]) for r in rows]
+    first_bad = ok.index(False)
+    first_back = ok.index(True, first_bad)
+    assert first_bad >= 20
+    assert all(r["mv"] == 0.25 for r in rows[first_bad:first_back])  # the safe value
+    assert rows[first_back]["mv"] == pytest.approx(0.25, abs=1e-9)  # no bump
+    assert all(ok[first_back:])
