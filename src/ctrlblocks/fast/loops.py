@@ -9,9 +9,10 @@ for a configured :class:`~ctrlblocks.PID` or :class:`~ctrlblocks.ADRC` and a
 :class:`~ctrlblocks.plants.LinearPlant` (order <= 3, any dead time) or the
 :class:`~ctrlblocks.plants.ThreeTank`.  The time loop calls the kernels of
 :mod:`.kernels`, which are the blocks' own functions; with numba they are
-compiled and inlined and every state lives in a local variable (about 8 ns
-per sample instead of several microseconds).  Without numba the same loop
-runs interpreted.  Configurations the kernels do not cover fall back to
+compiled and inlined and every state lives in a local variable (about 30 ns
+per sample for PID + third-order plant on the benchmark machine, within
+1.5x of C -O2, against about 10 us for the block objects).  Without numba the
+same loop runs interpreted.  Configurations the kernels do not cover fall back to
 :func:`reference_loop`, which calls the block objects themselves.
 
 The blocks and the plant passed in are not advanced: the compiled loop starts
