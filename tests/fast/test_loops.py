@@ -156,6 +156,15 @@ def test_unsupported_configuration_runs_the_blocks():
     assert res.path == "blocks"
 
 
+def test_track_or_awin_input_runs_the_blocks():
+    pid = PID(kp=2.0, ti=8.0, ts=0.1)
+    pid.awin = True
+    assert closed_loop(pid, PTn(k=1.0, t=(2.0,), ts=0.1), sp=1.0, n=5).path == "blocks"
+    adrc = ADRC(order=1, b0=1.0, omega_c=1.0, omega_o=3.0, ts=0.1)
+    adrc.awin = True
+    assert closed_loop(adrc, PTn(k=1.0, t=(2.0,), ts=0.1), sp=1.0, n=5).path == "blocks"
+
+
 def test_bad_engine_is_refused():
     with pytest.raises(ValueError, match="engine"):
         closed_loop(PID(kp=1.0, ts=0.1), PTn(k=1.0, t=(1.0,), ts=0.1), 1.0, n=3, engine="gpu")

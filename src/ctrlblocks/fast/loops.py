@@ -398,6 +398,8 @@ def _controller_arrays(controller: Any) -> tuple[Any, tuple[float, ...], np.ndar
     from ..blocks.pid import PID
 
     if isinstance(controller, PID):
+        if controller.track or controller.hold or controller.reset_active or controller.awin:
+            raise UnsupportedConfig("PID inputs track/hold/reset_active/awin are set")
         prm = pid_params(controller)
         st = controller
         was_manual = st._mode_prev not in (-1, 0)
@@ -407,6 +409,8 @@ def _controller_arrays(controller: Any) -> tuple[Any, tuple[float, ...], np.ndar
             raise UnsupportedConfig("PID is re-initialising after a change; run one cycle first")
         return _pid_loop, prm, cs
     if isinstance(controller, ADRC):
+        if controller.awin:
+            raise UnsupportedConfig("ADRC input awin is set")
         prm = adrc_params(controller)
         st = controller
         cs = np.array([st._yh, st._x2, st._x3, st._x4, st._u_prev, st._ref,
