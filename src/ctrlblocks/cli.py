@@ -17,7 +17,7 @@ _COMMANDS: dict[str, str] = {
     "tune": "ctrlblocks.tuning.cli:tune",
     "reproduce": "ctrlblocks.sim.cli:reproduce",
     "run": "ctrlblocks.sim.cli:run",
-    "serve": "ctrlblocks.runtime.cli:serve",
+    "serve": "ctrlblocks.web.cli:serve",
     "plant-server": "ctrlblocks.runtime.cli:plant_server",
     "operator": "ctrlblocks.web.cli:operator",
     "history": "ctrlblocks.runtime.cli:history",
