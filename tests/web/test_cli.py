@@ -82,9 +82,9 @@ def test_serve_demo_in_one_command_shows_the_faceplate_and_stops_on_sigint(tmp_p
         for line in proc.stderr:  # uvicorn logs this once it listens
             if "Application startup complete" in line:
                 break
-        info = httpx.get(f"http://127.0.0.1:{port}/api/info").json()
+        info = httpx.get(f"http://127.0.0.1:{port}/api/info", timeout=30).json()
         assert info["loops"] == ["pressure", "flow"] and info["role"] == "viewer"
-        page = httpx.get(f"http://127.0.0.1:{port}/")
+        page = httpx.get(f"http://127.0.0.1:{port}/", timeout=30)
         assert "uPlot" in page.text
     finally:
         proc.send_signal(signal.SIGINT)
