@@ -1,14 +1,14 @@
 """A simulated plant served over OPC UA and Modbus TCP (``ctrlblocks plant-server``).
 
 :class:`PlantProcess` is the process side of a scenario (``structure =
-"single"``): the plant built by the simulator's
-:func:`~ctrlblocks.sim.scenario.build` inside the plants' ``Actuator`` and
-``Sensor`` wrappers, exactly as :func:`ctrlblocks.sim.simulate` wires it, and
-the scenario's time line.  At sample ``k`` (time ``k ts``) it applies the
-events due (setpoint steps and ramps, loads, plant parameters, sensor faults,
-and the controller-side events mode / manual value / limits, which it
-*publishes* for the runtime to read), publishes the measurement, and steps the
-plant by ``ts`` with the MV it receives.
+"single"``): the simulator's own :class:`~ctrlblocks.sim.ProcessSide` (the
+plant inside the plants' ``Actuator`` and ``Sensor`` wrappers, exactly as
+:func:`ctrlblocks.sim.simulate` wires it, and the scenario's time line).
+At sample ``k`` (time ``k ts``) it applies the events due (setpoint steps
+and ramps, loads, plant parameters, sensor faults, and the controller-side
+events mode / manual value / limits, which it *publishes* for the runtime to
+read), publishes the measurement, and steps the plant by ``ts`` with the MV
+it receives.
 
 :class:`PlantServer` serves one process over OPC UA and/or Modbus TCP.
 Variables (OPC UA ``ns=2;s=NAME``; Modbus holding registers, FLOAT32, two
@@ -57,8 +57,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from ..plants import Actuator, Noise, Sensor
-from ..sim.scenario import Event, Scenario, build
+from ..sim.process import ProcessSide
+from ..sim.scenario import Event, Scenario
 
 __all__ = ["MODBUS_REGISTERS", "SIGNALS", "PlantProcess", "PlantServer"]
 
@@ -71,27 +71,6 @@ MODBUS_REGISTERS = {name: 2 * i for i, name in enumerate(SIGNALS)}
 """Holding register of each variable (FLOAT32 in two registers)."""
 
 NAMESPACE = "urn:ctrlblocks:plant"
-
-
-class _Setpoint:
-    """Setpoint profile of a scenario: steps, and ramps towards a target (as the simulator)."""
-
-    def __init__(self, value: float) -> None:
-        self.value = self.target = value
-        self.rate = math.inf
-
-    def step_to(self, value: float, ramp: float | None) -> None:
-        self.target = value
-        if ramp is None:
-            self.value, self.rate = value, math.inf
-        else:
-            self.rate = ramp
-
-    def advance(self, h: float) -> None:
-        d = self.target - self.value
-        if d != 0.0:
-            lim = self.rate * h
-            self.value = self.target if abs(d) <= lim else self.value + math.copysign(lim, d)
 
 
 class PlantProcess:
@@ -119,42 +98,17 @@ class PlantProcess:
                     f"{scenario.file}: event at t={ev.t:g} of kind 'set' acts inside the "
                     "controller; the plant server cannot serve it"
                 )
-        self.ts = h = scenario.ts
-        sen, act = dict(scenario.sensor), dict(scenario.actuator)
-        noise = None
-        if sen.get("noise", 0.0) > 0.0:
-            noise = Noise(
-                sen["noise"],
-                kind=sen.get("noise_kind", "uniform"),
-                t_corr=sen.get("noise_t_corr", 0.0),
-                ts=h,
-                seed=scenario.seed,
-            )
-        self.model = build(scenario.plant, h, kind="plant", file=scenario.file)  # type: ignore[arg-type]
-        self.plant = Sensor(
-            Actuator(self.model, **act), noise=noise, y_min=sen["y_min"], y_max=sen["y_max"]
-        )
-        self.actuator = self.plant.find(Actuator)
+        self.ts = scenario.ts
+        self.side = ProcessSide(scenario, self.case.events)
+        self.plant = self.side.plant
+        self.u0 = self.side.u0
         ini = scenario.initial
-        self.actuator.load = ini["load"]
-        u0 = ini["u"]
-        if not math.isnan(ini["y"]):
-            if hasattr(self.model, "u_for_y"):
-                u0 = float(self.model.u_for_y(ini["y"])) - self.actuator.load
-            else:
-                u0 = ini["y"] / float(self.model.dc_gain) - self.actuator.load
-        self.u0 = u0
-        self.plant.reset(u0)
-        sp0 = ini["sp"]
-        self._sp = _Setpoint(self.plant.y_true if math.isnan(sp0) else sp0)
         self.mode = 1.0 if ini["mode"] == "manual" else 0.0
         self.manual_value = math.nan
         self.u_min = math.nan
         self.u_max = math.nan
-        self.sensor_ok = True
-        self.mv = u0
+        self.mv = self.u0
         self.k = 0
-        self._pending: list[Event] = list(self.case.events)
         self._apply_due()
 
     # -- the time line ----------------------------------------------------------
@@ -169,24 +123,20 @@ class PlantProcess:
         """Duration of the case [s]."""
         return self.case.duration
 
-    def _apply_due(self) -> None:
-        t, h = self.t, self.ts
-        while self._pending and self._pending[0].t <= t + 0.5 * h:
-            self._apply(self._pending.pop(0))
+    @property
+    def sensor_ok(self) -> bool:
+        """False while a sensor event flags the measurement invalid."""
+        return self.side.sensor_ok
 
-    def _apply(self, ev: Event) -> None:
+    def _apply_due(self) -> None:
+        for ev in self.side.due(self.t):
+            if not self.side.apply(ev):
+                self._publish(ev)
+
+    def _publish(self, ev: Event) -> None:
+        """A controller-side event: published for the runtime to read."""
         f, k = ev.fields, ev.kind
-        if k == "setpoint":
-            self._sp.step_to(f["value"], f.get("ramp"))
-        elif k == "load":
-            at = f.get("at", "input")
-            if at == "input":
-                self.actuator.load = f["value"]
-            elif at == "output":
-                self.plant.load = f["value"]
-            else:
-                log.warning("load at %r is not served (single loop); ignored", at)
-        elif k == "mode":
+        if k == "mode":
             self.mode = 1.0 if f["mode"] == "manual" else 0.0
             if "manual_value" in f:
                 self.manual_value = f["manual_value"]
@@ -194,16 +144,6 @@ class PlantProcess:
             self.manual_value = f["value"]
         elif k == "limits":
             self.u_min, self.u_max = f["u_min"], f["u_max"]
-        elif k == "plant":
-            if hasattr(self.model, "set_parameter"):
-                self.model.set_parameter(f["param"], f["value"])
-            else:
-                setattr(self.model, f["param"], f["value"])
-        elif k == "sensor":
-            if "ok" in f:
-                self.sensor_ok = f["ok"]
-            if "nan" in f:
-                self.plant.fault = math.nan if f["nan"] else None
 
     # -- signals and the step ---------------------------------------------------------
 
@@ -215,7 +155,7 @@ class PlantProcess:
     @property
     def sp(self) -> float:
         """The setpoint of the current sample."""
-        return float(self._sp.value)
+        return float(self.side.setpoint.value)
 
     def values(self) -> dict[str, float]:
         """Every served variable of the current sample."""
@@ -235,7 +175,7 @@ class PlantProcess:
         self.mv = u
         self.plant.step(u)
         self.k += 1
-        self._sp.advance(self.ts)
+        self.side.setpoint.advance(self.ts)
         self._apply_due()
 
 

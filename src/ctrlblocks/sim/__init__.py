@@ -4,6 +4,9 @@ The main entry points:
 
 * :func:`load_scenario` reads a scenario file (TOML) and checks it;
 * :func:`simulate` runs one controller in one case and returns its trace;
+* :class:`ProcessSide` is a scenario's plant (in its actuator and sensor
+  wrappers) with the setpoint profile and the process events, without the
+  controllers (the runtime's plant server serves it);
 * :func:`run_scenario` runs all controllers in all cases, computes the
   metrics (per run and per event window) and checks the source's claims;
 * :func:`write_result` writes traces, ``metrics.json`` and plots;
@@ -15,6 +18,7 @@ See ``docs/simulator.md`` for the scenario format.
 
 from .loop import Run, simulate
 from .metrics import METRIC_NAMES, compute_metrics
+from .process import ProcessSide, SetpointProfile
 from .report import load_shipped, shipped_scenarios
 from .results import write_result
 from .runner import ClaimResult, ScenarioResult, metric_table, run_scenario
@@ -23,10 +27,12 @@ from .scenario import Scenario, ScenarioError, load_scenario, parse_scenario
 __all__ = [
     "METRIC_NAMES",
     "ClaimResult",
+    "ProcessSide",
     "Run",
     "Scenario",
     "ScenarioError",
     "ScenarioResult",
+    "SetpointProfile",
     "compute_metrics",
     "load_scenario",
     "load_shipped",

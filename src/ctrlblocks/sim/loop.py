@@ -70,7 +70,7 @@ from typing import Any
 
 import numpy as np
 
-from ..plants import Actuator, Noise, Sensor
+from .process import ProcessSide
 from .scenario import BlockSpec, Case, ControllerSpec, Event, Scenario, build
 
 __all__ = ["Run", "simulate"]
@@ -171,43 +171,6 @@ def _set_attr(block: Any, attr: str, value: Any) -> None:
         setattr(block, attr, value)
 
 
-def _set_plant_param(plant: Any, name: str, value: float) -> None:
-    if hasattr(plant, "set_parameter"):
-        plant.set_parameter(name, value)
-    elif hasattr(plant, "configure"):
-        plant.configure(**{name: value})
-    else:
-        setattr(plant, name, value)
-
-
-# ---------------------------------------------------------------------------
-# The time line
-# ---------------------------------------------------------------------------
-
-
-class _Setpoint:
-    """Setpoint profile: steps, and ramps at a given rate towards a target."""
-
-    def __init__(self, value: float) -> None:
-        self.value = self.target = value
-        self.rate = math.inf
-
-    def step_to(self, value: float, ramp: float | None) -> None:
-        self.target = value
-        if ramp is None:
-            self.value, self.rate = value, math.inf
-        else:
-            self.rate = ramp
-
-    def advance(self, h: float) -> float:
-        """Move towards the target by at most ``rate * h``; return the value."""
-        d = self.target - self.value
-        if d != 0.0:
-            lim = self.rate * h
-            self.value = self.target if abs(d) <= lim else self.value + math.copysign(lim, d)
-        return self.value
-
-
 # ---------------------------------------------------------------------------
 # Simulation
 # ---------------------------------------------------------------------------
@@ -265,78 +228,27 @@ class _Simulation:
             for role, b in self.blocks.items()
             if role != "feedforward" and self.structure != "open_loop"
         }
-        self.plant: Any = None  # the measured chain: Sensor(Actuator(model)) or Sensor(model)
-        self.inner: Any = None  # cascade/override: Actuator(inner model)
-        self.model_plant: Any = None  # the bare process model (for parameter switches)
-        if sc.plant is not None:
-            self._make_process()
+        events = [e for e in case.events if e.t < t_end - 0.5 * h or e.t == 0.0]
+        self.events = tuple(events)
+        # the process side: Sensor(Actuator(model)) or Sensor(model) behind Actuator(inner model)
+        self.proc = proc = ProcessSide(sc, events)
+        self.plant, self.inner, self.actuator = proc.plant, proc.inner, proc.actuator
+        self.sp = proc.setpoint
+        self.u0 = proc.u0
         if self.structure == "smith":
             model: BlockSpec = ctrl.blocks["model"]
             self.model = mk(model, "plant")
             fast = dataclasses.replace(model, params={**model.params, "dead_time": 0.0})
             self.model_fast = mk(fast, "plant")
-        self.sensor_ok = True
-        ini = sc.initial
-        self.inner_load = 0.0
-        self.u0 = ini["u"]
-        if self.plant is not None:
-            self.actuator.load = ini["load"]
-            if not math.isnan(ini["y"]):
-                self.u0 = self._u_for_y(ini["y"])
-        self._reset_plants()
-        sp0 = ini["sp"]
-        if math.isnan(sp0):
-            sp0 = self.plant.y_true if self.plant is not None else 0.0
-        self.sp = _Setpoint(sp0)
+            self.model.reset(self.u0)
+            self.model_fast.reset(self.u0)
         self.rec: dict[str, list[float]] = {}
-
-    def _make_process(self) -> None:
-        """Wrap the models in the plants' Actuator and Sensor (``[actuator]``, ``[sensor]``)."""
-        sc = self.sc
-        act, sen = dict(sc.actuator), dict(sc.sensor)
-        noise = None
-        if sen.get("noise", 0.0) > 0.0:
-            noise = Noise(
-                sen["noise"],
-                kind=sen.get("noise_kind", "uniform"),
-                t_corr=sen.get("noise_t_corr", 0.0),
-                ts=self.ts,
-                seed=sc.seed,
-            )
-        self.model_plant = self._make(sc.plant, "plant")
-        sensor_args = {"noise": noise, "y_min": sen["y_min"], "y_max": sen["y_max"]}
-        if sc.inner_plant is not None:
-            self.inner_model = self._make(sc.inner_plant, "plant")
-            self.inner = Actuator(self.inner_model, **act)
-            self.actuator = self.inner
-            self.plant = Sensor(self.model_plant, **sensor_args)
-        else:
-            self.plant = Sensor(Actuator(self.model_plant, **act), **sensor_args)
-            self.actuator = self.plant.find(Actuator)
-
-    def _u_for_y(self, y0: float) -> float:
-        """The MV whose steady state gives the output ``y0`` (``initial.y``)."""
-        chain = [self.model_plant] if self.inner is None else [self.inner_model, self.model_plant]
-        gain = 1.0
-        if len(chain) == 1 and hasattr(chain[0], "u_for_y"):
-            return float(chain[0].u_for_y(y0)) - self.actuator.load
-        for m in chain:
-            gain *= float(getattr(m, "dc_gain", math.nan))
-        if not math.isfinite(gain) or gain == 0.0:
-            raise ValueError(
-                f"{self.sc.file}: initial.y needs a plant with a finite, non-zero static gain"
-            )
-        return y0 / gain - self.actuator.load
 
     def _make(self, spec: BlockSpec, kind: str) -> Any:
         return build(spec, self.ts, kind=kind, file=self.sc.file)
 
     def _reset_plants(self) -> None:
-        if self.inner is not None:
-            self.inner.reset(self.u0)
-            self.plant.reset(self.inner.y + self.inner_load)
-        elif self.plant is not None:
-            self.plant.reset(self.u0)
+        self.proc.reset()
         if self.structure == "smith":
             self.model.reset(self.u0)
             self.model_fast.reset(self.u0)
@@ -352,7 +264,7 @@ class _Simulation:
                 else ("blocks[0]" if self.structure == "override" else "main")
             )
         if name in ("plant", "inner_plant"):
-            return self.model_plant if name == "plant" else self.inner_model
+            return self.proc.model if name == "plant" else self.proc.inner_model
         if name not in self.blocks:
             raise ValueError(
                 f"{self.sc.file}: event at t={ev.t:g}: unknown target {name!r}; "
@@ -361,19 +273,10 @@ class _Simulation:
         return self.blocks[name]
 
     def _apply(self, ev: Event) -> None:
+        """A controller-side event (the process side applies the others)."""
         f = ev.fields
         k = ev.kind
-        if k == "setpoint":
-            self.sp.step_to(f["value"], f.get("ramp"))
-        elif k == "load":
-            at = f.get("at", "input")
-            if at == "input":
-                self.actuator.load = f["value"]
-            elif at == "output":
-                self.plant.load = f["value"]
-            else:
-                self.inner_load = f["value"]
-        elif k == "mode":
+        if k == "mode":
             on = f["mode"] == "manual"
             targets = self._mode_targets(ev)
             for b in targets:
@@ -384,15 +287,6 @@ class _Simulation:
         elif k == "limits":  # the MV limits: same default targets as a mode switch
             for b in self._mode_targets(ev):
                 b.set_limits(f["u_min"], f["u_max"])
-        elif k == "plant":
-            name = f.get("target", "plant")
-            plant = self.inner_model if name == "inner_plant" else self.model_plant
-            _set_plant_param(plant, f["param"], f["value"])
-        elif k == "sensor":
-            if "ok" in f:
-                self.sensor_ok = f["ok"]
-            if "nan" in f:
-                self.plant.fault = math.nan if f["nan"] else None
         elif k == "set":
             _set_attr(self._target(ev), f["attr"], f["value"])
 
@@ -421,7 +315,7 @@ class _Simulation:
             return
         y = self.plant.y_true
         ym = self.plant.y if record else y  # warm-up: no noise, no sensor effects
-        ok = self.sensor_ok and math.isfinite(ym)
+        ok = self.proc.sensor_ok and math.isfinite(ym)
         extra: dict[str, float] = {}
         load_in = self.actuator.load
         if s in ("single", "feedforward", "smith"):
@@ -453,7 +347,7 @@ class _Simulation:
                 prim.awin = bool(getattr(sec, "awout", False))
             p.update(v1)
             self.inner.step(u)
-            self.plant.step(y2 + self.inner_load)
+            self.plant.step(y2 + self.proc.inner_load)
             extra.update(y2=y2, sp2=v1)
         elif s == "override":
             y2 = self.inner.y
@@ -468,7 +362,7 @@ class _Simulation:
             for i in range(len(vs)):
                 self.ctrls[f"blocks[{i}]"].update(u)
             self.inner.step(u)
-            self.plant.step(y2 + self.inner_load)
+            self.plant.step(y2 + self.proc.inner_load)
             extra["y2"] = y2
             for i, vi in enumerate(vs):
                 extra[f"v{i + 1}"] = vi
@@ -509,15 +403,15 @@ class _Simulation:
             self.sc.initial["warmup"] > 0 or self.sc.initial["mode"] == "manual"
         ):
             self._warmup()
-        events = [e for e in self.case.events if e.t < self.t_end - 0.5 * self.ts or e.t == 0.0]
-        pending = list(events)
         h = self.ts
+        proc = self.proc
         for k in range(self.n):
             t = k * h
             if k > 0:
                 self.sp.advance(h)
-            while pending and pending[0].t <= t + 0.5 * h:
-                self._apply(pending.pop(0))
+            for ev in proc.due(t):
+                if not proc.apply(ev):
+                    self._apply(ev)
             self._sample(k, record=True)
             self._record(t=t)
         signals = {name: np.asarray(v, dtype=float) for name, v in self.rec.items()}
@@ -527,7 +421,7 @@ class _Simulation:
             case=self.case.name,
             ts=h,
             signals=signals,
-            events=tuple(events),
+            events=self.events,
             duration=self.n * h,
         )
 
