@@ -33,15 +33,20 @@ import dataclasses
 import math
 import os
 import re
-import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10 only
-    import tomli as tomllib
+from ..sim.scenario import (
+    NAME_RE,
+    BlockSpec,
+    KeyPathError,
+    ScenarioError,
+    TableReader,
+    build,
+    read_toml,
+    type_name,
+)
 
 __all__ = [
     "PROTOCOLS",
@@ -64,20 +69,13 @@ MODES = ("auto", "manual")
 SECURITY_MODES = ("none", "Basic256Sha256_SignAndEncrypt")
 """OPC UA security settings of a connection."""
 
-_NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
 
-
-class RuntimeConfigError(ValueError):
+class RuntimeConfigError(KeyPathError):
     """A runtime configuration file is malformed.
 
     ``file``, ``key`` (key path, e.g. ``loops[0].pv``) and ``problem`` are
     attributes; the message reads ``FILE: KEY: PROBLEM``.
     """
-
-    def __init__(self, file: str, key: str, problem: str, line: int | None = None) -> None:
-        self.file, self.key, self.problem, self.line = file, key, problem, line
-        where = file + (f", line {line}" if line else "")
-        super().__init__(f"{where}: {key}: {problem}" if key else f"{where}: {problem}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -193,22 +191,12 @@ def load_config(path: str | Path) -> RuntimeConfig:
 
 def parse_config(text: str, *, file: str = "<string>", base: Path | None = None) -> RuntimeConfig:
     """Parse runtime configuration TOML ``text``; relative paths are resolved against ``base``."""
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
-        problem = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
-        raise RuntimeConfigError(
-            file, "", f"TOML syntax error: {problem}", int(m.group(1)) if m else None
-        ) from None
+    doc = read_toml(text, file, RuntimeConfigError)
     return _Parser(file, base or Path.cwd()).config(doc)
 
 
 def build_block(lc: LoopConfig, file: str = "<config>") -> Any:
     """Make the block of loop ``lc`` (errors name the key path)."""
-    from ..sim.scenario import BlockSpec, ScenarioError, build
-
     spec = BlockSpec(lc.block_type, dict(lc.block_params), f"{lc.key}.block")
     try:
         return build(spec, lc.ts, kind="block", file=file)
@@ -219,46 +207,20 @@ def build_block(lc: LoopConfig, file: str = "<config>") -> Any:
 # ---------------------------------------------------------------------------
 
 
-def _tname(v: Any) -> str:
-    return {
-        dict: "a table",
-        list: "an array",
-        str: "a string",
-        bool: "a boolean",
-        int: "an integer",
-        float: "a number",
-    }.get(type(v), type(v).__name__)
+class _Parser(TableReader):
+    error = RuntimeConfigError
 
-
-class _Parser:
     def __init__(self, file: str, base: Path) -> None:
-        self.file = file
+        super().__init__(file)
         self.base = base
-
-    def fail(self, key: str, problem: str) -> RuntimeConfigError:
-        return RuntimeConfigError(self.file, key, problem)
-
-    def keys(self, d: Mapping[str, Any], allowed: set[str], key: str) -> None:
-        unknown = sorted(set(d) - allowed)
-        if unknown:
-            where = f"{key}.{unknown[0]}" if key else unknown[0]
-            raise self.fail(where, f"unknown key; expected one of: {', '.join(sorted(allowed))}")
 
     def number(
         self, d: Mapping[str, Any], name: str, key: str, default: Any = ..., *, positive=False
     ) -> Any:
-        if name not in d:
-            if default is ...:
-                raise self.fail(key, "missing (a number is required)")
-            return default
-        v = d[name]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(key, f"must be a number, got {_tname(v)} {v!r}")
-        x = float(v)
-        if math.isnan(x):
-            raise self.fail(key, "must not be NaN")
-        if positive and not (math.isfinite(x) and x > 0):
-            raise self.fail(key, f"must be a finite number > 0, got {v!r}")
+        """A number that is never NaN; ``positive``: finite and > 0."""
+        x = super().number(d, name, key, default=default, allow_nan=False)
+        if positive and name in d and not (math.isfinite(x) and x > 0):
+            raise self.fail(key, f"must be a finite number > 0, got {d[name]!r}")
         return x
 
     def integer(self, d: Mapping[str, Any], name: str, key: str, default: int, lo: int = 0) -> int:
@@ -267,24 +229,14 @@ class _Parser:
             raise self.fail(key, f"must be an integer >= {lo}, got {v!r}")
         return v
 
-    def string(self, d: Mapping[str, Any], name: str, key: str, default: Any = ...) -> Any:
-        if name not in d:
-            if default is ...:
-                raise self.fail(key, "missing (a string is required)")
-            return default
-        v = d[name]
-        if not isinstance(v, str):
-            raise self.fail(key, f"must be a string, got {_tname(v)} {v!r}")
-        return v
-
     def choice(self, d: Mapping[str, Any], name: str, key: str, choices, default: Any = ...) -> str:
-        v = self.string(d, name, key, default)
+        v = self.string(d, name, key, default=default)
         if v not in choices:
             raise self.fail(key, f"must be one of {', '.join(choices)}; got {v!r}")
         return v
 
     def path(self, d: Mapping[str, Any], name: str, key: str) -> str | None:
-        v = self.string(d, name, key, None)
+        v = self.string(d, name, key, default=None)
         if v is None:
             return None
         p = Path(v)
@@ -293,12 +245,12 @@ class _Parser:
     # -- sections -------------------------------------------------------------
 
     def config(self, doc: dict[str, Any]) -> RuntimeConfig:
-        self.keys(doc, {"runtime", "connections", "loops", "historian"}, "")
+        self.check_keys(doc, {"runtime", "connections", "loops", "historian"}, "")
         head = doc.get("runtime", {})
         if not isinstance(head, dict):
-            raise self.fail("runtime", f"must be a table, got {_tname(head)}")
-        self.keys(head, {"name"}, "runtime")
-        name = self.string(head, "name", "runtime.name", "ctrlblocks")
+            raise self.fail("runtime", f"must be a table, got {type_name(head)}")
+        self.check_keys(head, {"name"}, "runtime")
+        name = self.string(head, "name", "runtime.name", default="ctrlblocks")
         conns_raw = doc.get("connections", {})
         if not isinstance(conns_raw, dict):
             raise self.fail("connections", "must be a table of [connections.NAME] tables")
@@ -328,10 +280,10 @@ class _Parser:
 
     def connection(self, name: str, c: Any) -> ConnectionConfig:
         key = f"connections.{name}"
-        if not _NAME_RE.match(name):
+        if not NAME_RE.match(name):
             raise self.fail(key, "connection names are letters, digits, _ . - only")
         if not isinstance(c, dict):
-            raise self.fail(key, f"must be a table, got {_tname(c)}")
+            raise self.fail(key, f"must be a table, got {type_name(c)}")
         protocol = self.choice(c, "protocol", f"{key}.protocol", PROTOCOLS)
         common = {"protocol", "timeout", "reconnect_min", "reconnect_max"}
         per = {
@@ -350,7 +302,7 @@ class _Parser:
             "modbus": {"host", "port", "unit", "word_order"},
             "memory": set(),
         }[protocol]
-        self.keys(c, common | per, key)
+        self.check_keys(c, common | per, key)
         kw: dict[str, Any] = {"name": name, "protocol": protocol}
         kw["timeout"] = self.number(c, "timeout", f"{key}.timeout", 0.5, positive=True)
         kw["reconnect_min"] = self.number(
@@ -377,9 +329,9 @@ class _Parser:
                             f"missing: security {kw['security']!r} needs the client certificate, "
                             "its private key and the trusted server certificate",
                         )
-            kw["user"] = self.string(c, "user", f"{key}.user", None)
-            pw = self.string(c, "password", f"{key}.password", None)
-            env = self.string(c, "password_env", f"{key}.password_env", None)
+            kw["user"] = self.string(c, "user", f"{key}.user", default=None)
+            pw = self.string(c, "password", f"{key}.password", default=None)
+            env = self.string(c, "password_env", f"{key}.password_env", default=None)
             if pw is not None and env is not None:
                 raise self.fail(f"{key}.password_env", "give password or password_env, not both")
             if env is not None:
@@ -390,13 +342,13 @@ class _Parser:
                 raise self.fail(f"{key}.user", "missing: a password needs a user")
             kw["password"] = pw
             kw["application_uri"] = self.string(
-                c, "application_uri", f"{key}.application_uri", "urn:ctrlblocks:runtime"
+                c, "application_uri", f"{key}.application_uri", default="urn:ctrlblocks:runtime"
             )
             kw["stale_after"] = self.number(c, "stale_after", f"{key}.stale_after", 0.0)
             if kw["stale_after"] < 0:
                 raise self.fail(f"{key}.stale_after", "must be >= 0 (0 = off)")
         elif protocol == "modbus":
-            kw["host"] = self.string(c, "host", f"{key}.host", "127.0.0.1")
+            kw["host"] = self.string(c, "host", f"{key}.host", default="127.0.0.1")
             kw["port"] = self.integer(c, "port", f"{key}.port", 502, 1)
             if kw["port"] > 65535:
                 raise self.fail(f"{key}.port", "must be <= 65535")
@@ -427,11 +379,11 @@ class _Parser:
                 raise self.fail(key, "must not be NaN")
             return Binding(value=float(raw))
         what = "a mode name or an I/O address" if mode else 'a number or "CONNECTION:ADDRESS"'
-        raise self.fail(key, f"must be {what}, got {_tname(raw)} {raw!r}")
+        raise self.fail(key, f"must be {what}, got {type_name(raw)} {raw!r}")
 
     def loop(self, raw: Any, key: str, conns: Mapping[str, ConnectionConfig]) -> LoopConfig:
         if not isinstance(raw, dict):
-            raise self.fail(key, f"must be a table, got {_tname(raw)}")
+            raise self.fail(key, f"must be a table, got {type_name(raw)}")
         allowed = {
             "name",
             "ts",
@@ -450,9 +402,9 @@ class _Parser:
             "alarm_limit",
             "write_retries",
         }
-        self.keys(raw, allowed, key)
+        self.check_keys(raw, allowed, key)
         name = self.string(raw, "name", f"{key}.name")
-        if not _NAME_RE.match(name):
+        if not NAME_RE.match(name):
             raise self.fail(f"{key}.name", "loop names are letters, digits, _ . - only")
         ts = self.number(raw, "ts", f"{key}.ts", positive=True)
         block = raw.get("block")
@@ -543,8 +495,8 @@ class _Parser:
 
     def historian(self, h: Any) -> HistorianConfig:
         if not isinstance(h, dict):
-            raise self.fail("historian", f"must be a table, got {_tname(h)}")
-        self.keys(
+            raise self.fail("historian", f"must be a table, got {type_name(h)}")
+        self.check_keys(
             h,
             {"backend", "path", "dsn", "dsn_env", "flush_interval", "batch", "retention_days"},
             "historian",
@@ -555,8 +507,8 @@ class _Parser:
         path = self.path(h, "path", "historian.path") or str(
             self.base / "ctrlblocks-history.sqlite"
         )
-        dsn = self.string(h, "dsn", "historian.dsn", "")
-        env = self.string(h, "dsn_env", "historian.dsn_env", None)
+        dsn = self.string(h, "dsn", "historian.dsn", default="")
+        env = self.string(h, "dsn_env", "historian.dsn_env", default=None)
         if env is not None:
             dsn = os.environ.get(env, "")
             if not dsn:

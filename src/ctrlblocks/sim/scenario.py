@@ -35,16 +35,21 @@ from ..blocks.base import ParameterError
 
 __all__ = [
     "EVENT_KINDS",
+    "NAME_RE",
     "STRUCTURES",
     "BlockSpec",
     "Case",
     "Claim",
     "ControllerSpec",
     "Event",
+    "KeyPathError",
     "Scenario",
     "ScenarioError",
+    "TableReader",
     "load_scenario",
     "parse_scenario",
+    "read_toml",
+    "type_name",
 ]
 
 STRUCTURES: dict[str, tuple[str, ...]] = {
@@ -86,10 +91,26 @@ _LOAD_POINTS = ("input", "output", "inner")
 SIGNAL_STATS = ("max", "min", "final", "mean")
 """Statistics of a trace signal that a claim with ``signal = "..."`` can check."""
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
-_NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
+NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
+"""Names (of scenarios, runtime loops and connections): letters, digits, ``_ . -``."""
 
 
-class ScenarioError(ValueError):
+class KeyPathError(ValueError):
+    """A TOML file (scenario, runtime configuration) is malformed.
+
+    ``file``, ``key`` (key path, e.g. ``loops[0].pv``), ``problem`` and
+    ``line`` (or None) are attributes; the message reads
+    ``FILE[, line N]: KEY: PROBLEM``.
+    """
+
+    def __init__(self, file: str, key: str, problem: str, line: int | None = None) -> None:
+        self.file, self.key, self.problem, self.line = file, key, problem, line
+        where = file + (f", line {line}" if line else "")
+        msg = f"{where}: {key}: {problem}" if key else f"{where}: {problem}"
+        super().__init__(msg)
+
+
+class ScenarioError(KeyPathError):
     """A scenario file is malformed.
 
     Attributes
@@ -104,12 +125,6 @@ class ScenarioError(ValueError):
     line : int or None
         Line number when the TOML parser reports one.
     """
-
-    def __init__(self, file: str, key: str, problem: str, line: int | None = None) -> None:
-        self.file, self.key, self.problem, self.line = file, key, problem, line
-        where = file + (f", line {line}" if line else "")
-        msg = f"{where}: {key}: {problem}" if key else f"{where}: {problem}"
-        super().__init__(msg)
 
 
 # ---------------------------------------------------------------------------
@@ -219,69 +234,95 @@ def load_scenario(path: str | Path) -> Scenario:
 
 def parse_scenario(text: str, *, file: str = "<string>") -> Scenario:
     """Parse scenario TOML ``text``; ``file`` names it in error messages."""
+    return _Parser(file).scenario(read_toml(text, file, ScenarioError))
+
+
+def read_toml(text: str, file: str, error: type[KeyPathError] = ScenarioError) -> dict[str, Any]:
+    """Parse TOML ``text``; a syntax error raises ``error`` with the line of ``file``."""
     try:
-        doc = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         msg = str(exc)
         m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
         line = int(m.group(1)) if m else None
         problem = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
-        raise ScenarioError(file, "", f"TOML syntax error: {problem}", line) from None
-    return _Parser(file).scenario(doc)
+        raise error(file, "", f"TOML syntax error: {problem}", line) from None
 
 
-class _Parser:
+class TableReader:
+    """Typed getters over TOML tables that report errors as ``error(file, key path, problem)``.
+
+    The scenario parser and the runtime's configuration parser read their
+    files with it.
+    """
+
+    error: type[KeyPathError] = ScenarioError
+
     def __init__(self, file: str) -> None:
         self.file = file
 
-    def fail(self, key: str, problem: str) -> ScenarioError:
-        return ScenarioError(self.file, key, problem)
-
-    # -- typed getters ---------------------------------------------------------
+    def fail(self, key: str, problem: str) -> KeyPathError:
+        """The error to raise for ``key`` (the caller raises it)."""
+        return self.error(self.file, key, problem)
 
     def table(self, doc: Mapping[str, Any], name: str, key: str, required: bool) -> dict:
+        """``doc[name]`` as a table (``{}`` when absent and not required)."""
         if name not in doc:
             if required:
                 raise self.fail(key, "missing table")
             return {}
         v = doc[name]
         if not isinstance(v, dict):
-            raise self.fail(key, f"must be a table, got {_tname(v)}")
+            raise self.fail(key, f"must be a table, got {type_name(v)}")
         return v
 
     def number(
-        self, d: Mapping[str, Any], name: str, key: str, *, default: Any = ..., positive=False
-    ) -> float:
+        self,
+        d: Mapping[str, Any],
+        name: str,
+        key: str,
+        *,
+        default: Any = ...,
+        positive: bool = False,
+        allow_nan: bool = True,
+    ) -> Any:
+        """``d[name]`` as a float (``default`` when absent; no default: required)."""
         if name not in d:
             if default is ...:
                 raise self.fail(key, "missing (a number is required)")
             return default
         v = d[name]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(key, f"must be a number, got {_tname(v)} {v!r}")
+            raise self.fail(key, f"must be a number, got {type_name(v)} {v!r}")
         x = float(v)
+        if not allow_nan and math.isnan(x):
+            raise self.fail(key, "must not be NaN")
         if not math.isfinite(x) and positive:
             raise self.fail(key, f"must be finite, got {v!r}")
         if positive and x <= 0:
             raise self.fail(key, f"must be > 0, got {v!r}")
         return x
 
-    def string(self, d: Mapping[str, Any], name: str, key: str, *, default: Any = ...) -> str:
+    def string(self, d: Mapping[str, Any], name: str, key: str, *, default: Any = ...) -> Any:
+        """``d[name]`` as a string (``default`` when absent; no default: required)."""
         if name not in d:
             if default is ...:
                 raise self.fail(key, "missing (a string is required)")
             return default
         v = d[name]
         if not isinstance(v, str):
-            raise self.fail(key, f"must be a string, got {_tname(v)} {v!r}")
+            raise self.fail(key, f"must be a string, got {type_name(v)} {v!r}")
         return v
 
     def check_keys(self, d: Mapping[str, Any], allowed: set[str], key: str) -> None:
+        """Refuse the first key of ``d`` that is not ``allowed`` (naming the allowed ones)."""
         unknown = sorted(set(d) - allowed)
         if unknown:
             where = f"{key}.{unknown[0]}" if key else unknown[0]
             raise self.fail(where, f"unknown key; expected one of: {', '.join(sorted(allowed))}")
 
+
+class _Parser(TableReader):
     # -- sections ----------------------------------------------------------------
 
     def scenario(self, doc: dict[str, Any]) -> Scenario:
@@ -321,7 +362,7 @@ class _Parser:
             "scenario",
         )
         name = self.string(head, "name", "scenario.name")
-        if not _NAME_RE.match(name):
+        if not NAME_RE.match(name):
             raise self.fail("scenario.name", f"must be letters, digits, _ . - only; got {name!r}")
         title = self.string(head, "title", "scenario.title")
         structure = self.string(head, "structure", "scenario.structure", default="single")
@@ -475,7 +516,7 @@ class _Parser:
         tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
     ) -> BlockSpec:
         if not isinstance(d, dict):
-            raise self.fail(key, f"must be a table, got {_tname(d)}")
+            raise self.fail(key, f"must be a table, got {type_name(d)}")
         tname = self.string(d, "type", f"{key}.type")
         params = {k: v for k, v in d.items() if k not in ("type", "tune") and k not in extra_keys}
         extra = {k: d[k] for k in extra_keys if k in d}
@@ -511,7 +552,7 @@ class _Parser:
         for i, e in enumerate(entries):
             key = f"controllers[{i}]"
             if not isinstance(e, dict):
-                raise self.fail(key, f"must be a table, got {_tname(e)}")
+                raise self.fail(key, f"must be a table, got {type_name(e)}")
             name = self.string(e, "name", f"{key}.name")
             if name in names:
                 raise self.fail(f"{key}.name", f"duplicate controller name {name!r}")
@@ -634,7 +675,7 @@ class _Parser:
         from .. import tuning
 
         if not isinstance(d, dict):
-            raise self.fail(key, f"must be a table, got {_tname(d)}")
+            raise self.fail(key, f"must be a table, got {type_name(d)}")
         self.check_keys(d, {"rule", "du", "duration", "controller", "order", "settling_time"}, key)
         rule = self.string(d, "rule", f"{key}.rule")
         pid_rules = ("amigo", "simc", "zn", "lambda")
@@ -717,7 +758,7 @@ class _Parser:
         for i, c in enumerate(raw):
             key = f"cases[{i}]"
             if not isinstance(c, dict):
-                raise self.fail(key, f"must be a table, got {_tname(c)}")
+                raise self.fail(key, f"must be a table, got {type_name(c)}")
             self.check_keys(c, {"name", "duration", "events"}, key)
             name = self.string(c, "name", f"{key}.name")
             if name in names:
@@ -730,12 +771,12 @@ class _Parser:
 
     def events(self, raw: Any, key: str, duration: float) -> list[Event]:
         if not isinstance(raw, list):
-            raise self.fail(key, f"must be an array of tables ([[{key}]]), got {_tname(raw)}")
+            raise self.fail(key, f"must be an array of tables ([[{key}]]), got {type_name(raw)}")
         out = []
         for i, e in enumerate(raw):
             ekey = f"{key}[{i}]"
             if not isinstance(e, dict):
-                raise self.fail(ekey, f"must be a table, got {_tname(e)}")
+                raise self.fail(ekey, f"must be a table, got {type_name(e)}")
             t = self.number(e, "t", f"{ekey}.t")
             if not (0.0 <= t <= duration):
                 raise self.fail(
@@ -764,7 +805,7 @@ class _Parser:
                 )
                 if not ok:
                     want = " or ".join("number" if tp is float else tp.__name__ for tp in types)
-                    raise self.fail(f"{ekey}.{f}", f"must be a {want}, got {_tname(v)} {v!r}")
+                    raise self.fail(f"{ekey}.{f}", f"must be a {want}, got {type_name(v)} {v!r}")
                 fields[f] = float(v) if isinstance(v, int) and not isinstance(v, bool) else v
             if kind == "load" and fields.get("at", "input") not in _LOAD_POINTS:
                 raise self.fail(f"{ekey}.at", f"must be one of {', '.join(_LOAD_POINTS)}")
@@ -794,7 +835,7 @@ class _Parser:
         for i, c in enumerate(raw):
             key = f"claims[{i}]"
             if not isinstance(c, dict):
-                raise self.fail(key, f"must be a table, got {_tname(c)}")
+                raise self.fail(key, f"must be a table, got {type_name(c)}")
             self.check_keys(
                 c,
                 {
@@ -902,7 +943,8 @@ def _default_label(kind: str, f: Mapping[str, Any]) -> str:
     return f"{f.get('attr')} = {f.get('value')}"
 
 
-def _tname(v: Any) -> str:
+def type_name(v: Any) -> str:
+    """How an error message names the TOML type of ``v`` (``"a table"``, ``"a string"``, ...)."""
     return {
         dict: "a table",
         list: "an array",
