@@ -150,3 +150,35 @@ def test_postgresql_keeps_every_sample_across_a_restart():
     audit = [(r["who"], r["action"], r["ok"]) for r in h.audit_rows()]
     assert audit == [("runtime", "stop", 1)] * 4 + [("alice", "sp", 1)]  # 2 runs x 2 loops
     h.close()
+
+
+def test_samples_of_a_loop_in_a_time_window_ordered_by_wall_time(tmp_path):
+    h = SQLiteHistorian(tmp_path / "h.sqlite")
+    h.open()
+    # loop x at t_wall 100, 101, ..., 109; loop y at the same times; one row written out of order
+    for k in (3, 0, 1, 2, 4, 5, 6, 7, 8, 9):
+        h.record(Sample("x", k, 100.0 + k, 0.1 * k, 0.1, 1.0, 0.5, float(k), "auto", 0, 1, 1, 0))
+        h.record(Sample("y", k, 100.0 + k, 0.1 * k, 0.1, 2.0, math.nan, 0.0, "auto", 0, 0, 1, 0))
+    h.flush()
+    rows = h.samples("x", 102.0, 105.0)  # both bounds included
+    assert [r["cycle"] for r in rows] == [2, 3, 4, 5]
+    assert [r["mv"] for r in rows] == [2.0, 3.0, 4.0, 5.0] and {r["loop"] for r in rows} == {"x"}
+    assert [r["cycle"] for r in h.samples("x", start=108.0)] == [8, 9]
+    assert [r["cycle"] for r in h.samples("x", end=100.5)] == [0]
+    y = h.samples("y", 101.0, 101.0)
+    assert len(y) == 1 and math.isnan(y[0]["pv"])  # NULL back as NaN
+    assert len(h.samples(None, 100.0, 109.0)) == 20
+    assert h.samples("x", 200.0, 300.0) == []
+    h.close()
+
+
+def test_audit_rows_of_a_loop_and_the_newest_few(tmp_path):
+    h = SQLiteHistorian(tmp_path / "h.sqlite")
+    h.open()
+    for i in range(5):
+        h.audit("alice", "a" if i % 2 == 0 else "b", f"sp{i}", None, {"sp": i}, True)
+    assert [r["action"] for r in h.audit_rows()] == ["sp0", "sp1", "sp2", "sp3", "sp4"]
+    assert [r["action"] for r in h.audit_rows("a")] == ["sp0", "sp2", "sp4"]
+    assert [r["action"] for r in h.audit_rows(limit=2)] == ["sp3", "sp4"]  # oldest first
+    assert [r["action"] for r in h.audit_rows("b", limit=1)] == ["sp3"]
+    h.close()

@@ -431,3 +431,34 @@ def test_the_examples_of_docs_runtime_md_load(monkeypatch):
     cfg = parse_config(conns[0] + "\n" + loop)
     c = cfg.connections["plc"]
     assert (c.security, c.user, c.password) == ("Basic256Sha256_SignAndEncrypt", "runtime", "x")
+
+
+def test_event_loop_is_the_loop_the_runtime_started_on_and_audit_writes_a_row(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, _ = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus}, tmp_path, historian=True)
+    assert rt.event_loop is None  # not started
+
+    async def main():
+        await run(rt, clock, 0.25)
+        assert rt.event_loop is asyncio.get_running_loop()
+        rt.audit("alice", "login")
+        rt.audit("mallory", "sp", loop="loop", new={"sp": 9.0}, ok=False, message="refused")
+        await rt.stop()
+
+    asyncio.run(main())
+    h = SQLiteHistorian(tmp_path / "h.sqlite")
+    h._conn = h._connect()
+    rows = h.audit_rows()
+    got = [(r["who"], r["loop"], r["action"], r["new"], r["ok"], r["message"]) for r in rows[:2]]
+    assert got == [
+        ("alice", "", "login", "null", 1, ""),
+        ("mallory", "loop", "sp", '{"sp": 9.0}', 0, "refused"),
+    ]
+
+
+def test_audit_without_a_historian_does_nothing():
+    bus = MemoryBus()
+    rt, _, _ = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus})
+    rt.audit("alice", "login")  # no historian: no error
+    assert rt.historian is None

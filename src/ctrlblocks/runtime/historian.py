@@ -273,18 +273,49 @@ class Historian:
             self._conn.commit()
         return rows
 
-    def samples(self, loop: str | None = None) -> list[dict[str, Any]]:
-        """All samples (of one loop), ordered by run and cycle; NULL floats as NaN."""
-        where, params = ("WHERE loop = ?", (loop,)) if loop else ("", ())
+    def samples(
+        self, loop: str | None = None, start: float | None = None, end: float | None = None
+    ) -> list[dict[str, Any]]:
+        """The samples (of one loop), one dict per row; NULL floats as NaN.
+
+        Parameters
+        ----------
+        loop : str, optional
+            Only this loop (default all).
+        start, end : float, optional
+            Only the samples with ``start <= t_wall <= end`` (Unix time [s]).
+            Without a window the rows are ordered by run, loop and cycle; with
+            one (either bound given), by ``t_wall``, run and cycle.
+
+        Buffered samples are not included: :meth:`flush` first for the latest.
+        """
+        conds, params = [], []
+        if loop:
+            conds.append("loop = ?")
+            params.append(loop)
+        if start is not None:
+            conds.append("t_wall >= ?")
+            params.append(start)
+        if end is not None:
+            conds.append("t_wall <= ?")
+            params.append(end)
+        where = f"WHERE {' AND '.join(conds)} " if conds else ""
+        window = start is not None or end is not None
+        order = "t_wall, run_id, cycle" if window else "run_id, loop, cycle"
         rows = self.query(
-            f"SELECT {', '.join(SAMPLE_COLUMNS)} FROM samples {where} ORDER BY run_id, loop, cycle",
-            params,
+            f"SELECT {', '.join(SAMPLE_COLUMNS)} FROM samples {where}ORDER BY {order}", params
         )
         return [_as_dict(r) for r in rows]
 
-    def audit_rows(self) -> list[dict[str, Any]]:
-        """The audit trail, oldest first."""
-        rows = self.query(f"SELECT {', '.join(AUDIT_COLUMNS)} FROM audit ORDER BY id")
+    def audit_rows(self, loop: str | None = None, limit: int | None = None) -> list[dict[str, Any]]:
+        """The audit trail (of one loop), oldest first; ``limit``: only the newest ``limit``."""
+        where, params = ("WHERE loop = ? ", [loop]) if loop else ("", [])
+        if limit is None:
+            sql = f"SELECT {', '.join(AUDIT_COLUMNS)} FROM audit {where}ORDER BY id"
+            rows = self.query(sql, params)
+        else:
+            sql = f"SELECT {', '.join(AUDIT_COLUMNS)} FROM audit {where}ORDER BY id DESC LIMIT ?"
+            rows = self.query(sql, (*params, int(limit)))[::-1]
         return [dict(zip(AUDIT_COLUMNS, r, strict=True)) for r in rows]
 
 

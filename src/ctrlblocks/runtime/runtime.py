@@ -17,7 +17,10 @@ of the runtime):
 * :meth:`Runtime.command` -- mode, manual value, setpoint, limits, tunings,
   validated by the loop and the block (refused changes leave everything as it
   was), each one written to the historian's audit table with who sent it;
-* :meth:`Runtime.submit` -- the same from another thread.
+* :meth:`Runtime.submit` -- the same from another thread
+  (:attr:`Runtime.event_loop` tells which loop the runtime runs on);
+* :meth:`Runtime.audit` -- an audit row for what a front end does (logins,
+  logouts, refused attempts), next to the commands.
 
 Stop (:meth:`Runtime.request_stop`, SIGINT/SIGTERM in ``ctrlblocks serve``):
 the cycles end, every MV is written to its stop value (``stop_value``, else
@@ -92,6 +95,15 @@ class Runtime:
         self._loop: asyncio.AbstractEventLoop | None = None
         self.running = False
         self.stopped = asyncio.Event()
+
+    @property
+    def event_loop(self) -> asyncio.AbstractEventLoop | None:
+        """The asyncio event loop the runtime runs on (None before :meth:`start`).
+
+        :meth:`command` is called on this loop; from any other thread use
+        :meth:`submit`.
+        """
+        return self._loop
 
     async def _sleep(self, seconds: float) -> None:
         await self.clock.sleep_until(self.clock.now() + seconds)
@@ -285,6 +297,25 @@ class Runtime:
             return self.command(loop, user=user, **changes)
 
         return asyncio.run_coroutine_threadsafe(call(), self._loop)
+
+    def audit(
+        self,
+        who: str,
+        action: str,
+        *,
+        loop: str = "",
+        old: Any = None,
+        new: Any = None,
+        ok: bool = True,
+        message: str = "",
+    ) -> None:
+        """Write one row to the historian's audit table (nothing without a historian).
+
+        For what happens around the commands, e.g. a faceplate's logins
+        (``action="login"``, ``ok`` False for a wrong password), logouts and
+        refused attempts.  A failed write is logged, never raised.
+        """
+        self._audit(who, loop, action, old, new, ok, message)
 
     def _audit(self, *args: Any) -> None:
         if self.historian is None:

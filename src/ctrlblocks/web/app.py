@@ -167,7 +167,8 @@ def create_app(
     ----------
     runtime : ctrlblocks.runtime.Runtime
         The runtime whose loops are shown (its in-process API: ``loop_names``,
-        ``state``, ``states``, ``command``/``submit``, ``historian``, ``on_sample``).
+        ``state``, ``states``, ``command``/``submit``, ``event_loop``, ``audit``,
+        ``historian``, ``on_sample``).
     users : UserStore, optional
         The operators; default none (everybody is a viewer).
     start_runtime : bool
@@ -216,13 +217,7 @@ def create_app(
         return sessions.get(request.cookies.get(COOKIE))
 
     def audit(who: str, loop: str, action: str, new: Any, ok: bool, message: str) -> None:
-        h = getattr(runtime, "historian", None)
-        if h is None:
-            return
-        try:
-            h.audit(who, loop, action, None, new, ok, message)
-        except Exception:  # the audit must not break a request
-            log.exception("audit write failed")
+        runtime.audit(who, action, loop=loop, new=new, ok=ok, message=message)
 
     async def json_body(request: Request) -> dict[str, Any] | JSONResponse:
         ctype = request.headers.get("content-type", "")
@@ -238,7 +233,7 @@ def create_app(
         return body
 
     async def run_command(loop: str, user: str, changes: dict[str, Any]) -> dict[str, Any]:
-        rt_loop = getattr(runtime, "_loop", None)
+        rt_loop = runtime.event_loop
         if rt_loop is None or rt_loop is asyncio.get_running_loop():
             return runtime.command(loop, user=user, **changes)
         return await asyncio.wrap_future(runtime.submit(loop, user=user, **changes))
@@ -264,11 +259,8 @@ def create_app(
         if not (math.isfinite(start) and math.isfinite(end)) or start > end:
             return _error(400, "need finite start <= end (s since the epoch)", "start")
         await asyncio.to_thread(h.flush)  # include the samples still in the buffer
-        sql = (
-            f"SELECT {', '.join(HISTORY_COLUMNS)} FROM samples "
-            "WHERE loop = ? AND t_wall >= ? AND t_wall <= ? ORDER BY t_wall, run_id, cycle"
-        )
-        return await asyncio.to_thread(h.query, sql, (name, start, end))
+        samples = await asyncio.to_thread(h.samples, name, start, end)
+        return [tuple(s[c] for c in HISTORY_COLUMNS) for s in samples]
 
     # -- page ---------------------------------------------------------------------
 
@@ -331,8 +323,10 @@ def create_app(
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(HISTORY_COLUMNS)
-        for r in rows:
-            w.writerow(["" if v is None else v for v in r])
+        for r in rows:  # NULL (SQLite's NaN) as an empty field
+            w.writerow(
+                ["" if v is None or (isinstance(v, float) and math.isnan(v)) else v for v in r]
+            )
         fname = f"{name}-{int(rows[0][0]) if rows else 0}.csv"
         return Response(
             buf.getvalue(),
@@ -345,16 +339,9 @@ def create_app(
         h = historian_or_error()
         if isinstance(h, JSONResponse):
             return h
-        cols = ("id", "t_wall", "who", "loop", "action", "old", "new", "ok", "message")
-        where, params = ("WHERE loop = ? ", [loop]) if loop else ("", [])
-        rows = await asyncio.to_thread(
-            h.query,
-            f"SELECT {', '.join(cols)} FROM audit {where}ORDER BY id DESC LIMIT ?",
-            (*params, max(1, min(int(limit), 1000))),
-        )
+        rows = await asyncio.to_thread(h.audit_rows, loop, max(1, min(int(limit), 1000)))
         out = []
-        for r in rows:
-            d = dict(zip(cols, r, strict=True))
+        for d in reversed(rows):  # newest first
             for k in ("old", "new"):
                 with contextlib.suppress(TypeError, ValueError):
                     d[k] = json.loads(d[k]) if d[k] is not None else None
