@@ -116,21 +116,11 @@ class FOPDT:
 
     def response(self, t: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
         """Model output for the MV record ``u`` (held between samples) at times ``t``."""
-        t, u = np.asarray(t, float), np.asarray(u, float)
-        x = _superpose(t, u, self.dead_time, _fopdt_step(self.time_constant))
-        return self.y0 + self.gain * (u[0] - self.u0 + x)
+        return _lag_response(self, t, u, _fopdt_step(self.time_constant))
 
     def as_dict(self) -> dict[str, object]:
         """The keys of ``ctrlblocks identify --json``."""
-        return {
-            "model": "fopdt",
-            "gain": self.gain,
-            "time_constant": self.time_constant,
-            "dead_time": self.dead_time,
-            "fit": self.fit,
-            "method": self.method,
-            "warnings": list(self.warnings),
-        }
+        return _model_dict(self, "fopdt", ("gain", "time_constant", "dead_time"))
 
 
 @dataclass(frozen=True)
@@ -153,22 +143,11 @@ class SOPDT:
 
     def response(self, t: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
         """Model output for the MV record ``u`` (held between samples) at times ``t``."""
-        t, u = np.asarray(t, float), np.asarray(u, float)
-        step = _sopdt_step(self.time_constant, self.time_constant_2)
-        return self.y0 + self.gain * (u[0] - self.u0 + _superpose(t, u, self.dead_time, step))
+        return _lag_response(self, t, u, _sopdt_step(self.time_constant, self.time_constant_2))
 
     def as_dict(self) -> dict[str, object]:
         """The keys of ``ctrlblocks identify --json``."""
-        return {
-            "model": "sopdt",
-            "gain": self.gain,
-            "time_constant": self.time_constant,
-            "time_constant_2": self.time_constant_2,
-            "dead_time": self.dead_time,
-            "fit": self.fit,
-            "method": self.method,
-            "warnings": list(self.warnings),
-        }
+        return _model_dict(self, "sopdt", ("gain", "time_constant", "time_constant_2", "dead_time"))
 
 
 @dataclass(frozen=True)
@@ -211,17 +190,28 @@ class Integrating:
 
     def as_dict(self) -> dict[str, object]:
         """The keys of ``ctrlblocks identify --json``."""
-        return {
-            "model": "integrating",
-            "gain": self.gain,
-            "dead_time": self.dead_time,
-            "fit": self.fit,
-            "method": self.method,
-            "warnings": list(self.warnings),
-        }
+        return _model_dict(self, "integrating", ("gain", "dead_time"))
 
 
 Model = FOPDT | SOPDT | Integrating
+
+
+def _lag_response(m: FOPDT | SOPDT, t: ArrayLike, u: ArrayLike, step) -> NDArray[np.float64]:
+    """Output of a self-regulating model ``m`` (unit step response ``step``) for the MV ``u``."""
+    t, u = np.asarray(t, float), np.asarray(u, float)
+    x = _superpose(t, u, m.dead_time, step)
+    return m.y0 + m.gain * (u[0] - m.u0 + x)
+
+
+def _model_dict(m: Model, kind: str, params: tuple[str, ...]) -> dict[str, object]:
+    """``{"model": kind, <params>, "fit", "method", "warnings"}`` of ``m`` (the JSON keys)."""
+    return {
+        "model": kind,
+        **{p: getattr(m, p) for p in params},
+        "fit": m.fit,
+        "method": m.method,
+        "warnings": list(m.warnings),
+    }
 
 
 # ---------------------------------------------------------------------------
