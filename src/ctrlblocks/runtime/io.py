@@ -201,24 +201,33 @@ class Connection:
         async with self._lock:  # one request at a time per connection
             return await fn(arg)
 
+    async def _request(self, kind: str, fn: Callable[[Any], Any], arg: Any) -> tuple[Any, str]:
+        """``fn(arg)`` under the lock and the timeout: ``(result, "")`` or ``(None, failure)``.
+
+        A timeout is counted (``MAX_TIMEOUTS`` in a row drop the connection);
+        any other exception is a connection fault (the connection is dropped
+        and reconnects in the background).
+        """
+        try:
+            res = await asyncio.wait_for(self._locked(fn, arg), self.config.timeout)
+        except asyncio.TimeoutError:
+            if self._timed_out(kind):
+                self._lost(f"{self.MAX_TIMEOUTS} {kind} timeouts in a row")
+            return None, f"{kind} timeout"
+        except Exception as exc:  # any protocol failure is a connection fault
+            self._lost(exc)
+            return None, f"{kind} failed: {exc}"
+        self._timeouts[kind] = 0
+        return res, ""
+
     async def read(self, addresses: Sequence[str]) -> list[Reading]:
         """Read ``addresses``; never raises (faults give bad readings)."""
         if not self.connected:
             return [bad(f"not connected ({self.last_error})")] * len(addresses)
-        try:
-            out = await asyncio.wait_for(
-                self._locked(self.adapter.read, addresses), self.config.timeout
-            )
-        except asyncio.TimeoutError:
+        out, failure = await self._request("read", self.adapter.read, addresses)
+        if failure:
             self.read_faults += 1
-            if self._timed_out("read"):
-                self._lost(f"{self.MAX_TIMEOUTS} read timeouts in a row")
-            return [bad("read timeout")] * len(addresses)
-        except Exception as exc:  # any protocol failure is a connection fault
-            self.read_faults += 1
-            self._lost(exc)
-            return [bad(f"read failed: {exc}")] * len(addresses)
-        self._timeouts["read"] = 0
+            return [bad(failure)] * len(addresses)
         return out
 
     async def write(self, items: Sequence[tuple[str, float]]) -> list[str | None]:
@@ -226,20 +235,10 @@ class Connection:
         if not self.connected:
             self.write_faults += 1
             return [f"not connected ({self.last_error})"] * len(items)
-        try:
-            res = await asyncio.wait_for(
-                self._locked(self.adapter.write, items), self.config.timeout
-            )
-        except asyncio.TimeoutError:
+        res, failure = await self._request("write", self.adapter.write, items)
+        if failure:
             self.write_faults += 1
-            if self._timed_out("write"):
-                self._lost(f"{self.MAX_TIMEOUTS} write timeouts in a row")
-            return ["write timeout"] * len(items)
-        except Exception as exc:
-            self.write_faults += 1
-            self._lost(exc)
-            return [f"write failed: {exc}"] * len(items)
-        self._timeouts["write"] = 0
+            return [failure] * len(items)
         if any(r is not None for r in res):
             self.write_faults += 1
         return res
