@@ -58,6 +58,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette.websockets import WebSocketDisconnect
 
 from ..blocks.base import ErrorCode
+from ..runtime.historian import SAMPLE_COLUMNS
 from .auth import SessionStore, UserStore
 from .live import LiveHub, json_safe
 
@@ -73,22 +74,9 @@ LOCKOUT_SECONDS = 60.0
 """After LOCKOUT_FAILURES failed logins of one user name within LOCKOUT_SECONDS, further
 logins of that name are refused (429) until the oldest failure is LOCKOUT_SECONDS old."""
 
-HISTORY_COLUMNS = (
-    "t_wall",
-    "run_id",
-    "cycle",
-    "t",
-    "dt",
-    "sp",
-    "pv",
-    "mv",
-    "mode",
-    "error_id",
-    "pv_ok",
-    "write_ok",
-    "overrun",
-)
-"""Columns of a history answer and of the CSV download (``t_wall``: s since the epoch)."""
+HISTORY_COLUMNS = ("t_wall", *(c for c in SAMPLE_COLUMNS if c not in ("loop", "t_wall")))
+"""Columns of a history answer and of the CSV download (``t_wall``: s since the epoch, then
+the historian's other sample columns but the loop)."""
 
 _SECURITY_HEADERS = {
     "Content-Security-Policy": (
