@@ -534,6 +534,23 @@ class _Parser(TableReader):
         build(spec, ts, kind=kind, file=self.file)
         return spec
 
+    def role(
+        self,
+        entry: dict[str, Any],
+        role: str,
+        key: str,
+        ts: float,
+        tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
+    ) -> BlockSpec:
+        """The block table ``[controllers.ROLE]`` of a controller entry (``main``, ...)."""
+        return self.block_spec(
+            self.table(entry, role, f"{key}.{role}", True),
+            f"{key}.{role}",
+            ts,
+            kind="block",
+            tune_plant=tune_plant,
+        )
+
     def controllers(
         self,
         doc: dict[str, Any],
@@ -558,13 +575,14 @@ class _Parser(TableReader):
                 raise self.fail(f"{key}.name", f"duplicate controller name {name!r}")
             names.add(name)
             options = {"color": e.get("color"), "style": e.get("style")}
+            tune_plant = (plant_spec, initial)
             if structure in ("single", "open_loop"):
                 spec = self.block_spec(
                     {k: v for k, v in e.items() if k not in ("name", "color", "style")},
                     key,
                     ts,
                     kind="block",
-                    tune_plant=(plant_spec, initial) if structure == "single" else None,
+                    tune_plant=tune_plant if structure == "single" else None,
                 )
                 blocks: dict[str, Any] = {"main": spec}
             elif structure == "cascade":
@@ -575,15 +593,7 @@ class _Parser(TableReader):
                 if not isinstance(hs, bool):
                     raise self.fail(f"{key}.aw_handshake", f"must be true or false, got {hs!r}")
                 options["aw_handshake"] = hs
-                blocks = {
-                    role: self.block_spec(
-                        self.table(e, role, f"{key}.{role}", True),
-                        f"{key}.{role}",
-                        ts,
-                        kind="block",
-                    )
-                    for role in ("primary", "secondary")
-                }
+                blocks = {r: self.role(e, r, key, ts) for r in ("primary", "secondary")}
             elif structure == "override":
                 self.check_keys(e, {"name", "color", "style", "selector", "blocks"}, key)
                 sel = self.string(e, "selector", f"{key}.selector", default="min")
@@ -610,19 +620,8 @@ class _Parser(TableReader):
             elif structure == "feedforward":
                 self.check_keys(e, {"name", "color", "style", "main", "feedforward"}, key)
                 blocks = {
-                    "main": self.block_spec(
-                        self.table(e, "main", f"{key}.main", True),
-                        f"{key}.main",
-                        ts,
-                        kind="block",
-                        tune_plant=(plant_spec, initial),
-                    ),
-                    "feedforward": self.block_spec(
-                        self.table(e, "feedforward", f"{key}.feedforward", True),
-                        f"{key}.feedforward",
-                        ts,
-                        kind="block",
-                    ),
+                    "main": self.role(e, "main", key, ts, tune_plant),
+                    "feedforward": self.role(e, "feedforward", key, ts),
                 }
                 main_block = build(blocks["main"], ts, kind="block", file=self.file)
                 fn = getattr(main_block, "compute_output", main_block)
@@ -642,16 +641,7 @@ class _Parser(TableReader):
                         f"{key}.model.dead_time",
                         "missing: the Smith predictor's model needs the dead time",
                     )
-                blocks = {
-                    "main": self.block_spec(
-                        self.table(e, "main", f"{key}.main", True),
-                        f"{key}.main",
-                        ts,
-                        kind="block",
-                        tune_plant=(plant_spec, initial),
-                    ),
-                    "model": model,
-                }
+                blocks = {"main": self.role(e, "main", key, ts, tune_plant), "model": model}
             out.append(ControllerSpec(name, blocks, options))
         return out
 
