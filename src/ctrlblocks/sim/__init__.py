@@ -4,6 +4,9 @@ The main entry points:
 
 * :func:`load_scenario` reads a scenario file (TOML) and checks it;
 * :func:`simulate` runs one controller in one case and returns its trace;
+* :class:`ControllerSide` is a controller entry's blocks wired for its
+  structure (single, cascade, override, feed-forward, Smith) in Åström's
+  computational order, without the plant (the runtime runs it against I/O);
 * :class:`ProcessSide` is a scenario's plant (in its actuator and sensor
   wrappers) with the setpoint profile and the process events, without the
   controllers (the runtime's plant server serves it);
@@ -16,6 +19,7 @@ The main entry points:
 See ``docs/simulator.md`` for the scenario format.
 """
 
+from .controller import ControllerSide
 from .loop import Run, simulate
 from .metrics import METRIC_NAMES, compute_metrics
 from .process import ProcessSide, SetpointProfile
@@ -27,6 +31,7 @@ from .scenario import Scenario, ScenarioError, load_scenario, parse_scenario
 __all__ = [
     "METRIC_NAMES",
     "ClaimResult",
+    "ControllerSide",
     "ProcessSide",
     "Run",
     "Scenario",

@@ -63,15 +63,15 @@ sample as ``block(sp, y)``.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import math
 from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
+from .controller import ControllerSide, set_manual
 from .process import ProcessSide
-from .scenario import BlockSpec, Case, ControllerSpec, Event, Scenario, build
+from .scenario import Case, ControllerSpec, Event, Scenario
 
 __all__ = ["Run", "simulate"]
 
@@ -96,66 +96,6 @@ class Run:
     signals: dict[str, np.ndarray]
     events: tuple[Event, ...]
     duration: float
-
-
-# ---------------------------------------------------------------------------
-# Adapters
-# ---------------------------------------------------------------------------
-
-
-class _Controller:
-    """Uniform two-phase access to a controller block."""
-
-    def __init__(self, block: Any) -> None:
-        self.block = block
-        self.two_phase = hasattr(block, "compute_output") and hasattr(block, "update_state")
-        fn = block.compute_output if self.two_phase else block
-        try:
-            params = inspect.signature(fn).parameters
-        except (TypeError, ValueError):  # pragma: no cover
-            params = {}
-        self.ok_name = next((n for n in ("y_ok", "pv_ok") if n in params), None)
-        self.takes_ff = "ff" in params
-
-    def output(self, sp: float, y: float, ok: bool, ff: float = 0.0) -> float:
-        kw: dict[str, Any] = {}
-        if self.ok_name is not None:
-            kw[self.ok_name] = ok
-        elif not ok:
-            y = math.nan  # a block without a quality flag sees an invalid value
-        if self.takes_ff:
-            kw["ff"] = ff
-        if self.two_phase:
-            return float(self.block.compute_output(sp, y, **kw))
-        return float(self.block(sp, y, **kw))
-
-    def update(self, applied: float, measured: float | None = None) -> None:
-        """UpdateState with the applied value.
-
-        ``measured`` is the actuator's real output of this sample (after load,
-        rate and range).  It is wired where the block is configured to use a
-        measured MV: the PID's ``actuator_pos`` input (BACK_CALC_REAL, seed
-        002) and the ADRC's ``u_real`` (``u_real_on``, seed 000 section 5).
-        """
-        if not self.two_phase:
-            return
-        b = self.block
-        if measured is not None:
-            if hasattr(b, "actuator_pos"):
-                b.actuator_pos = measured
-            if getattr(getattr(b, "config", None), "u_real_on", False):
-                applied = measured
-        b.update_state(applied)
-
-
-def _set_manual(block: Any, on: bool, value: float | None = None) -> None:
-    if value is not None:
-        if hasattr(block, "manual_value"):
-            block.manual_value = value
-        elif hasattr(block, "u_man"):
-            block.u_man = value
-    if hasattr(block, "manual"):
-        block.manual = on
 
 
 def _set_attr(block: Any, attr: str, value: Any) -> None:
@@ -213,21 +153,6 @@ class _Simulation:
         self.ts = h = sc.ts
         self.n = math.floor(t_end / h + 1e-9)
         self.structure = sc.structure
-        mk = self._make
-        self.blocks: dict[str, Any] = {}
-        if self.structure == "override":
-            for i, spec in enumerate(ctrl.blocks["blocks"]):
-                self.blocks[f"blocks[{i}]"] = mk(spec, "block")
-            self.override_specs = ctrl.blocks["blocks"]
-        else:
-            for role, spec in ctrl.blocks.items():
-                if role != "model":
-                    self.blocks[role] = mk(spec, "block")
-        self.ctrls = {
-            role: _Controller(b)
-            for role, b in self.blocks.items()
-            if role != "feedforward" and self.structure != "open_loop"
-        }
         events = [e for e in case.events if e.t < t_end - 0.5 * h or e.t == 0.0]
         self.events = tuple(events)
         # the process side: Sensor(Actuator(model)) or Sensor(model) behind Actuator(inner model)
@@ -235,23 +160,14 @@ class _Simulation:
         self.plant, self.inner, self.actuator = proc.plant, proc.inner, proc.actuator
         self.sp = proc.setpoint
         self.u0 = proc.u0
-        if self.structure == "smith":
-            model: BlockSpec = ctrl.blocks["model"]
-            self.model = mk(model, "plant")
-            fast = dataclasses.replace(model, params={**model.params, "dead_time": 0.0})
-            self.model_fast = mk(fast, "plant")
-            self.model.reset(self.u0)
-            self.model_fast.reset(self.u0)
+        # the controller side: the blocks wired for the structure (shared with the runtime)
+        self.side = ControllerSide(sc.structure, ctrl, h, u0=self.u0, file=sc.file)
+        self.blocks = self.side.blocks
         self.rec: dict[str, list[float]] = {}
-
-    def _make(self, spec: BlockSpec, kind: str) -> Any:
-        return build(spec, self.ts, kind=kind, file=self.sc.file)
 
     def _reset_plants(self) -> None:
         self.proc.reset()
-        if self.structure == "smith":
-            self.model.reset(self.u0)
-            self.model_fast.reset(self.u0)
+        self.side.reset_models()
 
     # -- events ------------------------------------------------------------------
 
@@ -280,10 +196,10 @@ class _Simulation:
             on = f["mode"] == "manual"
             targets = self._mode_targets(ev)
             for b in targets:
-                _set_manual(b, on, f.get("manual_value"))
+                set_manual(b, on, f.get("manual_value"))
         elif k == "manual_value":
             for b in self._mode_targets(ev):
-                _set_manual(b, bool(getattr(b, "manual", True)), f["value"])
+                set_manual(b, bool(getattr(b, "manual", True)), f["value"])
         elif k == "limits":  # the MV limits: same default targets as a mode switch
             for b in self._mode_targets(ev):
                 b.set_limits(f["u_min"], f["u_max"])
@@ -308,66 +224,29 @@ class _Simulation:
     def _sample(self, k: int, record: bool) -> None:
         sp = self.sp.value
         s = self.structure
+        side = self.side
         if s == "open_loop":
-            out = float(self.blocks["main"](sp))
+            out = side.compute(sp)
             if record:
                 self._record(sp=sp, y=out, ym=out, u=out, v=out, load=0.0)
             return
         y = self.plant.y_true
         ym = self.plant.y if record else y  # warm-up: no noise, no sensor effects
         ok = self.proc.sensor_ok and math.isfinite(ym)
-        extra: dict[str, float] = {}
         load_in = self.actuator.load
-        if s in ("single", "feedforward", "smith"):
-            c = self.ctrls["main"]
-            ff = 0.0
-            y_fb = ym
-            if s == "feedforward":
-                ff = float(self.blocks["feedforward"](load_in))
-                extra["ff"] = ff
-            if s == "smith":
-                y_fb = ym + self.model_fast.y - self.model.y
-                extra["y_pred"] = y_fb
-            v = c.output(sp, y_fb, ok, ff)
-            u = v
+        if s in ("cascade", "override"):
+            y2 = self.inner.y  # the inner plant's output (no sensor wrapper)
+            u = side.compute(sp, ym, y_ok=ok, y2=y2)
+            side.update(u)
+            self.inner.step(u)
+            self.plant.step(y2 + self.proc.inner_load)  # series plants: zero-order hold
+            extra = {"y2": y2, **side.values}
+        else:
+            u = side.compute(sp, ym, y_ok=ok, dv=load_in)
             self.plant.step(u)  # DA: the actuator shapes u (load, rate, range)
-            c.update(u, measured=self.actuator.u)
-            if s == "smith":
-                self.model.step(u)
-                self.model_fast.step(u)
-        elif s == "cascade":
-            p, q = self.ctrls["primary"], self.ctrls["secondary"]
-            y2 = self.inner.y
-            v1 = p.output(sp, ym, ok)
-            v = q.output(v1, y2, True)
-            u = v
-            q.update(u)
-            prim, sec = self.blocks["primary"], self.blocks["secondary"]
-            if hasattr(prim, "awin") and self.ctrl_spec.options.get("aw_handshake", True):
-                prim.awin = bool(getattr(sec, "awout", False))
-            p.update(v1)
-            self.inner.step(u)
-            self.plant.step(y2 + self.proc.inner_load)
-            extra.update(y2=y2, sp2=v1)
-        elif s == "override":
-            y2 = self.inner.y
-            vs = []
-            for i, spec in enumerate(self.override_specs):
-                meas = ym if spec.extra.get("measure", "y") == "y" else y2
-                spi = spec.extra.get("sp", "sp")
-                spi = sp if spi == "sp" else float(spi)
-                vs.append(self.ctrls[f"blocks[{i}]"].output(spi, meas, ok))
-            v = min(vs) if self.ctrl_spec.options.get("selector", "min") == "min" else max(vs)
-            u = v
-            for i in range(len(vs)):
-                self.ctrls[f"blocks[{i}]"].update(u)
-            self.inner.step(u)
-            self.plant.step(y2 + self.proc.inner_load)
-            extra["y2"] = y2
-            for i, vi in enumerate(vs):
-                extra[f"v{i + 1}"] = vi
-        else:  # pragma: no cover - guarded by the parser
-            raise ValueError(s)
+            side.update(u, measured=self.actuator.u)
+            extra = dict(side.values)
+        v = extra.pop("v")
         if record:
             u_act = self.actuator.u
             self._record(sp=sp, y=y, ym=ym, u=u, v=v, u_act=u_act, load=load_in, **extra)
@@ -383,13 +262,13 @@ class _Simulation:
         """
         ini = self.sc.initial
         nw = round(ini["warmup"] / self.ts)
-        manual_blocks = [b for r, b in self.blocks.items() if r in self.ctrls]
+        manual_blocks = [b for r, b in self.blocks.items() if r in self.side.ctrls]
         if self.structure == "cascade":
-            _set_manual(self.blocks["primary"], True, self.inner.y)
-            _set_manual(self.blocks["secondary"], True, self.u0)
+            set_manual(self.blocks["primary"], True, self.inner.y)
+            set_manual(self.blocks["secondary"], True, self.u0)
         else:
             for b in manual_blocks:
-                _set_manual(b, True, self.u0)
+                set_manual(b, True, self.u0)
         for _ in range(nw):
             self._sample(0, record=False)
             self._reset_plants()  # keep the plant exactly at its steady state
