@@ -135,12 +135,12 @@ def run_one(
     pool, Dask) can ship it to a worker.
     """
     from ..sim.runner import run_scenario
-    from ..sim.scenario import _Parser
+    from ..sim.scenario import parse_scenario_doc
 
     doc = tomllib.loads(text)
     for k, v in params.items():
         apply_key(doc, k, v)
-    sc = _Parser(file).scenario(doc)
+    sc = parse_scenario_doc(doc, file=file)
     result = run_scenario(sc, quick=quick, duration=duration)
     claims = {
         f"claim {i}": (None if c.holds is None else bool(c.holds))
@@ -190,14 +190,14 @@ def sweep(
     text, file = read_scenario_text(scenario)
     sets = parameter_sets(vary)
     # refuse a bad key or value before sending work anywhere
-    from ..sim.scenario import ScenarioError, _Parser
+    from ..sim.scenario import ScenarioError, parse_scenario_doc
 
     for params in sets:
         doc = tomllib.loads(text)
         for k, v in params.items():
             apply_key(doc, k, v)
         try:
-            _Parser(file).scenario(doc)
+            parse_scenario_doc(doc, file=file)
         except ScenarioError as exc:
             raise SweepError(f"{params}: {exc}") from None
     total = len(sets)

@@ -47,7 +47,9 @@ __all__ = [
     "ScenarioError",
     "TableReader",
     "load_scenario",
+    "parse_controller",
     "parse_scenario",
+    "parse_scenario_doc",
     "read_toml",
     "type_name",
 ]
@@ -234,7 +236,25 @@ def load_scenario(path: str | Path) -> Scenario:
 
 def parse_scenario(text: str, *, file: str = "<string>") -> Scenario:
     """Parse scenario TOML ``text``; ``file`` names it in error messages."""
-    return _Parser(file).scenario(read_toml(text, file, ScenarioError))
+    return parse_scenario_doc(read_toml(text, file, ScenarioError), file=file)
+
+
+def parse_scenario_doc(doc: dict[str, Any], *, file: str = "<string>") -> Scenario:
+    """Check an already parsed scenario document (a dict as from ``tomllib``)."""
+    return _Parser(file).scenario(doc)
+
+
+def parse_controller(
+    entry: dict[str, Any], structure: str, ts: float, *, key: str, file: str = "<string>"
+) -> ControllerSpec:
+    """Check one controller entry of ``structure`` (the tables of a ``[[controllers]]`` entry).
+
+    ``key`` is its key path in ``file`` (error messages: :class:`ScenarioError`
+    with ``key.role.param``).  The runtime reads its loops' structures with it.
+    """
+    if structure not in STRUCTURES or structure == "open_loop":
+        raise ScenarioError(file, f"{key}.structure", f"no controller entry for {structure!r}")
+    return _Parser(file).controller(entry, key, structure, ts)
 
 
 def read_toml(text: str, file: str, error: type[KeyPathError] = ScenarioError) -> dict[str, Any]:
@@ -574,76 +594,91 @@ class _Parser(TableReader):
             if name in names:
                 raise self.fail(f"{key}.name", f"duplicate controller name {name!r}")
             names.add(name)
-            options = {"color": e.get("color"), "style": e.get("style")}
-            tune_plant = (plant_spec, initial)
-            if structure in ("single", "open_loop"):
-                spec = self.block_spec(
-                    {k: v for k, v in e.items() if k not in ("name", "color", "style")},
-                    key,
-                    ts,
-                    kind="block",
-                    tune_plant=tune_plant if structure == "single" else None,
-                )
-                blocks: dict[str, Any] = {"main": spec}
-            elif structure == "cascade":
-                self.check_keys(
-                    e, {"name", "color", "style", "primary", "secondary", "aw_handshake"}, key
-                )
-                hs = e.get("aw_handshake", True)
-                if not isinstance(hs, bool):
-                    raise self.fail(f"{key}.aw_handshake", f"must be true or false, got {hs!r}")
-                options["aw_handshake"] = hs
-                blocks = {r: self.role(e, r, key, ts) for r in ("primary", "secondary")}
-            elif structure == "override":
-                self.check_keys(e, {"name", "color", "style", "selector", "blocks"}, key)
-                sel = self.string(e, "selector", f"{key}.selector", default="min")
-                if sel not in ("min", "max"):
-                    raise self.fail(f"{key}.selector", f"must be 'min' or 'max', got {sel!r}")
-                options["selector"] = sel
-                lst = e.get("blocks")
-                if not isinstance(lst, list) or len(lst) < 2:
-                    raise self.fail(
-                        f"{key}.blocks", "must be an array of at least two controller tables"
-                    )
-                specs = []
-                for j, b in enumerate(lst):
-                    bkey = f"{key}.blocks[{j}]"
-                    spec = self.block_spec(b, bkey, ts, kind="block", extra_keys=("measure", "sp"))
-                    meas = spec.extra.get("measure", "y")
-                    if meas not in ("y", "y2"):
-                        raise self.fail(f"{bkey}.measure", f"must be 'y' or 'y2', got {meas!r}")
-                    sp = spec.extra.get("sp", "sp")
-                    if sp != "sp" and (isinstance(sp, bool) or not isinstance(sp, (int, float))):
-                        raise self.fail(f"{bkey}.sp", f"must be 'sp' or a number, got {sp!r}")
-                    specs.append(spec)
-                blocks = {"blocks": specs}
-            elif structure == "feedforward":
-                self.check_keys(e, {"name", "color", "style", "main", "feedforward"}, key)
-                blocks = {
-                    "main": self.role(e, "main", key, ts, tune_plant),
-                    "feedforward": self.role(e, "feedforward", key, ts),
-                }
-                main_block = build(blocks["main"], ts, kind="block", file=self.file)
-                fn = getattr(main_block, "compute_output", main_block)
-                if "ff" not in inspect.signature(fn).parameters:
-                    raise self.fail(
-                        f"{key}.main.type",
-                        f"{blocks['main'].type} has no feed-forward input 'ff'; "
-                        "the feedforward structure needs one (e.g. PID)",
-                    )
-            else:  # smith
-                self.check_keys(e, {"name", "color", "style", "main", "model"}, key)
-                model = self.block_spec(
-                    self.table(e, "model", f"{key}.model", True), f"{key}.model", ts
-                )
-                if "dead_time" not in model.params:
-                    raise self.fail(
-                        f"{key}.model.dead_time",
-                        "missing: the Smith predictor's model needs the dead time",
-                    )
-                blocks = {"main": self.role(e, "main", key, ts, tune_plant), "model": model}
-            out.append(ControllerSpec(name, blocks, options))
+            out.append(self.controller(e, key, structure, ts, (plant_spec, initial)))
         return out
+
+    def controller(
+        self,
+        e: dict[str, Any],
+        key: str,
+        structure: str,
+        ts: float,
+        tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] = (None, None),
+    ) -> ControllerSpec:
+        """One controller entry (its blocks for ``structure``); errors name ``key``.
+
+        The runtime reads its loops' structure tables with it, so a loop's
+        tables are exactly those of a scenario's ``[[controllers]]`` entry.
+        """
+        name = self.string(e, "name", f"{key}.name")
+        options: dict[str, Any] = {"color": e.get("color"), "style": e.get("style")}
+        if structure in ("single", "open_loop"):
+            spec = self.block_spec(
+                {k: v for k, v in e.items() if k not in ("name", "color", "style")},
+                key,
+                ts,
+                kind="block",
+                tune_plant=tune_plant if structure == "single" else None,
+            )
+            blocks: dict[str, Any] = {"main": spec}
+        elif structure == "cascade":
+            self.check_keys(
+                e, {"name", "color", "style", "primary", "secondary", "aw_handshake"}, key
+            )
+            hs = e.get("aw_handshake", True)
+            if not isinstance(hs, bool):
+                raise self.fail(f"{key}.aw_handshake", f"must be true or false, got {hs!r}")
+            options["aw_handshake"] = hs
+            blocks = {r: self.role(e, r, key, ts) for r in ("primary", "secondary")}
+        elif structure == "override":
+            self.check_keys(e, {"name", "color", "style", "selector", "blocks"}, key)
+            sel = self.string(e, "selector", f"{key}.selector", default="min")
+            if sel not in ("min", "max"):
+                raise self.fail(f"{key}.selector", f"must be 'min' or 'max', got {sel!r}")
+            options["selector"] = sel
+            lst = e.get("blocks")
+            if not isinstance(lst, list) or len(lst) < 2:
+                raise self.fail(
+                    f"{key}.blocks", "must be an array of at least two controller tables"
+                )
+            specs = []
+            for j, b in enumerate(lst):
+                bkey = f"{key}.blocks[{j}]"
+                spec = self.block_spec(b, bkey, ts, kind="block", extra_keys=("measure", "sp"))
+                meas = spec.extra.get("measure", "y")
+                if meas not in ("y", "y2"):
+                    raise self.fail(f"{bkey}.measure", f"must be 'y' or 'y2', got {meas!r}")
+                sp = spec.extra.get("sp", "sp")
+                if sp != "sp" and (isinstance(sp, bool) or not isinstance(sp, (int, float))):
+                    raise self.fail(f"{bkey}.sp", f"must be 'sp' or a number, got {sp!r}")
+                specs.append(spec)
+            blocks = {"blocks": specs}
+        elif structure == "feedforward":
+            self.check_keys(e, {"name", "color", "style", "main", "feedforward"}, key)
+            blocks = {
+                "main": self.role(e, "main", key, ts, tune_plant),
+                "feedforward": self.role(e, "feedforward", key, ts),
+            }
+            main_block = build(blocks["main"], ts, kind="block", file=self.file)
+            fn = getattr(main_block, "compute_output", main_block)
+            if "ff" not in inspect.signature(fn).parameters:
+                raise self.fail(
+                    f"{key}.main.type",
+                    f"{blocks['main'].type} has no feed-forward input 'ff'; "
+                    "the feedforward structure needs one (e.g. PID)",
+                )
+        else:  # smith
+            self.check_keys(e, {"name", "color", "style", "main", "model"}, key)
+            model = self.block_spec(
+                self.table(e, "model", f"{key}.model", True), f"{key}.model", ts
+            )
+            if "dead_time" not in model.params:
+                raise self.fail(
+                    f"{key}.model.dead_time",
+                    "missing: the Smith predictor's model needs the dead time",
+                )
+            blocks = {"main": self.role(e, "main", key, ts, tune_plant), "model": model}
+        return ControllerSpec(name, blocks, options)
 
     def tune(
         self,
