@@ -37,13 +37,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ..sim.controller import ControllerSide
 from ..sim.scenario import (
     NAME_RE,
     BlockSpec,
+    ControllerSpec,
     KeyPathError,
     ScenarioError,
     TableReader,
-    build,
+    parse_controller,
     read_toml,
     type_name,
 )
@@ -68,6 +70,18 @@ MODES = ("auto", "manual")
 
 SECURITY_MODES = ("none", "Basic256Sha256_SignAndEncrypt")
 """OPC UA security settings of a connection."""
+
+STRUCTURES: dict[str, tuple[str, ...]] = {
+    "single": ("block",),
+    "cascade": ("primary", "secondary", "aw_handshake"),
+    "override": ("selector", "blocks"),
+    "feedforward": ("main", "feedforward"),
+    "smith": ("main", "model"),
+}
+"""Loop structures the runtime runs and the loop keys holding their blocks (as in a scenario)."""
+
+MEASUREMENTS = {"pv": "y", "pv2": "y2", "dv": "dv"}
+"""Loop measurement bindings -> the simulator's names (:class:`~ctrlblocks.sim.ControllerSide`)."""
 
 
 class RuntimeConfigError(KeyPathError):
@@ -145,11 +159,23 @@ class LoopConfig:
     alarm_limit: float | None
     write_retries: int
     key: str
+    structure: str = "single"
+    controller: ControllerSpec | None = None
+    pv2: Binding | None = None
+    dv: Binding | None = None
+    u0: float = 0.0
 
     def bindings(self) -> dict[str, Binding]:
         """The signal bindings by name (only those that are set)."""
-        names = ("pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max")
+        names = ("pv", "pv2", "dv", "mv", "sp", "mode", "manual_value", "u_min", "u_max")
         return {n: b for n in names if (b := getattr(self, n)) is not None}
+
+    def spec(self) -> ControllerSpec:
+        """The loop's controller entry (a single loop: its ``block`` as role ``main``)."""
+        if self.controller is not None:
+            return self.controller
+        main = BlockSpec(self.block_type, dict(self.block_params), f"{self.key}.block")
+        return ControllerSpec(self.name, {"main": main}, {})
 
 
 @dataclasses.dataclass(frozen=True)
@@ -175,8 +201,12 @@ class RuntimeConfig:
     file: str
 
     def build_blocks(self) -> dict[str, Any]:
-        """A fresh block for every loop (name -> block)."""
-        return {lc.name: build_block(lc, self.file) for lc in self.loops}
+        """A fresh block for every loop (name -> the block that writes its MV)."""
+        return {lc.name: build_side(lc, self.file).main for lc in self.loops}
+
+    def build_sides(self) -> dict[str, ControllerSide]:
+        """A fresh controller side (the structure's blocks) for every loop (name -> side)."""
+        return {lc.name: build_side(lc, self.file) for lc in self.loops}
 
 
 def load_config(path: str | Path) -> RuntimeConfig:
@@ -196,10 +226,14 @@ def parse_config(text: str, *, file: str = "<string>", base: Path | None = None)
 
 
 def build_block(lc: LoopConfig, file: str = "<config>") -> Any:
-    """Make the block of loop ``lc`` (errors name the key path)."""
-    spec = BlockSpec(lc.block_type, dict(lc.block_params), f"{lc.key}.block")
+    """Make the block that writes the MV of loop ``lc`` (errors name the key path)."""
+    return build_side(lc, file).main
+
+
+def build_side(lc: LoopConfig, file: str = "<config>") -> ControllerSide:
+    """Make the controller side of loop ``lc``: its structure's blocks, wired (errors: key path)."""
     try:
-        return build(spec, lc.ts, kind="block", file=file)
+        return ControllerSide(lc.structure, lc.spec(), lc.ts, u0=lc.u0, file=file)
     except ScenarioError as exc:
         raise RuntimeConfigError(file, exc.key, exc.problem) from None
 
@@ -384,11 +418,14 @@ class _Parser(TableReader):
     def loop(self, raw: Any, key: str, conns: Mapping[str, ConnectionConfig]) -> LoopConfig:
         if not isinstance(raw, dict):
             raise self.fail(key, f"must be a table, got {type_name(raw)}")
+        structure = self.choice(raw, "structure", f"{key}.structure", tuple(STRUCTURES), "single")
         allowed = {
             "name",
             "ts",
-            "block",
+            "structure",
             "pv",
+            "pv2",
+            "dv",
             "mv",
             "sp",
             "mode",
@@ -401,27 +438,39 @@ class _Parser(TableReader):
             "warn_limit",
             "alarm_limit",
             "write_retries",
+            "u0",
+            *STRUCTURES[structure],
         }
         self.check_keys(raw, allowed, key)
         name = self.string(raw, "name", f"{key}.name")
         if not NAME_RE.match(name):
             raise self.fail(f"{key}.name", "loop names are letters, digits, _ . - only")
         ts = self.number(raw, "ts", f"{key}.ts", positive=True)
-        block = raw.get("block")
-        if not isinstance(block, dict):
-            raise self.fail(f"{key}.block", 'missing: a table such as { type = "PID", kp = 1.0 }')
-        btype = self.string(block, "type", f"{key}.block.type")
-        if btype not in ("PID", "ADRC"):
-            raise self.fail(f"{key}.block.type", f"the runtime runs PID or ADRC, got {btype!r}")
-        params = {k: v for k, v in block.items() if k != "type"}
-        if "ts" in params:
-            raise self.fail(f"{key}.block.ts", "set the sample time once, as the loop's ts")
-        for sig in ("pv", "mv"):
+        needs = {
+            "single": ("pv",),
+            "cascade": ("pv", "pv2"),
+            "override": (),
+            "feedforward": ("pv", "dv"),
+            "smith": ("pv",),
+        }[structure]
+        if structure == "override":
+            blocks = raw.get("blocks")
+            used = set()
+            if isinstance(blocks, list):
+                used = {b.get("measure", "y") for b in blocks if isinstance(b, dict)}
+            needs = tuple(sig for sig, m in (("pv", "y"), ("pv2", "y2")) if m in used) or ("pv",)
+        for sig in ("pv", "pv2", "dv"):
+            if sig in raw and sig not in needs:
+                raise self.fail(
+                    f"{key}.{sig}",
+                    f"the {structure} structure does not read {sig} (reads: {', '.join(needs)})",
+                )
+        for sig in (*needs, "mv"):
             if sig not in raw:
                 raise self.fail(f"{key}.{sig}", 'missing (an I/O address "CONNECTION:ADDRESS")')
-        pv = self.binding(raw["pv"], f"{key}.pv", conns)
+        meas = {sig: self.binding(raw[sig], f"{key}.{sig}", conns) for sig in needs}
         mv = self.binding(raw["mv"], f"{key}.mv", conns)
-        for sig, b in (("pv", pv), ("mv", mv)):
+        for sig, b in (*meas.items(), ("mv", mv)):
             if not b.is_io:
                 raise self.fail(f"{key}.{sig}", 'must be an I/O address "CONNECTION:ADDRESS"')
         if "sp" not in raw:
@@ -449,18 +498,47 @@ class _Parser(TableReader):
         stop = self.number(raw, "stop_value", f"{key}.stop_value", None)
         if stop is not None and not math.isfinite(stop):
             raise self.fail(f"{key}.stop_value", "must be finite")
-        if btype == "ADRC":
-            on_bad = self.choice(raw, "on_bad_pv", f"{key}.on_bad_pv", ("safe",), "safe")
-            if "u_sf" in params:
-                raise self.fail(f"{key}.block.u_sf", "set the loop's safe_value instead")
-            params["u_sf"] = safe
+        u0 = self.number(raw, "u0", f"{key}.u0", 0.0)
+        if not math.isfinite(u0):
+            raise self.fail(f"{key}.u0", "must be finite")
+        # the blocks that write the MV get the loop's safe value
+        mv_tables = self.mv_tables(raw, key, structure)
+        types = {self.string(t, "type", f"{k}.type") for k, t in mv_tables}
+        on_bad = self.choice(
+            raw,
+            "on_bad_pv",
+            f"{key}.on_bad_pv",
+            ("safe",) if "ADRC" in types else ("safe", "hold"),
+            "safe",
+        )
+        patched: dict[str, dict[str, Any]] = {}
+        for k, table in mv_tables:
+            btype = self.string(table, "type", f"{k}.type")
+            if btype not in ("PID", "ADRC"):
+                raise self.fail(f"{k}.type", f"the runtime runs PID or ADRC, got {btype!r}")
+            if "ts" in table:
+                raise self.fail(f"{k}.ts", "set the sample time once, as the loop's ts")
+            params = {n: v for n, v in table.items()}
+            if btype == "ADRC":
+                if "u_sf" in params:
+                    raise self.fail(f"{k}.u_sf", "set the loop's safe_value instead")
+                params["u_sf"] = safe
+            else:
+                if "safe_value" in params:
+                    raise self.fail(
+                        f"{k}.safe_value", "set the loop's safe_value and on_bad_pv instead"
+                    )
+                params["safe_value"] = safe if on_bad == "safe" else None
+            patched[k] = params
+        controller: ControllerSpec | None = None
+        if structure == "single":
+            params = dict(patched[f"{key}.block"])
+            btype = params.pop("type")
         else:
-            on_bad = self.choice(raw, "on_bad_pv", f"{key}.on_bad_pv", ("safe", "hold"), "safe")
-            if "safe_value" in params:
-                raise self.fail(
-                    f"{key}.block.safe_value", "set the loop's safe_value and on_bad_pv instead"
-                )
-            params["safe_value"] = safe if on_bad == "safe" else None
+            controller = self.structure_entry(raw, key, structure, ts, name, patched)
+            main_key = mv_tables[0][0]
+            btype = patched[main_key]["type"]
+            params = {n: v for n, v in patched[main_key].items() if n != "type"}
         warn = self.number(raw, "warn_limit", f"{key}.warn_limit", None)
         alarm = self.number(raw, "alarm_limit", f"{key}.alarm_limit", None)
         for n, v in (("warn_limit", warn), ("alarm_limit", alarm)):
@@ -477,7 +555,7 @@ class _Parser(TableReader):
             ts=ts,
             block_type=btype,
             block_params=params,
-            pv=pv,
+            pv=meas.get("pv"),  # type: ignore[arg-type]
             mv=mv,
             sp=sp,
             mode=mode,
@@ -491,7 +569,67 @@ class _Parser(TableReader):
             alarm_limit=alarm,
             write_retries=retries,
             key=key,
+            structure=structure,
+            controller=controller,
+            pv2=meas.get("pv2"),
+            dv=meas.get("dv"),
+            u0=u0,
         )
+
+    def mv_tables(
+        self, raw: Mapping[str, Any], key: str, structure: str
+    ) -> list[tuple[str, dict[str, Any]]]:
+        """``(key path, table)`` of the blocks whose output is (or is selected as) the MV."""
+        if structure == "single":
+            roles = [("block", raw.get("block"))]
+            example = '{ type = "PID", kp = 1.0 }'
+        elif structure == "cascade":
+            roles = [("secondary", raw.get("secondary"))]
+            example = 'a table such as { type = "PID", kp = 1.0 }'
+        elif structure == "override":
+            lst = raw.get("blocks")
+            if not isinstance(lst, list) or len(lst) < 2:
+                raise self.fail(
+                    f"{key}.blocks", "must be an array of at least two controller tables"
+                )
+            roles = [(f"blocks[{j}]", b) for j, b in enumerate(lst)]
+            example = '{ type = "PID", kp = 1.0, measure = "y" }'
+        else:
+            roles = [("main", raw.get("main"))]
+            example = '{ type = "PID", kp = 1.0 }'
+        out = []
+        for role, t in roles:
+            if not isinstance(t, dict):
+                raise self.fail(f"{key}.{role}", f"missing: a table such as {example}")
+            out.append((f"{key}.{role}", t))
+        return out
+
+    def structure_entry(
+        self,
+        raw: Mapping[str, Any],
+        key: str,
+        structure: str,
+        ts: float,
+        name: str,
+        patched: Mapping[str, dict[str, Any]],
+    ) -> ControllerSpec:
+        """The structure's blocks, checked by the simulator's parser (one controller entry)."""
+        entry: dict[str, Any] = {"name": name}
+        for k in STRUCTURES[structure]:
+            if k in raw:
+                entry[k] = raw[k]
+        if structure == "override":
+            entry["blocks"] = [patched[f"{key}.blocks[{j}]"] for j in range(len(raw["blocks"]))]
+        else:
+            role = "secondary" if structure == "cascade" else "main"
+            entry[role] = patched[f"{key}.{role}"]
+        for k, v in entry.items():
+            if isinstance(v, dict) and "ts" in v:
+                raise self.fail(f"{key}.{k}.ts", "set the sample time once, as the loop's ts")
+        try:
+            return parse_controller(entry, structure, ts, key=key, file=self.file)
+        except ScenarioError as exc:
+            raise RuntimeConfigError(self.file, exc.key, exc.problem) from None
 
     def historian(self, h: Any) -> HistorianConfig:
         if not isinstance(h, dict):

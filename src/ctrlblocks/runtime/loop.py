@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
-import inspect
 import logging
 import math
 import time
@@ -35,7 +34,8 @@ from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError, is_finite, require_limits
 from ..blocks.monitor import CycleMonitor
-from .config import MODES, Binding, LoopConfig
+from ..sim.controller import ControllerSide
+from .config import MEASUREMENTS, MODES, Binding, LoopConfig
 from .io import Connection, Reading, bad
 
 __all__ = ["CommandError", "ControlLoop", "Sample"]
@@ -83,25 +83,33 @@ class ControlLoop:
     ----------
     config : LoopConfig
         The loop's configuration.
-    block : PID or ADRC
-        The block (built from ``config``).
+    side : ControllerSide
+        The structure's blocks (:func:`~ctrlblocks.runtime.config.build_side`);
+        a bare PID or ADRC block is taken as a single loop.
     connections : mapping
         Connection name -> :class:`~ctrlblocks.runtime.io.Connection`.
+
+    Attributes
+    ----------
+    block : PID or ADRC
+        The block that writes the MV (``side.main``): its status, limits
+        and tunings are the faceplate's.
     """
 
     def __init__(
-        self, config: LoopConfig, block: Any, connections: Mapping[str, Connection]
+        self, config: LoopConfig, side: Any, connections: Mapping[str, Connection]
     ) -> None:
         self.config = config
         self.name = config.name
-        self.block = block
+        if not isinstance(side, ControllerSide):
+            side = _single(config, side)
+        self.side = side
+        self.block = side.main
         self.connections = connections
         self.ts = config.ts
         self.monitor = CycleMonitor(
             ts=config.ts, warn_limit=config.warn_limit, alarm_limit=config.alarm_limit
         )
-        params = inspect.signature(block.__call__).parameters
-        self._ok_name = "y_ok" if "y_ok" in params else "pv_ok"
         b = config.bindings()
         self._inputs = {
             n: bd for n, bd in b.items() if bd.is_io and n != "mv"
@@ -110,12 +118,13 @@ class ControlLoop:
         mode = config.mode.value if not config.mode.is_io else "auto"
         self._set_mode(mode)
         if config.manual_value is not None and not config.manual_value.is_io:
-            block.manual_value = float(config.manual_value.value)
+            self._set_manual_value(float(config.manual_value.value))
         # status for the faceplate
         self.cycle_count = 0
         self.pv = math.nan
         self.pv_ok = False
         self.pv_reason = "no cycle yet"
+        self.measurements: dict[str, float] = {}
         self.mv = math.nan
         self.write_ok = True
         self.write_error = ""
@@ -135,16 +144,23 @@ class ControlLoop:
 
     def _set_mode(self, mode: str, *, preset: bool = True) -> None:
         manual = mode == "manual"
+        last = self.mv if getattr(self, "mv", None) is not None and is_finite(self.mv) else None
+        if last is None and is_finite(self.block.out):
+            last = float(self.block.out)
         if (
             manual
             and not self.block.manual
             and preset
             and not self.is_bound("manual_value")
-            and is_finite(self.block.out)
+            and last is not None
         ):
             # auto -> manual without a new manual value: continue from the output
-            self.block.manual_value = float(self.block.out)
-        self.block.manual = manual
+            self._set_manual_value(last)
+        self.side.set_manual(manual)
+
+    def _set_manual_value(self, value: float) -> None:
+        for b in self.side.mv_blocks:
+            b.manual_value = value
 
     def is_bound(self, signal: str) -> bool:
         """True when ``signal`` comes from process I/O (commands cannot change it)."""
@@ -172,12 +188,12 @@ class ControlLoop:
     def _apply_inputs(self, inputs: Mapping[str, Reading]) -> None:
         errors: dict[str, str] = {}
         for sig, r in inputs.items():
-            if sig != "pv" and not r.ok:
+            if sig not in MEASUREMENTS and not r.ok:
                 errors[sig] = r.reason
         if "sp" in inputs and inputs["sp"].ok:
             self.sp = inputs["sp"].value  # a bad SP read keeps the last good SP
         if "manual_value" in inputs and inputs["manual_value"].ok:
-            self.block.manual_value = inputs["manual_value"].value
+            self._set_manual_value(inputs["manual_value"].value)
         if "mode" in inputs and inputs["mode"].ok:
             m = inputs["mode"].value
             if m in (0.0, 1.0):
@@ -188,7 +204,7 @@ class ControlLoop:
             lo, hi = inputs["u_min"], inputs["u_max"]
             if lo.ok and hi.ok and (lo.value, hi.value) != self._limits_in:
                 self._limits_in = (lo.value, hi.value)
-                self.block.set_limits(lo.value, hi.value)
+                self.side.set_limits(lo.value, hi.value)
         self.input_errors = errors
 
     # -- the cycle ----------------------------------------------------------------
@@ -207,10 +223,31 @@ class ControlLoop:
         try:
             inputs = await self._read_inputs()
             self._apply_inputs(inputs)
-            pv = inputs["pv"]
-            self.pv, self.pv_ok, self.pv_reason = pv.value, pv.ok, pv.reason
-            kw = {self._ok_name: pv.ok, "dt": dt}
-            u = float(self.block(self.sp, pv.value if pv.ok else math.nan, **kw))
+            # every measurement the structure needs must be good, else the MV
+            # blocks see a bad measurement in this cycle (their safe value)
+            ok = True
+            reasons = []
+            meas: dict[str, float] = {}
+            for sig, name in MEASUREMENTS.items():
+                if sig in inputs:
+                    r = inputs[sig]
+                    meas[name] = r.value if r.ok else math.nan
+                    self.measurements[sig] = r.value
+                    if not r.ok:
+                        ok = False
+                        reasons.append(r.reason if sig == "pv" else f"{sig}: {r.reason}")
+            pv = inputs["pv"] if "pv" in inputs else inputs["pv2"]
+            self.pv, self.pv_ok, self.pv_reason = pv.value, ok, "; ".join(reasons)
+            u = self.side.step(
+                self.sp,
+                meas.get("y", math.nan),
+                y_ok=ok,
+                y2=meas.get("y2", math.nan),
+                y2_ok=ok,
+                dv=meas.get("dv", 0.0),
+                dv_ok=ok,
+                dt=dt,
+            )
             self.mv = u
             await self._write_mv(u)
         except Exception as exc:  # a loop never stops the runtime
@@ -269,6 +306,7 @@ class ControlLoop:
         return {
             "name": self.name,
             "block": self.config.block_type,
+            "structure": self.config.structure,
             "ts": self.ts,
             "cycle": self.cycle_count,
             "sp": self.sp,
@@ -297,6 +335,9 @@ class ControlLoop:
             "bound": {s: str(b) for s, b in self.config.bindings().items() if b.is_io},
             "overrun": self.overrun,
             "dt": self.dt,
+            "measurements": dict(self.measurements),
+            "signals": dict(self.side.values),
+            "blocks": self.side.inner_states(),
             "period": {
                 "last": m.out,
                 "mean": m.mean,
@@ -361,14 +402,23 @@ class ControlLoop:
             old["tunings"] = before
         if limits is not None:
             old["u_min"], old["u_max"] = float(self.block.u_min), float(self.block.u_max)
-            self.block.set_limits(*limits)
+            self.side.set_limits(*limits)
         if "sp" in changes:
             old["sp"] = self.sp
             self.sp = float(changes["sp"])
         if "manual_value" in changes:
             old["manual_value"] = float(self.block.manual_value)
-            self.block.manual_value = float(changes["manual_value"])
+            self._set_manual_value(float(changes["manual_value"]))
         if "mode" in changes:
             old["mode"] = self.mode
             self._set_mode(changes["mode"], preset="manual_value" not in changes)
         return old
+
+
+def _single(config: LoopConfig, block: Any) -> ControllerSide:
+    """A single-loop controller side around an already built ``block``."""
+    side = ControllerSide("single", config.spec(), config.ts, file=config.key)
+    side.blocks["main"] = block
+    side.mv_blocks = [block]
+    side.ctrls["main"] = type(side.ctrls["main"])(block)
+    return side

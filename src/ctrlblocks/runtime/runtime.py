@@ -83,9 +83,9 @@ class Runtime:
             name: Connection(c, adapters.get(name) or make_adapter(c), self._sleep)
             for name, c in config.connections.items()
         }
-        blocks = config.build_blocks()
+        sides = config.build_sides()
         self.loops: dict[str, ControlLoop] = {
-            lc.name: ControlLoop(lc, blocks[lc.name], self.connections) for lc in config.loops
+            lc.name: ControlLoop(lc, sides[lc.name], self.connections) for lc in config.loops
         }
         self._historian_arg = historian
         self.historian: Historian | None = None
