@@ -1,9 +1,11 @@
 """A simulated plant served over OPC UA and Modbus TCP (``ctrlblocks plant-server``).
 
-:class:`PlantProcess` is the process side of a scenario (``structure =
-"single"``): the simulator's own :class:`~ctrlblocks.sim.ProcessSide` (the
-plant inside the plants' ``Actuator`` and ``Sensor`` wrappers, exactly as
-:func:`ctrlblocks.sim.simulate` wires it, and the scenario's time line).
+:class:`PlantProcess` is the process side of a scenario (any structure
+with a plant: single, cascade, override, feedforward, smith): the
+simulator's own :class:`~ctrlblocks.sim.ProcessSide` (the plant inside the
+plants' ``Actuator`` and ``Sensor`` wrappers, exactly as
+:func:`ctrlblocks.sim.simulate` wires it, the inner plant of a cascade or
+override in series with a zero-order hold, and the scenario's time line).
 At sample ``k`` (time ``k ts``) it applies the events due (setpoint steps
 and ramps, loads, plant parameters, sensor faults, and the controller-side
 events mode / manual value / limits, which it *publishes* for the runtime to
@@ -27,6 +29,10 @@ manual    8         manual value (NaN until a mode/manual event)     read
 u_min     10        MV limits (NaN until a limits event)             read
 u_max     12                                                         read
 k         14        sample counter                                   read
+pv2       16        the inner plant's output ``y2`` (cascade,        read
+                    override; NaN without an inner plant)
+dv        18        the input load, the measured disturbance of a    read
+                    feed-forward structure
 ========  ========  ==============================================  =========
 
 ``sync = "write"`` (lock-step, for tests and hardware-in-the-loop checks):
@@ -64,7 +70,7 @@ __all__ = ["MODBUS_REGISTERS", "SIGNALS", "PlantProcess", "PlantServer"]
 
 log = logging.getLogger(__name__)
 
-SIGNALS = ("pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max", "k")
+SIGNALS = ("pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max", "k", "pv2", "dv")
 """Variables of the plant server, in register order."""
 
 MODBUS_REGISTERS = {name: 2 * i for i, name in enumerate(SIGNALS)}
@@ -74,21 +80,21 @@ NAMESPACE = "urn:ctrlblocks:plant"
 
 
 class PlantProcess:
-    """The process side of a single-loop scenario, stepped sample by sample.
+    """The process side of a scenario, stepped sample by sample.
 
     Parameters
     ----------
     scenario : Scenario
-        A loaded scenario with ``structure = "single"``.
+        A loaded scenario with a plant (any structure but ``open_loop``).
     case : str, optional
         The case whose events to play (default the first).
     """
 
     def __init__(self, scenario: Scenario, case: str | None = None) -> None:
-        if scenario.structure != "single":
+        if scenario.plant is None:
             raise ValueError(
-                f"{scenario.file}: the plant server serves single loops; "
-                f"structure {scenario.structure!r} is not supported"
+                f"{scenario.file}: the plant server needs a plant; "
+                f"structure {scenario.structure!r} has none"
             )
         self.scenario = scenario
         self.case = scenario.cases[0] if case is None else scenario.case(case)
@@ -168,12 +174,31 @@ class PlantProcess:
             "u_min": self.u_min,
             "u_max": self.u_max,
             "k": float(self.k),
+            "pv2": self.pv2,
+            "dv": self.dv,
         }
+
+    @property
+    def pv2(self) -> float:
+        """The inner plant's output ``y2`` of the current sample (NaN without one)."""
+        inner = self.side.inner
+        return math.nan if inner is None else float(inner.y)
+
+    @property
+    def dv(self) -> float:
+        """The input load of the current sample (the measured disturbance)."""
+        return float(self.side.actuator.load)
 
     def step(self, u: float) -> None:
         """Apply ``u`` for one sample; then go to the next sample (events, setpoint)."""
         self.mv = u
-        self.plant.step(u)
+        side = self.side
+        if side.inner is not None:  # series plants, as the simulator couples them
+            y2 = side.inner.y
+            side.inner.step(u)
+            self.plant.step(y2 + side.inner_load)
+        else:
+            self.plant.step(u)
         self.k += 1
         self.side.setpoint.advance(self.ts)
         self._apply_due()
