@@ -93,8 +93,9 @@ def plant_server(
     """Serve the plant of SCENARIO over OPC UA and Modbus TCP until SIGINT/SIGTERM.
 
     Variables: pv, mv (written by the controller), sp, mode, manual_value,
-    u_min, u_max, k -- OPC UA ns=2;s=NAME, Modbus holding registers 0, 2, 4,
-    ... (FLOAT32).  See docs/runtime.md.
+    u_min, u_max, k, pv2 (inner plant output), dv (input load) -- OPC UA
+    ns=2;s=NAME, Modbus holding registers 0, 2, 4, ... (FLOAT32).  See
+    docs/runtime.md.
     """
     from ..sim import ScenarioError, load_scenario
     from .plant_server import PlantProcess, PlantServer
