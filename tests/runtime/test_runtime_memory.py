@@ -422,10 +422,11 @@ def test_the_examples_of_docs_runtime_md_load(monkeypatch):
     blocks = re.findall(r"```toml\n(.*?)```", doc, re.S)
     loops = [b for b in blocks if "[[loops]]" in b]
     conns = [b for b in blocks if "[[loops]]" not in b]
-    assert len(loops) == 2 and len(conns) == 1
+    assert len(loops) == 3 and len(conns) == 1
     for b in loops:
         cfg = parse_config(b)
         assert len(cfg.loops) == 1 and cfg.build_blocks()
+    assert [parse_config(b).loops[0].structure for b in loops] == ["single", "single", "cascade"]
     monkeypatch.setenv("PLC_PASSWORD", "x")
     loop = loops[0][loops[0].index("[[loops]]") :]
     cfg = parse_config(conns[0] + "\n" + loop)

@@ -82,6 +82,21 @@ class _Controller:
             return float(self.block.compute_output(sp, y, **kw))
         return float(self.block(sp, y, **kw))
 
+    def cycle(self, sp: float, y: float, ok: bool, dt: float | None = None) -> float:
+        """The whole cycle in one call, ``block(sp, y, ...)``: compute, then update with ``v``.
+
+        The blocks document it as identical to ``compute_output`` +
+        ``update_state(v)`` (their fast lane; tests/fast checks it).
+        """
+        kw: dict[str, Any] = {}
+        if self.ok_name is not None:
+            kw[self.ok_name] = ok
+        elif not ok:
+            y = math.nan
+        if dt is not None and self.takes_dt:
+            kw["dt"] = dt
+        return float(self.block(sp, y, **kw))
+
     def update(self, applied: float, measured: float | None = None) -> None:
         """UpdateState with the applied value.
 
@@ -317,9 +332,25 @@ class ControllerSide:
             for role in self.ctrls:
                 self.ctrls[role].update(u)
 
-    def step(self, sp: float, y: float = math.nan, **measurements: Any) -> float:
-        """:meth:`compute` then :meth:`update` with the computed MV; return the MV."""
-        u = self.compute(sp, y, **measurements)
+    def step(
+        self,
+        sp: float,
+        y: float = math.nan,
+        *,
+        y_ok: bool = True,
+        dt: float | None = None,
+        **measurements: Any,
+    ) -> float:
+        """:meth:`compute` then :meth:`update` with the computed MV; return the MV.
+
+        A single loop calls its block once (``block(sp, y, ...)``, the same
+        result as the two phases, on the block's fast lane).
+        """
+        if self.structure == "single":
+            u = self.u = self.ctrls["main"].cycle(sp, y, y_ok, dt)
+            self.values = {"v": u}
+            return u
+        u = self.compute(sp, y, y_ok=y_ok, dt=dt, **measurements)
         self.update(u)
         return u
 
