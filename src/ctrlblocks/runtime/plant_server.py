@@ -104,6 +104,13 @@ class PlantProcess:
                     f"{scenario.file}: event at t={ev.t:g} of kind 'set' acts inside the "
                     "controller; the plant server cannot serve it"
                 )
+        if scenario.initial["warmup"] > 0:
+            log.warning(
+                "%s: initial.warmup (%g s) initialises the simulator's controllers; the plant "
+                "server starts the plant in its steady state and cannot serve it",
+                scenario.file,
+                scenario.initial["warmup"],
+            )
         self.ts = scenario.ts
         self.side = ProcessSide(scenario, self.case.events)
         self.plant = self.side.plant
