@@ -149,25 +149,18 @@ def simulate(
 
 class _Simulation:
     def __init__(self, sc: Scenario, ctrl: ControllerSpec, case: Case, t_end: float) -> None:
-        self.sc, self.ctrl_spec, self.case, self.t_end = sc, ctrl, case, t_end
+        self.sc, self.ctrl_spec, self.case = sc, ctrl, case
         self.ts = h = sc.ts
         self.n = math.floor(t_end / h + 1e-9)
         self.structure = sc.structure
         events = [e for e in case.events if e.t < t_end - 0.5 * h or e.t == 0.0]
         self.events = tuple(events)
         # the process side: Sensor(Actuator(model)) or Sensor(model) behind Actuator(inner model)
-        self.proc = proc = ProcessSide(sc, events)
-        self.plant, self.inner, self.actuator = proc.plant, proc.inner, proc.actuator
-        self.sp = proc.setpoint
-        self.u0 = proc.u0
+        self.proc = ProcessSide(sc, events)
         # the controller side: the blocks wired for the structure (shared with the runtime)
-        self.side = ControllerSide(sc.structure, ctrl, h, u0=self.u0, file=sc.file)
+        self.side = ControllerSide(sc.structure, ctrl, h, u0=self.proc.u0, file=sc.file)
         self.blocks = self.side.blocks
         self.rec: dict[str, list[float]] = {}
-
-    def _reset_plants(self) -> None:
-        self.proc.reset()
-        self.side.reset_models()
 
     # -- events ------------------------------------------------------------------
 
@@ -192,63 +185,46 @@ class _Simulation:
         """A controller-side event (the process side applies the others)."""
         f = ev.fields
         k = ev.kind
-        if k == "mode":
-            on = f["mode"] == "manual"
-            targets = self._mode_targets(ev)
-            for b in targets:
-                set_manual(b, on, f.get("manual_value"))
-        elif k == "manual_value":
-            for b in self._mode_targets(ev):
-                set_manual(b, bool(getattr(b, "manual", True)), f["value"])
-        elif k == "limits":  # the MV limits: same default targets as a mode switch
-            for b in self._mode_targets(ev):
-                b.set_limits(f["u_min"], f["u_max"])
-        elif k == "set":
+        if k == "set":
             _set_attr(self._target(ev), f["attr"], f["value"])
+            return
+        # mode, manual value and MV limits act on the MV blocks unless a target is named
+        targets = [self._target(ev)] if "target" in f else self.side.mv_blocks
+        for b in targets:
+            if k == "mode":
+                set_manual(b, f["mode"] == "manual", f.get("manual_value"))
+            elif k == "manual_value":
+                set_manual(b, bool(getattr(b, "manual", True)), f["value"])
+            elif k == "limits":
+                b.set_limits(f["u_min"], f["u_max"])
 
-    def _mode_targets(self, ev: Event) -> list[Any]:
-        if "target" in ev.fields:
-            return [self._target(ev)]
-        if self.structure == "cascade":
-            return [self.blocks["secondary"]]  # manual acts on the MV
-        if self.structure == "override":
-            return [b for r, b in self.blocks.items() if r.startswith("blocks")]
-        return [self.blocks["main"]]
-
-    # -- one sample per structure --------------------------------------------------
+    # -- one sample ----------------------------------------------------------------
 
     def _record(self, **values: float) -> None:
         for name, v in values.items():
             self.rec.setdefault(name, []).append(v)
 
-    def _sample(self, k: int, record: bool) -> None:
-        sp = self.sp.value
-        s = self.structure
-        side = self.side
-        if s == "open_loop":
+    def _sample(self, record: bool) -> None:
+        proc, side = self.proc, self.side
+        sp = proc.setpoint.value
+        if self.structure == "open_loop":
             out = side.compute(sp)
             if record:
                 self._record(sp=sp, y=out, ym=out, u=out, v=out, load=0.0)
             return
-        y = self.plant.y_true
-        ym = self.plant.y if record else y  # warm-up: no noise, no sensor effects
-        ok = self.proc.sensor_ok and math.isfinite(ym)
-        load_in = self.actuator.load
-        if s in ("cascade", "override"):
-            y2 = self.inner.y  # the inner plant's output (no sensor wrapper)
-            u = side.compute(sp, ym, y_ok=ok, y2=y2)
-            side.update(u)
-            self.inner.step(u)
-            self.plant.step(y2 + self.proc.inner_load)  # series plants: zero-order hold
-            extra = {"y2": y2, **side.values}
-        else:
-            u = side.compute(sp, ym, y_ok=ok, dv=load_in)
-            self.plant.step(u)  # DA: the actuator shapes u (load, rate, range)
-            side.update(u, measured=self.actuator.u)
-            extra = dict(side.values)
+        y = proc.plant.y_true
+        ym = proc.plant.y if record else y  # warm-up: no noise, no sensor effects
+        ok = proc.sensor_ok and math.isfinite(ym)
+        load_in = proc.actuator.load
+        series = proc.inner is not None  # cascade, override
+        y2 = proc.inner.y if series else math.nan  # the inner plant's output (no sensor)
+        u = side.compute(sp, ym, y_ok=ok, y2=y2, dv=load_in)
+        proc.step(u)  # DA: the actuator shapes u (load, rate, range)
+        side.update(u, measured=None if series else proc.actuator.u)
+        extra = {"y2": y2, **side.values} if series else dict(side.values)
         v = extra.pop("v")
         if record:
-            u_act = self.actuator.u
+            u_act = proc.actuator.u
             self._record(sp=sp, y=y, ym=ym, u=u, v=v, u_act=u_act, load=load_in, **extra)
 
     # -- run -----------------------------------------------------------------------
@@ -262,16 +238,18 @@ class _Simulation:
         """
         ini = self.sc.initial
         nw = round(ini["warmup"] / self.ts)
-        manual_blocks = [b for r, b in self.blocks.items() if r in self.side.ctrls]
+        u0 = self.proc.u0
+        manual_blocks = [c.block for c in self.side.ctrls.values()]
         if self.structure == "cascade":
-            set_manual(self.blocks["primary"], True, self.inner.y)
-            set_manual(self.blocks["secondary"], True, self.u0)
+            set_manual(self.blocks["primary"], True, self.proc.inner.y)
+            set_manual(self.blocks["secondary"], True, u0)
         else:
             for b in manual_blocks:
-                set_manual(b, True, self.u0)
+                set_manual(b, True, u0)
         for _ in range(nw):
-            self._sample(0, record=False)
-            self._reset_plants()  # keep the plant exactly at its steady state
+            self._sample(record=False)
+            self.proc.reset()  # keep the plant exactly at its steady state
+            self.side.reset_models()
         on = ini["mode"] == "manual"
         for b in manual_blocks:
             if hasattr(b, "manual"):
@@ -287,11 +265,11 @@ class _Simulation:
         for k in range(self.n):
             t = k * h
             if k > 0:
-                self.sp.advance(h)
+                proc.setpoint.advance(h)
             for ev in proc.due(t):
                 if not proc.apply(ev):
                     self._apply(ev)
-            self._sample(k, record=True)
+            self._sample(record=True)
             self._record(t=t)
         signals = {name: np.asarray(v, dtype=float) for name, v in self.rec.items()}
         return Run(

@@ -25,7 +25,7 @@ Sample ``k`` (time ``t_k = k ts``) of a caller::
             ...  # a controller-side event
     y = proc.plant.y                  # AD
     ...
-    proc.plant.step(u)                # DA (single loop)
+    proc.step(u)                      # DA, and the plant(s) advance by ts
 """
 
 from __future__ import annotations
@@ -198,6 +198,20 @@ class ProcessSide:
             self.plant.reset(self.inner.y + self.inner_load)
         elif self.plant is not None:
             self.plant.reset(u)
+
+    def step(self, u: float) -> None:
+        """Apply the MV ``u`` for one sample: the plant(s) advance by ``ts``.
+
+        Series plants (cascade, override) are coupled with a zero-order hold:
+        the outer plant receives the inner plant's output ``y2`` (plus
+        :attr:`inner_load`) of the start of the sample.
+        """
+        if self.inner is not None:
+            y2 = self.inner.y
+            self.inner.step(u)
+            self.plant.step(y2 + self.inner_load)
+        else:
+            self.plant.step(u)
 
     # -- the time line ------------------------------------------------------------
 
