@@ -136,7 +136,7 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
-from .signals import PT1, pt1_coefficient
+from .signals import PT1, clamp, pt1_coefficient
 
 __all__ = [
     "ADRC",
@@ -401,8 +401,7 @@ def anti_backoff_states(
     return yh, x2, x3, x4
 
 
-def _clamp(u: float, lo: float, hi: float) -> float:
-    return hi if u > hi else lo if u < lo else u
+_clamp = clamp  # the name ctrlblocks.fast.kernels registers for compiled code
 
 
 def adrc_step(
@@ -440,7 +439,7 @@ def adrc_step(
     """
     (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
      s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
-    target = _clamp(u_man, lo, hi) if manual else _clamp(u_prev, lo, hi)
+    target = clamp(u_man, lo, hi) if manual else clamp(u_prev, lo, hi)
     if not started:
         yh = y
         x2 = 0.0
@@ -463,7 +462,7 @@ def adrc_step(
         yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
                                    p1, p2, k1, k2, k3)  # fmt: skip
         u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-    u = _clamp(u_raw, lo, hi)
+    u = clamp(u_raw, lo, hi)
     sat_next = 1 if u_raw > hi else -1 if u_raw < lo else 0
     return u, u_raw, yh, x2, x3, x4, ref, False, sat_next
 
@@ -819,7 +818,7 @@ class ADRC(Block):
         c = self._config
         self._h = -1.0
         self._coefficients(self._ts)
-        u0 = _clamp(float(c.u0), self._u_lo, self._u_hi)
+        u0 = clamp(float(c.u0), self._u_lo, self._u_hi)
         self.out = self.u_raw = u0
         self.e = self.y = self.y_ref = 0.0
         self.awout = False
@@ -1019,13 +1018,13 @@ class ADRC(Block):
         manual = bool(self.manual)
         if manual:
             if is_finite(self.u_man):
-                target = _clamp(float(self.u_man), lo, hi)
+                target = clamp(float(self.u_man), lo, hi)
             else:
-                target = _clamp(self._u_prev, lo, hi)
+                target = clamp(self._u_prev, lo, hi)
                 if err == ErrorCode.NO_ERROR:
                     err = ErrorCode.BAD_INPUT
         else:
-            target = _clamp(self._u_prev, lo, hi)
+            target = clamp(self._u_prev, lo, hi)
 
         yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
         ref = self._ref
@@ -1033,7 +1032,7 @@ class ADRC(Block):
         ab_sat, ab_wait = self._ab_sat, self._ab_wait
         if not y_valid:
             # measurement invalid: safe value (manual value in MAN), ESO frozen
-            u = target if manual else _clamp(float(self._config.u_sf), lo, hi)
+            u = target if manual else clamp(float(self._config.u_sf), lo, hi)
             u_raw = u
             track_next = True
             awout = False
@@ -1091,12 +1090,12 @@ class ADRC(Block):
                     ab_sat = now
                     if ab_wait > 0.0:
                         # hold u for tau_wait while the ESO converges (section 4.3)
-                        u_raw = _clamp(self._u_prev, lo, hi)
+                        u_raw = clamp(self._u_prev, lo, hi)
                         ab_wait = max(ab_wait - h, 0.0)
                         if ab_wait < 1e-9 * h:
                             ab_wait = 0.0
                             end_wait = True
-                u = _clamp(u_raw, lo, hi)
+                u = clamp(u_raw, lo, hi)
                 track_next = end_wait  # leave the wait bumplessly, x4 by (11)
             awout = (u_raw > hi or u_raw < lo) and not tracking
             sat = (1 if u_raw > hi else -1 if u_raw < lo else 0) if not tracking else 0

@@ -83,6 +83,7 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .signals import clamp
 
 __all__ = ["LeadLag", "LeadLagConfig", "leadlag_coefficients", "leadlag_step"]
 
@@ -126,12 +127,7 @@ def leadlag_step(
     hi: float,
 ) -> float:
     """One sample of the lead-lag recursion, limited to ``[lo, hi]`` (seed 003 Fig. 10)."""
-    y = b0 * x + b1 * x_prev - a1 * y_prev
-    if y > hi:
-        return hi
-    if y < lo:
-        return lo
-    return y
+    return clamp(b0 * x + b1 * x_prev - a1 * y_prev, lo, hi)
 
 
 # ---------------------------------------------------------------------------
@@ -240,7 +236,7 @@ class LeadLag(Block):
         """
         if is_finite(x):
             self._x_prev = float(x)
-            self.out = min(max(self._k * float(x), self._lo), self._hi)
+            self.out = clamp(self._k * float(x), self._lo, self._hi)
 
     def __call__(self, x: float, enable: bool = True, dt: float | None = None) -> float:
         """Run one sample and return the output.

@@ -87,6 +87,7 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .signals import clamp
 
 __all__ = ["ManualStation", "ManualStationConfig", "manual_station_update", "manual_travel"]
 
@@ -143,11 +144,7 @@ def manual_station_update(
     else:
         target = w + delta / h * tr
         v = target + (v - target) * math.exp(-h / tr)
-    if v > hi:
-        return hi
-    if v < lo:
-        return lo
-    return v
+    return clamp(v, lo, hi)
 
 
 # ---------------------------------------------------------------------------
@@ -253,11 +250,11 @@ class ManualStation(Block):
         self._lo, self._hi = float(c.out_min), float(c.out_max)
         self._ts = float(c.ts)
         if old is not None:  # a narrower range takes effect at once
-            self.out = min(max(self.out, self._lo), self._hi)
+            self.out = clamp(self.out, self._lo, self._hi)
 
     def _reset_state(self) -> None:
         c = self._config
-        self.out = min(max(float(c.y0), self._lo), self._hi)
+        self.out = clamp(float(c.y0), self._lo, self._hi)
         self.held = 0.0
         self.direction = 0
         self.tracking = False
@@ -265,7 +262,7 @@ class ManualStation(Block):
     def preset(self, value: float) -> None:
         """Set the output to ``value`` (limited to the range); a non-finite value is ignored."""
         if is_finite(value):
-            self.out = min(max(float(value), self._lo), self._hi)
+            self.out = clamp(float(value), self._lo, self._hi)
 
     def compute_output(self) -> float:
         """Two-phase form (seed 004 section 6): the present output, state untouched."""

@@ -71,7 +71,7 @@ from .base import (
 )
 from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
-from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, deadband, scale
+from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, clamp, deadband, scale
 
 __all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig", "pid_step"]
 
@@ -151,11 +151,6 @@ def derivative_step(a: float, bd: float, d_prev: float, w: float, w_prev: float)
 def integral_increment(ki_h: float, alpha: float, beta: float, e_prev: float, e: float) -> float:
     """``(K h / Ti) (alpha e[k-1] + beta e[k])``: (2.8), backward Euler or trapezoid."""
     return ki_h * (alpha * e_prev + beta * e)
-
-
-def clamp(x: float, lo: float, hi: float) -> float:
-    """``min(max(x, lo), hi)``."""
-    return lo if x < lo else hi if x > hi else x
 
 
 def clamping_blocks(di: float, v: float, lo: float, hi: float) -> bool:

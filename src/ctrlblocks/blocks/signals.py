@@ -59,6 +59,7 @@ __all__ = [
     "Saturation",
     "Scale",
     "SteadyStateDetector",
+    "clamp",
     "deadband",
     "pt1_coefficient",
     "scale",
@@ -68,6 +69,15 @@ __all__ = [
 # ---------------------------------------------------------------------------
 # Plain functions (stateless; used inside the larger blocks)
 # ---------------------------------------------------------------------------
+
+
+def clamp(x: float, lo: float, hi: float) -> float:
+    """``x`` limited to ``[lo, hi]``, ``lo <= hi`` (the saturation ``sat`` of seed 004, section 5).
+
+    The one limiter of the blocks' per-cycle code (PID, ADRC, lead-lag, manual
+    station, :class:`Scale`); a NaN ``x`` passes through unchanged.
+    """
+    return lo if x < lo else hi if x > hi else x
 
 
 def deadband(u: float, width: float) -> float:
@@ -358,8 +368,7 @@ class Scale(Block):
         c = self._config
         y = scale(float(u), c.in_lo, c.in_hi, c.out_lo, c.out_hi)
         if c.clamp:
-            lo, hi = min(c.out_lo, c.out_hi), max(c.out_lo, c.out_hi)
-            y = min(max(y, lo), hi)
+            y = clamp(y, min(c.out_lo, c.out_hi), max(c.out_lo, c.out_hi))
         self.out = y
         return y
 
@@ -534,7 +543,7 @@ class Saturation(Block):
 
     def _reset_state(self) -> None:
         c = self._config
-        self.out = min(max(0.0, c.lo), c.hi)
+        self.out = clamp(0.0, c.lo, c.hi)
         self.high = self.low = False
 
     @property
