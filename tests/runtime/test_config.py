@@ -133,6 +133,23 @@ def test_security_needs_the_certificates_and_a_password_from_the_environment(mon
     assert (c.user, c.password, c.certificate) == ("op", "pw", "/etc/ctrl/c.der")
 
 
+def test_secrets_never_show_in_reprs_or_error_messages():
+    """A password or a DSN (it may hold one) must not leak through a log line or a traceback."""
+    with_user = CONN.replace(
+        'url = "opc.tcp://127.0.0.1:4840"',
+        'url = "opc.tcp://127.0.0.1:4840"\nuser = "op"\npassword = "s3cret-pw"',
+    )
+    dsn = '[historian]\nbackend = "postgresql"\ndsn = "postgresql://op:db-s3cret@db/h"\n'
+    cfg = parse_config(with_user + LOOP + dsn)
+    assert cfg.connections["plc"].password == "s3cret-pw"
+    assert cfg.historian.dsn == "postgresql://op:db-s3cret@db/h"
+    text = repr(cfg)
+    assert "s3cret-pw" not in text and "db-s3cret" not in text
+    with pytest.raises(RuntimeConfigError) as e:  # a password typed as a number
+        parse_config(with_user.replace('"s3cret-pw"', "87654321") + LOOP)
+    assert e.value.key == "connections.plc.password" and "87654321" not in str(e.value)
+
+
 def test_toml_syntax_error_gives_the_line():
     with pytest.raises(RuntimeConfigError) as e:
         parse_config("[[loops]]\nname = \n")

@@ -109,7 +109,8 @@ def plant_server(
     for u in users:
         name, sep, pw = u.partition(":")
         if not sep:
-            raise click.BadParameter(f"{u!r}: expected USER:PASSWORD", param_hint="--user")
+            # the value is not echoed: it may be a password typed without its user
+            raise click.BadParameter("expected USER:PASSWORD (no ':' found)", param_hint="--user")
         user_map[name] = pw
     try:
         server = PlantServer(

@@ -132,7 +132,7 @@ class ConnectionConfig:
     private_key: str | None = None
     server_certificate: str | None = None
     user: str | None = None
-    password: str | None = None
+    password: str | None = dataclasses.field(default=None, repr=False)  # a secret: never shown
     application_uri: str = "urn:ctrlblocks:runtime"
     stale_after: float = 0.0
 
@@ -184,7 +184,7 @@ class HistorianConfig:
 
     backend: str = "sqlite"
     path: str = "ctrlblocks-history.sqlite"
-    dsn: str = ""
+    dsn: str = dataclasses.field(default="", repr=False)  # may hold a password
     flush_interval: float = 1.0
     batch: int = 1000
     retention_days: float = 0.0
@@ -267,6 +267,13 @@ class _Parser(TableReader):
         v = self.string(d, name, key, default=default)
         if v not in choices:
             raise self.fail(key, f"must be one of {', '.join(choices)}; got {v!r}")
+        return v
+
+    def secret(self, d: Mapping[str, Any], name: str, key: str) -> str | None:
+        """An optional string whose value never appears in an error message (a password)."""
+        v = d.get(name)
+        if v is not None and not isinstance(v, str):
+            raise self.fail(key, f"must be a string, got {type_name(v)} (value not shown)")
         return v
 
     def path(self, d: Mapping[str, Any], name: str, key: str) -> str | None:
@@ -364,7 +371,7 @@ class _Parser(TableReader):
                             "its private key and the trusted server certificate",
                         )
             kw["user"] = self.string(c, "user", f"{key}.user", default=None)
-            pw = self.string(c, "password", f"{key}.password", default=None)
+            pw = self.secret(c, "password", f"{key}.password")
             env = self.string(c, "password_env", f"{key}.password_env", default=None)
             if pw is not None and env is not None:
                 raise self.fail(f"{key}.password_env", "give password or password_env, not both")
@@ -645,7 +652,7 @@ class _Parser(TableReader):
         path = self.path(h, "path", "historian.path") or str(
             self.base / "ctrlblocks-history.sqlite"
         )
-        dsn = self.string(h, "dsn", "historian.dsn", default="")
+        dsn = self.secret(h, "dsn", "historian.dsn") or ""
         env = self.string(h, "dsn_env", "historian.dsn_env", default=None)
         if env is not None:
             dsn = os.environ.get(env, "")
