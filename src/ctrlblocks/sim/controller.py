@@ -66,18 +66,23 @@ class _Controller:
         self.takes_ff = "ff" in params
         self.takes_dt = "dt" in params
 
-    def output(
-        self, sp: float, y: float, ok: bool, ff: float = 0.0, dt: float | None = None
-    ) -> float:
+    def _inputs(self, y: float, ok: bool, dt: float | None) -> tuple[float, dict[str, Any]]:
+        """``y`` and the keyword arguments for the quality flag and ``dt``."""
         kw: dict[str, Any] = {}
         if self.ok_name is not None:
             kw[self.ok_name] = ok
         elif not ok:
             y = math.nan  # a block without a quality flag sees an invalid value
-        if self.takes_ff:
-            kw["ff"] = ff
         if dt is not None and self.takes_dt:
             kw["dt"] = dt
+        return y, kw
+
+    def output(
+        self, sp: float, y: float, ok: bool, ff: float = 0.0, dt: float | None = None
+    ) -> float:
+        y, kw = self._inputs(y, ok, dt)
+        if self.takes_ff:
+            kw["ff"] = ff
         if self.two_phase:
             return float(self.block.compute_output(sp, y, **kw))
         return float(self.block(sp, y, **kw))
@@ -88,13 +93,7 @@ class _Controller:
         The blocks document it as identical to ``compute_output`` +
         ``update_state(v)`` (their fast lane; tests/fast checks it).
         """
-        kw: dict[str, Any] = {}
-        if self.ok_name is not None:
-            kw[self.ok_name] = ok
-        elif not ok:
-            y = math.nan
-        if dt is not None and self.takes_dt:
-            kw["dt"] = dt
+        y, kw = self._inputs(y, ok, dt)
         return float(self.block(sp, y, **kw))
 
     def update(self, applied: float, measured: float | None = None) -> None:
@@ -179,6 +178,11 @@ class ControllerSide:
             self.override_specs: list[BlockSpec] = list(spec.blocks["blocks"])
             for i, s in enumerate(self.override_specs):
                 self.blocks[f"blocks[{i}]"] = self._make(s, "block")
+            # per block: its role, whether it measures y2, its fixed setpoint (None: sp)
+            self._override = [
+                (f"blocks[{i}]", s.extra.get("measure", "y") == "y2", _fixed_sp(s))
+                for i, s in enumerate(self.override_specs)
+            ]
         else:
             for role, s in spec.blocks.items():
                 if role != "model":
@@ -226,7 +230,7 @@ class ControllerSide:
         if s == "feedforward":
             return ("y", "dv")
         if s == "override":
-            used = {sp.extra.get("measure", "y") for sp in self.override_specs}
+            used = {"y2" if on_y2 else "y" for _, on_y2, _ in self._override}
             return tuple(m for m in ("y", "y2") if m in used)
         return ("y",)
 
@@ -289,12 +293,10 @@ class ControllerSide:
             self._pending = (v1,)
         elif s == "override":
             ok = y_ok and y2_ok
-            vs = []
-            for i, bspec in enumerate(self.override_specs):
-                meas = y if bspec.extra.get("measure", "y") == "y" else y2
-                spi = bspec.extra.get("sp", "sp")
-                spi = sp if spi == "sp" else float(spi)
-                vs.append(self.ctrls[f"blocks[{i}]"].output(spi, meas, ok, dt=dt))
+            vs = [
+                self.ctrls[role].output(sp if sp_i is None else sp_i, y2 if on_y2 else y, ok, dt=dt)
+                for role, on_y2, sp_i in self._override
+            ]
             u = min(vs) if self.selector == "min" else max(vs)
             for i, vi in enumerate(vs):
                 vals[f"v{i + 1}"] = vi
@@ -387,6 +389,12 @@ class ControllerSide:
                 "error_id": int(getattr(b, "error_id", 0)),
             }
         return out
+
+
+def _fixed_sp(spec: BlockSpec) -> float | None:
+    """An override block's own setpoint (``sp = NUMBER``), or None when it follows ``sp``."""
+    sp = spec.extra.get("sp", "sp")
+    return None if sp == "sp" else float(sp)
 
 
 def _num(x: Any) -> float:
