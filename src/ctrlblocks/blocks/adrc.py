@@ -130,6 +130,7 @@ from .base import (
     Mode,
     ParameterError,
     is_finite,
+    require_bool,
     require_choice,
     require_finite,
     require_limits,
@@ -551,20 +552,11 @@ class ADRCConfig(BlockConfig):
         require_choice("discretisation", self.discretisation, ("euler", "exact"))
         require_finite("u_sf", self.u_sf)
         require_finite("u0", self.u0)
-        aw = self.anti_windup
-        if not (isinstance(aw, bool) or aw in ("directional", "freeze", "off")):
-            raise ParameterError(
-                ErrorCode.BAD_ANTIWINDUP,
-                "anti_windup",
-                f"must be 'directional', 'freeze', 'off', True or False; got {aw!r}",
-            )
-        for name in ("u_real_on", "anti_backoff"):
-            if not isinstance(getattr(self, name), bool):
-                raise ParameterError(
-                    ErrorCode.BAD_PARAMETER,
-                    name,
-                    f"must be True or False, got {getattr(self, name)!r}",
-                )
+        if not isinstance(self.anti_windup, bool):  # True/False: "directional"/"off"
+            rules = ("directional", "freeze", "off")
+            require_choice("anti_windup", self.anti_windup, rules, ErrorCode.BAD_ANTIWINDUP)
+        require_bool("u_real_on", self.u_real_on)
+        require_bool("anti_backoff", self.anti_backoff)
         require_limits("y_sat_lo", self.y_sat_lo, "y_sat", self.y_sat)
         require_nonnegative("tau_wait", self.tau_wait, ErrorCode.BAD_TIME_CONSTANT)
 

@@ -176,12 +176,19 @@ def require_nonnegative(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_P
     return x
 
 
-def require_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
-    """Return ``value`` if it is one of ``choices``, else raise BAD_PARAMETER."""
+def require_choice(
+    name: str, value: Any, choices: tuple[str, ...], code: ErrorCode = ErrorCode.BAD_PARAMETER
+) -> str:
+    """Return ``value`` if it is one of ``choices``, else raise ParameterError with ``code``."""
     if value not in choices:
-        raise ParameterError(
-            ErrorCode.BAD_PARAMETER, name, f"must be one of {', '.join(choices)}; got {value!r}"
-        )
+        raise ParameterError(code, name, f"must be one of {', '.join(choices)}; got {value!r}")
+    return value
+
+
+def require_bool(name: str, value: Any) -> bool:
+    """Return ``value`` if it is a bool (``True``/``False``), else raise BAD_PARAMETER."""
+    if not isinstance(value, bool):
+        raise ParameterError(ErrorCode.BAD_PARAMETER, name, f"must be True or False, got {value!r}")
     return value
 
 

@@ -46,7 +46,15 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from .base import Block, BlockConfig, ErrorCode, ParameterError, is_finite, require_positive
+from .base import (
+    Block,
+    BlockConfig,
+    ErrorCode,
+    ParameterError,
+    is_finite,
+    require_bool,
+    require_positive,
+)
 
 __all__ = ["CycleMonitor", "CycleMonitorConfig", "welford_update"]
 
@@ -97,8 +105,7 @@ class CycleMonitorConfig(BlockConfig):
                 "warn_limit/alarm_limit",
                 f"alarm limit {alarm!r} is below the warning limit {warn!r}",
             )
-        if not isinstance(self.latch, bool):
-            raise ParameterError(ErrorCode.BAD_PARAMETER, "latch", "must be True or False")
+        require_bool("latch", self.latch)
 
     def limits(self, ts: float | None = None) -> tuple[float, float]:
         """The warning and alarm limits in force [s] (defaults resolved)."""

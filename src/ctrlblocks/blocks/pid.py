@@ -63,6 +63,7 @@ from .base import (
     Mode,
     ParameterError,
     is_finite,
+    require_bool,
     require_choice,
     require_finite,
     require_limits,
@@ -364,8 +365,7 @@ class PIDConfig(BlockConfig):
         require_choice("integral_method", self.integral_method, METHODS)
         require_choice("derivative_method", self.derivative_method, METHODS)
         require_choice("algorithm", self.algorithm, ("positional", "velocity"))
-        if not isinstance(self.reverse, bool):
-            raise ParameterError(ErrorCode.BAD_PARAMETER, "reverse", "must be a bool")
+        require_bool("reverse", self.reverse)
         if self.pv_range is not None:
             try:
                 lo, hi = self.pv_range
@@ -383,12 +383,7 @@ class PIDConfig(BlockConfig):
         require_nonnegative("pv_filter", self.pv_filter, ErrorCode.BAD_TIME_CONSTANT)
         require_nonnegative("sp_rate", self.sp_rate, ErrorCode.BAD_RATE)
         require_nonnegative("out_rate", self.out_rate, ErrorCode.BAD_RATE)
-        if self.anti_windup not in AntiWindup.ALL:
-            raise ParameterError(
-                ErrorCode.BAD_ANTIWINDUP,
-                "anti_windup",
-                f"must be one of {', '.join(AntiWindup.ALL)}; got {self.anti_windup!r}",
-            )
+        require_choice("anti_windup", self.anti_windup, AntiWindup.ALL, ErrorCode.BAD_ANTIWINDUP)
         if self.tt is not None:
             require_positive("tt", self.tt, ErrorCode.BACK_CALC_T)
         require_choice("bumpless", self.bumpless, Bumpless.ALL)
