@@ -229,6 +229,8 @@ class ProcessSide:
     def apply(self, ev: Event) -> bool:
         """Apply a process event; return False (and do nothing) for a controller-side one."""
         f, k = ev.fields, ev.kind
+        if k not in PROCESS_EVENTS:
+            return False
         if k == "setpoint":
             self.setpoint.step_to(f["value"], f.get("ramp"))
         elif k == "load":
@@ -244,11 +246,9 @@ class ProcessSide:
         elif k == "plant":
             plant = self.inner_model if f.get("target", "plant") == "inner_plant" else self.model
             set_plant_parameter(plant, f["param"], f["value"])
-        elif k == "sensor":
+        else:  # sensor
             if "ok" in f:
                 self.sensor_ok = f["ok"]
             if "nan" in f:
                 self.plant.fault = math.nan if f["nan"] else None
-        else:
-            return False
         return True
