@@ -561,13 +561,15 @@ class _Parser(TableReader):
         key: str,
         ts: float,
         tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
+        *,
+        kind: str = "block",
     ) -> BlockSpec:
-        """The block table ``[controllers.ROLE]`` of a controller entry (``main``, ...)."""
+        """The table ``[controllers.ROLE]`` of a controller entry (``main``, ``model``, ...)."""
         return self.block_spec(
             self.table(entry, role, f"{key}.{role}", True),
             f"{key}.{role}",
             ts,
-            kind="block",
+            kind=kind,
             tune_plant=tune_plant,
         )
 
@@ -669,9 +671,7 @@ class _Parser(TableReader):
                 )
         else:  # smith
             self.check_keys(e, {"name", "color", "style", "main", "model"}, key)
-            model = self.block_spec(
-                self.table(e, "model", f"{key}.model", True), f"{key}.model", ts
-            )
+            model = self.role(e, "model", key, ts, kind="plant")
             if "dead_time" not in model.params:
                 raise self.fail(
                     f"{key}.model.dead_time",
