@@ -84,8 +84,7 @@ class ControlLoop:
     config : LoopConfig
         The loop's configuration.
     side : ControllerSide
-        The structure's blocks (:func:`~ctrlblocks.runtime.config.build_side`);
-        a bare PID or ADRC block is taken as a single loop.
+        The structure's blocks (:func:`~ctrlblocks.runtime.config.build_side`).
     connections : mapping
         Connection name -> :class:`~ctrlblocks.runtime.io.Connection`.
 
@@ -97,12 +96,10 @@ class ControlLoop:
     """
 
     def __init__(
-        self, config: LoopConfig, side: Any, connections: Mapping[str, Connection]
+        self, config: LoopConfig, side: ControllerSide, connections: Mapping[str, Connection]
     ) -> None:
         self.config = config
         self.name = config.name
-        if not isinstance(side, ControllerSide):
-            side = _single(config, side)
         self.side = side
         self.block = side.main
         self.connections = connections
@@ -110,15 +107,6 @@ class ControlLoop:
         self.monitor = CycleMonitor(
             ts=config.ts, warn_limit=config.warn_limit, alarm_limit=config.alarm_limit
         )
-        b = config.bindings()
-        self._inputs = {
-            n: bd for n, bd in b.items() if bd.is_io and n != "mv"
-        }  # signal -> binding, read each cycle
-        self.sp = float(config.sp.value) if not config.sp.is_io else math.nan
-        mode = config.mode.value if not config.mode.is_io else "auto"
-        self._set_mode(mode)
-        if config.manual_value is not None and not config.manual_value.is_io:
-            self._set_manual_value(float(config.manual_value.value))
         # status for the faceplate
         self.cycle_count = 0
         self.pv = math.nan
@@ -134,6 +122,13 @@ class ControlLoop:
         self.input_errors: dict[str, str] = {}
         self.last_exception = ""
         self._limits_in = (math.nan, math.nan)
+        # signal -> binding of the inputs read each cycle
+        self._inputs = {n: b for n, b in config.bindings().items() if b.is_io and n != "mv"}
+        self.sp = float(config.sp.value) if not config.sp.is_io else math.nan
+        mode = config.mode.value if not config.mode.is_io else "auto"
+        self._set_mode(mode)
+        if config.manual_value is not None and not config.manual_value.is_io:
+            self._set_manual_value(float(config.manual_value.value))
 
     # -- helpers ---------------------------------------------------------------
 
@@ -144,19 +139,11 @@ class ControlLoop:
 
     def _set_mode(self, mode: str, *, preset: bool = True) -> None:
         manual = mode == "manual"
-        last = self.mv if getattr(self, "mv", None) is not None and is_finite(self.mv) else None
-        if last is None and is_finite(self.block.out):
-            last = float(self.block.out)
-        if (
-            manual
-            and not self.block.manual
-            and preset
-            and not self.is_bound("manual_value")
-            and last is not None
-        ):
+        value = None
+        if manual and not self.side.manual and preset and not self.is_bound("manual_value"):
             # auto -> manual without a new manual value: continue from the output
-            self._set_manual_value(last)
-        self.side.set_manual(manual)
+            value = next((float(x) for x in (self.mv, self.block.out) if is_finite(x)), None)
+        self.side.set_manual(manual, value)
 
     def _set_manual_value(self, value: float) -> None:
         for b in self.side.mv_blocks:
@@ -413,12 +400,3 @@ class ControlLoop:
             old["mode"] = self.mode
             self._set_mode(changes["mode"], preset="manual_value" not in changes)
         return old
-
-
-def _single(config: LoopConfig, block: Any) -> ControllerSide:
-    """A single-loop controller side around an already built ``block``."""
-    side = ControllerSide("single", config.spec(), config.ts, file=config.key)
-    side.blocks["main"] = block
-    side.mv_blocks = [block]
-    side.ctrls["main"] = type(side.ctrls["main"])(block)
-    return side
