@@ -225,11 +225,6 @@ def parse_config(text: str, *, file: str = "<string>", base: Path | None = None)
     return _Parser(file, base or Path.cwd()).config(doc)
 
 
-def build_block(lc: LoopConfig, file: str = "<config>") -> Any:
-    """Make the block that writes the MV of loop ``lc`` (errors name the key path)."""
-    return build_side(lc, file).main
-
-
 def build_side(lc: LoopConfig, file: str = "<config>") -> ControllerSide:
     """Make the controller side of loop ``lc``: its structure's blocks, wired (errors: key path)."""
     try:
@@ -316,7 +311,7 @@ class _Parser(TableReader):
         hist = self.historian(doc.get("historian", {}))
         cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file)
         for lc in loops:  # build once: a refused parameter is reported here
-            build_block(lc, self.file)
+            build_side(lc, self.file)
         return cfg
 
     def connection(self, name: str, c: Any) -> ConnectionConfig:
