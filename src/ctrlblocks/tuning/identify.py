@@ -48,7 +48,7 @@ from __future__ import annotations
 import csv
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -347,7 +347,7 @@ def read_step_csv(path: str | Path, time: str = "t", u: str = "u", y: str = "y")
             f"only {n} data row(s); at least {MIN_SAMPLES} are needed",
         )
     uv = np.asarray(values[u])
-    if np.ptp(uv) <= 1e-12 * max(1.0, float(np.max(np.abs(uv)))):
+    if _constant(uv):
         raise DataFileError(
             path,
             None,
@@ -420,7 +420,7 @@ def _two_point(t, u, y, fractions, rule, method) -> FOPDT:
     t_end = t[-1] - s["t_step"]
     if t_end < theta + 4.0 * T:
         warnings.append(_short_record(t_end, theta + 4.0 * T))
-    return FOPDT(gain, T, theta, fit, warnings, method, s["u_start"], s["y_start"])
+    return replace(model, fit=fit, warnings=warnings)
 
 
 def _step_analysis(t: NDArray, u: NDArray, y: NDArray) -> dict:
@@ -645,7 +645,7 @@ def _finish(model, t, u, y, settle, p):
         )
     for w in warnings:
         _log.info("%s: %s", model.method, w)
-    return type(model)(**{**model.__dict__, "fit": fit, "warnings": warnings})
+    return replace(model, fit=fit, warnings=warnings)
 
 
 # ---------------------------------------------------------------------------
@@ -737,9 +737,14 @@ def _check_record(t, u, y) -> tuple[NDArray, NDArray, NDArray]:
             "time must increase strictly (first violation at index "
             f"{int(np.argmax(np.diff(t) <= 0)) + 1})"
         )
-    if np.ptp(u) <= 1e-12 * max(1.0, float(np.max(np.abs(u)))):
+    if _constant(u):
         raise ValueError("the MV never changes: there is no step to identify from")
     return t, u, y
+
+
+def _constant(u: NDArray) -> bool:
+    """True when the MV record never changes (within rounding): nothing to identify."""
+    return bool(np.ptp(u) <= 1e-12 * max(1.0, float(np.max(np.abs(u)))))
 
 
 def _time_scales(t: NDArray) -> tuple[float, float]:
