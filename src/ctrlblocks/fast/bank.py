@@ -94,7 +94,7 @@ def _fill_rows(out, k, ti, td, n, b, c, h, lo, hi, reverse, dmeth, imeth, aw, tt
     for j in range(out.shape[0]):
         row = _pid_row(k[j], ti[j], td[j], n[j], b[j], c[j], h, lo[j], hi[j], reverse[j],
                        dmeth, imeth, aw, tt[j])  # fmt: skip
-        for m in range(13):
+        for m in range(_N_PID):
             out[j, m] = row[m]
 
 
@@ -218,7 +218,7 @@ class PIDBank:
     """
 
     def __init__(self, pids: Sequence[Any], plants: Sequence[Any]) -> None:
-        ts = {_check_ts(pids, plants)}
+        ts = _check_ts(pids, plants)
         prm = np.array([pid_params(p) for p in pids], dtype=float)
         pp, x = _plant_rows(plants)
         st = np.zeros((len(pids), 6))
@@ -226,7 +226,7 @@ class PIDBank:
             if p._mode_prev not in (-1, 0) or (p._reinit and not p._cold):
                 raise UnsupportedConfig("bank loops start in auto (run one cycle first)")
             st[j] = (p._i, p._d, p._w_prev, p._e_prev, p.out, float(p._cold))
-        self._init(prm, pp, st, x, ts.pop())
+        self._init(prm, pp, st, x, ts)
 
     def _init(self, prm: np.ndarray, pp: np.ndarray, st: np.ndarray, x: np.ndarray, ts: float):
         self.prm, self.pp, self.st, self.x = prm, pp, st, x

@@ -70,16 +70,6 @@ for _f in (
 ):
     jitable(_f)
 
-derivative_step = _pid.derivative_step
-integral_increment = _pid.integral_increment
-clamp = _pid.clamp
-clamping_blocks = _pid.clamping_blocks
-eso_euler = _adrc.eso_euler
-control_law = _adrc.control_law
-x4_update_allowed = _adrc.x4_update_allowed
-solve_x4 = _adrc.solve_x4
-adrc_clamp = _adrc._clamp
-
 
 class UnsupportedConfig(ValueError):
     """The block's configuration uses a feature the compiled kernels do not cover."""
@@ -207,5 +197,4 @@ def lti3_step(
     return n0, n1, n2, y
 
 
-for _f in (lti3_step,):
-    jitable(_f)
+jitable(lti3_step)
