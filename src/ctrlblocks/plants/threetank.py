@@ -69,6 +69,7 @@ from typing import Any
 import numpy as np
 
 from ..blocks.base import ErrorCode, ParameterError, require_positive
+from ..blocks.signals import clamp
 from .base import Plant
 
 __all__ = ["OUTLETS", "R_BETWEEN", "ThreeTank", "threetank_rk4"]
@@ -277,7 +278,7 @@ class ThreeTank(Plant):
         """
         if not math.isfinite(u):
             u = self.u
-        u = self.u_max if u > self.u_max else (self.u_min if u < self.u_min else float(u))
+        u = float(clamp(u, self.u_min, self.u_max))
         self.u = u
         n = self.substeps
         self._p1, self._p2, self._p3 = threetank_rk4(
@@ -288,7 +289,7 @@ class ThreeTank(Plant):
     def reset(self, u0: float = 0.0) -> None:
         """Steady state (T3) for the supply pressure ``u0`` [bar gauge] (clamped)."""
         u0 = float(u0) if math.isfinite(u0) else 0.0
-        u0 = min(max(u0, self.u_min), self.u_max)
+        u0 = clamp(u0, self.u_min, self.u_max)
         self.u = u0
         p = self.steady_state(u0)
         self._p1, self._p2, self._p3 = (v + P_ATM for v in p)

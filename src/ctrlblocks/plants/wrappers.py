@@ -58,6 +58,7 @@ from ..blocks.base import (
     require_nonnegative,
     require_positive,
 )
+from ..blocks.signals import clamp
 from .base import _P, Plant
 
 __all__ = ["Actuator", "Noise", "Sensor", "process"]
@@ -165,15 +166,6 @@ class Noise:
     def __repr__(self) -> str:
         col = f", t_corr={self.t_corr!r}, ts={self.ts!r}" if self.a else ""
         return f"Noise({self.level!r}, kind={self.kind!r}{col}, seed={self.seed!r})"
-
-
-def clamp(x: float, lo: float, hi: float) -> float:
-    """``x`` limited to ``[lo, hi]``."""
-    if x > hi:
-        return hi
-    if x < lo:
-        return lo
-    return x
 
 
 class _Wrapper(Plant):
