@@ -38,16 +38,10 @@ import itertools
 import logging
 import os
 import re
-import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 from typing import Any
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 __all__ = [
     "SweepError",
@@ -122,6 +116,16 @@ def parameter_sets(vary: Mapping[str, Sequence[Any]]) -> list[dict[str, Any]]:
     return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*vary.values())]
 
 
+def _scenario(text: str, file: str, params: Mapping[str, Any]) -> Any:
+    """The scenario of ``text`` with the keys of ``params`` set (the simulator's parser)."""
+    from ..sim.scenario import parse_scenario_doc, read_toml
+
+    doc = read_toml(text, file)
+    for k, v in params.items():
+        apply_key(doc, k, v)
+    return parse_scenario_doc(doc, file=file)
+
+
 def run_one(
     text: str,
     file: str,
@@ -135,13 +139,8 @@ def run_one(
     pool, Dask) can ship it to a worker.
     """
     from ..sim.runner import run_scenario
-    from ..sim.scenario import parse_scenario_doc
 
-    doc = tomllib.loads(text)
-    for k, v in params.items():
-        apply_key(doc, k, v)
-    sc = parse_scenario_doc(doc, file=file)
-    result = run_scenario(sc, quick=quick, duration=duration)
+    result = run_scenario(_scenario(text, file, params), quick=quick, duration=duration)
     claims = {
         f"claim {i}": (None if c.holds is None else bool(c.holds))
         for i, c in enumerate(result.claims)
@@ -190,14 +189,11 @@ def sweep(
     text, file = read_scenario_text(scenario)
     sets = parameter_sets(vary)
     # refuse a bad key or value before sending work anywhere
-    from ..sim.scenario import ScenarioError, parse_scenario_doc
+    from ..sim.scenario import ScenarioError
 
     for params in sets:
-        doc = tomllib.loads(text)
-        for k, v in params.items():
-            apply_key(doc, k, v)
         try:
-            parse_scenario_doc(doc, file=file)
+            _scenario(text, file, params)
         except ScenarioError as exc:
             raise SweepError(f"{params}: {exc}") from None
     total = len(sets)
