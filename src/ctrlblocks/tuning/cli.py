@@ -122,7 +122,9 @@ def _with_model(f):
 @_with_model
 @click.option("--order", type=int, required=True, help="ADRC order n (1, 2 or 3).")
 @click.option(
-    "--settling-time", type=float, help="Desired closed-loop settling time [s]; default 2 (T + L)."
+    "--settling-time",
+    type=float,
+    help="Desired closed-loop settling time [s]; default 1.5 (T + L).",
 )
 @click.option("--ts", type=float, help="Controller sample time [s]; suggested if not given.")
 @click.option(
