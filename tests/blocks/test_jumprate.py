@@ -198,6 +198,7 @@ def test_per_call_dt_advances_by_that_time() -> None:
         ({"rlow": 0.2}, ErrorCode.BAD_RATE),
         ({"rlow": math.nan}, ErrorCode.BAD_RATE),
         ({"rhigh": "fast"}, ErrorCode.BAD_RATE),
+        ({"rhigh": True}, ErrorCode.BAD_RATE),
         ({"ts": 0.0}, ErrorCode.NO_CYCLE),
     ],
 )

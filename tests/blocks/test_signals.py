@@ -23,6 +23,7 @@ from ctrlblocks import (
     MaxSelector,
     MinSelector,
     MovingAverage,
+    ParameterError,
     RateLimiter,
     Saturation,
     Scale,
@@ -292,6 +293,14 @@ def test_saturation_by_hand_and_flags() -> None:
     assert (s(-4.0), s.high, s.low) == (-1.0, False, True)
     assert (s(0.5), s.active) == (0.5, False)
     assert s(math.inf) == 0.5 and s.error_id == ErrorCode.BAD_INPUT
+
+
+@pytest.mark.parametrize("bad", [{"hi": True}, {"lo": False}, {"hi": "high"}, {"lo": math.nan}])
+def test_saturation_refuses_a_limit_that_is_not_a_number(bad: dict) -> None:
+    # a bool is not a limit (as require_finite refuses it for every other parameter)
+    with pytest.raises(ParameterError) as info:
+        Saturation(**bad)
+    assert info.value.code == ErrorCode.BAD_LIMITS and info.value.field == "lo/hi"
 
 
 def test_selectors_pick_min_and_max_and_tell_which() -> None:

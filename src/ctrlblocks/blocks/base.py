@@ -193,29 +193,33 @@ def require_bool(name: str, value: Any) -> bool:
 
 
 def require_limits(
-    lo_name: str, lo: Any, hi_name: str, hi: Any, *, allow_infinite: bool = True
+    lo_name: str,
+    lo: Any,
+    hi_name: str,
+    hi: Any,
+    *,
+    allow_infinite: bool = True,
+    code: ErrorCode = ErrorCode.BAD_LIMITS,
 ) -> tuple[float, float]:
-    """Return the limit pair as floats, or raise BAD_LIMITS if reversed or NaN.
+    """Return the limit pair as floats, or raise ParameterError (``code``, default
+    BAD_LIMITS) if either is not a number (a bool is not) or NaN, or if reversed.
 
     Infinite limits (``-inf``/``inf``: no limit) are accepted unless
     ``allow_infinite`` is false.
     """
+    field = f"{lo_name}/{hi_name}"
     try:
+        if isinstance(lo, bool) or isinstance(hi, bool):
+            raise TypeError
         lo_f, hi_f = float(lo), float(hi)
     except (TypeError, ValueError):
-        raise ParameterError(
-            ErrorCode.BAD_LIMITS, f"{lo_name}/{hi_name}", f"must be numbers, got {lo!r}, {hi!r}"
-        ) from None
+        raise ParameterError(code, field, f"must be numbers, got {lo!r}, {hi!r}") from None
     if math.isnan(lo_f) or math.isnan(hi_f):
-        raise ParameterError(ErrorCode.BAD_LIMITS, f"{lo_name}/{hi_name}", "must not be NaN")
+        raise ParameterError(code, field, "must not be NaN")
     if not allow_infinite and not (math.isfinite(lo_f) and math.isfinite(hi_f)):
-        raise ParameterError(ErrorCode.BAD_LIMITS, f"{lo_name}/{hi_name}", "must be finite")
+        raise ParameterError(code, field, "must be finite")
     if lo_f > hi_f:
-        raise ParameterError(
-            ErrorCode.BAD_LIMITS,
-            f"{lo_name}/{hi_name}",
-            f"low limit {lo_f!r} is above high limit {hi_f!r}",
-        )
+        raise ParameterError(code, field, f"low limit {lo_f!r} is above high limit {hi_f!r}")
     return lo_f, hi_f
 
 

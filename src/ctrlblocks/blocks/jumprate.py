@@ -166,7 +166,9 @@ class JumpAndRateConfig(BlockConfig):
                 "jlow/jhigh",
                 f"jump limits must satisfy jlow <= 0 <= jhigh, got {jlow!r}, {jhigh!r}",
             )
-        rlow, rhigh = _rate("rlow", self.rlow), _rate("rhigh", self.rhigh)
+        rlow, rhigh = require_limits(
+            "rlow", self.rlow, "rhigh", self.rhigh, code=ErrorCode.BAD_RATE
+        )
         if not rlow <= 0.0 <= rhigh:
             raise ParameterError(
                 ErrorCode.BAD_RATE,
@@ -174,19 +176,6 @@ class JumpAndRateConfig(BlockConfig):
                 f"rate limits must satisfy rlow <= 0 <= rhigh, got {rlow!r}, {rhigh!r}",
             )
         require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
-
-
-def _rate(name: str, value: object) -> float:
-    """``value`` as a float (infinite allowed), or ParameterError BAD_RATE."""
-    try:
-        if isinstance(value, bool):
-            raise TypeError
-        x = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ParameterError(ErrorCode.BAD_RATE, name, f"must be a number, got {value!r}") from None
-    if math.isnan(x):
-        raise ParameterError(ErrorCode.BAD_RATE, name, "must not be NaN")
-    return x
 
 
 class JumpAndRate(Block):
