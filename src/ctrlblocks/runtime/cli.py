@@ -7,10 +7,11 @@ import logging
 import signal
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import click
 
-__all__ = ["history", "plant_server", "serve"]
+__all__ = ["history", "plant_server", "run_until_stopped", "serve"]
 
 
 def _install_stop(loop: asyncio.AbstractEventLoop, stop: Callable[[], None]) -> None:
@@ -20,6 +21,16 @@ def _install_stop(loop: asyncio.AbstractEventLoop, stop: Callable[[], None]) -> 
             loop.add_signal_handler(sig, stop)
         except (NotImplementedError, RuntimeError):  # pragma: no cover - non-Unix
             signal.signal(sig, lambda *_: loop.call_soon_threadsafe(stop))
+
+
+def run_until_stopped(runtime: Any) -> None:
+    """Run ``runtime`` on a new event loop until SIGINT/SIGTERM, then stop it gracefully."""
+
+    async def main() -> None:
+        _install_stop(asyncio.get_running_loop(), runtime.request_stop)
+        await runtime.run()
+
+    asyncio.run(main())
 
 
 @click.command()
@@ -46,13 +57,7 @@ def serve(config: Path, check: bool, verbose: int) -> None:
     if check:
         click.echo(f"{config}: {len(cfg.loops)} loop(s), {len(cfg.connections)} connection(s): OK")
         return
-
-    async def main() -> None:
-        rt = Runtime(cfg)
-        _install_stop(asyncio.get_running_loop(), rt.request_stop)
-        await rt.run()
-
-    asyncio.run(main())
+    run_until_stopped(Runtime(cfg))
 
 
 @click.command("plant-server")

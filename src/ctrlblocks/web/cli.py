@@ -7,7 +7,6 @@ and opens the faceplate at http://127.0.0.1:8000.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import logging
 import os
@@ -114,7 +113,9 @@ def serve(
             return
         if not web:
             click.echo(f"running {len(runtime.loop_names())} loop(s); Ctrl-C stops")
-            _run_headless(runtime)
+            from ..runtime.cli import run_until_stopped
+
+            run_until_stopped(runtime)
             return
         try:
             from .server import make_server
@@ -142,18 +143,6 @@ def serve(
     finally:
         if tmp is not None:
             tmp.cleanup()
-
-
-def _run_headless(runtime: object) -> None:
-    import signal
-
-    async def main() -> None:
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, runtime.request_stop)  # type: ignore[attr-defined]
-        await runtime.run()  # type: ignore[attr-defined]
-
-    asyncio.run(main())
 
 
 @click.group()
