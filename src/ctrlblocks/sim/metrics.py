@@ -76,6 +76,7 @@ __all__ = [
     "rise_time",
     "settling_time",
     "total_variation",
+    "window_index",
     "windows_from_events",
 ]
 
@@ -227,25 +228,17 @@ def compute_metrics(
     dict
         ``{name: value}`` for every name in :data:`METRIC_NAMES`.
     """
-    t = np.asarray(t, dtype=float)
-    lo = -math.inf if t0 is None else t0 - 0.5 * h
-    hi = math.inf if t1 is None else t1 - 0.5 * h
-    idx = np.flatnonzero((t >= lo) & (t < hi))
+    t, r, y, u = (np.asarray(a, dtype=float) for a in (t, r, y, u))
+    idx = window_index(t, h, t0, t1)
     if len(idx) == 0:
         return dict.fromkeys(METRIC_NAMES, math.nan)
     sl = slice(idx[0], idx[-1] + 1)
-    tw, rw, yw, uw = (
-        t[sl],
-        np.asarray(r, float)[sl],
-        np.asarray(y, float)[sl],
-        np.asarray(u, float)[sl],
-    )
+    tw, rw, yw, uw = t[sl], r[sl], y[sl], u[sl]
     e = rw - yw
     r_end = float(rw[-1])
     y0 = float(yw[0])
     step = r_end - y0
-    r_all = np.asarray(r, float)
-    sp_changed = idx[0] > 0 and abs(r_end - float(r_all[idx[0] - 1])) > 0.0
+    sp_changed = idx[0] > 0 and abs(r_end - float(r[idx[0] - 1])) > 0.0
     if not sp_changed and abs(step) <= step_tol * max(abs(r_end), abs(y0)):
         step = 0.0
     peak = float(np.max(np.abs(e)))
@@ -254,8 +247,7 @@ def compute_metrics(
     else:
         scale_ = max(abs(r_end), peak)
         band_abs = band * scale_ if scale_ > 0 else math.nan
-    u_all = np.asarray(u, float)
-    jump = abs(float(u_all[idx[0]] - u_all[idx[0] - 1])) if idx[0] > 0 else 0.0
+    jump = abs(float(u[idx[0]] - u[idx[0] - 1])) if idx[0] > 0 else 0.0
     return {
         "iae": iae(e, h),
         "ise": ise(e, h),
@@ -269,6 +261,19 @@ def compute_metrics(
         "max_rate_u": max_rate(uw, h),
         "jump_u": jump,
     }
+
+
+def window_index(
+    t: np.ndarray, h: float, t0: float | None = None, t1: float | None = None
+) -> np.ndarray:
+    """Indices of the samples in the window ``t0 <= t < t1`` (bounds default: open).
+
+    A sample belongs to the window when ``t0 - h/2 <= t_k < t1 - h/2``
+    (robust to rounding of event times; ``h`` is the sample time [s]).
+    """
+    lo = -math.inf if t0 is None else t0 - 0.5 * h
+    hi = math.inf if t1 is None else t1 - 0.5 * h
+    return np.flatnonzero((t >= lo) & (t < hi))
 
 
 def windows_from_events(

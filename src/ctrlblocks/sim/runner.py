@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .loop import Run, event_times, simulate
-from .metrics import METRIC_NAMES, compute_metrics, windows_from_events
+from .metrics import METRIC_NAMES, compute_metrics, window_index, windows_from_events
 from .scenario import Claim, Scenario
 
 __all__ = ["ClaimResult", "ScenarioResult", "check_claim", "run_scenario"]
@@ -186,8 +186,7 @@ def _signal_stat(
     t = run.signals["t"]
     if window is not None:
         w = windows_from_events(event_times(run.events), run.duration)[window]
-        sel = (t >= w.t0 - 0.5 * run.ts) & (t < w.t1 - 0.5 * run.ts)
-        x = x[sel]
+        x = x[window_index(t, run.ts, w.t0, w.t1)]
     if len(x) == 0:
         return math.nan
     if stat == "max":
