@@ -73,23 +73,37 @@ def test_serve_demo_in_one_command_shows_the_faceplate_and_stops_on_sigint(tmp_p
         port = s.getsockname()[1]
     cmd = [sys.executable, "-m", "ctrlblocks.web", "--port", str(port), "-v"]
     cmd += ["--users", str(tmp_path / "u.json"), "--history", str(tmp_path / "h.sqlite")]
-    proc = subprocess.Popen(
-        cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
+    # stdout to a file and stderr drained by a thread: a pipe nobody reads fills up
+    # and blocks the server (its -v log and the access log go on while the test runs)
+    out_file = open(tmp_path / "out.txt", "w")  # noqa: SIM115 - closed in finally
+    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=out_file, stderr=subprocess.PIPE, text=True)
+    err_lines: list[str] = []
+    listening = threading.Event()
+
+    def drain_stderr() -> None:
+        for line in proc.stderr:
+            err_lines.append(line)
+            if "Application startup complete" in line:  # uvicorn logs this once it listens
+                listening.set()
+        listening.set()  # the process ended
+
+    drainer = threading.Thread(target=drain_stderr, daemon=True)
+    drainer.start()
     watchdog = threading.Timer(60.0, proc.kill)  # a hung server fails the test, not the run
     watchdog.start()
     try:
-        for line in proc.stderr:  # uvicorn logs this once it listens
-            if "Application startup complete" in line:
-                break
+        listening.wait(90.0)
         info = httpx.get(f"http://127.0.0.1:{port}/api/info", timeout=30).json()
         assert info["loops"] == ["pressure", "flow"] and info["role"] == "viewer"
         page = httpx.get(f"http://127.0.0.1:{port}/", timeout=30)
         assert "uPlot" in page.text
     finally:
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
+        proc.wait(timeout=30)
+        drainer.join(timeout=30)
         watchdog.cancel()
+        out_file.close()
+    out, err = (tmp_path / "out.txt").read_text(), "".join(err_lines)
     assert proc.returncode == 0, err
     assert f"faceplate: http://127.0.0.1:{port}/" in out
     assert "no operators" in out
