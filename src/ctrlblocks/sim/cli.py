@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from .report import load_shipped, render_report, table1_inverse_half_rule
+from .report import claims_holding, load_shipped, render_report
 from .results import write_result
 from .runner import ScenarioResult, metric_table, run_scenario
 from .scenario import ScenarioError, load_scenario
@@ -101,10 +101,7 @@ def reproduce(
     report = out_dir / "report.md"
     text = render_report(results, quick=quick, seconds=seconds, tables=not names)
     report.write_text(text, encoding="utf-8")
-    table_checks = table1_inverse_half_rule()[1] if not names else []
-    n_claims = sum(len(r.claims) for r in results) + len(table_checks)
-    n_hold = sum(1 for r in results for c in r.claims if c.holds)
-    n_hold += sum(1 for c in table_checks if c.holds)
+    n_hold, n_claims = claims_holding(results, tables=not names)
     for r in results:
         bad = [c for c in r.claims if not c.holds]
         if bad:

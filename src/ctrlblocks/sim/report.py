@@ -22,6 +22,7 @@ from .scenario import Scenario, load_scenario
 __all__ = [
     "REPORT_METRICS",
     "TableCheck",
+    "claims_holding",
     "render_report",
     "shipped_scenarios",
     "table1_inverse_half_rule",
@@ -151,6 +152,18 @@ def _tuned_lines(sc: Scenario) -> list[str]:
     return out
 
 
+def claims_holding(results: Sequence[ScenarioResult], *, tables: bool = True) -> tuple[int, int]:
+    """``(holding, total)`` claims of ``results`` (with ``tables``: and the Table 1 checks)."""
+    return _count_claims(results, table1_inverse_half_rule()[1] if tables else [])
+
+
+def _count_claims(
+    results: Sequence[ScenarioResult], table_checks: Sequence[TableCheck]
+) -> tuple[int, int]:
+    checks = [c.holds for r in results for c in r.claims] + [c.holds for c in table_checks]
+    return sum(1 for h in checks if h), len(checks)
+
+
 def render_report(
     results: Sequence[ScenarioResult], *, quick: bool, seconds: float, tables: bool = True
 ) -> str:
@@ -171,9 +184,7 @@ def render_report(
             "claims refer to the shortened runs.  Run `ctrlblocks reproduce` for the full report.",
         ]
     table1, table_checks = table1_inverse_half_rule() if tables else ("", [])
-    n_claims = sum(len(r.claims) for r in results) + len(table_checks)
-    n_hold = sum(1 for r in results for c in r.claims if c.holds)
-    n_hold += sum(1 for c in table_checks if c.holds)
+    n_hold, n_claims = _count_claims(results, table_checks)
     lines += [
         "",
         f"**{n_hold} of {n_claims} claims of the sources hold in simulation.** "
