@@ -137,7 +137,7 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
-from .signals import PT1, clamp, pt1_coefficient
+from .signals import clamp, pt1_coefficient
 
 __all__ = [
     "ADRC",
@@ -448,7 +448,7 @@ def adrc_step(
         x4 = -b0 * u_prev
         ref = y
     # in manual with a reference filter the reference follows y (ADRC.compute_output)
-    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * 1.0 * sp
+    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * sp
     z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
                                p1, p2, k1, k2, k3)  # fmt: skip
     u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
@@ -761,7 +761,6 @@ class ADRC(Block):
         self._exact = c.discretisation == "exact"
         self._h = -1.0
         self._coefficients(self._ts)
-        self._ref_filter = PT1(t=float(c.t_ref), ts=self._ts, method="exact")
         if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):
             self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
             self._limits_bad = False
@@ -800,6 +799,7 @@ class ADRC(Block):
         self._switches = (p1, p2, k1, k2, k3)
         self._law = (b0, kp, kd1, kd2)
         self._sens = (s_yh, s_x2, s_x3, -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0)
+        self._a_ref = pt1_coefficient(float(c.t_ref), h, "exact")
         self._warn = not discretisation_trusted(
             n, float(c.omega_c), float(c.omega_o), h, c.discretisation
         )
@@ -978,11 +978,10 @@ class ADRC(Block):
         h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3 = self._eso_coef
         _b0, kp, kd1, kd2 = self._law
         s_yh, s_x2, s_x3, s_u = self._sens
-        a_ref = pt1_coefficient(float(self._config.t_ref), h, "exact")
         return tuple(
             float(v)
             for v in (h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2,
-                      s_x3, s_u, self._u_lo, self._u_hi, self._rule, a_ref)
+                      s_x3, s_u, self._u_lo, self._u_hi, self._rule, self._a_ref)
         )  # fmt: skip
 
     def compute_output(
@@ -1039,11 +1038,12 @@ class ADRC(Block):
                 ref = yf
                 started = True
             r_in = float(sp) if sp_valid else ref
-            if manual and self._config.t_ref > 0.0:
+            # reference trajectory (seed 000 section 5): exact PT1 of the setpoint
+            # (.signals.pt1_coefficient), as in adrc_step; in MAN it follows Y
+            if manual and self._a_ref != 0.0:
                 ref = yf
             else:
-                self._ref_filter.out = ref
-                ref = self._ref_filter(r_in, h)
+                ref = self._a_ref * ref + (1.0 - self._a_ref) * r_in
             tracking = manual or not sp_valid or self._track
             b0, kp, kd1, kd2 = self._law
             s_yh, s_x2, s_x3, s_u = self._sens
