@@ -56,7 +56,6 @@ Lambda / IMC -- Rivera, Morari & Skogestad, *Internal model control 4. PID
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from ..blocks.base import (
@@ -332,7 +331,7 @@ def lambda_tuning(
 
 def _gain(value: float, name: str = "gain") -> float:
     k = require_finite(name, value)
-    if k == 0.0 or not math.isfinite(k):
+    if k == 0.0:
         raise ParameterError(ErrorCode.BAD_PARAMETER, name, "must be non-zero")
     return k
 
