@@ -476,6 +476,18 @@ def test_bad_setpoint_holds_the_output_and_recovers() -> None:
     assert abs(u2 - u) < 1e-9 and block.error_id == 0
 
 
+@pytest.mark.parametrize("bad", [[1.0, 2.0], None, "1"])
+def test_a_non_number_setpoint_holds_the_output_in_the_fast_lane_too(bad: object) -> None:
+    # a running AUTO block takes the adrc_step fast lane; a non-number must give
+    # the same fallback as a NaN setpoint (hold, BAD_INPUT), never raise
+    block = make(2)
+    for _ in range(10):
+        u = block(1.0, 0.2)
+    sp = np.array(bad) if isinstance(bad, list) else bad
+    assert block(sp, 0.2) == u and block.error_id == ErrorCode.BAD_INPUT  # type: ignore[arg-type]
+    assert abs(block(1.0, 0.2) - u) < 1e-9 and block.error_id == 0
+
+
 def test_bad_dt_holds_everything() -> None:
     block = make(2)
     block(1.0, 0.2)

@@ -91,6 +91,21 @@ def test_run_time_errors_are_status_codes_that_clear_when_the_cause_goes(case: s
     assert pid.error_id == ErrorCode.NO_ERROR and not pid.error
 
 
+@pytest.mark.parametrize("bad", [[1.0, 2.0], None, "50"])
+def test_a_non_number_input_holds_the_output_in_the_fast_lane_too(bad: object) -> None:
+    # plain auto operation runs pid_step (the fast lane); a bad input must take
+    # the same documented fallback as in the two-phase path, never raise
+    import numpy as np
+
+    pid = PID(kp=1.0, ti=2.0, ts=0.1)
+    pid(50.0, 40.0)
+    u = pid(50.0, 40.0)
+    sp = np.array(bad) if isinstance(bad, list) else bad
+    assert pid(sp, 40.0) == u and pid.error_id == ErrorCode.BAD_INPUT  # type: ignore[arg-type]
+    assert pid(50.0, 40.0) == pytest.approx(u, abs=1e-12)  # recovers without a bump
+    assert pid.error_id == ErrorCode.NO_ERROR
+
+
 def test_manual_mode_with_a_bad_pv_keeps_the_manual_output_and_flags_it() -> None:
     pid = PID(kp=1.0, ti=2.0, ts=0.1)
     pid.manual, pid.manual_value = True, 25.0

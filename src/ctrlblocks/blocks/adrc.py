@@ -936,7 +936,7 @@ class ADRC(Block):
         ):
             try:
                 finite = _NINF < sp < _INF and _NINF < y < _INF
-            except TypeError:
+            except (TypeError, ValueError):  # not a number (e.g. an array): slow path, BAD_INPUT
                 finite = False
             if finite:
                 return self._fast_cycle(float(sp), float(y))

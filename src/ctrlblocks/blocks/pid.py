@@ -718,7 +718,7 @@ class PID(Block):
         ):
             try:
                 finite = _NINF < sp < _INF and _NINF < pv < _INF and _NINF < ff < _INF
-            except TypeError:
+            except (TypeError, ValueError):  # not a number (e.g. an array): slow path, BAD_INPUT
                 finite = False
             if finite:
                 sp, pv, ff = float(sp), float(pv), float(ff)
