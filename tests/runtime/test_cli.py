@@ -94,15 +94,12 @@ def test_plant_server_and_serve_run_a_loop_and_stop_on_sigterm(tmp_path):
         while time.monotonic() < t_end:
             time.sleep(0.2)
             if db.exists():
-                h = SQLiteHistorian(db)
-                h._conn = h._connect()
                 try:
-                    rows = [r for r in h.samples() if r["pv_ok"]]
+                    with SQLiteHistorian(db).reading() as h:
+                        rows = [r for r in h.samples() if r["pv_ok"]]
                 except sqlite3.OperationalError:
                     # the runtime creates the file before its tables: not ready yet
                     continue
-                finally:
-                    h._conn.close()
                 if len(rows) >= 20:
                     break
         assert len(rows) >= 20, (tmp_path / "serve.log").read_text()[-2000:]
@@ -116,12 +113,10 @@ def test_plant_server_and_serve_run_a_loop_and_stop_on_sigterm(tmp_path):
         plant_err.close()
         serve_log.close()
     assert plant.returncode == 0, (tmp_path / "plant.err").read_text()[-2000:]
-    h = SQLiteHistorian(db)
-    h._conn = h._connect()
-    stop = [r for r in h.audit_rows() if r["action"] == "stop"]
-    runs = h.query("SELECT stopped IS NOT NULL FROM runs")
-    n = len(h.samples())
-    h._conn.close()
+    with SQLiteHistorian(db).reading() as h:
+        stop = [r for r in h.audit_rows() if r["action"] == "stop"]
+        runs = h.query("SELECT stopped IS NOT NULL FROM runs")
+        n = len(h.samples())
     assert stop and stop[0]["ok"] == 1 and '"mv": -1.0' in stop[0]["new"]
     assert runs == [(1,)]  # the run was closed: the historian flushed on SIGTERM
     assert n >= 20
@@ -173,10 +168,8 @@ def test_plant_server_process_killed_hard_then_restarted_loop_reconnects(tmp_pat
             await asyncio.to_thread(plant.wait, 15)
 
     asyncio.run(main())
-    h = SQLiteHistorian(db)
-    h._conn = h._connect()
-    rows = h.samples()
-    h._conn.close()
+    with SQLiteHistorian(db).reading() as h:
+        rows = h.samples()
     ok = [bool(r["pv_ok"]) for r in rows]
     first_bad = ok.index(False)
     first_back = ok.index(True, first_bad)

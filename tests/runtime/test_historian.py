@@ -60,10 +60,9 @@ def check_two_runs(make_historian):
     h2 = make_historian()  # a restart: a new run appended to the same database
     h2.open()
     n2 = run_runtime(h2, 1.0, bus())
-    h2._conn = h2._connect()
-    rows = h2.samples()
-    runs = h2.query("SELECT run_id, stopped IS NOT NULL FROM runs ORDER BY run_id")
-    h2._conn.close()
+    with h2.reading():
+        rows = h2.samples()
+        runs = h2.query("SELECT run_id, stopped IS NOT NULL FROM runs ORDER BY run_id")
     assert (n1, n2) == (21, 11)
     assert len(rows) == 2 * (n1 + n2)  # N cycles in, N rows out, both loops
     assert runs == [(1, 1), (2, 1)]

@@ -62,12 +62,8 @@ def modbus_addr(name: str) -> str:
 
 
 def history(tmp_path, loop="loop"):
-    h = SQLiteHistorian(tmp_path / "history.sqlite")
-    h._conn = h._connect()
-    try:
+    with SQLiteHistorian(tmp_path / "history.sqlite").reading() as h:
         return h.samples(loop)
-    finally:
-        h._conn.close()
 
 
 async def run_cycles(rt: Runtime, server: PlantServer, n: int) -> None:

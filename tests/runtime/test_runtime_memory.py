@@ -309,9 +309,8 @@ def test_commands_are_validated_applied_bumplessly_and_audited(tmp_path):
     blk = rt.loops["loop"].block
     assert (blk.config.kp, blk.config.ti, blk.u_min, blk.u_max) == (2.0, 0.5, -1.0, 4.0)
     assert rt.loops["loop"].sp == 2.0
-    h = SQLiteHistorian(tmp_path / "h.sqlite")
-    h._conn = h._connect()
-    audit = h.audit_rows()
+    with SQLiteHistorian(tmp_path / "h.sqlite").reading() as h:
+        audit = h.audit_rows()
     who_ok = [(r["who"], r["action"], r["ok"]) for r in audit]
     assert who_ok[:6] == [
         ("alice", "mode", 1),
@@ -349,9 +348,8 @@ def test_stop_writes_stop_values_and_flushes_every_sample(tmp_path):
 
     asyncio.run(main())
     assert bus.writes[-1] == ("mv", -0.25)
-    h = SQLiteHistorian(tmp_path / "h.sqlite")
-    h._conn = h._connect()
-    assert len(h.samples()) == len(samples) == 10
+    with SQLiteHistorian(tmp_path / "h.sqlite").reading() as h:
+        assert len(h.samples()) == len(samples) == 10
 
 
 def test_adrc_block_call_matches_a_replay():
@@ -448,9 +446,8 @@ def test_event_loop_is_the_loop_the_runtime_started_on_and_audit_writes_a_row(tm
         await rt.stop()
 
     asyncio.run(main())
-    h = SQLiteHistorian(tmp_path / "h.sqlite")
-    h._conn = h._connect()
-    rows = h.audit_rows()
+    with SQLiteHistorian(tmp_path / "h.sqlite").reading() as h:
+        rows = h.audit_rows()
     got = [(r["who"], r["loop"], r["action"], r["new"], r["ok"], r["message"]) for r in rows[:2]]
     assert got == [
         ("alice", "", "login", "null", 1, ""),

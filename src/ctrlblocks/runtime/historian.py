@@ -21,6 +21,7 @@ open and once an hour.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import importlib.util
 import json
@@ -29,7 +30,7 @@ import math
 import sqlite3
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -184,6 +185,24 @@ class Historian:
             self._conn.commit()
             self._conn.close()
             self._conn = None
+
+    @contextlib.contextmanager
+    def reading(self) -> Iterator[Historian]:
+        """Open the database to read it only (no tables made, no run started); close on exit.
+
+        For the history another process writes, or a finished one::
+
+            with SQLiteHistorian("history.sqlite").reading() as h:
+                rows = h.samples("level")
+        """
+        with self._db_lock:
+            self._conn = self._connect()
+        try:
+            yield self
+        finally:
+            with self._db_lock:
+                self._conn.close()
+                self._conn = None
 
     # -- writing ----------------------------------------------------------------------
 
@@ -392,11 +411,8 @@ def export_history(
     if fmt == "auto":
         fmt = "parquet" if out.suffix.lower() == ".parquet" else "csv"
     h: Historian = PostgresHistorian(str(source)) if postgres else SQLiteHistorian(source)
-    h._conn = h._connect()
-    try:
+    with h.reading():
         rows = h.samples(loop)
-    finally:
-        h._conn.close()
     if fmt == "parquet":
         if importlib.util.find_spec("pyarrow") is None:
             raise ImportError("Parquet export needs pyarrow: pip install pyarrow")
