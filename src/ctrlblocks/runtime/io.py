@@ -33,7 +33,7 @@ from typing import Any
 
 from .config import ConnectionConfig
 
-__all__ = ["Adapter", "Connection", "IOFault", "MemoryAdapter", "MemoryBus", "Reading"]
+__all__ = ["Adapter", "Connection", "IOFault", "MemoryAdapter", "MemoryBus", "Reading", "describe"]
 
 log = logging.getLogger(__name__)
 
@@ -53,6 +53,11 @@ class Reading:
     value: float
     ok: bool
     reason: str = ""
+
+
+def describe(exc: BaseException) -> str:
+    """The message of ``exc``, or its type name when it has none (a bare ``TimeoutError``)."""
+    return str(exc) or type(exc).__name__
 
 
 def bad(reason: str) -> Reading:
@@ -148,7 +153,7 @@ class Connection:
         log.info("connection %s: connected", self.name)
 
     def _lost(self, exc: BaseException | str) -> None:
-        msg = exc if isinstance(exc, str) else (str(exc) or type(exc).__name__)
+        msg = exc if isinstance(exc, str) else describe(exc)
         if self.connected:
             log.warning("connection %s lost: %s", self.name, msg)
         self.connected = False
@@ -170,7 +175,7 @@ class Connection:
                 self.reconnects += 1
                 return
             except Exception as exc:
-                self.last_error = str(exc) or type(exc).__name__
+                self.last_error = describe(exc)
                 log.debug("connection %s: reconnect failed: %s", self.name, self.last_error)
                 delay = min(2.0 * delay, self.config.reconnect_max)
 
@@ -216,7 +221,7 @@ class Connection:
             return None, f"{kind} timeout"
         except Exception as exc:  # any protocol failure is a connection fault
             self._lost(exc)
-            return None, f"{kind} failed: {exc}"
+            return None, f"{kind} failed: {describe(exc)}"
         self._timeouts[kind] = 0
         return res, ""
 

@@ -22,9 +22,10 @@ from __future__ import annotations
 import math
 import struct
 from collections.abc import Sequence
+from typing import Any
 
 from .config import ConnectionConfig, parse_modbus_address
-from .io import Adapter, IOFault, Reading, bad, checked
+from .io import Adapter, IOFault, Reading, bad, checked, describe
 
 __all__ = ["ModbusAdapter", "float32_to_registers", "registers_to_float32"]
 
@@ -95,9 +96,9 @@ class ModbusAdapter(Adapter):
             try:
                 rr = await fn(reg, count=2, device_id=self.config.unit)
             except Exception as exc:
-                raise IOFault(f"Modbus read {a}: {exc}") from exc
+                raise IOFault(f"Modbus read {a}: {describe(exc)}") from exc
             if rr.isError():
-                out.append(bad(f"Modbus exception {getattr(rr, 'exception_code', '?')} on {a}"))
+                out.append(bad(_exception(rr, a)))
                 continue
             out.append(checked(registers_to_float32(rr.registers, self._order)))
         return out
@@ -118,10 +119,11 @@ class ModbusAdapter(Adapter):
             try:
                 rr = await client.write_registers(reg, regs, device_id=self.config.unit)
             except Exception as exc:
-                raise IOFault(f"Modbus write {a}: {exc}") from exc
-            res.append(
-                f"Modbus exception {getattr(rr, 'exception_code', '?')} on {a}"
-                if rr.isError()
-                else None
-            )
+                raise IOFault(f"Modbus write {a}: {describe(exc)}") from exc
+            res.append(_exception(rr, a) if rr.isError() else None)
         return res
+
+
+def _exception(response: Any, address: str) -> str:
+    """The reason of a Modbus exception response (the server refused the request)."""
+    return f"Modbus exception {getattr(response, 'exception_code', '?')} on {address}"

@@ -29,12 +29,12 @@ import datetime as _dt
 import hashlib
 import logging
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 from .config import ConnectionConfig
-from .io import Adapter, IOFault, Reading, bad, checked
+from .io import Adapter, IOFault, Reading, bad, checked, describe
 
 __all__ = [
     "OpcUaAdapter",
@@ -54,6 +54,17 @@ def _asyncua() -> Any:
             "the OPC UA adapter needs asyncua: pip install 'ctrlblocks[runtime]'"
         ) from exc
     return asyncua
+
+
+@contextlib.contextmanager
+def _faults(what: str) -> Iterator[None]:
+    """A lost connection or a service failure during ``what`` as :class:`IOFault`."""
+    from asyncua import ua
+
+    try:
+        yield
+    except (ConnectionError, OSError, TimeoutError, ua.UaError) as exc:
+        raise IOFault(f"OPC UA {what}: {describe(exc)}") from exc
 
 
 class OpcUaAdapter(Adapter):
@@ -98,7 +109,7 @@ class OpcUaAdapter(Adapter):
         except Exception as exc:
             with contextlib.suppress(Exception):
                 await client.disconnect()
-            raise IOFault(f"OPC UA connect {c.url}: {str(exc) or type(exc).__name__}") from exc
+            raise IOFault(f"OPC UA connect {c.url}: {describe(exc)}") from exc
         self._client = client
         self._types = {}
 
@@ -140,12 +151,8 @@ class OpcUaAdapter(Adapter):
             nodes = [client.get_node(a) for a in addresses]
         except Exception as exc:  # a malformed node id
             return [bad(f"bad node id: {exc}")] * len(addresses)
-        try:
+        with _faults("read"):
             dvs = await client.read_attributes(nodes, ua.AttributeIds.Value)
-        except (ConnectionError, OSError, TimeoutError) as exc:
-            raise IOFault(f"OPC UA read: {str(exc) or type(exc).__name__}") from exc
-        except ua.UaError as exc:
-            raise IOFault(f"OPC UA read: {exc}") from exc
         now = _dt.datetime.now(_dt.timezone.utc)
         out = []
         for dv in dvs:
@@ -168,10 +175,8 @@ class OpcUaAdapter(Adapter):
         from asyncua import ua
 
         client = self._live()
-        try:
+        with _faults("read data type"):
             await self._variant_types(a for a, _ in items)
-        except (ConnectionError, OSError, TimeoutError, ua.UaError) as exc:
-            raise IOFault(f"OPC UA read data type: {exc}") from exc
         nodeids, dvs, res_pre = [], [], []
         for a, v in items:
             vt = self._types.get(a)
@@ -189,10 +194,8 @@ class OpcUaAdapter(Adapter):
             res_pre.append(None)
         if not nodeids:
             return res_pre
-        try:
+        with _faults("write"):
             codes = await client.uaclient.write_attributes(nodeids, dvs, ua.AttributeIds.Value)
-        except (ConnectionError, OSError, TimeoutError, ua.UaError) as exc:
-            raise IOFault(f"OPC UA write: {exc}") from exc
         it = iter(codes)
         return [
             r
