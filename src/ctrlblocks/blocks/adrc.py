@@ -765,7 +765,7 @@ class ADRC(Block):
             self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
             self._limits_bad = False
         self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else 3.5 / float(c.omega_o)
-        if old is not None and hasattr(self, "_track"):
+        if old is not None:
             assert isinstance(old, ADRCConfig)
             tuning = ("order", "b0", "omega_c", "omega_o", "ts", "discretisation")
             if any(getattr(old, f) != getattr(c, f) for f in tuning):

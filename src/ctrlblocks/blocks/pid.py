@@ -638,7 +638,7 @@ class PID(Block):
         set here to what those calls would have left, before a snapshot or a
         reconfiguration that may switch them on.
         """
-        if not getattr(self, "_lean_ran", False):
+        if not self._lean_ran:
             return
         subs = self._subs
         subs["_sp_filter"].out = subs["_sp_ramp"].out = self.sp_w
@@ -819,9 +819,8 @@ class PID(Block):
         elif mode == Mode.RESET:
             target = clamp(float(c.reset_value), lo, hi)
             subs["_out_ramp"].preset(target)  # "immediately" (seed 002 2.3.5)
-
-        if mode == Mode.RESET:
             self._limits_status = ErrorCode.NO_ERROR  # seed 002: reset clears the errors
+
         if not ok:
             self._c_kind = 1
             self._c_status = bad or ErrorCode.BAD_INPUT
@@ -868,8 +867,8 @@ class PID(Block):
         self.sp_w, self.pv_f, self.e = sp_w, pv_f, e
 
         # --- non-auto modes and the adaptive dead band -----------------------
-        transfer = mode == Mode.AUTO and (self._mode_prev not in (-1, Mode.AUTO) or self._reinit)
         from_mode = mode == Mode.AUTO and self._mode_prev not in (-1, Mode.AUTO)
+        transfer = from_mode or (mode == Mode.AUTO and self._reinit)
         suppressed = self.p_suppressed
         if from_mode and c.bumpless == Bumpless.SUPPRESS_P_ACTION:
             suppressed = True
@@ -926,8 +925,7 @@ class PID(Block):
     ) -> float:
         """Velocity algorithm (seed 002 2.3.1; seed 004 Figs. 2.2, 2.4, 2.5)."""
         if transfer:
-            self._c_bias = out_prev - p - d - ff
-            self._c_i = out_prev - p - d - ff
+            self._c_bias = self._c_i = out_prev - p - d - ff
             return out_prev
         if self._cold:
             p_prev = d_prev = ff_prev = 0.0
