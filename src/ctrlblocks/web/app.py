@@ -204,9 +204,6 @@ def create_app(
     def session_of(request: Request) -> Any:
         return sessions.get(request.cookies.get(COOKIE))
 
-    def audit(who: str, loop: str, action: str, new: Any, ok: bool, message: str) -> None:
-        runtime.audit(who, action, loop=loop, new=new, ok=ok, message=message)
-
     async def json_body(request: Request) -> dict[str, Any] | JSONResponse:
         ctype = request.headers.get("content-type", "")
         if not ctype.startswith("application/json"):
@@ -227,13 +224,12 @@ def create_app(
         return await asyncio.wrap_future(runtime.submit(loop, user=user, **changes))
 
     def loop_state(name: str) -> dict[str, Any]:
-        for st in hub.states():
-            if st["name"] == name:
-                return st
-        raise KeyError(name)
+        if name not in runtime.loop_names():
+            raise KeyError(name)
+        return hub.state(name)
 
     def historian_or_error() -> Any:
-        h = getattr(runtime, "historian", None)
+        h = runtime.historian
         if h is None:
             return _error(404, "this runtime has no historian ([historian] backend = 'none')")
         return h
@@ -273,7 +269,7 @@ def create_app(
             "operators_defined": bool(users.names()),
             "push_period": push_period,
             "trend_seconds": trend_seconds,
-            "historian": getattr(runtime, "historian", None) is not None,
+            "historian": runtime.historian is not None,
         }
 
     @app.get("/api/loops")
@@ -351,12 +347,12 @@ def create_app(
         recent = [t for t in failures.get(user, []) if now - t < LOCKOUT_SECONDS]
         failures[user] = recent
         if len(recent) >= LOCKOUT_FAILURES:
-            audit(user, "", "login", None, False, "refused: too many failed logins")
+            runtime.audit(user, "login", ok=False, message="refused: too many failed logins")
             return _error(
                 429, f"too many failed logins: try again in {LOCKOUT_SECONDS:g} s", "user"
             )
         ok = await asyncio.to_thread(users.verify, user, password)
-        audit(user, "", "login", None, ok, "" if ok else "wrong user name or password")
+        runtime.audit(user, "login", ok=ok, message="" if ok else "wrong user name or password")
         if not ok:
             recent.append(now)
             return _error(401, "wrong user name or password", "password")
@@ -378,7 +374,7 @@ def create_app(
     async def logout(request: Request) -> JSONResponse:
         s = session_of(request)
         if s is not None:
-            audit(s.user, "", "logout", None, True, "")
+            runtime.audit(s.user, "logout")
         sessions.end(request.cookies.get(COOKIE))
         resp = JSONResponse({"ok": True})
         resp.delete_cookie(COOKIE, path="/")
@@ -397,13 +393,13 @@ def create_app(
             return body
         s = session_of(request)
         if s is None or s.role != "operator":
-            audit(
+            runtime.audit(
                 "anonymous",
-                name,
                 ",".join(sorted(body)),
-                json_safe(body),
-                False,
-                "refused: not logged in as an operator",
+                loop=name,
+                new=json_safe(body),
+                ok=False,
+                message="refused: not logged in as an operator",
             )
             return _error(401, "log in as an operator to change a loop", "login")
         changes = coerce_command(body, runtime.state(name))

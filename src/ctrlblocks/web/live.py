@@ -87,7 +87,7 @@ class LiveHub:
         self._buf: dict[str, collections.deque[tuple[Any, ...]]] = {}
         self._seq: dict[str, int] = {}
         for name in runtime.loop_names():
-            ts = runtime.loops[name].ts if hasattr(runtime, "loops") else 0.1
+            ts = runtime.loops[name].ts
             self._buf[name] = collections.deque(maxlen=max(10, int(self.seconds / ts) + 1))
             self._seq[name] = 0
         self._chained = runtime.on_sample
@@ -144,11 +144,17 @@ class LiveHub:
         return out
 
     def states(self) -> list[dict[str, Any]]:
-        """Every loop's state (the runtime's ``state``) with its ``alarms``, JSON-safe."""
-        out = []
-        for st in self.runtime.states():
-            st = dict(st)
-            st["alarms"] = alarms(st)
-            st["tunings"] = {k: _tuning_value(v) for k, v in st.get("tunings", {}).items()}
-            out.append(json_safe(st))
-        return out
+        """Every loop's :meth:`state`."""
+        return [_view(st) for st in self.runtime.states()]
+
+    def state(self, loop: str) -> dict[str, Any]:
+        """The runtime's ``state`` of ``loop`` with its ``alarms``, JSON-safe."""
+        return _view(self.runtime.state(loop))
+
+
+def _view(state: dict[str, Any]) -> dict[str, Any]:
+    """A loop state for the page: ``alarms`` added, tunings and non-finite floats JSON-safe."""
+    st = dict(state)
+    st["alarms"] = alarms(st)
+    st["tunings"] = {k: _tuning_value(v) for k, v in st.get("tunings", {}).items()}
+    return json_safe(st)
