@@ -291,7 +291,10 @@ class TableReader:
             if required:
                 raise self.fail(key, "missing table")
             return {}
-        v = doc[name]
+        return self.as_table(doc[name], key)
+
+    def as_table(self, v: Any, key: str) -> dict:
+        """``v`` itself, checked to be a table (an entry of an array of tables, ...)."""
         if not isinstance(v, dict):
             raise self.fail(key, f"must be a table, got {type_name(v)}")
         return v
@@ -535,8 +538,7 @@ class _Parser(TableReader):
         extra_keys: tuple[str, ...] = (),
         tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
     ) -> BlockSpec:
-        if not isinstance(d, dict):
-            raise self.fail(key, f"must be a table, got {type_name(d)}")
+        self.as_table(d, key)
         tname = self.string(d, "type", f"{key}.type")
         params = {k: v for k, v in d.items() if k not in ("type", "tune") and k not in extra_keys}
         extra = {k: d[k] for k in extra_keys if k in d}
@@ -590,8 +592,7 @@ class _Parser(TableReader):
         names: set[str] = set()
         for i, e in enumerate(entries):
             key = f"controllers[{i}]"
-            if not isinstance(e, dict):
-                raise self.fail(key, f"must be a table, got {type_name(e)}")
+            self.as_table(e, key)
             name = self.string(e, "name", f"{key}.name")
             if name in names:
                 raise self.fail(f"{key}.name", f"duplicate controller name {name!r}")
@@ -699,8 +700,7 @@ class _Parser(TableReader):
         """
         from .. import tuning
 
-        if not isinstance(d, dict):
-            raise self.fail(key, f"must be a table, got {type_name(d)}")
+        self.as_table(d, key)
         self.check_keys(d, {"rule", "du", "duration", "controller", "order", "settling_time"}, key)
         rule = self.string(d, "rule", f"{key}.rule")
         pid_rules = ("amigo", "simc", "zn", "lambda")
@@ -782,8 +782,7 @@ class _Parser(TableReader):
         names = set()
         for i, c in enumerate(raw):
             key = f"cases[{i}]"
-            if not isinstance(c, dict):
-                raise self.fail(key, f"must be a table, got {type_name(c)}")
+            self.as_table(c, key)
             self.check_keys(c, {"name", "duration", "events"}, key)
             name = self.string(c, "name", f"{key}.name")
             if name in names:
@@ -800,8 +799,7 @@ class _Parser(TableReader):
         out = []
         for i, e in enumerate(raw):
             ekey = f"{key}[{i}]"
-            if not isinstance(e, dict):
-                raise self.fail(ekey, f"must be a table, got {type_name(e)}")
+            self.as_table(e, ekey)
             t = self.number(e, "t", f"{ekey}.t")
             if not (0.0 <= t <= duration):
                 raise self.fail(
@@ -859,8 +857,7 @@ class _Parser(TableReader):
         out = []
         for i, c in enumerate(raw):
             key = f"claims[{i}]"
-            if not isinstance(c, dict):
-                raise self.fail(key, f"must be a table, got {type_name(c)}")
+            self.as_table(c, key)
             self.check_keys(
                 c,
                 {
