@@ -966,7 +966,7 @@ class ADRC(Block):
         self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
         self.out = u
         self.u_raw = u_raw
-        self.awout = u_raw > self._u_hi or u_raw < self._u_lo
+        self.awout = self._sat != 0
         self.y = y
         self.e = sp - y
         self.y_ref = self._ref = ref
@@ -1026,7 +1026,6 @@ class ADRC(Block):
             u = target if manual else clamp(float(self._config.u_sf), lo, hi)
             u_raw = u
             track_next = True
-            awout = False
             sat = 0
             y_out = self.y
             e = self.e
@@ -1089,8 +1088,8 @@ class ADRC(Block):
                             end_wait = True
                 u = clamp(u_raw, lo, hi)
                 track_next = end_wait  # leave the wait bumplessly, x4 by (11)
-            awout = (u_raw > hi or u_raw < lo) and not tracking
-            sat = (1 if u_raw > hi else -1 if u_raw < lo else 0) if not tracking else 0
+            # (tracking: u_raw is the limited target, so sat = 0)
+            sat = 1 if u_raw > hi else -1 if u_raw < lo else 0
             y_out = yf
             e = float(sp) - yf if sp_valid else self.e
         if err == ErrorCode.NO_ERROR and self._limits_bad:
@@ -1100,7 +1099,7 @@ class ADRC(Block):
         self.error_id = err
         self.out = u
         self.u_raw = u_raw
-        self.awout = awout
+        self.awout = sat != 0
         self.y = y_out
         self.e = e
         self.y_ref = ref
