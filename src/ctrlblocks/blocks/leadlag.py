@@ -98,6 +98,10 @@ def leadlag_coefficients(
 ) -> tuple[float, float, float]:
     """Coefficients ``(b0, b1, a1)`` of ``y[k] = b0 x[k] + b1 x[k-1] - a1 y[k-1]``.
 
+    Tustin as in seed 003 ("Utledning av differenslikning: Tustins metode",
+    Fig. 10), backward Euler as in seed 003 "Bakoverdifferanse" (formulas in
+    the module docstring).
+
     Parameters
     ----------
     k : float

@@ -62,7 +62,9 @@ __all__ = ["CycleMonitor", "CycleMonitorConfig", "welford_update"]
 def welford_update(n: int, mean: float, m2: float, x: float) -> tuple[int, float, float]:
     """One step of Welford's running mean and sum of squared deviations ``m2``.
 
-    The population variance after ``n`` values is ``m2 / n``.
+    ``mean_n = mean_{n-1} + (x - mean_{n-1})/n``, ``m2_n = m2_{n-1} + (x -
+    mean_{n-1})(x - mean_n)`` (B. P. Welford, Technometrics 4 (1962) 419-420;
+    not from the seeds).  The population variance after ``n`` values is ``m2 / n``.
     """
     n += 1
     d = x - mean

@@ -136,7 +136,11 @@ def derivative_coefficients(kd: float, tf: float, h: float, method: int) -> tupl
 
 
 def integral_weights(method: int) -> tuple[float, float]:
-    """Weights ``(alpha, beta)`` of ``e[k-1]`` and ``e[k]`` in the integral increment."""
+    """Weights ``(alpha, beta)`` of ``e[k-1]`` and ``e[k]`` in the integral increment.
+
+    ``method`` 0 forward (seed 004 (2.8)): ``(1, 0)``; 1 backward Euler:
+    ``(0, 1)``; 2 Tustin (seed 002 2.3.1, seed 003 "I-leddet"): ``(1/2, 1/2)``.
+    """
     if method == _FORWARD:
         return 1.0, 0.0
     if method == _BACKWARD:
