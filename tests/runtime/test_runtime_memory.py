@@ -460,3 +460,26 @@ def test_audit_without_a_historian_does_nothing():
     rt, _, _ = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus})
     rt.audit("alice", "login")  # no historian: no error
     assert rt.historian is None
+
+
+def test_a_failing_audit_write_does_not_break_the_stop(tmp_path):
+    """The stop's audit rows go through the same guard as every other audit: a database
+    error is logged, and the stop still flushes the samples and closes the connections."""
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus}, tmp_path, historian=True)
+
+    def broken_audit(*args, **kw):
+        raise OSError("disk full")
+
+    async def main():
+        await run(rt, clock, 0.45)
+        rt.historian.audit = broken_audit
+        await rt.stop()
+
+    asyncio.run(main())
+    assert bus.writes[-1] == ("mv", 0.0)  # the stop value (safe_value 0) was written
+    assert not rt.connections["io"].adapter.open  # the connection was closed
+    with SQLiteHistorian(tmp_path / "h.sqlite").reading() as h:
+        assert len(h.samples()) == len(samples) == 5  # flushed on stop
+        assert h.query("SELECT stopped IS NOT NULL FROM runs") == [(1,)]

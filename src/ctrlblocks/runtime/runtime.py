@@ -165,20 +165,23 @@ class Runtime:
             *(lp.write_stop_value() for lp in self.loops.values()), return_exceptions=True
         )
         for lp, ok in zip(self.loops.values(), results, strict=True):
-            if ok is not True:
+            written = ok is True
+            if not written:
                 log.error("loop %s: could not write the stop value (%s)", lp.name, lp.write_error)
+            self._audit(
+                "runtime",
+                lp.name,
+                "stop",
+                {"mv": None},
+                {"mv": lp.mv},
+                written,
+                "" if written else lp.write_error,
+            )
         if self.historian is not None:
-            for lp, ok in zip(self.loops.values(), results, strict=True):
-                self.historian.audit(
-                    "runtime",
-                    lp.name,
-                    "stop",
-                    {"mv": None},
-                    {"mv": lp.mv},
-                    ok is True,
-                    "" if ok is True else lp.write_error,
-                )
-            await asyncio.to_thread(self.historian.close)
+            try:
+                await asyncio.to_thread(self.historian.close)
+            except Exception:  # the connections still close
+                log.exception("historian close failed")
         await asyncio.gather(*(c.close() for c in self.connections.values()))
         log.info("runtime %s: stopped", self.config.name)
 
