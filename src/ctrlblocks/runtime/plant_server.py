@@ -335,12 +335,8 @@ class PlantServer:
             with contextlib.suppress(asyncio.CancelledError):
                 await self._clock_task
             self._clock_task = None
-        if self._modbus is not None:
-            await self._modbus.shutdown()
-            self._modbus = None
-        if self._opcua is not None:
-            await self._opcua.stop()
-            self._opcua = None
+        await self.kill()
+        self._killed_opcua = None
 
     async def kill(self) -> None:
         """Drop every client and stop serving, keeping the servers' objects (fault tests)."""
@@ -383,10 +379,11 @@ class PlantServer:
         else:
             self.process.mv = u
 
-    def _value(self, name: str) -> float:
-        v = self.process.values()[name]
-        if name == "pv" and self.force_nan:
-            return math.nan
+    def _values(self) -> dict[str, float]:
+        """The served values of the current sample (with the ``force_nan`` fault)."""
+        v = self.process.values()
+        if self.force_nan:
+            v["pv"] = math.nan
         return v
 
     # -- OPC UA ----------------------------------------------------------------------------
@@ -423,7 +420,7 @@ class PlantServer:
         for name in SIGNALS:
             vt = ua.VariantType.Float if name in self.float_signals else ua.VariantType.Double
             nodeid = ua.NodeId(name, idx)
-            var = await obj.add_variable(nodeid, name, ua.Variant(self._value(name), vt))
+            var = await obj.add_variable(nodeid, name, ua.Variant(self._values()[name], vt))
             if name == "mv":
                 await var.set_writable(True)
                 server.set_attribute_value_setter(nodeid, self._opcua_mv_setter)
@@ -439,13 +436,14 @@ class PlantServer:
             now = _dt.datetime.now(_dt.timezone.utc)
             if name == "pv" and self.stale:
                 now -= _dt.timedelta(hours=1)
+            value = ua.Variant(self._values()[name], vt)
             if name == "pv" and not self.process.sensor_ok:
                 return ua.DataValue(
-                    ua.Variant(self._value(name), vt),
+                    value,
                     StatusCode=ua.StatusCode(ua.StatusCodes.BadSensorFailure),
                     SourceTimestamp=now,
                 )
-            return ua.DataValue(ua.Variant(self._value(name), vt), SourceTimestamp=now)
+            return ua.DataValue(value, SourceTimestamp=now)
 
         return read
 
@@ -513,12 +511,13 @@ class PlantServer:
                 return ExcCodes.ILLEGAL_VALUE
             u = registers_to_float32([int(v) for v in set_values], self.word_order)
             self._mv_written(u)
+        values = self._values()
+        if not self.process.sensor_ok:
+            values["pv"] = math.nan
         for name, reg in MODBUS_REGISTERS.items():
             if name == "mv" and set_values:
                 continue  # written by this request
-            v = self._value(name)
-            if name == "pv" and not self.process.sensor_ok:
-                v = math.nan
+            v = values[name]
             i = reg - start_address
             registers[i], registers[i + 1] = float32_to_registers(v, self.word_order)
         return None
