@@ -190,3 +190,13 @@ def test_tune_errors_are_named():
     assert e.key == "controllers[0].tune.rule" and "amigo" in e.problem
     e = _err(TUNED.format(structure="", rule="amigo", du=0.0))
     assert e.key == "controllers[0].tune.du" and "non-zero" in e.problem
+
+
+def test_events_listed_out_of_order_play_in_time_order():
+    from ctrlblocks.sim import simulate
+
+    text = GOOD + '\n[[events]]\nt = 0.5\ndo = "setpoint"\nvalue = 1.0\n'
+    sc = parse_scenario(text)
+    assert [e.t for e in sc.cases[0].events] == [0.5, 1.0]
+    sp = simulate(sc, "a").signals["sp"]  # ts = 0.1: sample 5 is t = 0.5, sample 10 t = 1.0
+    assert (sp[4], sp[5], sp[9], sp[10]) == (0.0, 1.0, 1.0, 2.0)

@@ -165,7 +165,7 @@ class Event:
 
 @dataclasses.dataclass(frozen=True)
 class Case:
-    """A run condition (events and duration); every controller runs every case."""
+    """A run condition (events sorted by time, duration); every controller runs every case."""
 
     name: str
     duration: float
@@ -774,8 +774,8 @@ class _Parser(TableReader):
     def cases(self, doc: dict[str, Any], duration: float) -> list[Case]:
         common = self.events(doc.get("events", []), "events", duration)
         raw = doc.get("cases")
-        if raw is None:
-            return [Case("main", duration, tuple(common))]
+        if raw is None:  # a case's time line is sorted by time (stable: file order at equal t)
+            return [Case("main", duration, tuple(sorted(common, key=lambda e: e.t)))]
         if not isinstance(raw, list) or not raw:
             raise self.fail("cases", "must be a non-empty array of tables ([[cases]])")
         out = []
