@@ -114,9 +114,13 @@ def opcua_plant():
 
 
 def fresh(th: ServerThread, server, process):
-    """Give the shared server a new process and clear its fault switches."""
+    """Give the shared server a new process and clear its fault switches.
+
+    A server a failed test left killed serves again, so one failure does not cascade.
+    """
 
     async def reset():
+        await server.revive()
         server.process = process
         server.force_nan = server.reject_mv = server.stale = False
         server.delay = 0.0

@@ -277,16 +277,17 @@ def test_slow_server_causes_overruns_and_the_measured_dt_is_used(tmp_path):
             "timeout = 1.0\n"
         )
         rt = Runtime(fault_config(conn, modbus_addr, tmp_path))
-        await rt.start()
-        await wait_for(lambda: process.k >= 20)
-        server.delay = 0.04  # each request answered 40 ms late: two per cycle
-        await wait_for(lambda: process.k >= 26)
-        server.delay = 0.0
-        await wait_for(lambda: process.k >= 50)
-        st = rt.state("loop")
-        await rt.stop()
-        await server.stop()
-        return st
+        try:
+            await rt.start()
+            await wait_for(lambda: process.k >= 20)
+            server.delay = 0.04  # each request answered 40 ms late: two per cycle
+            await wait_for(lambda: process.k >= 26)
+            server.delay = 0.0
+            await wait_for(lambda: process.k >= 50)
+            return rt.state("loop")
+        finally:  # stopped also when a wait times out
+            await rt.stop()
+            await server.stop()
 
     st = asyncio.run(main())
     rows = history(tmp_path)
@@ -315,25 +316,27 @@ def test_rejected_write_is_reported_and_the_loop_keeps_running(tmp_path, protoco
             conn = f'[connections.plant]\nprotocol = "opcua"\nurl = "{server.opcua_url}"\n'
             addr = opcua_addr
         rt = Runtime(fault_config(conn, addr, tmp_path))
-        await rt.start()
-        lp = rt.loops["loop"]
-        await wait_for(lambda: lp.cycle_count >= 10)
-        if protocol == "modbus":
-            server.reject_mv = True
-        else:
-            await asyncio.to_thread(th.call, server.set_mv_writable(False))
-        await wait_for(lambda: lp.write_failures >= 5)
-        st = rt.state("loop")
-        if protocol == "modbus":
-            server.reject_mv = False
-        else:
-            await asyncio.to_thread(th.call, server.set_mv_writable(True))
-        n = lp.cycle_count
-        await wait_for(lambda: lp.cycle_count >= n + 5 and lp.write_ok)
-        await rt.stop()
-        if protocol == "modbus":
-            await server.stop()
-        return st
+        try:
+            await rt.start()
+            lp = rt.loops["loop"]
+            await wait_for(lambda: lp.cycle_count >= 10)
+            if protocol == "modbus":
+                server.reject_mv = True
+            else:
+                await asyncio.to_thread(th.call, server.set_mv_writable(False))
+            await wait_for(lambda: lp.write_failures >= 5)
+            st = rt.state("loop")
+            if protocol == "modbus":
+                server.reject_mv = False
+            else:
+                await asyncio.to_thread(th.call, server.set_mv_writable(True))
+            n = lp.cycle_count
+            await wait_for(lambda: lp.cycle_count >= n + 5 and lp.write_ok)
+            return st
+        finally:  # stopped also when a wait times out
+            await rt.stop()
+            if protocol == "modbus":
+                await server.stop()
 
     st = asyncio.run(main())
     assert st["write_ok"] is False
