@@ -33,7 +33,7 @@ import asyncio
 import concurrent.futures
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from .clock import Clock, MonotonicClock
@@ -74,7 +74,7 @@ class Runtime:
         clock: Clock | None = None,
         adapters: Mapping[str, Adapter] | None = None,
         historian: Historian | str | None = "config",
-        on_sample: Any = None,
+        on_sample: Callable[[Sample], None] | None = None,
     ) -> None:
         self.config = config
         self.clock: Clock = clock or MonotonicClock()
