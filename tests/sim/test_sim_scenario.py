@@ -200,3 +200,12 @@ def test_events_listed_out_of_order_play_in_time_order():
     assert [e.t for e in sc.cases[0].events] == [0.5, 1.0]
     sp = simulate(sc, "a").signals["sp"]  # ts = 0.1: sample 5 is t = 0.5, sample 10 t = 1.0
     assert (sp[4], sp[5], sp[9], sp[10]) == (0.0, 1.0, 1.0, 2.0)
+
+
+def test_initial_y_of_an_integrating_plant_is_refused_at_load():
+    text = GOOD.replace('structure = "open_loop"', "").replace(
+        'type = "JumpAndRate"\njhigh = 1.0', 'type = "PID"\nkp = 1.0\nti = 1.0'
+    )
+    text += '\n[plant]\ntype = "IT1"\nk = 1.0\nt = 1.0\n\n[initial]\ny = 1.0\n'
+    e = _err(text)
+    assert e.key == "initial.y" and "static gain" in e.problem

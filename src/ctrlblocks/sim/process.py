@@ -36,7 +36,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from ..plants import Actuator, Noise, Sensor
-from .scenario import Event, Scenario, build
+from .scenario import Event, Scenario, ScenarioError, build
 
 __all__ = ["PROCESS_EVENTS", "ProcessSide", "SetpointProfile", "set_plant_parameter"]
 
@@ -185,8 +185,10 @@ class ProcessSide:
         for m in chain:
             gain *= float(getattr(m, "dc_gain", math.nan))
         if not math.isfinite(gain) or gain == 0.0:
-            raise ValueError(
-                f"{self.scenario.file}: initial.y needs a plant with a finite, non-zero static gain"
+            raise ScenarioError(
+                self.scenario.file,
+                "initial.y",
+                "needs a plant with a finite, non-zero static gain (give initial.u instead)",
             )
         return y0 / gain - self.actuator.load
 

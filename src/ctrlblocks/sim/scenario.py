@@ -452,7 +452,7 @@ class _Parser(TableReader):
             self.number(metrics, "band", "metrics.band", positive=True)
         if "windows" in metrics and not isinstance(metrics["windows"], bool):
             raise self.fail("metrics.windows", "must be true or false")
-        return Scenario(
+        sc = Scenario(
             name=name,
             title=title,
             source=self.string(head, "source", "scenario.source", default=""),
@@ -475,6 +475,11 @@ class _Parser(TableReader):
             notes=self.string(head, "notes", "scenario.notes", default=""),
             file=self.file,
         )
+        if plant is not None and not math.isnan(initial["y"]):
+            from .process import ProcessSide
+
+            ProcessSide(sc)  # initial.y must have a steady MV: refused here, not in a run
+        return sc
 
     def sensor(self, d: dict[str, Any]) -> dict[str, Any]:
         self.check_keys(d, {"y_min", "y_max", "noise", "noise_kind", "noise_t_corr"}, "sensor")
