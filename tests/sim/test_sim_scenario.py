@@ -209,3 +209,32 @@ def test_initial_y_of_an_integrating_plant_is_refused_at_load():
     text += '\n[plant]\ntype = "IT1"\nk = 1.0\nt = 1.0\n\n[initial]\ny = 1.0\n'
     e = _err(text)
     assert e.key == "initial.y" and "static gain" in e.problem
+
+
+def test_tune_whose_bump_test_cannot_be_identified_is_named():
+    # a plant without static gain around a huge initial MV: the bump is lost in rounding,
+    # the fit refuses the record (ValueError); reported at the tune key, not as a traceback
+    text = """
+[scenario]
+name = "x"
+title = "t"
+ts = 0.1
+duration = 3.0
+
+[plant]
+type = "LinearPlant"
+num = [1.0, 0.0]
+den = [1.0, 2.0, 1.0]
+
+[initial]
+y = 1.0
+
+[[controllers]]
+name = "a"
+type = "PID"
+kp = 1.0
+ti = 1.0
+tune = { rule = "amigo", du = 1.0, duration = 20.0 }
+"""
+    e = _err(text)
+    assert e.key == "controllers[0].tune" and "tuning failed" in e.problem

@@ -769,7 +769,9 @@ class _Parser(TableReader):
                     tuned["reverse"] = True
                 if res.b is not None:
                     tuned["b"] = res.b
-        except ParameterError as exc:
+        except ScenarioError:  # a bad key of the tune table, named by self.fail
+            raise
+        except ValueError as exc:  # ParameterError, or a record the fit cannot use
             raise self.fail(key, f"tuning failed: {exc}") from None
         info["parameters"] = dict(tuned)
         return tuned, info
