@@ -38,7 +38,13 @@ from typing import Any
 from ..plants import Actuator, Noise, Sensor
 from .scenario import Event, Scenario, ScenarioError, build
 
-__all__ = ["PROCESS_EVENTS", "ProcessSide", "SetpointProfile", "set_plant_parameter"]
+__all__ = [
+    "PROCESS_EVENTS",
+    "ProcessSide",
+    "SetpointProfile",
+    "set_plant_parameter",
+    "steady_input",
+]
 
 log = logging.getLogger(__name__)
 
@@ -88,6 +94,23 @@ def set_plant_parameter(plant: Any, name: str, value: Any) -> None:
         plant.configure(**{name: value})
     else:
         setattr(plant, name, value)
+
+
+def steady_input(models: list[Any], y0: float) -> float | None:
+    """The input of the series ``models`` whose steady state gives the output ``y0``.
+
+    A single model with ``u_for_y`` (the three-tank process) inverts its own
+    steady state; otherwise ``y0`` over the product of their ``dc_gain``.
+    None when that gain is not finite or zero (an integrating plant).
+    """
+    if len(models) == 1 and hasattr(models[0], "u_for_y"):
+        return float(models[0].u_for_y(y0))
+    gain = 1.0
+    for m in models:
+        gain *= float(getattr(m, "dc_gain", math.nan))
+    if not math.isfinite(gain) or gain == 0.0:
+        return None
+    return y0 / gain
 
 
 class ProcessSide:
@@ -179,18 +202,14 @@ class ProcessSide:
     def _u_for_y(self, y0: float) -> float:
         """The MV whose steady state gives the output ``y0`` (``initial.y``)."""
         chain = [self.model] if self.inner is None else [self.inner_model, self.model]
-        if len(chain) == 1 and hasattr(chain[0], "u_for_y"):
-            return float(chain[0].u_for_y(y0)) - self.actuator.load
-        gain = 1.0
-        for m in chain:
-            gain *= float(getattr(m, "dc_gain", math.nan))
-        if not math.isfinite(gain) or gain == 0.0:
+        u = steady_input(chain, y0)
+        if u is None:
             raise ScenarioError(
                 self.scenario.file,
                 "initial.y",
                 "needs a plant with a finite, non-zero static gain (give initial.u instead)",
             )
-        return y0 / gain - self.actuator.load
+        return u - self.actuator.load
 
     def reset(self, u: float | None = None) -> None:
         """Put the plant(s) in the steady state of the MV ``u`` (default :attr:`u0`)."""

@@ -723,10 +723,11 @@ class _Parser(TableReader):
         u0 = float(ini.get("u", 0.0))
         y0 = ini.get("y", math.nan)
         if y0 is not None and not math.isnan(y0):
-            if hasattr(plant, "u_for_y"):
-                u0 = float(plant.u_for_y(y0))
-            elif math.isfinite(getattr(plant, "dc_gain", math.nan)):
-                u0 = y0 / plant.dc_gain
+            from .process import steady_input
+
+            u_y = steady_input([plant], y0)  # None: initial.y is refused after the controllers
+            if u_y is not None:
+                u0 = u_y
         try:
             t, u, y = tuning.bump_test(plant, du, u0=u0, duration=duration)
             model = tuning.fit_fopdt(t, u, y)
