@@ -59,6 +59,7 @@ from starlette.websockets import WebSocketDisconnect
 
 from ..blocks.base import ErrorCode
 from ..runtime.historian import SAMPLE_COLUMNS
+from ..runtime.loop import CommandError
 from .auth import SessionStore, UserStore
 from .live import LiveHub, json_safe
 
@@ -384,8 +385,6 @@ def create_app(
 
     @app.post("/api/loops/{name}/command", response_model=None)
     async def command(name: str, request: Request) -> Any:
-        from ..runtime.loop import CommandError
-
         if name not in runtime.loop_names():
             return _error(404, f"unknown loop {name!r}", "loop")
         body = await json_body(request)
