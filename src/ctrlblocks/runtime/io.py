@@ -129,8 +129,6 @@ class Connection:
         self.connected = False
         self.last_error = ""
         self.reconnects = 0
-        self.read_faults = 0
-        self.write_faults = 0
         self._timeouts = {"read": 0, "write": 0}
         self._task: asyncio.Task[None] | None = None
         self._closing = False
@@ -230,23 +228,14 @@ class Connection:
         if not self.connected:
             return [bad(f"not connected ({self.last_error})")] * len(addresses)
         out, failure = await self._request("read", self.adapter.read, addresses)
-        if failure:
-            self.read_faults += 1
-            return [bad(failure)] * len(addresses)
-        return out
+        return [bad(failure)] * len(addresses) if failure else out
 
     async def write(self, items: Sequence[tuple[str, float]]) -> list[str | None]:
         """Write the values; never raises (per item: None or the failure)."""
         if not self.connected:
-            self.write_faults += 1
             return [f"not connected ({self.last_error})"] * len(items)
         res, failure = await self._request("write", self.adapter.write, items)
-        if failure:
-            self.write_faults += 1
-            return [failure] * len(items)
-        if any(r is not None for r in res):
-            self.write_faults += 1
-        return res
+        return [failure] * len(items) if failure else res
 
 
 # ---------------------------------------------------------------------------
