@@ -483,3 +483,32 @@ def test_a_failing_audit_write_does_not_break_the_stop(tmp_path):
     with SQLiteHistorian(tmp_path / "h.sqlite").reading() as h:
         assert len(h.samples()) == len(samples) == 5  # flushed on stop
         assert h.query("SELECT stopped IS NOT NULL FROM runs") == [(1,)]
+
+
+def test_an_exception_in_a_cycle_is_in_the_state_and_the_loop_goes_on():
+    """docs/runtime.md: any exception in a cycle is caught, logged, ``last_exception`` in the
+    state; the next cycle runs."""
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus})
+    side = rt.loops["loop"].side
+    step = side.step
+    calls = []
+
+    def flaky(*args, **kw):
+        calls.append(1)
+        if len(calls) == 3:
+            raise RuntimeError("boom")
+        return step(*args, **kw)
+
+    side.step = flaky
+
+    async def main():
+        await run(rt, clock, 0.45)
+        st = rt.state("loop")
+        await rt.stop()
+        return st
+
+    st = asyncio.run(main())
+    assert st["last_exception"] == "RuntimeError: boom"
+    assert len(samples) == 5 and st["cycle"] == 5

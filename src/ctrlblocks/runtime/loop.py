@@ -310,6 +310,7 @@ class ControlLoop:
             "write_error": self.write_error,
             "write_failures": self.write_failures,
             "input_errors": dict(self.input_errors),
+            "last_exception": self.last_exception,
             "u_min": float(blk.u_min),
             "u_max": float(blk.u_max),
             "safe_value": self.config.safe_value,
