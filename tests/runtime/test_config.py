@@ -150,6 +150,21 @@ def test_secrets_never_show_in_reprs_or_error_messages():
     assert e.value.key == "connections.plc.password" and "87654321" not in str(e.value)
 
 
+def test_a_password_without_security_is_warned_about_without_showing_it(caplog):
+    from ctrlblocks.runtime.opcua import OpcUaAdapter
+
+    with_user = CONN.replace(
+        'url = "opc.tcp://127.0.0.1:4840"',
+        'url = "opc.tcp://127.0.0.1:4840"\nuser = "op"\npassword = "s3cret-pw"',
+    )
+    with caplog.at_level("WARNING", logger="ctrlblocks.runtime.opcua"):
+        OpcUaAdapter(parse_config(with_user + LOOP).connections["plc"])
+        OpcUaAdapter(parse_config(CONN + LOOP).connections["plc"])  # no password: no warning
+    (rec,) = caplog.records
+    assert "connection plc: a password without security" in rec.getMessage()
+    assert "s3cret-pw" not in caplog.text
+
+
 def test_toml_syntax_error_gives_the_line():
     with pytest.raises(RuntimeConfigError) as e:
         parse_config("[[loops]]\nname = \n")

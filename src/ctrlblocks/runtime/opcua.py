@@ -74,6 +74,11 @@ class OpcUaAdapter(Adapter):
         self.config = config
         self._client: Any = None
         self._types: dict[str, Any] = {}  # address -> VariantType of the node
+        if config.password is not None and config.security == "none":
+            log.warning(
+                "connection %s: a password without security may cross the network unencrypted",
+                config.name,
+            )
 
     async def connect(self) -> None:
         asyncua = _asyncua()
