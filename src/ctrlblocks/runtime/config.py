@@ -282,9 +282,7 @@ class _Parser(TableReader):
 
     def config(self, doc: dict[str, Any]) -> RuntimeConfig:
         self.check_keys(doc, {"runtime", "connections", "loops", "historian"}, "")
-        head = doc.get("runtime", {})
-        if not isinstance(head, dict):
-            raise self.fail("runtime", f"must be a table, got {type_name(head)}")
+        head = self.table(doc, "runtime", "runtime", required=False)
         self.check_keys(head, {"name"}, "runtime")
         name = self.string(head, "name", "runtime.name", default="ctrlblocks")
         conns_raw = doc.get("connections", {})
@@ -308,7 +306,7 @@ class _Parser(TableReader):
                 if k in seen:
                     raise self.fail(f"{lc.key}.mv", f"{k} is already written by loop {seen[k]!r}")
                 seen[k] = lc.name
-        hist = self.historian(doc.get("historian", {}))
+        hist = self.historian(self.table(doc, "historian", "historian", required=False))
         cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file)
         for lc in loops:  # build once: a refused parameter is reported here
             build_side(lc, self.file)
@@ -318,8 +316,7 @@ class _Parser(TableReader):
         key = f"connections.{name}"
         if not NAME_RE.match(name):
             raise self.fail(key, "connection names are letters, digits, _ . - only")
-        if not isinstance(c, dict):
-            raise self.fail(key, f"must be a table, got {type_name(c)}")
+        c = self.as_table(c, key)
         protocol = self.choice(c, "protocol", f"{key}.protocol", PROTOCOLS)
         common = {"protocol", "timeout", "reconnect_min", "reconnect_max"}
         per = {
@@ -418,8 +415,7 @@ class _Parser(TableReader):
         raise self.fail(key, f"must be {what}, got {type_name(raw)} {raw!r}")
 
     def loop(self, raw: Any, key: str, conns: Mapping[str, ConnectionConfig]) -> LoopConfig:
-        if not isinstance(raw, dict):
-            raise self.fail(key, f"must be a table, got {type_name(raw)}")
+        raw = self.as_table(raw, key)
         structure = self.choice(raw, "structure", f"{key}.structure", tuple(STRUCTURES), "single")
         allowed = {
             "name",
@@ -633,9 +629,7 @@ class _Parser(TableReader):
         except ScenarioError as exc:
             raise RuntimeConfigError(self.file, exc.key, exc.problem) from None
 
-    def historian(self, h: Any) -> HistorianConfig:
-        if not isinstance(h, dict):
-            raise self.fail("historian", f"must be a table, got {type_name(h)}")
+    def historian(self, h: dict[str, Any]) -> HistorianConfig:
         self.check_keys(
             h,
             {"backend", "path", "dsn", "dsn_env", "flush_interval", "batch", "retention_days"},
