@@ -199,13 +199,7 @@ class PlantProcess:
     def step(self, u: float) -> None:
         """Apply ``u`` for one sample; then go to the next sample (events, setpoint)."""
         self.mv = u
-        side = self.side
-        if side.inner is not None:  # series plants, as the simulator couples them
-            y2 = side.inner.y
-            side.inner.step(u)
-            self.plant.step(y2 + side.inner_load)
-        else:
-            self.plant.step(u)
+        self.side.step(u)  # series plants coupled exactly as in the simulator
         self.k += 1
         self.side.setpoint.advance(self.ts)
         self._apply_due()
