@@ -118,6 +118,7 @@ outputs of Fig. 2 (section 5).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Any
 
@@ -129,9 +130,12 @@ from .base import (
     ErrorCode,
     Mode,
     ParameterError,
+    as_flag,
+    as_input,
     is_finite,
     require_bool,
     require_choice,
+    require_coefficients,
     require_finite,
     require_limits,
     require_nonnegative,
@@ -569,48 +573,38 @@ class ADRCConfig(BlockConfig):
 def _exact_coefficients(
     n: int, b0: float, omega_c: float, omega_o: float, ts: float
 ) -> tuple[tuple[float, ...], tuple[float, float, float]]:
-    """ZOH matrices, current-observer gain and controller gains (Ackermann).
+    """ZOH matrices, current-observer gain and controller gains (Ackermann), in closed form.
 
     Returns ``(f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3)`` in
     the 4-state layout and ``(kp, kd1, kd2)``.
+
+    The chain of ``m = n + 1`` integrators (Y, its derivatives, h) has
+    ``Phi[i][j] = ts^(j-i)/(j-i)!``.  In the scaled state ``x_i ts^i`` it becomes
+    the constant ``exp(N)`` (N the shift matrix), so Ackermann's formula
+    ``Lp = p(Phi) O^-1 e_last`` with ``p(z) = (z - z_o)^m = ((z - 1) + d)^m``,
+    ``d = 1 - exp(-omega_o ts)``, is a sum of constant vectors times ``d^k``
+    (:func:`_chain_constants`); unscaling multiplies entry i by ``ts^-i`` and
+    only terms with ``k > i`` occur, written ``(d/ts)^i d^(k-i)``.  So the gains are
+    accurate for every ``omega_o ts`` (no cancellation when it is tiny, no
+    singular matrix at ``ts = 1e-300``).  Example, n = 1: ``Lc = (1 - z_o^2,
+    (1 - z_o)^2/ts)``.  The controller gains are placed likewise on the n-chain
+    (all poles at ``exp(-omega_c ts)``).
     """
-    p1, p2, k1, k2, k3 = adrc_switches(n)
-    a4 = np.zeros((4, 4))
-    a4[0, 1], a4[1, 2] = p1, p2
-    a4[0, 3], a4[1, 3], a4[2, 3] = k1, k2, k3
-    b4 = b0 * np.array([k1, k2, k3, 0.0])
-    phi = np.eye(4)
-    gam_int = np.eye(4) * ts
-    term = np.eye(4)
-    for k in range(1, 5):  # A is nilpotent: the series ends at A^3
-        term = term @ a4 * ts / k
-        phi = phi + term
-        gam_int = gam_int + term * ts / (k + 1)
-    gam = gam_int @ b4
-    idx = {1: [0, 3], 2: [0, 1, 3], 3: [0, 1, 2, 3]}[n]
     m = n + 1
-    phi_r = phi[np.ix_(idx, idx)]
-    c_r = np.zeros(m)
-    c_r[0] = 1.0
-    # observer: prediction gain Lp by Ackermann, current gain Lc = Phi^-1 Lp
-    zo = math.exp(-omega_o * ts)
-    obs = np.array([c_r @ np.linalg.matrix_power(phi_r, k) for k in range(m)])
-    p_phi = _poly_of_matrix(phi_r, np.poly([zo] * m))
-    e_last = np.zeros(m)
-    e_last[-1] = 1.0
-    lp = p_phi @ np.linalg.solve(obs, e_last)
-    lc_r = np.linalg.solve(phi_r, lp)
+    idx = {1: [0, 3], 2: [0, 1, 3], 3: [0, 1, 2, 3]}[n]
+    h = ts
+    phi = np.eye(4)
+    gam = np.zeros(4)
+    for a in range(m):
+        for b in range(a + 1, m):
+            phi[idx[a], idx[b]] = h ** (b - a) / math.factorial(b - a)
+        if a < n:
+            gam[idx[a]] = b0 * h ** (n - a) / math.factorial(n - a)
+    obs_terms, ctl_terms = _chain_constants(n)
+    lc_r = _scaled_gain(obs_terms, m, omega_o, h, observer=True)
+    kk = _scaled_gain(ctl_terms, n, omega_c, h, observer=False) + [0.0] * (3 - n)
     lc = np.zeros(4)
     lc[idx] = lc_r
-    # controller on the n-chain with unit input (b0 u + h acts as one input)
-    phi_c = phi_r[:n, :n]
-    gam_c = (gam[idx] / b0)[:n]
-    ctrb = np.column_stack([np.linalg.matrix_power(phi_c, k) @ gam_c for k in range(n)])
-    zc = math.exp(-omega_c * ts)
-    e_n = np.zeros(n)
-    e_n[-1] = 1.0
-    kvec = np.linalg.solve(ctrb.T, e_n) @ _poly_of_matrix(phi_c, np.poly([zc] * n))
-    kk = [float(v) for v in kvec] + [0.0] * (3 - n)
     coef = (
         float(phi[0, 1]),
         float(phi[0, 2]),
@@ -626,12 +620,66 @@ def _exact_coefficients(
     return coef, (kk[0], kk[1], kk[2])
 
 
-def _poly_of_matrix(mat: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
-    """``p(M)`` for the polynomial with coefficients ``coeffs`` (highest first)."""
-    out = np.zeros_like(mat)
-    for c in coeffs:
-        out = out @ mat + c * np.eye(mat.shape[0])
+def _scaled_gain(
+    terms: list[np.ndarray], size: int, omega: float, h: float, *, observer: bool
+) -> list[float]:
+    """Gain entries from the constant vectors ``terms[k]`` (coefficient of ``d^k``).
+
+    Observer entry i: ``sum_k terms[k][i] (d/h)^i d^(k-i)`` (``k > i``).
+    Controller entry i: ``sum_k terms[k][i] (d/h)^(size-i) d^(k-size+i)``
+    (``k >= size - i``).  ``d = 1 - exp(-omega h)`` by ``expm1``; ``d/h`` tends to
+    ``omega`` as ``omega h -> 0``.
+    """
+    a = omega * h
+    d = -math.expm1(-a)
+    q = omega * (d / a) if a > 1e-300 else omega  # d/h without dividing by a subnormal h
+    out = []
+    for i in range(size):
+        p = i if observer else size - i
+        acc = 0.0
+        for k in range(1, size + 1):
+            c = float(terms[k][i])
+            if c != 0.0 and k >= p:
+                acc += c * q**p * d ** (k - p)
+        out.append(acc)
     return out
+
+
+@functools.cache
+def _chain_constants(n: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Constant vectors of the scaled chain for :func:`_exact_coefficients`.
+
+    Observer (m = n + 1 states): ``C(m, k) exp(-N) W^(m-k) O^-1 e_last``,
+    ``W = exp(N) - I``; controller (n states, input on the last): ``C(n, k)
+    e_last^T Ctrb^-1 W^(n-k)`` with ``Ctrb = [g, exp(N) g, ...]``, ``g_i =
+    1/(n-i)!``.  Index k = 0..size (entry 0 unused).  Exact small rational
+    matrices, computed once per order.
+    """
+
+    def expn(size: int, sign: float) -> np.ndarray:
+        e = np.zeros((size, size))
+        for i in range(size):
+            for j in range(i, size):
+                e[i, j] = sign ** (j - i) / math.factorial(j - i)
+        return e
+
+    m = n + 1
+    phi, pinv = expn(m, 1.0), expn(m, -1.0)
+    w = phi - np.eye(m)
+    obs = np.array([np.linalg.matrix_power(phi, k)[0] for k in range(m)])
+    v = np.linalg.solve(obs, np.eye(m)[-1])
+    obs_terms = [np.zeros(m)] + [
+        math.comb(m, k) * (pinv @ np.linalg.matrix_power(w, m - k) @ v) for k in range(1, m + 1)
+    ]
+    phic = phi[:n, :n]
+    wc = phic - np.eye(n)
+    g = np.array([1.0 / math.factorial(n - i) for i in range(n)])
+    ctrb = np.column_stack([np.linalg.matrix_power(phic, k) @ g for k in range(n)])
+    r0 = np.linalg.solve(ctrb.T, np.eye(n)[-1])
+    ctl_terms = [np.zeros(n)] + [
+        math.comb(n, k) * (r0 @ np.linalg.matrix_power(wc, n - k)) for k in range(1, n + 1)
+    ]
+    return obs_terms, ctl_terms
 
 
 def discretisation_trusted(
@@ -761,6 +809,10 @@ class ADRC(Block):
         self._exact = c.discretisation == "exact"
         self._h = -1.0
         self._coefficients(self._ts)
+        require_coefficients(
+            "b0/omega_c/omega_o/ts", ErrorCode.BAD_BANDWIDTH,
+            *self._gains, *self._law, *self._sens, *self._eso_coef,
+        )  # fmt: skip
         if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):
             self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
             self._limits_bad = False
@@ -826,6 +878,33 @@ class ADRC(Block):
         self._pending = None
         if self._warn:
             self.error_id = ErrorCode.WARN_DISCRETISATION
+
+    def output_limits(self) -> tuple[float, float]:
+        """``(u_min, u_max)`` in force (``set_limits`` included)."""
+        return self._u_lo, self._u_hi
+
+    def _resume(self, held: float) -> None:
+        """After a failed cycle (``BAD_RESULT``): the ESO restarts at rest, from ``held``.
+
+        As after ``reset()`` the next valid measurement starts the ESO at rest on
+        it (x4 = -b0 u), and x4 is re-solved by (11) (``_track``) so that the first
+        output equals ``held``.
+        """
+        self.out = self.u_raw = held
+        self.awout = False
+        for name in ("e", "y", "y_ref", "_ref"):
+            if not _NINF < getattr(self, name) < _INF:
+                setattr(self, name, 0.0)
+        self._yh = self._x2 = self._x3 = self._x4 = 0.0
+        self._u_prev = held
+        if not self.manual:
+            self.u_man = held
+        self._started = False
+        self._track = True
+        self._sat = self._ab_sat = 0
+        self._ab_wait = 0.0
+        if self._pending is not None:
+            self._pending = (0.0, 0.0, 0.0, 0.0, self._ref, False, True, 0, 0, 0.0)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped."""
@@ -925,6 +1004,7 @@ class ADRC(Block):
         ``u_real`` is used for the ESO when ``u_real_on`` is configured (a
         missing or NaN ``u_real`` then falls back to u and sets ``BAD_INPUT``).
         """
+        sp, y = as_input(sp), as_input(y)
         if (
             self._lean
             and dt is None
@@ -933,13 +1013,10 @@ class ADRC(Block):
             and self._h == self._ts
             and self._pending is None
             and not (self._track or self.manual or self.awin)
+            and _NINF < sp < _INF
+            and _NINF < y < _INF
         ):
-            try:
-                finite = _NINF < sp < _INF and _NINF < y < _INF
-            except (TypeError, ValueError):  # not a number (e.g. an array): slow path, BAD_INPUT
-                finite = False
-            if finite:
-                return self._fast_cycle(float(sp), float(y))
+            return self._fast_cycle(sp, y)
         v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
         applied = v
         if self._config.u_real_on and self._pending is not None:
@@ -964,7 +1041,7 @@ class ADRC(Block):
             self._u_prev, self._ref, prm,
         )  # fmt: skip
         self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
-        self.out = u
+        self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
         self.u_raw = u_raw
         self.awout = self._sat != 0
         self.y = y
@@ -992,6 +1069,7 @@ class ADRC(Block):
         Idempotent within a cycle: it always starts from the committed state.
         """
         self._pending = None
+        sp, y, y_ok = as_input(sp), as_input(y), as_flag(y_ok, False)
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
@@ -1097,7 +1175,7 @@ class ADRC(Block):
         if err == ErrorCode.NO_ERROR and self._warn:
             err = ErrorCode.WARN_DISCRETISATION
         self.error_id = err
-        self.out = u
+        self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
         self.u_raw = u_raw
         self.awout = sat != 0
         self.y = y_out
@@ -1116,9 +1194,8 @@ class ADRC(Block):
         """
         if self._pending is None:
             return
-        if is_finite(applied):
-            a = float(applied)
-        else:
+        a = as_input(applied)
+        if not _NINF < a < _INF:
             a = self.out
             self.error_id = ErrorCode.BAD_INPUT
         (

@@ -38,11 +38,17 @@ simultaneous values.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
+import functools
 import math
+import numbers
+from collections.abc import Callable
 from enum import IntEnum
 from typing import Any, ClassVar
+
+import numpy as np
 
 
 class ErrorCode(IntEnum):
@@ -68,6 +74,13 @@ class ErrorCode(IntEnum):
     BAD_MEASUREMENT = 0x8102
     """The measurement was declared invalid by its quality flag (``y_ok`` /
     ``pv_ok`` false).  Fallback as for ``BAD_INPUT``."""
+    BAD_RESULT = 0x8103
+    """The law computed a value that is not finite (an overflow from extreme
+    but finite data, a huge ``dt`` or an unstable discretisation).  The
+    output guard of :class:`Block` holds the last valid output (or the safe
+    value), limited to the limits in force, re-initialises the block's memory
+    so that it continues without a bump, and the code clears by itself when
+    the cause goes."""
 
     # --- 16#82xx: configuration (raised as ParameterError) -------------------
     BAD_LIMITS = 0x8201
@@ -147,14 +160,29 @@ class ParameterError(ValueError):
 # ---------------------------------------------------------------------------
 
 
+def _is_number(value: Any) -> bool:
+    """True for a real number a configuration may hold: int, float, numpy numbers, Fraction.
+
+    Not for a bool (``True`` is no gain), a numpy ``bool_``, a string (``"0.5"`` is
+    refused, never stored or converted: a configuration holds numbers only), an
+    array or anything else.
+    """
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
 def require_finite(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_PARAMETER) -> float:
-    """Return ``value`` as a float, or raise ParameterError if it is not a finite number."""
-    if isinstance(value, bool):
+    """Return ``value`` as a float, or raise ParameterError if it is not a finite number.
+
+    Accepted: :func:`_is_number` values (``int``, ``float``, numpy numbers); an int too
+    large for a float (``10**400``) is refused like an infinite value.  Refused with
+    ``code``: strings (also numeric ones), bools, ``None``, arrays, NaN and +-inf.
+    """
+    if not _is_number(value):
         raise ParameterError(code, name, f"must be a number, got {value!r}")
     try:
         x = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(code, name, f"must be a number, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(code, name, f"must be a finite number, got {value!r}") from None
     if not math.isfinite(x):
         raise ParameterError(code, name, f"must be finite, got {value!r}")
     return x
@@ -180,7 +208,7 @@ def require_choice(
     name: str, value: Any, choices: tuple[str, ...], code: ErrorCode = ErrorCode.BAD_PARAMETER
 ) -> str:
     """Return ``value`` if it is one of ``choices``, else raise ParameterError with ``code``."""
-    if value not in choices:
+    if not isinstance(value, str) or value not in choices:
         raise ParameterError(code, name, f"must be one of {', '.join(choices)}; got {value!r}")
     return value
 
@@ -209,10 +237,10 @@ def require_limits(
     """
     field = f"{lo_name}/{hi_name}"
     try:
-        if isinstance(lo, bool) or isinstance(hi, bool):
+        if not (_is_number(lo) and _is_number(hi)):
             raise TypeError
         lo_f, hi_f = float(lo), float(hi)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ParameterError(code, field, f"must be numbers, got {lo!r}, {hi!r}") from None
     if math.isnan(lo_f) or math.isnan(hi_f):
         raise ParameterError(code, field, "must not be NaN")
@@ -220,18 +248,72 @@ def require_limits(
         raise ParameterError(code, field, "must be finite")
     if lo_f > hi_f:
         raise ParameterError(code, field, f"low limit {lo_f!r} is above high limit {hi_f!r}")
+    if lo_f == math.inf or hi_f == -math.inf:
+        raise ParameterError(code, field, f"leave no finite value between {lo_f!r} and {hi_f!r}")
     return lo_f, hi_f
 
 
-def is_finite(x: Any) -> bool:
-    """True if ``x`` is a finite real number; False for NaN, inf, None or non-numbers.
+def require_coefficients(field: str, code: ErrorCode, *values: float) -> None:
+    """Refuse a configuration whose derived coefficients are not finite.
 
+    Called by a block's ``_apply_config`` on the gains, poles and matrices it
+    derives: a finite but extreme parameter (``n = 5e-324``, ``kp = 1e308`` with
+    ``ti = 1e-300``) whose coefficients overflow is refused with ``code`` on
+    ``field`` (and :meth:`Block.configure` keeps the old configuration).  An
+    overflow that only extreme *data* causes is caught by the output guard
+    instead (``BAD_RESULT``).
+    """
+    for v in values:
+        if not math.isfinite(v):
+            raise ParameterError(
+                code, field, f"gives a coefficient that is not finite ({v!r}); too extreme"
+            )
+
+
+def as_input(x: Any) -> float:
+    """The one conversion of a process input at a block's edge: a float, NaN when unusable.
+
+    ``float`` passes as is; ``int`` (also a ``bool``: ``True`` is 1.0, as an IEC
+    61131-3 BOOL_TO_REAL), numpy scalars (``float16``, ``float32``, ``int64``,
+    ``bool_``, ...) and any other real number become the nearest float.  An int
+    beyond the float range (``10**400``), a string, ``None``, an array or any
+    other object becomes NaN, so the block treats it as a bad input
+    (``BAD_INPUT``); this function never raises.
+    """
+    if type(x) is float:
+        return x
+    if isinstance(x, (str, bytes, np.ndarray)):
+        return math.nan
+    try:
+        return float(x)
+    except (TypeError, ValueError, OverflowError):
+        return math.nan
+
+
+def as_flag(x: Any, default: bool) -> bool:
+    """A boolean process input (``enable``, ``pv_ok``, a button): never raises.
+
+    ``bool``, numpy ``bool_`` and numbers are read as truth values (a NaN number is
+    ``default``); anything else (``None``, a string, an array) is ``default``:
+    the caller passes the safe reading (``pv_ok`` unusable reads as False).
+    """
+    if type(x) is bool:
+        return x
+    if isinstance(x, (numbers.Number, np.bool_, np.number)):
+        try:
+            return default if x != x else bool(x)
+        except (TypeError, ValueError):
+            return default
+    return default
+
+
+def is_finite(x: Any) -> bool:
+    """True if ``x`` is a finite real number (after :func:`as_input`); never raises.
+
+    False for NaN, inf, None, strings, arrays and ints beyond the float range.
     Used on process data in the step, where a bad value must never raise.
     """
-    try:
-        return math.isfinite(x)
-    except TypeError:
-        return False
+    return math.isfinite(as_input(x))
 
 
 # ---------------------------------------------------------------------------
@@ -245,10 +327,74 @@ class BlockConfig:
 
     Subclasses add their fields and override :meth:`validate`, which must
     raise :class:`ParameterError` for any invalid value.
+
+    Numbers are converted once, when the configuration is made: a field
+    annotated ``float`` (or ``float | None``, or a tuple of floats) that holds an
+    ``int`` or a numpy number holds the equal ``float`` afterwards, and an
+    ``int`` field that holds a numpy integer holds a Python ``int``.  Anything
+    else (a string such as ``"0.5"``, a bool, an int beyond the float range) is
+    left as given for :meth:`validate` to refuse: a configuration never holds a
+    string where a number belongs.
     """
+
+    def __post_init__(self) -> None:
+        for name, kind in _numeric_fields(type(self)):
+            v = getattr(self, name)
+            if kind == "tuple" and isinstance(v, (tuple, list)):
+                if all(_is_number(x) for x in v):
+                    with contextlib.suppress(OverflowError):  # validate refuses 10**400
+                        object.__setattr__(self, name, tuple(float(x) for x in v))
+                continue
+            if not _is_number(v) or type(v) is (float if kind == "float" else int):
+                continue
+            if kind == "int":
+                if isinstance(v, numbers.Integral):
+                    object.__setattr__(self, name, int(v))
+                continue
+            with contextlib.suppress(OverflowError):  # 10**400: validate refuses it
+                object.__setattr__(self, name, float(v))
 
     def validate(self) -> None:
         """Raise ParameterError if the configuration is invalid."""
+
+
+@functools.cache
+def _numeric_fields(cls: type) -> tuple[tuple[str, str], ...]:
+    """``(name, kind)`` of the fields of a config class that hold numbers (see BlockConfig)."""
+    kinds = {"float": "float", "float | None": "float", "int": "int"}
+    out = []
+    for f in dataclasses.fields(cls):
+        t = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", "")
+        if t in kinds:
+            out.append((f.name, kinds[t]))
+        elif t.startswith("tuple[float"):
+            out.append((f.name, "tuple"))
+    return tuple(out)
+
+
+_NINF, _INF = -math.inf, math.inf
+
+
+def _guard(step: Callable[..., Any]) -> Callable[..., Any]:
+    """Wrap a block's step so that no non-finite or out-of-limit ``out`` leaves it.
+
+    The one output rule of every block (see :meth:`Block._contain`): after the
+    step, ``out`` must be finite and inside :meth:`Block.output_limits`.
+    """
+
+    @functools.wraps(step)
+    def guarded(self: Block, *args: Any, **kwargs: Any) -> Any:
+        prev = self.out
+        result = step(self, *args, **kwargs)
+        y = self.out
+        lo, hi = self.output_limits()
+        if lo <= y <= hi and _NINF < y < _INF:
+            return result
+        held = self._contain(prev, y, lo, hi)
+        return held if isinstance(result, float) else result
+
+    guarded._output_guard = True  # type: ignore[attr-defined]
+    return guarded
 
 
 class Block:
@@ -262,9 +408,18 @@ class Block:
 
     Config: ClassVar[type[BlockConfig]] = BlockConfig
     _state_fields: ClassVar[tuple[str, ...]] = ()
+    _guarded_steps: ClassVar[tuple[str, ...]] = ("__call__", "compute_output")
 
     out: float
     error_id: int
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Put the output guard (:func:`_guard`) around the step methods a subclass defines."""
+        super().__init_subclass__(**kwargs)
+        for name in cls._guarded_steps:
+            fn = cls.__dict__.get(name)
+            if fn is not None and not getattr(fn, "_output_guard", False):
+                setattr(cls, name, _guard(fn))
 
     def __init__(self, config: BlockConfig | None = None, /, **params: Any) -> None:
         if config is None:
@@ -295,12 +450,14 @@ class Block:
         new = self._replace_config(self._config, changes)
         new.validate()
         old = self._config
+        saved = copy.deepcopy(self.__dict__)
         self._config = new
         try:
             self._apply_config(old)
         except Exception:
-            self._config = old
-            self._apply_config(None)
+            # configuration, coefficients and state exactly as before the call
+            self.__dict__.clear()
+            self.__dict__.update(saved)
             raise
 
     def _make_config(self, params: dict[str, Any]) -> BlockConfig:
@@ -347,6 +504,52 @@ class Block:
             setattr(self, name, copy.deepcopy(snapshot[name]))
         self.error_id = snapshot.get("error_id", ErrorCode.NO_ERROR)
 
+    # -- the output guard ------------------------------------------------------
+
+    def output_limits(self) -> tuple[float, float]:
+        """The limits ``out`` must lie in, as in force now (override; default: none)."""
+        return _NINF, _INF
+
+    def _fallback(self, prev: float) -> float:
+        """The value to output when the law fails: the last valid output (override)."""
+        return prev
+
+    def _contain(self, prev: float, y: float, lo: float, hi: float) -> float:
+        """Replace an output that is not finite or outside ``[lo, hi]``; return the new one.
+
+        A finite value outside the limits (a held output after the limits were
+        narrowed) is limited; the status is left as the step set it.  A value
+        that is not finite takes the fallback (:meth:`_fallback`: the last valid
+        output ``prev`` or the safe value), limited to ``[lo, hi]`` (0 limited,
+        if that is not finite either), sets ``BAD_RESULT`` and calls
+        :meth:`_resume` so that the memory is finite again and the next good
+        cycle continues from the held output without a bump.
+        """
+        if _NINF < y < _INF:
+            self.out = lo if y < lo else hi
+            return self.out
+        held = self._fallback(prev)
+        held = lo if held < lo else hi if held > hi else held
+        if not _NINF < held < _INF:
+            held = lo if lo > 0.0 else hi if hi < 0.0 else 0.0
+        self.out = held
+        self.error_id = ErrorCode.BAD_RESULT
+        self._resume(held)
+        return held
+
+    def _resume(self, held: float) -> None:
+        """Make the state finite after a failed step, continuing from ``held`` (override).
+
+        Default: every float state attribute that is not finite becomes
+        ``held`` (``out``) or 0.0.  Blocks with memory override it to
+        re-initialise bumplessly.
+        """
+        for name in self._state_fields:
+            v = getattr(self, name)
+            if isinstance(v, float) and not _NINF < v < _INF:
+                setattr(self, name, 0.0)
+        self.out = held
+
     # -- status ------------------------------------------------------------
 
     @property
@@ -375,8 +578,9 @@ class Block:
         """
         if dt is None:
             return ts
-        if is_finite(dt) and dt > 0.0:
-            return float(dt)
+        h = as_input(dt)
+        if _NINF < h < _INF and h > 0.0:
+            return h
         self.error_id = ErrorCode.NO_CYCLE
         return None
 

@@ -66,6 +66,7 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
+    as_input,
     is_finite,
     require_limits,
     require_positive,
@@ -220,6 +221,11 @@ class JumpAndRate(Block):
         self.jump_limited = False
         self.rate_limited = False
 
+    def _resume(self, held: float) -> None:
+        """After a failed step the module settles at the held output (state and output)."""
+        self.out = self.x = held
+        self.jump_limited = self.rate_limited = False
+
     def preset(self, value: float) -> None:
         """Settle the module at ``value`` (output and state), e.g. the current command."""
         if is_finite(value):
@@ -239,11 +245,11 @@ class JumpAndRate(Block):
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
-        u = float(u)
         x = self.x
         e = u - x
         self.jump_limited = e > self._jhigh or e < self._jlow

@@ -76,6 +76,8 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
+    as_flag,
+    as_input,
     is_finite,
     require_choice,
     require_finite,
@@ -233,6 +235,10 @@ class LeadLag(Block):
         self.enabled = True
         self._x_prev = 0.0
 
+    def output_limits(self) -> tuple[float, float]:
+        """``(out_min, out_max)`` in force."""
+        return self._lo, self._hi
+
     def preset(self, x: float) -> None:
         """Start at the steady state of input ``x``: output ``K x`` (limited), memory ``x``.
 
@@ -257,12 +263,12 @@ class LeadLag(Block):
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
-        if not is_finite(x):
+        x = as_input(x)
+        if not math.isfinite(x):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
-        x = float(x)
-        self.enabled = bool(enable)
+        self.enabled = as_flag(enable, False)
         if not self.enabled:
             self.out = 0.0
             self._x_prev = x

@@ -81,6 +81,8 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
+    as_flag,
+    as_input,
     is_finite,
     require_finite,
     require_limits,
@@ -259,6 +261,10 @@ class ManualStation(Block):
         self.direction = 0
         self.tracking = False
 
+    def output_limits(self) -> tuple[float, float]:
+        """``(out_min, out_max)`` in force."""
+        return self._lo, self._hi
+
     def preset(self, value: float) -> None:
         """Set the output to ``value`` (limited to the range); a non-finite value is ignored."""
         if is_finite(value):
@@ -297,11 +303,12 @@ class ManualStation(Block):
         if h is None:
             return self.out
         tracking = track is not None
-        if tracking and not is_finite(track):
+        w = as_input(track) if tracking else 0.0
+        if not math.isfinite(w):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
-        s = (1 if inc else 0) - (1 if dec else 0)
+        s = (1 if as_flag(inc, False) else 0) - (1 if as_flag(dec, False) else 0)
         tau = self.held if s != 0 and s == self.direction else 0.0
         if s != 0:
             ta, am = self._t_accel, self._accel_max
@@ -312,7 +319,6 @@ class ManualStation(Block):
             self.held = 0.0
         self.direction = s
         self.tracking = tracking
-        w = float(track) if tracking else 0.0  # type: ignore[arg-type]
         self.out = manual_station_update(
             self.out, delta, w, tracking, h, self._tr, self._lo, self._hi
         )

@@ -51,7 +51,7 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
-    is_finite,
+    as_input,
     require_bool,
     require_positive,
 )
@@ -191,12 +191,12 @@ class CycleMonitor(Block):
 
     def __call__(self, dt_measured: float) -> bool:
         """Record one measured cycle time [s]; return ``warning``."""
-        if not (is_finite(dt_measured) and dt_measured > 0.0):
+        dt = as_input(dt_measured)
+        if not (math.isfinite(dt) and dt > 0.0):
             self.error_id = ErrorCode.NO_CYCLE
             self.invalid += 1
             return self.warning
         self.error_id = ErrorCode.NO_ERROR
-        dt = float(dt_measured)
         first = self.count == 0
         self.count, self.mean, self._m2 = welford_update(self.count, self.mean, self._m2, dt)
         self.min = dt if first else min(self.min, dt)

@@ -62,9 +62,12 @@ from .base import (
     ErrorCode,
     Mode,
     ParameterError,
+    as_flag,
+    as_input,
     is_finite,
     require_bool,
     require_choice,
+    require_coefficients,
     require_finite,
     require_limits,
     require_nonnegative,
@@ -72,7 +75,16 @@ from .base import (
 )
 from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
-from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, clamp, deadband, scale
+from .signals import (
+    MAX_WINDOW,
+    PT1,
+    MovingAverage,
+    RateLimiter,
+    SteadyStateDetector,
+    clamp,
+    deadband,
+    scale,
+)
 
 __all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig", "pid_step"]
 
@@ -164,6 +176,20 @@ def clamping_blocks(di: float, v: float, lo: float, hi: float) -> bool:
     return (v > hi and di > 0.0) or (v < lo and di < 0.0)
 
 
+def clamping_integral(i: float, di: float, rest: float, lo: float, hi: float) -> float:
+    """The integrator when conditional integration stops it at a limit (seed 002 CLAMPING).
+
+    ``rest = P + D + FF``.  The increment ``di`` would drive ``v = rest + i + di``
+    beyond the limit: the integrator moves only as far as puts ``v`` on the
+    limit (``i = limit - rest``), never backwards (if ``v`` was already beyond it
+    with ``i``, ``i`` stays).  So the output settles *at* the limit, not one
+    increment below it, and a primary controller sees the limit status.
+    """
+    if di > 0.0:
+        return max(i, hi - rest)
+    return min(i, lo - rest)
+
+
 def ramp_blocks(di: float, v: float, y_prev: float, step_max: float) -> bool:
     """Conditional integration at the output ramp: True if the ramp (largest step
     ``step_max`` per cycle, 0 = no ramp) holds the output back in the direction
@@ -238,7 +264,11 @@ def pid_step(
         di = integral_increment(ki_h, alpha, beta, e_prev, e)
         i_k = i + di
         if aw == 0.0 and clamping_blocks(di, p + i_k + dn + ff, lo, hi):
-            i_k = i
+            # integrate up to the limit, not beyond (clamping_integral); v_raw is
+            # the demand, beyond the limit, so that the limit status is set
+            v_raw = p + i_k + dn + ff
+            i_k = clamping_integral(i, di, p + dn + ff, lo, hi)
+            return clamp(v_raw, lo, hi), v_raw, p, i_k, i_k, dn, w, e
     v_raw = p + i_k + dn + ff
     out = clamp(v_raw, lo, hi)
     # update_state with applied = out: clamping tracks ``applied - out`` = 0 (the
@@ -406,7 +436,14 @@ class PIDConfig(BlockConfig):
                 f"got {self.dev_tol!r}",
             )
         require_finite("deadband", self.deadband)
-        require_positive("t_stab", self.t_stab, ErrorCode.BAD_STAB_TIME)
+        t_stab = require_positive("t_stab", self.t_stab, ErrorCode.BAD_STAB_TIME)
+        if t_stab / ts > MAX_WINDOW:
+            raise ParameterError(
+                ErrorCode.BAD_STAB_TIME,
+                "t_stab",
+                f"t_stab/ts = {t_stab / ts:.3g} samples exceeds the longest moving-average "
+                f"window ({MAX_WINDOW})",
+            )
         require_finite("reset_value", self.reset_value)
         if self.safe_value is not None:
             require_finite("safe_value", self.safe_value)
@@ -551,6 +588,10 @@ class PID(Block):
         self._db = abs(float(c.deadband))
         self._ts = float(c.ts)
         self._set_h(self._ts)
+        require_coefficients(
+            "kp/ti/td/n", ErrorCode.BAD_PID_COEFFS,
+            self._k, self._ki, self._kd, self._tf, self._ad, self._bd, self._ki_h, self._tt,
+        )  # fmt: skip
         ts = self._ts
         self._sync("_sp_filter", PT1, t=c.sp_filter, ts=ts)
         self._sync("_pv_filter", PT1, t=c.pv_filter, ts=ts)
@@ -579,6 +620,49 @@ class PID(Block):
         self._prm = (self._k, self._sgn, float(self._config.b), float(self._config.c),
                      self._ad, self._bd, self._ki_h, self._alpha, self._beta, self._lo,
                      self._hi, aw, tracking_gain(h, self._tt))  # fmt: skip
+
+    def configure(self, **changes: Any) -> None:
+        """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``."""
+        super().configure(**changes)
+        if "u_min" in changes or "u_max" in changes:
+            self._limits_status = ErrorCode.NO_ERROR
+            if self.error_id == ErrorCode.BAD_LIMITS:
+                self.error_id = ErrorCode.NO_ERROR
+
+    def output_limits(self) -> tuple[float, float]:
+        """``(u_min, u_max)`` in force."""
+        return self._lo, self._hi
+
+    def _fallback(self, prev: float) -> float:
+        """When the law fails: ``safe_value`` if configured, else the last valid output."""
+        sv = self._config.safe_value
+        return prev if sv is None else float(sv)
+
+    def _resume(self, held: float) -> None:
+        """After a failed cycle (``BAD_RESULT``): finite memory, bumpless restart from ``held``.
+
+        The cycle counts as one with bad inputs: the next good cycle re-initialises
+        the integrator (and the velocity form's output integrator) so that the
+        output continues from ``held``; filters and ramps whose state overflowed
+        restart on the next sample.
+        """
+        for name in ("p", "i", "d", "ff", "e", "sp_w", "pv_f", "_d", "_w_prev", "_e_prev",
+                     "_p_prev", "_d_prev", "_ff_prev"):  # fmt: skip
+            if not _NINF < getattr(self, name) < _INF:
+                setattr(self, name, 0.0)
+        self._i = self._x = self._bias = held
+        self._db_hold = held
+        self.deadband_active = False
+        for sub in self._subs.values():
+            if not _NINF < sub.out < _INF:
+                sub.reset()
+        self._subs["_out_ramp"].preset(held)
+        self.limits_active = False
+        if not self.manual:
+            self.manual_value = held
+        self._reinit = self._reinit_d = True
+        if self._pending:
+            self._c_kind = 1  # update_state: nothing is known, re-initialise on recovery
 
     def set_limits(self, u_min: float, u_max: float) -> None:
         """Change the output limits at run time; never raises.
@@ -710,6 +794,7 @@ class PID(Block):
         cycle is one call of :func:`pid_step`, which gives exactly the same
         result as the two phases.
         """
+        sp, pv, ff, dv = as_input(sp), as_input(pv), as_input(ff), as_input(dv)
         if (
             self._lean
             and dt is None
@@ -719,25 +804,22 @@ class PID(Block):
             and not (self._cold or self._reinit or self._pending)
             and self._h == self._ts
             and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
+            and _NINF < sp < _INF
+            and _NINF < pv < _INF
+            and _NINF < ff < _INF
         ):
-            try:
-                finite = _NINF < sp < _INF and _NINF < pv < _INF and _NINF < ff < _INF
-            except (TypeError, ValueError):  # not a number (e.g. an array): slow path, BAD_INPUT
-                finite = False
-            if finite:
-                sp, pv, ff = float(sp), float(pv), float(ff)
-                (out, v_raw, self.p, self.i, self._i, self._d, self._w_prev, e) = pid_step(
-                    sp, pv, ff, False, 0.0, False, False, self._i, self._d, self._w_prev,
-                    self._e_prev, self.out, self._prm,
-                )  # fmt: skip
-                self.d = self._d
-                self.e = self._e_prev = e
-                self.sp_w, self.pv_f, self.ff = sp, pv, ff
-                self.out = self.manual_value = out
-                self.limits_active = v_raw > self._hi or v_raw < self._lo
-                self.error_id = self._limits_status
-                self._lean_ran = True
-                return out
+            (out, v_raw, self.p, self.i, self._i, self._d, self._w_prev, e) = pid_step(
+                sp, pv, ff, False, 0.0, False, False, self._i, self._d, self._w_prev,
+                self._e_prev, self.out, self._prm,
+            )  # fmt: skip
+            self.d = self._d
+            self.e = self._e_prev = e
+            self.sp_w, self.pv_f, self.ff = sp, pv, ff
+            self.out = self.manual_value = out if _NINF < v_raw < _INF else math.nan
+            self.limits_active = v_raw > self._hi or v_raw < self._lo
+            self.error_id = self._limits_status
+            self._lean_ran = True
+            return out
         v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt, pv_ok=pv_ok)
         self.update_state(v)
         return self.out
@@ -776,6 +858,8 @@ class PID(Block):
         float
             The output ``v`` [%] (limited, ramped); also ``self.out``.
         """
+        sp, pv, ff, dv = as_input(sp), as_input(pv), as_input(ff), as_input(dv)
+        pv_ok = as_flag(pv_ok, False)
         subs = self._subs
         if self._pending:
             for name in _SUB_COMPUTE:
@@ -909,9 +993,11 @@ class PID(Block):
                 i_k = self._i + di
                 if c.anti_windup == AntiWindup.CLAMPING:
                     v = p_used + i_k + d + ff_tot
-                    if clamping_blocks(di, v, lo, hi) or ramp_blocks(
-                        di, clamp(v, lo, hi), subs["_out_ramp"].out, c.out_rate * h
-                    ):
+                    if clamping_blocks(di, v, lo, hi):
+                        i_k = clamping_integral(self._i, di, p_used + d + ff_tot, lo, hi)
+                        self._c_i = i_k
+                        return self._finish(v, None, h)  # the demand, beyond the limit
+                    if ramp_blocks(di, clamp(v, lo, hi), subs["_out_ramp"].out, c.out_rate * h):
                         i_k = self._i
             self._c_i = i_k
             v_raw = p_used + i_k + d + ff_tot
@@ -950,7 +1036,8 @@ class PID(Block):
         lo, hi = self._lo, self._hi
         v_lim = clamp(v_raw, lo, hi)
         ramp = self._subs["_out_ramp"]
-        out = ramp(v_lim, dt=h)
+        # a law that overflowed (v not finite) is the output guard's case (BAD_RESULT)
+        out = ramp(v_lim, dt=h) if _NINF < v_raw < _INF else math.nan
         self._c_vraw = v_raw
         self.limits_active = v_raw > hi or v_raw < lo or ramp.limiting
         self.out = out
@@ -986,6 +1073,9 @@ class PID(Block):
         if self._c_kind == 1:  # bad input: nothing is known, re-initialise on recovery
             self._reinit = self._reinit_d = True
             self._mode_prev = mode
+            if self.deadband_active:  # leave the dead band: the recovery continues from u
+                self.deadband_active = False
+                self._subs["_det"].reset()
             return
         c = self._config
         p, d, ff = self._c_p_used, self._c_d, self._c_ff

@@ -41,7 +41,9 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
+    as_input,
     is_finite,
+    require_bool,
     require_choice,
     require_finite,
     require_limits,
@@ -188,7 +190,8 @@ class PT1(Block):
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
@@ -265,7 +268,8 @@ class RateLimiter(Block):
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
@@ -278,7 +282,7 @@ class RateLimiter(Block):
             self.out -= down
             self.limiting = True
         else:
-            self.out = float(u)
+            self.out = u
             self.limiting = False
         return self.out
 
@@ -316,11 +320,12 @@ class DeadBand(Block):
         self.out = 0.0
 
     def __call__(self, u: float) -> float:
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
-        self.out = deadband(float(u), self._config.width)
+        self.out = deadband(u, self._config.width)
         return self.out
 
 
@@ -341,6 +346,7 @@ class ScaleConfig(BlockConfig):
     def validate(self) -> None:
         for name in ("in_lo", "in_hi", "out_lo", "out_hi"):
             require_finite(name, getattr(self, name), ErrorCode.BAD_LIMITS)
+        require_bool("clamp", self.clamp)
         if self.in_lo == self.in_hi:
             raise ParameterError(
                 ErrorCode.BAD_LIMITS, "in_lo/in_hi", f"input range is empty ({self.in_lo!r})"
@@ -360,13 +366,21 @@ class Scale(Block):
     def _reset_state(self) -> None:
         self.out = float(self._config.out_lo)
 
+    def output_limits(self) -> tuple[float, float]:
+        """The output range when ``clamp`` is set, else no limits."""
+        c = self._config
+        if c.clamp:
+            return min(c.out_lo, c.out_hi), max(c.out_lo, c.out_hi)
+        return -math.inf, math.inf
+
     def __call__(self, u: float) -> float:
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
         c = self._config
-        y = scale(float(u), c.in_lo, c.in_hi, c.out_lo, c.out_hi)
+        y = scale(u, c.in_lo, c.in_hi, c.out_lo, c.out_hi)
         if c.clamp:
             y = clamp(y, min(c.out_lo, c.out_hi), max(c.out_lo, c.out_hi))
         self.out = y
@@ -378,6 +392,10 @@ class Scale(Block):
 # ---------------------------------------------------------------------------
 
 
+MAX_WINDOW = 1_000_000
+"""Longest moving-average window [samples]: the buffer is held in memory."""
+
+
 @dataclasses.dataclass(frozen=True)
 class MovingAverageConfig(BlockConfig):
     """Configuration of :class:`MovingAverage`: window length ``n`` (samples, >= 1)."""
@@ -385,9 +403,11 @@ class MovingAverageConfig(BlockConfig):
     n: int = 10
 
     def validate(self) -> None:
-        if isinstance(self.n, bool) or not isinstance(self.n, int) or self.n < 1:
+        if isinstance(self.n, bool) or not isinstance(self.n, int) or not 1 <= self.n <= MAX_WINDOW:
             raise ParameterError(
-                ErrorCode.BAD_WINDOW, "n", f"must be an integer >= 1, got {self.n!r}"
+                ErrorCode.BAD_WINDOW,
+                "n",
+                f"must be an integer in 1..{MAX_WINDOW}, got {self.n!r}",
             )
 
 
@@ -402,6 +422,31 @@ class MovingAverage(Block):
     Config = MovingAverageConfig
     _state_fields = ("out", "_buf", "_idx", "_count", "_sum")
     config: MovingAverageConfig
+
+    def _apply_config(self, old: BlockConfig | None) -> None:
+        """A new window length keeps the newest ``min(count, n)`` values, oldest first."""
+        if old is None or old.n == self._config.n:  # type: ignore[attr-defined]
+            return
+        n_old, n = len(self._buf), self._config.n
+        newest = [self._buf[(self._idx - self._count + j) % n_old] for j in range(self._count)]
+        keep = newest[-n:]
+        self._buf = keep + [0.0] * (n - len(keep))
+        self._count = len(keep)
+        self._idx = self._count % n
+        self._sum = _window_sum(self._buf)
+        if self._count:
+            self.out = self._mean()
+
+    def _mean(self) -> float:
+        s = self._sum
+        if -math.inf < s < math.inf:
+            return s / self._count
+        # the sum of finite values overflowed: the mean itself is finite
+        return math.fsum(v / self._count for v in self._buf)
+
+    def _resume(self, held: float) -> None:
+        self._sum = _window_sum(self._buf)
+        self.out = held
 
     def _reset_state(self) -> None:
         self.out = 0.0
@@ -420,21 +465,30 @@ class MovingAverage(Block):
             self.out = float(value)
 
     def __call__(self, u: float) -> float:
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
         n = self._config.n
         i = self._idx
         self._sum += u - self._buf[i]
-        self._buf[i] = float(u)
+        self._buf[i] = u
         self._idx = i + 1 if i + 1 < n else 0
         if self._idx == 0:
-            self._sum = math.fsum(self._buf)
+            self._sum = _window_sum(self._buf)
         if self._count < n:
             self._count += 1
-        self.out = self._sum / self._count
+        self.out = self._mean()
         return self.out
+
+
+def _window_sum(buf: list[float]) -> float:
+    """Exact sum of the window (``math.fsum``); inf when it overflows a float."""
+    try:
+        return math.fsum(buf)
+    except OverflowError:
+        return math.inf
 
 
 # ---------------------------------------------------------------------------
@@ -493,7 +547,8 @@ class SteadyStateDetector(Block):
         h = self._cycle_time(dt, self._config.ts)
         if h is None:
             return self.steady
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             self._started = False
             self._elapsed = 0.0
@@ -502,7 +557,7 @@ class SteadyStateDetector(Block):
             return False
         self.error_id = ErrorCode.NO_ERROR
         if not self._started or abs(u - self._anchor) > self._config.tolerance:
-            self._anchor = float(u)
+            self._anchor = u
             self._elapsed = 0.0
             self._started = True
         else:
@@ -551,15 +606,20 @@ class Saturation(Block):
         """True when a limit is active."""
         return self.high or self.low
 
+    def output_limits(self) -> tuple[float, float]:
+        """``(lo, hi)`` in force."""
+        return self._config.lo, self._config.hi
+
     def __call__(self, u: float) -> float:
-        if not is_finite(u):
+        u = as_input(u)
+        if not math.isfinite(u):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
         c = self._config
         self.high = u > c.hi
         self.low = u < c.lo
-        self.out = c.hi if self.high else c.lo if self.low else float(u)
+        self.out = c.hi if self.high else c.lo if self.low else u
         return self.out
 
 
@@ -585,7 +645,8 @@ class _Selector(Block):
         Inputs that are NaN/inf are left out of the selection and set
         ``BAD_INPUT``; if none is finite the last output is held.
         """
-        good = [(x, i) for i, x in enumerate(inputs) if is_finite(x)]
+        values = [as_input(x) for x in inputs]
+        good = [(x, i) for i, x in enumerate(values) if math.isfinite(x)]
         self.error_id = ErrorCode.NO_ERROR if len(good) == len(inputs) else ErrorCode.BAD_INPUT
         if not good:
             return self.out

@@ -8,8 +8,8 @@ implementation of each control law (DESIGN.md principle 2):
 * :func:`pid_step` is :func:`ctrlblocks.blocks.pid.pid_step` (the PID's own
   fast lane), which calls :func:`ctrlblocks.blocks.pid.derivative_step`
   (seed 004 (2.13)), ``integral_increment`` ((2.8)/Tustin), ``clamp``,
-  ``clamping_blocks`` (seed 002 CLAMPING) and the back-calculation gain that
-  the block precomputes with ``tracking_gain`` (seed 004 Fig. 3.6);
+  ``clamping_blocks`` and ``clamping_integral`` (seed 002 CLAMPING) and the
+  back-calculation gain that the block precomputes with ``tracking_gain`` (seed 004 Fig. 3.6);
 * :func:`adrc_step` is :func:`ctrlblocks.blocks.adrc.adrc_step` (the ADRC's
   own fast lane), which calls :func:`ctrlblocks.blocks.adrc.eso_euler` (seed 000
   (4a)), ``control_law`` ((4b)), ``x4_update_allowed`` (section 4.1) and
@@ -58,6 +58,7 @@ for _f in (
     _pid.integral_increment,
     _pid.clamp,
     _pid.clamping_blocks,
+    _pid.clamping_integral,
     _pid.tracking_gain,
     _adrc.eso_euler,
     _adrc.control_law,

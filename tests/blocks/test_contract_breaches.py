@@ -1,0 +1,370 @@
+"""Every contract breach found by the issue-12 probes, one test each (they failed before the fix).
+
+The block contract (README, "The block contract"; docs/reliability.md): process
+data never raises, ``out`` is finite and inside the limits in force, a refused
+configuration leaves configuration and state unchanged and carries a code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import ctrlblocks
+from ctrlblocks import (
+    ADRC,
+    PID,
+    PT1,
+    DeadBand,
+    ErrorCode,
+    LeadLag,
+    ManualStation,
+    MaxSelector,
+    MinSelector,
+    MovingAverage,
+    ParameterError,
+    RateLimiter,
+    Saturation,
+    Scale,
+)
+from ctrlblocks.blocks.adrc import _exact_coefficients
+
+NAN, INF = math.nan, math.inf
+
+
+def _finite_inside(block, lo=-INF, hi=INF) -> None:
+    assert math.isfinite(block.out), block
+    assert lo <= block.out <= hi, block
+
+
+# --- MovingAverage reconfiguration ------------------------------------------------
+
+
+def test_moving_average_growing_window_keeps_the_values_and_never_raises() -> None:
+    ma = MovingAverage(n=3)
+    for x in (1.0, 2.0, 3.0, 4.0):
+        ma(x)
+    ma.configure(n=5)
+    assert ma.out == pytest.approx(3.0)  # the newest three: 2, 3, 4
+    assert ma(6.0) == pytest.approx((2 + 3 + 4 + 6) / 4)
+    assert ma(7.0) == pytest.approx((2 + 3 + 4 + 6 + 7) / 5)
+    assert ma(8.0) == pytest.approx((3 + 4 + 6 + 7 + 8) / 5)
+
+
+def test_moving_average_shrinking_window_gives_the_mean_of_the_newest_values() -> None:
+    ma = MovingAverage(n=5)
+    for x in (1.0, 2.0, 3.0, 4.0, 5.0, 6.0):
+        ma(x)
+    ma.configure(n=2)
+    assert ma.out == pytest.approx(5.5)
+    assert ma(10.0) == pytest.approx(8.0)
+    assert ma(20.0) == pytest.approx(15.0)
+
+
+def test_pid_dead_band_window_change_then_step_does_not_raise() -> None:
+    p = PID(kp=1, ti=10, deadband=1, t_stab=1)
+    for _ in range(20):
+        p(50, 45)
+    p.configure(t_stab=5)
+    assert math.isfinite(p(50, 45))
+    p.configure(ts=0.05)
+    assert math.isfinite(p(50, 45))
+
+
+def test_moving_average_sum_overflow_gives_the_finite_mean() -> None:
+    ma = MovingAverage(n=4)
+    big = 1.5e308
+    for _ in range(8):
+        y = ma(big)
+    assert y == pytest.approx(big)
+    assert ma.error_id == ErrorCode.NO_ERROR
+
+
+def test_pid_with_dead_band_and_infinite_limits_never_raises_on_huge_outputs() -> None:
+    p = PID(kp=1e300, ti=1.0, deadband=1.0, t_stab=0.5, u_min=-INF, u_max=INF)
+    for k in range(30):
+        p(1.7 if k % 2 else -1.7, 0.0)
+        _finite_inside(p)
+
+
+# --- huge Python ints, numpy scalars, strings --------------------------------------
+
+
+def test_huge_int_process_value_is_bad_input_not_overflow_error() -> None:
+    p = PID(kp=1, ti=10)
+    u = p(10**400, 0)
+    assert p.error_id == ErrorCode.BAD_INPUT
+    assert math.isfinite(u)
+
+
+@pytest.mark.parametrize("name", [n for n in ctrlblocks.__all__ if n in (
+    "PT1", "RateLimiter", "DeadBand", "Scale", "MovingAverage", "SteadyStateDetector",
+    "Saturation", "LeadLag", "JumpAndRate")])  # fmt: skip
+def test_every_one_input_block_takes_a_huge_int_as_bad_input(name: str) -> None:
+    block = getattr(ctrlblocks, name)()
+    block(10**400)
+    assert block.error_id == ErrorCode.BAD_INPUT
+    _finite_inside(block)
+
+
+def test_huge_int_dt_is_no_cycle_and_huge_int_track_is_bad_input() -> None:
+    f = PT1(t=1.0)
+    f(1.0, dt=10**400)
+    assert f.error_id == ErrorCode.NO_CYCLE
+    ms = ManualStation()
+    ms(track=10**400)
+    assert ms.error_id == ErrorCode.BAD_INPUT
+    sel = MaxSelector()
+    assert sel(1.0, 10**400) == 1.0 and sel.error_id == ErrorCode.BAD_INPUT
+
+
+@pytest.mark.parametrize(
+    ("make", "field", "value"),
+    [
+        (DeadBand, "width", "0.5"),
+        (Scale, "in_lo", "0"),
+        (RateLimiter, "rate_up", "2"),
+        (PID, "sp_rate", "1"),
+        (PID, "kp", "2"),
+        (ADRC, "y_sat", "1"),
+        (ADRC, "tau_wait", "1"),
+        (ADRC, "b0", "1"),
+    ],
+)
+def test_numeric_strings_are_refused_with_a_code_and_never_stored(make, field, value) -> None:
+    with pytest.raises(ParameterError) as err:
+        make(**{field: value})
+    assert err.value.code != ErrorCode.NO_ERROR
+    block = make()
+    before = getattr(block.config, field)
+    with pytest.raises(ParameterError):
+        block.configure(**{field: value})
+    assert getattr(block.config, field) == before
+    assert not isinstance(getattr(block.config, field), str)
+
+
+def test_numbers_are_stored_as_floats_once() -> None:
+    p = PID(kp=np.float32(2.0), ti=4, pv_range=[0, np.int64(100)])
+    assert type(p.config.kp) is float and type(p.config.ti) is float
+    assert p.config.pv_range == (0.0, 100.0) and type(p.config.pv_range[1]) is float
+    assert type(MovingAverage(n=np.int64(4)).config.n) is int
+    with pytest.raises(ParameterError):
+        PID(kp=10**400)
+    with pytest.raises(ParameterError):
+        PID(kp=True)
+
+
+def test_adrc_refused_configure_keeps_the_limits_set_at_run_time() -> None:
+    a = ADRC(u_min=0.0, u_max=10.0)
+    a.set_limits(1.0, 2.0)
+    with pytest.raises(ParameterError):
+        a.configure(y_sat="3")
+    with pytest.raises(ParameterError):
+        a.configure(omega_o=-1.0)
+    assert (a.u_min, a.u_max) == (1.0, 2.0)
+
+
+def test_pt1_takes_numpy_float16_as_its_value() -> None:
+    f = PT1(t=1, gain=688506)
+    y = f(np.float16(0))
+    assert y == 0.0 and f.error_id == ErrorCode.NO_ERROR
+    assert f(np.float16(1)) == pytest.approx(688506 * (1 - math.exp(-0.1)))
+
+
+def test_rate_limiter_fed_float16_keeps_its_rate() -> None:
+    r = RateLimiter(rate_up=2.0, rate_down=2.0, ts=0.1)
+    y = r(np.float16(513))
+    assert y == pytest.approx(0.2)
+    assert type(y) is float
+
+
+def test_selectors_pick_by_value_across_numpy_types() -> None:
+    assert MaxSelector()(np.float16(513), 512.5, np.int64(3)) == 513.0
+    assert MinSelector()(np.float32(0.1), 0.2, np.bool_(True)) == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("bad", ["1", None, np.array([1.0, 2.0]), object(), 1 + 2j])
+def test_anything_else_is_bad_input_never_an_exception(bad) -> None:
+    for block in (PID(ti=1.0), ADRC(), PT1(), Saturation(lo=0, hi=1), LeadLag(), MovingAverage()):
+        y = block(bad, 0.0) if isinstance(block, (PID, ADRC)) else block(bad)
+        assert math.isfinite(y)
+        assert block.error_id in (ErrorCode.BAD_INPUT, ErrorCode.BAD_MEASUREMENT)
+
+
+def test_bools_are_numbers_at_the_edge() -> None:
+    assert Saturation()(True) == 1.0
+    assert PT1()(np.bool_(True)) == 1.0
+
+
+# --- extreme finite configurations ---------------------------------------------------
+
+
+def test_pid_with_a_subnormal_derivative_filter_is_refused() -> None:
+    with pytest.raises(ParameterError) as err:
+        PID(kp=1, ti=10, td=1, n=5e-324)
+    assert err.value.code == ErrorCode.BAD_PID_COEFFS
+    PID(kp=1, ti=10, td=0, n=5e-324)  # no derivative: n does not matter
+
+
+def test_refused_configure_leaves_config_and_state_unchanged() -> None:
+    p = PID(kp=1, ti=10, td=1)
+    for _ in range(5):
+        p(50, 45)
+    before_cfg, before = p.config, p.snapshot()
+    with pytest.raises(ParameterError):
+        p.configure(n=5e-324)
+    assert p.config == before_cfg
+    assert p.snapshot() == before
+
+
+def test_pid_huge_gain_holds_a_finite_output_and_recovers_when_the_gain_is_set_back() -> None:
+    p = PID(kp=1, ti=10, u_min=-INF, u_max=INF)
+    for _ in range(5):
+        u0 = p(50, 45)
+    p.configure(kp=1e308)
+    u = p(50, 45)
+    assert u == u0 and p.error_id == ErrorCode.BAD_RESULT
+    p.configure(kp=1.0)
+    u1 = p(50, 45)
+    assert math.isfinite(u1) and p.error_id == ErrorCode.NO_ERROR
+    assert abs(u1 - u0) < 1e-9  # bumpless from the held output
+    assert p(50, 45) > u1  # integrating again
+
+
+# --- ADRC exact discretisation --------------------------------------------------------
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_adrc_exact_at_a_tiny_dt_is_finite_and_raises_nothing(order: int) -> None:
+    a = ADRC(order=order, discretisation="exact", b0=1.0, omega_c=1.0, omega_o=5.0)
+    for _ in range(3):
+        a(1.0, 0.0)
+    u = a(1.0, 0.0, dt=1e-300)
+    assert math.isfinite(u)
+    assert all(math.isfinite(x) for x in a.x)
+    assert math.isfinite(a(1.0, 0.0))
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+@pytest.mark.parametrize("ts", [0.1, 1e-300])
+def test_adrc_exact_disturbance_gain_at_tiny_bandwidth_is_the_closed_form(order, ts) -> None:
+    # current observer of the chain of m = n + 1 integrators, all poles at z = exp(-wo ts):
+    # the disturbance gain is (1 - z)^m / ts^(m - 1) (n = 1 by hand: Lc = (1 - z^2, (1 - z)^2/ts))
+    m = order + 1
+    wo = 5e-6 / ts if ts > 1e-200 else 5.0
+    coef, gains = _exact_coefficients(order, 1.0, wo, wo, ts)
+    d = -math.expm1(-wo * ts)
+    assert coef[-1] == pytest.approx(d**m / ts ** (m - 1) if ts > 1e-200 else wo**m * ts, rel=1e-9)
+    assert coef[-1] > 0.0
+    # the controller gains tend to Gao's table (s + wc)^n as wc ts -> 0
+    assert gains[0] == pytest.approx(wo**order, rel=1e-5)  # kp = wc^n
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_adrc_exact_gains_equal_a_scipy_ackermann_reference(order: int) -> None:
+    from scipy.linalg import expm
+
+    ts, b0, wc, wo = 0.1, 0.7, 0.35, 1.75
+    m = order + 1
+    a = np.diag(np.ones(m - 1), 1)  # chain (Y, ..., h)
+    phi = expm(a * ts)
+    c = np.eye(m)[0]
+    obs = np.array([c @ np.linalg.matrix_power(phi, k) for k in range(m)])
+    poly = np.poly([math.exp(-wo * ts)] * m)
+    p_phi = sum(cf * np.linalg.matrix_power(phi, m - j) for j, cf in enumerate(poly))
+    lc = np.linalg.solve(phi, p_phi @ np.linalg.solve(obs, np.eye(m)[-1]))
+    coef, _ = _exact_coefficients(order, b0, wc, wo, ts)
+    idx = {1: [0, 3], 2: [0, 1, 3], 3: [0, 1, 2, 3]}[order]
+    got = np.zeros(4)
+    got[:] = coef[9:]
+    assert got[idx] == pytest.approx(lc, rel=1e-9)
+    # the error dynamics (I - Lc C) Phi have all poles at exp(-wo ts)
+    err = (np.eye(m) - np.outer(lc, c)) @ phi
+    assert np.poly(err) == pytest.approx(poly, abs=1e-12)
+
+
+# --- NaN through the clamp, held outputs re-limited ----------------------------------------
+
+
+def test_adrc_unstable_euler_observer_never_outputs_nan() -> None:
+    a = ADRC(order=2, b0=1.0, omega_c=1.0, omega_o=10.0, ts=0.1, u_min=0.0, u_max=5.0)
+    assert a.warning
+    y = 0.0
+    for k in range(3000):
+        u = a(1.0, y)
+        _finite_inside(a, 0.0, 5.0)
+        y = 0.9 * y + 0.1 * u + (1e3 if k % 500 == 7 else 0.0)
+
+
+@pytest.mark.parametrize(
+    ("block", "call"),
+    [
+        (ADRC(u_min=0.0, u_max=5.0), lambda b: b(1.0, 0.5, dt=1e300)),
+        (ManualStation(), lambda b: b(inc=True, dt=3.6e307)),
+        (ManualStation(), lambda b: b(inc=True, dt=1.7e308)),
+        (PT1(t=1.0, gain=10.0), lambda b: b(1.7e308)),
+        (LeadLag(k=10.0, t_lead=5.0, t_lag=1.0), lambda b: b(1.7e308)),
+        (Scale(in_lo=0.0, in_hi=1e-300, out_lo=0.0, out_hi=1e300), lambda b: b(1e300)),
+    ],
+)
+def test_extreme_finite_data_never_leaves_as_nan_or_inf(block, call) -> None:
+    for _ in range(3):
+        call(block)
+        _finite_inside(block, *block.output_limits())
+
+
+def test_held_outputs_are_limited_to_the_limits_in_force() -> None:
+    s = Saturation(lo=0.0, hi=10.0)
+    s(8.0)
+    s.configure(hi=5.0)
+    assert s(NAN) == 5.0 and s.error_id == ErrorCode.BAD_INPUT
+    sc = Scale(in_lo=0, in_hi=10, out_lo=0, out_hi=100, clamp=True)
+    sc(9.0)
+    sc.configure(out_hi=50.0)
+    assert sc(NAN) == 50.0
+    ll = LeadLag(out_min=0.0, out_max=10.0)
+    for _ in range(100):
+        ll(9.0)
+    ll.configure(out_max=3.0)
+    assert ll(NAN) == 3.0
+    a = ADRC(u_min=0.0, u_max=10.0, u0=8.0)
+    a.set_limits(0.0, 2.0)
+    assert a(1.0, 0.0, dt=-1.0) == 2.0 and a.error_id == ErrorCode.NO_CYCLE
+
+
+# --- PID status and bumps ----------------------------------------------------------------
+
+
+def test_pid_valid_limits_configure_clears_bad_limits() -> None:
+    p = PID(kp=1, ti=10)
+    p.set_limits(5.0, 1.0)
+    assert p.error_id == ErrorCode.BAD_LIMITS
+    p.configure(u_min=0.0, u_max=50.0)
+    assert p.error_id == ErrorCode.NO_ERROR
+    p(50, 45)
+    assert p.error_id == ErrorCode.NO_ERROR
+
+
+def test_pid_recovery_from_bad_data_with_the_dead_band_active_is_bumpless() -> None:
+    p = PID(kp=1, ti=10, deadband=1, t_stab=1, safe_value=0.0, u_min=-100, u_max=100)
+    for _ in range(50):
+        p(50, 49.7)
+    assert p.deadband_active
+    assert p(NAN, 49.7) == 0.0
+    assert abs(p(50, 49.7) - 0.0) < 1e-9
+
+
+def test_pid_clamping_anti_windup_settles_at_the_limit_and_says_so() -> None:
+    p = PID(kp=2, ti=4, ts=0.1, u_min=0, u_max=3)
+    a = math.exp(-0.1 / 7.3)
+    y = 0.0
+    for _ in range(3000):
+        u = p(2.5, y)
+        y = a * y + (1 - a) * 0.73 * u
+    assert u == 3.0 and p.u_max == 3.0
+    assert p.awout is True and p.limits_active is True
+    # no windup: after a setpoint below the reachable range the output leaves the limit at once
+    u2 = p(1.0, y)
+    assert u2 < 3.0
