@@ -114,7 +114,7 @@ AUDIT_REFUSALS = (10, 60.0)
 """Audit rows of refused anonymous requests per client address and window [s] (the rest is
 counted, and the count is written with the next row that is let through)."""
 
-MAX_PENDING_HASHES = 4
+MAX_PENDING_HASHES = 8
 """Password checks waiting for the hashing thread at most (then 503, try again)."""
 
 HISTORY_COLUMNS = ("t_wall", *(c for c in SAMPLE_COLUMNS if c not in ("loop", "t_wall")))
