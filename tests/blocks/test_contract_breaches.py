@@ -368,3 +368,43 @@ def test_pid_clamping_anti_windup_settles_at_the_limit_and_says_so() -> None:
     # no windup: after a setpoint below the reachable range the output leaves the limit at once
     u2 = p(1.0, y)
     assert u2 < 3.0
+
+
+# --- velocity form with derivative action: the law of Åström 1987, Figs. 2.2/2.5 ---------
+
+
+def _incremental_reference(k, ti, td, n, h, lo, hi, sp, pv):
+    """Fig. 2.5 with switch A closed and the output integrator limited, written out.
+
+    P = K (r - y), D by (2.11) on -y, I increments by the trapezoid; the output
+    integrator x sums the increments and is limited: x = sat(x + dP + dI + dD).
+    """
+    tf = td / n
+    a, bd = tf / (tf + h), k * td / (tf + h)
+    x, p_prev, d, d_prev, w_prev, e_prev = 0.0, 0.0, 0.0, 0.0, None, None
+    out = []
+    for r, y in zip(sp, pv, strict=True):
+        e, p, w = r - y, k * (r - y), -y
+        d = 0.0 if w_prev is None else a * d + bd * (w - w_prev)
+        di = 0.0 if e_prev is None else k * h / (2 * ti) * (e + e_prev)
+        x = min(hi, max(lo, x + (p - p_prev) + (d - d_prev) + di))
+        out.append(x)
+        p_prev, d_prev, w_prev, e_prev = p, d, w, e
+    return out
+
+
+def test_velocity_form_with_derivative_is_the_incremental_law_and_loses_the_clamped_kick() -> None:
+    h, steps = 0.1, 300
+    sp = [50.0] * steps
+    pv = [50.0] * 20 + [55.0] * (steps - 20)
+    p = PID(kp=1, ti=10, td=2, n=10, ts=h, algorithm="velocity", u_min=0, u_max=100)
+    got = [p(r, y) for r, y in zip(sp, pv, strict=True)]
+    ref = _incremental_reference(1.0, 10.0, 2.0, 10.0, h, 0.0, 100.0, sp, pv)
+    assert got == pytest.approx(ref, abs=1e-9)
+    # the PV step drives the output into u_min (the D kick is cut there), then the decay
+    # of D is integrated: the output climbs to ~32.5 % although e = -5 throughout ...
+    assert max(got[25:]) == pytest.approx(32.52, abs=0.01)
+    # ... where the positional form stays at u_min (its D decays back to zero)
+    q = PID(kp=1, ti=10, td=2, n=10, ts=h, u_min=0, u_max=100)
+    pos = [q(r, y) for r, y in zip(sp, pv, strict=True)]
+    assert max(pos[20:]) == 0.0

@@ -176,6 +176,14 @@ _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 # ---------------------------------------------------------------------------
 
 
+def _pow(x: float, k: int) -> float:
+    """``x**k`` for a float and a small int ``k >= 0``; +-inf instead of OverflowError."""
+    try:
+        return x**k
+    except OverflowError:
+        return math.inf if x > 0.0 or k % 2 == 0 else -math.inf
+
+
 def adrc_switches(n: int) -> tuple[float, float, float, float, float]:
     """Switches ``(p1, p2, k1, k2, k3)`` from the two low bits of the order n.
 
@@ -202,12 +210,12 @@ def adrc_gains(
     ``l4`` always multiplies the x4 (total disturbance) recursion.
     """
     m = n + 1
-    lo = [math.comb(m, j) * omega_o**j for j in range(1, m + 1)]  # l1 .. l_m
+    lo = [math.comb(m, j) * _pow(omega_o, j) for j in range(1, m + 1)]  # l1 .. l_m
     l1 = lo[0]
     l2 = lo[1] if n >= 2 else 0.0
     l3 = lo[2] if n >= 3 else 0.0
     l4 = lo[-1]
-    kc = [math.comb(n, j) * omega_c**j for j in range(1, n + 1)]  # a_1 .. a_n
+    kc = [math.comb(n, j) * _pow(omega_c, j) for j in range(1, n + 1)]  # a_1 .. a_n
     kp = kc[-1]
     kd1 = kc[-2] if n >= 2 else 0.0
     kd2 = kc[-3] if n >= 3 else 0.0
@@ -597,9 +605,9 @@ def _exact_coefficients(
     gam = np.zeros(4)
     for a in range(m):
         for b in range(a + 1, m):
-            phi[idx[a], idx[b]] = h ** (b - a) / math.factorial(b - a)
+            phi[idx[a], idx[b]] = _pow(h, b - a) / math.factorial(b - a)
         if a < n:
-            gam[idx[a]] = b0 * h ** (n - a) / math.factorial(n - a)
+            gam[idx[a]] = b0 * _pow(h, n - a) / math.factorial(n - a)
     obs_terms, ctl_terms = _chain_constants(n)
     lc_r = _scaled_gain(obs_terms, m, omega_o, h, observer=True)
     kk = _scaled_gain(ctl_terms, n, omega_c, h, observer=False) + [0.0] * (3 - n)
@@ -640,7 +648,7 @@ def _scaled_gain(
         for k in range(1, size + 1):
             c = float(terms[k][i])
             if c != 0.0 and k >= p:
-                acc += c * q**p * d ** (k - p)
+                acc += c * _pow(q, p) * _pow(d, k - p)
         out.append(acc)
     return out
 
@@ -987,6 +995,7 @@ class ADRC(Block):
         self._u_lo, self._u_hi = lo, hi
         self._limits_bad = False
         self._prm = None
+        self._relimit()
 
     # -- the cycle ---------------------------------------------------------------
 

@@ -167,7 +167,10 @@ def _is_number(value: Any) -> bool:
     refused, never stored or converted: a configuration holds numbers only), an
     array or anything else.
     """
-    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+    t = type(value)
+    if t is float or t is int:
+        return True
+    return t is not bool and isinstance(value, numbers.Real) and not isinstance(value, np.bool_)
 
 
 def require_finite(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_PARAMETER) -> float:
@@ -345,7 +348,7 @@ class BlockConfig:
                     with contextlib.suppress(OverflowError):  # validate refuses 10**400
                         object.__setattr__(self, name, tuple(float(x) for x in v))
                 continue
-            if not _is_number(v) or type(v) is (float if kind == "float" else int):
+            if type(v) is (float if kind == "float" else int) or not _is_number(v):
                 continue
             if kind == "int":
                 if isinstance(v, numbers.Integral):
@@ -450,15 +453,24 @@ class Block:
         new = self._replace_config(self._config, changes)
         new.validate()
         old = self._config
-        saved = copy.deepcopy(self.__dict__)
+        # _apply_config refuses (require_coefficients, ...) before it changes any state,
+        # so the attribute bindings of before the call restore everything
+        saved = dict(self.__dict__)
         self._config = new
         try:
             self._apply_config(old)
         except Exception:
-            # configuration, coefficients and state exactly as before the call
             self.__dict__.clear()
             self.__dict__.update(saved)
             raise
+        self._relimit()
+
+    def _relimit(self) -> None:
+        """Limit ``out`` to the limits now in force (after a change of the limits)."""
+        lo, hi = self.output_limits()
+        y = self.out
+        if not lo <= y <= hi:
+            self._contain(y, y, lo, hi)
 
     def _make_config(self, params: dict[str, Any]) -> BlockConfig:
         try:

@@ -231,7 +231,7 @@ class LeadLag(Block):
         )
 
     def _reset_state(self) -> None:
-        self.out = 0.0
+        self.out = clamp(0.0, self._lo, self._hi)  # 0 limited: out is always inside the limits
         self.enabled = True
         self._x_prev = 0.0
 

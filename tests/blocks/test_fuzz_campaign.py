@@ -1,0 +1,187 @@
+"""The fuzz campaign of the block contract, short CI profile (docs/reliability.md).
+
+A hypothesis ``RuleBasedStateMachine`` over every exported block: a random valid
+configuration of all options, then random process steps with hostile values
+and sample times, mode switches, limit changes, valid and invalid
+reconfigurations, snapshot/restore and reset.  The actions and the checks are
+those of :mod:`ctrlblocks.blocks.fuzz` (one implementation; the long campaign
+``python -m ctrlblocks.blocks.fuzz`` draws the same actions from a seeded
+random generator).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+import random
+
+import pytest
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import (
+    RuleBasedStateMachine,
+    initialize,
+    precondition,
+    rule,
+    run_state_machine_as_test,
+)
+
+import ctrlblocks
+from ctrlblocks.blocks import fuzz
+from ctrlblocks.blocks.fuzz import BAD_PARAMS, BLOCKS, HOSTILE, HOSTILE_DT, Driver
+
+VALUES = st.one_of(
+    st.floats(-200.0, 200.0),
+    st.sampled_from(HOSTILE),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(-(10**20), 10**20),
+)
+DTS = st.one_of(st.none(), st.none(), st.sampled_from(HOSTILE_DT), st.floats(1e-6, 10.0))
+FLAGS = st.one_of(st.booleans(), st.sampled_from((None, 1, 0, "x")))
+
+
+def _machine(name: str) -> type[RuleBasedStateMachine]:
+    spec = BLOCKS[name]
+
+    class Campaign(RuleBasedStateMachine):
+        driver: Driver | None = None
+
+        @initialize(seed=st.integers(0, 2**32 - 1))
+        def make(self, seed: int) -> None:
+            r = random.Random(seed)
+            for _ in range(50):
+                try:
+                    self.driver = Driver(spec, spec.config(r))
+                    return
+                except ctrlblocks.ParameterError:
+                    continue
+
+        def _ok(self) -> bool:
+            return self.driver is not None
+
+        @precondition(_ok)
+        @rule(
+            vals=st.lists(VALUES, min_size=5, max_size=5),
+            plant=st.booleans(),
+            dt=DTS,
+            flags=st.lists(FLAGS, min_size=3, max_size=3),
+        )
+        def step(self, vals, plant, dt, flags) -> None:
+            if plant and spec.controller:
+                vals[1] = None  # the loop's own plant output
+            self.driver.act_step(vals, dt, flags)
+            self.driver.step_done()
+
+        @precondition(lambda self: self._ok() and spec.controller)
+        @rule(
+            name=st.sampled_from(("manual", "track", "hold", "reset_active", "awin")),
+            value=FLAGS,
+            value2=VALUES,
+        )
+        def mode(self, name, value, value2) -> None:
+            if name not in ("manual", "awin") and spec.name == "ADRC":
+                name = "manual"
+            self.driver.act_mode(name, value)
+            if name in ("manual", "track"):
+                self.driver.act_mode("manual_value" if name == "manual" else "track_value", value2)
+
+        @precondition(_ok)
+        @rule(lo=VALUES, hi=VALUES)
+        def limits(self, lo, hi) -> None:
+            self.driver.act_limits(lo, hi)
+
+        @precondition(_ok)
+        @rule(data=st.data())
+        def configure(self, data) -> None:
+            fields = [f.name for f in dataclasses.fields(self.driver.block.config)]
+            if spec.name == "GainSchedule" or not fields:
+                return
+            names = data.draw(st.lists(st.sampled_from(fields), min_size=1, max_size=3))
+            if data.draw(st.booleans()):  # values from another valid configuration
+                new = spec.config(random.Random(data.draw(st.integers(0, 2**32 - 1))))
+                changes = {n: new[n] for n in names}
+            else:
+                changes = {n: data.draw(st.sampled_from(BAD_PARAMS) | VALUES) for n in names}
+            self.driver.act_configure(changes)
+
+        @precondition(_ok)
+        @rule(
+            vals=st.lists(VALUES, min_size=5, max_size=5),
+            dt=DTS,
+            flags=st.lists(FLAGS, min_size=3, max_size=3),
+        )
+        def snapshot_restore(self, vals, dt, flags) -> None:
+            self.driver.act_snapshot_restore(vals, dt, flags)
+
+        @precondition(_ok)
+        @rule()
+        def reset(self) -> None:
+            self.driver.act_reset()
+
+    Campaign.__name__ = f"Campaign{name}"
+    return Campaign
+
+
+CI = settings(
+    max_examples=6,
+    stateful_step_count=20,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+    derandomize=True,
+)
+
+
+def test_the_campaign_covers_every_exported_block() -> None:
+    exported = {
+        n
+        for n in ctrlblocks.__all__
+        if isinstance(getattr(ctrlblocks, n), type)
+        and issubclass(getattr(ctrlblocks, n), ctrlblocks.Block)
+        and getattr(ctrlblocks, n) is not ctrlblocks.Block
+    }
+    assert exported == set(BLOCKS)
+    assert len(BLOCKS) >= 18
+
+
+@pytest.mark.parametrize("name", sorted(BLOCKS))
+def test_block_keeps_its_contract_under_random_actions(name: str) -> None:
+    run_state_machine_as_test(_machine(name), settings=CI)
+
+
+def test_the_long_driver_reports_progress_counts_and_zero_breaches() -> None:
+    buf = io.StringIO()
+    rc = fuzz.run(["PT1", "PID"], steps=300, seed=5, every=0.0, out=buf)
+    text = buf.getvalue()
+    assert rc == 0
+    assert "PT1=300" in text and "PID=300" in text and "steps/s" in text
+    assert "done: 600 steps, 300 to 300 per block, 0 breaches" in text
+
+
+def test_a_breach_exits_non_zero_with_a_reproducer(monkeypatch) -> None:
+    real = Driver.act_step
+
+    def broken(self, vals, dt, flags):
+        real(self, vals, dt, flags)
+        if self.steps == 50:
+            self.block.out = math.nan
+            self._check_out(self.block, "step")
+
+    monkeypatch.setattr(Driver, "act_step", broken)
+    buf = io.StringIO()
+    assert fuzz.run(["Saturation"], steps=200, seed=1, every=1e9, out=buf) == 1
+    text = buf.getvalue()
+    assert "BREACH in Saturation (seed 1, step" in text and "is not a finite float" in text
+    assert "python -m ctrlblocks.blocks.fuzz --block Saturation --seed 1 --steps" in text
+    assert "last actions:" in text
+
+
+def test_the_time_budget_stops_the_campaign_with_its_counts() -> None:
+    buf = io.StringIO()
+    assert fuzz.run(["DeadBand"], steps=10**9, seed=2, every=1e9, out=buf, minutes=0.002) == 0
+    assert "stopped at the time budget:" in buf.getvalue()
+
+
+def test_the_command_line_runs_a_short_campaign(capsys) -> None:
+    assert fuzz.main(["--steps", "50", "--block", "DeadBand", "--every", "0"]) == 0
+    assert "DeadBand=50" in capsys.readouterr().out
