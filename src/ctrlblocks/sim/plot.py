@@ -13,13 +13,20 @@ without a display.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
-from .results import slug
 from .runner import ScenarioResult
 
-__all__ = ["plot_result"]
+__all__ = ["plot_result", "slug"]
+
+
+def slug(text: str) -> str:
+    """A file-name-safe form of ``text`` (letters, digits, ``-``, ``_``, ``.``)."""
+    s = re.sub(r"[^A-Za-z0-9_.\-]+", "_", text).strip("_")
+    return s or "x"
+
 
 _COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"]
 _SIGNAL_STYLE = {

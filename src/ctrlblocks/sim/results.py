@@ -19,19 +19,13 @@ from __future__ import annotations
 import csv
 import importlib.util
 import json
-import re
 from pathlib import Path
 
 from .loop import Run
+from .plot import plot_result, slug
 from .runner import ScenarioResult
 
 __all__ = ["slug", "write_claims", "write_metrics", "write_result", "write_trace"]
-
-
-def slug(text: str) -> str:
-    """A file-name-safe form of ``text`` (letters, digits, ``-``, ``_``, ``.``)."""
-    s = re.sub(r"[^A-Za-z0-9_.\-]+", "_", text).strip("_")
-    return s or "x"
 
 
 def write_trace(run: Run, path: Path, fmt: str = "auto") -> Path:
@@ -103,7 +97,5 @@ def write_result(
     files["metrics"].append(write_metrics(result, d / "metrics.json"))
     files["metrics"].append(write_claims(result, d / "claims.json"))
     if plots:
-        from .plot import plot_result
-
         files["plots"].extend(plot_result(result, d))
     return files

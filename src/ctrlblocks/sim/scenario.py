@@ -32,6 +32,7 @@ else:  # pragma: no cover - exercised on Python 3.10 only
     import tomli as tomllib
 
 from ..blocks.base import ParameterError
+from ..plants import steady_input
 
 __all__ = [
     "EVENT_KINDS",
@@ -88,6 +89,9 @@ _REQUIRED_EVENT_FIELDS: dict[str, tuple[str, ...]] = {
     "sensor": (),
     "set": ("attr", "value"),
 }
+
+INITIAL_Y_PROBLEM = "needs a plant with a finite, non-zero static gain (give initial.u instead)"
+"""Why ``initial.y`` is refused for an integrating (or zero-gain) plant."""
 
 _LOAD_POINTS = ("input", "output", "inner")
 SIGNAL_STATS = ("max", "min", "final", "mean")
@@ -476,10 +480,14 @@ class _Parser(TableReader):
             file=self.file,
         )
         if plant is not None and not math.isnan(initial["y"]):
-            from .process import ProcessSide
-
-            ProcessSide(sc)  # initial.y must have a steady MV: refused here, not in a run
+            self.initial_y(plant, inner, initial["y"], ts)
         return sc
+
+    def initial_y(self, plant: BlockSpec, inner: BlockSpec | None, y0: float, ts: float) -> None:
+        """``initial.y`` needs an MV whose steady state gives it: refused here, not in a run."""
+        chain = [build(s, ts, kind="plant", file=self.file) for s in (inner, plant) if s]
+        if steady_input(chain, y0) is None:
+            raise self.fail("initial.y", INITIAL_Y_PROBLEM)
 
     def sensor(self, d: dict[str, Any]) -> dict[str, Any]:
         self.check_keys(d, {"y_min", "y_max", "noise", "noise_kind", "noise_t_corr"}, "sensor")
@@ -723,8 +731,6 @@ class _Parser(TableReader):
         u0 = float(ini.get("u", 0.0))
         y0 = ini.get("y", math.nan)
         if y0 is not None and not math.isnan(y0):
-            from .process import steady_input
-
             u_y = steady_input([plant], y0)  # None: initial.y is refused after the controllers
             if u_y is not None:
                 u0 = u_y
