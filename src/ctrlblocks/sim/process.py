@@ -2,7 +2,7 @@
 
 :class:`ProcessSide` is everything of a scenario that is not a controller:
 the plant (and the inner plant of a cascade or override) built with
-:func:`~ctrlblocks.sim.scenario.build` inside the plants' ``Actuator`` and
+:func:`~ctrlblocks.loops.build` inside the plants' ``Actuator`` and
 ``Sensor`` wrappers (``[actuator]``, ``[sensor]``), its initial steady state
 (``[initial]``), the setpoint profile and the process events (setpoint steps
 and ramps, loads, plant parameters, sensor faults).  Two callers share it:
@@ -35,8 +35,9 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
+from ..loops.spec import build
 from ..plants import Actuator, Noise, Sensor, steady_input
-from .scenario import INITIAL_Y_PROBLEM, Event, Scenario, ScenarioError, build
+from .scenario import INITIAL_Y_PROBLEM, Event, Scenario, ScenarioError
 
 __all__ = [
     "PROCESS_EVENTS",
@@ -156,7 +157,7 @@ class ProcessSide:
         self.pending: list[Event] = list(events)
 
     def _make(self, spec: Any) -> Any:
-        return build(spec, self.ts, kind="plant", file=self.scenario.file)
+        return build(spec, self.ts, kind="plant", file=self.scenario.file, error=ScenarioError)
 
     def _make_process(self) -> None:
         """Wrap the models in the plants' Actuator and Sensor (``[actuator]``, ``[sensor]``)."""

@@ -1,0 +1,221 @@
+"""Block and controller specs, the registry of block and plant types, and the block factory.
+
+A :class:`BlockSpec` is one block (or plant) table of a file: its ``type`` and
+its keyword arguments, with the key path for error messages.  A
+:class:`ControllerSpec` is one controller entry: its blocks by role (see
+:mod:`.structures`).  :func:`build` makes the object a spec describes from
+the types registered in :data:`BLOCK_TYPES` and :data:`PLANT_TYPES`
+(:func:`register` adds one), so the simulator's scenarios and the runtime's
+loops accept exactly the same tables.
+
+:class:`SpecReader` reads a block table (``{ type = "PID", kp = 2.0, ... }``)
+and builds it once, so a parameter the block refuses is reported with its key
+path where the file is read, not in the middle of a run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from .. import blocks, plants
+from ..blocks.base import ParameterError
+from .toml import KeyPathError, TableReader
+
+__all__ = [
+    "BLOCK_TYPES",
+    "PLANT_TYPES",
+    "BlockSpec",
+    "ControllerSpec",
+    "SpecReader",
+    "TuneHook",
+    "available_types",
+    "build",
+    "register",
+]
+
+
+@dataclasses.dataclass(frozen=True)
+class BlockSpec:
+    """A block or plant to build: a class name and its keyword arguments."""
+
+    type: str
+    params: Mapping[str, Any]
+    key: str  # key path in the file, for error messages
+    extra: Mapping[str, Any] = dataclasses.field(default_factory=dict)  # structure-only keys
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerSpec:
+    """One controller entry (a scenario's ``[[controllers]]`` entry, a runtime loop's blocks)."""
+
+    name: str
+    blocks: Mapping[str, Any]  # role -> BlockSpec (override: "blocks" -> list[BlockSpec])
+    options: Mapping[str, Any]  # selector, aw_handshake, color, ...
+
+
+BLOCK_TYPES: dict[str, Callable[..., Any]] = {
+    cls.__name__: cls
+    for cls in (
+        blocks.ADRC,
+        blocks.PID,
+        blocks.PT1,
+        blocks.CycleMonitor,
+        blocks.DeadBand,
+        blocks.JumpAndRate,
+        blocks.LeadLag,
+        blocks.ManualStation,
+        blocks.MaxSelector,
+        blocks.MinSelector,
+        blocks.MovingAverage,
+        blocks.RateLimiter,
+        blocks.Saturation,
+        blocks.Scale,
+        blocks.SteadyStateDetector,
+    )
+}
+"""Block types a ``type = "..."`` of a controller table names (class name -> class)."""
+
+PLANT_TYPES: dict[str, Callable[..., Any]] = {
+    cls.__name__: cls
+    for cls in (
+        plants.FOPDT,
+        plants.IT1,
+        plants.PT1,
+        plants.PT2,
+        plants.DeadTime,
+        plants.LinearPlant,
+        plants.PT2Osc,
+        plants.PTn,
+        plants.ThreeTank,
+    )
+}
+"""Plant types a ``type = "..."`` of a ``[plant]`` (or Smith model) table names."""
+
+_REGISTRIES = {"block": BLOCK_TYPES, "plant": PLANT_TYPES}
+
+
+def register(kind: str, cls: Callable[..., Any], name: str | None = None) -> None:
+    """Make ``cls`` usable as ``type = NAME`` (default its ``__name__``) for ``kind``.
+
+    ``kind`` is ``"block"`` or ``"plant"``; a block of your own package is then
+    accepted in scenarios and runtime configurations like the shipped ones.
+    """
+    _REGISTRIES[kind][name or cls.__name__] = cls
+
+
+def available_types(kind: str) -> list[str]:
+    """Names usable as ``type`` for ``kind`` ``"plant"`` or ``"block"``."""
+    return sorted(_REGISTRIES[kind])
+
+
+def build(
+    spec: BlockSpec,
+    ts: float,
+    *,
+    kind: str,
+    file: str = "<scenario>",
+    error: type[KeyPathError] = KeyPathError,
+) -> Any:
+    """Make the block or plant ``spec`` describes, with ``ts`` unless it sets its own.
+
+    Raises ``error`` (a :class:`~.toml.KeyPathError`) naming the key path when
+    the type is unknown or the class refuses a parameter.
+    """
+    cls = _REGISTRIES[kind].get(spec.type)
+    if cls is None:
+        raise error(
+            file,
+            f"{spec.key}.type",
+            f"unknown {kind} type {spec.type!r}; available: {', '.join(available_types(kind))}",
+        )
+    params = dict(spec.params)
+    config_cls = getattr(cls, "Config", None)
+    if dataclasses.is_dataclass(config_cls):
+        takes_ts = "ts" in {f.name for f in dataclasses.fields(config_cls)}
+    else:
+        try:
+            takes_ts = "ts" in inspect.signature(cls).parameters
+        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
+            takes_ts = False
+    if "ts" not in params and takes_ts:
+        params["ts"] = ts
+    try:
+        return cls(**params)
+    except ParameterError as exc:
+        problem = f"{exc.message} (error 16#{exc.code:04X} {exc.code.name})"
+        raise error(file, f"{spec.key}.{exc.field}", problem) from None
+    except TypeError as exc:
+        raise error(file, spec.key, f"{spec.type}: {exc}") from None
+    except (ValueError, KeyError) as exc:
+        raise error(file, spec.key, f"{spec.type} refused the parameters: {exc}") from None
+
+
+TuneHook = Callable[[Any, str, str, float], "tuple[dict[str, Any], dict[str, Any]]"]
+"""``tune(table, key, block_type, ts) -> (parameters, info)``: a ``tune`` table of a block.
+
+The simulator's parser passes one (a bump test on the scenario's plant); the
+runtime passes none, so ``tune`` is refused there.
+"""
+
+
+class SpecReader(TableReader):
+    """A :class:`~.toml.TableReader` that also reads block tables into checked specs."""
+
+    def build(self, spec: BlockSpec, ts: float, *, kind: str) -> Any:
+        """:func:`build` with this reader's file and error class."""
+        return build(spec, ts, kind=kind, file=self.file, error=self.error)
+
+    def block_spec(
+        self,
+        d: dict[str, Any],
+        key: str,
+        ts: float,
+        *,
+        kind: str = "plant",
+        extra_keys: tuple[str, ...] = (),
+        tune: TuneHook | None = None,
+    ) -> BlockSpec:
+        """The block table ``d`` at ``key``, built once (a refused parameter names its key).
+
+        ``extra_keys`` are keys of the table that belong to the structure
+        (an override block's ``measure``), not to the block; ``tune`` reads a
+        ``tune`` table (None: ``tune`` is refused).
+        """
+        self.as_table(d, key)
+        tname = self.string(d, "type", f"{key}.type")
+        params = {k: v for k, v in d.items() if k not in ("type", "tune") and k not in extra_keys}
+        extra = {k: d[k] for k in extra_keys if k in d}
+        if "tune" in d:
+            if tune is None:
+                raise self.fail(
+                    f"{key}.tune",
+                    "tuning from a bump test needs the single, feedforward or smith structure",
+                )
+            tuned, info = tune(d["tune"], f"{key}.tune", tname, ts)
+            params = {**params, **tuned}
+            extra = {**extra, "tuned": info}
+        spec = BlockSpec(tname, params, key, extra)
+        self.build(spec, ts, kind=kind)
+        return spec
+
+    def role(
+        self,
+        entry: dict[str, Any],
+        role: str,
+        key: str,
+        ts: float,
+        tune: TuneHook | None = None,
+        *,
+        kind: str = "block",
+    ) -> BlockSpec:
+        """The table ``ROLE`` of a controller entry (``main``, ``model``, ...)."""
+        return self.block_spec(
+            self.table(entry, role, f"{key}.{role}", True),
+            f"{key}.{role}",
+            ts,
+            kind=kind,
+            tune=tune,
+        )
