@@ -21,7 +21,8 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from .. import blocks, plants
-from ..blocks.base import ParameterError
+from ..blocks.base import Block, ParameterError
+from ..plants.base import Plant
 from .toml import KeyPathError, TableReader
 
 __all__ = [
@@ -56,43 +57,24 @@ class ControllerSpec:
     options: Mapping[str, Any]  # selector, aw_handshake, color, ...
 
 
-BLOCK_TYPES: dict[str, Callable[..., Any]] = {
-    cls.__name__: cls
-    for cls in (
-        blocks.ADRC,
-        blocks.PID,
-        blocks.PT1,
-        blocks.CycleMonitor,
-        blocks.DeadBand,
-        blocks.JumpAndRate,
-        blocks.LeadLag,
-        blocks.ManualStation,
-        blocks.MaxSelector,
-        blocks.MinSelector,
-        blocks.MovingAverage,
-        blocks.RateLimiter,
-        blocks.Saturation,
-        blocks.Scale,
-        blocks.SteadyStateDetector,
-    )
-}
-"""Block types a ``type = "..."`` of a controller table names (class name -> class)."""
+def _exported(package: Any, base: type) -> dict[str, Callable[..., Any]]:
+    """The concrete subclasses of ``base`` that ``package`` exports, by class name."""
+    out: dict[str, Callable[..., Any]] = {}
+    for name in package.__all__:
+        cls = getattr(package, name)
+        concrete = inspect.isclass(cls) and not inspect.isabstract(cls)
+        if concrete and issubclass(cls, base) and cls is not base:
+            out[name] = cls
+    return out
 
-PLANT_TYPES: dict[str, Callable[..., Any]] = {
-    cls.__name__: cls
-    for cls in (
-        plants.FOPDT,
-        plants.IT1,
-        plants.PT1,
-        plants.PT2,
-        plants.DeadTime,
-        plants.LinearPlant,
-        plants.PT2Osc,
-        plants.PTn,
-        plants.ThreeTank,
-    )
-}
-"""Plant types a ``type = "..."`` of a ``[plant]`` (or Smith model) table names."""
+
+BLOCK_TYPES: dict[str, Callable[..., Any]] = _exported(blocks, Block)
+"""Block types a ``type = "..."`` of a controller table names: the blocks
+:mod:`ctrlblocks.blocks` exports (class name -> class), plus :func:`register`'s."""
+
+PLANT_TYPES: dict[str, Callable[..., Any]] = _exported(plants, Plant)
+"""Plant types a ``type = "..."`` of a ``[plant]`` (or Smith model) table names: the
+plants :mod:`ctrlblocks.plants` exports, plus :func:`register`'s."""
 
 _REGISTRIES = {"block": BLOCK_TYPES, "plant": PLANT_TYPES}
 

@@ -123,9 +123,9 @@ class _Controller:
 
         ``measured`` is the actuator's real output of this sample (after load,
         rate and range).  It is wired where the block is configured to use a
-        measured MV: the PID's ``actuator_pos`` input (BACK_CALC_REAL, CODESYS
-        PID_Controller) and the ADRC's ``u_real`` (``u_real_on``, Nowak et al.
-        2018, section 5).
+        measured MV: the PID's ``actuator_pos`` input (BACK_CALC_REAL,
+        controltheplant 2024) and the ADRC's ``u_real`` (``u_real_on``,
+        Nowak et al. 2018, section 5).
         """
         if not self.two_phase:
             return
