@@ -16,13 +16,14 @@ key path, and not in the middle of a run.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import importlib
 import inspect
 import math
 import pkgutil
 import re
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +53,7 @@ __all__ = [
     "parse_scenario_doc",
     "read_toml",
     "type_name",
+    "unknown_key_problem",
 ]
 
 STRUCTURES: dict[str, tuple[str, ...]] = {
@@ -342,7 +344,7 @@ class TableReader:
         unknown = sorted(set(d) - allowed)
         if unknown:
             where = f"{key}.{unknown[0]}" if key else unknown[0]
-            raise self.fail(where, f"unknown key; expected one of: {', '.join(sorted(allowed))}")
+            raise self.fail(where, unknown_key_problem(unknown[0], allowed))
 
 
 class _Parser(TableReader):
@@ -542,7 +544,14 @@ class _Parser(TableReader):
         kind: str = "plant",
         extra_keys: tuple[str, ...] = (),
         tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
+        table_keys: tuple[str, ...] = (),
     ) -> BlockSpec:
+        """The block or plant of table ``d`` (``type`` + its parameters), built once to check it.
+
+        ``extra_keys`` are read into ``BlockSpec.extra``; ``table_keys`` are
+        other keys of the same table that the caller has taken out (they are
+        listed among the valid keys of an unknown-key error).
+        """
         self.as_table(d, key)
         tname = self.string(d, "type", f"{key}.type")
         params = {k: v for k, v in d.items() if k not in ("type", "tune") and k not in extra_keys}
@@ -558,7 +567,8 @@ class _Parser(TableReader):
             extra = {**extra, "tuned": info}
         spec = BlockSpec(tname, params, key, extra)
         # build once so that a refused parameter is reported with its key path
-        build(spec, ts, kind=kind, file=self.file)
+        others = (*extra_keys, *table_keys, *(("tune",) if kind == "block" else ()))
+        build(spec, ts, kind=kind, file=self.file, other_keys=others)
         return spec
 
     def role(
@@ -627,6 +637,7 @@ class _Parser(TableReader):
                 ts,
                 kind="block",
                 tune_plant=tune_plant if structure == "single" else None,
+                table_keys=("name", "color", "style"),
             )
             blocks: dict[str, Any] = {"main": spec}
         elif structure == "cascade":
@@ -973,6 +984,36 @@ def _default_label(kind: str, f: Mapping[str, Any]) -> str:
     return f"{f.get('attr')} = {f.get('value')}"
 
 
+def unknown_key_problem(name: str, allowed: Iterable[str]) -> str:
+    """``"unknown key 'omegac' (did you mean 'omega_c'?); valid keys: ..."``.
+
+    The hint is the closest allowed key (:func:`difflib.get_close_matches`),
+    given only when one is close enough.
+    """
+    keys = sorted(set(allowed))
+    close = difflib.get_close_matches(name, keys, n=1, cutoff=0.6)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return f"unknown key {name!r}{hint}; valid keys: {', '.join(keys)}"
+
+
+def parameter_names(cls: Callable[..., Any]) -> set[str] | None:
+    """The keyword parameters a block or plant class takes (None: it takes any)."""
+    config_cls = getattr(cls, "Config", None)
+    if dataclasses.is_dataclass(config_cls):
+        return {f.name for f in dataclasses.fields(config_cls)}
+    try:
+        params = inspect.signature(cls).parameters.values()
+    except (TypeError, ValueError):  # pragma: no cover - builtins without signature
+        return None
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
+        return None
+    return {
+        p.name
+        for p in params
+        if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    }
+
+
 def type_name(v: Any) -> str:
     """How an error message names the TOML type of ``v`` (``"a table"``, ``"a string"``, ...)."""
     return {
@@ -1016,11 +1057,20 @@ def available_types(kind: str) -> list[str]:
     return sorted(n for n in names if inspect.isclass(getattr(module, n, None)))
 
 
-def build(spec: BlockSpec, ts: float, *, kind: str, file: str = "<scenario>") -> Any:
+def build(
+    spec: BlockSpec,
+    ts: float,
+    *,
+    kind: str,
+    file: str = "<scenario>",
+    other_keys: Iterable[str] = (),
+) -> Any:
     """Make the block or plant ``spec`` describes, with ``ts`` unless it sets its own.
 
     Raises :class:`ScenarioError` naming the key path when the type is
-    unknown or the class refuses a parameter.
+    unknown, a key is not a parameter of the class ("unknown key 'omegac'
+    (did you mean 'omega_c'?); valid keys: ...", the valid keys being the
+    parameters, ``type`` and ``other_keys``) or the class refuses a value.
     """
     cls = _resolve(spec.type, kind)
     if cls is None:
@@ -1030,15 +1080,16 @@ def build(spec: BlockSpec, ts: float, *, kind: str, file: str = "<scenario>") ->
             f"unknown {kind} type {spec.type!r}; available: {', '.join(available_types(kind))}",
         )
     params = dict(spec.params)
-    config_cls = getattr(cls, "Config", None)
-    if dataclasses.is_dataclass(config_cls):
-        takes_ts = "ts" in {f.name for f in dataclasses.fields(config_cls)}
-    else:
-        try:
-            takes_ts = "ts" in inspect.signature(cls).parameters
-        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
-            takes_ts = False
-    if "ts" not in params and takes_ts:
+    names = parameter_names(cls)
+    if names is not None:
+        unknown = sorted(set(params) - names)
+        if unknown:
+            raise ScenarioError(
+                file,
+                f"{spec.key}.{unknown[0]}",
+                unknown_key_problem(unknown[0], {"type", *names, *other_keys}),
+            )
+    if "ts" not in params and names is not None and "ts" in names:
         params["ts"] = ts
     try:
         return cls(**params)
@@ -1046,6 +1097,9 @@ def build(spec: BlockSpec, ts: float, *, kind: str, file: str = "<scenario>") ->
         problem = f"{exc.message} (error 16#{exc.code:04X} {exc.code.name})"
         raise ScenarioError(file, f"{spec.key}.{exc.field}", problem) from None
     except TypeError as exc:
-        raise ScenarioError(file, spec.key, f"{spec.type}: {exc}") from None
+        msg = str(exc)
+        if not msg.startswith(f"{spec.type}:"):  # the block may name itself already
+            msg = f"{spec.type}: {msg}"
+        raise ScenarioError(file, spec.key, msg) from None
     except (ValueError, KeyError) as exc:
         raise ScenarioError(file, spec.key, f"{spec.type} refused the parameters: {exc}") from None
