@@ -54,7 +54,7 @@ def test_table_reader_number_checks_type_nan_and_sign() -> None:
 def test_table_reader_check_keys_names_the_first_unknown_key() -> None:
     with pytest.raises(KeyPathError) as e:
         TableReader("r.toml").check_keys({"a": 1, "zz": 2, "yy": 3}, {"a", "b"}, "t")
-    assert e.value.key == "t.yy" and e.value.problem == "unknown key; expected one of: a, b"
+    assert e.value.key == "t.yy" and e.value.problem == "unknown key 'yy'; valid keys: a, b"
 
 
 def test_a_reader_subclass_raises_its_own_error_class() -> None:

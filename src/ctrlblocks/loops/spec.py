@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from .. import blocks, plants
 from ..blocks.base import Block, ParameterError
 from ..plants.base import Plant
-from .toml import KeyPathError, TableReader
+from .toml import KeyPathError, TableReader, unknown_key_problem
 
 __all__ = [
     "BLOCK_TYPES",
@@ -34,6 +34,7 @@ __all__ = [
     "TuneHook",
     "available_types",
     "build",
+    "parameter_names",
     "register",
 ]
 
@@ -93,18 +94,39 @@ def available_types(kind: str) -> list[str]:
     return sorted(_REGISTRIES[kind])
 
 
+def parameter_names(cls: Callable[..., Any]) -> set[str] | None:
+    """The keyword parameters a block or plant class takes (None: it takes any)."""
+    config_cls = getattr(cls, "Config", None)
+    if dataclasses.is_dataclass(config_cls):
+        return {f.name for f in dataclasses.fields(config_cls)}
+    try:
+        params = inspect.signature(cls).parameters.values()
+    except (TypeError, ValueError):  # pragma: no cover - builtins without signature
+        return None
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
+        return None
+    return {
+        p.name
+        for p in params
+        if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    }
+
+
 def build(
     spec: BlockSpec,
     ts: float,
     *,
     kind: str,
     file: str = "<scenario>",
+    other_keys: Iterable[str] = (),
     error: type[KeyPathError] = KeyPathError,
 ) -> Any:
     """Make the block or plant ``spec`` describes, with ``ts`` unless it sets its own.
 
     Raises ``error`` (a :class:`~.toml.KeyPathError`) naming the key path when
-    the type is unknown or the class refuses a parameter.
+    the type is unknown, a key is not a parameter of the class ("unknown key
+    'omegac' (did you mean 'omega_c'?); valid keys: ...", the valid keys being
+    the parameters, ``type`` and ``other_keys``) or the class refuses a value.
     """
     cls = _REGISTRIES[kind].get(spec.type)
     if cls is None:
@@ -114,15 +136,16 @@ def build(
             f"unknown {kind} type {spec.type!r}; available: {', '.join(available_types(kind))}",
         )
     params = dict(spec.params)
-    config_cls = getattr(cls, "Config", None)
-    if dataclasses.is_dataclass(config_cls):
-        takes_ts = "ts" in {f.name for f in dataclasses.fields(config_cls)}
-    else:
-        try:
-            takes_ts = "ts" in inspect.signature(cls).parameters
-        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
-            takes_ts = False
-    if "ts" not in params and takes_ts:
+    names = parameter_names(cls)
+    if names is not None:
+        unknown = sorted(set(params) - names)
+        if unknown:
+            raise error(
+                file,
+                f"{spec.key}.{unknown[0]}",
+                unknown_key_problem(unknown[0], {"type", *names, *other_keys}),
+            )
+    if "ts" not in params and names is not None and "ts" in names:
         params["ts"] = ts
     try:
         return cls(**params)
@@ -130,7 +153,10 @@ def build(
         problem = f"{exc.message} (error 16#{exc.code:04X} {exc.code.name})"
         raise error(file, f"{spec.key}.{exc.field}", problem) from None
     except TypeError as exc:
-        raise error(file, spec.key, f"{spec.type}: {exc}") from None
+        msg = str(exc)
+        if not msg.startswith(f"{spec.type}:"):  # the block may name itself already
+            msg = f"{spec.type}: {msg}"
+        raise error(file, spec.key, msg) from None
     except (ValueError, KeyError) as exc:
         raise error(file, spec.key, f"{spec.type} refused the parameters: {exc}") from None
 
@@ -146,9 +172,11 @@ runtime passes none, so ``tune`` is refused there.
 class SpecReader(TableReader):
     """A :class:`~.toml.TableReader` that also reads block tables into checked specs."""
 
-    def build(self, spec: BlockSpec, ts: float, *, kind: str) -> Any:
+    def build(
+        self, spec: BlockSpec, ts: float, *, kind: str, other_keys: Iterable[str] = ()
+    ) -> Any:
         """:func:`build` with this reader's file and error class."""
-        return build(spec, ts, kind=kind, file=self.file, error=self.error)
+        return build(spec, ts, kind=kind, file=self.file, other_keys=other_keys, error=self.error)
 
     def block_spec(
         self,
@@ -159,12 +187,15 @@ class SpecReader(TableReader):
         kind: str = "plant",
         extra_keys: tuple[str, ...] = (),
         tune: TuneHook | None = None,
+        table_keys: tuple[str, ...] = (),
     ) -> BlockSpec:
-        """The block table ``d`` at ``key``, built once (a refused parameter names its key).
+        """The block or plant of table ``d`` (``type`` + its parameters), built once to check it.
 
-        ``extra_keys`` are keys of the table that belong to the structure
-        (an override block's ``measure``), not to the block; ``tune`` reads a
-        ``tune`` table (None: ``tune`` is refused).
+        ``extra_keys`` are keys of the table that belong to the structure (an
+        override block's ``measure``), read into ``BlockSpec.extra``;
+        ``table_keys`` are other keys of the same table that the caller has
+        taken out (they are listed among the valid keys of an unknown-key
+        error); ``tune`` reads a ``tune`` table (None: ``tune`` is refused).
         """
         self.as_table(d, key)
         tname = self.string(d, "type", f"{key}.type")
@@ -180,7 +211,9 @@ class SpecReader(TableReader):
             params = {**params, **tuned}
             extra = {**extra, "tuned": info}
         spec = BlockSpec(tname, params, key, extra)
-        self.build(spec, ts, kind=kind)
+        # build once so that a refused parameter is reported with its key path
+        others = (*extra_keys, *table_keys, *(("tune",) if kind == "block" else ()))
+        self.build(spec, ts, kind=kind, other_keys=others)
         return spec
 
     def role(

@@ -258,7 +258,8 @@ class Single(Structure):
 
     def parse(self, r, e, key, ts, tune):
         table = {k: v for k, v in e.items() if k not in _ENTRY_KEYS}
-        return {"main": r.block_spec(table, key, ts, kind="block", tune=tune)}, {}
+        spec = r.block_spec(table, key, ts, kind="block", tune=tune, table_keys=_ENTRY_KEYS)
+        return {"main": spec}, {}
 
     def compute(self, side, sp, m):
         return side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt), {}

@@ -10,10 +10,11 @@ of both files' errors (:class:`~ctrlblocks.sim.ScenarioError`,
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 if sys.version_info >= (3, 11):
@@ -21,7 +22,14 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - exercised on Python 3.10 only
     import tomli as tomllib
 
-__all__ = ["NAME_RE", "KeyPathError", "TableReader", "read_toml", "type_name"]
+__all__ = [
+    "NAME_RE",
+    "KeyPathError",
+    "TableReader",
+    "read_toml",
+    "type_name",
+    "unknown_key_problem",
+]
 
 NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
 """Names (of scenarios, runtime loops and connections): letters, digits, ``_ . -``."""
@@ -128,7 +136,7 @@ class TableReader:
         unknown = sorted(set(d) - allowed)
         if unknown:
             where = f"{key}.{unknown[0]}" if key else unknown[0]
-            raise self.fail(where, f"unknown key; expected one of: {', '.join(sorted(allowed))}")
+            raise self.fail(where, unknown_key_problem(unknown[0], allowed))
 
 
 def type_name(v: Any) -> str:
@@ -141,3 +149,15 @@ def type_name(v: Any) -> str:
         int: "an integer",
         float: "a number",
     }.get(type(v), type(v).__name__)
+
+
+def unknown_key_problem(name: str, allowed: Iterable[str]) -> str:
+    """``"unknown key 'omegac' (did you mean 'omega_c'?); valid keys: ..."``.
+
+    The hint is the closest allowed key (:func:`difflib.get_close_matches`),
+    given only when one is close enough.
+    """
+    keys = sorted(set(allowed))
+    close = difflib.get_close_matches(name, keys, n=1, cutoff=0.6)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return f"unknown key {name!r}{hint}; valid keys: {', '.join(keys)}"

@@ -26,7 +26,14 @@ from ..loops.spec import BlockSpec, ControllerSpec, SpecReader, TuneHook
 from ..loops.structures import STRUCTURES as _STRUCTURES
 from ..loops.structures import parse_controller as _parse_controller
 from ..loops.structures import read_controller
-from ..loops.toml import NAME_RE, KeyPathError, TableReader, read_toml, type_name
+from ..loops.toml import (
+    NAME_RE,
+    KeyPathError,
+    TableReader,
+    read_toml,
+    type_name,
+    unknown_key_problem,
+)
 from ..plants import steady_input
 
 __all__ = [
@@ -48,6 +55,7 @@ __all__ = [
     "parse_scenario_doc",
     "read_toml",
     "type_name",
+    "unknown_key_problem",
 ]
 
 STRUCTURES: dict[str, tuple[str, ...]] = {name: s.roles for name, s in _STRUCTURES.items()}
