@@ -408,3 +408,23 @@ def test_velocity_form_with_derivative_is_the_incremental_law_and_loses_the_clam
     q = PID(kp=1, ti=10, td=2, n=10, ts=h, u_min=0, u_max=100)
     pos = [q(r, y) for r, y in zip(sp, pv, strict=True)]
     assert max(pos[20:]) == 0.0
+
+
+@pytest.mark.parametrize(("td", "bound"), [(0.0, 500), (1.0, 2000)])
+def test_one_huge_pv_sample_does_not_pin_a_clamping_pid(td: float, bound: int) -> None:
+    # before: with derivative action the D kick hid the limit and the integrator
+    # took -5e297 at once, holding the output at u_min for ever
+    a = math.exp(-0.1 / 7.3)
+    p = PID(kp=1, ti=10, td=td, ts=0.1, u_min=0, u_max=100)
+    y = 0.0
+    for _ in range(3000):
+        u0 = p(50, y)
+        y = a * y + (1 - a) * 1.5 * u0
+    p(50, 1e300)
+    assert abs(p.i) < 1e3
+    for n in range(1, 10**5):
+        u = p(50, y)
+        y = a * y + (1 - a) * 1.5 * u
+        if n > 20 and abs(u - u0) < 0.5:
+            break
+    assert n < bound

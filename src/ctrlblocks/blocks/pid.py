@@ -277,6 +277,10 @@ def pid_step(
             v_raw = p + i_k + dn + ff
             i_k = clamping_integral(i, di, p + dn + ff, lo, hi)
             return clamp(v_raw, lo, hi), v_raw, p, i_k, i_k, dn, w, e
+        if aw == 0.0 and clamping_blocks(di, p + i_k + ff, lo, hi):
+            # a derivative kick of the other sign hides the limit: the integral may
+            # still not take P + I + FF beyond it (no windup behind a D spike)
+            i_k = clamping_integral(i, di, p + ff, lo, hi)
     v_raw = p + i_k + dn + ff
     out = clamp(v_raw, lo, hi)
     # update_state with applied = out: clamping tracks ``applied - out`` = 0 (the
@@ -1008,7 +1012,9 @@ class PID(Block):
                         i_k = clamping_integral(self._i, di, p_used + d + ff_tot, lo, hi)
                         self._c_i = i_k
                         return self._finish(v, None, h)  # the demand, beyond the limit
-                    if ramp_blocks(di, clamp(v, lo, hi), subs["_out_ramp"].out, c.out_rate * h):
+                    if clamping_blocks(di, p_used + i_k + ff_tot, lo, hi):  # D hides the limit
+                        i_k = clamping_integral(self._i, di, p_used + ff_tot, lo, hi)
+                    elif ramp_blocks(di, clamp(v, lo, hi), subs["_out_ramp"].out, c.out_rate * h):
                         i_k = self._i
             self._c_i = i_k
             v_raw = p_used + i_k + d + ff_tot
