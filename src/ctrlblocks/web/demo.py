@@ -6,7 +6,7 @@ steps once per written MV (:class:`SimulatedIO`), so the runtime's real-time
 cycle is the plant's clock and every sample the runtime records is one sample
 of the discrete closed loop:
 
-* ``pressure``: ADRC (n = 2, Table 2 of seed 000: b0 = 0.05, omega_o = 1.75,
+* ``pressure``: ADRC (n = 2, Table 2 of Nowak et al. 2018: b0 = 0.05, omega_o = 1.75,
   omega_c = 0.35, ts = 0.1 s) on the pneumatic three-tank process
   (:class:`~ctrlblocks.plants.ThreeTank`, p3 in bar, supply pressure 0..5 bar,
   1 mbar measurement noise), starting in its steady state at p3 = 1.5 bar;
@@ -43,8 +43,11 @@ pv = "sim:pressure.pv"
 mv = "sim:pressure.mv"
 sp = 1.5
 safe_value = 0.0
+unit = { pv = "bar", mv = "bar" }  # p3 and the supply pressure
+sp_range = [0.0, 3.0]
+mv_range = [0.0, 5.0]
 
-[loops.block]  # seed 000, Table 2 (n = 2); u0: the steady-state supply pressure for 1.5 bar
+[loops.block]  # Nowak et al. 2018, Table 2 (n = 2); u0: steady supply pressure for 1.5 bar
 type = "ADRC"
 order = 2
 b0 = 0.05
@@ -61,6 +64,8 @@ pv = "sim:flow.pv"
 mv = "sim:flow.mv"
 sp = 40.0
 safe_value = 0.0
+unit = { pv = "%", mv = "%" }
+sp_range = [0.0, 100.0]
 
 [loops.block]
 type = "PID"
@@ -73,6 +78,9 @@ u_max = 100.0
 [historian]
 path = "@HISTORY@"
 flush_interval = 0.5
+
+[web]
+public_view = true  # the demo: anyone may watch
 """
 """The demo configuration (``@HISTORY@`` is replaced by the historian file)."""
 
