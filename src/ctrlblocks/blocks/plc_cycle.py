@@ -444,7 +444,7 @@ def leadlag_cycle(
     lo: float,
     hi: float,
 ) -> tuple[Any, ...]:
-    """One sample of :class:`~ctrlblocks.LeadLag` (Tustin or backward Euler, seed 003 Fig. 10).
+    """One sample of :class:`~ctrlblocks.LeadLag` (Tustin or backward Euler, Bonde et al. 2021, Fig. 10).
 
     Returns :data:`LEADLAG_RESULTS`.
     """

@@ -139,14 +139,14 @@ _ADRC_STATE_COMMENTS = {
 
 _LL_PROCESS = [
     Var("x", "IN", "input (setpoint or measured disturbance)"),
-    Var("enable", "ENABLE", "FALSE: OUT := 0, the input memory follows IN (seed 003 Fig. 10)"),
+    Var("enable", "ENABLE", "FALSE: OUT := 0, the input memory follows IN (Bonde et al. 2021, Fig. 10)"),
 ]
 _LL_TUNING = [
     Var("k", "K", "gain K"),
     Var("t_lead", "T_LEAD", "lead time constant Tt [s] (numerator)"),
     Var("t_lag", "T_LAG", "lag time constant Tn [s] (denominator)"),
     Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
-    Var("tustin", "TUSTIN", "TRUE Tustin (seed 003 Fig. 10), FALSE backward Euler"),
+    Var("tustin", "TUSTIN", "TRUE Tustin (Bonde et al. 2021, Fig. 10), FALSE backward Euler"),
     Var("out_min", "OUT_MIN", "output low limit"),
     Var("out_max", "OUT_MAX", "output high limit"),
 ]
