@@ -257,8 +257,10 @@ _STD: dict[str, Callable[..., Any]] = {
 class Interpreter:
     """Parse ST source with blark and run its POUs (compiled once to Python closures)."""
 
-    def __init__(self, source: str) -> None:
+    def __init__(self, source: str, count: bool = False) -> None:
         self.pous: dict[str, Pou] = {}
+        self.count = count
+        self.counts: dict[str, int] = {}
         for chunk in split_pous(source):
             if not chunk.startswith("FUNCTION"):
                 continue  # the header comment (test_export parses it)
@@ -277,6 +279,15 @@ class Interpreter:
         if init is None:
             return {REAL: np.float32(0.0), DINT: 0, BOOL: False}[typ]
         return convert(typ, self.compile_expr(init, None)({}), "initial value")
+
+    def _counted(self, kind: str, fn: Callable[[dict[str, Any]], Any]) -> Callable[..., Any]:
+        counts = self.counts
+
+        def counted(frame: dict[str, Any]) -> Any:
+            counts[kind] = counts.get(kind, 0) + 1
+            return fn(frame)
+
+        return counted
 
     # -- statements ----------------------------------------------------------------
 
@@ -396,6 +407,9 @@ class Interpreter:
             fn = _BIN.get(op)
             if fn is None:
                 raise STError(f"operator {op}")
+            if self.count:
+                kind = "arithmetic" if op in ("+", "-", "*", "/", "MOD") else "comparison"
+                return self._counted(kind, lambda f: fn(left(f), right(f)))
             return lambda f: fn(left(f), right(f))
         if isinstance(e, tf.FunctionCall):
             return self.compile_call(e, pou, statement=False)
@@ -411,6 +425,8 @@ class Interpreter:
                 raise STError(f"unknown function {name.upper()}")
             std = _STD[name]
             args = [self.compile_expr(p.value, pou) for p in params]
+            if self.count:
+                return self._counted("standard function", lambda f: std(*(a(f) for a in args)))
             return lambda frame: std(*(a(frame) for a in args))
         callee = self.pous[name]
         if callee.kind != "function":
@@ -437,11 +453,14 @@ class Interpreter:
         if missing:
             raise STError(f"call of {name} leaves inputs {sorted(missing)} unassigned")
         names = list(callee.vars)
+        count = self.count
 
         def call(frame: dict[str, Any]) -> Any:
             local = dict.fromkeys(names)
             for pname, typ, fn in ins:
                 local[pname] = convert(typ, fn(frame), pname)
+            if count:
+                self.counts["function call"] = self.counts.get("function call", 0) + 1
             callee.run(local)
             for pname, store in outs:
                 v = local[pname]

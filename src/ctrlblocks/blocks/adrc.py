@@ -138,6 +138,7 @@ from .base import (
     require_positive,
 )
 from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import clamp, pt1_coefficient
 
 __all__ = [
@@ -951,11 +952,9 @@ class ADRC(Block):
             if finite:
                 return self._fast_cycle(float(sp), float(y))
         if self._config.precision == "float32":
-            from .plc_cycle import adrc_float32
-
             if self._cycle_time(dt, self._ts) is None:
                 return self.out
-            return adrc_float32(self, sp, y, y_ok, dt)
+            return _float32_cycle("adrc")(self, sp, y, y_ok, dt)
         v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
         applied = v
         if self._config.u_real_on and self._pending is not None:

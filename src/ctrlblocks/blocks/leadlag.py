@@ -84,6 +84,7 @@ from .base import (
     require_positive,
 )
 from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import clamp
 
 __all__ = ["LeadLag", "LeadLagConfig", "leadlag_coefficients", "leadlag_step"]
@@ -268,9 +269,7 @@ class LeadLag(Block):
         if h is None:
             return self.out
         if self._config.precision == "float32":
-            from .plc_cycle import leadlag_float32
-
-            return leadlag_float32(self, x, enable, dt)
+            return _float32_cycle("leadlag")(self, x, enable, dt)
         if not is_finite(x):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out

@@ -75,6 +75,7 @@ from .base import (
 from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
 from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, clamp, deadband, scale
 
 __all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig", "pid_step"]
@@ -758,11 +759,9 @@ class PID(Block):
                 self._lean_ran = True
                 return out
         if self._config.precision == "float32":
-            from .plc_cycle import pid_float32
-
             if self._cycle_time(dt, self._ts) is None:
                 return self.out
-            return pid_float32(self, sp, pv, ff, pv_ok, dt)
+            return _float32_cycle("pid")(self, sp, pv, ff, pv_ok, dt)
         v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt, pv_ok=pv_ok)
         self.update_state(v)
         return self.out

@@ -47,6 +47,7 @@ from .adrc import adrc_step, adrc_switches
 from .base import ErrorCode, Mode
 from .leadlag import leadlag_coefficients, leadlag_step
 from .pid import derivative_coefficients, integral_weights, pid_step, tracking_gain
+from .precision import CYCLES
 from .signals import clamp, pt1_coefficient
 
 __all__ = [
@@ -444,7 +445,7 @@ def leadlag_cycle(
     lo: float,
     hi: float,
 ) -> tuple[Any, ...]:
-    """One sample of :class:`~ctrlblocks.LeadLag` (Tustin or backward Euler, Bonde et al. 2021, Fig. 10).
+    """One sample of :class:`~ctrlblocks.LeadLag` (Tustin or Euler; Bonde et al. 2021, Fig. 10).
 
     Returns :data:`LEADLAG_RESULTS`.
     """
@@ -680,3 +681,6 @@ def leadlag_float32(ll: Any, x: float, enable: bool, dt: float | None) -> float:
     ll.error_id = ErrorCode(res["error_id"])
     ll.enabled = bool(enable)
     return ll.out
+
+
+CYCLES.update(pid=pid_float32, adrc=adrc_float32, leadlag=leadlag_float32)

@@ -9,11 +9,23 @@ configuration is made.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from .base import ErrorCode, ParameterError, require_choice
 
-__all__ = ["PRECISIONS", "check_precision", "unsupported"]
+__all__ = ["CYCLES", "PRECISIONS", "check_precision", "float32_cycle", "unsupported"]
+
+CYCLES: dict[str, Callable[..., float]] = {}
+"""Block kind -> its ``precision="float32"`` cycle; filled by :mod:`.plc_cycle` when the
+package is imported (plc_cycle is built on the blocks' functions, so the blocks cannot
+import it)."""
+
+
+def float32_cycle(kind: str) -> Callable[..., float]:
+    """The ``precision="float32"`` cycle of a block kind (``"pid"``, ``"adrc"``, ``"leadlag"``)."""
+    return CYCLES[kind]
+
 
 PRECISIONS = ("float64", "float32")
 

@@ -65,11 +65,11 @@ _PID_PROCESS = [
     Var("rst", "RST", "reset: MV := RESET_VALUE (limited), integrator set to match"),
 ]
 _PID_TUNING = [
-    Var("k", "K", "gain K [%/%] (ISA form, Astrom 1987 (2.1))"),
+    Var("k", "K", "gain K [%/%] (ISA form, Åström 1987 (2.1))"),
     Var("ti", "TI", "integral time Ti [s]; 0 = no integral action"),
     Var("td", "TD", "derivative time Td [s]; 0 = no derivative action"),
     Var("n", "N", "derivative filter Tf = Td/N"),
-    Var("b", "B", "setpoint weight of P (Astrom 1987 (2.2))"),
+    Var("b", "B", "setpoint weight of P (Åström 1987 (2.2))"),
     Var("c", "C", "setpoint weight of D (0 = derivative on PV)"),
     Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
     Var("u_min", "U_MIN", "output low limit [%]"),
@@ -139,7 +139,7 @@ _ADRC_STATE_COMMENTS = {
 
 _LL_PROCESS = [
     Var("x", "IN", "input (setpoint or measured disturbance)"),
-    Var("enable", "ENABLE", "FALSE: OUT := 0, the input memory follows IN (Bonde et al. 2021, Fig. 10)"),
+    Var("enable", "ENABLE", "FALSE: OUT := 0, the input follows IN (Bonde et al. 2021, Fig. 10)"),
 ]
 _LL_TUNING = [
     Var("k", "K", "gain K"),
