@@ -74,7 +74,9 @@ def _config_fields(kind: str) -> set[str]:
 
 
 def _from_toml(path: str, controller: str | None, role: str | None) -> Any:
-    from ..sim.scenario import KeyPathError, build, load_scenario, read_toml
+    from ..loops.spec import build
+    from ..loops.toml import KeyPathError, read_toml
+    from ..sim.scenario import load_scenario
 
     try:
         text = Path(path).read_text(encoding="utf-8")
