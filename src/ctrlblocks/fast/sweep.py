@@ -96,7 +96,7 @@ def apply_key(doc: dict[str, Any], key: str, value: Any) -> None:
             node[name] = value
             return
         if name not in node:
-            from ..sim.scenario import unknown_key_problem
+            from ..loops.toml import unknown_key_problem
 
             where = ".".join(parts[:n]) or "the scenario"
             raise SweepError(f"{key}: {where}: {unknown_key_problem(name, node)}")
@@ -121,9 +121,10 @@ def parameter_sets(vary: Mapping[str, Sequence[Any]]) -> list[dict[str, Any]]:
 
 def _scenario(text: str, file: str, params: Mapping[str, Any]) -> Any:
     """The scenario of ``text`` with the keys of ``params`` set (the simulator's parser)."""
-    from ..sim.scenario import parse_scenario_doc, read_toml
+    from ..loops.toml import read_toml
+    from ..sim.scenario import ScenarioError, parse_scenario_doc
 
-    doc = read_toml(text, file)
+    doc = read_toml(text, file, ScenarioError)
     for k, v in params.items():
         apply_key(doc, k, v)
     return parse_scenario_doc(doc, file=file)

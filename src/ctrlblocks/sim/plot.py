@@ -17,7 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .results import plot_names
+from .names import plot_names
 from .runner import ScenarioResult
 
 __all__ = ["plot_result"]

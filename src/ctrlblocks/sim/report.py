@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .. import __version__
-from .results import plot_names, slug
+from .names import plot_names, slug
 from .runner import ScenarioResult, metric_table
 from .scenario import Scenario, load_scenario
 

@@ -23,11 +23,10 @@ from __future__ import annotations
 import csv
 import importlib.util
 import json
-import re
-from collections.abc import Sequence
 from pathlib import Path
 
 from .loop import Run
+from .names import plot_names, slug, trace_names, unique_slugs
 from .runner import ScenarioResult
 
 __all__ = [
@@ -40,37 +39,6 @@ __all__ = [
     "write_result",
     "write_trace",
 ]
-
-
-def slug(text: str) -> str:
-    """A file-name-safe form of ``text`` (letters, digits, ``-``, ``_``, ``.``)."""
-    s = re.sub(r"[^A-Za-z0-9_.\-]+", "_", text).strip("_")
-    return s or "x"
-
-
-def unique_slugs(names: Sequence[str]) -> list[str]:
-    """:func:`slug` of each name, made distinct by ``-2``, ``-3``, ... in order of appearance."""
-    out: list[str] = []
-    seen: set[str] = set()
-    for name in names:
-        base = s = slug(name)
-        n = 1
-        while s.lower() in seen:  # case-insensitive file systems
-            n += 1
-            s = f"{base}-{n}"
-        seen.add(s.lower())
-        out.append(s)
-    return out
-
-
-def trace_names(runs: Sequence[Run]) -> list[str]:
-    """The trace file name (without suffix) of each run: ``trace_<ctrl>__<case>``, all distinct."""
-    return unique_slugs([f"trace_{slug(r.controller)}__{slug(r.case)}" for r in runs])
-
-
-def plot_names(case_names: Sequence[str]) -> list[str]:
-    """The PNG file name (without suffix) of each case: its slug, all distinct."""
-    return unique_slugs(case_names)
 
 
 def write_trace(run: Run, path: Path, fmt: str = "auto") -> Path:
