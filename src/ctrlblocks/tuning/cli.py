@@ -173,6 +173,8 @@ def identify(
                 f"--plot {plot_path}: cannot write the plot ({exc.strerror or exc})"
             ) from None
         result["plot"] = plot_path
+    if not as_json:  # the table shows units only when known
+        result = {k: v for k, v in result.items() if not (k.endswith("_unit") and v is None)}
     _emit(_finite(result), as_json, f"{file}: {result['model'].upper()} model ({method})")
 
 
