@@ -19,7 +19,7 @@ The main entry points:
 See ``docs/simulator.md`` for the scenario format.
 """
 
-from .controller import ControllerSide
+from ..loops.structures import ControllerSide
 from .loop import Run, simulate
 from .metrics import METRIC_NAMES, compute_metrics
 from .process import ProcessSide, SetpointProfile
