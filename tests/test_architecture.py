@@ -45,12 +45,6 @@ PEER_IMPORTS: set[tuple[str, str]] = {
     ("cli", "web"),  # ``ctrlblocks web`` starts the faceplate
 }
 
-#: Violations that exist today and are being removed (issue 17); nothing may be added.
-KNOWN_VIOLATIONS: set[tuple[str, str]] = {
-    ("ctrlblocks.runtime.plant_server", "ctrlblocks.sim.process"),
-    ("ctrlblocks.runtime.plant_server", "ctrlblocks.sim.scenario"),
-}
-
 
 def _module_name(path: Path) -> str:
     parts = list(path.relative_to(SRC).with_suffix("").parts)
@@ -175,13 +169,14 @@ def test_graph_sees_lazy_and_relative_imports():
 
 
 def test_no_lower_layer_imports_a_higher_one():
-    new = layer_violations(GRAPH) - KNOWN_VIOLATIONS
-    assert not new, f"layer rule broken (see docs/architecture.md): {sorted(new)}"
+    bad = layer_violations(GRAPH)
+    assert not bad, f"layer rule broken (see docs/architecture.md): {sorted(bad)}"
 
 
-def test_known_layer_violations_are_still_real():
-    gone = KNOWN_VIOLATIONS - layer_violations(GRAPH)
-    assert not gone, f"remove from KNOWN_VIOLATIONS: {sorted(gone)}"
+def test_layer_check_catches_an_upward_import():
+    graph = {"ctrlblocks.runtime.loop": {"ctrlblocks.sim.scenario", "ctrlblocks.loops.spec"}}
+    assert layer_violations(graph) == {("ctrlblocks.runtime.loop", "ctrlblocks.sim.scenario")}
+    assert layer_violations({"ctrlblocks.blocks.pid": {"ctrlblocks.loops.spec"}}) != set()
 
 
 def test_no_import_circles():

@@ -9,9 +9,9 @@ and ramps, loads, plant parameters, sensor faults).  Two callers share it:
 
 * :func:`ctrlblocks.sim.simulate` steps it in the closed loop with the
   scenario's controllers;
-* the runtime's plant server (:class:`ctrlblocks.runtime.PlantProcess`)
-  serves it over OPC UA and Modbus, so a runtime controlling it sees exactly
-  the simulator's samples.
+* :class:`ctrlblocks.sim.PlantProcess` steps it for the runtime's plant
+  server, which serves it over OPC UA and Modbus, so a runtime controlling it
+  sees exactly the simulator's samples.
 
 The controller-side events (``mode``, ``manual_value``, ``limits``, ``set``)
 are left to the caller: :meth:`ProcessSide.apply` returns False for them.
