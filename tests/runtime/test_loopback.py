@@ -68,6 +68,8 @@ def history(tmp_path, loop="loop"):
 
 async def run_cycles(rt: Runtime, server: PlantServer, n: int) -> None:
     await rt.start()
+    # the lock-step plant steps on MV writes: cycles run unconnected would shift the trace
+    assert all(c.connected for c in rt.connections.values()), "not connected at the first cycle"
     await wait_for(lambda: server.process.k >= n, timeout=30.0)
     await rt.stop()
 

@@ -19,6 +19,7 @@ from .config import (
     ConnectionConfig,
     HistorianConfig,
     LoopConfig,
+    RetainConfig,
     RuntimeConfig,
     RuntimeConfigError,
     load_config,
@@ -27,7 +28,7 @@ from .config import (
 from .historian import Historian, PostgresHistorian, SQLiteHistorian, export_history
 from .io import Adapter, Connection, IOFault, MemoryAdapter, MemoryBus, Reading
 from .loop import CommandError, ControlLoop, Sample
-from .plant_server import PlantProcess, PlantServer
+from .plant_server import PairServer, PlantProcess, PlantServer
 from .runtime import Runtime
 
 __all__ = [
@@ -46,10 +47,12 @@ __all__ = [
     "MemoryAdapter",
     "MemoryBus",
     "MonotonicClock",
+    "PairServer",
     "PlantProcess",
     "PlantServer",
     "PostgresHistorian",
     "Reading",
+    "RetainConfig",
     "Runtime",
     "RuntimeConfig",
     "RuntimeConfigError",

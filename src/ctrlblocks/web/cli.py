@@ -102,11 +102,14 @@ def serve(
         runtime, _ = demo_runtime(history)
     else:
         from ..runtime import Runtime, RuntimeConfigError, load_config
+        from ..runtime.cli import describe_files
 
         try:
-            runtime = Runtime(load_config(config))
+            cfg = load_config(config)
+            runtime = Runtime(cfg)
         except RuntimeConfigError as exc:
             raise click.ClickException(str(exc)) from None
+        describe_files(cfg)
     try:
         if check:
             click.echo(f"demo: {len(runtime.loop_names())} loop(s): OK")
