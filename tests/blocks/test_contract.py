@@ -1,4 +1,4 @@
-"""The block contract, checked over every block (DESIGN.md, "Every block has the same shape").
+"""The block contract, checked over every block (every block has the same shape).
 
 Each entry of CASES makes a block, drives it one sample, and names a
 configuration change that must be refused with a given error code.  A test

@@ -1,6 +1,6 @@
 """Speed: compiled closed loops, banks of many loops and parallel sweeps.
 
-Everything here runs the blocks' own pure functions (DESIGN.md principle 2):
+Everything here runs the blocks' own pure functions (one implementation of each law):
 numba compiles and inlines them when the ``fast`` extra is installed
 (``pip install 'ctrlblocks[fast]'``); without numba the same functions run
 interpreted (slower, same results).  See ``docs/performance.md``.

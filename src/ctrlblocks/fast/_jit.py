@@ -5,7 +5,7 @@ importable, :func:`jit` compiles a function with ``numba.njit`` and
 :func:`jitable` registers one of the blocks' module-level pure functions
 (``ctrlblocks.blocks.pid.derivative_step``, ``...adrc.eso_euler``, ...) so
 that compiled code calls -- and LLVM inlines -- *that same function*: no
-second copy of a control law exists (DESIGN.md principle 2).  ``jitable``
+second copy of a control law exists (one implementation of each law).  ``jitable``
 returns the function unchanged, so the blocks keep calling it interpreted.
 
 Without numba both decorators return the function unchanged: every fast path

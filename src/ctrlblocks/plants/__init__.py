@@ -6,7 +6,7 @@ state space, exact ZOH, any input dead time) and the convenience models
 :class:`FOPDT`; a pure dead time :class:`DeadTime`.  Wrappers that are
 plants themselves (:mod:`.wrappers`): :class:`Actuator` (input load, rate and
 range limits), :class:`Sensor` (output load, :class:`Noise`, saturation),
-:func:`process` (both).  The pneumatic three-tank process of seed 000,
+:func:`process` (both).  The pneumatic three-tank process of Nowak et al. 2018,
 section 6 (:mod:`.threetank`): :class:`ThreeTank`.  See docs/plants.md.
 
 Note: ``ctrlblocks.plants.PT1`` (a process model) is not the filter block

@@ -26,21 +26,21 @@ section 2.3, "Time delay")
 
 so a dead time that is **not** a multiple of ``ts`` is still exact for a ZOH
 input (rounding it to whole samples is not, and is not done here).  Past inputs
-are kept in a ring buffer of ``d + 2`` samples (the "Lagging" block of seed 002,
+are kept in a ring buffer of ``d + 2`` samples (the "Lagging" block of controltheplant 2024,
 ``LSim_Lagging``).  With ``eps = 0``, ``Gamma1 = 0`` and ``Gamma0 = Gamma``,
 the ordinary ZOH input matrix.
 
-Convenience models (seed 002, section 1.3, ``/sim`` blocks; seed 000, (10))
+Convenience models (controltheplant 2024, section 1.3, ``/sim`` blocks; Nowak et al. 2018, (10))
 --------------------------------------------------------------------------
 ==========  ===============================================  ==================
 class       transfer function                                 source
 ==========  ===============================================  ==================
-``PT1``     ``k / (t s + 1)``                                  seed 002 LSim_PT1
+``PT1``     ``k / (t s + 1)``                                  controltheplant 2024 LSim_PT1
 ``PT2``     ``k / ((t1 s + 1)(t2 s + 1))``                     ctrlblocks
 ``PT2Osc``  ``k / (t^2 s^2 + 2 zeta t s + 1)``                 ctrlblocks
-``PTn``     ``k / prod(t_i s + 1)``                            seed 000 (10a)/(10b)
-``IT1``     ``k / (s (t s + 1))``                              seed 002 LSim_IT1
-``FOPDT``   ``k e^(-dead_time s) / (t s + 1)``                 seed 000 (10) right
+``PTn``     ``k / prod(t_i s + 1)``                            Nowak et al. 2018, (10a)/(10b)
+``IT1``     ``k / (s (t s + 1))``                              controltheplant 2024 LSim_IT1
+``FOPDT``   ``k e^(-dead_time s) / (t s + 1)``                 Nowak et al. 2018, (10) right
 ==========  ===============================================  ==================
 
 Every class takes ``dead_time`` [s] (default 0).  Times are in seconds; the
@@ -470,7 +470,7 @@ def _lag_chain(k: float, t: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np
 
 
 class PT1(_Model):
-    """First-order lag ``k e^(-dead_time s) / (t s + 1)`` (seed 002 ``LSim_PT1``).
+    """First-order lag ``k e^(-dead_time s) / (t s + 1)`` (controltheplant 2024, ``LSim_PT1``).
 
     State: the output, ``t dy/dt = k u - y``.
 
@@ -497,7 +497,7 @@ class PT1(_Model):
 
 
 class FOPDT(PT1):
-    """First order plus dead time ``k e^(-dead_time s) / (t s + 1)`` (seed 000, (10)).
+    """First order plus dead time ``k e^(-dead_time s) / (t s + 1)`` (Nowak et al. 2018, (10)).
 
     Same as :class:`PT1` with the dead time as a required third argument.
     """
@@ -512,7 +512,7 @@ class FOPDT(PT1):
 class PTn(_Model):
     """Chain of first-order lags ``k e^(-dead_time s) / prod_i (t_i s + 1)``.
 
-    The form of the pneumatic process models (10a) and (10b) of seed 000:
+    The form of the pneumatic process models (10a) and (10b) of Nowak et al. 2018:
     ``PTn(0.73, (7.3, 2.2, 1.4), ts=0.1)`` is (10b).  States: the outputs of
     the lags in order, the gain at the input (``t_1 dx_1/dt = k u - x_1``,
     ``t_i dx_i/dt = x_(i-1) - x_i``, ``y = x_n``).
@@ -593,7 +593,9 @@ class PT2Osc(_Model):
 
 
 class IT1(_Model):
-    """Integrator with lag ``k e^(-dead_time s) / (s (t s + 1))`` (seed 002 ``LSim_IT1``).
+    """Integrator with lag ``k e^(-dead_time s) / (s (t s + 1))`` (controltheplant 2024).
+
+    ``LSim_IT1`` of controltheplant 2024.
 
     States: the lag output ``x`` (``t dx/dt = k u - x``) and ``y`` (``dy/dt = x``).
     Integrating: ``reset(u0)`` gives the zero state (the output stays at 0 only
