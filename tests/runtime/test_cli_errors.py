@@ -172,3 +172,43 @@ def test_the_readme_sequence_serve_then_history_works_from_another_directory(tmp
     )  # fmt: skip
     assert out.returncode == 0, out.stderr
     assert len((run / "trace.csv").read_text().splitlines()) >= 2
+
+
+def test_vv_never_prints_the_password_asyncua_logs_in_its_identity_token():
+    import io
+    import logging
+
+    from ctrlblocks.runtime.cli import SecretFilter
+
+    out = io.StringIO()
+    handler = logging.StreamHandler(out)
+    handler.addFilter(SecretFilter())
+    lg = logging.getLogger("asyncua.client.ua_client.test")
+    lg.addHandler(handler)
+    lg.setLevel(logging.DEBUG)
+    try:
+        # what asyncua 2.1 logs at DEBUG when it activates a session
+        token = "UserNameIdentityToken(PolicyId='username', UserName='op', Password=b's3cret')"
+        lg.debug("activate_session: %s", token)
+        lg.debug("read_attributes of several nodes")
+    finally:
+        lg.removeHandler(handler)
+    text = out.getvalue()
+    assert "s3cret" not in text and "identity token: not shown" in text
+    assert "read_attributes of several nodes" in text  # other debug lines stay
+
+
+def test_v_does_not_show_the_protocol_libraries_request_lines(monkeypatch):
+    """asyncua logs 'read_attributes of several nodes' and a write line at INFO: two lines
+    per cycle at -v.  They show at -vv only."""
+    import logging
+
+    from ctrlblocks.runtime.cli import configure_logging
+
+    for name in ("asyncua", "pymodbus"):
+        monkeypatch.setattr(logging.getLogger(name), "level", logging.getLogger(name).level)
+    configure_logging(1)
+    assert not logging.getLogger("asyncua.client.ua_session").isEnabledFor(logging.INFO)
+    assert not logging.getLogger("pymodbus.logging").isEnabledFor(logging.INFO)
+    configure_logging(2)
+    assert logging.getLogger("asyncua.client.ua_session").isEnabledFor(logging.DEBUG)

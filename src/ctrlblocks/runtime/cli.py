@@ -24,6 +24,39 @@ def _install_stop(loop: asyncio.AbstractEventLoop, stop: Callable[[], None]) -> 
             signal.signal(sig, lambda *_: loop.call_soon_threadsafe(stop))
 
 
+class SecretFilter(logging.Filter):
+    """Hide log records that carry a user identity token (asyncua logs the password at DEBUG)."""
+
+    MARKERS = ("UserNameIdentityToken", "Password=", "password=")
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        try:
+            msg = record.getMessage()
+        except Exception:  # a malformed record: leave it to logging
+            return True
+        if any(m in msg for m in self.MARKERS):
+            record.msg, record.args = "(a message with a user identity token: not shown)", ()
+        return True
+
+
+def configure_logging(verbose: int) -> None:
+    """Log levels of ``-v`` (info) and ``-vv`` (debug), secrets filtered out.
+
+    The protocol libraries log every request at INFO (asyncua: two lines per
+    cycle); they show at ``-vv`` only.
+    """
+    logging.basicConfig(
+        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(verbose, 2)],
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    for h in logging.getLogger().handlers:
+        if not any(isinstance(f, SecretFilter) for f in h.filters):
+            h.addFilter(SecretFilter())
+    libs = logging.DEBUG if verbose >= 2 else logging.WARNING
+    for name in ("asyncua", "pymodbus"):
+        logging.getLogger(name).setLevel(libs)
+
+
 def run_until_stopped(runtime: Any) -> None:
     """Run ``runtime`` on a new event loop until SIGINT/SIGTERM, then stop it gracefully."""
 
@@ -47,10 +80,7 @@ def serve(config: Path, check: bool, verbose: int) -> None:
     from .config import RuntimeConfigError, load_config, require_packages
     from .runtime import Runtime
 
-    logging.basicConfig(
-        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(verbose, 2)],
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-    )
+    configure_logging(verbose)
     try:
         cfg = load_config(config)
         require_packages(cfg)

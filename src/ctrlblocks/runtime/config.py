@@ -751,7 +751,8 @@ class _Parser(TableReader):
     def retain(self, r: dict[str, Any], hist: HistorianConfig) -> RetainConfig:
         """The ``[retain]`` table; the default file sits beside the SQLite historian."""
         self.check_keys(r, {"enabled", "path", "interval"}, "retain")
-        enabled = r.get("enabled", True)
+        # default: on beside a historian; without one, on only where a path is given
+        enabled = r.get("enabled", hist.backend != "none" or "path" in r)
         if not isinstance(enabled, bool):
             raise self.fail("retain.enabled", f"must be true or false, got {enabled!r}")
         default_dir = Path(hist.path).parent if hist.backend == "sqlite" else self.base

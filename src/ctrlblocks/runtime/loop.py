@@ -126,6 +126,7 @@ class ControlLoop:
         self._fault_since: float | None = None
         self._last_good_mv: float | None = None
         self._t = 0.0
+        self._restart_mv: float | None = None  # set by restore_retained
         self._limits_in = (math.nan, math.nan)
         # signal -> binding of the inputs read each cycle
         self._inputs = {n: b for n, b in config.bindings().items() if b.is_io and n != "mv"}
@@ -236,7 +237,10 @@ class ControlLoop:
                         reasons.append(r.reason if sig == "pv" else f"{sig}: {r.reason}")
             pv = inputs["pv"] if "pv" in inputs else inputs["pv2"]
             self.pv, self.pv_ok, self.pv_reason = pv.value, ok, "; ".join(reasons)
-            u = self._step(t, ok, meas, dt)
+            if self._restart_mv is not None:
+                u = self._bumpless_restart(t, ok, meas, dt)
+            else:
+                u = self._step(t, ok, meas, dt)
             u = self._guard(u)
             self.mv = u
             return u
@@ -330,12 +334,108 @@ class ControlLoop:
         c = self.config
         return c.stop_value if c.stop_value is not None else c.safe_value
 
+    # -- retentive state (ctrlblocks.runtime.retain) ----------------------------------
+
+    def retained(self) -> dict[str, Any]:
+        """What survives a restart (module docstring of :mod:`~ctrlblocks.runtime.retain`)."""
+        blk = self.block
+        return {
+            "sp": None if self.is_bound("sp") else self.sp,
+            "mode": None if self.is_bound("mode") else self.mode,
+            "manual_value": None if self.is_bound("manual_value") else float(blk.manual_value),
+            "limits": None if self.is_bound("u_min") else [float(blk.u_min), float(blk.u_max)],
+            "tunings": self.state_tunings(),
+            "file_tunings": dict(self.config.block_params),
+            "mv": self.mv,
+            "snapshots": {role: b.snapshot() for role, b in self.side.blocks.items()},
+        }
+
+    def state_tunings(self) -> dict[str, Any]:
+        """The MV block's tunings (its configuration without the loop-level keys)."""
+        cfg = self.block.config
+        return {
+            f.name: getattr(cfg, f.name)
+            for f in dataclasses.fields(cfg)
+            if f.name not in _LOOP_LEVEL
+        }
+
+    def restore_retained(self, st: Mapping[str, Any]) -> None:
+        """Restore a :meth:`retained` state; the next cycle starts from :meth:`restart_from`.
+
+        Tunings: a retained value is used unless the configuration file's value
+        of that key changed since it was retained (then the file wins, logged).
+        """
+        from .retain import finite_or_none
+
+        tunings = dict(st.get("tunings") or {})
+        before = st.get("file_tunings") or {}
+        now = self.config.block_params
+        for k in list(tunings):
+            if k in now and before.get(k) != now[k]:
+                log.info(
+                    "loop %s: %s = %r from the configuration file replaces the retained %r "
+                    "(the file changed)",
+                    self.name,
+                    k,
+                    now[k],
+                    tunings[k],
+                )
+                del tunings[k]
+        current = self.state_tunings()
+        changed = {
+            k: v
+            for k, v in tunings.items()
+            if k in current and v != current[k] and not isinstance(current[k], (dict, list))
+        }
+        snaps = st.get("snapshots") or {}
+        try:
+            for role, snap in snaps.items():
+                if role in self.side.blocks:
+                    self.side.blocks[role].restore(snap)
+        except Exception as exc:  # a snapshot of another block version: start its state fresh
+            log.warning("loop %s: retained block state not restored (%s)", self.name, exc)
+            for b in self.side.blocks.values():
+                b.reset()
+        if changed:
+            try:
+                self.block.configure(**changed)
+            except (ParameterError, TypeError) as exc:
+                log.warning("loop %s: retained tunings %s refused (%s)", self.name, changed, exc)
+        limits = st.get("limits")
+        if limits and all(finite_or_none(x) is not None for x in limits):
+            self.side.set_limits(float(limits[0]), float(limits[1]))
+        if (sp := finite_or_none(st.get("sp"))) is not None and not self.is_bound("sp"):
+            self.sp = sp
+        mv = finite_or_none(st.get("manual_value"))
+        if mv is not None and not self.is_bound("manual_value"):
+            self._set_manual_value(mv)
+        if st.get("mode") in MODES and not self.is_bound("mode"):
+            self._set_mode(st["mode"], preset=False)
+        self._restart_mv = finite_or_none(st.get("mv"))
+        log.info("loop %s: retained state restored", self.name)
+
+    def restart_from(self, reading: Reading | None) -> None:
+        """The MV read back from the device before the first cycle (bad or None: the retained)."""
+        if reading is not None and reading.ok:
+            self._restart_mv = reading.value
+
+    def _bumpless_restart(self, t: float, ok: bool, meas: Mapping[str, float], dt: float | None):
+        """The first cycle after a restart: output the read-back MV, the blocks track it."""
+        u0 = self._restart_mv
+        self._restart_mv = None
+        manual, mval = self.side.manual, float(self.block.manual_value)
+        self.side.set_manual(True, u0)
+        u = self._step(t, ok, meas, dt)
+        self.side.set_manual(manual, mval if manual else None)
+        if not manual:
+            self._set_manual_value(mval)
+        return u
+
     # -- state and commands ---------------------------------------------------------
 
     def state(self) -> dict[str, Any]:
         """Everything a faceplate shows, as plain values."""
         blk = self.block
-        cfg = blk.config
         m = self.monitor
         return {
             "name": self.name,
@@ -365,11 +465,7 @@ class ControlLoop:
             "u_max": float(blk.u_max),
             "safe_value": self.config.safe_value,
             "on_bad_pv": self.config.on_bad_pv,
-            "tunings": {
-                f.name: getattr(cfg, f.name)
-                for f in dataclasses.fields(cfg)
-                if f.name not in _LOOP_LEVEL
-            },
+            "tunings": self.state_tunings(),
             "bound": {s: str(b) for s, b in self.config.bindings().items() if b.is_io},
             "overrun": self.overrun,
             "dt": self.dt,

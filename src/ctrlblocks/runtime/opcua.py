@@ -96,6 +96,8 @@ class OpcUaAdapter(Adapter):
         from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
 
         c = self.config
+        mismatch: list[str] = []  # set by the certificate check: the real reason of a failure
+        expected = ""
         client = asyncua.Client(
             c.url, timeout=c.connect_timeout, watchdog_intervall=max(c.connect_timeout, 1.0)
         )
@@ -108,13 +110,18 @@ class OpcUaAdapter(Adapter):
                 server_certificate=c.server_certificate,
                 mode=ua.MessageSecurityMode.SignAndEncrypt,
             )
-            expected = fingerprint(Path(c.server_certificate).read_bytes())  # type: ignore[arg-type]
+            expected = fingerprint(_load_der(Path(c.server_certificate)))  # type: ignore[arg-type]
 
             async def check_server(cert: Any, app: Any) -> None:
                 from asyncua.common.utils import ServiceError
                 from cryptography.hazmat.primitives.serialization import Encoding
 
-                if fingerprint(cert.public_bytes(Encoding.DER)) != expected:
+                got = fingerprint(cert.public_bytes(Encoding.DER))
+                if got != expected:
+                    mismatch.append(
+                        f"the server's certificate (SHA-256 {got[:16]}...) is not the pinned "
+                        f"server_certificate {c.server_certificate} ({expected[:16]}...)"
+                    )
                     raise ServiceError(ua.StatusCodes.BadCertificateUntrusted)
 
             client.certificate_validator = check_server
@@ -126,6 +133,10 @@ class OpcUaAdapter(Adapter):
         except BaseException as exc:  # also a cancelled (timed-out) connect: no half-open client
             with contextlib.suppress(Exception):
                 await client.disconnect()
+            if not mismatch and c.security != "none" and isinstance(exc, Exception):
+                mismatch += await _pinned_mismatch(c, expected)
+            if mismatch:
+                raise IOFault(f"OPC UA connect {c.url}: {mismatch[0]}") from exc
             if not isinstance(exc, Exception):
                 raise
             raise IOFault(f"OPC UA connect {c.url}: {describe(exc)}") from exc
@@ -241,6 +252,31 @@ class OpcUaAdapter(Adapter):
             else (None if (code := next(it)).is_good() else f"status {code.name}")
             for r in res_pre
         ]
+
+
+async def _pinned_mismatch(c: ConnectionConfig, expected: str) -> list[str]:
+    """Why a secured connect failed, if the server presents another certificate than the pinned.
+
+    A client that encrypts for the wrong certificate gets no answer (a bare
+    timeout); the server's endpoints (GetEndpoints needs no security) show
+    which certificate it really has.
+    """
+    import asyncio
+
+    asyncua = _asyncua()
+    try:
+        probe = asyncua.Client(c.url, timeout=min(c.connect_timeout, 5.0))
+        endpoints = await asyncio.wait_for(probe.connect_and_get_server_endpoints(), 5.0)
+    except Exception:  # the server is not reachable at all: the original error stands
+        return []
+    certs = {fingerprint(bytes(e.ServerCertificate)) for e in endpoints if e.ServerCertificate}
+    if not certs or expected in certs:
+        return []
+    got = sorted(certs)[0]
+    return [
+        f"the server's certificate (SHA-256 {got[:16]}...) is not the pinned "
+        f"server_certificate {c.server_certificate} ({expected[:16]}...)"
+    ]
 
 
 def _chunks(items: list[Any], size: int) -> list[list[Any]]:

@@ -54,6 +54,7 @@ from .config import RuntimeConfig, require_packages
 from .historian import Historian, open_historian
 from .io import Adapter, Connection, make_adapter
 from .loop import CommandError, ControlLoop, Sample
+from .retain import RetainStore
 from .scan import Heartbeat, Scan
 
 __all__ = ["Runtime"]
@@ -79,6 +80,9 @@ class Runtime:
         :class:`~ctrlblocks.runtime.historian.Historian`; or None (no history).
     on_sample : callable, optional
         Called with every :class:`~ctrlblocks.runtime.loop.Sample` (live views).
+    retain : RetainStore, "config" or None
+        The retentive state file: ``"config"`` (default) from ``[retain]``,
+        a :class:`~ctrlblocks.runtime.retain.RetainStore`, or None (cold starts).
     """
 
     def __init__(
@@ -89,6 +93,7 @@ class Runtime:
         adapters: Mapping[str, Adapter] | None = None,
         historian: Historian | str | None = "config",
         on_sample: Callable[[Sample], None] | None = None,
+        retain: RetainStore | str | None = "config",
     ) -> None:
         self.config = config
         self.clock: Clock = clock or MonotonicClock()
@@ -103,6 +108,10 @@ class Runtime:
             lc.name: ControlLoop(lc, sides[lc.name], self.connections) for lc in config.loops
         }
         self._historian_arg = historian
+        if retain == "config":
+            rc = config.retain
+            retain = RetainStore(rc.path) if rc.enabled else None
+        self.retain: RetainStore | None = retain  # type: ignore[assignment]
         self.historian: Historian | None = None
         self.on_sample = on_sample
         self._stop = asyncio.Event()
@@ -139,12 +148,16 @@ class Runtime:
         else:
             self.historian = self._historian_arg  # type: ignore[assignment]
         await asyncio.gather(*(c.start() for c in self.connections.values()))
+        if self.retain is not None:
+            await self._restore_retained()
         self._tasks = [
             asyncio.create_task(self._cycles(ts, scan), name=f"ctrlblocks-ts-{ts:g}")
             for ts, scan in self._scans().items()
         ]
         if self.historian is not None:
             self._tasks.append(asyncio.create_task(self._flusher(), name="ctrlblocks-historian"))
+        if self.retain is not None:
+            self._tasks.append(asyncio.create_task(self._retainer(), name="ctrlblocks-retain"))
         self.running = True
         if self.gc_freeze and self._gc_thresholds is None:
             self._gc_thresholds = freeze_garbage_collector()
@@ -200,7 +213,46 @@ class Runtime:
         finally:
             await self.stop()
 
+    # -- retentive state ---------------------------------------------------------------
+
+    async def _restore_retained(self) -> None:
+        """Restore the retained loops and read their MVs back (one batched read per connection)."""
+        assert self.retain is not None
+        states = await asyncio.to_thread(self.retain.load)
+        restored = [lp for n, lp in self.loops.items() if n in states]
+        for lp in restored:
+            lp.restore_retained(states[lp.name])
+        by_conn: dict[str, list[ControlLoop]] = {}
+        for lp in restored:
+            by_conn.setdefault(lp.config.mv.connection or "", []).append(lp)
+        for name, lps in by_conn.items():
+            conn = self.connections.get(name)
+            if conn is None:
+                continue
+            readings = await conn.read([lp.config.mv.address for lp in lps])
+            for lp, r in zip(lps, readings, strict=True):
+                lp.restart_from(r)
+        if restored:
+            log.info("runtime %s: %d loop(s) restored from %s", self.config.name,
+                     len(restored), self.retain.path)  # fmt: skip
+
+    async def save_retained(self) -> None:
+        """Write every loop's retentive state now (also done every interval and on stop)."""
+        if self.retain is None:
+            return
+        states = {n: lp.retained() for n, lp in self.loops.items()}
+        try:
+            await asyncio.to_thread(self.retain.save, states)
+        except Exception:  # the loops go on; the next save retries
+            log.exception("retain file %s: save failed", self.retain.path)
+
+    async def _retainer(self) -> None:
+        interval = self.config.retain.interval
+        while await self._wait_until(self.clock.now() + interval):
+            await self.save_retained()
+
     async def _shutdown(self) -> None:
+        await self.save_retained()  # the operating state, before the stop values go out
         by_conn: dict[str, list[ControlLoop]] = {}
         for lp in self.loops.values():
             by_conn.setdefault(lp.config.mv.connection or "", []).append(lp)
