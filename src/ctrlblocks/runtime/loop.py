@@ -189,18 +189,11 @@ class ControlLoop:
     # every due loop in one batched request per connection, calls
     # :meth:`compute` of each, writes every MV in one batched request per
     # connection, reports each write with :meth:`written` and records
-    # :meth:`sample`.  :meth:`cycle` is the same for this loop alone.
+    # :meth:`sample` (``Scan([loop], connections).run(t, period)`` for one loop alone).
 
     def inputs(self) -> Mapping[str, Binding]:
         """The I/O inputs read each cycle: signal -> binding (PV, and SP, mode, ... if bound)."""
         return self._inputs
-
-    async def cycle(self, t: float, period: float) -> Sample:
-        """Run one cycle of this loop alone at time ``t`` [s] after a measured ``period`` [s]."""
-        from .scan import Scan
-
-        (s,) = await Scan([self], self.connections).run(t, period)
-        return s
 
     def compute(self, t: float, period: float, inputs: Mapping[str, Reading]) -> float | None:
         """Steps 1, 3 and 4 of the module docstring on this cycle's ``inputs``: the MV to write.
