@@ -17,6 +17,7 @@ from .base import Plant
 from .deadtime import DeadTime
 from .linear import FOPDT, IT1, PT1, PT2, LinearPlant, PT2Osc, PTn, split_dead_time
 from .threetank import ThreeTank
+from .valve import MotorValve
 from .wrappers import Actuator, Noise, Sensor, process
 
 __all__ = [
@@ -27,6 +28,7 @@ __all__ = [
     "Actuator",
     "DeadTime",
     "LinearPlant",
+    "MotorValve",
     "Noise",
     "PT2Osc",
     "PTn",

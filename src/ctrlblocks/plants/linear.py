@@ -54,7 +54,6 @@ from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
-from scipy import signal
 
 from ..blocks.base import (
     ErrorCode,
@@ -125,6 +124,22 @@ def lti_output(x: list[float], c: tuple[float, ...]) -> float:
     for j in range(len(x)):
         s += c[j] * x[j]
     return s
+
+
+def _zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact ZOH ``(Phi, Gamma)`` of ``(A, B)`` over ``h`` seconds (Åström and Wittenmark, 2.3).
+
+    The exponential of the augmented matrix ``[[A, B], [0, 0]] h`` -- the
+    computation of ``scipy.signal.cont2discrete(..., method="zoh")``, done
+    here with ``scipy.linalg.expm`` so that the plants do not import
+    ``scipy.signal`` (over a second of start-up).
+    """
+    from scipy.linalg import expm
+
+    nx, nu = a.shape[0], b.shape[1]
+    em = np.vstack((np.hstack((a, b)), np.zeros((nu, nx + nu))))
+    ms = expm(h * em)[:nx, :]
+    return ms[:, :nx], ms[:, nx:]
 
 
 def _as_matrix(name: str, m: Any, shape: tuple[int, int]) -> np.ndarray:
@@ -231,6 +246,8 @@ class LinearPlant(Plant):
                     "num",
                     "the plant must be strictly proper (deg num < deg den)",
                 )
+            from scipy import signal  # only here: importing scipy.signal costs ~1-2.5 s
+
             a, b, c, _ = signal.tf2ss(n, d)
             return np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)
         if A is None or B is None or C is None:
@@ -249,13 +266,12 @@ class LinearPlant(Plant):
     def _discretise(self) -> None:
         a, b, c = self.a_c, self.b_c, self.c_c
         nx = a.shape[0]
-        zero_d = np.zeros((1, 1))
         d, eps = split_dead_time(self.dead_time, self.ts)
         self.dead_samples, self.dead_fraction = d, eps
-        phi, gam = signal.cont2discrete((a, b, c, zero_d), self.ts, method="zoh")[:2]
+        phi, gam = _zoh(a, b, self.ts)
         if eps > 0.0:
-            phi_r, gam_r = signal.cont2discrete((a, b, c, zero_d), self.ts - eps, method="zoh")[:2]
-            gam_e = signal.cont2discrete((a, b, c, zero_d), eps, method="zoh")[1]
+            phi_r, gam_r = _zoh(a, b, self.ts - eps)
+            gam_e = _zoh(a, b, eps)[1]
             g0 = gam_r
             g1 = phi_r @ gam_e
         else:

@@ -59,6 +59,7 @@ __all__ = [
     "RetainConfig",
     "RuntimeConfig",
     "RuntimeConfigError",
+    "WebConfig",
     "load_config",
     "parse_config",
     "require_packages",
@@ -174,6 +175,11 @@ class LoopConfig:
     # -- fault action (see _Parser.fault_action) --
     on_fault: str = "safe_value"
     hold_time: float = 0.0
+    # engineering bounds and units (the faceplate's keys, see the section at the end)
+    sp_range: tuple[float, float] | None = None
+    mv_range: tuple[float, float] | None = None
+    tuning_ranges: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    units: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def bindings(self) -> dict[str, Binding]:
         """The signal bindings by name (only those that are set)."""
@@ -201,6 +207,14 @@ class HistorianConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class WebConfig:
+    """The ``[web]`` table: what the faceplate shows to whom (see the section at the end)."""
+
+    public_view: bool = False
+    confirm_step: float = 0.1
+
+
+@dataclasses.dataclass(frozen=True)
 class RetainConfig:
     """The ``[retain]`` table: the retentive state file (a PLC's RETAIN memory)."""
 
@@ -218,7 +232,8 @@ class RuntimeConfig:
     loops: tuple[LoopConfig, ...]
     historian: HistorianConfig
     file: str
-    retain: RetainConfig = dataclasses.field(default_factory=lambda: RetainConfig())
+    web: WebConfig = WebConfig()
+    retain: RetainConfig = RetainConfig()
 
     def build_blocks(self) -> dict[str, Any]:
         """A fresh block for every loop (name -> the block that writes its MV)."""
@@ -327,7 +342,9 @@ class _Parser(TableReader):
     # -- sections -------------------------------------------------------------
 
     def config(self, doc: dict[str, Any]) -> RuntimeConfig:
-        self.check_keys(doc, {"runtime", "connections", "loops", "historian", *_SCALE_TABLES}, "")
+        self.check_keys(
+            doc, {"runtime", "connections", "loops", "historian", "web", *_SCALE_TABLES}, ""
+        )
         head = self.table(doc, "runtime", "runtime", required=False)
         self.check_keys(head, {"name"}, "runtime")
         name = self.string(head, "name", "runtime.name", default="ctrlblocks")
@@ -353,10 +370,11 @@ class _Parser(TableReader):
                     raise self.fail(f"{lc.key}.mv", f"{k} is already written by loop {seen[k]!r}")
                 seen[k] = lc.name
         hist = self.historian(self.table(doc, "historian", "historian", required=False))
+        web = _web(self, self.table(doc, "web", "web", required=False))
         retain = self.retain(self.table(doc, "retain", "retain", required=False), hist)
-        cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file, retain)
+        cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file, web, retain)
         for lc in loops:  # build once: a refused parameter is reported here
-            build_side(lc, self.file)
+            _check_tuning_ranges(self, lc, build_side(lc, self.file))
         return cfg
 
     def connection(self, name: str, c: Any) -> ConnectionConfig:
@@ -486,6 +504,7 @@ class _Parser(TableReader):
             "write_retries",
             "u0",
             *_FAULT_LOOP_KEYS,
+            *ENGINEERING_KEYS,
             *STRUCTURES[structure],
         }
         self.check_keys(raw, allowed, key)
@@ -622,6 +641,7 @@ class _Parser(TableReader):
             dv=meas.get("dv"),
             u0=u0,
             **self.fault_action(raw, key),
+            **_engineering(self, raw, key, sp, opt["manual_value"]),
         )
 
     def mv_tables(
@@ -785,3 +805,87 @@ def _check_modbus_address(address: str, key: str, parser: _Parser) -> None:
         ) from None
     if reg > 65534:
         raise parser.fail(key, "Modbus register must be <= 65534 (a FLOAT32 takes two)")
+
+
+# ---------------------------------------------------------------------------
+# Engineering bounds, units and [web]: the keys the faceplate reads
+#
+#     [[loops]]
+#     unit = { pv = "bar", mv = "bar" }          # sp: the PV's unit unless given; or unit = "bar"
+#     sp_range = [0.0, 5.0]                      # setpoints an operator may give
+#     mv_range = [0.0, 5.0]                      # output limits and manual value stay inside
+#     tuning_ranges = { b0 = [0.01, 1.0] }       # per tuning; others: derived from the block
+#
+#     [web]
+#     public_view = false                        # true: live state without a login
+#     confirm_step = 0.1                         # the page asks before a bigger step [range]
+# ---------------------------------------------------------------------------
+
+ENGINEERING_KEYS = ("unit", "sp_range", "mv_range", "tuning_ranges")
+"""Loop keys of the engineering bounds and units (``docs/faceplate.md``)."""
+
+UNIT_SIGNALS = ("pv", "sp", "mv")
+"""Signals that carry a ``unit``."""
+
+
+def _range(p: _Parser, raw: Any, key: str) -> tuple[float, float]:
+    """``[lo, hi]``: two finite numbers, lo < hi."""
+    ok = isinstance(raw, list) and len(raw) == 2
+    ok = ok and all(not isinstance(v, bool) and isinstance(v, (int, float)) for v in raw)
+    if not ok or not all(math.isfinite(float(v)) for v in raw):
+        raise p.fail(key, f"must be [low, high], two finite numbers, got {raw!r}")
+    lo, hi = float(raw[0]), float(raw[1])
+    if not lo < hi:
+        raise p.fail(key, f"low {lo!r} must be below high {hi!r}")
+    return lo, hi
+
+
+def _engineering(
+    p: _Parser, raw: Mapping[str, Any], key: str, sp: Binding, manual: Binding | None
+) -> dict[str, Any]:
+    """The loop's ``unit``, ``sp_range``, ``mv_range`` and ``tuning_ranges`` (LoopConfig fields)."""
+    out: dict[str, Any] = {}
+    for name in ("sp_range", "mv_range"):
+        out[name] = _range(p, raw[name], f"{key}.{name}") if name in raw else None
+    for name, b, r in (("sp", sp, out["sp_range"]), ("manual_value", manual, out["mv_range"])):
+        if b is not None and not b.is_io and r is not None and not r[0] <= b.value <= r[1]:
+            raise p.fail(f"{key}.{name}", f"{b.value!r} is outside [{r[0]!r}, {r[1]!r}]")
+    t = p.table(raw, "tuning_ranges", f"{key}.tuning_ranges", required=False)
+    out["tuning_ranges"] = {n: _range(p, v, f"{key}.tuning_ranges.{n}") for n, v in t.items()}
+    u = raw.get("unit", {})
+    if isinstance(u, str):
+        u = {"pv": u}
+    u = p.as_table(u, f"{key}.unit")
+    p.check_keys(u, set(UNIT_SIGNALS), f"{key}.unit")
+    units = {s: p.string(u, s, f"{key}.unit.{s}", default="") for s in UNIT_SIGNALS}
+    for s, text in units.items():
+        if len(text) > 16 or any(c in text for c in "<>&\"\n"):
+            raise p.fail(f"{key}.unit.{s}", f"a unit of at most 16 plain characters, got {text!r}")
+    units["sp"] = units["sp"] or units["pv"]
+    out["units"] = units
+    return out
+
+
+def _check_tuning_ranges(p: _Parser, lc: LoopConfig, side: ControllerSide) -> None:
+    """Refuse a ``tuning_ranges`` entry that is not a numeric tuning or excludes the value."""
+    cfg = side.main.config
+    for n, (lo, hi) in lc.tuning_ranges.items():
+        k = f"{lc.key}.tuning_ranges.{n}"
+        if not hasattr(cfg, n) or n in ("ts", "u_min", "u_max"):
+            raise p.fail(k, f"{n!r} is not a tuning of the {lc.block_type} block")
+        v = getattr(cfg, n)
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise p.fail(k, f"{n!r} is not a number (got {v!r}): it has no range")
+        if not lo <= v <= hi:
+            raise p.fail(k, f"the configured {n} = {v!r} is outside [{lo!r}, {hi!r}]")
+
+
+def _web(p: _Parser, w: dict[str, Any]) -> WebConfig:
+    p.check_keys(w, {"public_view", "confirm_step"}, "web")
+    public = w.get("public_view", False)
+    if not isinstance(public, bool):
+        raise p.fail("web.public_view", f"must be true or false, got {public!r}")
+    step = p.number(w, "confirm_step", "web.confirm_step", 0.1, positive=True)
+    if step > 1.0:
+        raise p.fail("web.confirm_step", f"a fraction of the range in (0, 1], got {step!r}")
+    return WebConfig(public, step)
