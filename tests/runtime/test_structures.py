@@ -445,6 +445,7 @@ def test_cascade_over_opcua_equals_the_simulator_exactly(tmp_path, opcua_plant):
     text = f"""[connections.plant]
 protocol = "opcua"
 url = "{server.opcua_url}"
+timeout = 5.0
 {loop}warn_limit = {50 * sc.ts}
 alarm_limit = {100 * sc.ts}
 [historian]
@@ -455,6 +456,7 @@ flush_interval = 0.2
     async def main():
         rt = Runtime(parse_config(text))
         await rt.start()
+        assert rt.connections["plant"].connected  # else the lock-step trace would shift
         await wait_for(lambda: server.process.k >= n, timeout=30.0)
         await rt.stop()
 
@@ -498,6 +500,7 @@ def test_structures_over_modbus_equal_the_simulator_within_float32(tmp_path, tex
 protocol = "modbus"
 host = "127.0.0.1"
 port = {server.modbus_port}
+timeout = 5.0
 {loop}warn_limit = {50 * sc.ts}
 alarm_limit = {100 * sc.ts}
 [historian]

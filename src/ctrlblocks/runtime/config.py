@@ -859,7 +859,7 @@ def _engineering(
     p.check_keys(u, set(UNIT_SIGNALS), f"{key}.unit")
     units = {s: p.string(u, s, f"{key}.unit.{s}", default="") for s in UNIT_SIGNALS}
     for s, text in units.items():
-        if len(text) > 16 or any(c in text for c in "<>&\"\n"):
+        if len(text) > 16 or any(c in text for c in '<>&"\n'):
             raise p.fail(f"{key}.unit.{s}", f"a unit of at most 16 plain characters, got {text!r}")
     units["sp"] = units["sp"] or units["pv"]
     out["units"] = units
