@@ -209,18 +209,19 @@ CHROMIUM_ARGS = [
 
 
 @contextlib.contextmanager
-def running_server(runtime: Any, users: Any) -> Iterator[str]:
+def running_server(runtime: Any, users: Any, **server_kw: Any) -> Iterator[str]:
     """Serve the faceplate of ``runtime`` on 127.0.0.1 (a free port) in a thread; yield its URL.
 
     The socket is bound and listening before the thread starts, so a client
     can connect at once (it waits in the backlog until uvicorn accepts).
-    Stops the server (and with it the runtime) on exit.
+    Stops the server (and with it the runtime) on exit.  ``server_kw`` goes
+    to :func:`~ctrlblocks.web.make_server` (``certfile``/``keyfile``: HTTPS).
     """
     from ctrlblocks.web.server import bind_socket, make_server
 
     sock = bind_socket("127.0.0.1", 0)
     port = sock.getsockname()[1]
-    server = make_server(runtime, host="127.0.0.1", port=port, users=users)
+    server = make_server(runtime, host="127.0.0.1", port=port, users=users, **server_kw)
     errors: list[BaseException] = []
 
     def run() -> None:
@@ -232,7 +233,8 @@ def running_server(runtime: Any, users: Any) -> Iterator[str]:
     thread = threading.Thread(target=run, name="faceplate-server", daemon=True)
     thread.start()
     try:
-        yield f"http://127.0.0.1:{port}/"
+        scheme = "https" if server_kw.get("certfile") else "http"
+        yield f"{scheme}://127.0.0.1:{port}/"
     finally:
         server.should_exit = True
         thread.join(timeout=20)

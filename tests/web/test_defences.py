@@ -432,3 +432,104 @@ def test_an_exception_of_the_block_is_a_422_with_an_audit_row_never_a_500(
     assert row["who"] == "alice" and row["ok"] == 0 and type(exc).__name__ in row["message"]
     after = client.get("/api/loops/level").json()
     assert (after["tunings"], after["u_max"]) == (before["tunings"], before["u_max"])
+
+
+# -- TLS ----------------------------------------------------------------------------------------
+
+
+def self_signed(tmp_path: Path) -> tuple[Path, Path]:
+    """A throwaway certificate for 127.0.0.1 and its key (PEM files)."""
+    import datetime
+    import ipaddress
+
+    x509 = pytest.importorskip("cryptography.x509")
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    key = ec.generate_private_key(ec.SECP256R1())
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "127.0.0.1")])
+    now = datetime.datetime.now(datetime.timezone.utc)
+    cert = (
+        x509.CertificateBuilder()
+        .subject_name(name)
+        .issuer_name(name)
+        .public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - datetime.timedelta(minutes=5))
+        .not_valid_after(now + datetime.timedelta(hours=1))
+        .add_extension(
+            x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+            critical=False,
+        )
+        .sign(key, hashes.SHA256())
+    )
+    certfile, keyfile = tmp_path / "cert.pem", tmp_path / "key.pem"
+    certfile.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    keyfile.write_bytes(
+        key.private_bytes(
+            serialization.Encoding.PEM,
+            serialization.PrivateFormat.PKCS8,
+            serialization.NoEncryption(),
+        )
+    )
+    return certfile, keyfile
+
+
+def test_over_tls_the_session_cookie_is_secure(tmp_path: Path, users):
+    import ssl
+
+    import httpx
+
+    certfile, keyfile = self_signed(tmp_path)
+    rt = make_runtime(tmp_path)
+    with running_server(rt, users, certfile=str(certfile), keyfile=str(keyfile)) as url:
+        assert url.startswith("https://127.0.0.1:")
+        ctx = ssl.create_default_context(cafile=str(certfile))
+        with httpx.Client(base_url=url, verify=ctx, timeout=20) as c:
+            r = c.post("/api/login", json={"user": "bob", "password": USERS["bob"][1]})
+            assert r.status_code == 200
+            cookie = r.headers["set-cookie"].lower()
+            assert "secure" in cookie and "httponly" in cookie and "samesite=strict" in cookie
+            assert c.get("/api/info").json()["user"] == "bob"  # the cookie goes back over TLS
+        with pytest.raises(httpx.HTTPError):  # the server speaks TLS only
+            httpx.get(url.replace("https://", "http://") + "api/info", timeout=20)
+
+
+def test_over_plain_http_the_cookie_is_not_marked_secure(client):
+    r = login(client, "bob")
+    assert r.status_code == 200 and "secure" not in r.headers["set-cookie"].lower()
+
+
+def test_a_non_loopback_address_without_tls_warns(tmp_path: Path, users, caplog):
+    from ctrlblocks.web import make_server
+
+    rt = make_runtime(tmp_path)
+    with caplog.at_level("WARNING", logger="ctrlblocks.web.server"):
+        make_server(rt, host="0.0.0.0", users=users)  # made, not started: nothing is bound
+    assert "without TLS" in caplog.text and "0.0.0.0" in caplog.text
+    caplog.clear()
+    certfile, keyfile = self_signed(tmp_path)
+    with caplog.at_level("WARNING", logger="ctrlblocks.web.server"):
+        make_server(rt, host="0.0.0.0", users=users, certfile=str(certfile), keyfile=str(keyfile))
+        make_server(rt, host="127.0.0.1", users=users)
+    assert "without TLS" not in caplog.text
+    with pytest.raises(ValueError, match="both"):
+        make_server(rt, users=users, certfile=str(certfile))
+
+
+def test_a_removed_users_live_view_closes_within_a_push(private, clock):
+    from starlette.websockets import WebSocketDisconnect
+
+    assert login(private, "vera").status_code == 200
+    users_file = str(private.app.state.users.path)
+    with private.websocket_connect("/ws") as ws:
+        assert ws.receive_json()["type"] == "hello"
+        assert ws.receive_json()["type"] == "update"
+        r = CliRunner().invoke(main, ["operator", "remove", "vera", "--users", users_file])
+        assert r.exit_code == 0, r.output
+        clock.t += 1.0  # the users file is looked at again (once a second)
+        with pytest.raises(WebSocketDisconnect) as closed:
+            for _ in range(50):  # 5 s of pushes at most
+                ws.receive_json()
+        assert closed.value.code == 1008

@@ -28,7 +28,7 @@ from .config import (
 from .historian import Historian, PostgresHistorian, SQLiteHistorian, export_history
 from .io import Adapter, Connection, IOFault, MemoryAdapter, MemoryBus, Reading
 from .loop import CommandError, ControlLoop, Sample
-from .plant_server import PairServer, PlantProcess, PlantServer
+from .plant_server import PairServer, PlantServer
 from .runtime import Runtime
 
 __all__ = [
@@ -48,7 +48,6 @@ __all__ = [
     "MemoryBus",
     "MonotonicClock",
     "PairServer",
-    "PlantProcess",
     "PlantServer",
     "PostgresHistorian",
     "Reading",

@@ -147,7 +147,8 @@ def plant_server(
     docs/runtime.md.
     """
     from ..sim import ScenarioError, load_scenario
-    from .plant_server import PlantProcess, PlantServer
+    from ..sim.plant_process import PlantProcess
+    from .plant_server import PlantServer
 
     logging.basicConfig(level=logging.WARNING)
     _require_server_packages(opcua_port, modbus_port)

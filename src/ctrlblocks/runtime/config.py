@@ -22,7 +22,7 @@ name for the in-memory adapter).  ``docs/runtime.md`` lists every key.
 
 Every error names the file, the key path (``loops[1].block.kp``) and the
 problem, as :class:`RuntimeConfigError`; the blocks are built while loading
-(with the simulator's :func:`~ctrlblocks.sim.scenario.build`, so a block
+(with :func:`ctrlblocks.loops.build`, the simulator's factory, so a block
 table here is the same as a ``[[controllers]]`` block of a scenario), and a
 parameter a block refuses is reported with its key path.
 """
@@ -37,18 +37,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..sim.controller import ControllerSide
-from ..sim.scenario import (
-    NAME_RE,
-    BlockSpec,
-    ControllerSpec,
-    KeyPathError,
-    ScenarioError,
-    TableReader,
-    parse_controller,
-    read_toml,
-    type_name,
-)
+from ..loops.spec import BlockSpec, ControllerSpec
+from ..loops.structures import STRUCTURES as _STRUCTURES
+from ..loops.structures import ControllerSide, parse_controller
+from ..loops.toml import NAME_RE, KeyPathError, TableReader, read_toml, type_name
 
 __all__ = [
     "PROTOCOLS",
@@ -75,16 +67,22 @@ SECURITY_MODES = ("none", "Basic256Sha256_SignAndEncrypt")
 """OPC UA security settings of a connection."""
 
 STRUCTURES: dict[str, tuple[str, ...]] = {
-    "single": ("block",),
-    "cascade": ("primary", "secondary", "aw_handshake"),
-    "override": ("selector", "blocks"),
-    "feedforward": ("main", "feedforward"),
-    "smith": ("main", "model"),
+    # a single loop's block is its "block" table; the others' keys are a scenario's
+    name: ("block",) if name == "single" else (*s.roles, *s.options)
+    for name, s in _STRUCTURES.items()
+    if s.runtime
 }
-"""Loop structures the runtime runs and the loop keys holding their blocks (as in a scenario)."""
+"""Loop structures the runtime runs and the loop keys holding their blocks (as in a scenario);
+derived from :data:`ctrlblocks.loops.STRUCTURES`."""
 
 MEASUREMENTS = {"pv": "y", "pv2": "y2", "dv": "dv"}
-"""Loop measurement bindings -> the simulator's names (:class:`~ctrlblocks.sim.ControllerSide`)."""
+"""Loop measurement bindings -> the names of :class:`~ctrlblocks.loops.ControllerSide`."""
+
+READS: dict[str, tuple[str, ...]] = {
+    name: tuple(sig for sig, m in MEASUREMENTS.items() if m in _STRUCTURES[name].measurements)
+    for name in STRUCTURES
+}
+"""The measurement bindings each structure reads (an override: what its blocks' ``measure`` say)."""
 
 
 class RuntimeConfigError(KeyPathError):
@@ -288,10 +286,9 @@ def require_packages(config: RuntimeConfig, connections: Any = None) -> None:
 
 def build_side(lc: LoopConfig, file: str = "<config>") -> ControllerSide:
     """Make the controller side of loop ``lc``: its structure's blocks, wired (errors: key path)."""
-    try:
-        return ControllerSide(lc.structure, lc.spec(), lc.ts, u0=lc.u0, file=file)
-    except ScenarioError as exc:
-        raise RuntimeConfigError(file, exc.key, exc.problem) from None
+    return ControllerSide(
+        lc.structure, lc.spec(), lc.ts, u0=lc.u0, file=file, error=RuntimeConfigError
+    )
 
 
 # ---------------------------------------------------------------------------
@@ -512,13 +509,7 @@ class _Parser(TableReader):
         if not NAME_RE.match(name):
             raise self.fail(f"{key}.name", "loop names are letters, digits, _ . - only")
         ts = self.number(raw, "ts", f"{key}.ts", positive=True)
-        needs = {
-            "single": ("pv",),
-            "cascade": ("pv", "pv2"),
-            "override": (),
-            "feedforward": ("pv", "dv"),
-            "smith": ("pv",),
-        }[structure]
+        needs = READS[structure]
         if structure == "override":
             blocks = raw.get("blocks")
             used = set()
@@ -694,10 +685,9 @@ class _Parser(TableReader):
         for k, v in entry.items():
             if isinstance(v, dict) and "ts" in v:
                 raise self.fail(f"{key}.{k}.ts", "set the sample time once, as the loop's ts")
-        try:
-            return parse_controller(entry, structure, ts, key=key, file=self.file)
-        except ScenarioError as exc:
-            raise RuntimeConfigError(self.file, exc.key, exc.problem) from None
+        return parse_controller(
+            entry, structure, ts, key=key, file=self.file, error=RuntimeConfigError
+        )
 
     def historian(self, h: dict[str, Any]) -> HistorianConfig:
         self.check_keys(

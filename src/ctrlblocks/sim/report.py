@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .. import __version__
-from .results import slug
+from .names import plot_names, slug
 from .runner import ScenarioResult, metric_table
 from .scenario import Scenario, load_scenario
 
@@ -225,8 +225,8 @@ def render_report(
         if tuned:
             lines += ["", "Tuned from a simulated bump test when the scenario was loaded:", ""]
             lines += tuned
-        for case in sc.cases:
-            png = f"{sc.name}/{slug(case.name)}.png"
+        for case, png_name in zip(sc.cases, plot_names([c.name for c in sc.cases]), strict=True):
+            png = f"{sc.name}/{png_name}.png"
             lines += ["", f"![{sc.title} — {case.name}]({png})"]
         multi = any(len(m["windows"]) > 1 for m in r.metrics)
         if multi:  # overshoot/settling of a whole run mixing several events would mislead

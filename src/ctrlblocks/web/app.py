@@ -70,6 +70,8 @@ import io
 import json
 import logging
 import math
+import os
+import threading
 import time
 from collections.abc import AsyncIterator, Callable, Mapping
 from importlib import resources
@@ -113,6 +115,9 @@ COMMAND_REQUESTS = (40, 10.0)
 AUDIT_REFUSALS = (10, 60.0)
 """Audit rows of refused anonymous requests per client address and window [s] (the rest is
 counted, and the count is written with the next row that is let through)."""
+
+HASH_NICE = 10
+"""Nice value of the password-hashing thread (Linux): the cycle wins the CPU over a login."""
 
 MAX_PENDING_HASHES = 8
 """Password checks waiting for the hashing thread at most (then 503, try again)."""
@@ -182,6 +187,15 @@ def coerce_command(changes: Mapping[str, Any], state: Mapping[str, Any]) -> dict
             k: _to_number(v, current.get(k)) if isinstance(v, str) else v for k, v in tun.items()
         }
     return out
+
+
+def _lower_priority() -> None:
+    """Run this thread (password hashing) at a lower CPU priority than the control cycle.
+
+    Linux: a thread's nice value is set through its thread id; elsewhere nothing happens.
+    """
+    with contextlib.suppress(AttributeError, OSError):
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), HASH_NICE)
 
 
 def csv_header(units: Mapping[str, str]) -> list[str]:
@@ -518,7 +532,9 @@ def create_app(
             return _error(503, "too many logins at once: try again", "login")
         if hashing["pool"] is None:
             # its own thread: a burst of logins never waits in (or takes) the default executor
-            hashing["pool"] = concurrent.futures.ThreadPoolExecutor(1, "ctrlblocks-password")
+            hashing["pool"] = concurrent.futures.ThreadPoolExecutor(
+                1, "ctrlblocks-password", initializer=_lower_priority
+            )
         hashing["pending"] += 1
         try:
             loop = asyncio.get_running_loop()
