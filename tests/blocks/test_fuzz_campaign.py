@@ -100,7 +100,7 @@ def _machine(name: str) -> type[RuleBasedStateMachine]:
             names = data.draw(st.lists(st.sampled_from(fields), min_size=1, max_size=3))
             if data.draw(st.booleans()):  # values from another valid configuration
                 new = spec.config(random.Random(data.draw(st.integers(0, 2**32 - 1))))
-                changes = {n: new[n] for n in names}
+                changes = {n: new[n] for n in names if n in new}
             else:
                 changes = {n: data.draw(st.sampled_from(BAD_PARAMS) | VALUES) for n in names}
             self.driver.act_configure(changes)

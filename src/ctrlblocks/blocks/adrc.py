@@ -805,6 +805,7 @@ class ADRC(Block):
         "_sat",
         "_ab_sat",
         "_ab_wait",
+        "_plc_state",
     )
 
     # -- configuration -------------------------------------------------------
@@ -921,6 +922,7 @@ class ADRC(Block):
             self.u_man = held
         self._started = False
         self._track = True
+        self._plc_state = None  # the float32 cycle restarts too
         self._sat = self._ab_sat = 0
         self._ab_wait = 0.0
         if self._pending is not None:

@@ -560,6 +560,8 @@ class Block:
             v = getattr(self, name)
             if isinstance(v, float) and not _NINF < v < _INF:
                 setattr(self, name, 0.0)
+        if "_plc_state" in self._state_fields:
+            self._plc_state = None  # the precision="float32" cycle restarts
         self.out = held
 
     # -- status ------------------------------------------------------------

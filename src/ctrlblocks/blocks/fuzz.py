@@ -148,6 +148,11 @@ def _pid_config(r: random.Random) -> dict[str, Any]:
     }
     if c["bumpless"] == "track_setpoint" and c["sp_rate"] == 0.0:
         c["sp_rate"] = 1.0
+    if r.random() < 0.15:  # the PLC cycle in single precision covers the plain options only
+        plain = dict.fromkeys(("sp_filter", "pv_filter", "sp_rate", "out_rate", "ff_k"), 0.0)
+        c.update(plain, precision="float32", algorithm="positional", pv_range=None)
+        c.update(deadband=0.0, bumpless="integrator")
+        c["anti_windup"] = r.choice(("clamping", "back_calc_model"))
     return c
 
 
@@ -155,7 +160,7 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
     u_min, u_max = _limits(r, 10.0)
     wc = _lu(r, 1e-2, 1e2)
     lo_sat = r.uniform(-50, 50)
-    return {
+    cfg = {
         "order": r.choice((1, 2, 3)),
         "b0": _lu(r, 1e-3, 1e3),
         "omega_c": wc,
@@ -173,7 +178,11 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
         "y_sat": lo_sat + _lu(r, 1e-2, 100.0),
         "y_sat_lo": lo_sat,
         "tau_wait": _maybe(r, 0.5, _lu(r, 1e-2, 10.0), 0.0),
+        "precision": "float64",
     }
+    if r.random() < 0.15:  # single-precision PLC cycle: Euler, no u_real, no anti-backoff
+        cfg.update(precision="float32", discretisation="euler", u_real_on=False, anti_backoff=False)
+    return cfg
 
 
 def _ts(r: random.Random) -> float:
@@ -203,6 +212,7 @@ def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
             "method": meth,
             "out_min": lo,
             "out_max": hi,
+            "precision": _maybe(r, 0.15, "float32", "float64"),
         }
 
     def manual(r: random.Random) -> dict[str, Any]:
@@ -408,8 +418,14 @@ class Driver:
         return b.controller if self.spec.name == "GainSchedule" else b  # type: ignore[attr-defined]
 
     def _twin_ok(self) -> bool:
-        # ADRC with u_real_on applies the measured u_real in __call__ only
-        return self.spec.two_phase and not getattr(self.block.config, "u_real_on", False)
+        # ADRC with u_real_on applies the measured u_real in __call__ only; the
+        # precision="float32" PLC cycle is a per-call cycle (its two-phase form is float64)
+        c = self._ctl(self.block).config
+        return (
+            self.spec.two_phase
+            and not getattr(c, "u_real_on", False)
+            and getattr(c, "precision", "float64") == "float64"
+        )
 
     def _check_out(self, b: Block, what: str) -> None:
         y = b.out
@@ -742,7 +758,8 @@ class RandomRun:
             if fields and r.random() < 0.5:  # a valid random value for one or more fields
                 new = self.spec.config(r)
                 for name in r.sample(fields, min(len(fields), r.randint(1, 3))):
-                    changes[name] = new[name]
+                    if name in new:
+                        changes[name] = new[name]
             elif fields:
                 changes[r.choice(fields)] = r.choice(BAD_PARAMS)
             d.act_configure(changes)

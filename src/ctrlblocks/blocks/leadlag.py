@@ -223,7 +223,7 @@ class LeadLag(Block):
     """
 
     Config = LeadLagConfig
-    _state_fields = ("out", "enabled", "_x_prev")
+    _state_fields = ("out", "enabled", "_x_prev", "_plc_state")
     config: LeadLagConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:

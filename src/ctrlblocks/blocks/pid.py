@@ -572,6 +572,7 @@ class PID(Block):
         "_reinit_d",
         "_db_hold",
         "_limits_status",
+        "_plc_state",
     )
 
     def __init__(self, config: PIDConfig | None = None, /, **params: Any) -> None:
@@ -694,6 +695,7 @@ class PID(Block):
         if not self.manual:
             self.manual_value = held
         self._reinit = self._reinit_d = True
+        self._plc_state = None  # the float32 cycle restarts too
         if self._pending:
             self._c_kind = 1  # update_state: nothing is known, re-initialise on recovery
 
