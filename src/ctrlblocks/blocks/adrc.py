@@ -418,8 +418,6 @@ def anti_backoff_states(
     return yh, x2, x3, x4
 
 
-
-
 def adrc_step(
     sp: float,
     y: float,
