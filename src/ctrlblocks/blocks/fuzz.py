@@ -379,7 +379,7 @@ def _snap_equal(a: Any, b: Any) -> bool:
         return a.keys() == b.keys() and all(_snap_equal(a[k], b[k]) for k in a)
     if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
         return len(a) == len(b) and all(_snap_equal(x, y) for x, y in zip(a, b, strict=True))
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+    if a != a and b != b:  # NaN, also a numpy NaN (the float32 cycle's state)
         return True
     return bool(a == b)
 
