@@ -12,7 +12,7 @@ pytest.importorskip("blark")
 
 # (block, FB, inputs) -> documented (arithmetic, comparison, standard function, call) counts
 CASES = [
-    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (35, 42, 5, 12)),
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (37, 47, 5, 13)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
      {"SP": 1.0, "PV": 0.5}, (65, 27, 8, 13)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",
