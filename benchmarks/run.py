@@ -21,7 +21,7 @@ Comparisons (targets of issue 6):
    ADRC n = 2 on a 3rd-order plant (<= 1.5x);
 4. bank of N loops (``PIDBank``) per loop-step vs the C single-loop floor
    (<= 0.7x, state <= 200 bytes per loop);
-5. the seed 000 Fig. 7 scenario (ADRC n = 2, PID_PT, PID_FT on the
+5. the Nowak et al. 2018, Fig. 7 scenario (ADRC n = 2, PID_PT, PID_FT on the
    three-tank process, tracking and disturbance cases) compiled vs the same
    loops as python-control ``nlsys`` systems with saturation (>= 10,000x);
 6. a sweep of the Fig. 7 scenario on a process pool vs one process
@@ -192,7 +192,7 @@ def _loop_setup():
     from ctrlblocks.plants import PTn
 
     def plant():
-        return PTn(k=0.73, t=(7.3, 2.2, 1.4), ts=0.1)  # seed 000 (10b)
+        return PTn(k=0.73, t=(7.3, 2.2, 1.4), ts=0.1)  # Nowak et al. 2018, (10b)
 
     def pid():
         return PID(kp=5.69, ti=16.65, td=2.91, ts=0.1, u_min=0.0, u_max=5.0)
@@ -306,7 +306,7 @@ def bench_bank(exe: dict[str, Path], repeats: int, sizes: list[int], work: int) 
 
 
 # ---------------------------------------------------------------------------
-# 5: seed 000 Fig. 7 scenario vs python-control nlsys
+# 5: Nowak et al. 2018, Fig. 7 scenario vs python-control nlsys
 # ---------------------------------------------------------------------------
 
 
@@ -433,7 +433,7 @@ def bench_fig7(repeats: int) -> Row:
             y, u = _nlsys_loop(make, plant, sig)
             worst = max(worst, float(np.max(np.abs(a.y - y))), float(np.max(np.abs(a.u - u))))
     res = interleaved({"ours": ours, "nlsys": nlsys}, repeats)
-    name = "seed 000 Fig. 7 scenario (6 runs, 24,000 samples)"
+    name = "Nowak et al. 2018, Fig. 7 scenario (6 runs, 24,000 samples)"
     r = row(name, res["ours"], res["nlsys"], ">= 10,000x faster", lambda x: x <= 1e-4,
             "python-control nlsys", unit="ms")  # fmt: skip
     r["note"] = (

@@ -1,4 +1,4 @@
-/* C -O2 reference: ADRC (Euler ESO (4a), law (4b) of seed 000) + 3rd-order linear plant.
+/* C -O2 reference: ADRC (Euler ESO (4a), law (4b) of Nowak et al. 2018) + 3rd-order linear plant.
  *
  * Same arithmetic, in the same order, as ctrlblocks.fast.kernels.adrc_step in
  * auto mode (reference filter, ESO computed x4 -> x3 -> x2 -> Y_hat, control

@@ -1,7 +1,7 @@
 /* C -O2 reference ("the floor"): PID + 3rd-order linear plant, closed loop.
  *
  * Same arithmetic, in the same order, as ctrlblocks.fast.kernels.pid_step
- * (ISA PID, setpoint weights b and c, filtered derivative seed 004 (2.13),
+ * (ISA PID, setpoint weights b and c, filtered derivative Åström 1987, (2.13),
  * integral increment (2.8)/Tustin, output limits, clamping anti-windup) and
  * lti3_step (exact ZOH plant, LinearPlant (2)).  State in local variables.
  *

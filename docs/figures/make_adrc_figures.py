@@ -4,20 +4,20 @@ Run from the repository root::
 
     .venv/bin/python docs/figures/make_adrc_figures.py
 
-All runs use the process (10b) of seed 000, ``0.73/((7.3s+1)(2.2s+1)(1.4s+1))``
+All runs use the process (10b) of Nowak et al. 2018, ``0.73/((7.3s+1)(2.2s+1)(1.4s+1))``
 (:class:`ctrlblocks.plants.PTn`, exact ZOH), ts = 0.1 s, and the Table 2
 tunings.  Writes
 
-* ``adrc_fig6.png``: the functional test of seed 000 Fig. 6 (n = 3): MAN with
+* ``adrc_fig6.png``: the functional test of Nowak et al. 2018, Fig. 6 (n = 3): MAN with
   u_man = 1 until t = 40 s, switch to AUTO in the transient (sp = 1.5); sp = 4
   (out of reach: u at 5) from 100 s to 200 s; load +1 on u at 260 s; sp = 0.3
   (out of reach with the load: u at 0) from 320 s to 400 s;
-* ``adrc_orders.png``: seed 000 Fig. 5 conditions for n = 1, 2, 3 (setpoint
+* ``adrc_orders.png``: Nowak et al. 2018, Fig. 5 conditions for n = 1, 2, 3 (setpoint
   step at 10 s, load -0.5 on u at 150 s);
 * ``adrc_antiwindup.png``: the lock of the literal x4 freeze (section 4.1) and
   the directional rule: steady at sp = 2, u_max lowered to 2 at 100 s, load +1
   at 200 s (n = 2);
-* ``adrc_antibackoff.png``: seed 000 Fig. 1 conditions: n = 3, b0 = 0.023,
+* ``adrc_antibackoff.png``: Nowak et al. 2018, Fig. 1 conditions: n = 3, b0 = 0.023,
   sensor saturation 1.9, load +1.5 at 10 s, without and with (12a)/(12b).
 """
 
@@ -84,7 +84,7 @@ def fig6() -> None:
     a2.axhline(5, color="k", lw=0.6, ls=":")
     a2.set_ylabel("u (limits 0..5)")
     a2.set_xlabel("t [s]")
-    fig.suptitle("ADRC n = 3 on (10b), Table 2 tuning: functional test as seed 000 Fig. 6")
+    fig.suptitle("ADRC n = 3 on (10b), Table 2 tuning: functional test (Nowak et al. 2018, Fig. 6)")
     fig.tight_layout()
     fig.savefig(HERE / "adrc_fig6.png", dpi=110)
     plt.close(fig)
@@ -109,7 +109,7 @@ def orders() -> None:
     a1.legend(fontsize=8)
     a2.set_ylabel("u")
     a2.set_xlabel("t [s]")
-    fig.suptitle("Orders 1..3 with the Table 2 tunings on (10b) (cf. seed 000 Fig. 5)")
+    fig.suptitle("Orders 1..3 with the Table 2 tunings on (10b) (cf. Nowak et al. 2018, Fig. 5)")
     fig.tight_layout()
     fig.savefig(HERE / "adrc_orders.png", dpi=110)
     plt.close(fig)
@@ -176,7 +176,7 @@ def antibackoff() -> None:
     a1.legend(fontsize=8)
     a2.set_ylabel("u")
     a2.set_xlabel("t [s]")
-    fig.suptitle("Derivative backoff and the anti-backoff action (cf. seed 000 Fig. 1)")
+    fig.suptitle("Derivative backoff and the anti-backoff action (cf. Nowak et al. 2018, Fig. 1)")
     fig.tight_layout()
     fig.savefig(HERE / "adrc_antibackoff.png", dpi=110)
     plt.close(fig)

@@ -6,14 +6,14 @@ Run from the repository root::
 
 Writes
 
-* ``docs/figures/pid_antiwindup.png``: seed 004 Figs. 3.1, 3.3 and 3.4 (Simnon
+* ``docs/figures/pid_antiwindup.png``: Åström 1987, Figs. 3.1, 3.3 and 3.4 (Simnon
   macros ``fig31``, ``fig33``, ``fig34``) run with :class:`ctrlblocks.PID`:
   process = integrator with input saturation +-0.1; PI with k = 1, Ti = 1,
   b = 1, no D (N = 0); r = 1; h = 0.01 s.  Fig. 3.1: the regulator tracks a
   saturation at +-1 (it does not know the real one), Tt = 0.05 -> windup.
   Fig. 3.3: it tracks the real saturation, Tt = 0.02.  Fig. 3.4: Tt = 1, 2,
   3, 4.
-* ``docs/figures/pid_selector.png``: seed 004 Fig. 3.9 (system ``select``):
+* ``docs/figures/pid_selector.png``: Åström 1987, Fig. 3.9 (system ``select``):
   two PI controllers, a min selector, saturation +-0.4, both track the applied
   u (Listing 6.3 order); disturbance -0.15 at t = 25 s.
 """

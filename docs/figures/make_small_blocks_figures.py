@@ -4,7 +4,7 @@ Run from the repository root::
 
     .venv/bin/python docs/figures/make_small_blocks_figures.py
 
-Writes ``docs/figures/fig5_2_jump_and_rate.png``: the experiment of seed 004
+Writes ``docs/figures/fig5_2_jump_and_rate.png``: the experiment of Åström 1987
 Fig. 5.2 (Simnon macro ``fig52``) run with :class:`ctrlblocks.JumpAndRate`:
 jlow = -0.5, jhigh = 1, rlow = -0.5, rhigh = 1; input 4 until t = 7 s, 1 until
 15 s, 3 until 18 s, then 2; 0..20 s.
@@ -25,7 +25,7 @@ HERE = Path(__file__).resolve().parent
 
 
 def fig52_input(t: float) -> float:
-    """The input of seed 004 macro ``fig52``."""
+    """The input of Åström 1987, macro ``fig52``."""
     return 4.0 if t < 7 else 1.0 if t < 15 else 3.0 if t < 18 else 2.0
 
 
@@ -45,7 +45,7 @@ def make_fig5_2(path: Path, h: float = 0.01) -> Path:
         ylim=(0, 5),
         xlabel="time [s]",
         ylabel="signal",
-        title="Jump and rate (seed 004 Fig. 5.2): jlow = rlow = -0.5, jhigh = rhigh = 1",
+        title="Jump and rate (Åström 1987, Fig. 5.2): jlow = rlow = -0.5, jhigh = rhigh = 1",
     )
     ax.title.set_fontsize(10)
     ax.grid(alpha=0.3)

@@ -6,7 +6,7 @@ Run from the repository root::
 
 Writes
 * docs/examples/bump_k2.csv (and the same file as tests/tuning/data/bump_k2.csv):
-  a simulated bump test on process (10b) of seed 000,
+  a simulated bump test on process (10b) of Nowak et al. 2018,
   0.73/((7.3 s + 1)(2.2 s + 1)(1.4 s + 1)), sampled every 0.5 s, at the
   operating point MV = 2.0 bar, PV = 1.46 bar, MV step +0.5 bar at t = 10 s,
   Gaussian PV noise of standard deviation 0.002 bar (0.5 % of the PV change),

@@ -1,4 +1,4 @@
-"""ADRC block of seed 000 (Nowak et al. 2018): equations, gains, poles, closed loops.
+"""ADRC block of Nowak et al. 2018: equations, gains, poles, closed loops.
 
 The linear references are built by hand from (4a)/(4b) (matrices written out
 below, not taken from the block) and run with scipy.signal.dlsim; the exact
@@ -21,7 +21,7 @@ from ctrlblocks.blocks.adrc import EULER_LIMIT, adrc_gains, adrc_switches, euler
 from ctrlblocks.plants import PTn
 
 TS = 0.1
-#: Table 2 of seed 000: order -> (b0, omega_o, omega_c)
+#: Table 2 of Nowak et al. 2018: order -> (b0, omega_o, omega_c)
 TABLE2 = {1: (0.3, 0.9, 0.3), 2: (0.05, 1.75, 0.35), 3: (0.025, 1.75, 0.35)}
 K10B = 0.73
 T10B = [7.3, 2.2, 1.4]
@@ -632,7 +632,7 @@ def test_missing_u_real_falls_back_to_own_output_with_bad_input() -> None:
 
 
 def test_external_saturation_through_update_state_keeps_the_loop_offset_free() -> None:
-    # the block without limits, an external saturation at 0..5 (seed 004, section 6)
+    # the block without limits, an external saturation at 0..5 (Åström 1987, section 6)
     block = make(2)
     plant = PTn(k=K10B, t=T10B, ts=TS)
     for k in range(3000):
@@ -824,7 +824,7 @@ def test_negative_tau_wait_is_a_bad_time_constant() -> None:
 
 @pytest.mark.parametrize("aw", ["directional", "freeze"])
 def test_fig6_scenario_reverses_immediately_at_both_limits(aw: str) -> None:
-    """Seed 000 Fig. 6 conditions (n = 3, Table 2, u in 0..5), see make_adrc_figures.py."""
+    """Nowak et al. 2018, Fig. 6 conditions (n = 3, Table 2, u in 0..5); see make_adrc_figures."""
     block = make(3, u_min=0.0, u_max=5.0, anti_windup=aw)
     plant = PTn(k=K10B, t=T10B, ts=TS)
     us, es = [], []

@@ -1,4 +1,4 @@
-"""The block contract, checked over every block (DESIGN.md, "Every block has the same shape").
+"""The block contract, checked over every block (every block has the same shape).
 
 Each entry of CASES makes a block, drives it one sample, and names a
 configuration change that must be refused with a given error code.  A test
@@ -24,6 +24,8 @@ class Case:
     drive: Callable[[Block, int], Any]  # one sample at step k
     bad: dict[str, Any]  # a configuration change that must be refused
     code: ErrorCode  # ... with this code
+    # makes the block from configuration fields (default: the class called with them)
+    construct: Callable[[dict[str, Any]], Block] | None = None
 
 
 def _wave(k: int) -> float:
@@ -115,6 +117,32 @@ CASES: dict[str, Case] = {
         {"ti": -1.0},
         ErrorCode.BAD_PID_COEFFS,
     ),
+    "StepController": Case(
+        lambda: ctrlblocks.StepController(travel_time=5.0, min_pulse=0.2, min_pause=0.3, ts=0.1),
+        lambda b, k: b(50.0 + 20.0 * _wave(k // 7), open_limit=k % 31 == 4),
+        {"travel_time": -1.0},
+        ErrorCode.BAD_TIME_CONSTANT,
+    ),
+    "PulseWidth": Case(
+        lambda: ctrlblocks.PulseWidth(period=1.0, t_min_on=0.2, ts=0.1),
+        lambda b, k: b(50.0 + 40.0 * _wave(k // 10)),
+        {"period": 0.01},
+        ErrorCode.BAD_TIME_CONSTANT,
+    ),
+    "GainSchedule": Case(
+        lambda: ctrlblocks.GainSchedule(
+            ctrlblocks.PID(kp=1.0, ti=5.0, ts=0.1, u_min=-5.0, u_max=5.0),
+            breakpoints=(-1.0, 1.0),
+            kp=(1.0, 2.0),
+            ti=(5.0, 3.0),
+        ),
+        lambda b, k: b(1.0, 0.5 * _wave(k), w=_wave(k // 5)),
+        {"breakpoints": (1.0, -1.0)},
+        ErrorCode.BAD_PARAMETER,
+        lambda params: ctrlblocks.GainSchedule(
+            ctrlblocks.PID(kp=1.0, ti=5.0, ts=0.1), ctrlblocks.GainScheduleConfig(**params)
+        ),
+    ),
     "MaxSelector": Case(
         lambda: ctrlblocks.MaxSelector(),
         lambda b, k: b(_wave(k), _wave(k + 5), 0.2),
@@ -191,10 +219,10 @@ def test_bad_configuration_is_refused_at_construction(name: str) -> None:
     case = CASES[name]
     if not case.bad:
         pytest.skip("block has no parameters")
-    cls = type(case.make())
+    construct = case.construct or (lambda params: type(case.make())(**params))
     params = {**dataclasses.asdict(case.make().config), **case.bad}
     with pytest.raises(ParameterError) as info:
-        cls(**params)
+        construct(params)
     assert info.value.code == case.code
 
 

@@ -1,4 +1,4 @@
-"""JumpAndRate (seed 004 Fig. 5.1/5.2, Simnon system ``jar``): exact discretisation and Fig. 5.2."""
+"""JumpAndRate (Åström 1987, Figs. 5.1/5.2, system ``jar``): exact discretisation, Fig. 5.2."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ E4 = math.exp(-4.0)
 
 
 def _fig52_input(t: float) -> float:
-    """Input of seed 004 macro fig52: 4 until t1 = 7, 1 until 15, 3 until 18, then 2."""
+    """Input of Åström 1987, macro fig52: 4 until t1 = 7, 1 until 15, 3 until 18, then 2."""
     return 4.0 if t < 7 else 1.0 if t < 15 else 3.0 if t < 18 else 2.0
 
 

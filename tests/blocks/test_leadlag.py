@@ -1,4 +1,4 @@
-"""LeadLag (seed 003): equal to scipy's discretisations, and the run-time rules of Fig. 10."""
+"""LeadLag (Bonde et al. 2021): as scipy's discretisations; the run-time rules of Fig. 10."""
 
 from __future__ import annotations
 
@@ -118,7 +118,7 @@ def test_disabled_outputs_zero_and_input_memory_follows() -> None:
 
 
 def test_limited_output_is_stored_as_previous_output() -> None:
-    # seed 003 Fig. 10 stores U_prev := LL_Output after saturation
+    # Bonde et al. 2021, Fig. 10 stores U_prev := LL_Output after saturation
     ll = LeadLag(k=1.0, t_lead=0.0, t_lag=1.0, ts=0.1, out_max=0.5)
     b0 = b1 = 0.1 / 2.1
     a1 = (0.1 - 2.0) / 2.1

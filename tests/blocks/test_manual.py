@@ -1,4 +1,4 @@
-"""ManualStation (seed 004 section 4, Fig. 4.5): rate, acceleration, tracking, bumpless switch."""
+"""ManualStation (Åström 1987, section 4, Fig. 4.5): rate, acceleration, tracking, bumpless."""
 
 from __future__ import annotations
 

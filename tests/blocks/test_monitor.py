@@ -1,4 +1,4 @@
-"""CycleMonitor (seed 003, "Valg av samplingstid"): statistics, jitter, warning and alarm."""
+"""CycleMonitor (Bonde et al. 2021, "Valg av samplingstid"): statistics, jitter, warning, alarm."""
 
 from __future__ import annotations
 

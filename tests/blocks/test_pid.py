@@ -64,7 +64,7 @@ def test_velocity_equals_positional_without_limits(imeth: str, ti: float, td: fl
 
 @pytest.mark.parametrize("td", [0.0, 0.5])
 def test_p_and_pd_in_velocity_form_hold_the_proper_steady_state_after_a_limit(td: float) -> None:
-    # seed 004 Fig. 2.3/2.4: without the reset feedback the output would keep
+    # Åström 1987, Fig. 2.3/2.4: without the reset feedback the output would keep
     # the offset it got while limited; with it, u -> kp (r - y) + bias.
     pid = PID(kp=2.0, td=td, ts=0.1, u_min=-1.0, u_max=1.0, algorithm="velocity", tt=0.3)
     for _ in range(20):

@@ -1,4 +1,4 @@
-"""Åström (seed 004) experiments: windup Figs. 3.1/3.3/3.4 and the selector of Figs. 3.8/3.9.
+"""Åström (1987) experiments: windup Figs. 3.1/3.3/3.4 and the selector of Figs. 3.8/3.9.
 
 The Simnon systems of Appendix A are simulated twice: the continuous system
 with scipy's ``solve_ivp`` (the independent reference) and the PID block at

@@ -1,4 +1,4 @@
-"""Every error code of the PID block (seed 002 section 2.2 and ctrlblocks' own), block running."""
+"""Every error code of the PID block (controltheplant 2024, 2.2, and our own), block running."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from ctrlblocks import PID, ErrorCode, ParameterError
 
 # (configuration change, expected code); each is refused and the old configuration stays
 REFUSED = [
-    ({"ts": 0.0}, ErrorCode.NO_CYCLE),  # seed 002 ERR_NO_CYCLE
+    ({"ts": 0.0}, ErrorCode.NO_CYCLE),  # controltheplant 2024 ERR_NO_CYCLE
     ({"u_min": 80.0, "u_max": 20.0}, ErrorCode.BAD_LIMITS),  # ERR_BAD_LIMITS
     ({"u_min": math.nan}, ErrorCode.BAD_LIMITS),
     ({"pv_range": (5.0, 5.0)}, ErrorCode.BAD_LIMITS),
@@ -58,7 +58,7 @@ def test_bad_configuration_is_refused_with_its_code_and_the_block_keeps_running(
 
 
 def test_forward_derivative_stability_limit_is_td_over_n_above_h_over_2() -> None:
-    # seed 004 (2.10): a = 1 - h N/Td; |a| < 1 needs Td/N > h/2
+    # Åström 1987, (2.10): a = 1 - h N/Td; |a| < 1 needs Td/N > h/2
     PID(td=0.051, n=1.0, ts=0.1, derivative_method="forward")
     with pytest.raises(ParameterError):
         PID(td=0.05, n=1.0, ts=0.1, derivative_method="forward")

@@ -125,10 +125,10 @@ def test_first_sample_p_term_is_kp_times_b_r_minus_y() -> None:
 
 @pytest.mark.parametrize("dmeth", list(CT_METHOD))
 def test_forward_integral_equals_astrom_listing_6_3_recursions(dmeth: str) -> None:
-    """Seed 004 (6.4)-(6.6), coded by hand: u = b k r - (k + b_i) y + I + x.
+    """Åström 1987, (6.4)-(6.6), coded by hand: u = b k r - (k + b_i) y + I + x.
 
     With ``D[k] = x[k] - b_i y[k]`` (6.3) the state is ``x = a_i D[k-1] + b_i y[k-1]``
-    and ``x[k+1] = a_i x[k] + b_i (1 - a_i) y[k]`` (the seed prints ``-b_i`` in
+    and ``x[k+1] = a_i x[k] + b_i (1 - a_i) y[k]`` (the report prints ``-b_i`` in
     (6.2) and ``-b_i (1 + a_i)`` in (6.4), a sign slip: with those signs (6.3)
     does not follow from (2.13)).
     """

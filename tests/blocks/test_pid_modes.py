@@ -1,4 +1,4 @@
-"""PID modes (seed 002 2.3.5), bumpless transfer (2.3.6), dead band (2.3.10), ramps, FF, AW."""
+"""PID modes (controltheplant 2024, 2.3.5), bumpless (2.3.6), dead band (2.3.10), ramps, FF, AW."""
 
 from __future__ import annotations
 
@@ -99,7 +99,7 @@ def test_track_setpoint_ramps_the_working_setpoint_from_pv_back_to_sp() -> None:
     pid.manual, pid.manual_value = True, 30.0
     for _ in range(5):
         pid(60.0, 24.0)
-        assert pid.sp_w == 24.0  # SP follows PV in manual (seed 002)
+        assert pid.sp_w == 24.0  # SP follows PV in manual (controltheplant 2024)
     pid.manual = False
     pid(60.0, 24.0)
     assert pid.sp_w == pytest.approx(24.2, abs=1e-12)
@@ -177,7 +177,7 @@ def test_output_ramp_is_active_in_manual_too() -> None:
     assert not pid.limits_active
     pid.manual_value = 50.0
     pid(0.0, 0.0)
-    assert pid.limits_active  # the ramp limits (seed 002 2.3.8)
+    assert pid.limits_active  # the ramp limits (controltheplant 2024, section 2.3.8)
 
 
 # --- scaling, reverse, feed-forward --------------------------------------------
@@ -209,7 +209,7 @@ def test_lead_lag_feed_forward_path_is_seed_003_version_4() -> None:
     h, k, t_lead, t_lag = 0.1, 2.0, 1.0, 0.5
     pid = PID(kp=1.0, ts=h, u_min=-100, u_max=100, ff_k=k, ff_t_lead=t_lead, ff_t_lag=t_lag)
     ref = LeadLag(k=k, t_lead=t_lead, t_lag=t_lag, ts=h)
-    # first sample of a unit step from rest: K (h + 2 Tt)/(h + 2 Tn) (seed 003 Tustin)
+    # first sample of a unit step from rest: K (h + 2 Tt)/(h + 2 Tn) (Bonde et al. 2021 Tustin)
     u = pid(0.0, 0.0, dv=1.0)
     assert u == pytest.approx(k * (h + 2 * t_lead) / (h + 2 * t_lag), abs=1e-12)
     assert ref(1.0) == pytest.approx(u, abs=1e-12)
@@ -262,7 +262,7 @@ def test_awout_tells_the_primary_that_this_block_is_limited() -> None:
     assert pid.awout and pid.limits_active
 
 
-# --- adaptive dead band (seed 002 2.3.10) ----------------------------------------
+# --- adaptive dead band (controltheplant 2024, section 2.3.10) ------------------------------
 
 
 def test_adaptive_deadband_holds_the_moving_average_and_releases_without_a_bump() -> None:

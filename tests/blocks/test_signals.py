@@ -1,4 +1,4 @@
-"""The signal blocks of signals.py (seed 002 sub-blocks, seed 004 saturation and selectors).
+"""The signal blocks (controltheplant 2024 sub-blocks; Åström 1987 saturation and selectors).
 
 PT1 is compared with scipy.signal (cont2discrete + dlsim); the others are
 checked against values evaluated by hand.
@@ -182,7 +182,7 @@ def test_rate_limiter_nan_holds() -> None:
         (-2.0, 0.5, -1.5),
         (0.3, 0.5, 0.0),
         (-0.5, 0.5, 0.0),  # the edge is inside the zone
-        (2.0, -0.5, 1.5),  # negative width acts as its absolute value (seed 002, 2.3.10)
+        (2.0, -0.5, 1.5),  # negative width: its absolute value (controltheplant 2024, 2.3.10)
         (0.7, 0.0, 0.7),  # zero width: inactive
     ],
 )
@@ -283,7 +283,7 @@ def test_steady_state_detector_per_call_dt() -> None:
 
 
 # ---------------------------------------------------------------------------
-# Saturation and selectors (seed 004, section 5)
+# Saturation and selectors (Åström 1987, section 5)
 # ---------------------------------------------------------------------------
 
 

@@ -1,4 +1,4 @@
-"""The pneumatic three-tank model: linearisation against (10b) of seed 000, integration error."""
+"""Pneumatic three-tank model: linearisation vs (10b) of Nowak et al. 2018, integration error."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from ctrlblocks.blocks.base import ErrorCode, ParameterError
 from ctrlblocks.plants import PTn, ThreeTank, process
 from ctrlblocks.plants.threetank import OUTLETS, P_ATM, R_BETWEEN
 
-K_10B, T_10B = 0.73, (7.3, 2.2, 1.4)  # seed 000, (10b)
+K_10B, T_10B = 0.73, (7.3, 2.2, 1.4)  # Nowak et al. 2018, (10b)
 
 
 def _fd_linearisation(plant, u0, h=1e-6):

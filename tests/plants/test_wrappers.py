@@ -136,7 +136,8 @@ def test_actuator_holds_the_command_on_nan_and_keeps_limits_on_a_bad_pair():
 
 
 def test_sensor_saturates_at_y_max_and_flags_it():
-    # PT1 k = 3 driven by 1: y_true = 3 (1 - exp(-t)), sensor saturates at 1.9 (seed 000 Fig. 1)
+    # PT1 k = 3 driven by 1: y_true = 3 (1 - exp(-t)), sensor saturates at 1.9
+    # (Nowak et al. 2018, Fig. 1)
     s = Sensor(PT1(3.0, 1.0, TS), y_max=1.9)
     ys, sat = [], []
     for k in range(1, 31):

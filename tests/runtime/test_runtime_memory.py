@@ -129,7 +129,7 @@ def test_bad_pv_gives_adrc_safe_value_in_the_same_cycle_and_recovers_bumplessly(
         assert not by[k].pv_ok
         assert by[k].mv == -1.5
         assert by[k].error_id == ErrorCode.BAD_MEASUREMENT
-    # first good cycle continues from the applied safe value (seed 000 eq. 11)
+    # first good cycle continues from the applied safe value (Nowak et al. 2018, eq. 11)
     assert by[15].pv_ok
     assert by[15].mv == pytest.approx(-1.5, abs=1e-12)
     assert by[16].mv != by[15].mv  # and control resumes

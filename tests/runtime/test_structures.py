@@ -43,7 +43,7 @@ def _pi(kp: float, ti: float, lo: float, hi: float, extra: str = "") -> str:
 
 
 def cascade(ts: float = 0.1, duration: float = 30.0) -> str:
-    """Seed 004 section 3 "Cascade Control": the secondary saturates, the AW handshake acts."""
+    """Åström 1987, section 3 "Cascade Control": the secondary saturates, the AW handshake acts."""
     return (
         HEAD.format(name="cascade", structure="cascade", ts=ts, duration=duration)
         + """
@@ -82,7 +82,7 @@ value = -0.2
 OVERRIDE = (
     HEAD.format(name="override", structure="override", ts=0.05, duration=20.0)
     + """
-[inner_plant]          # x2 (seed 004 Fig. 3.8)
+[inner_plant]          # x2 (Åström 1987, Fig. 3.8)
 type = "PT1"
 k = 1.0
 t = 1.0
@@ -321,7 +321,7 @@ def test_cascade_in_the_runtime_saturates_and_uses_the_aw_handshake():
 
 
 def test_override_selects_the_limit_controller_then_the_main_one():
-    """Seed 004 Fig. 3.9: R2 holds x2 near 0.2 while x1 rises, then R1 takes over."""
+    """Åström 1987, Fig. 3.9: R2 holds x2 near 0.2 while x1 rises, then R1 takes over."""
     sc = parse_scenario(OVERRIDE)
     rows, rt = run_in_memory(sc, 400)
     pv2, pv = arrays(rows, "m_pv2", "pv")

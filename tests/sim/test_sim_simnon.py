@@ -1,4 +1,4 @@
-"""The shipped Åström scenarios against the continuous Simnon systems of seed 004, Appendix A.
+"""The shipped Åström scenarios against the continuous Simnon systems of Åström 1987, Appendix A.
 
 The Simnon programs are continuous; the scenarios sample them at ts = 0.01 s.
 Here the Simnon equations are integrated by scipy's ``solve_ivp`` (tight

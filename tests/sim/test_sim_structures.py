@@ -203,7 +203,7 @@ value = 1.0
 
 
 def test_smith_predictor_with_exact_model_is_the_delay_free_loop_delayed():
-    """Seed 000, section 3.1: with a perfect model the controller sees the loop
+    """Nowak et al. 2018, section 3.1: with a perfect model the controller sees the loop
     without dead time, and the output is that loop's output, delayed."""
     smith = simulate(parse_scenario(SMITH), "smith").signals
     plain = simulate(parse_scenario(NO_DELAY), "pi").signals
@@ -415,7 +415,7 @@ value = 1.0
 
 
 def test_measured_actuator_position_feeds_back_calc_real():
-    """Fig. 3.2 A of seed 004: tracking the measured actuator output avoids windup even
+    """Fig. 3.2 A of Åström 1987: tracking the measured actuator output avoids windup even
     when the controller's own limits (±1) do not match the actuator's (±0.1)."""
     r = run_scenario(parse_scenario(MEASURED_MV))
     wrong = r.metric("model, wrong limits", "main", "overshoot")
@@ -469,7 +469,7 @@ value = 1.0
 
 
 def test_measured_actuator_output_feeds_adrc_u_real():
-    """Seed 000, section 5: with u_real the ESO sees the input the process really got,
+    """Nowak et al. 2018, section 5: with u_real the ESO sees the input the process really got,
     here an actuator that saturates at 1.2 while the ADRC has no limits of its own."""
     r = run_scenario(parse_scenario(U_REAL))
     off = r.metric("u_real off", "main", "overshoot")

@@ -1,4 +1,4 @@
-"""ADRC bandwidth tuning (seed 000, section 3.3) and the ready configuration."""
+"""ADRC bandwidth tuning (Nowak et al. 2018, section 3.3) and the ready configuration."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def test_settling_factor_is_exact_value_clipped_to_the_seeds_3_to_5():
 def test_bandwidths_from_settling_time():
     r = adrc_bandwidth(10.0, 2, 0.05)
     assert r.omega_c == pytest.approx(0.5)
-    assert r.omega_o == pytest.approx(2.5)  # 5 x omega_c (seed 000 Table 2 ratio)
+    assert r.omega_o == pytest.approx(2.5)  # 5 x omega_c (Nowak et al. 2018, Table 2 ratio)
     assert r.settling_time_model == pytest.approx(5.83392170 / 0.5)
     assert r.warnings == []
 

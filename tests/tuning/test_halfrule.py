@@ -1,4 +1,4 @@
-"""Half rule (Skogestad 2003) and the inverse half-rule of seed 000 (Table 1)."""
+"""Half rule (Skogestad 2003) and the inverse half-rule of Nowak et al. 2018 (Table 1)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def test_table1_k1_second_order_b0_is_0_011():
 def test_table1_k2_third_order_range_is_0_0236_to_0_1022():
     r = inverse_half_rule(0.73, 8.3, 3.0, 3)
     assert (round(r.b0_min, 4), round(r.b0_max, 4)) == (0.0236, 0.1022)
-    assert r.b0 == r.b0_min  # seed 000 advises the lower limit
+    assert r.b0 == r.b0_min  # Nowak et al. 2018 advises the lower limit
 
 
 def test_printed_0_33_and_exact_one_third_give_the_same_b0_max_for_k2():
@@ -112,7 +112,7 @@ def test_impossible_inputs_are_refused_with_a_code(args, code):
 
 
 def test_table2_estimates_come_from_one_fopdt_of_the_real_setup():
-    # Seed 000 Table 2 prints the b0 estimates for the pneumatic setup but not
+    # Nowak et al. 2018, Table 2 prints the b0 estimates for the pneumatic setup but not
     # its FOPDT.  The four numbers (n = 1: 0.099, n = 2: 0.025, n = 3:
     # [0.025, 0.13]) are all reproduced by one FOPDT, found by least squares:
     # k = 0.859, T = 8.665 s, T0 = 3.086 s.

@@ -21,7 +21,7 @@ from ctrlblocks.tuning import (
     two_point,
 )
 
-# Seed 000, (10a) and (10b): gain and lag time constants of the "true" processes.
+# Nowak et al. 2018, (10a) and (10b): gain and lag time constants of the "true" processes.
 K1 = (0.56, (9.5, 4.2))
 K2 = (0.73, (7.3, 2.2, 1.4))
 

@@ -15,6 +15,8 @@ from .pid_forms import (
     series_to_isa,
     series_to_parallel,
 )
+from .pwm import PulseWidth
+from .schedule import GainSchedule, GainScheduleConfig
 from .signals import (
     PT1,
     DeadBand,
@@ -28,6 +30,7 @@ from .signals import (
     deadband,
     scale,
 )
+from .stepper import StepController
 
 __all__ = [
     "ADRC",
@@ -40,6 +43,8 @@ __all__ = [
     "CycleMonitor",
     "DeadBand",
     "ErrorCode",
+    "GainSchedule",
+    "GainScheduleConfig",
     "JumpAndRate",
     "LeadLag",
     "ManualStation",
@@ -48,10 +53,12 @@ __all__ = [
     "Mode",
     "MovingAverage",
     "ParameterError",
+    "PulseWidth",
     "RateLimiter",
     "Saturation",
     "Scale",
     "SteadyStateDetector",
+    "StepController",
     "deadband",
     "isa_to_parallel",
     "isa_to_series",

@@ -1,11 +1,11 @@
-"""The general-purpose ADRC function block of Nowak et al. (seed 000).
+"""The general-purpose ADRC function block of Nowak et al. (2018).
 
 Source
 ------
 P. Nowak, K. Stebel, T. Klopot, J. Czeczot, M. Fratczak, P. Laszczyk:
 *Flexible function block for industrial applications of active disturbance
-rejection controller*, Archives of Control Sciences 28 (2018) -- file
-``seeds/000_b2df519ac8dec8ff.txt``; equation numbers below are the paper's.
+rejection controller*, Archives of Control Sciences 28 (2018);
+see docs/references.md; equation numbers below are the paper's.
 
 Model and controller (section 2)
 --------------------------------
@@ -84,7 +84,7 @@ model) ``P_n`` with ``a = omega_c ts``.  ``P_m`` has a root at z = -1 when
 
 Exact discretisation (option ``discretisation="exact"``)
 --------------------------------------------------------
-The current observer of Herbst (2013, ref. [10] of seed 000; also [11, 19]):
+The current observer of Herbst (2013, ref. [10] of Nowak et al. 2018; also [11, 19]):
 ``x_pred = Phi x + Gamma u_{i-1}``, ``x_i = x_pred + Lc (Y_i - x_pred[0])``,
 with ``Phi = exp(A ts)`` and ``Gamma`` the zero-order-hold images of the
 chain (1) and ``Lc`` placed (Ackermann) so that all n+1 poles of
@@ -175,7 +175,7 @@ _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 def adrc_switches(n: int) -> tuple[float, float, float, float, float]:
     """Switches ``(p1, p2, k1, k2, k3)`` from the two low bits of the order n.
 
-    Seed 000, section 3.2: ``p1 = n1``, ``p2 = n1 n0``, ``k1 = not(n1) n0``,
+    Nowak et al. 2018, section 3.2: ``p1 = n1``, ``p2 = n1 n0``, ``k1 = not(n1) n0``,
     ``k2 = n1 not(n0)``, ``k3 = p2`` where ``n = 2 n1 + n0``.
     """
     n1 = float((n >> 1) & 1)
@@ -194,7 +194,7 @@ def adrc_gains(
     """Gao's bandwidth gains ``(l1, l2, l3, l4, kp, kd1, kd2)`` for order n.
 
     Observer: ``(s + omega_o)^(n+1)``; controller: ``(s + omega_c)^n``
-    (seed 000, section 3.3; derivation and table in the module docstring).
+    (Nowak et al. 2018, section 3.3; derivation and table in the module docstring).
     ``l4`` always multiplies the x4 (total disturbance) recursion.
     """
     m = n + 1
@@ -241,7 +241,7 @@ def eso_euler(
     k2: float,
     k3: float,
 ) -> tuple[float, float, float, float]:
-    """One step of the Euler ESO (4a) of seed 000, computed x4 -> x3 -> x2 -> Y_hat.
+    """One step of the Euler ESO (4a) of Nowak et al. 2018, computed x4 -> x3 -> x2 -> Y_hat.
 
     ``w4`` multiplies the x4 increment: 1 runs it, 0 freezes x4 (anti-windup,
     section 4.1) while the other states keep running.  Returns
@@ -303,7 +303,7 @@ def control_law(
     kd1: float,
     kd2: float,
 ) -> float:
-    """ADRC control law (4b) of seed 000 (the reference ``r`` replaces Y_sp when filtered)."""
+    """ADRC control law, Nowak et al. 2018, (4b) (``r`` replaces Y_sp when filtered)."""
     return (kp * (r - yh) - kd1 * x2 - kd2 * x3 - x4) / b0
 
 
@@ -312,7 +312,7 @@ def x4_update_allowed(rule: int, awin: bool, sat: int, du: float) -> float:
 
     ``sat`` is +1 (-1) when the control law (4b) of the previous cycle was
     above u_max (below u_min), else 0; ``du`` is the change of this cycle's u
-    that the x4 update causes.  ``rule``: 0 ``"off"``; 1 ``"freeze"`` (seed 000,
+    that the x4 update causes.  ``rule``: 0 ``"off"``; 1 ``"freeze"`` (Nowak et al. 2018,
     section 4.1, literally: x4 frozen while u is outside its range);
     2 ``"directional"``: freeze only an update that pushes u further beyond
     the limit it violates, so an update that brings u back towards the range
@@ -342,7 +342,7 @@ def solve_x4(
     s_x3: float,
     s_u: float,
 ) -> tuple[float, float, float, float]:
-    """Re-solve x4 so that the control law gives ``u_target`` (seed 000, (11)).
+    """Re-solve x4 so that the control law gives ``u_target`` (Nowak et al. 2018, (11)).
 
     All states of cycle i are affine in x4_i (the backward recursion (4a)
     passes x4_i on through aux_i with the constant sensitivities ``s_yh``,
@@ -373,7 +373,7 @@ def anti_backoff_states(
     k2: float,
     k3: float,
 ) -> tuple[float, float, float, float]:
-    """ESO states when Y reaches the sensor saturation ``y_sat``: (12a)/(12b) of seed 000.
+    """ESO states when Y reaches the sensor saturation ``y_sat``: (12a)/(12b) of Nowak et al. 2018.
 
     Re-derived from (4a) (section 4.3): with Y frozen at ``y_sat`` the ESO is
     put at rest, i.e. the increments of Y_hat, x2 and x3 in (4a) vanish:
@@ -649,7 +649,7 @@ def discretisation_trusted(
 
 
 class ADRC(Block):
-    """ADRC function block of seed 000 for orders 1..3 (one code path).
+    """ADRC function block of Nowak et al. 2018 for orders 1..3 (one code path).
 
     ``u = adrc(sp, y)`` runs one cycle: ESO (4a), control law (4b), limits.
 
@@ -693,7 +693,7 @@ class ADRC(Block):
     state with u = u_max and Y > sp, the innovation drives x4 to ``-b0
     u_max`` where (4b) is below u_max).  Both cases are closed-loop tests.
 
-    Two-phase form (seed 004, section 6)
+    Two-phase form (Åström 1987, section 6)
     ------------------------------------
     ``v = compute_output(sp, y)`` computes the cycle without committing (it can
     be called again with other inputs); ``update_state(applied)`` commits it
@@ -987,7 +987,7 @@ class ADRC(Block):
     def compute_output(
         self, sp: float, y: float, *, y_ok: bool = True, dt: float | None = None
     ) -> float:
-        """Compute this cycle's u without committing the state (seed 004, section 6).
+        """Compute this cycle's u without committing the state (Åström 1987, section 6).
 
         Idempotent within a cycle: it always starts from the committed state.
         """
@@ -1037,7 +1037,7 @@ class ADRC(Block):
                 ref = yf
                 started = True
             r_in = float(sp) if sp_valid else ref
-            # reference trajectory (seed 000 section 5): exact PT1 of the setpoint
+            # reference trajectory (Nowak et al. 2018, section 5): exact PT1 of the setpoint
             # (.signals.pt1_coefficient), as in adrc_step; in MAN it follows Y
             if manual and self._a_ref != 0.0:
                 ref = yf

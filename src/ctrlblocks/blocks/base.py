@@ -21,7 +21,7 @@ programmer, a test and a faceplate can treat them alike:
 * :meth:`Block.reset` returns the block to its initial state;
 * a readable ``repr``.
 
-Error codes reuse those of the CODESYS ``PID_Controller`` of seed 002
+Error codes reuse those of the CODESYS ``PID_Controller`` of controltheplant 2024
 (section 2.2, "Status & Error codes") where the meaning is the same, and add
 ctrlblocks' own codes in the same 16#8xxx style: 16#80xx cycle time,
 16#81xx process data, 16#82xx configuration, 16#83xx warnings (the block keeps
@@ -29,7 +29,7 @@ running normally; only a status flag is set).  ``docs/error-codes.md`` lists
 them all; a test keeps that table and :class:`ErrorCode` identical.
 
 Blocks whose state a surrounding structure must shape (saturation, selectors,
-cascades) also offer the two-phase form of Åström (seed 004, section 6,
+cascades) also offer the two-phase form of Åström (1987, section 6,
 Listing 6.3): ``compute_output(...)`` returns the output without touching the
 state; the structure shapes it; ``update_state(applied)`` then updates the
 state with the value actually applied, so anti-windup tracking uses
@@ -48,17 +48,17 @@ from typing import Any, ClassVar
 class ErrorCode(IntEnum):
     """Status and error codes of every block (``block.error_id``).
 
-    Codes marked *seed 002* keep the number and meaning of the CODESYS
-    ``PID_Controller`` (seed 002, section 2.2).
+    Codes marked *controltheplant 2024* keep the number and meaning of the CODESYS
+    ``PID_Controller`` (controltheplant 2024, section 2.2).
     """
 
     NO_ERROR = 0x0000
-    """No error (seed 002 ``STATUS_NO_ERRORS``)."""
+    """No error (controltheplant 2024, ``STATUS_NO_ERRORS``)."""
 
     # --- 16#80xx: cycle time -------------------------------------------------
     NO_CYCLE = 0x8001
     """Cycle time ``ts`` or per-call ``dt`` is zero, negative or not finite
-    (seed 002 ``ERR_NO_CYCLE``).  At run time: the block holds its last output."""
+    (controltheplant 2024, ``ERR_NO_CYCLE``).  At run time: the block holds its last output."""
 
     # --- 16#81xx: process data (set by the step, never raised) ---------------
     BAD_INPUT = 0x8101
@@ -71,25 +71,25 @@ class ErrorCode(IntEnum):
 
     # --- 16#82xx: configuration (raised as ParameterError) -------------------
     BAD_LIMITS = 0x8201
-    """Bad low and/or high limits, e.g. low > high (seed 002 ``ERR_BAD_LIMITS``).
+    """Bad low and/or high limits, e.g. low > high (controltheplant 2024, ``ERR_BAD_LIMITS``).
     Raised for a configuration; for limits written at run time (``set_limits``)
     it is a status: the last valid limits stay in force until a valid pair is
     written."""
     CANT_TRACK_SETP = 0x8202
     """Bumpless method TRACK_SETPOINT selected but the setpoint ramp is zero
-    (seed 002 ``ERR_CANT_TRACK_SETP``)."""
+    (controltheplant 2024, ``ERR_CANT_TRACK_SETP``)."""
     BAD_RATE = 0x8203
-    """A rate of change is negative or not finite (seed 002 ``ERR_BAD_RATE``)."""
+    """A rate of change is negative or not finite (controltheplant 2024, ``ERR_BAD_RATE``)."""
     BACK_CALC_T = 0x8205
-    """Bad back-calculation (tracking) time constant (seed 002 ``ERR_BACK_CALC_T``)."""
+    """Bad back-calculation (tracking) time constant (controltheplant 2024, ``ERR_BACK_CALC_T``)."""
     BAD_ANTIWINDUP = 0x8207
-    """Error in the anti-windup settings (seed 002 ``ERR_BAD_ANTIWINDUP``)."""
+    """Error in the anti-windup settings (controltheplant 2024, ``ERR_BAD_ANTIWINDUP``)."""
     BAD_STAB_TIME = 0x8209
-    """Stabilisation time must be positive (seed 002 ``ERR_BAD_STAB_TIME``)."""
+    """Stabilisation time must be positive (controltheplant 2024, ``ERR_BAD_STAB_TIME``)."""
     BAD_DEV_TOL = 0x820A
-    """Deviation tolerance must lie in 0..50 % (seed 002 ``ERR_BAD_DEV_TOL``)."""
+    """Deviation tolerance must lie in 0..50 % (controltheplant 2024, ``ERR_BAD_DEV_TOL``)."""
     BAD_PID_COEFFS = 0x820B
-    """Wrong PID parameters (seed 002 ``ERR_BAD_PID_COEFFS``)."""
+    """Wrong PID parameters (controltheplant 2024, ``ERR_BAD_PID_COEFFS``)."""
     BAD_PARAMETER = 0x8210
     """Any other invalid parameter: not a finite number, an unknown option
     name, a wrong type."""
@@ -105,7 +105,7 @@ class ErrorCode(IntEnum):
     """ADRC bandwidth omega_c or omega_o is not positive and finite."""
     BAD_FORM = 0x8216
     """A PID cannot be converted to the requested form (series form needs
-    Ti >= 4 Td, seed 004 (2.6))."""
+    Ti >= 4 Td, Åström 1987, (2.6))."""
 
     # --- 16#83xx: warnings (status only, the block runs normally) ------------
     WARN_DISCRETISATION = 0x8301
@@ -114,9 +114,9 @@ class ErrorCode(IntEnum):
 
 
 class Mode(IntEnum):
-    """Operating mode of a controller block (seed 002, section 2.3.5).
+    """Operating mode of a controller block (controltheplant 2024, section 2.3.5).
 
-    Priority when several requests are active (seed 002): RESET > TRACK >
+    Priority when several requests are active (controltheplant 2024): RESET > TRACK >
     HOLD > MANUAL > AUTO.
     """
 

@@ -1,8 +1,8 @@
-"""Jump-and-rate module (Åström, seed 004, section 5, Figs. 5.1/5.2, Appendix A system ``jar``).
+"""Jump-and-rate module (Åström 1987, section 5, Figs. 5.1/5.2, Appendix A system ``jar``).
 
 Source
 ------
-Seed 004 (K. J. Åström, *Implementation of PID Regulators*, 1987), section 5:
+Åström 1987 (*Implementation of PID Regulators*), section 5:
 "It is sometimes needed to make sure that command signals do not change too
 rapidly.  This can be ensured by using a jump- and rate module.  See Figure
 5.1.  The module has one input and one output and four parameters."  The
@@ -80,7 +80,7 @@ __all__ = ["JumpAndRate", "JumpAndRateConfig", "jar_output", "jar_state_update"]
 
 
 def jar_output(u: float, x: float, jlow: float, jhigh: float) -> float:
-    """Output ``y = x + sat(u - x, jlow, jhigh)`` (seed 004 Appendix A, system ``jar``)."""
+    """Output ``y = x + sat(u - x, jlow, jhigh)`` (Åström 1987, Appendix A, system ``jar``)."""
     e = u - x
     if e > jhigh:
         return x + jhigh
@@ -138,7 +138,7 @@ def jar_state_update(x: float, u: float, h: float, rlow: float, rhigh: float) ->
 
 @dataclasses.dataclass(frozen=True)
 class JumpAndRateConfig(BlockConfig):
-    """Configuration of :class:`JumpAndRate` (the four parameters of seed 004 Fig. 5.1).
+    """Configuration of :class:`JumpAndRate` (the four parameters of Åström 1987, Fig. 5.1).
 
     Attributes
     ----------
@@ -179,7 +179,7 @@ class JumpAndRateConfig(BlockConfig):
 
 
 class JumpAndRate(Block):
-    """Jump-and-rate module of seed 004 (Fig. 5.1, system ``jar``); see the module docstring.
+    """Jump-and-rate module of Åström 1987 (Fig. 5.1, system ``jar``); see the module docstring.
 
     ``y = jar(u)`` runs one sample (``dt`` optional, in seconds).
 

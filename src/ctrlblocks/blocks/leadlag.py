@@ -1,15 +1,15 @@
-"""Lead-lag block ``K (1 + Tt s) / (1 + Tn s)`` (seed 003, "Lead Lag Funksjonsblokk").
+"""Lead-lag block ``K (1 + Tt s) / (1 + Tn s)`` (Bonde et al. 2021, "Lead Lag Funksjonsblokk").
 
 Source
 ------
-Seed 003 (NTNU working note *PID og Lead-Lag funksjonsblokk*), section
+Bonde et al. 2021 (NTNU working note *PID og Lead-Lag funksjonsblokk*), section
 "Lead Lag Funksjonsblokk": the continuous element
 
     h_LL(s) = K (1 + Tt s) / (1 + Tn s)
 
 with gain ``K`` (``k``), lead time constant ``Tt`` (``t_lead``, numerator) and
 lag time constant ``Tn`` (``t_lag``, denominator); its use is feed-forward from
-a setpoint or a measured disturbance.  The structured-text code of seed 003
+a setpoint or a measured disturbance.  The structured-text code of Bonde et al. 2021
 Fig. 10 is the reference for the run-time behaviour (enable input, output
 limits, what is stored as the previous output).
 
@@ -20,7 +20,7 @@ Both discretisations have the form (``h`` the sample time, ``x`` the input,
 
     y[k] = b0 x[k] + b1 x[k-1] - a1 y[k-1]
 
-* ``method="tustin"`` (default; seed 003, "Utledning av differenslikning:
+* ``method="tustin"`` (default; Bonde et al. 2021, "Utledning av differenslikning:
   Tustins metode", ``s = (2/h)(1 - z^-1)/(1 + z^-1)``, and the code of Fig. 10)::
 
       b0 = K (h + 2 Tt) / (h + 2 Tn)
@@ -30,12 +30,12 @@ Both discretisations have the form (``h`` the sample time, ``x`` the input,
   With ``Tn = 0`` the pole is ``z = -a1 = -1``: the output would ring
   undamped at the Nyquist frequency.  That configuration is refused
   (use ``method="euler"`` or ``t_lag > 0``).
-* ``method="euler"``: backward difference ``s = (1 - z^-1)/h`` (seed 003,
+* ``method="euler"``: backward difference ``s = (1 - z^-1)/h`` (Bonde et al. 2021,
   "Bakoverdifferanse (Eulers metode)"; the first formula of the section
   "Utledning av differenslikning: Eulers metode",
   ``h_LL(z) = K ((h + Tt) - Tt z^-1) / ((h + Tn) - Tn z^-1)``; the rest of
-  that section of the seed repeats the Tustin derivation, see the seeds'
-  README)::
+  that section of the note repeats the Tustin derivation: an
+  extraction slip)::
 
       b0 = K (h + Tt) / (h + Tn)
       b1 = -K Tt / (h + Tn)
@@ -46,15 +46,15 @@ Both discretisations have the form (``h`` the sample time, ``x`` the input,
 
 Both have the static gain ``K`` (``(b0 + b1)/(1 + a1) = K``).
 
-Run-time behaviour (seed 003 Fig. 10)
+Run-time behaviour (Bonde et al. 2021, Fig. 10)
 -------------------------------------
 * ``enable`` false: the output is 0, the previous output is set to 0 and the
   input memory follows the input (``Setpoint_prev := Setpoint``), so that
   enabling again starts from the current input without a derivative kick from
   an old input; the lag then starts from 0.
 * Output limits ``out_min <= y <= out_max``: the *limited* value is what is
-  stored as the previous output (seed 003 Fig. 10 stores ``U_prev :=
-  LL_Output`` after saturation).  This is the seed's behaviour: while the
+  stored as the previous output (Bonde et al. 2021, Fig. 10 stores ``U_prev :=
+  LL_Output`` after saturation).  This is the note's behaviour: while the
   output is limited the recursion runs from the limit, so the block does not
   wind up, but its response while and after limiting is not that of the linear
   filter.
@@ -98,8 +98,8 @@ def leadlag_coefficients(
 ) -> tuple[float, float, float]:
     """Coefficients ``(b0, b1, a1)`` of ``y[k] = b0 x[k] + b1 x[k-1] - a1 y[k-1]``.
 
-    Tustin as in seed 003 ("Utledning av differenslikning: Tustins metode",
-    Fig. 10), backward Euler as in seed 003 "Bakoverdifferanse" (formulas in
+    Tustin as in Bonde et al. 2021 ("Utledning av differenslikning: Tustins metode",
+    Fig. 10), backward Euler as in Bonde et al. 2021, "Bakoverdifferanse" (formulas in
     the module docstring).
 
     Parameters
@@ -111,7 +111,7 @@ def leadlag_coefficients(
     h : float
         Sample time [s], > 0.
     tustin : bool
-        True for Tustin (seed 003, Fig. 10), False for backward Euler.
+        True for Tustin (Bonde et al. 2021, Fig. 10), False for backward Euler.
     """
     if tustin:
         d = h + 2.0 * t_lag
@@ -130,7 +130,7 @@ def leadlag_step(
     lo: float,
     hi: float,
 ) -> float:
-    """One sample of the lead-lag recursion, limited to ``[lo, hi]`` (seed 003 Fig. 10)."""
+    """One lead-lag sample, limited to ``[lo, hi]`` (Bonde et al. 2021, Fig. 10)."""
     return clamp(b0 * x + b1 * x_prev - a1 * y_prev, lo, hi)
 
 
@@ -146,16 +146,16 @@ class LeadLagConfig(BlockConfig):
     Attributes
     ----------
     k : float
-        Gain K [output units / input units] (seed 003 ``K_LL``).
+        Gain K [output units / input units] (Bonde et al. 2021, ``K_LL``).
     t_lead : float
-        Lead time constant Tt [s], >= 0 (seed 003 ``T_t``, numerator).
+        Lead time constant Tt [s], >= 0 (Bonde et al. 2021, ``T_t``, numerator).
     t_lag : float
-        Lag time constant Tn [s], >= 0 (seed 003 ``T_n``, denominator); must be
+        Lag time constant Tn [s], >= 0 (Bonde et al. 2021, ``T_n``, denominator); must be
         > 0 with Tustin.
     ts : float
         Sample time [s], > 0.
     method : str
-        ``"tustin"`` (default, seed 003 Fig. 10) or ``"euler"`` (backward
+        ``"tustin"`` (default, Bonde et al. 2021, Fig. 10) or ``"euler"`` (backward
         difference).
     out_min, out_max : float
         Output limits [output units]; infinite means no limit.
@@ -186,7 +186,7 @@ class LeadLagConfig(BlockConfig):
 
 
 class LeadLag(Block):
-    """Lead-lag ``K (1 + Tt s)/(1 + Tn s)`` of seed 003 (see the module docstring).
+    """Lead-lag ``K (1 + Tt s)/(1 + Tn s)`` of Bonde et al. 2021 (see the module docstring).
 
     ``y = ll(x)`` runs one sample; ``ll(x, enable=False)`` gives 0 and lets the
     input memory follow ``x``.  ``ll(x, dt=0.05)`` uses a measured sample time
@@ -250,7 +250,7 @@ class LeadLag(Block):
         x : float
             Input (setpoint or measured disturbance) [input units].
         enable : bool
-            False: output 0, the input memory follows ``x`` (seed 003 Fig. 10).
+            False: output 0, the input memory follows ``x`` (Bonde et al. 2021, Fig. 10).
         dt : float, optional
             Sample time of this call [s]; default the configured ``ts``.
         """

@@ -2,7 +2,7 @@
 
 Source
 ------
-Seed 004 (K. J. Åström, *Implementation of PID Regulators*, 1987), section 4
+Åström 1987 (*Implementation of PID Regulators*), section 4
 "Manual Control" and Fig. 4.5 "Manual control module": "It has two inputs, a
 tracking input and an input for the manual control commands.  The system has
 two parameters, the time constant T_m for the manual control input and the
@@ -59,7 +59,7 @@ is solved exactly for the sample's mean manual rate ``m = delta / h`` and
 Finally ``v`` is limited to ``[out_min, out_max]`` (the station's own range,
 0..100 % by default).
 
-Calling order (seed 004 section 6, ComputeOutput / UpdateState): the output of
+Calling order (Åström 1987, section 6, ComputeOutput / UpdateState): the output of
 a sample is the state after that sample's update, so a button acts in the same
 call.  For the two-phase form ``compute_output()`` returns the present output
 and ``update_state(applied, inc, dec)`` advances with the applied value as the
@@ -159,10 +159,10 @@ class ManualStationConfig(BlockConfig):
     Attributes
     ----------
     tm : float
-        Manual time constant Tm [s] > 0 (seed 004 Fig. 4.5): time to travel
+        Manual time constant Tm [s] > 0 (Åström 1987, Fig. 4.5): time to travel
         ``span`` at the base rate.
     tr : float
-        Tracking (reset) time constant Tr [s] >= 0 (seed 004 Fig. 4.5); 0 is
+        Tracking (reset) time constant Tr [s] >= 0 (Åström 1987, Fig. 4.5); 0 is
         ideal tracking.
     span : float
         Travel in ``tm`` seconds at the base rate [output units] > 0.
@@ -204,7 +204,7 @@ class ManualStationConfig(BlockConfig):
 
 
 class ManualStation(Block):
-    """Manual control module of seed 004 Fig. 4.5 (see the module docstring for the equations).
+    """Manual control module of Åström 1987, Fig. 4.5 (see the module docstring for the equations).
 
     Attributes
     ----------
@@ -265,7 +265,7 @@ class ManualStation(Block):
             self.out = clamp(float(value), self._lo, self._hi)
 
     def compute_output(self) -> float:
-        """Two-phase form (seed 004 section 6): the present output, state untouched."""
+        """Two-phase form (Åström 1987, section 6): the present output, state untouched."""
         return self.out
 
     def update_state(

@@ -2,12 +2,12 @@
 
 Source
 ------
-Seed 003 (NTNU working note, section "Valg av samplingstid"): the sample time
+Bonde et al. 2021 (NTNU working note, section "Valg av samplingstid"): the sample time
 should be as short as possible but, above all, predictable, because the
 filters' behaviour depends on it; the authors therefore made "a separate
 function block that monitors the sample time", used to find a suitable sample
 time, "equipped with an alarm/warning if the real sample time exceeds a
-user-defined level".  The seed gives no code for it; this block is
+user-defined level".  The note gives no code for it; this block is
 ctrlblocks' design from that description.
 
 Like every block, the monitor reads no clock: the caller (the runtime's
@@ -64,7 +64,7 @@ def welford_update(n: int, mean: float, m2: float, x: float) -> tuple[int, float
 
     ``mean_n = mean_{n-1} + (x - mean_{n-1})/n``, ``m2_n = m2_{n-1} + (x -
     mean_{n-1})(x - mean_n)`` (B. P. Welford, Technometrics 4 (1962) 419-420;
-    not from the seeds).  The population variance after ``n`` values is ``m2 / n``.
+    not from the sources).  The population variance after ``n`` values is ``m2 / n``.
     """
     n += 1
     d = x - mean
@@ -118,7 +118,9 @@ class CycleMonitorConfig(BlockConfig):
 
 
 class CycleMonitor(Block):
-    """Monitor of the real cycle time (seed 003, "Valg av samplingstid"); see the module docstring.
+    """Monitor of the real cycle time (Bonde et al. 2021, "Valg av samplingstid").
+
+    See the module docstring.
 
     ``mon(dt_measured)`` records one cycle and returns ``warning`` (true when
     the cycle time exceeded ``warn_limit``, which includes every alarm).

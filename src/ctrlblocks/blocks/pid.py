@@ -1,51 +1,53 @@
-"""The industrial PID block: seed 002 (CODESYS PID_Controller), seed 004 (Åström), seed 003 (NTNU).
+"""The industrial PID block: controltheplant 2024, Åström 1987, Bonde et al. 2021.
 
 Control law (ISA form inside; see :mod:`.pid_forms` for ``form="parallel"``
 and ``form="series"``), after optional scaling of SP and PV to 0..100 %:
 
-* proportional action with setpoint weight ``b``, seed 004 (2.2), (2.7)::
+* proportional action with setpoint weight ``b``, Åström 1987, (2.2), (2.7)::
 
       P[k] = K (b r[k] - y[k])
 
-* integral action, ``dI/dt = (K/Ti) e + (u - v)/Tt`` (seed 004 Fig. 3.6 and
+* integral action, ``dI/dt = (K/Ti) e + (u - v)/Tt`` (Åström 1987, Fig. 3.6 and
   the Simnon module ``pid`` of Appendix A), ``e = r - y``.  The error part is
   discretised by ``integral_method``:
 
-  - ``"forward"``  (seed 004 (2.8)): ``I[k] = I[k-1] + K h/Ti e[k-1]``
+  - ``"forward"``  (Åström 1987, (2.8)): ``I[k] = I[k-1] + K h/Ti e[k-1]``
   - ``"backward"``: ``I[k] = I[k-1] + K h/Ti e[k]``
-  - ``"tustin"``  (trapezoid, seed 002 2.3.1, seed 003 "I-leddet", default):
+  - ``"tustin"``  (trapezoid, controltheplant 2024, section 2.3.1; Bonde et al.
+    2021, "I-leddet"; default):
     ``I[k] = I[k-1] + K h/(2 Ti) (e[k] + e[k-1])``
 
   The tracking part ``(u - v)/Tt`` is applied in ``update_state`` once the
-  applied value ``u`` is known (seed 004 section 6, (6.6)), discretised by
+  applied value ``u`` is known (Åström 1987, section 6, (6.6)), discretised by
   implicit Euler, ``I += h/(Tt + h) (u - v)``: stable for every ``Tt > 0`` and
   ``Tt -> 0`` sets ``v = u`` in one sample.
 
 * derivative action with setpoint weight ``c`` (``c = 0``: derivative on the
-  measurement, seed 004 (2.3), seed 003 "Derivasjonskick") and filter time
-  constant ``Tf = Td/N`` (seed 003 sum form; seed 004 (2.9))::
+  measurement, Åström 1987, (2.3), Bonde et al. 2021, "Derivasjonskick") and filter time
+  constant ``Tf = Td/N`` (Bonde et al. 2021 sum form; Åström 1987, (2.9))::
 
       Tf dD/dt + D = K Td d/dt (c r - y)
 
-  discretised as seed 004 (2.13), ``D[k] = a D[k-1] + bd (w[k] - w[k-1])`` with
+  discretised as Åström 1987, (2.13), ``D[k] = a D[k-1] + bd (w[k] - w[k-1])`` with
   ``w = c r - y`` and, by ``derivative_method`` (``kd = K Td``):
 
   - ``"forward"``  (2.10): ``a = 1 - h/Tf``,          ``bd = kd/Tf``
   - ``"backward"`` (2.11): ``a = Tf/(Tf + h)``,        ``bd = kd/(Tf + h)`` (default)
   - ``"tustin"``   (2.12): ``a = (2Tf - h)/(2Tf + h)``, ``bd = 2 kd/(2Tf + h)``
-    (seed 003 "D-leddet", with ``tau = Td/n``).
+    (Bonde et al. 2021, "D-leddet", with ``tau = Td/n``).
 
-* output ``v = P + I + D + FF`` (seed 004 (6.1); the feed-forward ``FF`` is
-  the ``ff`` input plus the lead-lag path of seed 003 version 4), limited to
+* output ``v = P + I + D + FF`` (Åström 1987, (6.1); the feed-forward ``FF`` is
+  the ``ff`` input plus the lead-lag path of Bonde et al. 2021 version 4), limited to
   ``[u_min, u_max]`` and passed through the output ramp.
 
-The velocity (incremental) algorithm (seed 002 2.3.1; seed 004 Figs. 2.2-2.5)
+The velocity (incremental) algorithm (controltheplant 2024, section 2.3.1;
+Åström 1987, Figs. 2.2-2.5)
 adds the increments of the same P, I, D and FF terms to an output integrator
 that is limited itself.  Without integral action the integrator has the reset
 feedback of Fig. 2.4 (switch B of Fig. 2.5), time constant ``tt``, so that P
 and PD controllers keep the proper steady state ``P + D + FF + bias``.
 
-Everything around the law follows seed 002 section 2.3; see the class
+Everything around the law follows controltheplant 2024, section 2.3; see the class
 docstring and ``docs/blocks/pid.md``.
 """
 
@@ -80,33 +82,36 @@ log = logging.getLogger(__name__)
 
 
 class AntiWindup:
-    """Anti-windup methods (seed 002 ``enumAntiWindupMethods``)."""
+    """Anti-windup methods (controltheplant 2024, ``enumAntiWindupMethods``)."""
 
     CLAMPING = "clamping"
     """Conditional integration: stop integrating while the output is limited
     (by ``u_min``/``u_max`` or by the output ramp) and the error drives it
-    further into the limit (seed 002 2.3.12)."""
+    further into the limit (controltheplant 2024, section 2.3.12)."""
     BACK_CALC_MODEL = "back_calc_model"
     """Back-calculation with an actuator model (limits + output ramp), time
-    constant ``tt`` (seed 002 2.3.12; seed 004 Fig. 3.2 B)."""
+    constant ``tt`` (controltheplant 2024, section 2.3.12; Åström 1987, Fig. 3.2 B)."""
     BACK_CALC_REAL = "back_calc_real"
     """Back-calculation with the measured actuator position ``actuator_pos``
-    (seed 002 2.3.12; seed 004 Fig. 3.2 A)."""
+    (controltheplant 2024, section 2.3.12; Åström 1987, Fig. 3.2 A)."""
     ALL = (CLAMPING, BACK_CALC_MODEL, BACK_CALC_REAL)
 
 
 class Bumpless:
-    """Bumpless manual-to-auto methods (seed 002 ``enumBumplessTransferMethods`` + Åström)."""
+    """Bumpless manual-to-auto methods (controltheplant 2024, ``enumBumplessTransferMethods``).
+
+    ``INTEGRATOR`` is the integrator tracking of Åström 1987, Fig. 4.4.
+    """
 
     INTEGRATOR = "integrator"
     """The integrator tracks the output in every non-auto mode and is set at the
-    switch so that the output continues exactly (seed 004 Fig. 4.4; default)."""
+    switch so that the output continues exactly (Åström 1987, Fig. 4.4; default)."""
     TRACK_SETPOINT = "track_setpoint"
     """In non-auto modes the working setpoint follows the PV; after the switch
-    it ramps back to the SP with ``sp_rate`` (seed 002; needs ``sp_rate > 0``,
+    it ramps back to the SP with ``sp_rate`` (controltheplant 2024; needs ``sp_rate > 0``,
     else 16#8202)."""
     SUPPRESS_P_ACTION = "suppress_p_action"
-    """After the switch the P action is off until ``|e| <= dev_tol`` (seed 002)."""
+    """After the switch the P action is off until ``|e| <= dev_tol`` (controltheplant 2024)."""
     ALL = (INTEGRATOR, TRACK_SETPOINT, SUPPRESS_P_ACTION)
 
 
@@ -121,7 +126,7 @@ _FORWARD, _BACKWARD, _TUSTIN = 0, 1, 2
 
 
 def derivative_coefficients(kd: float, tf: float, h: float, method: int) -> tuple[float, float]:
-    """``(a, bd)`` of seed 004 (2.13) for ``Tf dD/dt + D = kd dw/dt``.
+    """``(a, bd)`` of Åström 1987, (2.13) for ``Tf dD/dt + D = kd dw/dt``.
 
     ``method`` 0 forward (2.10), 1 backward (2.11), 2 Tustin (2.12);
     ``kd = K Td``, ``Tf = Td/N``.  ``kd == 0`` gives ``(0, 0)`` (no derivative).
@@ -138,8 +143,9 @@ def derivative_coefficients(kd: float, tf: float, h: float, method: int) -> tupl
 def integral_weights(method: int) -> tuple[float, float]:
     """Weights ``(alpha, beta)`` of ``e[k-1]`` and ``e[k]`` in the integral increment.
 
-    ``method`` 0 forward (seed 004 (2.8)): ``(1, 0)``; 1 backward Euler:
-    ``(0, 1)``; 2 Tustin (seed 002 2.3.1, seed 003 "I-leddet"): ``(1/2, 1/2)``.
+    ``method`` 0 forward (Åström 1987, (2.8)): ``(1, 0)``; 1 backward Euler:
+    ``(0, 1)``; 2 Tustin (controltheplant 2024, section 2.3.1; Bonde et al. 2021,
+    "I-leddet"): ``(1/2, 1/2)``.
     """
     if method == _FORWARD:
         return 1.0, 0.0
@@ -149,7 +155,7 @@ def integral_weights(method: int) -> tuple[float, float]:
 
 
 def derivative_step(a: float, bd: float, d_prev: float, w: float, w_prev: float) -> float:
-    """Seed 004 (2.13): ``D[k] = a D[k-1] + bd (w[k] - w[k-1])`` with ``w = c r - y``."""
+    """Åström 1987, (2.13): ``D[k] = a D[k-1] + bd (w[k] - w[k-1])`` with ``w = c r - y``."""
     return a * d_prev + bd * (w - w_prev)
 
 
@@ -159,7 +165,7 @@ def integral_increment(ki_h: float, alpha: float, beta: float, e_prev: float, e:
 
 
 def clamping_blocks(di: float, v: float, lo: float, hi: float) -> bool:
-    """Conditional integration (seed 002 CLAMPING): True if the increment ``di``
+    """Conditional integration (controltheplant 2024 CLAMPING): True if the increment ``di``
     would drive the limited output ``v`` further into its limit."""
     return (v > hi and di > 0.0) or (v < lo and di < 0.0)
 
@@ -177,7 +183,7 @@ def ramp_blocks(di: float, v: float, y_prev: float, step_max: float) -> bool:
 def tracking_gain(h: float, tt: float) -> float:
     """Implicit-Euler gain ``h/(Tt + h)`` of the tracking term ``(u - v)/Tt``.
 
-    Seed 004 Fig. 3.6 and the Simnon module ``pid`` (``dI = ... + (v - u)/Tt``).
+    Åström 1987, Fig. 3.6 and the Simnon module ``pid`` (``dI = ... + (v - u)/Tt``).
     """
     return h / (tt + h)
 
@@ -208,7 +214,7 @@ def pid_step(
     weights, derivative coefficients (2.13), integral gain and weights,
     limits, anti-windup (0 clamping, 1 back-calculation) and tracking gain
     ``h/(Tt + h)``.  ``manual`` outputs ``u_man`` (limited) and sets the
-    integrator so that ``P + I + D + FF`` equals it (seed 004 Fig. 4.4);
+    integrator so that ``P + I + D + FF`` equals it (Åström 1987, Fig. 4.4);
     ``transfer`` (first auto cycle after manual) continues from ``out_prev``;
     ``cold`` (first cycle after a reset) starts the histories on this sample.
 
@@ -242,7 +248,7 @@ def pid_step(
     v_raw = p + i_k + dn + ff
     out = clamp(v_raw, lo, hi)
     # update_state with applied = out: clamping tracks ``applied - out`` = 0 (the
-    # integrator stays i_k), back-calculation ``applied - v_raw`` (seed 004 Fig. 3.6)
+    # integrator stays i_k), back-calculation ``applied - v_raw`` (Åström 1987, Fig. 3.6)
     i_new = i_k + g * (out - v_raw) if ki_h != 0.0 and aw != 0.0 else i_k
     return out, v_raw, p, i_k, i_new, dn, w, e
 
@@ -254,70 +260,71 @@ def pid_step(
 
 @dataclasses.dataclass(frozen=True)
 class PIDConfig(BlockConfig):
-    """Configuration of :class:`PID` (seed 002 ``typePIDSettings`` and more).
+    """Configuration of :class:`PID` (controltheplant 2024, ``typePIDSettings`` and more).
 
-    Units: "%" means percent of the PV range when ``pv_range`` is given (seed
-    002 scaling), otherwise the engineering units of SP/PV.  The output is in
+    Units: "%" means percent of the PV range when ``pv_range`` is given
+    (controltheplant 2024 scaling), otherwise the engineering units of SP/PV.  The output is in
     % (or in the user's units without scaling).
 
     Attributes
     ----------
     kp : float
-        Gain [%/%], > 0 (seed 002: "must be positive"; use ``reverse`` for a
+        Gain [%/%], > 0 (controltheplant 2024: "must be positive"; use ``reverse`` for a
         negative action).  Meaning per ``form`` (see :mod:`.pid_forms`).
     ti : float
         Integral time [s] (``form="parallel"``: 1/ki [s]); 0 = no integral action.
     td : float
         Derivative time [s] (``form="parallel"``: kd [s]); 0 = no derivative.
     n : float
-        Derivative filter: ``Tf = Td/n`` (seed 003 ``n``, seed 004 ``N``), > 0.
+        Derivative filter: ``Tf = Td/n`` (Bonde et al. 2021, ``n``, Åström 1987, ``N``), > 0.
     b, c : float
-        Setpoint weights of P (seed 004 (2.2)) and D (``c = 0``: derivative on PV).
+        Setpoint weights of P (Åström 1987, (2.2)) and D (``c = 0``: derivative on PV).
     ts : float
         Sample time [s] > 0.
     u_min, u_max : float
-        Output limits [%] (seed 002 ``irOutLimitL/H``); infinite = no limit.
+        Output limits [%] (controltheplant 2024, ``irOutLimitL/H``); infinite = no limit.
     integral_method, derivative_method : str
         ``"forward"``, ``"backward"`` or ``"tustin"`` (module docstring).
     form : str
         ``"isa"`` (default), ``"parallel"`` (independent gains) or ``"series"``.
     algorithm : str
-        ``"positional"`` (default) or ``"velocity"`` (incremental, seed 002).
+        ``"positional"`` (default) or ``"velocity"`` (incremental, controltheplant 2024).
     reverse : bool
-        Reverse action: the output falls when PV rises (seed 002 ``ixInverted``).
+        Reverse action: the output falls when PV rises (controltheplant 2024, ``ixInverted``).
     pv_range : tuple of float or None
-        ``(lo, hi)`` of SP and PV [eng. units] scaled to 0..100 % (seed 002
+        ``(lo, hi)`` of SP and PV [eng. units] scaled to 0..100 % (controltheplant 2024
         ``rangeLo/rangeHi``); None = no scaling.
     sp_filter, pv_filter : float
         PT1 time constants of the SP and PV filters [s]; 0 = off.
     sp_rate : float
         Setpoint ramp [%/s], >= 0; 0 = off.
     out_rate : float
-        Output ramp [%/s], >= 0; 0 = off.  Active in every mode (seed 002 2.3.8).
+        Output ramp [%/s], >= 0; 0 = off.  Active in every mode
+        (controltheplant 2024, section 2.3.8).
     anti_windup : str
         One of :class:`AntiWindup`.
     tt : float or None
-        Tracking / back-calculation time constant [s] > 0 (seed 002
-        ``irBackCalcFactor``, seed 004 ``Tt``).  None: ``ti_isa/5`` (seed 004
+        Tracking / back-calculation time constant [s] > 0 (controltheplant 2024
+        ``irBackCalcFactor``, Åström 1987, ``Tt``).  None: ``ti_isa/5`` (Åström 1987
         Fig. 3.9 uses ``Tt = Ti/5``), or ``ts`` without integral action.
     bumpless : str
         One of :class:`Bumpless`.
     dev_tol : float
-        Deviation tolerance [%] in (0, 50] for SUPPRESS_P_ACTION (seed 002
+        Deviation tolerance [%] in (0, 50] for SUPPRESS_P_ACTION (controltheplant 2024
         ``irDeviationTolerance``).
     deadband : float
-        Adaptive dead band half-width [%] (seed 002 2.3.10); 0 = off; negative
+        Adaptive dead band half-width [%] (controltheplant 2024, section 2.3.10); 0 = off; negative
         acts as its absolute value.
     t_stab : float
         Stabilisation time [s] > 0 of the adaptive dead band.
     reset_value : float
-        Output (and integrator) value while ``reset_active`` (seed 002
+        Output (and integrator) value while ``reset_active`` (controltheplant 2024
         ``irResetValue``); also the initial output.
     safe_value : float or None
         Output while SP/PV/FF are not finite; None = hold the last output.
     ff_k, ff_t_lead, ff_t_lag : float
         Lead-lag feed-forward ``ff_k (1 + ff_t_lead s)/(1 + ff_t_lag s)`` on the
-        ``dv`` input (seed 003 version 4, Tustin); ``ff_k = 0`` = off.
+        ``dv`` input (Bonde et al. 2021 version 4, Tustin); ``ff_k = 0`` = off.
     """
 
     kp: float = 1.0
@@ -395,7 +402,7 @@ class PIDConfig(BlockConfig):
             raise ParameterError(
                 ErrorCode.CANT_TRACK_SETP,
                 "sp_rate",
-                "bumpless TRACK_SETPOINT needs a setpoint ramp sp_rate > 0 (seed 002)",
+                "bumpless TRACK_SETPOINT needs a setpoint ramp sp_rate > 0 (controltheplant 2024)",
             )
         tol = require_finite("dev_tol", self.dev_tol, ErrorCode.BAD_DEV_TOL)
         if not 0.0 <= tol <= 50.0 or (self.bumpless == Bumpless.SUPPRESS_P_ACTION and tol == 0):
@@ -417,7 +424,7 @@ class PIDConfig(BlockConfig):
             raise ParameterError(
                 coeffs,
                 "td",
-                f"forward-difference derivative (seed 004 (2.10)) is unstable for "
+                f"forward-difference derivative (Åström 1987, (2.10)) is unstable for "
                 f"Td/N <= ts/2 (Td={td!r}, N={self.n!r}, ts={ts!r}); use 'backward'",
             )
 
@@ -436,19 +443,21 @@ _SUB_COMPUTE = ("_sp_filter", "_pv_filter", "_sp_ramp", "_out_ramp", "_ll")
 
 
 class PID(Block):
-    """Industrial PID block (seeds 002, 003, 004); see the module docstring for the law.
+    """Industrial PID block (controltheplant 2024; Bonde et al. 2021; Åström 1987).
+
+    See the module docstring for the law.
 
     One cycle: ``u = pid(sp, pv)`` (optionally ``ff=`` feed-forward/offset [%],
     ``dv=`` input of the lead-lag feed-forward path, ``dt=`` measured sample
-    time [s]).  Two-phase form (seed 004 section 6, Listing 6.3)::
+    time [s]).  Two-phase form (Åström 1987, section 6, Listing 6.3)::
 
         v = pid.compute_output(sp, pv)   # ComputeOutput (no state committed)
         u = shape(v)                     # ShapeOutput: selector, saturation, ...
         pid.update_state(u)              # UpdateState with the applied value
 
-    Inputs as attributes (seed 002): ``manual``, ``manual_value`` (In/Out:
+    Inputs as attributes (controltheplant 2024): ``manual``, ``manual_value`` (In/Out:
     follows the applied output when not in manual), ``track``,
-    ``track_value``, ``hold``, ``reset_active`` (seed 002 ``reset``),
+    ``track_value``, ``hold``, ``reset_active`` (controltheplant 2024, ``reset``),
     ``actuator_pos`` (for BACK_CALC_REAL), ``awin`` (freeze the integrator,
     cascade).  Priority: RESET > TRACK > HOLD > MANUAL > AUTO (:class:`Mode`).
 
@@ -505,7 +514,7 @@ class PID(Block):
     )
 
     def __init__(self, config: PIDConfig | None = None, /, **params: Any) -> None:
-        # mode inputs (seed 002); not part of the state, reset() leaves them
+        # mode inputs (controltheplant 2024); not part of the state, reset() leaves them
         self.manual = False
         self.track = False
         self.track_value = 0.0
@@ -670,7 +679,7 @@ class PID(Block):
 
     @property
     def mode(self) -> Mode:
-        """The active mode from the inputs, by seed 002's priority (see :class:`Mode`)."""
+        """The active mode from the inputs, by the priority of :class:`Mode`."""
         if self.reset_active:
             return Mode.RESET
         if self.track:
@@ -752,7 +761,7 @@ class PID(Block):
         dt: float | None = None,
         pv_ok: bool = True,
     ) -> float:
-        """ComputeOutput of seed 004 Listing 6.3: the limited output of this cycle.
+        """ComputeOutput of Åström 1987, Listing 6.3: the limited output of this cycle.
 
         Commits no state: calling it again in the same cycle (before
         :meth:`update_state`) gives the same result for the same inputs.
@@ -762,9 +771,9 @@ class PID(Block):
         sp, pv : float
             Setpoint and process value [eng. units; scaled when ``pv_range``].
         ff : float
-            Feed-forward / offset added before the limits [%] (seed 002 ``offset``).
+            Feed-forward / offset added before the limits [%] (controltheplant 2024, ``offset``).
         dv : float
-            Input of the lead-lag feed-forward path (seed 003 version 4).
+            Input of the lead-lag feed-forward path (Bonde et al. 2021 version 4).
         dt : float, optional
             Sample time of this cycle [s]; default ``ts``.
         pv_ok : bool
@@ -822,8 +831,8 @@ class PID(Block):
             target = out_prev
         elif mode == Mode.RESET:
             target = clamp(float(c.reset_value), lo, hi)
-            subs["_out_ramp"].preset(target)  # "immediately" (seed 002 2.3.5)
-            self._limits_status = ErrorCode.NO_ERROR  # seed 002: reset clears the errors
+            subs["_out_ramp"].preset(target)  # "immediately" (controltheplant 2024, section 2.3.5)
+            self._limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
 
         if not ok:
             self._c_kind = 1
@@ -845,7 +854,7 @@ class PID(Block):
         sp_f = spf(x_sp, dt=h)
         pv_f = pvf(x_pv, dt=h)
         if c.bumpless == Bumpless.TRACK_SETPOINT and mode != Mode.AUTO:
-            ramp.preset(pv_f)  # seed 002: in manual the SP follows the PV
+            ramp.preset(pv_f)  # controltheplant 2024: in manual the SP follows the PV
             sp_w = pv_f
         else:
             if self._cold:
@@ -927,7 +936,7 @@ class PID(Block):
         out_prev: float,
         transfer: bool,
     ) -> float:
-        """Velocity algorithm (seed 002 2.3.1; seed 004 Figs. 2.2, 2.4, 2.5)."""
+        """Velocity algorithm (controltheplant 2024, 2.3.1; Åström 1987, Figs. 2.2, 2.4, 2.5)."""
         if transfer:
             self._c_bias = self._c_i = out_prev - p - d - ff
             return out_prev
@@ -964,10 +973,10 @@ class PID(Block):
         return out
 
     def update_state(self, applied: float) -> None:
-        """UpdateState of seed 004 Listing 6.3 with the value actually applied [%].
+        """UpdateState of Åström 1987, Listing 6.3 with the value actually applied [%].
 
         In auto the integrator tracks ``applied`` with time constant ``tt``
-        (seed 004 Fig. 3.6); with CLAMPING on ``applied - out``, with
+        (Åström 1987, Fig. 3.6); with CLAMPING on ``applied - out``, with
         BACK_CALC_MODEL on ``applied - v`` (``v`` before limits), with
         BACK_CALC_REAL on ``actuator_pos - v``.  In the other modes (and while
         the dead band holds the output) the integrator is set so that
@@ -1024,7 +1033,7 @@ class PID(Block):
         self._cold = self._reinit = self._reinit_d = False
 
     def _update_deadband(self, mode: Mode, u: float) -> None:
-        """Adaptive dead band of seed 002 2.3.10 (steady-state detector + moving average)."""
+        """Adaptive dead band (controltheplant 2024, 2.3.10): steady-state detector + average."""
         if self._db == 0.0:
             return
         det, ma = self._subs["_det"], self._subs["_ma"]

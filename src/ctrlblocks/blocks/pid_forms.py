@@ -1,11 +1,11 @@
-"""PID forms and their conversions (seed 004, section 2, (2.1), (2.4)-(2.6)).
+"""PID forms and their conversions (Åström 1987, section 2, (2.1), (2.4)-(2.6)).
 
 Three ways of writing the same linear PID are offered by :class:`~ctrlblocks.PID`
 (``form=...``).  Internally the block always works with the ISA parameters
 ``(K, Ti, Td)``; the functions here convert.
 
 ``form="isa"`` -- ISA standard / ideal / non-interacting form; Åström calls it
-the *parallel form* (seed 004 (2.1))::
+the *parallel form* (Åström 1987, (2.1))::
 
     u = K (e + 1/Ti ∫ e dt + Td de/dt)
 
@@ -16,7 +16,7 @@ the *parallel form* (seed 004 (2.1))::
 so ``ki = 1/ti`` [1/s] and ``kd = td`` [s] do not scale with ``kp``.  The ISA
 equivalent is ``K = kp, Ti = kp ti, Td = td / kp``.
 
-``form="series"`` -- interacting form (seed 004 (2.4), Fig. 2.1)::
+``form="series"`` -- interacting form (Åström 1987, (2.4), Fig. 2.1)::
 
     G(s) = K' (1 + 1/(s Ti')) (1 + s Td')
 
@@ -67,7 +67,7 @@ def _check(k: float, ti: float, td: float) -> tuple[float, float, float]:
 
 
 def series_to_isa(k: float, ti: float, td: float) -> tuple[float, float, float]:
-    """Series (interacting) parameters to ISA / Åström-parallel ones, seed 004 (2.5).
+    """Series (interacting) parameters to ISA / Åström-parallel ones, Åström 1987, (2.5).
 
     Parameters
     ----------
@@ -98,7 +98,7 @@ def series_to_isa(k: float, ti: float, td: float) -> tuple[float, float, float]:
 
 
 def isa_to_series(k: float, ti: float, td: float) -> tuple[float, float, float]:
-    """ISA / Åström-parallel parameters to series (interacting) ones, seed 004 (2.6).
+    """ISA / Åström-parallel parameters to series (interacting) ones, Åström 1987, (2.6).
 
     Refused with ``ParameterError(BAD_FORM)`` when ``Ti < 4 Td`` (the series
     form cannot represent complex zeros).  Without integral action (``Ti = 0``)
@@ -116,7 +116,7 @@ def isa_to_series(k: float, ti: float, td: float) -> tuple[float, float, float]:
         raise ParameterError(
             ErrorCode.BAD_FORM,
             "ti/td",
-            f"series form needs Ti >= 4 Td (seed 004 (2.6)); got Ti={ti!r}, Td={td!r}",
+            f"series form needs Ti >= 4 Td (Åström 1987, (2.6)); got Ti={ti!r}, Td={td!r}",
         )
     r = math.sqrt(1.0 - 4.0 * td / ti)
     return k / 2.0 * (1.0 + r), ti / 2.0 * (1.0 + r), ti / 2.0 * (1.0 - r)
@@ -124,10 +124,10 @@ def isa_to_series(k: float, ti: float, td: float) -> tuple[float, float, float]:
 
 # Åström's names: his "parallel form" (2.1) is the ISA form of the block.
 series_to_parallel = series_to_isa
-"""Alias of :func:`series_to_isa` under seed 004's name: Åström's *parallel
+"""Alias of :func:`series_to_isa` under Åström's (1987) name: Åström's *parallel
 form* (2.1) is ``form="isa"`` of the block (not ``form="parallel"``)."""
 parallel_to_series = isa_to_series
-"""Alias of :func:`isa_to_series` under seed 004's name (see :data:`series_to_parallel`)."""
+"""Alias of :func:`isa_to_series` under Åström's (1987) name (see :data:`series_to_parallel`)."""
 
 
 def parallel_to_isa(kp: float, ti: float, td: float) -> tuple[float, float, float]:

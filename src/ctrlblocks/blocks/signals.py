@@ -2,13 +2,13 @@
 
 Sources
 -------
-* seed 002 (CODESYS ``PID_Controller``, section 1.3 "sub blocks"):
+* controltheplant 2024 (CODESYS ``PID_Controller``, section 1.3 "sub blocks"):
   ``DeadBand`` (dead zone; a negative width acts as its absolute value),
   ``RateLimiter`` (linear ramp), ``SCALE_R`` (range to range),
   ``MovingAverage`` (mean of the last N values), ``FindSteadyState``
   (variation below a tolerance for a stabilisation time) and ``LSim_PT1``
   (first-order lag).
-* seed 004 (Åström, section 5 and Appendix A): ``Saturation``, ``Min selector``,
+* Åström 1987 (Åström, section 5 and Appendix A): ``Saturation``, ``Min selector``,
   ``Max selector``; the jump-and-rate module is in :mod:`.jumprate`.
 
 Equations
@@ -19,12 +19,12 @@ PT1, ``G(s) = K / (T s + 1)``, sample time h:
   ``a = exp(-h/T)``.  The pole is the exact (ZOH) image of ``-1/T``; the input
   is the current sample, so a filter in a controller passes today's value
   (``H(z) = (1-a) K z / (z - a)``, the ZOH discretisation advanced one sample).
-* ``method="euler"``: backward difference ``s = (1 - z^-1)/h`` (seed 003,
+* ``method="euler"``: backward difference ``s = (1 - z^-1)/h`` (Bonde et al. 2021,
   "Bakoverdifferanse (Eulers metode)"): ``y[k] = (T y[k-1] + h K u[k]) / (T + h)``.
-* ``T = 0`` switches the filter off (``y = K u``), as seed 002 says for its
+* ``T = 0`` switches the filter off (``y = K u``), as controltheplant 2024 says for its
   filter times.
 
-Dead band (seed 002 Fig. 3): ``y = 0`` for ``|u| <= w``, else ``u - sign(u) w``;
+Dead band (controltheplant 2024, Fig. 3): ``y = 0`` for ``|u| <= w``, else ``u - sign(u) w``;
 continuous and odd.
 
 Scale (SCALE_R): ``y = (u - in_lo) / (in_hi - in_lo) (out_hi - out_lo) + out_lo``.
@@ -72,7 +72,7 @@ __all__ = [
 
 
 def clamp(x: float, lo: float, hi: float) -> float:
-    """``x`` limited to ``[lo, hi]``, ``lo <= hi`` (the saturation ``sat`` of seed 004, section 5).
+    """``x`` limited to ``[lo, hi]``, ``lo <= hi`` (``sat`` of Åström 1987, section 5).
 
     The one limiter of the blocks' per-cycle code (PID, ADRC, lead-lag, manual
     station, :class:`Scale`); a NaN ``x`` passes through unchanged.
@@ -81,10 +81,10 @@ def clamp(x: float, lo: float, hi: float) -> float:
 
 
 def deadband(u: float, width: float) -> float:
-    """Dead zone of seed 002 (``DeadBand`` FC, Fig. 3).
+    """Dead zone of controltheplant 2024 (``DeadBand`` FC, Fig. 3).
 
     ``0`` for ``|u| <= |width|``, else ``u - sign(u) |width|``.  A negative
-    width acts as its absolute value (seed 002, 2.3.10).
+    width acts as its absolute value (controltheplant 2024, section 2.3.10).
     """
     w = abs(width)
     if u > w:
@@ -95,7 +95,9 @@ def deadband(u: float, width: float) -> float:
 
 
 def scale(u: float, in_lo: float, in_hi: float, out_lo: float, out_hi: float) -> float:
-    """Linear map of ``u`` from ``[in_lo, in_hi]`` to ``[out_lo, out_hi]`` (seed 002 ``SCALE_R``).
+    """Linear map of ``u`` from ``[in_lo, in_hi]`` to ``[out_lo, out_hi]``.
+
+    ``SCALE_R`` of controltheplant 2024.
 
     No clamping: values outside the input range are extrapolated.
     """
@@ -153,7 +155,7 @@ class PT1Config(BlockConfig):
 
 
 class PT1(Block):
-    """First-order lag ``K/(T s + 1)`` (seed 002 ``LSim_PT1``); see the module docstring.
+    """First-order lag ``K/(T s + 1)`` (controltheplant 2024, ``LSim_PT1``); see the module.
 
     ``y = pt1(u)`` runs one sample.  A NaN/inf input holds the output and sets
     ``BAD_INPUT``; a bad ``dt`` holds the output and sets ``NO_CYCLE``.
@@ -213,7 +215,7 @@ class RateLimiterConfig(BlockConfig):
     ----------
     rate_up, rate_down : float
         Largest rise and fall per second [units/s], both >= 0.  0 means no
-        limit in that direction (seed 002: "set to a non-zero value to
+        limit in that direction (controltheplant 2024: "set to a non-zero value to
         activate").
     ts : float
         Sample time [s].
@@ -234,7 +236,7 @@ class RateLimiterConfig(BlockConfig):
 
 
 class RateLimiter(Block):
-    """Linear-ramp rate limiter (seed 002 ``RateLimiter``).
+    """Linear-ramp rate limiter (controltheplant 2024, ``RateLimiter``).
 
     ``y[k] = y[k-1] + clamp(u[k] - y[k-1], -rate_down h, rate_up h)``.
     ``limiting`` is true in a cycle where the ramp, not the input, set the
@@ -303,7 +305,7 @@ class DeadBandConfig(BlockConfig):
 
 
 class DeadBand(Block):
-    """Dead zone of seed 002 as a block: ``y = deadband(u, width)``.
+    """Dead zone of controltheplant 2024 as a block: ``y = deadband(u, width)``.
 
     NaN/inf input: hold, ``BAD_INPUT``.
     """
@@ -326,7 +328,7 @@ class DeadBand(Block):
 
 @dataclasses.dataclass(frozen=True)
 class ScaleConfig(BlockConfig):
-    """Configuration of :class:`Scale` (seed 002 ``SCALE_R``).
+    """Configuration of :class:`Scale` (controltheplant 2024, ``SCALE_R``).
 
     The input range may be inverted (``in_hi < in_lo``) but not empty.
     ``clamp`` limits the output to the output range.
@@ -348,7 +350,7 @@ class ScaleConfig(BlockConfig):
 
 
 class Scale(Block):
-    """Range-to-range scaling (seed 002 ``SCALE_R``); see :func:`scale`.
+    """Range-to-range scaling (controltheplant 2024, ``SCALE_R``); see :func:`scale`.
 
     NaN/inf input: hold, ``BAD_INPUT``.
     """
@@ -392,7 +394,7 @@ class MovingAverageConfig(BlockConfig):
 
 
 class MovingAverage(Block):
-    """Mean of the last ``n`` inputs (seed 002 ``MovingAverage``).
+    """Mean of the last ``n`` inputs (controltheplant 2024, ``MovingAverage``).
 
     Until ``n`` values have arrived, the mean of those received.  The sum is
     recomputed exactly once per window so that rounding cannot drift.
@@ -451,7 +453,7 @@ class SteadyStateDetectorConfig(BlockConfig):
     tolerance : float
         Largest variation [input units] still counted as steady, >= 0.
     t_stab : float
-        Stabilisation time [s] > 0 (seed 002 ``irStabilizationTime``).
+        Stabilisation time [s] > 0 (controltheplant 2024, ``irStabilizationTime``).
     ts : float
         Sample time [s].
     """
@@ -467,7 +469,7 @@ class SteadyStateDetectorConfig(BlockConfig):
 
 
 class SteadyStateDetector(Block):
-    """Is the input steady? (seed 002 ``FindSteadyState``).
+    """Is the input steady? (controltheplant 2024, ``FindSteadyState``).
 
     The block keeps an anchor value.  While ``|u - anchor| <= tolerance`` the
     time since the anchor was set grows; a larger variation moves the anchor to
@@ -514,7 +516,7 @@ class SteadyStateDetector(Block):
 
 
 # ---------------------------------------------------------------------------
-# Saturation and selectors (seed 004, section 5)
+# Saturation and selectors (Åström 1987, section 5)
 # ---------------------------------------------------------------------------
 
 
@@ -530,7 +532,7 @@ class SaturationConfig(BlockConfig):
 
 
 class Saturation(Block):
-    """Saturation module of seed 004 (section 5; Appendix A, system ``int``).
+    """Saturation module of Åström 1987 (section 5; Appendix A, system ``int``).
 
     ``y = min(max(u, lo), hi)``; ``high``/``low`` tell which limit is active.
     NaN/inf input: hold the last output, ``BAD_INPUT`` (an infinite command is
@@ -569,7 +571,7 @@ class SelectorConfig(BlockConfig):
 
 
 class _Selector(Block):
-    """Common code of the min and max selectors (seed 004, section 3 "Systems with Selectors")."""
+    """Common code of the min and max selectors (Åström 1987, section 3, "Selectors")."""
 
     Config = SelectorConfig
     _state_fields = ("out", "selected")
@@ -595,12 +597,12 @@ class _Selector(Block):
 
 
 class MinSelector(_Selector):
-    """Output the smallest input (seed 004 "Min selector"); ties pick the first."""
+    """Output the smallest input (Åström 1987, "Min selector"); ties pick the first."""
 
     _pick = staticmethod(min)
 
 
 class MaxSelector(_Selector):
-    """Output the largest input (seed 004 "Max selector"); ties pick the first."""
+    """Output the largest input (Åström 1987, "Max selector"); ties pick the first."""
 
     _pick = staticmethod(max)

@@ -1,6 +1,6 @@
 """Speed: compiled closed loops, banks of many loops and parallel sweeps.
 
-Everything here runs the blocks' own pure functions (DESIGN.md principle 2):
+Everything here runs the blocks' own pure functions (one implementation of each law):
 numba compiles and inlines them when the ``fast`` extra is installed
 (``pip install 'ctrlblocks[fast]'``); without numba the same functions run
 interpreted (slower, same results).  See ``docs/performance.md``.
@@ -11,13 +11,36 @@ interpreted (slower, same results).  See ``docs/performance.md``.
   tunings and plant (:mod:`.bank`);
 * :func:`sweep` -- many scenario runs on a ``concurrent.futures`` executor
   (process pool by default) or a Dask cluster (:mod:`.sweep`).
+
+The compiled parts are imported on first use (PEP 562), so ``ctrlblocks sweep``
+and the sweep workers do not import numba.
 """
 
-from ._jit import HAVE_NUMBA
-from .bank import ADRCBank, BankResult, PIDBank
-from .kernels import UnsupportedConfig
-from .loops import LoopResult, closed_loop, reference_loop
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._jit import HAVE_NUMBA
+    from .bank import ADRCBank, BankResult, PIDBank
+    from .kernels import UnsupportedConfig
+    from .loops import LoopResult, closed_loop, reference_loop
+
+# imported now: cheap (standard library only), and the function ``sweep`` must
+# shadow the submodule of the same name
 from .sweep import SweepError, dask_executor, sweep, write_rows
+
+_WHERE = {
+    "HAVE_NUMBA": "._jit",
+    "ADRCBank": ".bank",
+    "BankResult": ".bank",
+    "PIDBank": ".bank",
+    "UnsupportedConfig": ".kernels",
+    "LoopResult": ".loops",
+    "closed_loop": ".loops",
+    "reference_loop": ".loops",
+}
 
 __all__ = [
     "HAVE_NUMBA",
@@ -33,3 +56,15 @@ __all__ = [
     "sweep",
     "write_rows",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_WHERE[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

@@ -5,7 +5,7 @@ runs the *same* control law for N independent loops.  :class:`PIDBank` holds
 the N parameter sets and states in numpy arrays (one row per loop) and steps
 every loop with :func:`~ctrlblocks.fast.kernels.pid_step` -- the blocks' own
 functions, compiled by numba when it is installed -- so there is no
-vectorised second copy of the law (DESIGN.md principle 2).
+vectorised second copy of the law (one implementation of each law).
 
 Why not "vectorised numpy over the arrays"?  That would be a second,
 array-shaped implementation of the PID (and numpy's temporaries make it slower

@@ -3,15 +3,15 @@
 Each kernel here is the per-cycle *sequence* of one block in its plain
 configuration (what ``PID.__call__`` / ``ADRC.__call__`` do for it), written
 only with the module-level pure functions of the blocks -- the single
-implementation of each control law (DESIGN.md principle 2):
+implementation of each control law (one implementation of each law):
 
 * :func:`pid_step` is :func:`ctrlblocks.blocks.pid.pid_step` (the PID's own
   fast lane), which calls :func:`ctrlblocks.blocks.pid.derivative_step`
-  (seed 004 (2.13)), ``integral_increment`` ((2.8)/Tustin), ``clamp``,
-  ``clamping_blocks`` (seed 002 CLAMPING) and the back-calculation gain that
-  the block precomputes with ``tracking_gain`` (seed 004 Fig. 3.6);
+  (Åström 1987, (2.13)), ``integral_increment`` ((2.8)/Tustin), ``clamp``,
+  ``clamping_blocks`` (controltheplant 2024 CLAMPING) and the back-calculation gain that
+  the block precomputes with ``tracking_gain`` (Åström 1987, Fig. 3.6);
 * :func:`adrc_step` is :func:`ctrlblocks.blocks.adrc.adrc_step` (the ADRC's
-  own fast lane), which calls :func:`ctrlblocks.blocks.adrc.eso_euler` (seed 000
+  own fast lane), which calls :func:`ctrlblocks.blocks.adrc.eso_euler` (Nowak et al. 2018
   (4a)), ``control_law`` ((4b)), ``x4_update_allowed`` (section 4.1) and
   ``solve_x4`` ((11));
 * :func:`lti3_step` is the exact ZOH update (2) of

@@ -1,7 +1,7 @@
 """Compiled closed loops: a PID or ADRC block and a plant, state in local variables.
 
 :func:`closed_loop` runs ``n`` samples of the loop in Åström's computational
-order (seed 004, section 6)::
+order (Åström 1987, section 6)::
 
     y[k] = plant output;  u[k] = controller(sp[k], y[k]);  plant.step(u[k] + load[k])
 
@@ -345,7 +345,7 @@ def closed_loop(
         controller (``y[k]`` in the result includes it).
     outlet : sequence of str, optional
         Outlet valve of the :class:`~ctrlblocks.plants.ThreeTank` per sample
-        (``plant.outlet = outlet[k]`` before sample k; seed 000 Fig. 7).
+        (``plant.outlet = outlet[k]`` before sample k; Nowak et al. 2018, Fig. 7).
     engine : str
         ``"auto"``: the compiled loop (numba), or the same loop interpreted
         when numba is absent; ``"python"``: the same loop interpreted even

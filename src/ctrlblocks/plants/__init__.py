@@ -6,7 +6,7 @@ state space, exact ZOH, any input dead time) and the convenience models
 :class:`FOPDT`; a pure dead time :class:`DeadTime`.  Wrappers that are
 plants themselves (:mod:`.wrappers`): :class:`Actuator` (input load, rate and
 range limits), :class:`Sensor` (output load, :class:`Noise`, saturation),
-:func:`process` (both).  The pneumatic three-tank process of seed 000,
+:func:`process` (both).  The pneumatic three-tank process of Nowak et al. 2018,
 section 6 (:mod:`.threetank`): :class:`ThreeTank`.  See docs/plants.md.
 
 Note: ``ctrlblocks.plants.PT1`` (a process model) is not the filter block
@@ -17,6 +17,7 @@ from .base import Plant
 from .deadtime import DeadTime
 from .linear import FOPDT, IT1, PT1, PT2, LinearPlant, PT2Osc, PTn, split_dead_time
 from .threetank import ThreeTank
+from .valve import MotorValve
 from .wrappers import Actuator, Noise, Sensor, process
 
 __all__ = [
@@ -27,6 +28,7 @@ __all__ = [
     "Actuator",
     "DeadTime",
     "LinearPlant",
+    "MotorValve",
     "Noise",
     "PT2Osc",
     "PTn",

@@ -3,7 +3,7 @@
 A plant is sampled with period ``ts``; its input is held constant over a
 sample (zero-order hold, as a DA converter does).  It is strictly proper: the
 output ``y`` depends on the state only, so a controller can read ``y``,
-compute ``u`` and apply it in the same sample (Åström, seed 004, section 6:
+compute ``u`` and apply it in the same sample (Åström 1987, section 6:
 read, ComputeOutput, ShapeOutput, write, UpdateState).
 
 One sample of a closed loop::

@@ -1,4 +1,6 @@
-"""Pure dead time of whole samples (seed 002, ``LSim_Lagging``: "time delay of the input signal").
+"""Pure dead time of whole samples (controltheplant 2024, ``LSim_Lagging``).
+
+"Time delay of the input signal" (controltheplant 2024).
 
 ``y[k] = u[k - n]`` with ``n >= 1`` samples, kept in a ring buffer.
 

@@ -26,21 +26,21 @@ section 2.3, "Time delay")
 
 so a dead time that is **not** a multiple of ``ts`` is still exact for a ZOH
 input (rounding it to whole samples is not, and is not done here).  Past inputs
-are kept in a ring buffer of ``d + 2`` samples (the "Lagging" block of seed 002,
+are kept in a ring buffer of ``d + 2`` samples (the "Lagging" block of controltheplant 2024,
 ``LSim_Lagging``).  With ``eps = 0``, ``Gamma1 = 0`` and ``Gamma0 = Gamma``,
 the ordinary ZOH input matrix.
 
-Convenience models (seed 002, section 1.3, ``/sim`` blocks; seed 000, (10))
+Convenience models (controltheplant 2024, section 1.3, ``/sim`` blocks; Nowak et al. 2018, (10))
 --------------------------------------------------------------------------
 ==========  ===============================================  ==================
 class       transfer function                                 source
 ==========  ===============================================  ==================
-``PT1``     ``k / (t s + 1)``                                  seed 002 LSim_PT1
+``PT1``     ``k / (t s + 1)``                                  controltheplant 2024 LSim_PT1
 ``PT2``     ``k / ((t1 s + 1)(t2 s + 1))``                     ctrlblocks
 ``PT2Osc``  ``k / (t^2 s^2 + 2 zeta t s + 1)``                 ctrlblocks
-``PTn``     ``k / prod(t_i s + 1)``                            seed 000 (10a)/(10b)
-``IT1``     ``k / (s (t s + 1))``                              seed 002 LSim_IT1
-``FOPDT``   ``k e^(-dead_time s) / (t s + 1)``                 seed 000 (10) right
+``PTn``     ``k / prod(t_i s + 1)``                            Nowak et al. 2018, (10a)/(10b)
+``IT1``     ``k / (s (t s + 1))``                              controltheplant 2024 LSim_IT1
+``FOPDT``   ``k e^(-dead_time s) / (t s + 1)``                 Nowak et al. 2018, (10) right
 ==========  ===============================================  ==================
 
 Every class takes ``dead_time`` [s] (default 0).  Times are in seconds; the
@@ -54,7 +54,6 @@ from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
-from scipy import signal
 
 from ..blocks.base import (
     ErrorCode,
@@ -125,6 +124,22 @@ def lti_output(x: list[float], c: tuple[float, ...]) -> float:
     for j in range(len(x)):
         s += c[j] * x[j]
     return s
+
+
+def _zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact ZOH ``(Phi, Gamma)`` of ``(A, B)`` over ``h`` seconds (Åström and Wittenmark, 2.3).
+
+    The exponential of the augmented matrix ``[[A, B], [0, 0]] h`` -- the
+    computation of ``scipy.signal.cont2discrete(..., method="zoh")``, done
+    here with ``scipy.linalg.expm`` so that the plants do not import
+    ``scipy.signal`` (over a second of start-up).
+    """
+    from scipy.linalg import expm
+
+    nx, nu = a.shape[0], b.shape[1]
+    em = np.vstack((np.hstack((a, b)), np.zeros((nu, nx + nu))))
+    ms = expm(h * em)[:nx, :]
+    return ms[:, :nx], ms[:, nx:]
 
 
 def _as_matrix(name: str, m: Any, shape: tuple[int, int]) -> np.ndarray:
@@ -231,6 +246,8 @@ class LinearPlant(Plant):
                     "num",
                     "the plant must be strictly proper (deg num < deg den)",
                 )
+            from scipy import signal  # only here: importing scipy.signal costs ~1-2.5 s
+
             a, b, c, _ = signal.tf2ss(n, d)
             return np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)
         if A is None or B is None or C is None:
@@ -249,13 +266,12 @@ class LinearPlant(Plant):
     def _discretise(self) -> None:
         a, b, c = self.a_c, self.b_c, self.c_c
         nx = a.shape[0]
-        zero_d = np.zeros((1, 1))
         d, eps = split_dead_time(self.dead_time, self.ts)
         self.dead_samples, self.dead_fraction = d, eps
-        phi, gam = signal.cont2discrete((a, b, c, zero_d), self.ts, method="zoh")[:2]
+        phi, gam = _zoh(a, b, self.ts)
         if eps > 0.0:
-            phi_r, gam_r = signal.cont2discrete((a, b, c, zero_d), self.ts - eps, method="zoh")[:2]
-            gam_e = signal.cont2discrete((a, b, c, zero_d), eps, method="zoh")[1]
+            phi_r, gam_r = _zoh(a, b, self.ts - eps)
+            gam_e = _zoh(a, b, eps)[1]
             g0 = gam_r
             g1 = phi_r @ gam_e
         else:
@@ -470,7 +486,7 @@ def _lag_chain(k: float, t: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np
 
 
 class PT1(_Model):
-    """First-order lag ``k e^(-dead_time s) / (t s + 1)`` (seed 002 ``LSim_PT1``).
+    """First-order lag ``k e^(-dead_time s) / (t s + 1)`` (controltheplant 2024, ``LSim_PT1``).
 
     State: the output, ``t dy/dt = k u - y``.
 
@@ -497,7 +513,7 @@ class PT1(_Model):
 
 
 class FOPDT(PT1):
-    """First order plus dead time ``k e^(-dead_time s) / (t s + 1)`` (seed 000, (10)).
+    """First order plus dead time ``k e^(-dead_time s) / (t s + 1)`` (Nowak et al. 2018, (10)).
 
     Same as :class:`PT1` with the dead time as a required third argument.
     """
@@ -512,7 +528,7 @@ class FOPDT(PT1):
 class PTn(_Model):
     """Chain of first-order lags ``k e^(-dead_time s) / prod_i (t_i s + 1)``.
 
-    The form of the pneumatic process models (10a) and (10b) of seed 000:
+    The form of the pneumatic process models (10a) and (10b) of Nowak et al. 2018:
     ``PTn(0.73, (7.3, 2.2, 1.4), ts=0.1)`` is (10b).  States: the outputs of
     the lags in order, the gain at the input (``t_1 dx_1/dt = k u - x_1``,
     ``t_i dx_i/dt = x_(i-1) - x_i``, ``y = x_n``).
@@ -593,7 +609,9 @@ class PT2Osc(_Model):
 
 
 class IT1(_Model):
-    """Integrator with lag ``k e^(-dead_time s) / (s (t s + 1))`` (seed 002 ``LSim_IT1``).
+    """Integrator with lag ``k e^(-dead_time s) / (s (t s + 1))`` (controltheplant 2024).
+
+    ``LSim_IT1`` of controltheplant 2024.
 
     States: the lag output ``x`` (``t dx/dt = k u - x``) and ``y`` (``dy/dt = x``).
     Integrating: ``reset(u0)`` gives the zero state (the output stays at 0 only

@@ -1,6 +1,6 @@
-"""The pneumatic three-tank process of seed 000, section 6, as a physical model.
+"""The pneumatic three-tank process of Nowak et al. 2018, section 6, as a physical model.
 
-The setup (seed 000, section 6 and Fig. 3): three tanks of volumes
+The setup (Nowak et al. 2018, section 6 and Fig. 3): three tanks of volumes
 ``V1 = 5 L``, ``V2 = 2 L``, ``V3 = 0.75 L`` in series; air at the supply
 pressure ``p_s`` (0..5 bar gauge, set by a Festo MPPES proportional valve)
 flows through the constant pneumatic resistances ``R_pa``, ``R_pb``, ``R_pc``
@@ -45,7 +45,7 @@ resistances were fitted once, offline, with ``scipy.optimize.least_squares``
 on log(R) (from 40 random starts around 1e8 1/(m s)), so that the
 linearisation of (T2) at the operating point ``y0 = p3 = 1.5 bar`` (then
 ``u0 = 2.1904 bar``, ``p1 = 2.1306``, ``p2 = 1.8560 bar``) has exactly the gain
-and time constants of seed 000 (10b), ``0.73 / ((7.3 s + 1)(2.2 s + 1)(1.4 s + 1))``.
+and time constants of Nowak et al. 2018, (10b), ``0.73 / ((7.3 s + 1)(2.2 s + 1)(1.4 s + 1))``.
 Two exact solutions exist; the one with the more even resistances was kept
 (the other: 8.781e7, 6.908e8, 1.162e9, 2.601e9).  Rounded to seven digits the
 linearisation matches (10b) to 1e-7.  Outlet valve ``"b"`` is a second valve
@@ -81,7 +81,7 @@ T_AIR = 293.15
 P_ATM = 1.01325
 """Atmospheric pressure [bar absolute]."""
 VOLUMES = (5.0e-3, 2.0e-3, 0.75e-3)
-"""Tank volumes V1, V2, V3 [m^3] (seed 000, section 6: 5, 2, 0.75 L)."""
+"""Tank volumes V1, V2, V3 [m^3] (Nowak et al. 2018, section 6: 5, 2, 0.75 L)."""
 R_BETWEEN = (1.457572e8, 6.338925e8, 7.357391e8)
 """Resistances R_pa (supply to tank 1), R_pb (1 to 2), R_pc (2 to 3) [1/(m s)], fitted."""
 OUTLETS = {"a": 2.030845e9, "b": 0.5 * 2.030845e9}
@@ -137,19 +137,19 @@ def threetank_rk4(
 
 
 class ThreeTank(Plant):
-    """Pneumatic three-tank process of seed 000, section 6 (model (T1)-(T3) above).
+    """Pneumatic three-tank process of Nowak et al. 2018, section 6 (model (T1)-(T3) above).
 
     Parameters
     ----------
     ts : float
-        Sample time [s] (seed 000: the PLC ran at 0.1 s).
+        Sample time [s] (Nowak et al. 2018: the PLC ran at 0.1 s).
     outlet : {"a", "b"}
         Outlet valve in use; switch at run time with ``plant.outlet = "b"``.
     substeps : int
         RK4 steps per sample, >= 1.
     u_min, u_max : float
         Range of the proportional valve [bar gauge]; the supply pressure is
-        clamped to it (default 0..5 bar, seed 000).
+        clamped to it (default 0..5 bar, Nowak et al. 2018).
     resistances : (float, float, float), optional
         ``(R_pa, R_pb, R_pc)`` [1/(m s)]; default the fitted :data:`R_BETWEEN`.
     outlets : dict, optional
@@ -366,7 +366,7 @@ class ThreeTank(Plant):
         """Gain and time constants (largest first) of the linearisation at ``u0``.
 
         The linearisation is ``gain / prod(t_i s + 1)`` (three real poles, no
-        zeros); at ``u_for_y(1.5)`` with outlet "a" it is (10b) of seed 000.
+        zeros); at ``u_for_y(1.5)`` with outlet "a" it is (10b) of Nowak et al. 2018.
         """
         a, b, c = self.linearise(u0)
         gain = float(-(c @ np.linalg.solve(a, b))[0, 0])

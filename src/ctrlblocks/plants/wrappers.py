@@ -20,7 +20,7 @@ output), ``actuator.rate``, ``actuator.set_limits(lo, hi)``,
 
 Sources
 -------
-* Noise: seed 002, ``NoiseGenerator`` (section 1.3): "white noise is simulated
+* Noise: controltheplant 2024, ``NoiseGenerator`` (section 1.3): "white noise is simulated
   as a sequence of random numbers within a specified range" -- ``kind="uniform"``,
   uniform in ``[-level, level]``.  ``kind="gaussian"`` (standard deviation
   ``level``) is ctrlblocks' addition.  Coloured noise is white noise through a
@@ -35,9 +35,9 @@ Sources
   :class:`numpy.random.Generator` (PCG64), drawn in blocks; the sequence for
   a seed is the one ``default_rng(seed).uniform(-level, level, N)`` (or
   ``.normal(0, level, N)``) gives.
-* Sensor saturation: ``y_max`` is ``Y_sat`` of seed 000, section 4.3 (derivative
+* Sensor saturation: ``y_max`` is ``Y_sat`` of Nowak et al. 2018, section 4.3 (derivative
   backoff, Fig. 1: ``Y_sat = 1.9``).
-* Input load: seed 000, section 6: "the load disturbance emulated by adding
+* Input load: Nowak et al. 2018, section 6: "the load disturbance emulated by adding
   Delta p_s directly to the manipulating variable" -- added to the command
   before the actuator's limits (the valve cannot exceed its range).
 """
@@ -67,7 +67,7 @@ _CHUNK = 256
 
 
 class Noise:
-    """Seeded white or coloured noise (seed 002 ``NoiseGenerator``; (N1) for coloured).
+    """Seeded white or coloured noise (controltheplant 2024, ``NoiseGenerator``; (N1) for coloured).
 
     Parameters
     ----------
@@ -325,7 +325,7 @@ class Sensor(_Wrapper):
         Measurement noise added to the output.
     y_min, y_max : float
         Measuring range of the sensor: the output saturates there (``y_max``
-        is ``Y_sat`` of seed 000, section 4.3).
+        is ``Y_sat`` of Nowak et al. 2018, section 4.3).
     load : float
         Output load disturbance [output units], settable at any time.
 

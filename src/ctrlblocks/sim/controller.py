@@ -2,7 +2,7 @@
 
 :class:`ControllerSide` holds the blocks of one ``[[controllers]]`` entry
 (a scenario's, or a runtime loop's) and wires them for the structure in
-Åström's computational order (seed 004, section 6, Listing 6.3):
+Åström's computational order (Åström 1987, section 6, Listing 6.3):
 
 1. the caller reads the measurements (``y``; ``y2`` of a cascade's or an
    override's inner variable; ``dv``, the measured disturbance of a
@@ -14,9 +14,9 @@
 3. the caller writes the MV -- *Daout*;
 4. :meth:`ControllerSide.update` -- *UpdateState* of every block with the
    value actually applied (the secondary's ``awout`` goes to the primary's
-   ``awin`` first: the AW handshake of seed 000 section 5 and seed 004
-   section 3; every override block tracks the selected MV, seed 004
-   Figs. 3.8/3.9; the Smith predictor's models advance with the MV, seed 000
+   ``awin`` first: the AW handshake of Nowak et al. 2018, section 5 and Åström 1987
+   section 3; every override block tracks the selected MV, Åström 1987
+   Figs. 3.8/3.9; the Smith predictor's models advance with the MV, Nowak et al. 2018
    section 3.1).
 
 :meth:`ControllerSide.step` is 2 + 4 in one call, for a caller that applies
@@ -101,8 +101,9 @@ class _Controller:
 
         ``measured`` is the actuator's real output of this sample (after load,
         rate and range).  It is wired where the block is configured to use a
-        measured MV: the PID's ``actuator_pos`` input (BACK_CALC_REAL, seed
-        002) and the ADRC's ``u_real`` (``u_real_on``, seed 000 section 5).
+        measured MV: the PID's ``actuator_pos`` input (BACK_CALC_REAL,
+        controltheplant 2024) and the ADRC's ``u_real`` (``u_real_on``,
+        Nowak et al. 2018, section 5).
         """
         if not self.two_phase:
             return

@@ -1,6 +1,6 @@
 """Closed-loop wiring of blocks and plants, in Åström's computational order.
 
-Every sample ``k`` (time ``t_k = k ts``) runs Listing 6.3 of seed 004
+Every sample ``k`` (time ``t_k = k ts``) runs Listing 6.3 of Åström 1987
 (section 6, "Digital Implementation"):
 
 1. *events*: everything scheduled at or before ``t_k`` takes effect
@@ -15,7 +15,7 @@ Every sample ``k`` (time ``t_k = k ts``) runs Listing 6.3 of seed 004
 5. *Daout*: the applied value ``u`` goes to the plant (plus an input load);
 6. *UpdateState*: every controller updates its state with the value actually
    applied (``update_state(u)``), so tracking anti-windup and selectors use
-   simultaneous values (seed 004, section 6: "it is essential that
+   simultaneous values (Åström 1987, section 6: "it is essential that
    simultaneous values of the tracking signal and the regulator output are
    used"); the plant advances by ``ts``.  In the single-loop structures
    the actuator's real output of the sample (after its load, rate and range)
@@ -31,24 +31,24 @@ Structures (``scenario.structure``)
     ``inner_plant`` (``u -> y2``) in series with ``plant`` (``y2 -> y``); the
     primary controller's output is the secondary's setpoint; the secondary's
     ``awout`` (at a limit) is written to the primary's ``awin`` before the
-    primary updates its state (the AW handshake of seed 000, section 5, and
-    seed 004, section 3 "Cascade Control"); ``aw_handshake = false`` in the
+    primary updates its state (the AW handshake of Nowak et al. 2018, section 5, and
+    Åström 1987, section 3 "Cascade Control"); ``aw_handshake = false`` in the
     controller entry leaves it out, for comparison.
 ``override``
     two or more controllers, each on ``y`` or ``y2``; a min (or max) selector
-    picks the applied ``u`` and every controller tracks it (seed 004,
+    picks the applied ``u`` and every controller tracks it (Åström 1987,
     Figs. 3.8/3.9).
 ``feedforward``
     the input load (the measured disturbance) goes through a lead-lag block
     whose output is the controller's ``ff`` input, summed before the
-    controller's limits so that limits and anti-windup act on it (seed 003).
+    controller's limits so that limits and anti-windup act on it (Bonde et al. 2021).
 ``smith``
-    Smith predictor (seed 000, section 3.1): the controller sees
+    Smith predictor (Nowak et al. 2018, section 3.1): the controller sees
     ``y + y_model_fast - y_model`` where ``y_model`` is a plant model with the
     dead time and ``y_model_fast`` the same model without it.
 ``open_loop``
     a block driven by the setpoint profile (e.g. the jump-and-rate module of
-    seed 004 Fig. 5.2); ``y`` is its output.
+    Åström 1987, Fig. 5.2); ``y`` is its output.
 
 Series plants (cascade, override) are coupled with a zero-order hold: the
 outer plant receives ``y2`` at the start of the sample.  This adds an error of

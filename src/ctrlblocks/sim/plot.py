@@ -1,9 +1,9 @@
 """Plots in the style of the sources' figures.
 
 One PNG per case: the upper axes show the controlled variable of every
-controller with the setpoint, the lower axes the manipulated variable (seed
-000, Figs. 5-7: "The upper diagram shows the controlled variable and the
-lower – manipulating variable"; seed 004's Simnon plots likewise).  One colour
+controller with the setpoint, the lower axes the manipulated variable
+(Nowak et al. 2018, Figs. 5-7: "The upper diagram shows the controlled variable and the
+lower – manipulating variable"; Åström's (1987) Simnon plots likewise).  One colour
 per controller; dotted vertical lines mark the events.  ``[plot]`` in the
 scenario chooses the signals (``upper``, ``lower``) and the axis labels.
 

@@ -64,7 +64,7 @@ class TableCheck:
 
 
 def table1_inverse_half_rule() -> tuple[str, list[TableCheck]]:
-    """Seed 000, Table 1: the inverse half-rule applied to the FOPDT models (10a)/(10b).
+    """Nowak et al. 2018, Table 1: the inverse half-rule applied to the FOPDT models (10a)/(10b).
 
     Recomputed with :func:`ctrlblocks.tuning.halfrule.inverse_half_rule` from the
     FOPDT parameters printed in (10a)/(10b); the "true" b0 from the transfer
@@ -169,7 +169,7 @@ def render_report(
 ) -> str:
     """The markdown of ``report.md`` (paths of plots are relative to the report).
 
-    ``tables``: add the recomputed tables of the sources (seed 000, Table 1).
+    ``tables``: add the recomputed tables of the sources (Nowak et al. 2018, Table 1).
     """
     lines = [
         "# ctrlblocks: the sources' experiments, reproduced",
@@ -203,7 +203,7 @@ def render_report(
     if table_checks:
         held = sum(1 for c in table_checks if c.holds)
         lines.append(
-            f"| [Inverse half-rule, Table 1](#table1) | seed 000, Table 1 | – "
+            f"| [Inverse half-rule, Table 1](#table1) | Nowak et al. 2018, Table 1 | – "
             f"| {held}/{len(table_checks)} |"
         )
     lines += [
@@ -250,8 +250,9 @@ def render_report(
             "",
             "## Inverse half-rule (Table 1)",
             "",
-            "*Source:* seed 000, section 3.3, Table 1  ·  b0 from the FOPDT approximations "
-            "printed in (10a)/(10b), computed by `ctrlblocks.tuning.inverse_half_rule`.",
+            "*Source:* Nowak et al. 2018, section 3.3, Table 1  ·  b0 from the FOPDT "
+            "approximations printed in (10a)/(10b), computed by "
+            "`ctrlblocks.tuning.inverse_half_rule`.",
             "",
             table1,
             "",

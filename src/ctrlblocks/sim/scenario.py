@@ -700,7 +700,7 @@ class _Parser(TableReader):
         The plant (without actuator and sensor) is stepped by ``du`` from the
         initial MV; :func:`ctrlblocks.tuning.fit_fopdt` fits an FOPDT; a PID
         rule (``amigo``, ``simc``, ``zn``, ``lambda``) or the ADRC tuning of
-        seed 000 (inverse half-rule + bandwidths, ``rule = "adrc"``) gives the
+        Nowak et al. 2018 (inverse half-rule + bandwidths, ``rule = "adrc"``) gives the
         parameters, which replace those of the block table.
         """
         from .. import tuning

@@ -3,7 +3,7 @@
 * :mod:`.identify` -- FOPDT/SOPDT/integrating models from step-response
   records (two-point methods, least squares) and the CSV reader;
 * :mod:`.halfrule` -- Skogestad's half rule and the inverse half-rule of
-  seed 000 for the ADRC ``b0``;
+  Nowak et al. 2018 for the ADRC ``b0``;
 * :mod:`.adrc` -- ADRC bandwidth tuning and a ready ``ctrlblocks.ADRC``
   configuration;
 * :mod:`.pid_rules` -- SIMC, AMIGO, Ziegler-Nichols, Tyreus-Luyben and

@@ -1,6 +1,6 @@
-"""ADRC bandwidth tuning (seed 000, section 3.3) and a ready ADRC configuration.
+"""ADRC bandwidth tuning (Nowak et al. 2018, section 3.3) and a ready ADRC configuration.
 
-Seed 000, section 3.3 (after Gao 2003, its reference [5]):
+Nowak et al. 2018, section 3.3 (after Gao 2003, its reference [5]):
 
 * controller bandwidth ``omega_c = (3..5)/tau_set`` for the desired
   closed-loop settling time ``tau_set``, "depending on the process relative
@@ -14,13 +14,13 @@ Choice of the factor per order.  With the bandwidth parametrisation the ideal
 closed loop has all ``n`` poles at ``-omega_c``; its 2 % settling time is
 ``x_n/omega_c`` with ``x_1 = ln 50 = 3.91``, ``x_2 = 5.83``, ``x_3 = 7.52``
 (solutions of ``e^{-x} sum_{j<n} x^j/j! = 0.02``).  The factor used is
-``x_n`` clipped to the seed's range: **3.91 for n = 1, 5 for n = 2 and 3**.
+``x_n`` clipped to the paper's range: **3.91 for n = 1, 5 for n = 2 and 3**.
 So a first-order loop is designed to settle in ``tau_set``; for n = 2 and 3
-the seed's range gives an ideal settling time of ``1.17 tau_set`` and
+the paper's range gives an ideal settling time of ``1.17 tau_set`` and
 ``1.50 tau_set`` (reported as ``settling_time_model``).  Pass ``factor`` to
 override.
 
-Observer: ``omega_o = 5 omega_c`` by default (the ratio of seed 000 Table 2
+Observer: ``omega_o = 5 omega_c`` by default (the ratio of Nowak et al. 2018, Table 2
 for n = 2 and 3: 1.75/0.35).  The Euler observer (4a) with the gains
 ``l_i = C(n+1, i) omega_o^i`` is stable only for ``omega_o ts`` below
 0.828 (n = 1), 0.520 (n = 2), 0.378 (n = 3) (see :mod:`ctrlblocks.blocks.adrc`,
@@ -38,14 +38,22 @@ control law, no formula copied), and ``omega_o`` is lowered in steps of 10 %
 down to ``3 omega_c`` until the MV noise is acceptable (a warning says so,
 or says that even ``3 omega_c`` is too noisy).
 
-Default settling time when none is given: ``tau_set = 1.5 (T + T0)``, about
-40 % of the open-loop 98 % settling time ``T0 + 4 T``.  On the seed's
-processes (10a)/(10b) with their FOPDT fits, n = 2 and this default settle in
-29 s and 23 s (2 %) with about 1 % overshoot (tests/tuning/test_adrc.py), a
-cautious first tuning to be shortened on the running loop (seed 000 itself
-retuned from the estimates, Table 2).  For n = 1 on a process whose FOPDT
-has a large dead time the estimate ``b0 = k/T`` is far too small (seed 000:
-the final b0 was 3 times larger) and the loop oscillates: a warning says so.
+Default when no settling time is given (the safe default): the fastest
+``omega_c`` whose sampled loop on the model -- dead time exact, the block's own
+discretisation, :mod:`ctrlblocks.tuning.margins` -- is stable with a maximum
+sensitivity ``Ms <= 1.6`` (``ms``), ``omega_o = observer_ratio omega_c``.  The
+bandwidth rule itself assumes a process without real dead time: with
+``tau_set = 1.5 (T + T0)`` (the former default) the loop is unstable on every
+FOPDT from ``T0/T`` of about 0.1 upwards, orders 1 and 2 alike (for
+``k = 2, T = 30 s, T0 = 5 s``, n = 2: a closed-loop pole at ``|z| = 1.02``).
+The searched default is stable but slow on such processes: with ``T0/T``
+of 0.17..0.3 the order-2 loop on its FOPDT settles in about 5 to 7 times the
+rule's ``tau_set`` (a slow integral tail; a warning says so).  A settling time
+asked for is checked the same way and refused when ``Ms > 2`` or unstable,
+with the fastest settling time that keeps ``Ms <= 2`` (``force`` keeps it).
+For n = 1 on a process whose FOPDT has a large dead time the estimate
+``b0 = k/T`` is far too small (Nowak et al. 2018: the final b0 was 3 times
+larger): a warning says so.
 """
 
 from __future__ import annotations
@@ -75,7 +83,7 @@ SETTLING_TIME_2PCT = {1: 3.912023005428146, 2: 5.83392170191749, 3: 7.5166038756
 """2 % settling time of ``1/(s/omega_c + 1)^n`` times ``omega_c`` (see the module docstring)."""
 
 SETTLING_FACTOR = {n: min(5.0, max(3.0, x)) for n, x in SETTLING_TIME_2PCT.items()}
-"""``omega_c tau_set`` per order: the exact 2 % value clipped to the seed's 3..5."""
+"""``omega_c tau_set`` per order: the exact 2 % value clipped to the paper's 3..5."""
 
 MAX_OMEGA_O_TS = 0.2
 """Largest ``omega_o ts`` accepted for the Euler observer (4a)."""
@@ -170,9 +178,9 @@ def adrc_bandwidth(
     ts : float, optional
         Controller sample time [s]; suggested if not given.
     factor : float, optional
-        ``omega_c tau_set``; seed 000 gives 3..5 (outside: a warning).
+        ``omega_c tau_set``; Nowak et al. 2018 gives 3..5 (outside: a warning).
     observer_ratio : float
-        ``omega_o/omega_c``; seed 000 gives 3..10 (outside: a warning).
+        ``omega_o/omega_c``; Nowak et al. 2018 gives 3..10 (outside: a warning).
 
     Returns
     -------
@@ -184,10 +192,12 @@ def adrc_bandwidth(
     warnings: list[str] = []
     f = SETTLING_FACTOR[order] if factor is None else require_positive("factor", factor)
     if not 3.0 <= f <= 5.0:
-        warnings.append(f"factor {f:g} is outside seed 000's omega_c = (3..5)/tau_set")
+        warnings.append(f"factor {f:g} is outside Nowak et al.'s (2018) omega_c = (3..5)/tau_set")
     ratio = require_positive("observer_ratio", observer_ratio, ErrorCode.BAD_BANDWIDTH)
     if not 3.0 <= ratio <= 10.0:
-        warnings.append(f"observer_ratio {ratio:g} is outside seed 000's omega_o = (3..10) omega_c")
+        warnings.append(
+            f"observer_ratio {ratio:g} is outside omega_o = (3..10) omega_c (Nowak et al. 2018)"
+        )
     omega_c = f / tau
     omega_o = ratio * omega_c
     if ts is None:
@@ -203,7 +213,8 @@ def adrc_bandwidth(
             omega_o = new
             if omega_o < 3.0 * omega_c:
                 warnings.append(
-                    f"omega_o is now only {omega_o / omega_c:.2g} x omega_c (seed 000: >= 3): "
+                    f"omega_o is now only {omega_o / omega_c:.2g} x omega_c "
+                    "(Nowak et al. 2018: >= 3): "
                     "use a shorter sample time or a longer settling time"
                 )
     return ADRCTuning(
@@ -318,7 +329,7 @@ def adrc_tuning(
     if order == 1 and T0 > 0.25 * T:
         warnings.append(
             f"order 1 with T0/T = {T0 / T:.2f}: the process is of higher order and b0 = k/T is "
-            "too small (seed 000, Table 2: 3 times); expect oscillation, prefer order 2"
+            "too small (Nowak et al. 2018, Table 2: 3 times); expect oscillation, prefer order 2"
         )
     omega_o = bw.omega_o
     if noise_std is not None or u_noise_max is not None:
@@ -504,7 +515,7 @@ def adrc_config(
     Returns ``{"order", "b0", "omega_c", "omega_o", "ts", "u_min", "u_max",
     "t_ref"}`` from :func:`adrc_tuning`; ``u_min``/``u_max`` are the MV limits
     and ``t_ref`` [s] the time constant of the set-point reference trajectory
-    (seed 000, Fig. 2: ``T_ref``), passed through.
+    (Nowak et al. 2018, Fig. 2: ``T_ref``), passed through.
     """
     tun = adrc_tuning(
         gain,

@@ -168,7 +168,7 @@ def tune_adrc(
         "settling_time_model": r.settling_time_model,
         "warnings": r.warnings,
     }
-    _emit(_finite(out), as_json, f"ADRC order {r.order} (seed 000, section 3.3)")
+    _emit(_finite(out), as_json, f"ADRC order {r.order} (Nowak et al. 2018, section 3.3)")
 
 
 @tune.command("pid")

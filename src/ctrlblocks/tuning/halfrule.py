@@ -1,7 +1,7 @@
 """Skogestad's half rule and the inverse half-rule of the ADRC paper.
 
 Half rule (Skogestad, *Simple analytic rules for model reduction and PID
-controller tuning*, J. Process Control 13 (2003) 291-309, section 2; seed 000
+controller tuning*, J. Process Control 13 (2003) 291-309, section 2; Nowak et al. 2018
 reference [21]).  A stable model with real lags ``tau_1 >= tau_2 >= ...``,
 inverse-response (right-half-plane zero) time constants ``T_inv_j`` and dead
 time ``theta_0`` is reduced by giving half of the largest neglected time
@@ -14,16 +14,16 @@ constant to the smallest retained one and the other half to the dead time:
 
 where ``h`` is the sample time of a digital controller (Skogestad adds h/2 for
 the zero-order hold).  Left-half-plane zeros need Skogestad's additional approximation rules for
-numerator terms and are not supported here.  (Seed 000's reference list
+numerator terms and are not supported here.  (Nowak et al.'s (2018) reference list
 prints the volume as 11; the paper is in volume 13.)
 
-Inverse half-rule (seed 000, section 3.3, eqs. (5)-(9) and Table 1).  Given
+Inverse half-rule (Nowak et al. 2018, section 3.3, eqs. (5)-(9) and Table 1).  Given
 an FOPDT ``k e^{-T0 s}/(T s + 1)`` and an assumed ADRC order ``n`` of a
 process *without* dead time, estimate the ADRC scaling parameter ``b0``:
 
-* ``n = 1``: ``b0 = k/T`` (seed 000, section 6);
+* ``n = 1``: ``b0 = k/T`` (Nowak et al. 2018, section 6);
 * ``n = 2``: the half rule inverted, ``T1 = T - T0``, ``T2 = 2 T0`` and
-  ``b0 = k/(T1 T2)`` (the seed text prints "T1 = T T0": an extraction slip
+  ``b0 = k/(T1 T2)`` (the paper's text prints "T1 = T T0": an extraction slip
   for ``T1 = T - T0``);
 * ``n = 3``: the time constants are not unique; (5a)/(5b) look for the
   largest/smallest product ``T1 T2 T3`` subject to ``T1 >= T2 >= T3 > 0`` (6)
@@ -39,15 +39,15 @@ process *without* dead time, estimate the ADRC scaling parameter ``b0``:
       T1+ = T - T0/3,          T2- = T3+ = T0/1.5
       b0_max = max(k/(T1- T2+ T3-), k/(T1+ T2- T3+))
 
-  The seed prints ``T1+ = T - 0.33 T0``; with ``T2- = T0/1.5`` only the exact
+  The paper prints ``T1+ = T - 0.33 T0``; with ``T2- = T0/1.5`` only the exact
   1/3 satisfies (7) (``T1 + T2/2 = T``), so 1/3 is used.  For Table 1 both
   values give the same ``b0_max`` because the first term of the max wins
-  (K2: 0.10218 vs 0.0250/0.0249).  The seed advises ``b0 = b0_min``.
+  (K2: 0.10218 vs 0.0250/0.0249).  The paper advises ``b0 = b0_min``.
 
   When ``T >= 3 T0`` the boundary ``T2+ = 2 T0`` makes ``T3- = 0``: a
   second-order process fits the same FOPDT, and ``b0_max`` is infinite.
 
-Table 1 of seed 000: K1 (k = 0.56, T = 11, T0 = 3.3), n = 2 -> b0 = 0.011;
+Table 1 of Nowak et al. 2018: K1 (k = 0.56, T = 11, T0 = 3.3), n = 2 -> b0 = 0.011;
 K2 (0.73, 8.3, 3), n = 3 -> b0 in [0.0236, 0.1022].  (Table 2 lists, for the
 FOPDT fit of the real pneumatic setup, n = 1: 0.099, n = 2: 0.025,
 n = 3: [0.025, 0.13].)
@@ -78,7 +78,7 @@ class InverseHalfRule:
     Attributes
     ----------
     b0 : float
-        Advised scaling parameter (``b0_min`` for n = 3, as seed 000 advises).
+        Advised scaling parameter (``b0_min`` for n = 3, as Nowak et al. 2018 advises).
     b0_min, b0_max : float
         Acceptable range (both equal to ``b0`` for n = 1 and n = 2;
         ``b0_max`` may be ``inf`` for n = 3, see the module docstring).
@@ -100,7 +100,7 @@ class InverseHalfRule:
 
 
 def inverse_half_rule(k: float, T: float, T0: float, order: int) -> InverseHalfRule:
-    """ADRC scaling parameter ``b0`` from an FOPDT model (seed 000, section 3.3).
+    """ADRC scaling parameter ``b0`` from an FOPDT model (Nowak et al. 2018, section 3.3).
 
     Parameters
     ----------

@@ -8,13 +8,13 @@ Models (``t`` in s, ``k`` in PV unit per MV unit)::
 
 Methods
 -------
-* :func:`two_point` -- the two-point method of seed 000's reference [18]
+* :func:`two_point` -- the two-point method of Nowak et al.'s (2018) reference [18]
   (T. E. Marlin, *Process Control*, McGraw-Hill 1995, chapter 6): with
   ``t28`` and ``t63`` the times after the step at which the response reaches
   28.3 % and 63.2 % of its final change,
   ``T = 1.5 (t63 - t28)``, ``theta = t63 - T``, ``k = dy/du``.
   (28.3 % and 63.2 % are the FOPDT response at ``theta + T/3`` and
-  ``theta + T``.)  Seed 000 obtained its FOPDT models (10a)/(10b) this way.
+  ``theta + T``.)  Nowak et al. 2018 obtained its FOPDT models (10a)/(10b) this way.
 * :func:`sundaresan_krishnaswamy` -- Sundaresan & Krishnaswamy, *Estimation
   of time delay, time constant parameters in time, frequency and Laplace
   domains*, Can. J. Chem. Eng. 56 (1978) 257-262: with ``t1`` at 35.3 % and
@@ -366,7 +366,7 @@ def two_point(t: ArrayLike, u: ArrayLike, y: ArrayLike) -> FOPDT:
     """FOPDT by Marlin's two-point method (28.3 % / 63.2 %).
 
     ``T = 1.5 (t63 - t28)``, ``theta = t63 - T``, ``k = dy/du`` with the times
-    measured from the MV step (seed 000, reference [18]: Marlin, *Process
+    measured from the MV step (Nowak et al. 2018, reference [18]: Marlin, *Process
     Control*, 1995).  See :func:`_step_analysis` for how the step, the
     baseline and the final value are found.  Meant for clean records with a
     single MV step; use :func:`fit_fopdt` for noisy ones.

@@ -9,7 +9,7 @@ All results are for the ISA ("standard", "ideal", non-interacting) form that
 PID block wants ``kp > 0`` and ``reverse=True`` for a negative action:
 :meth:`PIDTuning.as_kwargs` gives exactly that.  A rule
 given in series (interacting) form ``kc (1 + 1/(tau_I s)) (1 + tau_D s)`` is
-converted with (seed 004, Åström 1987, (2.5);
+converted with (Åström 1987, Åström 1987, (2.5);
 :func:`ctrlblocks.blocks.pid_forms.series_to_isa`)::
 
     kp = kc (1 + tau_D/tau_I),  ti = tau_I + tau_D,  td = tau_I tau_D / (tau_I + tau_D)
@@ -120,7 +120,7 @@ class PIDTuning:
 
         ``{"kp": |kp|, "ti", "td", "reverse": kp < 0}`` (plus ``"b"`` when
         the rule sets a set-point weight): the PID block takes a positive gain
-        and a ``reverse`` flag for a negative process gain (seed 002
+        and a ``reverse`` flag for a negative process gain (controltheplant 2024
         ``ixInverted``).
         """
         out: dict[str, float | bool] = {

@@ -1,7 +1,7 @@
 """Auto-tuning against a plant: relay feedback (fine tuning) and a bump test (pre-tuning).
 
 These are the stand-ins for the two auto-tuning stages of Siemens
-PID_Compact used as the PID reference in seed 000 (section 6: PID_PT by
+PID_Compact used as the PID reference in Nowak et al. 2018 (section 6: PID_PT by
 "pretuning", PID_FT by "finetuning").  Both run against any object with the
 plant contract of :mod:`ctrlblocks.plants.base` (``plant.y``,
 ``plant.step(u)``, ``plant.reset(u0)``, ``plant.ts``).
@@ -23,7 +23,7 @@ last ``cycles`` periods of the cycle:
   coefficient over whole periods; ``amplitude="peak"``: half the
   peak-to-peak PV, the classic hand evaluation).  It assumes the PV is a
   sinusoid; the relay's third harmonic makes it a few per cent off for
-  plants without dead time (third-order (10b) of seed 000: ``ku`` -6 %,
+  plants without dead time (third-order (10b) of Nowak et al. 2018: ``ku`` -6 %,
   ``pu`` +3 %).  With hysteresis the cycle sits where the process phase is
   ``-180 deg + asin(eps/a)``, not at the ultimate point.
 * ``estimate="harmonic"`` (default) -- for a linear plant in periodic steady
@@ -49,7 +49,7 @@ last ``cycles`` periods of the cycle:
   function), so keep the hysteresis just above the noise band.
 
 The PID settings from ``(ku, pu)`` are Ziegler-Nichols closed loop by default
-(``rule="zn"``).  Seed 000's PID_FT (``kP = 6.31``, ``TI = 5.40 s``,
+(``rule="zn"``).  Nowak et al.'s (2018) PID_FT (``kP = 6.31``, ``TI = 5.40 s``,
 ``TD = 1.36 s``) has ``TI/TD = 3.97``, the Ziegler-Nichols ratio 4 (pu/2 over
 pu/8); ``rule="tyreus-luyben"`` is the gentler alternative.
 

@@ -6,7 +6,7 @@ steps once per written MV (:class:`SimulatedIO`), so the runtime's real-time
 cycle is the plant's clock and every sample the runtime records is one sample
 of the discrete closed loop:
 
-* ``pressure``: ADRC (n = 2, Table 2 of seed 000: b0 = 0.05, omega_o = 1.75,
+* ``pressure``: ADRC (n = 2, Table 2 of Nowak et al. 2018: b0 = 0.05, omega_o = 1.75,
   omega_c = 0.35, ts = 0.1 s) on the pneumatic three-tank process
   (:class:`~ctrlblocks.plants.ThreeTank`, p3 in bar, supply pressure 0..5 bar,
   1 mbar measurement noise), starting in its steady state at p3 = 1.5 bar;
@@ -44,7 +44,7 @@ mv = "sim:pressure.mv"
 sp = 1.5
 safe_value = 0.0
 
-[loops.block]  # seed 000, Table 2 (n = 2); u0: the steady-state supply pressure for 1.5 bar
+[loops.block]  # Nowak et al. 2018, Table 2 (n = 2); u0: steady supply pressure for 1.5 bar
 type = "ADRC"
 order = 2
 b0 = 0.05
