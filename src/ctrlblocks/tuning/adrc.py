@@ -349,7 +349,16 @@ def adrc_tuning(
             f"Ms = {mg.ms:.3g} exceeds the target {target:g} after the MV-noise adjustment"
         )
     settle = lp.settling_time() if mg.stable else math.nan
-    if settle > 3.0 * bw.settling_time:
+    open_loop = T0 + 4.0 * T  # 98 % settling time of the FOPDT itself
+    if settle > open_loop:
+        lower = f" or a lower order than {order}" if order > 1 else ""
+        warnings.append(
+            f"no ADRC of order {order} reaches Ms <= {target:g} at a useful speed on this model: "
+            f"the loop settles in {settle:.4g} s, slower than the process itself (T0 + 4 T = "
+            f"{open_loop:.4g} s); use the Smith predictor structure (a scenario's structure = "
+            f'"smith"){lower}, or compare a PID (ctrlblocks tune pid)'
+        )
+    elif settle > 3.0 * bw.settling_time:
         warnings.append(
             f"the loop on the model settles in {settle:.4g} s, {settle / bw.settling_time:.2g} "
             "times the rule's settling time: at this bandwidth the ADRC's integral action is "
