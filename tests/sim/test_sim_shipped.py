@@ -179,7 +179,7 @@ def test_report_has_margins_for_tuned_and_linear_loops_and_warns_on_fragile_tuni
     assert [r[3] for r in rows] == [True, True]  # both tuned, on the FOPDT fit
     assert all(r[2]["stable"] and r[2]["ms"] <= 1.6 for r in rows)
     (fig1,) = load_shipped(["nowak_fig1"])
-    (name, model, mg, tuned), _ = margins_rows(fig1)
+    (_name, model, mg, tuned), _ = margins_rows(fig1)
     assert not tuned and "PTn" in model and mg["stable"] and 1.5 < mg["ms"] < 1.6
     # a source's tuning with Ms > 2 gets a warning line
     import dataclasses
