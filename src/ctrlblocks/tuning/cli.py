@@ -106,7 +106,7 @@ def identify(
 
 @click.group()
 def tune() -> None:
-    """Controller settings from a process model (gain, time constant, dead time), with margins."""
+    """Controller settings from an FOPDT model (gain, time constant, dead time)."""
 
 
 ADRC_INFO_KEYS = (

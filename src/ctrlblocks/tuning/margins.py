@@ -8,7 +8,7 @@ For a process model and a configured :class:`ctrlblocks.PID` or
 and the process advances by ``ts`` with ``u[k]`` held (zero-order hold).
 
 * **Process**: the exact ZOH sampling of the model with its dead time
-  (Åström and Wittenmark, *Computer-Controlled Systems*, 1997, section 2.3),
+  (Åström & Wittenmark 1997, section 2.3),
   through :class:`ctrlblocks.plants.linear.LinearPlant`: a dead time
   ``L = d ts + eps`` that is not a multiple of ``ts`` is exact as well (the
   modified z-transform, the two input matrices ``Gamma0``/``Gamma1`` of that
@@ -30,7 +30,7 @@ and the process advances by ``ts`` with ``u[k]`` held (zero-order hold).
   and the complementary sensitivity ``T = L/(1 + L)`` on ``z = e^{j w ts}``,
   ``0 < w <= pi/ts``.
 
-Margins (Åström and Hägglund, *Advanced PID Control*, 2006, section 4.4):
+Margins (Åström & Hägglund 2006, section 4.4):
 ``ms = max |S|`` (the inverse of the shortest distance from ``L`` to -1),
 ``gm`` the gain margin (ratio, ``inf`` when ``L`` never crosses the negative
 real axis), ``pm`` the phase margin [deg], ``wc_crossover`` the gain
@@ -41,7 +41,7 @@ means all of them strictly inside the unit circle.  The margins of an
 unstable loop mean nothing; ``ms`` is then reported as ``inf``.
 
 Margin targets used by the tuning tools: ``ms <= 1.4`` robust, ``1.4..2``
-the usual range (Åström and Hägglund 2006, section 4.4: ``ms = 1.4`` and
+the usual range (Åström & Hägglund 2006, section 4.4: ``ms = 1.4`` and
 ``2`` bracket good designs; ``ms = 2`` guarantees ``gm >= 2`` and
 ``pm >= 29 deg``), above 2 fragile.
 """
@@ -137,7 +137,7 @@ def plant_ss(plant: LinearPlant) -> DiscreteSS:
     """Input ``u[k]``, output ``y[k]``: the ZOH sampling with the dead time as a shift register.
 
     States: the plant's ``x`` and the past inputs ``u[k-1] .. u[k-d-1]``
-    (Åström and Wittenmark 1997, section 2.3, "Time delay"; the update (2)
+    (Åström & Wittenmark 1997, section 2.3, "Time delay"; the update (2)
     of :mod:`ctrlblocks.plants.linear`).
     """
     nx, d = plant.n_states, plant.dead_samples
@@ -496,10 +496,11 @@ class Loop:
 
         ``t_end`` defaults to :meth:`response_time`.
         """
-        from ..sim.metrics import settling_time
-
         t, y, _u = self.simulate(self.response_time() if t_end is None else t_end)
-        return settling_time(t, y, 1.0, band)
+        outside = np.flatnonzero(np.abs(y - 1.0) > band)
+        if len(outside) == 0:
+            return 0.0
+        return math.nan if outside[-1] == len(y) - 1 else float(t[outside[-1] + 1])
 
 
 def loop(model: Any, block: PID | ADRC) -> Loop:
