@@ -366,15 +366,16 @@ def _nlsys_loop(make_ctrl, plant_factory, sig):
     plant = plant_factory()
     is_pid = isinstance(ctrl, PID)
     prm = pid_params(ctrl) if is_pid else adrc_params(ctrl)
-    g5 = plant._g[:5]
-    hsub, nsub = plant.ts / plant.substeps, plant.substeps
-    g3o = {name: plant._coefficients(r)[5] for name, r in plant.outlets.items()}
+    model = plant.discrete_model()
+    g5 = model.g[:5]
+    hsub, nsub = model.h, model.substeps
+    g3o = model.outlet_g
     if is_pid:
         x0c = [ctrl._i, ctrl._d, ctrl._w_prev, ctrl._e_prev, ctrl.out, 1.0]
     else:
         x0c = [ctrl._yh, ctrl._x2, ctrl._x3, ctrl._x4, ctrl._u_prev, ctrl._ref, 0.0, 0.0, 0.0]
     nc = len(x0c)
-    x0 = np.array([*x0c, plant._p1, plant._p2, plant._p3, plant.u])
+    x0 = np.array([*x0c, *plant.snapshot()["p"], plant.u])
 
     def control_output(x, u_in):
         y = x[nc + 2] - tt.P_ATM + u_in[2]

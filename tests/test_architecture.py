@@ -19,8 +19,6 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import pytest
-
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = SRC / "ctrlblocks"
 
@@ -46,25 +44,6 @@ PEER_IMPORTS: set[tuple[str, str]] = {
     ("", "blocks"),  # the package's __init__ re-exports the blocks
     ("cli", "web"),  # ``ctrlblocks web`` starts the faceplate
 }
-
-#: Violations that exist today and are being removed (issue 17); nothing may be added.
-KNOWN_VIOLATIONS: set[tuple[str, str]] = {
-    ("ctrlblocks.runtime.config", "ctrlblocks.sim.controller"),
-    ("ctrlblocks.runtime.config", "ctrlblocks.sim.scenario"),
-    ("ctrlblocks.runtime.loop", "ctrlblocks.sim.controller"),
-    ("ctrlblocks.runtime.plant_server", "ctrlblocks.sim.process"),
-    ("ctrlblocks.runtime.plant_server", "ctrlblocks.sim.scenario"),
-}
-
-#: Import circles that exist today and are being removed (issue 17).
-KNOWN_CIRCLES: list[set[str]] = [
-    {"ctrlblocks.runtime.io", "ctrlblocks.runtime.modbus", "ctrlblocks.runtime.opcua"},
-    {"ctrlblocks.sim.plot", "ctrlblocks.sim.results"},
-    {
-        "ctrlblocks.sim.scenario",
-        "ctrlblocks.sim.process",
-    },
-]
 
 
 def _module_name(path: Path) -> str:
@@ -190,21 +169,20 @@ def test_graph_sees_lazy_and_relative_imports():
 
 
 def test_no_lower_layer_imports_a_higher_one():
-    new = layer_violations(GRAPH) - KNOWN_VIOLATIONS
-    assert not new, f"layer rule broken (see docs/architecture.md): {sorted(new)}"
+    bad = layer_violations(GRAPH)
+    assert not bad, f"layer rule broken (see docs/architecture.md): {sorted(bad)}"
 
 
-def test_known_layer_violations_are_still_real():
-    gone = KNOWN_VIOLATIONS - layer_violations(GRAPH)
-    assert not gone, f"remove from KNOWN_VIOLATIONS: {sorted(gone)}"
+def test_layer_check_catches_an_upward_import():
+    graph = {"ctrlblocks.runtime.loop": {"ctrlblocks.sim.scenario", "ctrlblocks.loops.spec"}}
+    assert layer_violations(graph) == {("ctrlblocks.runtime.loop", "ctrlblocks.sim.scenario")}
+    assert layer_violations({"ctrlblocks.blocks.pid": {"ctrlblocks.loops.spec"}}) != set()
 
 
-def test_no_new_import_circles():
-    found = circles(GRAPH)
-    new = [c for c in found if not any(c <= k for k in KNOWN_CIRCLES)]
-    assert not new, f"import circles: {[sorted(c) for c in new]}"
+def test_no_import_circles():
+    assert circles(GRAPH) == [], "import circles between modules (see docs/architecture.md)"
 
 
-@pytest.mark.xfail(reason="issue 17: the three known circles are being removed", strict=False)
-def test_no_import_circles_at_all():
-    assert circles(GRAPH) == []
+def test_circle_finder_finds_a_circle_through_three_modules():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert circles(graph) == [{"a", "b", "c"}]

@@ -66,8 +66,9 @@ def test_the_ripple_on_a_first_order_process_equals_the_closed_form(duty: float)
     assert last.max() - last.min() == pytest.approx(pwm_ripple(k, t, period, duty), rel=2e-3)
     assert last.mean() == pytest.approx(k * duty, rel=1e-2)
     # small-period approximation K d (1 - d) P / T
-    assert pwm_ripple(k, t, period, duty) == pytest.approx(k * duty * (1 - duty) * period / t,
-                                                            rel=0.06)
+    assert pwm_ripple(k, t, period, duty) == pytest.approx(
+        k * duty * (1 - duty) * period / t, rel=0.06
+    )
 
 
 def test_the_averaged_pwm_loop_equals_the_continuous_loop_within_the_ripple() -> None:

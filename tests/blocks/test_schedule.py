@@ -20,8 +20,9 @@ def test_interpolation_is_linear_between_breakpoints_and_holds_the_ends() -> Non
 
 
 def test_the_controller_is_retuned_to_the_interpolated_parameters() -> None:
-    gs = GainSchedule(PID(kp=1.0, ti=10.0, ts=0.1), breakpoints=(0.0, 100.0),
-                      kp=(1.0, 3.0), ti=(10.0, 20.0))
+    gs = GainSchedule(
+        PID(kp=1.0, ti=10.0, ts=0.1), breakpoints=(0.0, 100.0), kp=(1.0, 3.0), ti=(10.0, 20.0)
+    )
     gs(50.0, 45.0, w=25.0)
     assert (gs.controller.config.kp, gs.controller.config.ti) == (1.5, 12.5)
     assert gs.parameters == {"kp": 1.5, "ti": 12.5}
@@ -69,8 +70,9 @@ def test_a_bad_scheduling_variable_keeps_the_parameters_in_force() -> None:
 
 
 def test_two_phase_form_and_snapshot_include_the_controller() -> None:
-    gs = GainSchedule(PID(kp=1.0, ti=10.0, ts=0.1, u_min=0.0, u_max=2.0),
-                      breakpoints=(0.0, 1.0), kp=(1.0, 2.0))
+    gs = GainSchedule(
+        PID(kp=1.0, ti=10.0, ts=0.1, u_min=0.0, u_max=2.0), breakpoints=(0.0, 1.0), kp=(1.0, 2.0)
+    )
     v = gs.compute_output(5.0, 0.0, w=0.5)
     gs.update_state(min(v, 1.0))
     snap = gs.snapshot()

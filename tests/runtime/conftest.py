@@ -98,8 +98,8 @@ def opcua_plant():
     so the tests share it: each sets ``server.process`` to a fresh
     :class:`PlantProcess` and resets the fault switches.  Stopped at the end.
     """
-    from ctrlblocks.runtime import PlantProcess, PlantServer
-    from ctrlblocks.sim import load_scenario
+    from ctrlblocks.runtime import PlantServer
+    from ctrlblocks.sim import PlantProcess, load_scenario
 
     th = ServerThread()
     server = PlantServer(

@@ -15,8 +15,8 @@ import math
 import numpy as np
 import pytest
 
-from ctrlblocks.runtime import PlantProcess, PlantServer, Runtime, SQLiteHistorian, parse_config
-from ctrlblocks.sim import load_scenario, simulate
+from ctrlblocks.runtime import PlantServer, Runtime, SQLiteHistorian, parse_config
+from ctrlblocks.sim import PlantProcess, load_scenario, simulate
 
 from .conftest import DATA, block_table, fresh, wait_for
 

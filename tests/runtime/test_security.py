@@ -7,9 +7,9 @@ import dataclasses
 
 import pytest
 
-from ctrlblocks.runtime import ConnectionConfig, IOFault, PlantProcess, PlantServer
+from ctrlblocks.runtime import ConnectionConfig, IOFault, PlantServer
 from ctrlblocks.runtime.opcua import OpcUaAdapter, make_certificate, trust_list_validator
-from ctrlblocks.sim import load_scenario
+from ctrlblocks.sim import PlantProcess, load_scenario
 
 from .conftest import DATA
 
@@ -101,7 +101,7 @@ async def plaintext_session(url: str) -> str:
 
 def test_plaintext_session_attack_works_on_an_open_server(opcua_plant):
     """Control for the next test: the same unencrypted session reads an unsecured server."""
-    from ctrlblocks.runtime import PlantProcess as PP
+    from ctrlblocks.sim import PlantProcess as PP
 
     from .conftest import fresh
 

@@ -1,8 +1,8 @@
 """Loop structures in the runtime: cascade, override, feed-forward, Smith predictor.
 
-The runtime runs the simulator's :class:`~ctrlblocks.sim.ControllerSide`, and
+The runtime runs the simulator's :class:`~ctrlblocks.loops.ControllerSide`, and
 the plant is the simulator's :class:`~ctrlblocks.sim.ProcessSide` (through
-:class:`~ctrlblocks.runtime.PlantProcess`, stepped on each MV write), so the
+:class:`~ctrlblocks.sim.PlantProcess`, stepped on each MV write), so the
 runtime's recorded SP/PV/MV trace must equal ``simulate`` of the same
 scenario bit for bit (in memory, and over OPC UA Double variables).
 """
@@ -19,12 +19,11 @@ from ctrlblocks.runtime import (
     FakeClock,
     MemoryAdapter,
     MemoryBus,
-    PlantProcess,
     Runtime,
     RuntimeConfigError,
     parse_config,
 )
-from ctrlblocks.sim import parse_scenario, simulate
+from ctrlblocks.sim import PlantProcess, parse_scenario, simulate
 
 from .conftest import block_table, fresh, toml_value, wait_for
 

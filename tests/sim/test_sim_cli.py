@@ -68,7 +68,7 @@ def test_run_writes_trace_metrics_and_plot(tmp_path):
     )
     assert res.exit_code == 0, res.output
     d = tmp_path / "astrom_fig52"
-    with (d / "trace_jump_and_rate_main.csv").open() as fh:
+    with (d / "trace_jump_and_rate__main.csv").open() as fh:
         rows = list(csv.reader(fh))
     assert rows[0][:5] == ["t", "sp", "y", "ym", "u"]
     assert len(rows) == 1 + 2000
@@ -92,12 +92,12 @@ def test_trace_format_auto_is_parquet_with_pyarrow_else_csv(tmp_path):
     assert res.exit_code == 0
     d = tmp_path / "astrom_fig52"
     if importlib.util.find_spec("pyarrow") is None:
-        assert (d / "trace_jump_and_rate_main.csv").exists()
-        assert not (d / "trace_jump_and_rate_main.parquet").exists()
+        assert (d / "trace_jump_and_rate__main.csv").exists()
+        assert not (d / "trace_jump_and_rate__main.parquet").exists()
     else:
         import pyarrow.parquet as pq
 
-        table = pq.read_table(d / "trace_jump_and_rate_main.parquet")
+        table = pq.read_table(d / "trace_jump_and_rate__main.parquet")
         assert table.column_names[:3] == ["t", "sp", "y"]
         y = table.column("y").to_pylist()
         assert y[700] == pytest.approx(3.5 - math.exp(-4.0), abs=1e-12)

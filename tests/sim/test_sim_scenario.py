@@ -89,7 +89,8 @@ def test_parameter_refused_by_the_block_is_reported_with_its_key_path():
 
 def test_unknown_block_parameter_is_reported():
     e = _err(GOOD.replace("jhigh = 1.0", "jump = 1.0"))
-    assert e.key == "controllers[0]" and "jump" in e.problem
+    assert e.key == "controllers[0].jump"
+    assert e.problem.startswith("unknown key 'jump'") and "jhigh" in e.problem
 
 
 def test_event_outside_the_duration_is_refused():

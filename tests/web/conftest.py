@@ -44,6 +44,9 @@ mv = "sim:fast.mv"
 sp = 1.0
 safe_value = 0.0
 block = { type = "PID", kp = 1.0, ti = 0.5, reset_value = 1.0, u_min = 0.0, u_max = 5.0 }
+unit = { pv = "m", mv = "%" }
+sp_range = [0.0, 2.0]
+tuning_ranges = { kp = [0.1, 10.0] }
 
 [[loops]]
 name = "level"
@@ -66,10 +69,20 @@ u_max = 5.0
 [historian]
 path = "@HISTORY@"
 flush_interval = 0.1
+
+[web]
+public_view = @PUBLIC@
 """
 
 OPERATOR = ("alice", "correct horse battery")
-"""The test operator (user name, password)."""
+"""The test engineer (user name, password): may change everything."""
+
+USERS = {
+    "alice": ("engineer", OPERATOR[1]),
+    "bob": ("operator", "bob's long password"),
+    "vera": ("viewer", "vera's long password"),
+}
+"""Every test user: name -> (role, password)."""
 
 
 def lag_plants() -> dict[str, Any]:
@@ -82,21 +95,23 @@ def lag_plants() -> dict[str, Any]:
     return out
 
 
-def make_runtime(tmp_path: Path) -> Any:
+def make_runtime(tmp_path: Path, public_view: bool = True) -> Any:
     """A runtime of :data:`TEST_TOML` on :func:`lag_plants`, historian in ``tmp_path``."""
     from ctrlblocks.web.demo import simulated_runtime
 
     text = TEST_TOML.replace('"@HISTORY@"', json.dumps(str(tmp_path / "history.sqlite")))
+    text = text.replace("@PUBLIC@", "true" if public_view else "false")
     rt, _ = simulated_runtime(text, lag_plants())
     return rt
 
 
 def make_users(tmp_path: Path) -> Any:
-    """A users file with :data:`OPERATOR` (cheap scrypt cost, so tests stay fast)."""
+    """A users file with :data:`USERS` (cheap scrypt cost, so tests stay fast)."""
     from ctrlblocks.web import UserStore
 
     users = UserStore(tmp_path / "users.json")
-    users.add(*OPERATOR, n=2**10)
+    for name, (role, password) in USERS.items():
+        users.add(name, password, role=role, n=2**10)
     return users
 
 
@@ -122,7 +137,10 @@ def client(app: Any) -> Any:
         yield c
 
 
-def login(client: Any, user: str = OPERATOR[0], password: str = OPERATOR[1]) -> Any:
+def login(client: Any, user: str = OPERATOR[0], password: str | None = None) -> Any:
+    """Log ``user`` in (default password: the one of :data:`USERS`)."""
+    if password is None:
+        password = USERS[user][1]
     return client.post("/api/login", json={"user": user, "password": password})
 
 
@@ -191,18 +209,19 @@ CHROMIUM_ARGS = [
 
 
 @contextlib.contextmanager
-def running_server(runtime: Any, users: Any) -> Iterator[str]:
+def running_server(runtime: Any, users: Any, **server_kw: Any) -> Iterator[str]:
     """Serve the faceplate of ``runtime`` on 127.0.0.1 (a free port) in a thread; yield its URL.
 
     The socket is bound and listening before the thread starts, so a client
     can connect at once (it waits in the backlog until uvicorn accepts).
-    Stops the server (and with it the runtime) on exit.
+    Stops the server (and with it the runtime) on exit.  ``server_kw`` goes
+    to :func:`~ctrlblocks.web.make_server` (``certfile``/``keyfile``: HTTPS).
     """
     from ctrlblocks.web.server import bind_socket, make_server
 
     sock = bind_socket("127.0.0.1", 0)
     port = sock.getsockname()[1]
-    server = make_server(runtime, host="127.0.0.1", port=port, users=users)
+    server = make_server(runtime, host="127.0.0.1", port=port, users=users, **server_kw)
     errors: list[BaseException] = []
 
     def run() -> None:
@@ -214,7 +233,8 @@ def running_server(runtime: Any, users: Any) -> Iterator[str]:
     thread = threading.Thread(target=run, name="faceplate-server", daemon=True)
     thread.start()
     try:
-        yield f"http://127.0.0.1:{port}/"
+        scheme = "https" if server_kw.get("certfile") else "http"
+        yield f"{scheme}://127.0.0.1:{port}/"
     finally:
         server.should_exit = True
         thread.join(timeout=20)

@@ -6,8 +6,8 @@ Run from the repository root (about 40 s of real time)::
 
 It serves the demo (simulated three-tank ADRC loop and PI flow loop) on
 127.0.0.1, logs in as a temporary operator, raises the pressure setpoint from
-1.5 to 1.8 bar through the page, lets the loop answer for 30 s and saves the
-page.  Not a test (pytest does not collect it).
+1.5 to 1.8 bar through the page (confirming the step if the page asks), lets
+the loop answer for 30 s and saves the page.  Not a test (pytest does not collect it).
 """
 
 from __future__ import annotations
@@ -38,6 +38,8 @@ def main(out: str) -> None:
             page.wait_for_function("() => window.faceplate.user === 'operator1'")
             page.fill("#sp-input", "1.8")
             page.click("#btn-sp")
+            if page.is_visible("#confirm"):  # a step above confirm_step of the range asks first
+                page.click("#confirm-yes")
             page.wait_for_selector("#msg.ok")
             page.wait_for_timeout(30_000)
             page.click("#audit-box summary")

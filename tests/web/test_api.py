@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 import time
 from pathlib import Path
@@ -16,7 +17,7 @@ pytest.importorskip("httpx")
 from ctrlblocks import PID
 from ctrlblocks.blocks.adrc import ADRC
 from ctrlblocks.blocks.base import ErrorCode, ParameterError
-from ctrlblocks.web.app import HISTORY_COLUMNS, coerce_command
+from ctrlblocks.web.app import HISTORY_COLUMNS, coerce_command, csv_header
 
 from .conftest import (
     OPERATOR,
@@ -31,10 +32,18 @@ from .conftest import (
 
 
 def audit(client, loop=None):
-    params = {"limit": 100}
-    if loop:
-        params["loop"] = loop
-    return client.get("/api/audit", params=params).json()
+    """The audit trail (of ``loop``), newest first, as ``GET /api/audit`` gives it.
+
+    Read through the app's historian: ``/api/audit`` needs a login, and logging
+    in here would change the session the test is about.
+    """
+    rows = client.app.state.runtime.historian.audit_rows(loop, 100)[::-1]
+    for d in rows:
+        d["old"], d["new"] = (
+            json.loads(d[k]) if d[k] is not None else None for k in ("old", "new")
+        )
+        d["ok"] = bool(d["ok"])
+    return rows
 
 
 def refused_code(block, **kw):
@@ -62,7 +71,8 @@ def test_viewer_sees_every_loop_with_sp_pv_mv_mode_and_error(client):
         assert s["error"] is False and s["error_id"] == 0
         assert s["alarms"] == []
     info = client.get("/api/info").json()
-    assert info["user"] is None and info["role"] == "viewer"
+    assert info["user"] is None and info["role"] is None and info["may_change"] == []
+    assert info["public_view"] is True and info["loops"] == ["fast", "level"]
     assert info["push_period"] <= 0.1  # >= 10 Hz
 
 
@@ -108,7 +118,8 @@ def test_wrong_password_is_refused_and_audited(client):
     r = login(client, "mallory", OPERATOR[1])
     assert r.status_code == 401
     rows = [a for a in audit(client) if a["action"] == "login"]
-    assert [(a["who"], a["ok"]) for a in rows] == [("mallory", False), ("alice", False)]
+    # a name that is not a user is not written down (it may be a mistyped password)
+    assert [(a["who"], a["ok"]) for a in rows] == [("unknown user", False), ("alice", False)]
 
 
 def test_login_sets_an_http_only_strict_cookie(client):
@@ -144,7 +155,13 @@ def test_every_change_without_login_is_refused_and_audited(client, body):
     assert after["tunings"]["kp"] == 1.0
     (row,) = audit(client, "fast")
     assert row["who"] == "anonymous" and row["ok"] is False
-    assert row["new"] == body
+    # a bounded summary: who, where, which fields -- never the values
+    fields = [*body, *(f"tunings.{k}" for k in body.get("tunings", {}))]
+    assert row["new"] == {
+        "client": "testclient",
+        "endpoint": "/api/loops/fast/command",
+        "fields": fields,
+    }
 
 
 def test_logout_ends_the_session(client):
@@ -285,6 +302,7 @@ def test_unknown_loop_command_and_values_are_refused(client):
 
 
 def test_history_for_a_period_and_its_csv_equal_the_historian(client, app):
+    login(client, "vera")  # a viewer may read the history
     t0 = time.time()
     wait_cycles(client, "fast", 20)
     t1 = time.time()
@@ -300,13 +318,16 @@ def test_history_for_a_period_and_its_csv_equal_the_historian(client, app):
     assert r.headers["content-type"].startswith("text/csv")
     assert "attachment" in r.headers["content-disposition"]
     rows = list(csv.reader(io.StringIO(r.text)))
-    assert tuple(rows[0]) == HISTORY_COLUMNS
+    assert rows[0] == csv_header({"sp": "m", "pv": "m", "mv": "%"})
+    assert rows[0][:7] == ["t_wall [s]", "run_id", "cycle", "t [s]", "dt [s]", "sp [m]", "pv [m]"]
+    assert rows[0][7] == "mv [%]" and len(rows[0]) == len(HISTORY_COLUMNS)
     assert len(rows) == len(ref) + 1
     i_pv = HISTORY_COLUMNS.index("pv")
     assert [float(x[i_pv]) for x in rows[1:]] == [s["pv"] for s in ref]
 
 
 def test_history_outside_the_run_is_empty_and_bad_periods_are_refused(client):
+    login(client, "vera")
     r = client.get("/api/loops/fast/history", params={"start": 1000.0, "end": 2000.0})
     assert r.json()["rows"] == 0
     r = client.get("/api/loops/fast/history", params={"start": 2000.0, "end": 1000.0})
@@ -315,6 +336,7 @@ def test_history_outside_the_run_is_empty_and_bad_periods_are_refused(client):
 
 
 def test_history_is_decimated_to_max_points(client):
+    login(client, "vera")
     wait_cycles(client, "fast", 12)
     body = client.get("/api/loops/fast/history", params={"max_points": 5}).json()
     n = body["rows"]
@@ -387,7 +409,7 @@ def test_a_runtime_run_by_another_thread_gets_commands_through_submit(tmp_path: 
             login(client)
             r = client.post("/api/loops/fast/command", json={"sp": 1.25})
             assert r.status_code == 200 and r.json()["old"] == {"sp": 1.0}
-            r = client.post("/api/loops/fast/command", json={"tunings": {"kp": 0}})
+            r = client.post("/api/loops/fast/command", json={"tunings": {"kp": 0.0}})
             assert r.status_code == 422 and r.json()["error"]["code"] == ErrorCode.BAD_PID_COEFFS
             assert rt.running  # the app's stop does not stop a runtime it did not start
         assert rt.loops["fast"].sp == 1.25

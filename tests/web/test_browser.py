@@ -22,6 +22,7 @@ from ctrlblocks.blocks.base import ErrorCode
 
 from .conftest import (
     OPERATOR,
+    USERS,
     chromium_context,
     make_runtime,
     make_users,
@@ -69,12 +70,30 @@ def js(page: Any, expr: str) -> Any:
     return page.evaluate(f"() => {expr}")
 
 
-def log_in(page: Any) -> None:
-    page.fill("#login-user", OPERATOR[0])
-    page.fill("#login-password", OPERATOR[1])
+def log_in(page: Any, user: str = OPERATOR[0]) -> None:
+    page.fill("#login-user", user)
+    page.fill("#login-password", USERS[user][1])
     page.click("#btn-login")
-    page.wait_for_function("() => window.faceplate.user === 'alice'")
-    assert page.text_content("#who") == "alice"
+    page.wait_for_function("u => window.faceplate.user === u", arg=user)
+    assert page.text_content("#who") == user
+    assert page.text_content("#role") == USERS[user][0]
+
+
+def log_out(page: Any) -> None:
+    page.click("#btn-logout")
+    page.wait_for_function("() => window.faceplate.user === null")
+
+
+def disabled(page: Any) -> dict[str, bool]:
+    """Which controls are disabled, by element id (and ``tunings`` for the tuning inputs)."""
+    return js(
+        page,
+        """Object.fromEntries([
+             ...['btn-auto', 'btn-man', 'manual-value', 'btn-manual', 'sp-input', 'btn-sp', 'umin',
+                 'umax', 'btn-limits', 'btn-tunings'].map(id => [id, $(id).disabled]),
+             ['tunings', [...document.querySelectorAll('#tunings input')].every(i => i.disabled)]
+           ])""",
+    )
 
 
 def wait_message(page: Any, text: str) -> str:
@@ -129,20 +148,100 @@ def test_page_shows_the_loops_and_the_trend_moves(page: Any, tmp_path_factory: A
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
 
 
-def test_a_change_without_login_is_refused(page: Any, url: str) -> None:
+def test_without_login_every_control_is_disabled_and_the_server_refuses(
+    page: Any, url: str
+) -> None:
     assert page.is_visible("#login-form")
-    page.fill("#sp-input", "1.4")
-    page.click("#btn-sp")
-    msg = wait_message(page, "setpoint refused")
-    assert "log in as an operator" in msg
-    assert page.get_attribute("#msg", "class") == "refused"
+    assert all(disabled(page).values()), disabled(page)
+    assert "you can only watch" in page.text_content("#role-note")
+    assert not page.is_visible("#audit-box") and not page.is_visible("#history-box")
+    # what the page does not offer, the server refuses all the same
+    r = page.request.post(f"{url}api/loops/fast/command", data={"sp": 1.4})
+    assert r.status == 401
     assert server_state(page, url, "fast")["sp"] == 1.0
-    page.click("#audit-box summary")
-    page.wait_for_selector("#audit tbody tr.refused")
-    assert page.text_content("#audit tbody tr td:nth-child(2)") == "anonymous"
+
+
+def test_units_ranges_and_a_trend_axis_that_keeps_the_sp_in_view(page: Any) -> None:
+    assert [page.text_content(f"#u-{s}") for s in ("sp", "pv", "mv")] == ["m", "m", "%"]
+    assert page.text_content("#loops tr[data-loop=fast] td.pv").endswith(" m")
+    assert page.text_content("#loops tr[data-loop=fast] td.mv").endswith(" %")
+    assert page.text_content("#r-sp") == "0 … 2 m"
+    assert page.text_content("#r-manual") == "0 … 5 %"  # the block's limits: no mv_range given
+    assert page.text_content("#r-limits") == "within 0 … 5 %"
+    assert page.text_content("#tunings tr[data-key=kp] td.range") == "0.1 … 10"
+    assert page.text_content("#tunings tr[data-key=ti] td.range") == "≥ 0"  # from the block
+    # steady state SP = PV = 1 m: the axis shows the SP and at least 5 % of [0, 2] m
+    wait_cycles(page, "fast", 5)
+    lo, hi = js(page, "[faceplate.chart.scales.y.min, faceplate.chart.scales.y.max]")
+    assert lo < 1.0 < hi and hi - lo >= 0.05 * 2.0
+    assert js(page, "faceplate.yRange(0.9999, 1.0001, 'sp')") == pytest.approx([0.945, 1.055])
+    assert js(page, "faceplate.yRange(0.2, 0.3, 'sp')") == pytest.approx([0.2 - 0.04, 1.0 + 0.04])
+
+
+def test_each_role_sees_only_its_controls_enabled(page: Any) -> None:
+    log_in(page, "vera")
+    assert all(disabled(page).values())
+    assert page.is_visible("#audit-box") and page.is_visible("#history-box")
+    log_out(page)
+    log_in(page, "bob")
+    d = disabled(page)
+    assert not any(d[k] for k in ("btn-auto", "btn-man", "manual-value", "btn-sp", "sp-input"))
+    assert all(d[k] for k in ("umin", "umax", "btn-limits", "btn-tunings", "tunings"))
+    assert "need an engineer" in page.text_content("#role-note")
+    log_out(page)
+    log_in(page)
+    assert not any(disabled(page).values())
+
+
+def test_a_large_step_asks_first_and_the_range_is_enforced(page: Any, url: str) -> None:
+    log_in(page)
+    page.fill("#sp-input", "1.1")  # 0.1 m: within 10 % of the 2 m range, sent at once
+    page.click("#btn-sp")
+    wait_message(page, "setpoint accepted")
+    page.fill("#sp-input", "1.6")  # 0.5 m: asks first
+    page.click("#btn-sp")
+    page.wait_for_selector("#confirm", state="visible")
+    assert page.text_content("#confirm-text").startswith("Setpoint 1.100 → 1.600 m")
+    page.click("#confirm-no")
+    wait_message(page, "setpoint not sent (cancelled)")
+    assert server_state(page, url, "fast")["sp"] == 1.1
+    page.click("#btn-sp")
+    page.click("#confirm-yes")
+    wait_message(page, "setpoint accepted")
+    assert server_state(page, url, "fast")["sp"] == 1.6
+    # outside the range: marked at once, refused by the server with the field and the range
+    page.fill("#sp-input", "2.5")
+    assert "out" in page.get_attribute("#sp-input", "class")
+    page.click("#btn-sp")
+    page.click("#confirm-yes")
+    msg = wait_message(page, "setpoint refused")
+    assert "sp: outside the engineering range [0, 2], got 2.5 m" in msg
+    page.fill("#umin", "-50")
+    page.fill("#umax", "-10")
+    page.click("#btn-limits")
+    assert "u_min: outside the engineering range [0, 5]" in wait_message(page, "limits refused")
+    st = server_state(page, url, "fast")
+    assert (st["sp"], st["u_min"], st["u_max"]) == (1.6, 0.0, 5.0)
+
+
+@pytest.mark.parametrize("size", [(1280, 800), (390, 844)])
+def test_the_page_fits_a_desktop_and_a_phone(browser: Any, url: str, size: tuple[int, int]) -> None:
+    p = browser.new_page()
+    try:
+        p.set_viewport_size({"width": size[0], "height": size[1]})
+        p.goto(url)
+        p.wait_for_function("() => window.faceplate && window.faceplate.updates > 0")
+        # nothing sticks out sideways; the SP controls and the trend are on the screen
+        assert js(p, "document.documentElement.scrollWidth") <= size[0]
+        for sel in ("#sp-input", "#btn-sp", "#trend .u-over", "#v-pv"):
+            box = p.locator(sel).bounding_box()
+            assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= size[0], sel
+    finally:
+        p.close()
 
 
 def test_a_viewer_sees_the_history_and_downloads_it_as_csv(page: Any, url: str) -> None:
+    log_in(page, "vera")
     wait_cycles(page, "fast", 10)
     page.click("#history-box summary")
     page.click("#btn-history")
@@ -157,7 +256,7 @@ def test_a_viewer_sees_the_history_and_downloads_it_as_csv(page: Any, url: str) 
     with page.expect_download() as dl:
         page.click("#csv-link")
     lines = Path(dl.value.path()).read_text().splitlines()
-    assert lines[0].startswith("t_wall,run_id,cycle,t,dt,sp,pv,mv,mode")
+    assert lines[0].startswith("t_wall [s],run_id,cycle,t [s],dt [s],sp [m],pv [m],mv [%],mode")
     assert len(lines) >= n + 1  # every sample of the period (the plot may thin them)
 
 
@@ -198,6 +297,7 @@ def test_operator_changes_the_setpoint_and_the_pv_follows(page: Any, url: str) -
     log_in(page)
     page.fill("#sp-input", "1.5")
     page.click("#btn-sp")
+    page.click("#confirm-yes")  # 0.5 m is more than 10 % of the 2 m range: asked first
     wait_message(page, "fast: setpoint accepted")
     assert page.get_attribute("#msg", "class") == "ok"
     assert server_state(page, url, "fast")["sp"] == 1.5

@@ -20,7 +20,7 @@ def test_operator_add_list_remove(tmp_path, monkeypatch):
     assert "a long password" not in users.read_text()
     assert list(json.loads(users.read_text())["users"]) == ["alice"]
     r = CliRunner().invoke(main, ["operator", "list", "--users", str(users)])
-    assert r.output.split() == ["alice"]
+    assert r.output.split() == ["alice", "operator"]  # the default role
     r = CliRunner().invoke(main, ["operator", "remove", "alice", "--users", str(users)])
     assert r.exit_code == 0
     r = CliRunner().invoke(main, ["operator", "remove", "alice", "--users", str(users)])
@@ -94,7 +94,8 @@ def test_serve_demo_in_one_command_shows_the_faceplate_and_stops_on_sigint(tmp_p
     try:
         listening.wait(90.0)
         info = httpx.get(f"http://127.0.0.1:{port}/api/info", timeout=30).json()
-        assert info["loops"] == ["pressure", "flow"] and info["role"] == "viewer"
+        # the demo is public: anyone watches without a login
+        assert info["loops"] == ["pressure", "flow"] and info["role"] is None
         page = httpx.get(f"http://127.0.0.1:{port}/", timeout=30)
         assert "uPlot" in page.text
     finally:
@@ -122,3 +123,33 @@ def test_docs_page_shows_the_screenshot_and_its_error_example_is_the_blocks_code
     assert (docs / "figures" / "faceplate.png").read_bytes()[:4] == b"\x89PNG"
     code = ErrorCode.BAD_B0
     assert f'"code":{int(code)},"code_hex":"16#{int(code):04X}","name":"{code.name}"' in text
+
+
+def test_operator_roles_and_disable_from_the_command_line(tmp_path, monkeypatch):
+    users = str(tmp_path / "users.json")
+    monkeypatch.setenv("PW", "a long password")
+    run = CliRunner().invoke
+    for name, role in (("eve", "engineer"), ("val", "viewer")):
+        r = run(
+            main,
+            ["operator", "add", name, "--users", users, "--password-env", "PW", "--role", role],
+        )
+        assert r.exit_code == 0 and f"{role} {name!r} saved" in r.output, r.output
+    r = run(
+        main, ["operator", "add", "x", "--users", users, "--password-env", "PW", "--role", "root"]
+    )
+    assert r.exit_code != 0 and "root" in r.output
+    assert run(main, ["operator", "disable", "val", "--users", users]).exit_code == 0
+    r = run(main, ["operator", "list", "--users", users])
+    assert r.output.splitlines() == ["eve engineer", "val viewer disabled"]
+    assert run(main, ["operator", "disable", "val", "--enable", "--users", users]).exit_code == 0
+    assert run(main, ["operator", "list", "--users", users]).output.splitlines()[1] == "val viewer"
+    r = run(main, ["operator", "disable", "nobody", "--users", users])
+    assert r.exit_code != 0 and "no user 'nobody'" in r.output
+
+
+def test_serve_needs_certfile_and_keyfile_together(tmp_path):
+    cert = tmp_path / "cert.pem"
+    cert.write_text("not used")
+    r = CliRunner().invoke(serve, ["--certfile", str(cert), "--users", str(tmp_path / "u.json")])
+    assert r.exit_code == 2 and "--certfile and --keyfile together" in r.output

@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from ..sim.cli import Progress, output_dir
 from .sweep import SweepError, dask_executor, parameter_sets, sweep, write_rows
 
 
@@ -77,7 +78,11 @@ def sweep_command(
     import concurrent.futures as cf
 
     vary = parse_vary(vary_items)
-    total = len(parameter_sets(vary))
+    try:
+        total = len(parameter_sets(vary))
+    except SweepError as exc:
+        raise click.ClickException(str(exc)) from None
+    output_dir(out.parent, "--out")
     executor: Any
     if serial:
         executor = "serial"
@@ -85,20 +90,25 @@ def sweep_command(
         executor = dask_executor(None if dask_address == "local" else dask_address)
     else:
         executor = cf.ProcessPoolExecutor(max_workers=workers) if workers else None
+    # on a terminal a bar; in a log a line per chunk of about a tenth of the runs
+    bar = Progress(total, "sweep", every=-(-total // 10))
     try:
-        with click.progressbar(length=total, label="sweep", show_pos=True) as bar:
+        with bar:
             rows = sweep(
                 scenario,
                 vary,
                 executor=executor,
                 quick=quick,
                 duration=duration,
-                progress=lambda done, _total: bar.update(done - bar.pos),
+                progress=lambda done, _total: bar.step(done - bar.done) if done else None,
             )
     except SweepError as exc:
         raise click.ClickException(str(exc)) from None
     finally:
         if executor not in (None, "serial"):
             executor.shutdown()
-    path = write_rows(rows, out)
+    try:
+        path = write_rows(rows, out)
+    except OSError as exc:
+        raise click.ClickException(f"--out {out}: cannot write the table ({exc})") from None
     click.echo(f"{total} parameter sets, {len(rows)} rows -> {path}")

@@ -80,21 +80,24 @@ class LoopResult:
 def _plant_arrays(plant: Any) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, int]:
     """``(kind, pp, ps, buf, pos)``: parameters, state, dead-time buffer of ``plant``."""
     if isinstance(plant, _tt.ThreeTank):
+        m = plant.discrete_model()
         pp = np.zeros(18)
-        pp[:6] = plant._g
-        pp[6] = plant.ts / plant.substeps
-        pp[7] = plant.substeps
-        pp[8], pp[9] = plant.u_min, plant.u_max
-        ps = np.array([plant._p1, plant._p2, plant._p3, 0.0, plant.u, plant.y], dtype=float)
+        pp[:6] = m.g
+        pp[6] = m.h
+        pp[7] = m.substeps
+        pp[8], pp[9] = m.u_min, m.u_max
+        p1, p2, p3 = plant.snapshot()["p"]
+        ps = np.array([p1, p2, p3, 0.0, plant.u, plant.y], dtype=float)
         return PLANT_THREETANK, pp, ps, np.zeros(2), 0
     if hasattr(plant, "phi") and hasattr(plant, "gamma1"):
         pp = np.array(lti3_params(plant), dtype=float)
-        x = [float(v) for v in plant._x] + [0.0] * (3 - plant.n_states)
+        snap = plant.snapshot()  # state x, dead-time ring buffer and its position
+        x = [float(v) for v in snap["x"]] + [0.0] * (3 - plant.n_states)
         # dsamp = -1 marks "no dead time" (Gamma1 = 0): the loop then skips the buffer
         dsamp = -1.0 if plant.dead_time == 0.0 else float(plant.dead_samples)
         ps = np.array([*x, dsamp, plant.u, plant.y], dtype=float)
-        buf = np.array(plant._buf, dtype=float)
-        return PLANT_LTI3, pp, ps, buf, int(plant._pos)
+        buf = np.array(snap["buf"], dtype=float)
+        return PLANT_LTI3, pp, ps, buf, int(snap["pos"])
     raise UnsupportedConfig(f"no compiled model for plant {type(plant).__name__}")
 
 
@@ -362,7 +365,7 @@ def closed_loop(
     if outlet is not None:
         if not isinstance(plant, _tt.ThreeTank):
             raise ValueError("outlet= is an input of the ThreeTank plant only")
-        g3o = {name: plant._coefficients(r)[5] for name, r in plant.outlets.items()}
+        g3o = plant.discrete_model().outlet_g
         sig["outlet"] = [g3o[v] for v in outlet]
     if n is None:
         n = int(np.shape(sp)[0]) if np.ndim(sp) else None

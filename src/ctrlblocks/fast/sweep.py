@@ -96,7 +96,10 @@ def apply_key(doc: dict[str, Any], key: str, value: Any) -> None:
             node[name] = value
             return
         if name not in node:
-            raise SweepError(f"{key}: the scenario has no {'.'.join([*parts[:n], name])!r}")
+            from ..loops.toml import unknown_key_problem
+
+            where = ".".join(parts[:n]) or "the scenario"
+            raise SweepError(f"{key}: {where}: {unknown_key_problem(name, node)}")
         node = node[name]
         for j, i in enumerate(idx):
             if not isinstance(node, list) or i >= len(node):
@@ -118,9 +121,10 @@ def parameter_sets(vary: Mapping[str, Sequence[Any]]) -> list[dict[str, Any]]:
 
 def _scenario(text: str, file: str, params: Mapping[str, Any]) -> Any:
     """The scenario of ``text`` with the keys of ``params`` set (the simulator's parser)."""
-    from ..sim.scenario import parse_scenario_doc, read_toml
+    from ..loops.toml import read_toml
+    from ..sim.scenario import ScenarioError, parse_scenario_doc
 
-    doc = read_toml(text, file)
+    doc = read_toml(text, file, ScenarioError)
     for k, v in params.items():
         apply_key(doc, k, v)
     return parse_scenario_doc(doc, file=file)
@@ -177,7 +181,8 @@ def sweep(
     quick, duration
         As :func:`ctrlblocks.sim.run_scenario`.
     progress : callable, optional
-        Called as ``progress(done, total)`` after each finished run.
+        Called as ``progress(0, total)`` once every parameter set has been
+        checked, then as ``progress(done, total)`` after each finished run.
 
     Returns
     -------
@@ -195,8 +200,11 @@ def sweep(
         try:
             _scenario(text, file, params)
         except ScenarioError as exc:
-            raise SweepError(f"{params}: {exc}") from None
+            given = ", ".join(f"{k} = {v!r}" for k, v in params.items())
+            raise SweepError(f"with {given}: {exc}") from None
     total = len(sets)
+    if progress is not None:
+        progress(0, total)
     results: list[list[dict[str, Any]] | None] = [None] * total
     if executor == "serial":
         for i, params in enumerate(sets):

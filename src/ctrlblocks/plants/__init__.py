@@ -13,7 +13,7 @@ Note: ``ctrlblocks.plants.PT1`` (a process model) is not the filter block
 ``ctrlblocks.PT1`` (``ctrlblocks.blocks.signals.PT1``).
 """
 
-from .base import Plant
+from .base import Plant, steady_input
 from .deadtime import DeadTime
 from .linear import FOPDT, IT1, PT1, PT2, LinearPlant, PT2Osc, PTn, split_dead_time
 from .threetank import ThreeTank
@@ -37,4 +37,5 @@ __all__ = [
     "ThreeTank",
     "process",
     "split_dead_time",
+    "steady_input",
 ]

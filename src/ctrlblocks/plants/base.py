@@ -31,6 +31,7 @@ input.
 from __future__ import annotations
 
 import abc
+import math
 from typing import Any, TypeVar
 
 _P = TypeVar("_P", bound="Plant")
@@ -66,3 +67,20 @@ class Plant(abc.ABC):
     def find(self, cls: type[_P]) -> _P | None:
         """This plant if it is a ``cls``, else None (wrappers search inside)."""
         return self if isinstance(self, cls) else None
+
+
+def steady_input(models: list[Any], y0: float) -> float | None:
+    """The input of the series ``models`` whose steady state gives the output ``y0``.
+
+    A single model with ``u_for_y`` (the three-tank process) inverts its own
+    steady state; otherwise ``y0`` over the product of their ``dc_gain``.
+    None when that gain is not finite or zero (an integrating plant).
+    """
+    if len(models) == 1 and hasattr(models[0], "u_for_y"):
+        return float(models[0].u_for_y(y0))
+    gain = 1.0
+    for m in models:
+        gain *= float(getattr(m, "dc_gain", math.nan))
+    if not math.isfinite(gain) or gain == 0.0:
+        return None
+    return y0 / gain

@@ -64,7 +64,8 @@ error against ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-12) stays below
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -72,7 +73,7 @@ from ..blocks.base import ErrorCode, ParameterError, require_positive
 from ..blocks.signals import clamp
 from .base import Plant
 
-__all__ = ["OUTLETS", "R_BETWEEN", "ThreeTank", "threetank_rk4"]
+__all__ = ["OUTLETS", "R_BETWEEN", "ThreeTank", "ThreeTankModel", "threetank_rk4"]
 
 R_GAS = 287.05
 """Specific gas constant of air [J/(kg K)]."""
@@ -134,6 +135,23 @@ def threetank_rk4(
         p2 += h6 * (k1b + 2.0 * (k2b + k3b) + k4b)
         p3 += h6 * (k1c + 2.0 * (k2c + k3c) + k4c)
     return p1, p2, p3
+
+
+class ThreeTankModel(NamedTuple):
+    """What a compiled path needs to step a :class:`ThreeTank` with :func:`threetank_rk4`."""
+
+    g: tuple[float, float, float, float, float, float]
+    """The coefficients ``g`` of (T2) with the current outlet valve [1/(bar s)]."""
+    h: float
+    """The RK4 step ``ts / substeps`` [s]."""
+    substeps: int
+    """RK4 steps per sample."""
+    u_min: float
+    """Lowest supply pressure [bar gauge]."""
+    u_max: float
+    """Highest supply pressure [bar gauge]."""
+    outlet_g: Mapping[str, float]
+    """The outlet coefficient ``g[5]`` of every outlet valve, by name [1/(bar s)]."""
 
 
 class ThreeTank(Plant):
@@ -247,6 +265,20 @@ class ThreeTank(Plant):
         c = R_GAS * T_AIR / (2.0 * P_ATM)
         return (c / (v1 * ra), c / (v1 * rb), c / (v2 * rb), c / (v2 * rc), c / (v3 * rc),
                 c / (v3 * r_out))  # fmt: skip
+
+    def discrete_model(self) -> ThreeTankModel:
+        """The public seam for compiled paths: coefficients, RK4 step and limits.
+
+        The state is in :meth:`snapshot` (``"p"``: absolute pressures [bar]).
+        """
+        return ThreeTankModel(
+            self._g,
+            self.ts / self.substeps,
+            self.substeps,
+            self.u_min,
+            self.u_max,
+            {name: self._coefficients(r)[5] for name, r in self.outlets.items()},
+        )
 
     # -- the contract ------------------------------------------------------------
 

@@ -27,7 +27,7 @@ from .config import (
 from .historian import Historian, PostgresHistorian, SQLiteHistorian, export_history
 from .io import Adapter, Connection, IOFault, MemoryAdapter, MemoryBus, Reading
 from .loop import CommandError, ControlLoop, Sample
-from .plant_server import PlantProcess, PlantServer
+from .plant_server import PlantServer
 from .runtime import Runtime
 
 __all__ = [
@@ -46,7 +46,6 @@ __all__ = [
     "MemoryAdapter",
     "MemoryBus",
     "MonotonicClock",
-    "PlantProcess",
     "PlantServer",
     "PostgresHistorian",
     "Reading",

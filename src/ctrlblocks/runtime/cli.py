@@ -103,7 +103,8 @@ def plant_server(
     docs/runtime.md.
     """
     from ..sim import ScenarioError, load_scenario
-    from .plant_server import PlantProcess, PlantServer
+    from ..sim.plant_process import PlantProcess
+    from .plant_server import PlantServer
 
     logging.basicConfig(level=logging.WARNING)
     try:

@@ -22,7 +22,7 @@ name for the in-memory adapter).  ``docs/runtime.md`` lists every key.
 
 Every error names the file, the key path (``loops[1].block.kp``) and the
 problem, as :class:`RuntimeConfigError`; the blocks are built while loading
-(with the simulator's :func:`~ctrlblocks.sim.scenario.build`, so a block
+(with :func:`ctrlblocks.loops.build`, the simulator's factory, so a block
 table here is the same as a ``[[controllers]]`` block of a scenario), and a
 parameter a block refuses is reported with its key path.
 """
@@ -37,18 +37,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..sim.controller import ControllerSide
-from ..sim.scenario import (
-    NAME_RE,
-    BlockSpec,
-    ControllerSpec,
-    KeyPathError,
-    ScenarioError,
-    TableReader,
-    parse_controller,
-    read_toml,
-    type_name,
-)
+from ..loops.spec import BlockSpec, ControllerSpec
+from ..loops.structures import STRUCTURES as _STRUCTURES
+from ..loops.structures import ControllerSide, parse_controller
+from ..loops.toml import NAME_RE, KeyPathError, TableReader, read_toml, type_name
 
 __all__ = [
     "PROTOCOLS",
@@ -58,6 +50,7 @@ __all__ = [
     "LoopConfig",
     "RuntimeConfig",
     "RuntimeConfigError",
+    "WebConfig",
     "load_config",
     "parse_config",
 ]
@@ -72,16 +65,22 @@ SECURITY_MODES = ("none", "Basic256Sha256_SignAndEncrypt")
 """OPC UA security settings of a connection."""
 
 STRUCTURES: dict[str, tuple[str, ...]] = {
-    "single": ("block",),
-    "cascade": ("primary", "secondary", "aw_handshake"),
-    "override": ("selector", "blocks"),
-    "feedforward": ("main", "feedforward"),
-    "smith": ("main", "model"),
+    # a single loop's block is its "block" table; the others' keys are a scenario's
+    name: ("block",) if name == "single" else (*s.roles, *s.options)
+    for name, s in _STRUCTURES.items()
+    if s.runtime
 }
-"""Loop structures the runtime runs and the loop keys holding their blocks (as in a scenario)."""
+"""Loop structures the runtime runs and the loop keys holding their blocks (as in a scenario);
+derived from :data:`ctrlblocks.loops.STRUCTURES`."""
 
 MEASUREMENTS = {"pv": "y", "pv2": "y2", "dv": "dv"}
-"""Loop measurement bindings -> the simulator's names (:class:`~ctrlblocks.sim.ControllerSide`)."""
+"""Loop measurement bindings -> the names of :class:`~ctrlblocks.loops.ControllerSide`."""
+
+READS: dict[str, tuple[str, ...]] = {
+    name: tuple(sig for sig, m in MEASUREMENTS.items() if m in _STRUCTURES[name].measurements)
+    for name in STRUCTURES
+}
+"""The measurement bindings each structure reads (an override: what its blocks' ``measure`` say)."""
 
 
 class RuntimeConfigError(KeyPathError):
@@ -164,6 +163,11 @@ class LoopConfig:
     pv2: Binding | None = None
     dv: Binding | None = None
     u0: float = 0.0
+    # engineering bounds and units (the faceplate's keys, see the section at the end)
+    sp_range: tuple[float, float] | None = None
+    mv_range: tuple[float, float] | None = None
+    tuning_ranges: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    units: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def bindings(self) -> dict[str, Binding]:
         """The signal bindings by name (only those that are set)."""
@@ -191,6 +195,14 @@ class HistorianConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class WebConfig:
+    """The ``[web]`` table: what the faceplate shows to whom (see the section at the end)."""
+
+    public_view: bool = False
+    confirm_step: float = 0.1
+
+
+@dataclasses.dataclass(frozen=True)
 class RuntimeConfig:
     """A parsed, checked runtime configuration."""
 
@@ -199,6 +211,7 @@ class RuntimeConfig:
     loops: tuple[LoopConfig, ...]
     historian: HistorianConfig
     file: str
+    web: WebConfig = WebConfig()
 
     def build_blocks(self) -> dict[str, Any]:
         """A fresh block for every loop (name -> the block that writes its MV)."""
@@ -227,10 +240,9 @@ def parse_config(text: str, *, file: str = "<string>", base: Path | None = None)
 
 def build_side(lc: LoopConfig, file: str = "<config>") -> ControllerSide:
     """Make the controller side of loop ``lc``: its structure's blocks, wired (errors: key path)."""
-    try:
-        return ControllerSide(lc.structure, lc.spec(), lc.ts, u0=lc.u0, file=file)
-    except ScenarioError as exc:
-        raise RuntimeConfigError(file, exc.key, exc.problem) from None
+    return ControllerSide(
+        lc.structure, lc.spec(), lc.ts, u0=lc.u0, file=file, error=RuntimeConfigError
+    )
 
 
 # ---------------------------------------------------------------------------
@@ -281,7 +293,7 @@ class _Parser(TableReader):
     # -- sections -------------------------------------------------------------
 
     def config(self, doc: dict[str, Any]) -> RuntimeConfig:
-        self.check_keys(doc, {"runtime", "connections", "loops", "historian"}, "")
+        self.check_keys(doc, {"runtime", "connections", "loops", "historian", "web"}, "")
         head = self.table(doc, "runtime", "runtime", required=False)
         self.check_keys(head, {"name"}, "runtime")
         name = self.string(head, "name", "runtime.name", default="ctrlblocks")
@@ -307,9 +319,10 @@ class _Parser(TableReader):
                     raise self.fail(f"{lc.key}.mv", f"{k} is already written by loop {seen[k]!r}")
                 seen[k] = lc.name
         hist = self.historian(self.table(doc, "historian", "historian", required=False))
-        cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file)
+        web = _web(self, self.table(doc, "web", "web", required=False))
+        cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file, web)
         for lc in loops:  # build once: a refused parameter is reported here
-            build_side(lc, self.file)
+            _check_tuning_ranges(self, lc, build_side(lc, self.file))
         return cfg
 
     def connection(self, name: str, c: Any) -> ConnectionConfig:
@@ -437,6 +450,7 @@ class _Parser(TableReader):
             "alarm_limit",
             "write_retries",
             "u0",
+            *ENGINEERING_KEYS,
             *STRUCTURES[structure],
         }
         self.check_keys(raw, allowed, key)
@@ -444,13 +458,7 @@ class _Parser(TableReader):
         if not NAME_RE.match(name):
             raise self.fail(f"{key}.name", "loop names are letters, digits, _ . - only")
         ts = self.number(raw, "ts", f"{key}.ts", positive=True)
-        needs = {
-            "single": ("pv",),
-            "cascade": ("pv", "pv2"),
-            "override": (),
-            "feedforward": ("pv", "dv"),
-            "smith": ("pv",),
-        }[structure]
+        needs = READS[structure]
         if structure == "override":
             blocks = raw.get("blocks")
             used = set()
@@ -572,6 +580,7 @@ class _Parser(TableReader):
             pv2=meas.get("pv2"),
             dv=meas.get("dv"),
             u0=u0,
+            **_engineering(self, raw, key, sp, opt["manual_value"]),
         )
 
     def mv_tables(
@@ -624,10 +633,9 @@ class _Parser(TableReader):
         for k, v in entry.items():
             if isinstance(v, dict) and "ts" in v:
                 raise self.fail(f"{key}.{k}.ts", "set the sample time once, as the loop's ts")
-        try:
-            return parse_controller(entry, structure, ts, key=key, file=self.file)
-        except ScenarioError as exc:
-            raise RuntimeConfigError(self.file, exc.key, exc.problem) from None
+        return parse_controller(
+            entry, structure, ts, key=key, file=self.file, error=RuntimeConfigError
+        )
 
     def historian(self, h: dict[str, Any]) -> HistorianConfig:
         self.check_keys(
@@ -677,3 +685,87 @@ def _check_modbus_address(address: str, key: str, parser: _Parser) -> None:
         ) from None
     if reg > 65534:
         raise parser.fail(key, "Modbus register must be <= 65534 (a FLOAT32 takes two)")
+
+
+# ---------------------------------------------------------------------------
+# Engineering bounds, units and [web]: the keys the faceplate reads
+#
+#     [[loops]]
+#     unit = { pv = "bar", mv = "bar" }          # sp: the PV's unit unless given; or unit = "bar"
+#     sp_range = [0.0, 5.0]                      # setpoints an operator may give
+#     mv_range = [0.0, 5.0]                      # output limits and manual value stay inside
+#     tuning_ranges = { b0 = [0.01, 1.0] }       # per tuning; others: derived from the block
+#
+#     [web]
+#     public_view = false                        # true: live state without a login
+#     confirm_step = 0.1                         # the page asks before a bigger step [range]
+# ---------------------------------------------------------------------------
+
+ENGINEERING_KEYS = ("unit", "sp_range", "mv_range", "tuning_ranges")
+"""Loop keys of the engineering bounds and units (``docs/faceplate.md``)."""
+
+UNIT_SIGNALS = ("pv", "sp", "mv")
+"""Signals that carry a ``unit``."""
+
+
+def _range(p: _Parser, raw: Any, key: str) -> tuple[float, float]:
+    """``[lo, hi]``: two finite numbers, lo < hi."""
+    ok = isinstance(raw, list) and len(raw) == 2
+    ok = ok and all(not isinstance(v, bool) and isinstance(v, (int, float)) for v in raw)
+    if not ok or not all(math.isfinite(float(v)) for v in raw):
+        raise p.fail(key, f"must be [low, high], two finite numbers, got {raw!r}")
+    lo, hi = float(raw[0]), float(raw[1])
+    if not lo < hi:
+        raise p.fail(key, f"low {lo!r} must be below high {hi!r}")
+    return lo, hi
+
+
+def _engineering(
+    p: _Parser, raw: Mapping[str, Any], key: str, sp: Binding, manual: Binding | None
+) -> dict[str, Any]:
+    """The loop's ``unit``, ``sp_range``, ``mv_range`` and ``tuning_ranges`` (LoopConfig fields)."""
+    out: dict[str, Any] = {}
+    for name in ("sp_range", "mv_range"):
+        out[name] = _range(p, raw[name], f"{key}.{name}") if name in raw else None
+    for name, b, r in (("sp", sp, out["sp_range"]), ("manual_value", manual, out["mv_range"])):
+        if b is not None and not b.is_io and r is not None and not r[0] <= b.value <= r[1]:
+            raise p.fail(f"{key}.{name}", f"{b.value!r} is outside [{r[0]!r}, {r[1]!r}]")
+    t = p.table(raw, "tuning_ranges", f"{key}.tuning_ranges", required=False)
+    out["tuning_ranges"] = {n: _range(p, v, f"{key}.tuning_ranges.{n}") for n, v in t.items()}
+    u = raw.get("unit", {})
+    if isinstance(u, str):
+        u = {"pv": u}
+    u = p.as_table(u, f"{key}.unit")
+    p.check_keys(u, set(UNIT_SIGNALS), f"{key}.unit")
+    units = {s: p.string(u, s, f"{key}.unit.{s}", default="") for s in UNIT_SIGNALS}
+    for s, text in units.items():
+        if len(text) > 16 or any(c in text for c in "<>&\"\n"):
+            raise p.fail(f"{key}.unit.{s}", f"a unit of at most 16 plain characters, got {text!r}")
+    units["sp"] = units["sp"] or units["pv"]
+    out["units"] = units
+    return out
+
+
+def _check_tuning_ranges(p: _Parser, lc: LoopConfig, side: ControllerSide) -> None:
+    """Refuse a ``tuning_ranges`` entry that is not a numeric tuning or excludes the value."""
+    cfg = side.main.config
+    for n, (lo, hi) in lc.tuning_ranges.items():
+        k = f"{lc.key}.tuning_ranges.{n}"
+        if not hasattr(cfg, n) or n in ("ts", "u_min", "u_max"):
+            raise p.fail(k, f"{n!r} is not a tuning of the {lc.block_type} block")
+        v = getattr(cfg, n)
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise p.fail(k, f"{n!r} is not a number (got {v!r}): it has no range")
+        if not lo <= v <= hi:
+            raise p.fail(k, f"the configured {n} = {v!r} is outside [{lo!r}, {hi!r}]")
+
+
+def _web(p: _Parser, w: dict[str, Any]) -> WebConfig:
+    p.check_keys(w, {"public_view", "confirm_step"}, "web")
+    public = w.get("public_view", False)
+    if not isinstance(public, bool):
+        raise p.fail("web.public_view", f"must be true or false, got {public!r}")
+    step = p.number(w, "confirm_step", "web.confirm_step", 0.1, positive=True)
+    if step > 1.0:
+        raise p.fail("web.confirm_step", f"a fraction of the range in (0, 1], got {step!r}")
+    return WebConfig(public, step)

@@ -324,17 +324,3 @@ class MemoryAdapter(Adapter):
             res.append(None)
         return res
 
-
-def make_adapter(config: ConnectionConfig) -> Adapter:
-    """The adapter for ``config.protocol`` (OPC UA and Modbus import their libraries lazily)."""
-    if config.protocol == "memory":
-        return MemoryAdapter()
-    if config.protocol == "opcua":
-        from .opcua import OpcUaAdapter
-
-        return OpcUaAdapter(config)
-    if config.protocol == "modbus":
-        from .modbus import ModbusAdapter
-
-        return ModbusAdapter(config)
-    raise ValueError(f"unknown protocol {config.protocol!r}")

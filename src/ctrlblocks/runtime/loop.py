@@ -34,7 +34,7 @@ from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError, is_finite, require_limits
 from ..blocks.monitor import CycleMonitor
-from ..sim.controller import ControllerSide
+from ..loops.structures import ControllerSide
 from .config import MEASUREMENTS, MODES, Binding, LoopConfig
 from .io import Connection, Reading, bad
 

@@ -1,18 +1,11 @@
 """A simulated plant served over OPC UA and Modbus TCP (``ctrlblocks plant-server``).
 
-:class:`PlantProcess` is the process side of a scenario (any structure
-with a plant: single, cascade, override, feedforward, smith): the
-simulator's own :class:`~ctrlblocks.sim.ProcessSide` (the plant inside the
-plants' ``Actuator`` and ``Sensor`` wrappers, exactly as
-:func:`ctrlblocks.sim.simulate` wires it, the inner plant of a cascade or
-override in series with a zero-order hold, and the scenario's time line).
-At sample ``k`` (time ``k ts``) it applies the events due (setpoint steps
-and ramps, loads, plant parameters, sensor faults, and the controller-side
-events mode / manual value / limits, which it *publishes* for the runtime to
-read), publishes the measurement, and steps the plant by ``ts`` with the MV
-it receives.
-
-:class:`PlantServer` serves one process over OPC UA and/or Modbus TCP.
+:class:`PlantServer` serves one process over OPC UA and/or Modbus TCP: an
+object with ``ts``, ``mv``, ``values()`` (the variables below), ``step(u)`` and
+``sensor_ok``, usually a scenario's :class:`ctrlblocks.sim.PlantProcess`
+(the simulator's process side with its time line).  The runtime does not
+import the simulator: the command ``ctrlblocks plant-server`` builds the
+process and hands it over.
 Variables (OPC UA ``ns=2;s=NAME``; Modbus holding registers, FLOAT32, two
 registers each):
 
@@ -61,12 +54,12 @@ import logging
 import math
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..sim.process import ProcessSide
-from ..sim.scenario import Event, Scenario
+if TYPE_CHECKING:
+    from ..sim.plant_process import PlantProcess
 
-__all__ = ["MODBUS_REGISTERS", "SIGNALS", "PlantProcess", "PlantServer"]
+__all__ = ["MODBUS_REGISTERS", "SIGNALS", "PlantServer"]
 
 log = logging.getLogger(__name__)
 
@@ -77,132 +70,6 @@ MODBUS_REGISTERS = {name: 2 * i for i, name in enumerate(SIGNALS)}
 """Holding register of each variable (FLOAT32 in two registers)."""
 
 NAMESPACE = "urn:ctrlblocks:plant"
-
-
-class PlantProcess:
-    """The process side of a scenario, stepped sample by sample.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        A loaded scenario with a plant (any structure but ``open_loop``).
-    case : str, optional
-        The case whose events to play (default the first).
-    """
-
-    def __init__(self, scenario: Scenario, case: str | None = None) -> None:
-        if scenario.plant is None:
-            raise ValueError(
-                f"{scenario.file}: the plant server needs a plant; "
-                f"structure {scenario.structure!r} has none"
-            )
-        self.scenario = scenario
-        self.case = scenario.cases[0] if case is None else scenario.case(case)
-        for ev in self.case.events:
-            if ev.kind == "set":
-                raise ValueError(
-                    f"{scenario.file}: event at t={ev.t:g} of kind 'set' acts inside the "
-                    "controller; the plant server cannot serve it"
-                )
-        if scenario.initial["warmup"] > 0:
-            log.warning(
-                "%s: initial.warmup (%g s) initialises the simulator's controllers; the plant "
-                "server starts the plant in its steady state and cannot serve it",
-                scenario.file,
-                scenario.initial["warmup"],
-            )
-        self.ts = scenario.ts
-        self.side = ProcessSide(scenario, self.case.events)
-        self.plant = self.side.plant
-        self.u0 = self.side.u0
-        ini = scenario.initial
-        self.mode = 1.0 if ini["mode"] == "manual" else 0.0
-        self.manual_value = math.nan
-        self.u_min = math.nan
-        self.u_max = math.nan
-        self.mv = self.u0
-        self.k = 0
-        self._apply_due()
-
-    # -- the time line ----------------------------------------------------------
-
-    @property
-    def t(self) -> float:
-        """Time of the current sample [s]."""
-        return self.k * self.ts
-
-    @property
-    def duration(self) -> float:
-        """Duration of the case [s]."""
-        return self.case.duration
-
-    @property
-    def sensor_ok(self) -> bool:
-        """False while a sensor event flags the measurement invalid."""
-        return self.side.sensor_ok
-
-    def _apply_due(self) -> None:
-        for ev in self.side.due(self.t):
-            if not self.side.apply(ev):
-                self._publish(ev)
-
-    def _publish(self, ev: Event) -> None:
-        """A controller-side event: published for the runtime to read."""
-        f, k = ev.fields, ev.kind
-        if k == "mode":
-            self.mode = 1.0 if f["mode"] == "manual" else 0.0
-            if "manual_value" in f:
-                self.manual_value = f["manual_value"]
-        elif k == "manual_value":
-            self.manual_value = f["value"]
-        elif k == "limits":
-            self.u_min, self.u_max = f["u_min"], f["u_max"]
-
-    # -- signals and the step ---------------------------------------------------------
-
-    @property
-    def pv(self) -> float:
-        """The measurement of the current sample."""
-        return float(self.plant.y)
-
-    @property
-    def sp(self) -> float:
-        """The setpoint of the current sample."""
-        return float(self.side.setpoint.value)
-
-    def values(self) -> dict[str, float]:
-        """Every served variable of the current sample."""
-        return {
-            "pv": self.pv,
-            "mv": float(self.mv),
-            "sp": self.sp,
-            "mode": self.mode,
-            "manual_value": self.manual_value,
-            "u_min": self.u_min,
-            "u_max": self.u_max,
-            "k": float(self.k),
-            "pv2": self.pv2,
-            "dv": self.dv,
-        }
-
-    @property
-    def pv2(self) -> float:
-        """The inner plant's output ``y2`` of the current sample (NaN without one)."""
-        inner = self.side.inner
-        return math.nan if inner is None else float(inner.y)
-
-    @property
-    def dv(self) -> float:
-        """The input load of the current sample (the measured disturbance)."""
-        return float(self.side.actuator.load)
-
-    def step(self, u: float) -> None:
-        """Apply ``u`` for one sample; then go to the next sample (events, setpoint)."""
-        self.mv = u
-        self.side.step(u)  # series plants coupled exactly as in the simulator
-        self.k += 1
-        self.side.setpoint.advance(self.ts)
-        self._apply_due()
 
 
 # ---------------------------------------------------------------------------
@@ -267,7 +134,7 @@ class PlantServer:
 
     def __init__(
         self,
-        process: PlantProcess,
+        process: PlantProcess,  # or any object with its ts, mv, values(), step(u), sensor_ok
         *,
         host: str = "127.0.0.1",
         opcua_port: int | None = 4840,

@@ -36,10 +36,11 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from .adapters import make_adapter
 from .clock import Clock, MonotonicClock
 from .config import RuntimeConfig
 from .historian import Historian, open_historian
-from .io import Adapter, Connection, make_adapter
+from .io import Adapter, Connection
 from .loop import CommandError, ControlLoop, Sample
 
 __all__ = ["Runtime"]

@@ -19,9 +19,10 @@ The main entry points:
 See ``docs/simulator.md`` for the scenario format.
 """
 
-from .controller import ControllerSide
+from ..loops.structures import ControllerSide
 from .loop import Run, simulate
 from .metrics import METRIC_NAMES, compute_metrics
+from .plant_process import PlantProcess
 from .process import ProcessSide, SetpointProfile
 from .report import load_shipped, shipped_scenarios
 from .results import write_result
@@ -32,6 +33,7 @@ __all__ = [
     "METRIC_NAMES",
     "ClaimResult",
     "ControllerSide",
+    "PlantProcess",
     "ProcessSide",
     "Run",
     "Scenario",

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import sys
 import time
 from pathlib import Path
+from types import TracebackType
+from typing import IO, Any
 
 import click
 
@@ -20,6 +24,97 @@ _FORMAT = click.option(
     show_default=True,
     help="Trace file format (auto: Parquet when pyarrow is installed, else CSV).",
 )
+
+
+class Progress:
+    """Progress of a long command: a bar on a terminal, plain lines otherwise.
+
+    On a terminal :func:`click.progressbar` draws the bar.  When the output
+    is a file or a pipe (a CI log, ``| tee``) nothing is redrawn; instead
+    :meth:`note` lines are printed as they come and :meth:`step` prints a
+    line ``LABEL: DONE/TOTAL ... (T s)`` every ``every`` steps and at the end
+    (``every=None``: no step lines, only the notes).
+    """
+
+    def __init__(
+        self,
+        total: int,
+        label: str,
+        *,
+        every: int | None = 1,
+        file: IO[str] | None = None,
+        tty: bool | None = None,
+    ) -> None:
+        self.total, self.label = total, label
+        self.every = None if every is None else max(1, every)
+        self.file = file
+        stream = file if file is not None else sys.stdout
+        self.tty = bool(getattr(stream, "isatty", lambda: False)()) if tty is None else tty
+        self.done = 0
+        self._t0 = time.perf_counter()
+        self._bar: Any = None
+
+    def __enter__(self) -> Progress:
+        if self.tty:
+            self._bar = click.progressbar(
+                length=self.total,
+                label=self.label,
+                show_pos=True,
+                item_show_func=lambda s: s,
+                file=self.file,
+            ).__enter__()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(exc_type, exc, tb)
+
+    @property
+    def seconds(self) -> float:
+        """Time since the start [s]."""
+        return time.perf_counter() - self._t0
+
+    def step(self, n: int = 1, item: str = "") -> None:
+        """``n`` more units done (``item``: what was just done)."""
+        before, self.done = self.done, self.done + n
+        if self._bar is not None:
+            self._bar.update(n, item)
+        elif self.every is None:
+            return
+        elif self.done // self.every > before // self.every or self.done >= self.total:
+            what = f" {item}" if item else ""
+            self._line(f"{self.label}: {self.done}/{self.total}{what} ({self.seconds:.1f} s)")
+
+    def note(self, line: str) -> None:
+        """A line for the log (printed only when not on a terminal: the bar shows it there)."""
+        if self._bar is None:
+            self._line(line)
+
+    def _line(self, text: str) -> None:
+        click.echo(text, file=self.file)
+
+
+def output_dir(path: Path, what: str = "--out") -> Path:
+    """Make directory ``path`` (and its parents) and check it is writable, before any work.
+
+    A directory that cannot be made or written (``/proc/xx``, a read-only
+    mount, a file in the way) is a :class:`click.ClickException` naming it
+    and the reason, not a traceback after the runs.
+    """
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise click.ClickException(
+            f"{what} {path}: cannot make the directory ({exc.strerror or exc})"
+        ) from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise click.ClickException(f"{what} {path}: the directory is not writable")
+    return path
 
 
 def _echo_claims(result: ScenarioResult) -> None:
@@ -46,10 +141,14 @@ def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str) -> None:
         sc = load_scenario(scenario_file)
     except ScenarioError as exc:
         raise click.ClickException(str(exc)) from None
+    output_dir(out_dir)
     n = len(sc.controllers) * len(sc.cases)
-    with click.progressbar(length=n, label=f"{sc.name}", show_pos=True) as bar:
-        result = run_scenario(sc, quick=quick, progress=lambda _: bar.update(1))
-    files = write_result(result, out_dir, fmt=fmt)
+    with Progress(n, sc.name) as bar:
+        result = run_scenario(sc, quick=quick, progress=lambda what: bar.step(1, what))
+    try:
+        files = write_result(result, out_dir, fmt=fmt)
+    except OSError as exc:
+        raise click.ClickException(f"cannot write the results: {exc}") from None
     click.echo(metric_table(result))
     _echo_claims(result)
     click.echo(f"wrote {out_dir / sc.name}/ ({sum(len(v) for v in files.values())} files)")
@@ -82,21 +181,29 @@ def reproduce(
         for sc in scenarios:
             click.echo(f"{sc.name:28s} {sc.source}: {sc.title}")
         return
-    out_dir.mkdir(parents=True, exist_ok=True)
+    output_dir(out_dir)
     t0 = time.perf_counter()
     results = []
     n = sum(len(sc.controllers) * len(sc.cases) for sc in scenarios)
-    with click.progressbar(
-        length=n, label="reproducing", show_pos=True, item_show_func=lambda s: s
-    ) as bar:
-        for sc in scenarios:
+    # on a terminal a bar; in a log one line per scenario
+    with Progress(n, "reproducing", every=None) as bar:
+        bar.note(f"reproducing {len(scenarios)} scenarios ({n} runs) into {out_dir}/")
+        for i, sc in enumerate(scenarios, 1):
+            t_sc = time.perf_counter()
 
             def tick(what: str, sc=sc) -> None:
-                bar.update(1, f"{sc.name}: {what}")
+                bar.step(1, f"{sc.name}: {what}")
 
             result = run_scenario(sc, quick=quick, progress=tick)
-            write_result(result, out_dir, fmt=fmt)
+            try:
+                write_result(result, out_dir, fmt=fmt)
+            except OSError as exc:
+                raise click.ClickException(f"cannot write the results: {exc}") from None
             results.append(result)
+            bar.note(
+                f"[{i}/{len(scenarios)}] {sc.name}: {len(result.runs)} run(s), "
+                f"{time.perf_counter() - t_sc:.1f} s"
+            )
     seconds = time.perf_counter() - t0
     report = out_dir / "report.md"
     text = render_report(results, quick=quick, seconds=seconds, tables=not names)

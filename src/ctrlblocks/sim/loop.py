@@ -69,9 +69,9 @@ from typing import Any
 
 import numpy as np
 
-from .controller import ControllerSide, set_manual
+from ..loops.structures import ControllerSide, set_manual
 from .process import ProcessSide
-from .scenario import Case, ControllerSpec, Event, Scenario
+from .scenario import Case, ControllerSpec, Event, Scenario, ScenarioError
 
 __all__ = ["Run", "simulate"]
 
@@ -158,7 +158,9 @@ class _Simulation:
         # the process side: Sensor(Actuator(model)) or Sensor(model) behind Actuator(inner model)
         self.proc = ProcessSide(sc, events)
         # the controller side: the blocks wired for the structure (shared with the runtime)
-        self.side = ControllerSide(sc.structure, ctrl, h, u0=self.proc.u0, file=sc.file)
+        self.side = ControllerSide(
+            sc.structure, ctrl, h, u0=self.proc.u0, file=sc.file, error=ScenarioError
+        )
         self.blocks = self.side.blocks
         self.rec: dict[str, list[float]] = {}
 
@@ -167,11 +169,7 @@ class _Simulation:
     def _target(self, ev: Event) -> Any:
         name = ev.fields.get("target")
         if name is None:
-            name = (
-                "primary"
-                if self.structure == "cascade"
-                else ("blocks[0]" if self.structure == "override" else "main")
-            )
+            name = self.side.event_target
         if name in ("plant", "inner_plant"):
             return self.proc.model if name == "plant" else self.proc.inner_model
         if name not in self.blocks:

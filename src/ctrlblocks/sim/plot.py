@@ -4,7 +4,8 @@ One PNG per case: the upper axes show the controlled variable of every
 controller with the setpoint, the lower axes the manipulated variable
 (Nowak et al. 2018, Figs. 5-7: "The upper diagram shows the controlled variable and the
 lower – manipulating variable"; Åström's (1987) Simnon plots likewise).  One colour
-per controller; dotted vertical lines mark the events.  ``[plot]`` in the
+per controller; dotted vertical lines mark the events, each labelled (the
+event's ``label``) at the top of the upper axes.  ``[plot]`` in the
 scenario chooses the signals (``upper``, ``lower``) and the axis labels.
 
 matplotlib is used with the non-interactive Agg backend, so plotting works
@@ -16,7 +17,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .results import slug
+from .names import plot_names
 from .runner import ScenarioResult
 
 __all__ = ["plot_result"]
@@ -51,6 +52,8 @@ def plot_result(result: ScenarioResult, out_dir: Path, *, dpi: int = 100) -> lis
     upper = list(cfg.get("upper", ["sp", "y"]))
     lower = list(cfg.get("lower", ["u"]))
     files = []
+    case_names = [c.name for c in sc.cases]
+    names_png = dict(zip(case_names, plot_names(case_names), strict=True))
     for case in sc.cases:
         runs = [r for r in result.runs if r.case == case.name]
         if not runs:
@@ -74,6 +77,7 @@ def plot_result(result: ScenarioResult, out_dir: Path, *, dpi: int = 100) -> lis
                 if ev.t > 0:
                     ax.axvline(ev.t, color="0.6", linestyle=":", linewidth=0.8)
             ax.legend(fontsize=7, loc="best")
+        _label_events(ax_list[0], runs[0].events)
         if "ylim_upper" in cfg:
             ax_list[0].set_ylim(*cfg["ylim_upper"])
         if "ylim_lower" in cfg and len(ax_list) > 1:
@@ -87,11 +91,38 @@ def plot_result(result: ScenarioResult, out_dir: Path, *, dpi: int = 100) -> lis
             title += " (quick)"
         ax_list[0].set_title(f"{title}\n{sc.source}", fontsize=9)
         fig.tight_layout()
-        path = out_dir / f"{slug(case.name)}.png"
+        path = out_dir / f"{names_png[case.name]}.png"
         fig.savefig(path, dpi=dpi)
         plt.close(fig)
         files.append(path)
     return files
+
+
+def _label_events(ax: Any, events: Any) -> None:
+    """Write each event's label along its line, just inside the top of ``ax``.
+
+    Events at the same time share one label (joined with "; "); events at
+    t = 0 are initial conditions and get none.
+    """
+    at: dict[float, list[str]] = {}
+    for ev in events:
+        if ev.t > 0 and ev.label:
+            at.setdefault(ev.t, []).append(ev.label)
+    for t_ev, labels in at.items():
+        ax.annotate(
+            "; ".join(labels),
+            xy=(t_ev, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(2, -3),
+            textcoords="offset points",
+            rotation=90,
+            va="top",
+            ha="left",
+            fontsize=6,
+            color="0.3",
+            bbox={"boxstyle": "square,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.7},
+            annotation_clip=True,
+        )
 
 
 def _default_label(names: list[str]) -> str:

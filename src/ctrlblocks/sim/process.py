@@ -2,16 +2,16 @@
 
 :class:`ProcessSide` is everything of a scenario that is not a controller:
 the plant (and the inner plant of a cascade or override) built with
-:func:`~ctrlblocks.sim.scenario.build` inside the plants' ``Actuator`` and
+:func:`~ctrlblocks.loops.build` inside the plants' ``Actuator`` and
 ``Sensor`` wrappers (``[actuator]``, ``[sensor]``), its initial steady state
 (``[initial]``), the setpoint profile and the process events (setpoint steps
 and ramps, loads, plant parameters, sensor faults).  Two callers share it:
 
 * :func:`ctrlblocks.sim.simulate` steps it in the closed loop with the
   scenario's controllers;
-* the runtime's plant server (:class:`ctrlblocks.runtime.PlantProcess`)
-  serves it over OPC UA and Modbus, so a runtime controlling it sees exactly
-  the simulator's samples.
+* :class:`ctrlblocks.sim.PlantProcess` steps it for the runtime's plant
+  server, which serves it over OPC UA and Modbus, so a runtime controlling it
+  sees exactly the simulator's samples.
 
 The controller-side events (``mode``, ``manual_value``, ``limits``, ``set``)
 are left to the caller: :meth:`ProcessSide.apply` returns False for them.
@@ -35,8 +35,9 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
-from ..plants import Actuator, Noise, Sensor
-from .scenario import Event, Scenario, ScenarioError, build
+from ..loops.spec import build
+from ..plants import Actuator, Noise, Sensor, steady_input
+from .scenario import INITIAL_Y_PROBLEM, Event, Scenario, ScenarioError
 
 __all__ = [
     "PROCESS_EVENTS",
@@ -94,23 +95,6 @@ def set_plant_parameter(plant: Any, name: str, value: Any) -> None:
         plant.configure(**{name: value})
     else:
         setattr(plant, name, value)
-
-
-def steady_input(models: list[Any], y0: float) -> float | None:
-    """The input of the series ``models`` whose steady state gives the output ``y0``.
-
-    A single model with ``u_for_y`` (the three-tank process) inverts its own
-    steady state; otherwise ``y0`` over the product of their ``dc_gain``.
-    None when that gain is not finite or zero (an integrating plant).
-    """
-    if len(models) == 1 and hasattr(models[0], "u_for_y"):
-        return float(models[0].u_for_y(y0))
-    gain = 1.0
-    for m in models:
-        gain *= float(getattr(m, "dc_gain", math.nan))
-    if not math.isfinite(gain) or gain == 0.0:
-        return None
-    return y0 / gain
 
 
 class ProcessSide:
@@ -173,7 +157,7 @@ class ProcessSide:
         self.pending: list[Event] = list(events)
 
     def _make(self, spec: Any) -> Any:
-        return build(spec, self.ts, kind="plant", file=self.scenario.file)
+        return build(spec, self.ts, kind="plant", file=self.scenario.file, error=ScenarioError)
 
     def _make_process(self) -> None:
         """Wrap the models in the plants' Actuator and Sensor (``[actuator]``, ``[sensor]``)."""
@@ -204,11 +188,7 @@ class ProcessSide:
         chain = [self.model] if self.inner is None else [self.inner_model, self.model]
         u = steady_input(chain, y0)
         if u is None:
-            raise ScenarioError(
-                self.scenario.file,
-                "initial.y",
-                "needs a plant with a finite, non-zero static gain (give initial.u instead)",
-            )
+            raise ScenarioError(self.scenario.file, "initial.y", INITIAL_Y_PROBLEM)
         return u - self.actuator.load
 
     def reset(self, u: float | None = None) -> None:

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .. import __version__
-from .results import slug
+from .names import plot_names, slug
 from .runner import ScenarioResult, metric_table
 from .scenario import Scenario, load_scenario
 
@@ -156,14 +156,15 @@ def _tuned_lines(sc: Scenario) -> list[str]:
 def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
     """``(controller, model, margins, tuned)`` for every PID/ADRC whose loop has a linear model.
 
-    A controller tuned by ``[controllers.tune]`` has the margins computed when
-    the scenario was loaded, on the FOPDT fit of its bump test; a controller
+    A controller tuned by ``[controllers.tune]`` is analysed as configured (the
+    table with the tuned parameters) on the FOPDT fit of its bump test; a controller
     set by the source (``tuned`` False) in a ``single`` loop on a linear plant
     is analysed on that plant itself, exactly (:mod:`ctrlblocks.tuning.margins`).
     Other loops (nonlinear plants, cascades, Smith predictors) have no row.
     """
     from ..plants.linear import LinearPlant
     from ..tuning.bump import block_margins
+    from ..tuning.identify import FOPDT
     from .scenario import build
 
     rows: list[tuple[str, str, dict | None, bool]] = []
@@ -177,7 +178,8 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
                 f"FOPDT fit k = {info['gain']:.4g}, T = {info['time_constant']:.4g} s, "
                 f"T0 = {info['dead_time']:.4g} s"
             )
-            rows.append((c.name, model, info.get("margins"), True))
+            fit = FOPDT(info["gain"], info["time_constant"], info["dead_time"])
+            rows.append((c.name, model, block_margins(fit, spec.type, spec.params, sc.ts), True))
             continue
         if sc.structure != "single" or sc.plant is None or spec.type not in ("PID", "ADRC"):
             continue
@@ -296,8 +298,8 @@ def render_report(
             lines += ["", "Tuned from a simulated bump test when the scenario was loaded:", ""]
             lines += tuned
         lines += _margins_lines(sc)
-        for case in sc.cases:
-            png = f"{sc.name}/{slug(case.name)}.png"
+        for case, png_name in zip(sc.cases, plot_names([c.name for c in sc.cases]), strict=True):
+            png = f"{sc.name}/{png_name}.png"
             lines += ["", f"![{sc.title} — {case.name}]({png})"]
         multi = any(len(m["windows"]) > 1 for m in r.metrics)
         if multi:  # overshoot/settling of a whole run mixing several events would mislead

@@ -4,8 +4,12 @@ Layout of an output directory for scenario ``NAME``::
 
     NAME/metrics.json            a list: one object per controller and case
     NAME/claims.json             the source's claims, checked on the metrics
-    NAME/trace_<ctrl>_<case>.csv  (or .parquet when pyarrow is importable)
+    NAME/trace_<ctrl>__<case>.csv  one per run (or .parquet when pyarrow is importable)
     NAME/<case>.png              upper: CV and SP, lower: MV
+
+``<ctrl>`` and ``<case>`` are :func:`slug` forms of the names (``Tt = 0.05``
+-> ``Tt_0.05``); two runs whose names give the same slug get ``-2``, ``-3``,
+... so that every run has its own file (:func:`trace_names`).
 
 ``metrics.json`` holds a list of objects with the keys ``scenario``,
 ``controller``, ``case``, ``iae``, ``ise``, ``itae``, ``overshoot``,
@@ -19,23 +23,29 @@ from __future__ import annotations
 import csv
 import importlib.util
 import json
-import re
 from pathlib import Path
 
 from .loop import Run
+from .names import plot_names, slug, trace_names, unique_slugs
 from .runner import ScenarioResult
 
-__all__ = ["slug", "write_claims", "write_metrics", "write_result", "write_trace"]
-
-
-def slug(text: str) -> str:
-    """A file-name-safe form of ``text`` (letters, digits, ``-``, ``_``, ``.``)."""
-    s = re.sub(r"[^A-Za-z0-9_.\-]+", "_", text).strip("_")
-    return s or "x"
+__all__ = [
+    "plot_names",
+    "slug",
+    "trace_names",
+    "unique_slugs",
+    "write_claims",
+    "write_metrics",
+    "write_result",
+    "write_trace",
+]
 
 
 def write_trace(run: Run, path: Path, fmt: str = "auto") -> Path:
-    """Write the signals of ``run`` to ``path`` without suffix; return the file written.
+    """Write the signals of ``run`` to ``path`` + ``.csv``/``.parquet``; return the file written.
+
+    The suffix is appended (a dot in ``path``'s name, as in ``trace_Tt_0.05``,
+    is kept).
 
     ``fmt`` is ``"csv"``, ``"parquet"`` (needs pyarrow) or ``"auto"`` (Parquet
     when pyarrow is importable, else CSV).
@@ -47,12 +57,12 @@ def write_trace(run: Run, path: Path, fmt: str = "auto") -> Path:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        out = path.with_suffix(".parquet")
+        out = path.with_name(path.name + ".parquet")
         pq.write_table(pa.table({n: run.signals[n] for n in names}), out)
         return out
     if fmt != "csv":
         raise ValueError(f"unknown trace format {fmt!r} (csv, parquet, auto)")
-    out = path.with_suffix(".csv")
+    out = path.with_name(path.name + ".csv")
     cols = [run.signals[n].tolist() for n in names]
     with out.open("w", newline="") as fh:
         w = csv.writer(fh)
@@ -96,10 +106,8 @@ def write_result(
     d = Path(out_dir) / result.scenario.name
     d.mkdir(parents=True, exist_ok=True)
     files: dict[str, list[Path]] = {"traces": [], "metrics": [], "plots": []}
-    for run in result.runs:
-        files["traces"].append(
-            write_trace(run, d / f"trace_{slug(run.controller)}_{slug(run.case)}", fmt)
-        )
+    for run, name in zip(result.runs, trace_names(result.runs), strict=True):
+        files["traces"].append(write_trace(run, d / name, fmt))
     files["metrics"].append(write_metrics(result, d / "metrics.json"))
     files["metrics"].append(write_claims(result, d / "claims.json"))
     if plots:

@@ -16,22 +16,25 @@ key path, and not in the middle of a run.
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import inspect
+import functools
 import math
-import pkgutil
-import re
-import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - exercised on Python 3.10 only
-    import tomli as tomllib
-
-from ..blocks.base import ParameterError
+from ..loops.spec import BlockSpec, ControllerSpec, SpecReader, TuneHook
+from ..loops.structures import STRUCTURES as _STRUCTURES
+from ..loops.structures import parse_controller as _parse_controller
+from ..loops.structures import read_controller
+from ..loops.toml import (
+    NAME_RE,
+    KeyPathError,
+    TableReader,
+    read_toml,
+    type_name,
+    unknown_key_problem,
+)
+from ..plants import steady_input
 
 __all__ = [
     "EVENT_KINDS",
@@ -52,18 +55,12 @@ __all__ = [
     "parse_scenario_doc",
     "read_toml",
     "type_name",
+    "unknown_key_problem",
 ]
 
-STRUCTURES: dict[str, tuple[str, ...]] = {
-    # structure -> roles of the blocks in one [[controllers]] entry
-    "single": ("main",),
-    "cascade": ("primary", "secondary"),
-    "override": ("blocks",),
-    "feedforward": ("main", "feedforward"),
-    "smith": ("main", "model"),
-    "open_loop": ("main",),
-}
-"""The loop structures and the blocks each controller entry needs."""
+STRUCTURES: dict[str, tuple[str, ...]] = {name: s.roles for name, s in _STRUCTURES.items()}
+"""The loop structures and the blocks each controller entry needs (from
+:data:`ctrlblocks.loops.STRUCTURES`)."""
 
 EVENT_KINDS: dict[str, dict[str, tuple[type, ...]]] = {
     # kind -> {field: accepted types}; "t" and "label" are common to all
@@ -89,27 +86,13 @@ _REQUIRED_EVENT_FIELDS: dict[str, tuple[str, ...]] = {
     "set": ("attr", "value"),
 }
 
+INITIAL_Y_PROBLEM = "needs a plant with a finite, non-zero static gain (give initial.u instead)"
+"""Why ``initial.y`` is refused for an integrating (or zero-gain) plant."""
+
 _LOAD_POINTS = ("input", "output", "inner")
 SIGNAL_STATS = ("max", "min", "final", "mean")
 """Statistics of a trace signal that a claim with ``signal = "..."`` can check."""
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
-NAME_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
-"""Names (of scenarios, runtime loops and connections): letters, digits, ``_ . -``."""
-
-
-class KeyPathError(ValueError):
-    """A TOML file (scenario, runtime configuration) is malformed.
-
-    ``file``, ``key`` (key path, e.g. ``loops[0].pv``), ``problem`` and
-    ``line`` (or None) are attributes; the message reads
-    ``FILE[, line N]: KEY: PROBLEM``.
-    """
-
-    def __init__(self, file: str, key: str, problem: str, line: int | None = None) -> None:
-        self.file, self.key, self.problem, self.line = file, key, problem, line
-        where = file + (f", line {line}" if line else "")
-        msg = f"{where}: {key}: {problem}" if key else f"{where}: {problem}"
-        super().__init__(msg)
 
 
 class ScenarioError(KeyPathError):
@@ -132,25 +115,6 @@ class ScenarioError(KeyPathError):
 # ---------------------------------------------------------------------------
 # The parsed scenario
 # ---------------------------------------------------------------------------
-
-
-@dataclasses.dataclass(frozen=True)
-class BlockSpec:
-    """A block or plant to build: a class name and its keyword arguments."""
-
-    type: str
-    params: Mapping[str, Any]
-    key: str  # key path in the file, for error messages
-    extra: Mapping[str, Any] = dataclasses.field(default_factory=dict)  # sim-only keys
-
-
-@dataclasses.dataclass(frozen=True)
-class ControllerSpec:
-    """One controller set compared in a scenario (one ``[[controllers]]`` entry)."""
-
-    name: str
-    blocks: Mapping[str, Any]  # role -> BlockSpec (override: "blocks" -> list[BlockSpec])
-    options: Mapping[str, Any]  # selector, color, ...
 
 
 @dataclasses.dataclass(frozen=True)
@@ -252,100 +216,12 @@ def parse_controller(
     ``key`` is its key path in ``file`` (error messages: :class:`ScenarioError`
     with ``key.role.param``).  The runtime reads its loops' structures with it.
     """
-    if structure not in STRUCTURES or structure == "open_loop":
-        raise ScenarioError(file, f"{key}.structure", f"no controller entry for {structure!r}")
-    return _Parser(file).controller(entry, key, structure, ts)
+    return _parse_controller(entry, structure, ts, key=key, file=file, error=ScenarioError)
 
 
-def read_toml(text: str, file: str, error: type[KeyPathError] = ScenarioError) -> dict[str, Any]:
-    """Parse TOML ``text``; a syntax error raises ``error`` with the line of ``file``."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
-        line = int(m.group(1)) if m else None
-        problem = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
-        raise error(file, "", f"TOML syntax error: {problem}", line) from None
+class _Parser(SpecReader):
+    error = ScenarioError
 
-
-class TableReader:
-    """Typed getters over TOML tables that report errors as ``error(file, key path, problem)``.
-
-    The scenario parser and the runtime's configuration parser read their
-    files with it.
-    """
-
-    error: type[KeyPathError] = ScenarioError
-
-    def __init__(self, file: str) -> None:
-        self.file = file
-
-    def fail(self, key: str, problem: str) -> KeyPathError:
-        """The error to raise for ``key`` (the caller raises it)."""
-        return self.error(self.file, key, problem)
-
-    def table(self, doc: Mapping[str, Any], name: str, key: str, required: bool) -> dict:
-        """``doc[name]`` as a table (``{}`` when absent and not required)."""
-        if name not in doc:
-            if required:
-                raise self.fail(key, "missing table")
-            return {}
-        return self.as_table(doc[name], key)
-
-    def as_table(self, v: Any, key: str) -> dict:
-        """``v`` itself, checked to be a table (an entry of an array of tables, ...)."""
-        if not isinstance(v, dict):
-            raise self.fail(key, f"must be a table, got {type_name(v)}")
-        return v
-
-    def number(
-        self,
-        d: Mapping[str, Any],
-        name: str,
-        key: str,
-        *,
-        default: Any = ...,
-        positive: bool = False,
-        allow_nan: bool = True,
-    ) -> Any:
-        """``d[name]`` as a float (``default`` when absent; no default: required)."""
-        if name not in d:
-            if default is ...:
-                raise self.fail(key, "missing (a number is required)")
-            return default
-        v = d[name]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.fail(key, f"must be a number, got {type_name(v)} {v!r}")
-        x = float(v)
-        if not allow_nan and math.isnan(x):
-            raise self.fail(key, "must not be NaN")
-        if not math.isfinite(x) and positive:
-            raise self.fail(key, f"must be finite, got {v!r}")
-        if positive and x <= 0:
-            raise self.fail(key, f"must be > 0, got {v!r}")
-        return x
-
-    def string(self, d: Mapping[str, Any], name: str, key: str, *, default: Any = ...) -> Any:
-        """``d[name]`` as a string (``default`` when absent; no default: required)."""
-        if name not in d:
-            if default is ...:
-                raise self.fail(key, "missing (a string is required)")
-            return default
-        v = d[name]
-        if not isinstance(v, str):
-            raise self.fail(key, f"must be a string, got {type_name(v)} {v!r}")
-        return v
-
-    def check_keys(self, d: Mapping[str, Any], allowed: set[str], key: str) -> None:
-        """Refuse the first key of ``d`` that is not ``allowed`` (naming the allowed ones)."""
-        unknown = sorted(set(d) - allowed)
-        if unknown:
-            where = f"{key}.{unknown[0]}" if key else unknown[0]
-            raise self.fail(where, f"unknown key; expected one of: {', '.join(sorted(allowed))}")
-
-
-class _Parser(TableReader):
     # -- sections ----------------------------------------------------------------
 
     def scenario(self, doc: dict[str, Any]) -> Scenario:
@@ -406,7 +282,7 @@ class _Parser(TableReader):
         inner = None
         if structure != "open_loop":
             plant = self.block_spec(self.table(doc, "plant", "plant", True), "plant", ts)
-        if structure in ("cascade", "override"):
+        if _STRUCTURES[structure].series_plant:
             inner = self.block_spec(
                 self.table(doc, "inner_plant", "inner_plant", True), "inner_plant", ts
             )
@@ -476,10 +352,14 @@ class _Parser(TableReader):
             file=self.file,
         )
         if plant is not None and not math.isnan(initial["y"]):
-            from .process import ProcessSide
-
-            ProcessSide(sc)  # initial.y must have a steady MV: refused here, not in a run
+            self.initial_y(plant, inner, initial["y"], ts)
         return sc
+
+    def initial_y(self, plant: BlockSpec, inner: BlockSpec | None, y0: float, ts: float) -> None:
+        """``initial.y`` needs an MV whose steady state gives it: refused here, not in a run."""
+        chain = [self.build(s, ts, kind="plant") for s in (inner, plant) if s]
+        if steady_input(chain, y0) is None:
+            raise self.fail("initial.y", INITIAL_Y_PROBLEM)
 
     def sensor(self, d: dict[str, Any]) -> dict[str, Any]:
         self.check_keys(d, {"y_min", "y_max", "noise", "noise_kind", "noise_t_corr"}, "sensor")
@@ -533,53 +413,6 @@ class _Parser(TableReader):
 
     # -- blocks and plants -------------------------------------------------------
 
-    def block_spec(
-        self,
-        d: dict[str, Any],
-        key: str,
-        ts: float,
-        *,
-        kind: str = "plant",
-        extra_keys: tuple[str, ...] = (),
-        tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
-    ) -> BlockSpec:
-        self.as_table(d, key)
-        tname = self.string(d, "type", f"{key}.type")
-        params = {k: v for k, v in d.items() if k not in ("type", "tune") and k not in extra_keys}
-        extra = {k: d[k] for k in extra_keys if k in d}
-        if "tune" in d:
-            if tune_plant is None or tune_plant[0] is None:
-                raise self.fail(
-                    f"{key}.tune",
-                    "tuning from a bump test needs the single, feedforward or smith structure",
-                )
-            tuned, info = self.tune(d["tune"], f"{key}.tune", tname, ts, *tune_plant, params)
-            params = {**params, **tuned}
-            extra = {**extra, "tuned": info}
-        spec = BlockSpec(tname, params, key, extra)
-        # build once so that a refused parameter is reported with its key path
-        build(spec, ts, kind=kind, file=self.file)
-        return spec
-
-    def role(
-        self,
-        entry: dict[str, Any],
-        role: str,
-        key: str,
-        ts: float,
-        tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] | None = None,
-        *,
-        kind: str = "block",
-    ) -> BlockSpec:
-        """The table ``[controllers.ROLE]`` of a controller entry (``main``, ``model``, ...)."""
-        return self.block_spec(
-            self.table(entry, role, f"{key}.{role}", True),
-            f"{key}.{role}",
-            ts,
-            kind=kind,
-            tune_plant=tune_plant,
-        )
-
     def controllers(
         self,
         doc: dict[str, Any],
@@ -593,6 +426,9 @@ class _Parser(TableReader):
             raise self.fail("controllers", "missing: give at least one [[controllers]] entry")
         if not isinstance(entries, list) or not entries:
             raise self.fail("controllers", "must be a non-empty array of tables ([[controllers]])")
+        tune = None
+        if plant_spec is not None:  # a bump test on the scenario's plant
+            tune = functools.partial(self.tune, plant_spec=plant_spec, initial=initial)
         out: list[ControllerSpec] = []
         names: set[str] = set()
         for i, e in enumerate(entries):
@@ -602,7 +438,7 @@ class _Parser(TableReader):
             if name in names:
                 raise self.fail(f"{key}.name", f"duplicate controller name {name!r}")
             names.add(name)
-            out.append(self.controller(e, key, structure, ts, (plant_spec, initial)))
+            out.append(self.controller(e, key, structure, ts, tune))
         return out
 
     def controller(
@@ -611,80 +447,10 @@ class _Parser(TableReader):
         key: str,
         structure: str,
         ts: float,
-        tune_plant: tuple[BlockSpec | None, Mapping[str, Any] | None] = (None, None),
+        tune: TuneHook | None = None,
     ) -> ControllerSpec:
-        """One controller entry (its blocks for ``structure``); errors name ``key``.
-
-        The runtime reads its loops' structure tables with it, so a loop's
-        tables are exactly those of a scenario's ``[[controllers]]`` entry.
-        """
-        name = self.string(e, "name", f"{key}.name")
-        options: dict[str, Any] = {"color": e.get("color"), "style": e.get("style")}
-        if structure in ("single", "open_loop"):
-            spec = self.block_spec(
-                {k: v for k, v in e.items() if k not in ("name", "color", "style")},
-                key,
-                ts,
-                kind="block",
-                tune_plant=tune_plant if structure == "single" else None,
-            )
-            blocks: dict[str, Any] = {"main": spec}
-        elif structure == "cascade":
-            self.check_keys(
-                e, {"name", "color", "style", "primary", "secondary", "aw_handshake"}, key
-            )
-            hs = e.get("aw_handshake", True)
-            if not isinstance(hs, bool):
-                raise self.fail(f"{key}.aw_handshake", f"must be true or false, got {hs!r}")
-            options["aw_handshake"] = hs
-            blocks = {r: self.role(e, r, key, ts) for r in ("primary", "secondary")}
-        elif structure == "override":
-            self.check_keys(e, {"name", "color", "style", "selector", "blocks"}, key)
-            sel = self.string(e, "selector", f"{key}.selector", default="min")
-            if sel not in ("min", "max"):
-                raise self.fail(f"{key}.selector", f"must be 'min' or 'max', got {sel!r}")
-            options["selector"] = sel
-            lst = e.get("blocks")
-            if not isinstance(lst, list) or len(lst) < 2:
-                raise self.fail(
-                    f"{key}.blocks", "must be an array of at least two controller tables"
-                )
-            specs = []
-            for j, b in enumerate(lst):
-                bkey = f"{key}.blocks[{j}]"
-                spec = self.block_spec(b, bkey, ts, kind="block", extra_keys=("measure", "sp"))
-                meas = spec.extra.get("measure", "y")
-                if meas not in ("y", "y2"):
-                    raise self.fail(f"{bkey}.measure", f"must be 'y' or 'y2', got {meas!r}")
-                sp = spec.extra.get("sp", "sp")
-                if sp != "sp" and (isinstance(sp, bool) or not isinstance(sp, (int, float))):
-                    raise self.fail(f"{bkey}.sp", f"must be 'sp' or a number, got {sp!r}")
-                specs.append(spec)
-            blocks = {"blocks": specs}
-        elif structure == "feedforward":
-            self.check_keys(e, {"name", "color", "style", "main", "feedforward"}, key)
-            blocks = {
-                "main": self.role(e, "main", key, ts, tune_plant),
-                "feedforward": self.role(e, "feedforward", key, ts),
-            }
-            main_block = build(blocks["main"], ts, kind="block", file=self.file)
-            fn = getattr(main_block, "compute_output", main_block)
-            if "ff" not in inspect.signature(fn).parameters:
-                raise self.fail(
-                    f"{key}.main.type",
-                    f"{blocks['main'].type} has no feed-forward input 'ff'; "
-                    "the feedforward structure needs one (e.g. PID)",
-                )
-        else:  # smith
-            self.check_keys(e, {"name", "color", "style", "main", "model"}, key)
-            model = self.role(e, "model", key, ts, kind="plant")
-            if "dead_time" not in model.params:
-                raise self.fail(
-                    f"{key}.model.dead_time",
-                    "missing: the Smith predictor's model needs the dead time",
-                )
-            blocks = {"main": self.role(e, "main", key, ts, tune_plant), "model": model}
-        return ControllerSpec(name, blocks, options)
+        """One controller entry (its blocks for ``structure``); errors name ``key``."""
+        return read_controller(self, e, key, structure, ts, tune)
 
     def tune(
         self,
@@ -694,7 +460,6 @@ class _Parser(TableReader):
         ts: float,
         plant_spec: BlockSpec,
         initial: Mapping[str, Any] | None,
-        block_params: Mapping[str, Any] | None = None,
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Tune from a simulated bump test on the scenario's plant (``[controllers.tune]``).
 
@@ -702,9 +467,10 @@ class _Parser(TableReader):
         and sensor, stepped by ``du`` from the initial MV), the FOPDT fit, the
         rule (``amigo``, ``simc``, ``zn``, ``lambda``, or ``adrc``: Nowak et
         al. 2018's inverse half-rule and bandwidths, the safe default by Ms
-        without ``settling_time``) and the margins of the tuned block on the
-        fit are :func:`ctrlblocks.tuning.bump.tune_from_bump_test`.  The
-        parameters found replace those of the block table.
+        without ``settling_time``) and the margins of the tuned parameters on
+        the fit are :func:`ctrlblocks.tuning.bump.tune_from_bump_test` (the
+        report recomputes them for the whole block table).  The parameters
+        found replace those of the block table.
         """
         from ..tuning.bump import PID_RULES, tune_from_bump_test
 
@@ -729,20 +495,18 @@ class _Parser(TableReader):
         ctrl = self.string(d, "controller", f"{key}.controller", default="pid")
         if ctrl not in ("pi", "pid"):
             raise self.fail(f"{key}.controller", f"must be 'pi' or 'pid', got {ctrl!r}")
-        plant = build(plant_spec, ts, kind="plant", file=self.file)
+        plant = self.build(plant_spec, ts, kind="plant")
         ini = dict(initial or {})
         u0 = float(ini.get("u", 0.0))
         y0 = ini.get("y", math.nan)
         if y0 is not None and not math.isnan(y0):
-            from .process import steady_input
-
             u_y = steady_input([plant], y0)  # None: initial.y is refused after the controllers
             if u_y is not None:
                 u0 = u_y
         try:
             return tune_from_bump_test(
                 plant, block_type, rule, du, ts=ts, u0=u0, duration=duration, controller=ctrl,
-                order=order, settling_time=st, ms=ms, block_params=block_params,
+                order=order, settling_time=st, ms=ms,
             )  # fmt: skip
         except ValueError as exc:  # ParameterError, or a record the fit cannot use
             raise self.fail(key, f"tuning failed: {exc}") from None
@@ -941,81 +705,3 @@ def _default_label(kind: str, f: Mapping[str, Any]) -> str:
             return "sensor NaN"
         return "sensor ok" if f.get("ok", True) else "sensor fault"
     return f"{f.get('attr')} = {f.get('value')}"
-
-
-def type_name(v: Any) -> str:
-    """How an error message names the TOML type of ``v`` (``"a table"``, ``"a string"``, ...)."""
-    return {
-        dict: "a table",
-        list: "an array",
-        str: "a string",
-        bool: "a boolean",
-        int: "an integer",
-        float: "a number",
-    }.get(type(v), type(v).__name__)
-
-
-# ---------------------------------------------------------------------------
-# Building blocks and plants from specs
-# ---------------------------------------------------------------------------
-
-
-def _resolve(type_name: str, kind: str) -> Callable[..., Any] | None:
-    module = importlib.import_module(
-        "ctrlblocks.plants" if kind == "plant" else "ctrlblocks.blocks"
-    )
-    obj = getattr(module, type_name, None)
-    if obj is None and not type_name.startswith("_"):
-        # not (yet) re-exported by the package: look in its modules
-        for info in pkgutil.iter_modules(module.__path__):
-            sub = importlib.import_module(f"{module.__name__}.{info.name}")
-            if type_name in getattr(sub, "__all__", ()):
-                obj = getattr(sub, type_name)
-                break
-    if obj is None or not callable(obj) or type_name.startswith("_"):
-        return None
-    return obj
-
-
-def available_types(kind: str) -> list[str]:
-    """Names usable as ``type`` for ``kind`` ``"plant"`` or ``"block"``."""
-    module = importlib.import_module(
-        "ctrlblocks.plants" if kind == "plant" else "ctrlblocks.blocks"
-    )
-    names = getattr(module, "__all__", [])
-    return sorted(n for n in names if inspect.isclass(getattr(module, n, None)))
-
-
-def build(spec: BlockSpec, ts: float, *, kind: str, file: str = "<scenario>") -> Any:
-    """Make the block or plant ``spec`` describes, with ``ts`` unless it sets its own.
-
-    Raises :class:`ScenarioError` naming the key path when the type is
-    unknown or the class refuses a parameter.
-    """
-    cls = _resolve(spec.type, kind)
-    if cls is None:
-        raise ScenarioError(
-            file,
-            f"{spec.key}.type",
-            f"unknown {kind} type {spec.type!r}; available: {', '.join(available_types(kind))}",
-        )
-    params = dict(spec.params)
-    config_cls = getattr(cls, "Config", None)
-    if dataclasses.is_dataclass(config_cls):
-        takes_ts = "ts" in {f.name for f in dataclasses.fields(config_cls)}
-    else:
-        try:
-            takes_ts = "ts" in inspect.signature(cls).parameters
-        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
-            takes_ts = False
-    if "ts" not in params and takes_ts:
-        params["ts"] = ts
-    try:
-        return cls(**params)
-    except ParameterError as exc:
-        problem = f"{exc.message} (error 16#{exc.code:04X} {exc.code.name})"
-        raise ScenarioError(file, f"{spec.key}.{exc.field}", problem) from None
-    except TypeError as exc:
-        raise ScenarioError(file, spec.key, f"{spec.type}: {exc}") from None
-    except (ValueError, KeyError) as exc:
-        raise ScenarioError(file, spec.key, f"{spec.type} refused the parameters: {exc}") from None

@@ -220,70 +220,133 @@ def relay_autotune(
     n_max = int((max_time if max_time is not None else 20000 * ts) / ts)
     plant.reset(u0)
     sp = float(plant.y) if setpoint is None else require_finite("setpoint", setpoint)
-    t_rec, u_rec, y_rec = np.empty(n_max + 1), np.empty(n_max + 1), np.empty(n_max + 1)
-    u = u0 + d  # start by pushing the PV up (for gain_sign = 1)
-    ups: list[int] = []  # sample indices where the relay switches to +d
-    cyc = None
-    n = n_max + 1
-    for k in range(n_max + 1):
-        y = float(plant.y)
-        e = gain_sign * (sp - y)
-        if e > eps and u != u0 + d:
-            u = u0 + d
-            ups.append(k)
-        elif e < -eps and u != u0 - d:
-            u = u0 - d
-        t_rec[k], u_rec[k], y_rec[k] = k * ts, u, y
-        if len(ups) >= cycles + 2 and ups[-1] == k:
-            cyc = _steady_cycles(ups[-(cycles + 1) :], u_rec, y_rec, u0, amplitude, ts)
-            if cyc is not None:
-                n = k + 1
-                break
+    exp = RelayExperiment(
+        d, u0=u0, setpoint=sp, ts=ts, max_samples=n_max, hysteresis=eps,
+        gain_sign=gain_sign, cycles=cycles, amplitude=amplitude,
+    )  # fmt: skip
+    while True:
+        u = exp.step(float(plant.y))
+        if exp.done:
+            break
         plant.step(u)
-    if cyc is None:
-        raise RuntimeError(
-            f"no steady relay limit cycle within {n_max * ts:g} s "
-            f"({len(ups)} upward switches); increase max_time or d"
+    return exp.result(estimate=estimate, rule=rule, controller=controller)
+
+
+class RelayExperiment:
+    """The relay experiment of :func:`relay_autotune`, one sample per call.
+
+    ``u = exp.step(y)`` takes this sample's PV and returns the MV to apply;
+    :attr:`done` turns true when ``cycles`` consecutive limit cycles agree
+    within 1 % (or the sample budget ``max_samples`` is spent), then
+    :meth:`result` gives the estimates.  The same object runs the offline
+    experiment against a simulated plant (:func:`relay_autotune`) and the live
+    one on a running loop (:class:`ctrlblocks.tuning.live.LiveTuner`).
+    Arguments as :func:`relay_autotune` (already validated there).
+    """
+
+    def __init__(
+        self,
+        d: float,
+        *,
+        u0: float,
+        setpoint: float,
+        ts: float,
+        max_samples: int,
+        hysteresis: float = 0.0,
+        gain_sign: int = 1,
+        cycles: int = 3,
+        amplitude: str = "fourier",
+    ) -> None:
+        self.d, self.u0, self.sp, self.ts = d, u0, setpoint, ts
+        self.eps, self.gain_sign = hysteresis, gain_sign
+        self.cycles, self.amplitude = cycles, amplitude
+        self.max_samples = max_samples
+        self.t = np.empty(max_samples + 1)
+        self.u = np.empty(max_samples + 1)
+        self.y = np.empty(max_samples + 1)
+        self.k = 0  # samples recorded
+        self.ups: list[int] = []  # sample indices where the relay switches to +d
+        self._u = u0 + d  # start by pushing the PV up (for gain_sign = 1)
+        self.cycle: tuple[float, float, float] | None = None  # period, amplitude, asymmetry
+        self.done = False
+
+    def step(self, y: float) -> float:
+        """Record the PV ``y`` of this sample; the relay output to apply now."""
+        if self.done:
+            return self._u
+        k = self.k
+        e = self.gain_sign * (self.sp - y)
+        if e > self.eps and self._u != self.u0 + self.d:
+            self._u = self.u0 + self.d
+            self.ups.append(k)
+        elif e < -self.eps and self._u != self.u0 - self.d:
+            self._u = self.u0 - self.d
+        self.t[k], self.u[k], self.y[k] = k * self.ts, self._u, y
+        self.k = k + 1
+        ups, n = self.ups, self.cycles
+        if len(ups) >= n + 2 and ups[-1] == k:
+            self.cycle = _steady_cycles(ups[-(n + 1) :], self.u, self.y, self.u0, self.amplitude,
+                                        self.ts)  # fmt: skip
+        self.done = self.cycle is not None or self.k > self.max_samples
+        return self._u
+
+    def result(
+        self, *, estimate: str = "harmonic", rule: str = "zn", controller: str = "pid"
+    ) -> RelayResult:
+        """Estimates and PID settings of a finished experiment (see :func:`relay_autotune`).
+
+        Raises RuntimeError if no steady limit cycle formed.
+        """
+        cyc = self.cycle
+        if cyc is None:
+            raise RuntimeError(
+                f"no steady relay limit cycle within {self.max_samples * self.ts:g} s "
+                f"({len(self.ups)} upward switches); increase max_time or d"
+            )
+        ups, cycles, eps, d, gain_sign = self.ups, self.cycles, self.eps, self.d, self.gain_sign
+        n = self.k
+        u_rec, y_rec, t_rec = self.u, self.y, self.t
+        period, a, asym = cyc
+        warnings = []
+        if asym > 0.1:
+            warnings.append(
+                f"asymmetric cycle (half periods differ by {100 * asym:.0f} %): the setpoint is "
+                "not the steady state of the bias u0; the estimates are less accurate"
+            )
+        if a <= eps:
+            raise RuntimeError(f"cycle amplitude {a:g} is not above the hysteresis {eps:g}")
+        i0, i1 = ups[-(cycles + 1)], ups[-1]
+        ku_h, pu_h, phase = _harmonic_estimate(
+            u_rec[i0:i1], y_rec[i0:i1], cycles, self.ts, gain_sign
         )
-    period, a, asym = cyc
-    warnings = []
-    if asym > 0.1:
-        warnings.append(
-            f"asymmetric cycle (half periods differ by {100 * asym:.0f} %): the setpoint is "
-            "not the steady state of the bias u0; the estimates are less accurate"
+        ku_df = 4.0 * d / (math.pi * a)
+        if estimate == "harmonic":
+            ku, pu = ku_h, pu_h
+        else:
+            ku, pu = ku_df, period
+        ku *= gain_sign
+        ku_df *= gain_sign
+        if rule == "zn":
+            pid = ziegler_nichols_closed(ku, pu, controller=controller)
+        else:
+            pid = tyreus_luyben(ku, pu, controller=controller)
+        for w in warnings:
+            _log.info("relay: %s", w)
+        return RelayResult(
+            ku,
+            pu,
+            estimate,
+            ku_df,
+            period,
+            a,
+            phase,
+            pid,
+            cycles,
+            t_rec[:n].copy(),
+            u_rec[:n].copy(),
+            y_rec[:n].copy(),
+            warnings,
         )
-    if a <= eps:
-        raise RuntimeError(f"cycle amplitude {a:g} is not above the hysteresis {eps:g}")
-    i0, i1 = ups[-(cycles + 1)], ups[-1]
-    ku_h, pu_h, phase = _harmonic_estimate(u_rec[i0:i1], y_rec[i0:i1], cycles, ts, gain_sign)
-    ku_df = 4.0 * d / (math.pi * a)
-    if estimate == "harmonic":
-        ku, pu = ku_h, pu_h
-    else:
-        ku, pu = ku_df, period
-    ku *= gain_sign
-    ku_df *= gain_sign
-    if rule == "zn":
-        pid = ziegler_nichols_closed(ku, pu, controller=controller)
-    else:
-        pid = tyreus_luyben(ku, pu, controller=controller)
-    for w in warnings:
-        _log.info("relay: %s", w)
-    return RelayResult(
-        ku,
-        pu,
-        estimate,
-        ku_df,
-        period,
-        a,
-        phase,
-        pid,
-        cycles,
-        t_rec[:n],
-        u_rec[:n],
-        y_rec[:n],
-        warnings,
-    )
 
 
 def _steady_cycles(starts, u, y, u0, how, ts):
@@ -360,19 +423,60 @@ def bump_test(
     n_pre = 10 if pre_time is None else max(1, round(require_positive("pre_time", pre_time) / ts))
     n_max = 20000 if duration is None else round(require_positive("duration", duration) / ts)
     plant.reset(u0)
-    t, u, y = [], [], []
-    for k in range(n_pre + n_max + 1):
-        uk = u0 if k < n_pre else u0 + du
-        t.append(k * ts)
-        u.append(uk)
-        y.append(float(plant.y))
-        if duration is None and k - n_pre >= 50 and (k - n_pre) % 10 == 0:
-            change = abs(y[-1] - y[0])
-            tail = y[n_pre + 2 * (k - n_pre) // 3 :]
+    exp = StepExperiment(du, u0=u0, ts=ts, n_pre=n_pre, n_max=n_max, settle=duration is None)
+    while True:
+        u = exp.step(float(plant.y))
+        if exp.done:
+            break
+        plant.step(u)
+    return exp.record()
+
+
+class StepExperiment:
+    """The bump test of :func:`bump_test`, one sample per call.
+
+    ``u = exp.step(y)`` records this sample's PV and returns the MV to apply:
+    ``u0`` for ``n_pre`` samples, then ``u0 + du``.  :attr:`done` turns true
+    after ``n_pre + n_max + 1`` samples or, with ``settle``, once the PV has
+    moved by less than 0.5 % of its change over the last third of the time
+    since the step (checked every 10 samples from 50 samples after the step).
+    The same object runs offline (:func:`bump_test`) and on a running loop
+    (:class:`ctrlblocks.tuning.live.LiveTuner`).
+    """
+
+    def __init__(
+        self, du: float, *, u0: float, ts: float, n_pre: int, n_max: int, settle: bool = True
+    ) -> None:
+        self.du, self.u0, self.ts = du, u0, ts
+        self.n_pre, self.n_max, self.settle = n_pre, n_max, settle
+        self.t: list[float] = []
+        self.u: list[float] = []
+        self.y: list[float] = []
+        self.done = False
+        self.settled = False
+
+    def step(self, y: float) -> float:
+        """Record the PV ``y`` of this sample; the MV to apply now."""
+        k = len(self.t)
+        n_pre = self.n_pre
+        uk = self.u0 if k < n_pre else self.u0 + self.du
+        if self.done:
+            return uk
+        self.t.append(k * self.ts)
+        self.u.append(uk)
+        self.y.append(y)
+        if self.settle and k - n_pre >= 50 and (k - n_pre) % 10 == 0:
+            change = abs(self.y[-1] - self.y[0])
+            tail = self.y[n_pre + 2 * (k - n_pre) // 3 :]
             if change > 0 and max(tail) - min(tail) < 0.005 * change:
-                break
-        plant.step(uk)
-    return np.array(t), np.array(u), np.array(y)
+                self.settled = self.done = True
+        if k >= n_pre + self.n_max:
+            self.done = True
+        return uk
+
+    def record(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The recorded ``(t, u, y)``."""
+        return np.array(self.t), np.array(self.u), np.array(self.y)
 
 
 def step_pretune(

@@ -1,36 +1,58 @@
 """The faceplate web application (FastAPI): a page, a WebSocket push and a small REST API.
 
-Routes (all JSON unless said otherwise; ``docs/faceplate.md`` has examples):
+Routes (all JSON unless said otherwise; ``docs/faceplate.md`` has examples).
+"live" means: anyone when ``[web] public_view = true``, else a logged-in user.
 
 ======================================  ========  ===============================================
 route                                   who       what
 ======================================  ========  ===============================================
 ``GET /``                               anyone    the faceplate page (plain HTML/JS, uPlot)
-``WS /ws``                              anyone    push every ``push_period`` (0.1 s): the state
+``GET /api/info``                       anyone    runtime name, who is logged in, role and what
+                                                  it may change; loops, units and engineering
+                                                  ranges when the caller may see live state
+``WS /ws``                              live      push every ``push_period`` (0.1 s): the state
                                                   of every loop and the samples not yet sent
-``GET /api/info``                       anyone    runtime name, loops, who is logged in
-``GET /api/loops``, ``/api/loops/NAME``  anyone    loop states (SP, PV, MV, mode, error, limits,
+``GET /api/loops``, ``/api/loops/NAME``  live      loop states (SP, PV, MV, mode, error, limits,
                                                   tunings, I/O status, alarms)
-``GET /api/loops/NAME/history``         anyone    samples from the historian, ``start``/``end``
+``GET /api/loops/NAME/history``         login     samples from the historian, ``start``/``end``
                                                   in s since the epoch (default: last 10 min)
-``GET /api/loops/NAME/history.csv``     anyone    the same as a CSV download (every sample)
-``GET /api/audit``                      anyone    the audit trail (who changed what, when)
+``GET /api/loops/NAME/history.csv``     login     the same as a CSV download (every sample)
+``GET /api/audit``                      login     the audit trail (who changed what, when)
 ``POST /api/login``, ``/api/logout``    anyone    ``{"user": .., "password": ..}``; a cookie
-                                                  (5 failures in 60 s lock the name for 60 s)
-``POST /api/loops/NAME/command``        operator  ``{"mode": "manual", "manual_value": 40}``,
-                                                  ``{"sp": 2.0}``, ``{"u_min": 0, "u_max": 80}``,
-                                                  ``{"tunings": {"kp": 1.5}}`` (any together)
+``POST /api/loops/NAME/command``        role      ``{"mode": "manual", "manual_value": 40}``,
+                                                  ``{"sp": 2.0}`` (operator, engineer);
+                                                  ``{"u_min": 0, "u_max": 80}``,
+                                                  ``{"tunings": {"kp": 1.5}}`` (engineer)
 ======================================  ========  ===============================================
 
-A command goes to :meth:`Runtime.command <ctrlblocks.runtime.Runtime.command>`,
-so the loop and the block validate it (the block's own ``configure`` and
-bumpless rules), a refused command changes nothing, and the runtime writes it
-(accepted or refused, with the operator's name) to the historian's audit
-table.  Answers: 200 ``{"ok": true, "old": {...}, "state": {...}}``; 401 when
-nobody is logged in (also written to the audit table, as ``anonymous``); 422
-with the block's error ``{"error": {"field", "code", "code_hex", "name",
-"message"}}`` (for example ``16#8203 BAD_PARAMETER``, ``tunings.kp: must be >
-0``); 404 for an unknown loop.
+A command is checked here first -- body size, JSON shape, login, the role's
+permissions (:data:`~ctrlblocks.web.auth.PERMISSIONS`), the loop's
+engineering ranges (:class:`~ctrlblocks.web.bounds.LoopBounds`) -- and then
+goes to :meth:`Runtime.command <ctrlblocks.runtime.Runtime.command>`, so the
+loop and the block validate it (the block's own ``configure`` and bumpless
+rules), a refused command changes nothing, and the runtime writes it
+(accepted or refused, with the user's name) to the historian's audit table.
+Answers: 200 ``{"ok": true, "old": {...}, "state": {...}}``; 401 without a
+login; 403 for a key the role may not change; 413 for a body above 4 KB; 429
+when a client sends too many; 422 with the error ``{"error": {"field",
+"code", "code_hex", "name", "message"}}`` (for example ``16#8214 BAD_B0``,
+``tunings.b0: must be > 0``) for a value outside its engineering range or
+refused by the loop or the block -- also for a value the block accepted but
+could not compute with (an ``OverflowError``): never a 500; 404 for an
+unknown loop.
+
+The defences (:mod:`~ctrlblocks.web.defences`): bodies of command and login
+requests are limited before they are read, JSON depth and item count are
+limited, every client address gets a request budget per window on login and
+commands, a password check is counted before the hash is computed (at most
+:data:`LOCKOUT_FAILURES` per user name and :data:`CLIENT_LOGINS` per client
+address per :data:`LOCKOUT_SECONDS`) and the hash runs on its own one-thread
+executor (a burst of logins cannot take the threads the runtime's historian
+uses, nor more than one core).  What a refused anonymous request leaves in
+the audit trail is a bounded summary (:func:`~ctrlblocks.web.defences.summary`),
+at most :data:`AUDIT_REFUSALS` rows per client and window; a login with a name
+that is not a user is recorded as ``"unknown user"`` (it may be a password
+typed into the wrong field).
 
 Text from input fields is accepted for numbers (``"1.5"``, ``"inf"``): a
 string is converted to the type of the value in force (int, float, ``None``
@@ -41,26 +63,32 @@ block unchanged and the block refuses it with its code.
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import csv
 import io
 import json
 import logging
 import math
+import os
+import threading
 import time
-from collections.abc import AsyncIterator, Mapping
+from collections.abc import AsyncIterator, Callable, Mapping
 from importlib import resources
 from typing import Any
+from urllib.parse import urlsplit
 
 from fastapi import FastAPI, Request, WebSocket
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.websockets import WebSocketDisconnect
 
-from ..blocks.base import ErrorCode
+from ..blocks.base import ErrorCode, ParameterError
 from ..runtime.historian import SAMPLE_COLUMNS
 from ..runtime.loop import CommandError
-from .auth import SessionStore, UserStore
+from .auth import NAME_RE, PERMISSIONS, SessionStore, UserStore
+from .bounds import LoopBounds
+from .defences import LoginGuard, SlidingWindow, json_problem, read_body, summary
 from .live import LiveHub, json_safe
 
 __all__ = ["COOKIE", "create_app"]
@@ -72,8 +100,27 @@ COOKIE = "ctrlblocks_session"
 
 LOCKOUT_FAILURES = 5
 LOCKOUT_SECONDS = 60.0
-"""After LOCKOUT_FAILURES failed logins of one user name within LOCKOUT_SECONDS, further
-logins of that name are refused (429) until the oldest failure is LOCKOUT_SECONDS old."""
+"""At most LOCKOUT_FAILURES password checks of one user name within LOCKOUT_SECONDS (a good
+login gives its check back); further logins of that name are refused (429) until the oldest
+check is LOCKOUT_SECONDS old."""
+
+CLIENT_LOGINS = 20
+"""Password checks admitted per client address within LOCKOUT_SECONDS."""
+
+LOGIN_REQUESTS = (40, 60.0)
+COMMAND_REQUESTS = (40, 10.0)
+"""Requests per client address and window [s] on ``/api/login`` and on the command endpoint
+(what is above is refused with 429 before the body is read)."""
+
+AUDIT_REFUSALS = (10, 60.0)
+"""Audit rows of refused anonymous requests per client address and window [s] (the rest is
+counted, and the count is written with the next row that is let through)."""
+
+HASH_NICE = 10
+"""Nice value of the password-hashing thread (Linux): the cycle wins the CPU over a login."""
+
+MAX_PENDING_HASHES = 8
+"""Password checks waiting for the hashing thread at most (then 503, try again)."""
 
 HISTORY_COLUMNS = ("t_wall", *(c for c in SAMPLE_COLUMNS if c not in ("loop", "t_wall")))
 """Columns of a history answer and of the CSV download (``t_wall``: s since the epoch, then
@@ -142,6 +189,26 @@ def coerce_command(changes: Mapping[str, Any], state: Mapping[str, Any]) -> dict
     return out
 
 
+def _lower_priority() -> None:
+    """Run this thread (password hashing) at a lower CPU priority than the control cycle.
+
+    Linux: a thread's nice value is set through its thread id; elsewhere nothing happens.
+    """
+    with contextlib.suppress(AttributeError, OSError):
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), HASH_NICE)
+
+
+def csv_header(units: Mapping[str, str]) -> list[str]:
+    """The CSV download's header: :data:`HISTORY_COLUMNS` with units, ``sp [bar]``, ``t [s]``."""
+    with_unit = {
+        "t_wall": "s",
+        "t": "s",
+        "dt": "s",
+        **{k: units.get(k, "") for k in ("sp", "pv", "mv")},
+    }
+    return [f"{c} [{with_unit[c]}]" if with_unit.get(c) else c for c in HISTORY_COLUMNS]
+
+
 def create_app(
     runtime: Any,
     *,
@@ -149,6 +216,9 @@ def create_app(
     start_runtime: bool = True,
     push_period: float = 0.1,
     trend_seconds: float = 300.0,
+    public_view: bool | None = None,
+    users_check_interval: float = 1.0,
+    clock: Callable[[], float] = time.monotonic,
 ) -> FastAPI:
     """The faceplate application for ``runtime``.
 
@@ -156,10 +226,10 @@ def create_app(
     ----------
     runtime : ctrlblocks.runtime.Runtime
         The runtime whose loops are shown (its in-process API: ``loop_names``,
-        ``state``, ``states``, ``command``/``submit``, ``event_loop``, ``audit``,
-        ``historian``, ``on_sample``).
+        ``loops``, ``state``, ``states``, ``command``/``submit``, ``event_loop``,
+        ``audit``, ``historian``, ``on_sample``, ``config``).
     users : UserStore, optional
-        The operators; default none (everybody is a viewer).
+        The users; default none (nobody can log in).
     start_runtime : bool
         Start the runtime when the application starts and stop it when the
         application stops (on the server's event loop).  False when the
@@ -168,11 +238,30 @@ def create_app(
         WebSocket push period [s]; 0.1 s gives the required 10 Hz.
     trend_seconds : float
         Length of the live trend kept per loop [s].
+    public_view : bool, optional
+        Live state without a login; default the configuration's
+        ``[web] public_view`` (false when not given).
+    users_check_interval : float
+        How often the users file is checked for changes [s] (a removed,
+        disabled or changed user's sessions end at the next request after it).
+    clock : callable
+        Time source of the rate limits and the lockout [s] (tests inject one).
     """
     users = users if users is not None else UserStore(None)
+    web_cfg = getattr(runtime.config, "web", None)
+    if public_view is None:
+        public_view = bool(getattr(web_cfg, "public_view", False))
+    confirm_step = float(getattr(web_cfg, "confirm_step", 0.1))
     sessions = SessionStore()
-    failures: dict[str, list[float]] = {}  # user name -> times of failed logins
+    guard = LoginGuard(LOCKOUT_FAILURES, CLIENT_LOGINS, LOCKOUT_SECONDS, clock)
+    login_rate = SlidingWindow(*LOGIN_REQUESTS, clock)
+    command_rate = SlidingWindow(*COMMAND_REQUESTS, clock)
+    audit_rate = SlidingWindow(*AUDIT_REFUSALS, clock)
+    suppressed: dict[str, int] = {}  # client -> refusals not written to the audit trail
     hub = LiveHub(runtime, seconds=trend_seconds)
+    bounds = {n: LoopBounds(runtime.loops[n], confirm_step) for n in runtime.loop_names()}
+    hashing: dict[str, Any] = {"pool": None, "pending": 0}
+    last_users_check = [-math.inf]
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -184,12 +273,17 @@ def create_app(
             if start_runtime:
                 await runtime.stop()
             hub.detach()
+            if hashing["pool"] is not None:
+                hashing["pool"].shutdown(wait=False, cancel_futures=True)
+                hashing["pool"] = None
 
     app = FastAPI(title="ctrlblocks faceplate", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.runtime = runtime
     app.state.hub = hub
     app.state.users = users
     app.state.sessions = sessions
+    app.state.bounds = bounds
+    app.state.guard = guard
     static = resources.files("ctrlblocks.web") / "static"
     app.mount("/static", StaticFiles(directory=str(static)), name="static")
 
@@ -202,20 +296,57 @@ def create_app(
 
     # -- helpers ------------------------------------------------------------------
 
-    def session_of(request: Request) -> Any:
-        return sessions.get(request.cookies.get(COOKIE))
+    def check_users() -> None:
+        """Read a changed users file; end the sessions it invalidated (throttled)."""
+        now = clock()
+        if now - last_users_check[0] >= users_check_interval:
+            last_users_check[0] = now
+            users.reload_if_changed()
+        for name in sessions.revoke_stale(users.fingerprint):
+            log.warning("sessions of %r ended: the user was removed, disabled or changed", name)
+
+    def session_of(conn: Request | WebSocket) -> Any:
+        check_users()
+        return sessions.get(conn.cookies.get(COOKIE))
+
+    def may_view(conn: Request | WebSocket) -> bool:
+        return public_view or session_of(conn) is not None
+
+    def client_of(conn: Request | WebSocket) -> str:
+        return (conn.client.host if conn.client else "unknown")[:64]
+
+    def audit_refusal(client: str, **row: Any) -> None:
+        """An audit row of a refused request, at most AUDIT_REFUSALS per client and window."""
+        if not audit_rate.hit(client):
+            suppressed[client] = suppressed.get(client, 0) + 1
+            if len(suppressed) > 10_000:
+                suppressed.clear()
+            return
+        n = suppressed.pop(client, 0)
+        if n:
+            row["message"] = f"{row.get('message', '')} ({n} more not recorded)"
+        runtime.audit(**row)
+
+    def not_logged_in() -> JSONResponse:
+        return _error(401, "log in to see this", "login")
 
     async def json_body(request: Request) -> dict[str, Any] | JSONResponse:
         ctype = request.headers.get("content-type", "")
         if not ctype.startswith("application/json"):
             # a cross-site form cannot send JSON without a CORS preflight (CSRF guard)
             return _error(415, "send the body as application/json")
+        raw = await read_body(request)
+        if raw is None:
+            return _error(413, "the body is too large", "body")
         try:
-            body = await request.json()
-        except ValueError:
+            body = json.loads(raw)
+        except (ValueError, RecursionError):
             return _error(400, "the body is not valid JSON")
         if not isinstance(body, dict):
             return _error(400, "the body must be a JSON object")
+        problem = json_problem(body)
+        if problem is not None:
+            return _error(400, f"the body is {problem}", "body")
         return body
 
     async def run_command(loop: str, user: str, changes: dict[str, Any]) -> dict[str, Any]:
@@ -228,6 +359,9 @@ def create_app(
         if name not in runtime.loop_names():
             raise KeyError(name)
         return hub.state(name)
+
+    def unknown_loop(name: str) -> JSONResponse:
+        return _error(404, f"unknown loop {name[:64]!r}", "loop")
 
     def historian_or_error() -> Any:
         h = runtime.historian
@@ -262,52 +396,78 @@ def create_app(
     @app.get("/api/info")
     async def info(request: Request) -> dict[str, Any]:
         s = session_of(request)
-        return {
+        role = None if s is None else s.role
+        out: dict[str, Any] = {
             "name": runtime.config.name,
-            "loops": runtime.loop_names(),
             "user": None if s is None else s.user,
-            "role": "viewer" if s is None else s.role,
-            "operators_defined": bool(users.names()),
+            "role": role,
+            "may_change": sorted(PERMISSIONS.get(role or "", ())),
+            "public_view": public_view,
+            "may_view": public_view or s is not None,
             "push_period": push_period,
             "trend_seconds": trend_seconds,
             "historian": runtime.historian is not None,
         }
+        if out["may_view"]:
+            out["loops"] = runtime.loop_names()
+            out["engineering"] = {n: b.as_json() for n, b in bounds.items()}
+        return out
 
-    @app.get("/api/loops")
-    async def loops() -> list[dict[str, Any]]:
+    @app.get("/api/loops", response_model=None)
+    async def loops(request: Request) -> Any:
+        if not may_view(request):
+            return not_logged_in()
         return hub.states()
 
     @app.get("/api/loops/{name}", response_model=None)
-    async def one_loop(name: str) -> Any:
+    async def one_loop(name: str, request: Request) -> Any:
+        if not may_view(request):
+            return not_logged_in()
         try:
             return loop_state(name)
         except KeyError:
-            return _error(404, f"unknown loop {name!r}", "loop")
+            return unknown_loop(name)
 
     @app.get("/api/loops/{name}/history", response_model=None)
     async def history(
-        name: str, start: float | None = None, end: float | None = None, max_points: int = 5000
+        request: Request,
+        name: str,
+        start: float | None = None,
+        end: float | None = None,
+        max_points: int = 5000,
     ) -> Any:
+        if session_of(request) is None:
+            return not_logged_in()
         if name not in runtime.loop_names():
-            return _error(404, f"unknown loop {name!r}", "loop")
+            return unknown_loop(name)
         rows = await history_rows(name, start, end)
         if isinstance(rows, JSONResponse):
             return rows
         n = len(rows)
         stride = max(1, math.ceil(n / max(1, max_points)))
         cols = {c: [json_safe(r[i]) for r in rows[::stride]] for i, c in enumerate(HISTORY_COLUMNS)}
-        return {"loop": name, "rows": n, "stride": stride, "columns": cols}
+        return {
+            "loop": name,
+            "rows": n,
+            "stride": stride,
+            "columns": cols,
+            "units": bounds[name].units,
+        }
 
     @app.get("/api/loops/{name}/history.csv", response_model=None)
-    async def history_csv(name: str, start: float | None = None, end: float | None = None) -> Any:
+    async def history_csv(
+        request: Request, name: str, start: float | None = None, end: float | None = None
+    ) -> Any:
+        if session_of(request) is None:
+            return not_logged_in()
         if name not in runtime.loop_names():
-            return _error(404, f"unknown loop {name!r}", "loop")
+            return unknown_loop(name)
         rows = await history_rows(name, start, end)
         if isinstance(rows, JSONResponse):
             return rows
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow(HISTORY_COLUMNS)
+        w.writerow(csv_header(bounds[name].units))
         for r in rows:  # NULL (SQLite's NaN) as an empty field
             w.writerow(
                 ["" if v is None or (isinstance(v, float) and math.isnan(v)) else v for v in r]
@@ -320,7 +480,9 @@ def create_app(
         )
 
     @app.get("/api/audit", response_model=None)
-    async def audit_trail(limit: int = 50, loop: str | None = None) -> Any:
+    async def audit_trail(request: Request, limit: int = 50, loop: str | None = None) -> Any:
+        if session_of(request) is None:
+            return not_logged_in()
         h = historian_or_error()
         if isinstance(h, JSONResponse):
             return h
@@ -338,34 +500,68 @@ def create_app(
 
     @app.post("/api/login", response_model=None)
     async def login(request: Request) -> Any:
+        client = client_of(request)
+        if not login_rate.hit(client):
+            return _error(429, "too many requests from this address: wait a minute", "login")
         body = await json_body(request)
         if isinstance(body, JSONResponse):
             return body
         user, password = body.get("user"), body.get("password")
         if not isinstance(user, str) or not isinstance(password, str):
             return _error(400, "give user and password as strings", "user")
-        now = time.time()
-        recent = [t for t in failures.get(user, []) if now - t < LOCKOUT_SECONDS]
-        failures[user] = recent
-        if len(recent) >= LOCKOUT_FAILURES:
-            runtime.audit(user, "login", ok=False, message="refused: too many failed logins")
-            return _error(
-                429, f"too many failed logins: try again in {LOCKOUT_SECONDS:g} s", "user"
+        if len(password) > 1024:
+            return _error(400, "the password is too long", "password")
+        check_users()
+        # a name that is not a user is never written down: it may be a password
+        known = bool(NAME_RE.match(user)) and users.exists(user)
+        who = user if known else "unknown user"
+        key = user if NAME_RE.match(user) else "(invalid name)"
+        refused = guard.admit(key, client)
+        if refused is not None:
+            audit_refusal(
+                client,
+                who=who,
+                action="login",
+                ok=False,
+                message=f"refused: {refused}",
+                new=summary(client, "/api/login", {}),
             )
-        ok = await asyncio.to_thread(users.verify, user, password)
-        runtime.audit(user, "login", ok=ok, message="" if ok else "wrong user name or password")
+            return _error(429, f"{refused}: try again in {LOCKOUT_SECONDS:g} s", "user")
+        if hashing["pending"] >= MAX_PENDING_HASHES:
+            guard.withdraw(key, client)
+            return _error(503, "too many logins at once: try again", "login")
+        if hashing["pool"] is None:
+            # its own thread: a burst of logins never waits in (or takes) the default executor
+            hashing["pool"] = concurrent.futures.ThreadPoolExecutor(
+                1, "ctrlblocks-password", initializer=_lower_priority
+            )
+        hashing["pending"] += 1
+        try:
+            loop = asyncio.get_running_loop()
+            ok = await loop.run_in_executor(hashing["pool"], users.verify, user, password)
+        finally:
+            hashing["pending"] -= 1
         if not ok:
-            recent.append(now)
+            audit_refusal(
+                client,
+                who=who,
+                action="login",
+                ok=False,
+                message="wrong user name or password",
+                new=summary(client, "/api/login", {}),
+            )
             return _error(401, "wrong user name or password", "password")
-        failures.pop(user, None)
+        guard.succeeded(key, client)
+        runtime.audit(user, "login", ok=True, new={"client": client})
         role = users.role(user) or "operator"
-        token = sessions.create(user, role)
+        token = sessions.create(user, role, users.fingerprint(user))
         resp = JSONResponse({"ok": True, "user": user, "role": role})
         resp.set_cookie(
             COOKIE,
             token,
             httponly=True,
             samesite="strict",
+            secure=request.url.scheme == "https",
             max_age=int(3600 * sessions.hours),
             path="/",
         )
@@ -385,33 +581,77 @@ def create_app(
 
     @app.post("/api/loops/{name}/command", response_model=None)
     async def command(name: str, request: Request) -> Any:
+        client = client_of(request)
+        if not command_rate.hit(client):
+            return _error(429, "too many commands from this address: slow down", "command")
         if name not in runtime.loop_names():
-            return _error(404, f"unknown loop {name!r}", "loop")
+            return unknown_loop(name)
         body = await json_body(request)
         if isinstance(body, JSONResponse):
             return body
         s = session_of(request)
-        if s is None or s.role != "operator":
-            runtime.audit(
-                "anonymous",
-                ",".join(sorted(body)),
+        if s is None:
+            audit_refusal(
+                client,
+                who="anonymous",
+                action="command",
                 loop=name,
-                new=json_safe(body),
+                new=summary(client, f"/api/loops/{name}/command", body),
                 ok=False,
-                message="refused: not logged in as an operator",
+                message="refused: not logged in",
             )
             return _error(401, "log in as an operator to change a loop", "login")
+        action = ",".join(sorted(str(k)[:32] for k in body))
+        may = PERMISSIONS.get(s.role, frozenset())
+        denied = sorted(str(k) for k in body if k in PERMISSIONS["engineer"] and k not in may)
+        if denied:
+            msg = f"refused: a {s.role} may not change {denied[0][:32]}"
+            runtime.audit(s.user, action, loop=name, new=json_safe(body), ok=False, message=msg)
+            allowed = ", ".join(sorted(PERMISSIONS.get(s.role, ()))) or "nothing"
+            return _error(
+                403,
+                f"a {s.role} may not change {denied[0][:32]} (may change: {allowed})",
+                denied[0][:32],
+            )
         changes = coerce_command(body, runtime.state(name))
+        outside = bounds[name].check(changes)
+        if outside is not None:
+            field, msg, code = outside
+            runtime.audit(
+                s.user,
+                action,
+                loop=name,
+                new=json_safe(changes),
+                ok=False,
+                message=f"{field}: {msg}",
+            )
+            return _error(422, msg, field, code)
         try:
             old = await run_command(name, s.user, changes)
         except CommandError as exc:
             return _error(422, exc.message, exc.field, exc.code)
+        except Exception as exc:  # the block accepted what it could not compute with
+            field = exc.field if isinstance(exc, ParameterError) else next(iter(body), "")
+            code = exc.code if isinstance(exc, ParameterError) else ErrorCode.BAD_PARAMETER
+            msg = f"refused: {type(exc).__name__}: {str(exc)[:200]}"
+            log.warning("loop %s: command %s failed: %s", name, action, msg)
+            runtime.audit(s.user, action, loop=name, new=json_safe(changes), ok=False, message=msg)
+            return _error(422, msg, str(field), code)
         return {"ok": True, "old": json_safe(old), "state": loop_state(name)}
 
     # -- live push -------------------------------------------------------------------
 
+    def same_origin(websocket: WebSocket) -> bool:
+        """A browser sends its page's Origin: it must be this server (no cross-site socket)."""
+        origin = websocket.headers.get("origin")
+        return origin is None or urlsplit(origin).netloc == websocket.headers.get("host")
+
     @app.websocket("/ws")
     async def ws(websocket: WebSocket) -> None:
+        if not same_origin(websocket) or not may_view(websocket):
+            await websocket.close(code=1008)
+            return
+        token = websocket.cookies.get(COOKIE)
         await websocket.accept()
         cursor = hub.cursor()
 
@@ -427,6 +667,10 @@ def create_app(
                 )
             )
             while True:
+                check_users()
+                if not public_view and sessions.get(token) is None:
+                    await websocket.close(code=1008)  # logged out, revoked or expired
+                    return
                 msg = {
                     "type": "update",
                     "t": time.time(),

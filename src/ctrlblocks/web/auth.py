@@ -1,17 +1,24 @@
 """Operators and their logins: scrypt password hashes in a users file, session tokens.
 
-Who may do what:
+Who may do what (:data:`PERMISSIONS`, enforced by the server):
 
-* a *viewer* (anyone who can reach the page, no login) watches: loop list,
-  trends, history, CSV, audit trail;
-* an *operator* (a user in the users file, logged in) may also change a loop:
-  mode, manual value, setpoint, limits, tunings.
+* anyone who reaches the page sees the live state only when the
+  configuration says so (``[web] public_view = true``; the demo does);
+* a *viewer* (logged in) watches: loop list, trends, history, CSV, audit trail;
+* an *operator* may also change mode, manual value and setpoint;
+* an *engineer* may also change the output limits and the tunings.
 
 The users file is JSON, written with mode 0600::
 
     {"version": 1,
      "users": {"alice": {"role": "operator", "scrypt": {"n": 16384, "r": 8, "p": 1},
-                         "salt": "<32 hex digits>", "hash": "<64 hex digits>"}}}
+                         "salt": "<32 hex digits>", "hash": "<64 hex digits>",
+                         "disabled": false}}}
+
+A running server sees a change of the file within seconds
+(:meth:`UserStore.reload_if_changed`, by its modification time, size and
+inode): a session of a user who was removed, disabled, given another role or
+a new password ends (:meth:`SessionStore.revoke_stale`).
 
 A password is never stored or logged: only ``hashlib.scrypt(password,
 salt=<16 random bytes per user>, n=2**14, r=8, p=1, dklen=32)`` and its salt
@@ -30,14 +37,18 @@ import dataclasses
 import hashlib
 import hmac
 import json
+import logging
 import os
 import re
 import secrets
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "NAME_RE",
+    "PERMISSIONS",
     "ROLES",
     "SESSION_HOURS",
     "SessionStore",
@@ -47,8 +58,17 @@ __all__ = [
     "verify_password",
 ]
 
-ROLES = ("operator",)
-"""Roles a user in the users file can have (viewers need no account)."""
+log = logging.getLogger(__name__)
+
+ROLES = ("viewer", "operator", "engineer")
+"""Roles a user in the users file can have."""
+
+PERMISSIONS: dict[str, frozenset[str]] = {
+    "viewer": frozenset(),
+    "operator": frozenset({"mode", "manual_value", "sp"}),
+    "engineer": frozenset({"mode", "manual_value", "sp", "u_min", "u_max", "tunings"}),
+}
+"""Command keys each role may send (``POST /api/loops/NAME/command``)."""
 
 SESSION_HOURS = 8.0
 """Lifetime of a login session [h] (one shift)."""
@@ -56,7 +76,8 @@ SESSION_HOURS = 8.0
 SCRYPT = {"n": 2**14, "r": 8, "p": 1}
 """scrypt cost parameters for new hashes (RFC 7914, section 2: interactive logins)."""
 
-_NAME_RE = re.compile(r"^[A-Za-z0-9_.@\-]{1,64}$")
+NAME_RE = re.compile(r"^[A-Za-z0-9_.@\-]{1,64}$")
+"""User names: 1-64 letters, digits and ``_ . @ -``."""
 MIN_PASSWORD = 8
 """Shortest password accepted when an operator is created [characters]."""
 
@@ -118,25 +139,72 @@ class UserStore:
     def __init__(self, path: str | Path | None = None) -> None:
         self.path = Path(path) if path is not None else None
         self._users: dict[str, dict[str, Any]] = {}
+        self._stamp: tuple[int, int, int] | None = None
         if self.path is not None and self.path.exists():
-            doc = json.loads(self.path.read_text(encoding="utf-8"))
-            users = doc.get("users", {}) if isinstance(doc, dict) else {}
-            if not isinstance(users, dict):
-                raise UserError(f"{self.path}: 'users' must be a table")
-            self._users = users
+            self._users, self._stamp = self._read()
+
+    def _read(self) -> tuple[dict[str, dict[str, Any]], tuple[int, int, int] | None]:
+        assert self.path is not None
+        stamp = _stamp(self.path)
+        doc = json.loads(self.path.read_text(encoding="utf-8"))
+        users = doc.get("users", {}) if isinstance(doc, dict) else {}
+        if not isinstance(users, dict) or not all(isinstance(u, dict) for u in users.values()):
+            raise UserError(f"{self.path}: 'users' must be a table of user tables")
+        return users, stamp
+
+    def reload_if_changed(self) -> bool:
+        """Read the users file again if it changed on disk (another process, the CLI).
+
+        Returns True when it was read again.  A file that cannot be read or
+        parsed leaves no user (nobody can log in, every session ends) and is
+        logged; a removed file, too.
+        """
+        if self.path is None:
+            return False
+        stamp = _stamp(self.path)
+        if stamp == self._stamp:
+            return False
+        try:
+            self._users, self._stamp = self._read() if stamp is not None else ({}, None)
+        except (OSError, ValueError) as exc:
+            log.error("users file %s unreadable, every login refused: %s", self.path, exc)
+            self._users, self._stamp = {}, stamp
+        return True
 
     def names(self) -> list[str]:
         """User names, sorted."""
         return sorted(self._users)
+
+    def exists(self, name: str) -> bool:
+        """True when ``name`` is a user of the file (enabled or not)."""
+        return name in self._users
 
     def role(self, name: str) -> str | None:
         """The role of ``name`` (None: no such user)."""
         u = self._users.get(name)
         return None if u is None else str(u.get("role", "operator"))
 
+    def disabled(self, name: str) -> bool:
+        """True when ``name`` is disabled (cannot log in; its sessions end)."""
+        return bool(self._users.get(name, {}).get("disabled", False))
+
+    def fingerprint(self, name: str) -> tuple[str, str] | None:
+        """What a session of ``name`` depends on: ``(role, hash)``; None: no such or disabled."""
+        u = self._users.get(name)
+        if u is None or u.get("disabled", False):
+            return None
+        return str(u.get("role", "operator")), str(u.get("hash", ""))
+
+    def set_disabled(self, name: str, disabled: bool = True) -> None:
+        """Disable (or enable again) user ``name``."""
+        if name not in self._users:
+            raise UserError(f"no user {name!r}")
+        self._users[name]["disabled"] = bool(disabled)
+        self._save()
+
     def add(self, name: str, password: str, role: str = "operator", **cost: int) -> None:
         """Create or replace user ``name`` (password at least :data:`MIN_PASSWORD` characters)."""
-        if not _NAME_RE.match(name):
+        if not NAME_RE.match(name):
             raise UserError("user names are 1-64 letters, digits and _ . @ - only")
         if len(password) < MIN_PASSWORD:
             raise UserError(f"the password must have at least {MIN_PASSWORD} characters")
@@ -153,9 +221,9 @@ class UserStore:
         self._save()
 
     def verify(self, name: str, password: str) -> bool:
-        """True when ``name`` exists and ``password`` is its password."""
+        """True when ``name`` exists, is not disabled and ``password`` is its password."""
         u = self._users.get(name)
-        if u is None:
+        if u is None or u.get("disabled", False):
             # same work as for a real user, so the time does not tell which names exist
             verify_password(password, _DUMMY)
             return False
@@ -170,6 +238,16 @@ class UserStore:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             json.dump({"version": 1, "users": self._users}, f, indent=2, sort_keys=True)
         os.replace(tmp, self.path)
+        self._stamp = _stamp(self.path)
+
+
+def _stamp(path: Path) -> tuple[int, int, int] | None:
+    """Modification time [ns], size and inode of ``path`` (None: it does not exist)."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_mtime_ns, st.st_size, st.st_ino
 
 
 _DUMMY = hash_password("not a password", salt=b"\0" * 16)
@@ -182,6 +260,7 @@ class Session:
     user: str
     role: str
     expires: float
+    fingerprint: Any = None
 
 
 class SessionStore:
@@ -191,12 +270,23 @@ class SessionStore:
         self.hours = hours
         self._sessions: dict[str, Session] = {}
 
-    def create(self, user: str, role: str) -> str:
-        """Start a session for ``user``; return its token."""
+    def create(self, user: str, role: str, fingerprint: Any = None) -> str:
+        """Start a session for ``user``; return its token (``fingerprint``: ``revoke_stale``)."""
         self._purge()
         token = secrets.token_urlsafe(32)
-        self._sessions[token] = Session(user, role, time.time() + 3600.0 * self.hours)
+        self._sessions[token] = Session(user, role, time.time() + 3600.0 * self.hours, fingerprint)
         return token
+
+    def revoke_stale(self, fingerprint: Callable[[str], Any]) -> list[str]:
+        """End every session whose user's ``fingerprint(user)`` is no longer the one of its login.
+
+        Returns the users whose sessions ended (removed, disabled, new role or password).
+        """
+        gone = [t for t, s in self._sessions.items() if fingerprint(s.user) != s.fingerprint]
+        users = sorted({self._sessions[t].user for t in gone})
+        for t in gone:
+            del self._sessions[t]
+        return users
 
     def get(self, token: str | None) -> Session | None:
         """The live session of ``token`` (None: no token, unknown or expired)."""

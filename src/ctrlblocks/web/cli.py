@@ -12,10 +12,11 @@ import logging
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import click
 
-from .server import DEFAULT_HOST, DEFAULT_PORT
+from .server import DEFAULT_HOST, DEFAULT_PORT, is_loopback
 
 __all__ = ["DEFAULT_USERS", "operator", "serve"]
 
@@ -54,6 +55,18 @@ def _missing_web() -> click.ClickException:
     help="Demo only: historian SQLite file (default: a temporary file).",
 )
 @_USERS_OPTION
+@click.option(
+    "--certfile",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="TLS certificate (PEM): serve HTTPS; needs --keyfile.",
+)
+@click.option(
+    "--keyfile",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Private key (PEM) of --certfile.",
+)
 @click.option("--check", is_flag=True, help="Only load and check CONFIG.")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 @click.pass_context
@@ -65,6 +78,8 @@ def serve(
     web: bool,
     history: Path | None,
     users_file: Path,
+    certfile: str | None,
+    keyfile: str | None,
     check: bool,
     verbose: int,
 ) -> None:
@@ -75,8 +90,10 @@ def serve(
     browser; anyone can watch, operators log in to change loops (create one
     with 'ctrlblocks operator add NAME').  Ctrl-C stops: every MV goes to its
     stop (else safe) value and the historian flushes.  --no-web runs the
-    loops only.
+    loops only.  --certfile/--keyfile serve HTTPS.
     """
+    if (certfile is None) != (keyfile is None):
+        raise click.UsageError("give --certfile and --keyfile together")
     if config is not None and (check or not web):
         from ..runtime.cli import serve as runtime_serve  # the runtime's own command
 
@@ -126,15 +143,24 @@ def serve(
                 port=port,
                 users=users,
                 log_level="info" if verbose else "warning",
+                certfile=certfile,
+                keyfile=keyfile,
             )
         except ImportError:
             raise _missing_web() from None
         shown = f"[{host}]" if ":" in host else host
-        click.echo(f"faceplate: http://{shown}:{port}/   (Ctrl-C stops)")
+        scheme = "https" if certfile else "http"
+        click.echo(f"faceplate: {scheme}://{shown}:{port}/   (Ctrl-C stops)")
+        if certfile is None and not is_loopback(host):
+            click.echo(
+                f"warning: {host} is reachable from the network and there is no TLS: "
+                "give --certfile/--keyfile or use a TLS reverse proxy (docs/faceplate.md)",
+                err=True,
+            )
         if not users.names():
             click.echo(
-                f"no operators in {users_file}: everybody can only watch; "
-                "add one with: ctrlblocks operator add NAME"
+                f"no operators in {users_file}: nobody can log in; "
+                "add one with: ctrlblocks operator add NAME --role operator"
             )
         # uvicorn stops gracefully on Ctrl-C / SIGTERM (lifespan: runtime.stop) and then
         # re-raises the interrupt: that is a normal end here
@@ -158,9 +184,19 @@ def operator() -> None:
     default=None,
     help="Read the password from this environment variable instead of asking.",
 )
-def operator_add(name: str, users_file: Path, password_env: str | None) -> None:
-    """Create operator NAME (or set a new password); asks for the password."""
-    from .auth import UserError, UserStore
+@click.option(
+    "--role",
+    type=click.Choice(["viewer", "operator", "engineer"]),
+    default="operator",
+    show_default=True,
+    help="viewer: watch; operator: also mode, SP, manual value; engineer: also limits, tunings.",
+)
+def operator_add(name: str, users_file: Path, password_env: str | None, role: str) -> None:
+    """Create user NAME (or give it a new password and role); asks for the password.
+
+    A running faceplate sees the change within seconds: the user's sessions end.
+    """
+    from .auth import UserError
 
     if password_env is not None:
         password = os.environ.get(password_env)
@@ -168,34 +204,57 @@ def operator_add(name: str, users_file: Path, password_env: str | None) -> None:
             raise click.ClickException(f"environment variable {password_env} is not set")
     else:
         password = click.prompt("password", hide_input=True, confirmation_prompt=True)
-    store = UserStore(users_file)
+    store = _store(users_file)
     try:
-        store.add(name, password)
+        store.add(name, password, role=role)
     except UserError as exc:
         raise click.ClickException(str(exc)) from None
-    click.echo(f"operator {name!r} saved in {users_file}")
+    click.echo(f"{role} {name!r} saved in {users_file}")
 
 
 @operator.command("remove")
 @click.argument("name")
 @_USERS_OPTION
 def operator_remove(name: str, users_file: Path) -> None:
-    """Delete operator NAME."""
-    from .auth import UserError, UserStore
+    """Delete user NAME (a running faceplate ends its sessions within seconds)."""
+    from .auth import UserError
 
-    store = UserStore(users_file)
     try:
-        store.remove(name)
+        _store(users_file).remove(name)
     except UserError as exc:
         raise click.ClickException(str(exc)) from None
-    click.echo(f"operator {name!r} removed from {users_file}")
+    click.echo(f"user {name!r} removed from {users_file}")
+
+
+@operator.command("disable")
+@click.argument("name")
+@_USERS_OPTION
+@click.option("--enable", is_flag=True, help="Enable NAME again.")
+def operator_disable(name: str, users_file: Path, enable: bool) -> None:
+    """Disable user NAME: no login, its sessions end within seconds (--enable: undo)."""
+    from .auth import UserError
+
+    try:
+        _store(users_file).set_disabled(name, not enable)
+    except UserError as exc:
+        raise click.ClickException(str(exc)) from None
+    click.echo(f"user {name!r} {'enabled' if enable else 'disabled'} in {users_file}")
 
 
 @operator.command("list")
 @_USERS_OPTION
 def operator_list(users_file: Path) -> None:
-    """List the operators."""
-    from .auth import UserStore
+    """List the users: name, role (and "disabled")."""
+    store = _store(users_file)
+    for n in store.names():
+        click.echo(f"{n} {store.role(n)}" + (" disabled" if store.disabled(n) else ""))
 
-    for n in UserStore(users_file).names():
-        click.echo(n)
+
+def _store(users_file: Path) -> Any:
+    """The users file, or a clear error when it cannot be read."""
+    from .auth import UserError, UserStore
+
+    try:
+        return UserStore(users_file)
+    except (UserError, ValueError, OSError) as exc:
+        raise click.ClickException(f"{users_file}: {exc}") from None

@@ -43,6 +43,9 @@ pv = "sim:pressure.pv"
 mv = "sim:pressure.mv"
 sp = 1.5
 safe_value = 0.0
+unit = { pv = "bar", mv = "bar" }  # p3 and the supply pressure
+sp_range = [0.0, 3.0]
+mv_range = [0.0, 5.0]
 
 [loops.block]  # Nowak et al. 2018, Table 2 (n = 2); u0: steady supply pressure for 1.5 bar
 type = "ADRC"
@@ -61,6 +64,8 @@ pv = "sim:flow.pv"
 mv = "sim:flow.mv"
 sp = 40.0
 safe_value = 0.0
+unit = { pv = "%", mv = "%" }
+sp_range = [0.0, 100.0]
 
 [loops.block]
 type = "PID"
@@ -73,6 +78,9 @@ u_max = 100.0
 [historian]
 path = "@HISTORY@"
 flush_interval = 0.5
+
+[web]
+public_view = true  # the demo: anyone may watch
 """
 """The demo configuration (``@HISTORY@`` is replaced by the historian file)."""
 

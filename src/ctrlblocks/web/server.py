@@ -4,8 +4,10 @@ The runtime and the web server share one asyncio event loop: the
 application's start starts the runtime and its stop (Ctrl-C, SIGTERM) stops it
 gracefully (safe/stop values written, historian flushed).  The server binds
 to 127.0.0.1 unless told otherwise; anything else is reachable from the
-network and should sit behind a TLS reverse proxy (the session cookie travels
-with every request).
+network: give it a certificate (``certfile``/``keyfile``: uvicorn serves
+HTTPS and the session cookie is ``Secure``) or put it behind a TLS reverse
+proxy -- without either it warns, because the session cookie and the
+passwords would cross the network in clear text.
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ DEFAULT_PORT = 8000
 """Default TCP port of the faceplate."""
 
 
-def _is_loopback(host: str) -> bool:
+def is_loopback(host: str) -> bool:
+    """True for ``localhost`` and loopback addresses (127.0.0.0/8, ::1)."""
     if host == "localhost":
         return True
     try:
@@ -45,27 +48,40 @@ def make_server(
     users: UserStore | None = None,
     start_runtime: bool = True,
     log_level: str = "warning",
+    certfile: str | None = None,
+    keyfile: str | None = None,
     **app_kw: Any,
 ) -> Any:
     """A ``uvicorn.Server`` serving the faceplate of ``runtime`` (not started yet).
 
     Run it with ``server.run()`` (blocking; handles Ctrl-C) or ``await
     server.serve()``; pass ``sockets=[sock]`` to serve on a socket you bound
-    yourself (tests bind 127.0.0.1 port 0).
+    yourself (tests bind 127.0.0.1 port 0).  ``certfile`` and ``keyfile``
+    (PEM) serve HTTPS (and WSS).
     """
     import uvicorn
 
     from .app import create_app
 
-    if not _is_loopback(host):
+    if (certfile is None) != (keyfile is None):
+        raise ValueError("TLS needs both a certificate file and its key file")
+    if not is_loopback(host) and certfile is None:
         log.warning(
-            "the faceplate listens on %s: it is reachable from the network; "
-            "put it behind a TLS reverse proxy",
+            "the faceplate listens on %s without TLS: it is reachable from the network and "
+            "passwords and session cookies would travel in clear text; give --certfile and "
+            "--keyfile or put it behind a TLS reverse proxy",
             host,
         )
     app = create_app(runtime, users=users, start_runtime=start_runtime, **app_kw)
     config = uvicorn.Config(
-        app, host=host, port=port, log_level=log_level, lifespan="on", ws="auto"
+        app,
+        host=host,
+        port=port,
+        log_level=log_level,
+        lifespan="on",
+        ws="auto",
+        ssl_certfile=certfile,
+        ssl_keyfile=keyfile,
     )
     return uvicorn.Server(config)
 

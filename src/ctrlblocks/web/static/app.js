@@ -1,11 +1,14 @@
 // ctrlblocks faceplate: loop list, live trend (uPlot), operator actions, history, audit.
 // Plain JS, no build step. Live data arrives over the WebSocket /ws; actions are
-// POST api/loops/NAME/command (the server and the block validate them).
+// POST api/loops/NAME/command (the server and the block validate them, and the server
+// enforces the roles and the engineering ranges; the page only shows them and asks
+// before a large step).
 "use strict";
 
 const S = {
   info: null,            // GET api/info
-  user: null,            // operator name or null (viewer)
+  user: null,            // user name or null (not logged in)
+  ws: null,              // the live WebSocket (null: not connected)
   states: {},            // loop name -> state (from the push)
   data: {},              // loop name -> {t, sp, pv, mv, man} columns (live trend)
   order: [],             // loop names in configuration order
@@ -18,8 +21,20 @@ const S = {
   updates: 0,            // pushes received (for tests)
   lastMessage: null,     // last action result {ok, status, text}
   dirty: new Set(),      // input ids edited by the user since the last fill
+  confirming: null,      // the question of the open confirmation, or null
 };
 window.faceplate = S;
+
+const MIN_SPAN = 0.05;   // trend y axes span at least this fraction of the loop's range
+
+// which command key each control needs (the server's PERMISSIONS decide; this only shows it)
+const CONTROLS = {
+  mode: ["btn-auto", "btn-man"],
+  manual_value: ["manual-value", "btn-manual"],
+  sp: ["sp-input", "btn-sp"],
+  u_min: ["umin", "umax", "btn-limits"],
+  tunings: ["btn-tunings", "btn-tunings-reset"],
+};
 
 const MAIN_TUNINGS = {
   PID: ["kp", "ti", "td", "n", "b", "c"],
@@ -51,15 +66,56 @@ async function loadInfo() {
   const r = await fetch("api/info", { credentials: "same-origin" });
   S.info = await r.json();
   $("rt-name").textContent = "— " + S.info.name;
-  setUser(S.info.user);
+  setUser(S.info.user, S.info.role);
+  $("login-needed").hidden = S.info.may_view;
+  document.querySelector("main").hidden = !S.info.may_view;
+  if (S.info.may_view && !S.ws) connect();
+  if (S.selected) { showRanges(); applyPermissions(); }
 }
 
-function setUser(user) {
+function eng(name) {
+  return (S.info && S.info.engineering && S.info.engineering[name || S.selected]) || null;
+}
+function unit(sig, name) {
+  const e = eng(name);
+  return (e && e.units[sig]) || "";
+}
+function withUnit(x, sig, name) {
+  const u = unit(sig, name);
+  return u ? `${fmt(x)} ${u}` : fmt(x);
+}
+
+function setUser(user, role) {
   S.user = user;
   $("login-form").hidden = !!user;
   $("logged-in").hidden = !user;
   $("who").textContent = user || "";
-  document.body.classList.toggle("operator", !!user);
+  $("role").textContent = role || "";
+  document.body.classList.toggle("logged-in", !!user);
+  document.body.classList.toggle("operator", !!user && role !== "viewer");
+  applyPermissions();
+}
+
+const ROLE_NOTES = {
+  none: "Not logged in: you can only watch. Log in to change this loop.",
+  viewer: "Viewer: you can only watch.",
+  operator: "Operator: mode, setpoint and manual value. Limits and tuning need an engineer.",
+  engineer: "",
+};
+
+function applyPermissions() {
+  const may = new Set((S.info && S.info.may_change) || []);
+  for (const [key, ids] of Object.entries(CONTROLS)) {
+    for (const id of ids) {
+      $(id).disabled = !may.has(key);
+      $(id).title = may.has(key) ? "" : "your role may not change this";
+    }
+  }
+  for (const inp of $("tunings").querySelectorAll("input")) inp.disabled = !may.has("tunings");
+  const role = (S.info && S.info.role) || "none";
+  $("role-note").textContent = ROLE_NOTES[role] || "";
+  $("role-note").hidden = !ROLE_NOTES[role];
+  for (const id of ["history-box", "audit-box"]) $(id).hidden = !S.user;
 }
 
 $("login-form").addEventListener("submit", async (ev) => {
@@ -73,8 +129,9 @@ $("login-form").addEventListener("submit", async (ev) => {
   const j = await r.json();
   $("login-password").value = "";
   if (r.ok) {
-    setUser(j.user);
-    message(true, r.status, `logged in as ${j.user}`);
+    await loadInfo();
+    message(true, r.status, `logged in as ${j.user} (${j.role})`);
+    loadAudit();
   } else {
     message(false, r.status, `login refused: ${j.error.message}`);
   }
@@ -82,7 +139,7 @@ $("login-form").addEventListener("submit", async (ev) => {
 
 $("btn-logout").addEventListener("click", async () => {
   await fetch("api/logout", { method: "POST", credentials: "same-origin" });
-  setUser(null);
+  await loadInfo();
   message(true, 200, "logged out");
 });
 
@@ -92,11 +149,15 @@ function connect() {
   const url = new URL("ws", location.href);
   url.protocol = location.protocol === "https:" ? "wss:" : "ws:";
   const ws = new WebSocket(url);
+  S.ws = ws;
   ws.onopen = () => { $("conn").textContent = "live"; $("conn").className = "conn up"; };
   ws.onclose = () => {
-    $("conn").textContent = "disconnected — retrying";
+    S.ws = null;
     $("conn").className = "conn down";
-    setTimeout(connect, 1000);
+    // not public and logged out (or the session was ended): wait for a login
+    if (S.info && !S.info.public_view && !S.user) { $("conn").textContent = "not logged in"; return; }
+    $("conn").textContent = "disconnected — retrying";
+    setTimeout(() => { if (!S.ws) loadInfo(); }, 1000);
   };
   ws.onmessage = (ev) => {
     const msg = JSON.parse(ev.data);
@@ -148,9 +209,9 @@ function renderTable() {
     const m = tr.querySelector(".mode");
     m.textContent = st.mode === "manual" ? "MAN" : "AUTO";
     m.className = "mode " + st.mode;
-    tr.querySelector(".sp").textContent = fmt(st.sp);
-    tr.querySelector(".pv").textContent = fmt(st.pv);
-    tr.querySelector(".mv").textContent = fmt(st.mv);
+    tr.querySelector(".sp").textContent = withUnit(st.sp, "sp", name);
+    tr.querySelector(".pv").textContent = withUnit(st.pv, "pv", name);
+    tr.querySelector(".mv").textContent = withUnit(st.mv, "mv", name);
     tr.querySelector(".alarms").textContent = st.alarms.join("; ") || "ok";
   }
 }
@@ -167,11 +228,45 @@ function select(name) {
   S.dirty.clear();
   fillInputs(true);
   buildTunings();
+  showRanges();
   makeChart();
   renderTable();
   renderPlate();
   setHistoryDefaults();
   loadAudit();
+}
+
+function rangeText(r, u) {
+  if (!r) return "";
+  const tail = u ? ` ${u}` : "";
+  if (r.derived) return (r.lo_open ? "> 0" : r.lo === 0 ? "≥ 0" : "any") + (r.inf_ok ? ", inf" : "");
+  return `${fmtParam(r.lo)} … ${fmtParam(r.hi)}${tail}`;
+}
+
+function showRanges() {
+  const e = eng();
+  for (const sig of ["sp", "pv", "mv"]) $("u-" + sig).textContent = unit(sig);
+  $("r-sp").textContent = e ? rangeText(e.sp_range, e.units.sp) : "";
+  $("r-manual").textContent = e ? rangeText(e.mv_range, e.units.mv) : "";
+  $("r-limits").textContent = e && e.mv_range ? "within " + rangeText(e.mv_range, e.units.mv) : "";
+  for (const row of $("tunings").tBodies[0].rows) {
+    row.cells[3].textContent = e ? rangeText(e.tuning_ranges[row.dataset.key], "") : "";
+  }
+  markOutOfRange();
+}
+
+function inRange(r, text) {
+  const x = Number(text);
+  return !r || text.trim() === "" || (Number.isFinite(x) && x >= r.lo && x <= r.hi);
+}
+
+// a value outside the engineering range is marked at once (the server refuses it)
+function markOutOfRange() {
+  const e = eng();
+  for (const inp of document.querySelectorAll("input[data-range]")) {
+    const r = e && (inp.dataset.range === "sp" ? e.sp_range : e.mv_range);
+    inp.classList.toggle("out", !inRange(r, inp.value));
+  }
 }
 
 function fillInputs(all) {
@@ -185,7 +280,7 @@ function fillInputs(all) {
 }
 
 for (const id of ["manual-value", "sp-input", "umin", "umax"]) {
-  $(id).addEventListener("input", () => S.dirty.add(id));
+  $(id).addEventListener("input", () => { S.dirty.add(id); markOutOfRange(); });
 }
 
 function renderPlate() {
@@ -222,6 +317,8 @@ function buildTunings() {
     th.textContent = k;
     const cur = document.createElement("td");
     const td = document.createElement("td");
+    const rng = document.createElement("td");
+    rng.className = "range";
     const inp = document.createElement("input");
     inp.dataset.key = k;
     if (typeof v === "boolean") {
@@ -233,9 +330,11 @@ function buildTunings() {
     }
     inp.dataset.initial = inp.type === "checkbox" ? String(inp.checked) : inp.value;
     td.appendChild(inp);
-    tr.append(th, cur, td);
+    tr.append(th, cur, td, rng);
     tbody.appendChild(tr);
   }
+  showRanges();
+  applyPermissions();
 }
 
 function changedTunings() {
@@ -287,12 +386,52 @@ async function command(changes, what) {
 
 $("btn-auto").addEventListener("click", () => command({ mode: "auto" }, "AUTO"));
 $("btn-man").addEventListener("click", () => command({ mode: "manual" }, "MAN"));
-$("btn-manual").addEventListener("click", async () => {
-  if (await command({ manual_value: $("manual-value").value }, "manual value")) S.dirty.delete("manual-value");
-});
-$("btn-sp").addEventListener("click", async () => {
-  if (await command({ sp: $("sp-input").value }, "setpoint")) S.dirty.delete("sp-input");
-});
+// a step larger than the configured fraction of the range asks first (in the page)
+function bigStep(key, text) {
+  const e = eng();
+  const st = S.states[S.selected];
+  const r = e && (key === "sp" ? e.sp_range : e.mv_range);
+  const x = Number(text);
+  const cur = st && (key === "sp" ? st.sp : st.manual_value);
+  if (!r || text.trim() === "" || !Number.isFinite(x) || !Number.isFinite(cur)) return null;
+  const step = Math.abs(x - cur);
+  const limit = e.confirm_step * (r.hi - r.lo);
+  if (step <= limit) return null;
+  const u = key === "sp" ? e.units.sp : e.units.mv;
+  const what = key === "sp" ? "Setpoint" : "Manual value";
+  return `${what} ${fmt(cur)} → ${fmt(x)} ${u}: a step of ${fmt(step)} ${u}, more than ` +
+    `${Math.round(e.confirm_step * 100)} % of the range ${rangeText(r, u)}. Apply it?`;
+}
+
+function confirmStep(question) {
+  return new Promise((resolve) => {
+    S.confirming = question;
+    $("confirm-text").textContent = question;
+    $("confirm").hidden = false;
+    const done = (ok) => {
+      $("confirm").hidden = true;
+      S.confirming = null;
+      $("confirm-yes").onclick = $("confirm-no").onclick = null;
+      resolve(ok);
+    };
+    $("confirm-yes").onclick = () => done(true);
+    $("confirm-no").onclick = () => done(false);
+    $("confirm-yes").focus();
+  });
+}
+
+async function setValue(key, id, what) {
+  const text = $(id).value;
+  const question = bigStep(key, text);
+  if (question && !(await confirmStep(question))) {
+    message(false, 0, `${S.selected}: ${what} not sent (cancelled)`);
+    return;
+  }
+  if (await command({ [key]: text }, what)) S.dirty.delete(id);
+}
+
+$("btn-manual").addEventListener("click", () => setValue("manual_value", "manual-value", "manual value"));
+$("btn-sp").addEventListener("click", () => setValue("sp", "sp-input", "setpoint"));
 $("btn-limits").addEventListener("click", async () => {
   if (await command({ u_min: $("umin").value, u_max: $("umax").value }, "limits")) {
     S.dirty.delete("umin");
@@ -312,20 +451,50 @@ $("btn-tunings-all").addEventListener("click", (ev) => {
 
 // ---------------------------------------------------------------- live trend
 
+// a y axis that always shows the SP (the MV) and spans at least MIN_SPAN of the loop's
+// range, so measurement noise at steady state is not blown up to full height
+function yRange(lo, hi, which) {
+  const e = eng();
+  const st = S.states[S.selected] || {};
+  const ref = which === "mv" ? st.mv : st.sp;
+  const r = e && (which === "mv" ? e.mv_range : e.sp_range);
+  if (!Number.isFinite(lo) || !Number.isFinite(hi)) { lo = hi = ref; }
+  if (Number.isFinite(ref)) { lo = Math.min(lo, ref); hi = Math.max(hi, ref); }
+  if (!Number.isFinite(lo) || !Number.isFinite(hi)) return [0, 1];
+  const minSpan = r ? MIN_SPAN * (r.hi - r.lo) : Math.max(MIN_SPAN * Math.abs(ref || 0), 1e-3);
+  if (hi - lo < minSpan) {
+    const mid = (lo + hi) / 2;
+    lo = mid - minSpan / 2;
+    hi = mid + minSpan / 2;
+  }
+  const pad = 0.05 * (hi - lo);
+  return [lo - pad, hi + pad];
+}
+S.yRange = yRange;
+
 function chartOpts(el, title) {
+  const label = (txt, sig) => (unit(sig) ? `${txt} [${unit(sig)}]` : txt);
   return {
     title,
-    width: Math.max(300, el.clientWidth),
+    width: Math.max(280, el.clientWidth),
     height: 300,
     cursor: { drag: { x: true, y: false } },
-    scales: { x: { time: true }, mv: { auto: true } },
+    scales: {
+      x: { time: true },
+      y: { range: (u, lo, hi) => yRange(lo, hi, "sp") },
+      mv: { range: (u, lo, hi) => yRange(lo, hi, "mv") },
+    },
     series: [
       {},
       { label: "SP", stroke: "#2b8a3e", width: 1.5 },
       { label: "PV", stroke: "#1c7ed6", width: 1.5 },
       { label: "MV", stroke: "#e8590c", width: 1.5, scale: "mv" },
     ],
-    axes: [{}, { label: "SP, PV" }, { label: "MV", side: 1, scale: "mv", grid: { show: false } }],
+    axes: [
+      {},
+      { label: label("SP, PV", "pv") },
+      { label: label("MV", "mv"), side: 1, scale: "mv", grid: { show: false } },
+    ],
   };
 }
 
@@ -446,7 +615,7 @@ $("btn-history").addEventListener("click", async () => {
 // ---------------------------------------------------------------- audit
 
 async function loadAudit() {
-  if (!S.selected) return;
+  if (!S.selected || !S.user) return;
   const r = await fetch(`api/audit?limit=20&loop=${encodeURIComponent(S.selected)}`);
   if (!r.ok) return;
   const rows = await r.json();
@@ -468,4 +637,4 @@ async function loadAudit() {
 
 // ---------------------------------------------------------------- start
 
-loadInfo().then(connect);
+loadInfo();

@@ -1,4 +1,4 @@
-"""The public TOML helpers of the scenario parser (shared with the runtime's configuration)."""
+"""The TOML helpers shared by the scenario parser and the runtime's configuration."""
 
 from __future__ import annotations
 
@@ -6,14 +6,9 @@ import math
 
 import pytest
 
+from ctrlblocks.loops.toml import KeyPathError, TableReader, read_toml, type_name
 from ctrlblocks.runtime import RuntimeConfigError
-from ctrlblocks.sim.scenario import (
-    KeyPathError,
-    ScenarioError,
-    TableReader,
-    read_toml,
-    type_name,
-)
+from ctrlblocks.sim import ScenarioError
 
 
 def test_type_name_names_toml_types() -> None:
@@ -46,17 +41,28 @@ def test_table_reader_number_checks_type_nan_and_sign() -> None:
     assert r.number({"x": 2}, "x", "t.x") == 2.0 and type(r.number({"x": 2}, "x", "t.x")) is float
     assert r.number({}, "x", "t.x", default=None) is None
     assert math.isnan(r.number({"x": math.nan}, "x", "t.x"))
-    with pytest.raises(ScenarioError, match=r"t\.x: must not be NaN"):
+    with pytest.raises(KeyPathError, match=r"t\.x: must not be NaN"):
         r.number({"x": math.nan}, "x", "t.x", allow_nan=False)
-    with pytest.raises(ScenarioError, match=r"t\.x: must be > 0, got -1"):
+    with pytest.raises(KeyPathError, match=r"t\.x: must be > 0, got -1"):
         r.number({"x": -1}, "x", "t.x", positive=True)
-    with pytest.raises(ScenarioError, match=r"t\.x: must be a number, got a boolean True"):
+    with pytest.raises(KeyPathError, match=r"t\.x: must be a number, got a boolean True"):
         r.number({"x": True}, "x", "t.x")
-    with pytest.raises(ScenarioError, match=r"t\.x: missing"):
+    with pytest.raises(KeyPathError, match=r"t\.x: missing"):
         r.number({}, "x", "t.x")
 
 
 def test_table_reader_check_keys_names_the_first_unknown_key() -> None:
-    with pytest.raises(ScenarioError) as e:
+    with pytest.raises(KeyPathError) as e:
         TableReader("r.toml").check_keys({"a": 1, "zz": 2, "yy": 3}, {"a", "b"}, "t")
-    assert e.value.key == "t.yy" and e.value.problem == "unknown key; expected one of: a, b"
+    assert e.value.key == "t.yy" and e.value.problem == "unknown key 'yy'; valid keys: a, b"
+
+
+def test_a_reader_subclass_raises_its_own_error_class() -> None:
+    class Reader(TableReader):
+        error = RuntimeConfigError
+
+    with pytest.raises(RuntimeConfigError, match=r"r\.toml: t\.x: missing"):
+        Reader("r.toml").number({}, "x", "t.x")
+    with pytest.raises(KeyPathError) as e:
+        TableReader("r.toml").number({}, "x", "t.x")
+    assert type(e.value) is KeyPathError

@@ -1,0 +1,705 @@
+"""Loop structures, each described once, and the controller side that runs them.
+
+A :class:`Structure` is everything ctrlblocks knows about one loop structure:
+the roles of the blocks in a controller entry (:attr:`Structure.roles`) and
+its other keys (:attr:`Structure.options`), how an entry is read
+(:meth:`Structure.parse`), which measurements it reads
+(:attr:`Structure.measurements`), which blocks write the MV
+(:attr:`Structure.mv_roles`), which block an event acts on by default
+(:attr:`Structure.event_target`), and the two phases of one sample
+(:meth:`Structure.compute`, :meth:`Structure.update`).  :data:`STRUCTURES`
+holds one object per structure; the simulator's and the runtime's tables are
+derived from it, so adding a structure (split range, ratio, ...) is one new
+:class:`Structure` subclass and its tests.
+
+:class:`ControllerSide` holds the blocks of one controller entry (a
+scenario's, or a runtime loop's) and runs them for the structure in Åström's
+computational order (Åström 1987, section 6, Listing 6.3):
+
+1. the caller reads the measurements (``y``; ``y2`` of a cascade's or an
+   override's inner variable; ``dv``, the measured disturbance of a
+   feed-forward structure) -- *Adin*;
+2. :meth:`ControllerSide.compute` -- *ComputeOutput* of every block and
+   *ShapeOutput* (the primary's output is the secondary's setpoint; the min
+   or max selector of an override) -- returns the MV; no block state is
+   committed;
+3. the caller writes the MV -- *Daout*;
+4. :meth:`ControllerSide.update` -- *UpdateState* of every block with the
+   value actually applied (the secondary's ``awout`` goes to the primary's
+   ``awin`` first: the AW handshake of Nowak et al. 2018, section 5, and
+   Åström 1987, section 3; every override block tracks the selected MV,
+   Åström 1987, Figs. 3.8/3.9; the Smith predictor's models advance with the
+   MV, Nowak et al. 2018, section 3.1).
+
+:meth:`ControllerSide.step` is 2 + 4 in one call, for a caller that applies
+the MV as computed (the runtime).
+
+Structures and what they read (``structure`` -> measurements):
+
+=============  ==========================================================
+``single``     ``y``
+``cascade``    ``y`` (primary), ``y2`` (secondary)
+``override``   ``y`` and/or ``y2``, as each block's ``measure`` says
+``feedforward``  ``y``, ``dv`` (through the lead-lag into the PID's ``ff``)
+``smith``      ``y`` (the controller sees ``y + y_model_fast - y_model``)
+``open_loop``  none (the block is driven by the setpoint)
+=============  ==========================================================
+
+Quality flags (``y_ok``, ``y2_ok``, ``dv_ok``): a block is called with the
+flag of what it measures (cascade: primary ``y_ok``, secondary ``y2_ok``;
+override: every block ``y_ok and y2_ok``); a bad ``dv`` freezes the
+lead-lag (not called) and keeps its last output as ``ff``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+from typing import Any, ClassVar
+
+from .spec import BlockSpec, ControllerSpec, SpecReader, TuneHook, build
+from .toml import KeyPathError
+
+__all__ = [
+    "STRUCTURES",
+    "ControllerSide",
+    "Structure",
+    "parse_controller",
+    "read_controller",
+    "set_manual",
+]
+
+_ENTRY_KEYS = ("name", "color", "style")  # keys of every controller entry
+
+
+class _Controller:
+    """Uniform two-phase access to a controller block."""
+
+    def __init__(self, block: Any) -> None:
+        self.block = block
+        self.two_phase = hasattr(block, "compute_output") and hasattr(block, "update_state")
+        fn = block.compute_output if self.two_phase else block
+        try:
+            params = inspect.signature(fn).parameters
+        except (TypeError, ValueError):  # pragma: no cover
+            params = {}
+        self.ok_name = next((n for n in ("y_ok", "pv_ok") if n in params), None)
+        self.takes_ff = "ff" in params
+        self.takes_dt = "dt" in params
+
+    def _inputs(self, y: float, ok: bool, dt: float | None) -> tuple[float, dict[str, Any]]:
+        """``y`` and the keyword arguments for the quality flag and ``dt``."""
+        kw: dict[str, Any] = {}
+        if self.ok_name is not None:
+            kw[self.ok_name] = ok
+        elif not ok:
+            y = math.nan  # a block without a quality flag sees an invalid value
+        if dt is not None and self.takes_dt:
+            kw["dt"] = dt
+        return y, kw
+
+    def output(
+        self, sp: float, y: float, ok: bool, ff: float = 0.0, dt: float | None = None
+    ) -> float:
+        y, kw = self._inputs(y, ok, dt)
+        if self.takes_ff:
+            kw["ff"] = ff
+        if self.two_phase:
+            return float(self.block.compute_output(sp, y, **kw))
+        return float(self.block(sp, y, **kw))
+
+    def cycle(self, sp: float, y: float, ok: bool, dt: float | None = None) -> float:
+        """The whole cycle in one call, ``block(sp, y, ...)``: compute, then update with ``v``.
+
+        The blocks document it as identical to ``compute_output`` +
+        ``update_state(v)`` (their fast lane; tests/fast checks it).
+        """
+        y, kw = self._inputs(y, ok, dt)
+        return float(self.block(sp, y, **kw))
+
+    def update(self, applied: float, measured: float | None = None) -> None:
+        """UpdateState with the applied value.
+
+        ``measured`` is the actuator's real output of this sample (after load,
+        rate and range).  It is wired where the block is configured to use a
+        measured MV: the PID's ``actuator_pos`` input (BACK_CALC_REAL,
+        controltheplant 2024) and the ADRC's ``u_real`` (``u_real_on``,
+        Nowak et al. 2018, section 5).
+        """
+        if not self.two_phase:
+            return
+        b = self.block
+        if measured is not None:
+            if hasattr(b, "actuator_pos"):
+                b.actuator_pos = measured
+            if getattr(getattr(b, "config", None), "u_real_on", False):
+                applied = measured
+        b.update_state(applied)
+
+
+def set_manual(block: Any, on: bool, value: float | None = None) -> None:
+    """Switch ``block`` to manual (``on``) or auto, with a new manual value when given."""
+    if value is not None:
+        if hasattr(block, "manual_value"):
+            block.manual_value = value
+        elif hasattr(block, "u_man"):
+            block.u_man = value
+    if hasattr(block, "manual"):
+        block.manual = on
+
+
+# ---------------------------------------------------------------------------
+# The structures
+# ---------------------------------------------------------------------------
+
+
+class Structure:
+    """One loop structure, described once (module docstring).
+
+    Class attributes
+    ----------------
+    name : str
+        The ``structure = "..."`` of a scenario or a runtime loop.
+    roles : tuple of str
+        The keys of a controller entry that hold its blocks (``override``:
+        ``blocks``, an array of block tables).
+    options : tuple of str
+        The entry's other keys (``aw_handshake``, ``selector``).
+    measurements : tuple of str
+        What :meth:`compute` reads: ``y``, ``y2``, ``dv`` (an override reads
+        what its blocks' ``measure`` keys name, :meth:`measurements_of`).
+    mv_roles : tuple of str
+        The roles of the blocks whose output is (or is selected as) the MV;
+        mode, manual value and MV limits act on them (``blocks``: every
+        override block).
+    event_target : str
+        The block an event with no ``target`` acts on.
+    series_plant : bool
+        The process has an inner plant (``u -> y2``) before the plant.
+    runtime : bool
+        The runtime runs it (a controller against process I/O).
+    tuned_roles : tuple of str
+        Roles whose table may hold a ``tune`` table (a bump test on the plant).
+    """
+
+    name: ClassVar[str]
+    roles: ClassVar[tuple[str, ...]]
+    options: ClassVar[tuple[str, ...]] = ()
+    measurements: ClassVar[tuple[str, ...]] = ("y",)
+    mv_roles: ClassVar[tuple[str, ...]] = ("main",)
+    event_target: ClassVar[str] = "main"
+    series_plant: ClassVar[bool] = False
+    runtime: ClassVar[bool] = True
+    tuned_roles: ClassVar[tuple[str, ...]] = ("main",)
+
+    # -- reading a controller entry -------------------------------------------------
+
+    def parse(
+        self, r: SpecReader, e: dict[str, Any], key: str, ts: float, tune: TuneHook | None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The blocks (role -> BlockSpec) and the options of the controller entry ``e``."""
+        r.check_keys(e, {*_ENTRY_KEYS, *self.roles, *self.options}, key)
+        blocks = {
+            role: r.role(e, role, key, ts, tune if role in self.tuned_roles else None)
+            for role in self.roles
+        }
+        return blocks, {}
+
+    # -- the controller side ----------------------------------------------------------
+
+    def setup(self, side: ControllerSide) -> None:
+        """Build the side's blocks (role -> block) from its spec."""
+        for role, s in side.spec.blocks.items():
+            side.blocks[role] = side.make(s, "block")
+
+    def controller_roles(self, side: ControllerSide) -> list[str]:
+        """The roles of the blocks used as controllers (two-phase, quality flag)."""
+        return [r for r in side.blocks if r != "feedforward"]
+
+    def mv_roles_of(self, side: ControllerSide) -> list[str]:
+        """The roles of :attr:`mv_roles` in this side (an override: every block)."""
+        return list(self.mv_roles)
+
+    def measurements_of(self, side: ControllerSide) -> tuple[str, ...]:
+        """The measurements this side's :meth:`compute` reads."""
+        return self.measurements
+
+    def compute(self, side: ControllerSide, sp: float, m: _Measured) -> tuple[float, dict]:
+        """ComputeOutput and ShapeOutput: the MV and the structure's signals."""
+        raise NotImplementedError
+
+    def update(self, side: ControllerSide, u: float, measured: float | None) -> None:
+        """UpdateState of every block with the applied MV ``u``."""
+        raise NotImplementedError
+
+    def reset_models(self, side: ControllerSide) -> None:
+        """Put the structure's own models (if any) in the steady state of ``side.u0``."""
+
+
+@dataclasses.dataclass(frozen=True)
+class _Measured:
+    """The measurements of one sample, with their quality flags, and ``dt``."""
+
+    y: float
+    y_ok: bool
+    y2: float
+    y2_ok: bool
+    dv: float
+    dv_ok: bool
+    dt: float | None
+
+
+class Single(Structure):
+    """One controller, one plant; the entry is the block table itself."""
+
+    name = "single"
+    roles = ("main",)
+
+    def parse(self, r, e, key, ts, tune):
+        table = {k: v for k, v in e.items() if k not in _ENTRY_KEYS}
+        spec = r.block_spec(table, key, ts, kind="block", tune=tune, table_keys=_ENTRY_KEYS)
+        return {"main": spec}, {}
+
+    def compute(self, side, sp, m):
+        return side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt), {}
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u, measured=measured)
+
+
+class OpenLoop(Single):
+    """A block driven by the setpoint profile (Åström 1987, Fig. 5.2: jump and rate)."""
+
+    name = "open_loop"
+    measurements = ()
+    runtime = False
+    tuned_roles = ()
+
+    def parse(self, r, e, key, ts, tune):
+        return super().parse(r, e, key, ts, None)
+
+    def controller_roles(self, side):
+        return []
+
+    def compute(self, side, sp, m):
+        return float(side.blocks["main"](sp)), {}
+
+    def update(self, side, u, measured):
+        pass
+
+
+class Cascade(Structure):
+    """The primary's output is the secondary's setpoint; the AW handshake between them."""
+
+    name = "cascade"
+    roles = ("primary", "secondary")
+    options = ("aw_handshake",)
+    measurements = ("y", "y2")
+    mv_roles = ("secondary",)
+    event_target = "primary"
+    series_plant = True
+    tuned_roles = ()
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, *self.roles, *self.options}, key)
+        hs = e.get("aw_handshake", True)
+        if not isinstance(hs, bool):
+            raise r.fail(f"{key}.aw_handshake", f"must be true or false, got {hs!r}")
+        return {role: r.role(e, role, key, ts) for role in self.roles}, {"aw_handshake": hs}
+
+    def compute(self, side, sp, m):
+        v1 = side.ctrls["primary"].output(sp, m.y, m.y_ok, dt=m.dt)
+        u = side.ctrls["secondary"].output(v1, m.y2, m.y2_ok, dt=m.dt)
+        side.pending = (v1,)
+        return u, {"sp2": v1}
+
+    def update(self, side, u, measured):
+        (v1,) = side.pending
+        side.ctrls["secondary"].update(u)
+        prim, sec = side.blocks["primary"], side.blocks["secondary"]
+        if hasattr(prim, "awin") and side.aw_handshake:
+            prim.awin = bool(getattr(sec, "awout", False))
+        side.ctrls["primary"].update(v1)
+
+
+class Override(Structure):
+    """A min (or max) selector picks the MV of two or more controllers; all track it."""
+
+    name = "override"
+    roles = ("blocks",)
+    options = ("selector",)
+    measurements = ("y", "y2")
+    mv_roles = ("blocks",)
+    event_target = "blocks[0]"
+    series_plant = True
+    tuned_roles = ()
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "selector", "blocks"}, key)
+        sel = r.string(e, "selector", f"{key}.selector", default="min")
+        if sel not in ("min", "max"):
+            raise r.fail(f"{key}.selector", f"must be 'min' or 'max', got {sel!r}")
+        lst = e.get("blocks")
+        if not isinstance(lst, list) or len(lst) < 2:
+            raise r.fail(f"{key}.blocks", "must be an array of at least two controller tables")
+        specs = []
+        for j, b in enumerate(lst):
+            bkey = f"{key}.blocks[{j}]"
+            spec = r.block_spec(b, bkey, ts, kind="block", extra_keys=("measure", "sp"))
+            meas = spec.extra.get("measure", "y")
+            if meas not in ("y", "y2"):
+                raise r.fail(f"{bkey}.measure", f"must be 'y' or 'y2', got {meas!r}")
+            sp = spec.extra.get("sp", "sp")
+            if sp != "sp" and (isinstance(sp, bool) or not isinstance(sp, (int, float))):
+                raise r.fail(f"{bkey}.sp", f"must be 'sp' or a number, got {sp!r}")
+            specs.append(spec)
+        return {"blocks": specs}, {"selector": sel}
+
+    def setup(self, side):
+        side.override_specs = list(side.spec.blocks["blocks"])
+        for i, s in enumerate(side.override_specs):
+            side.blocks[f"blocks[{i}]"] = side.make(s, "block")
+        # per block: its role, whether it measures y2, its fixed setpoint (None: sp)
+        side.override = [
+            (f"blocks[{i}]", s.extra.get("measure", "y") == "y2", _fixed_sp(s))
+            for i, s in enumerate(side.override_specs)
+        ]
+
+    def mv_roles_of(self, side):
+        return list(side.ctrls)
+
+    def measurements_of(self, side):
+        used = {"y2" if on_y2 else "y" for _, on_y2, _ in side.override}
+        return tuple(m for m in ("y", "y2") if m in used)
+
+    def compute(self, side, sp, m):
+        ok = m.y_ok and m.y2_ok
+        vs = [
+            side.ctrls[role].output(
+                sp if sp_i is None else sp_i, m.y2 if on_y2 else m.y, ok, dt=m.dt
+            )
+            for role, on_y2, sp_i in side.override
+        ]
+        u = min(vs) if side.selector == "min" else max(vs)
+        return u, {f"v{i + 1}": vi for i, vi in enumerate(vs)}
+
+    def update(self, side, u, measured):
+        for role in side.ctrls:
+            side.ctrls[role].update(u)
+
+
+class FeedForward(Single):
+    """The measured disturbance through a lead-lag into the controller's ``ff`` (before limits)."""
+
+    name = "feedforward"
+    roles = ("main", "feedforward")
+    measurements = ("y", "dv")
+
+    def parse(self, r, e, key, ts, tune):
+        blocks, opts = Structure.parse(self, r, e, key, ts, tune)
+        main_block = r.build(blocks["main"], ts, kind="block")
+        fn = getattr(main_block, "compute_output", main_block)
+        if "ff" not in inspect.signature(fn).parameters:
+            raise r.fail(
+                f"{key}.main.type",
+                f"{blocks['main'].type} has no feed-forward input 'ff'; "
+                "the feedforward structure needs one (e.g. PID)",
+            )
+        return blocks, opts
+
+    def compute(self, side, sp, m):
+        if m.dv_ok and math.isfinite(m.dv):
+            side.ff = float(side.blocks["feedforward"](m.dv))
+        ff = side.ff
+        return side.ctrls["main"].output(sp, m.y, m.y_ok, ff, m.dt), {"ff": ff}
+
+
+class Smith(Single):
+    """Smith predictor (Nowak et al. 2018, section 3.1): ``y + y_model_fast - y_model``."""
+
+    name = "smith"
+    roles = ("main", "model")
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", "model"}, key)
+        model = r.role(e, "model", key, ts, kind="plant")
+        if "dead_time" not in model.params:
+            raise r.fail(
+                f"{key}.model.dead_time", "missing: the Smith predictor's model needs the dead time"
+            )
+        return {"main": r.role(e, "main", key, ts, tune), "model": model}, {}
+
+    def setup(self, side):
+        side.blocks["main"] = side.make(side.spec.blocks["main"], "block")
+        model: BlockSpec = side.spec.blocks["model"]
+        side.model = side.make(model, "plant")
+        fast = dataclasses.replace(model, params={**model.params, "dead_time": 0.0})
+        side.model_fast = side.make(fast, "plant")
+        self.reset_models(side)
+
+    def compute(self, side, sp, m):
+        y_fb = m.y + side.model_fast.y - side.model.y
+        return side.ctrls["main"].output(sp, y_fb, m.y_ok, 0.0, m.dt), {"y_pred": y_fb}
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u, measured=measured)
+        side.model.step(u)
+        side.model_fast.step(u)
+
+    def reset_models(self, side):
+        side.model.reset(side.u0)
+        side.model_fast.reset(side.u0)
+
+
+STRUCTURES: dict[str, Structure] = {
+    s.name: s for s in (Single(), Cascade(), Override(), FeedForward(), Smith(), OpenLoop())
+}
+"""Every loop structure, by name (one object each; the module docstring)."""
+
+
+def parse_controller(
+    entry: dict[str, Any],
+    structure: str,
+    ts: float,
+    *,
+    key: str,
+    file: str = "<string>",
+    error: type[KeyPathError] = KeyPathError,
+    tune: TuneHook | None = None,
+) -> ControllerSpec:
+    """Check one controller entry of ``structure`` (its block tables and options).
+
+    ``key`` is its key path in ``file``; a problem raises ``error`` with
+    ``key.role.param``.  The simulator reads a scenario's ``[[controllers]]``
+    entries with it and the runtime its loops' structures, so both accept the
+    same tables.  ``tune`` reads a ``tune`` table of a role that allows one
+    (:attr:`Structure.tuned_roles`; None: refused).
+    """
+    reader = SpecReader(file)
+    reader.error = error
+    s = STRUCTURES.get(structure)
+    if s is None or not s.runtime:
+        raise reader.fail(f"{key}.structure", f"no controller entry for {structure!r}")
+    return read_controller(reader, entry, key, structure, ts, tune)
+
+
+def read_controller(
+    reader: SpecReader,
+    entry: dict[str, Any],
+    key: str,
+    structure: str,
+    ts: float,
+    tune: TuneHook | None = None,
+) -> ControllerSpec:
+    """One controller entry of ``structure`` read with ``reader`` (errors name ``key``)."""
+    name = reader.string(entry, "name", f"{key}.name")
+    blocks, options = STRUCTURES[structure].parse(reader, entry, key, ts, tune)
+    return ControllerSpec(
+        name, blocks, {"color": entry.get("color"), "style": entry.get("style"), **options}
+    )
+
+
+class ControllerSide:
+    """The blocks of one controller entry, wired for its structure (module docstring).
+
+    Parameters
+    ----------
+    structure : str
+        A name of :data:`STRUCTURES`: ``single``, ``cascade``, ``override``,
+        ``feedforward``, ``smith`` or ``open_loop``.
+    spec : ControllerSpec
+        The controller entry (its blocks by role).
+    ts : float
+        Sample time [s].
+    u0 : float
+        The initial MV (the Smith predictor's models start in its steady state).
+    file : str
+        Names the file in error messages of :func:`~ctrlblocks.loops.spec.build`.
+    error : type
+        The :class:`~ctrlblocks.loops.toml.KeyPathError` subclass to raise.
+
+    Attributes
+    ----------
+    kind : Structure
+        The structure object.
+    blocks : dict
+        Role -> block (``main``, ``feedforward``; ``primary``, ``secondary``;
+        ``blocks[0]``, ``blocks[1]``, ... of an override).
+    mv_blocks : list
+        The blocks whose output is (or is selected as) the MV: ``main``,
+        the cascade's ``secondary``, every override block.  Mode, manual
+        value and MV limits act on them.
+    values : dict
+        The structure's internal signals of the last :meth:`compute`:
+        ``v`` (the MV), and ``sp2`` (the cascade's secondary setpoint),
+        ``v1``, ``v2``, ... (override block outputs), ``ff`` (feed-forward),
+        ``y_pred`` (the Smith predictor's feedback).
+    """
+
+    def __init__(
+        self,
+        structure: str,
+        spec: ControllerSpec,
+        ts: float,
+        *,
+        u0: float = 0.0,
+        file: str = "<scenario>",
+        error: type[KeyPathError] = KeyPathError,
+    ) -> None:
+        self.kind = STRUCTURES[structure]
+        self.structure = structure
+        self.spec = spec
+        self.ts = ts
+        self.file = file
+        self.error = error
+        self.u0 = u0
+        self.blocks: dict[str, Any] = {}
+        self.kind.setup(self)
+        self.ctrls = {r: _Controller(self.blocks[r]) for r in self.kind.controller_roles(self)}
+        self.mv_blocks = [self.blocks[r] for r in self.kind.mv_roles_of(self)]
+        self.aw_handshake = bool(spec.options.get("aw_handshake", True))
+        self.selector = spec.options.get("selector", "min")
+        self.ff = 0.0
+        self.u = u0
+        self.values: dict[str, float] = {}
+        self.pending: tuple[float, ...] = ()
+
+    def make(self, spec: BlockSpec, kind: str) -> Any:
+        """Build the block (or plant) ``spec`` with this side's sample time."""
+        return build(spec, self.ts, kind=kind, file=self.file, error=self.error)
+
+    @property
+    def main(self) -> Any:
+        """The block that writes the MV (``main``, the cascade's ``secondary``, ``blocks[0]``)."""
+        return self.mv_blocks[0]
+
+    @property
+    def measurements(self) -> tuple[str, ...]:
+        """The measurements :meth:`compute` needs: ``y``, ``y2``, ``dv`` (module docstring)."""
+        return self.kind.measurements_of(self)
+
+    @property
+    def event_target(self) -> str:
+        """The role an event without a ``target`` acts on."""
+        return self.kind.event_target
+
+    def reset_models(self) -> None:
+        """Put the Smith predictor's models in the steady state of ``u0``."""
+        self.kind.reset_models(self)
+
+    # -- the two phases ------------------------------------------------------------
+
+    def compute(
+        self,
+        sp: float,
+        y: float = math.nan,
+        *,
+        y_ok: bool = True,
+        y2: float = math.nan,
+        y2_ok: bool = True,
+        dv: float = 0.0,
+        dv_ok: bool = True,
+        dt: float | None = None,
+    ) -> float:
+        """ComputeOutput and ShapeOutput: the MV of this sample (no block state committed).
+
+        Parameters
+        ----------
+        sp : float
+            The setpoint (of the primary in a cascade) [PV units].
+        y, y2, dv : float
+            The measurements the structure reads (:attr:`measurements`).
+        y_ok, y2_ok, dv_ok : bool
+            Their quality flags (module docstring).
+        dt : float, optional
+            This sample's period [s] for the controllers (default ``ts``).
+
+        Returns
+        -------
+        float
+            The MV ``u``; the structure's signals are in :attr:`values`.
+        """
+        u, vals = self.kind.compute(self, sp, _Measured(y, y_ok, y2, y2_ok, dv, dv_ok, dt))
+        vals["v"] = u
+        self.u = u
+        self.values = vals
+        return u
+
+    def update(self, applied: float | None = None, measured: float | None = None) -> None:
+        """UpdateState of every block with the applied MV (default: the computed one).
+
+        ``measured`` is the actuator's real output of the sample where it is
+        known (the simulator's single-loop structures): it goes to a PID's
+        ``actuator_pos`` and an ADRC with ``u_real_on``.
+        """
+        self.kind.update(self, self.u if applied is None else applied, measured)
+
+    def step(
+        self,
+        sp: float,
+        y: float = math.nan,
+        *,
+        y_ok: bool = True,
+        dt: float | None = None,
+        **measurements: Any,
+    ) -> float:
+        """:meth:`compute` then :meth:`update` with the computed MV; return the MV.
+
+        A single loop calls its block once (``block(sp, y, ...)``, the same
+        result as the two phases, on the block's fast lane).
+        """
+        if self.structure == "single":
+            u = self.u = self.ctrls["main"].cycle(sp, y, y_ok, dt)
+            self.values = {"v": u}
+            return u
+        u = self.compute(sp, y, y_ok=y_ok, dt=dt, **measurements)
+        self.update(u)
+        return u
+
+    # -- mode, manual value, limits -------------------------------------------------
+
+    @property
+    def manual(self) -> bool:
+        """True when the MV block is in manual."""
+        return bool(getattr(self.main, "manual", False))
+
+    def set_manual(self, on: bool, value: float | None = None) -> None:
+        """Mode (and manual value) of the MV blocks (:attr:`mv_blocks`)."""
+        for b in self.mv_blocks:
+            set_manual(b, on, value)
+
+    def set_limits(self, u_min: float, u_max: float) -> None:
+        """MV limits of the MV blocks."""
+        for b in self.mv_blocks:
+            b.set_limits(u_min, u_max)
+
+    def inner_states(self) -> dict[str, dict[str, Any]]:
+        """What a faceplate shows of every block: role -> sp, pv, out, mode, error_id."""
+        out: dict[str, dict[str, Any]] = {}
+        for role, b in self.blocks.items():
+            if role not in self.ctrls:
+                continue
+            sp = getattr(b, "sp_w", getattr(b, "sp", math.nan))
+            pv = getattr(b, "pv_f", getattr(b, "y", math.nan))
+            out[role] = {
+                "sp": _num(sp),
+                "pv": _num(pv),
+                "out": _num(getattr(b, "out", math.nan)),
+                "mode": "manual" if getattr(b, "manual", False) else "auto",
+                "error_id": int(getattr(b, "error_id", 0)),
+            }
+        return out
+
+
+def _fixed_sp(spec: BlockSpec) -> float | None:
+    """An override block's own setpoint (``sp = NUMBER``), or None when it follows ``sp``."""
+    sp = spec.extra.get("sp", "sp")
+    return None if sp == "sp" else float(sp)
+
+
+def _num(x: Any) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return math.nan
