@@ -162,10 +162,10 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
     is analysed on that plant itself, exactly (:mod:`ctrlblocks.tuning.margins`).
     Other loops (nonlinear plants, cascades, Smith predictors) have no row.
     """
+    from ..loops.spec import build
     from ..plants.linear import LinearPlant
     from ..tuning.bump import block_margins
     from ..tuning.identify import FOPDT
-    from .scenario import build
 
     rows: list[tuple[str, str, dict | None, bool]] = []
     for c in sc.controllers:
@@ -197,7 +197,8 @@ def _margins_lines(sc: Scenario) -> list[str]:
         return []
     out = [
         "",
-        "Robustness of each tuning on its model (sampled loop, dead time exact; `docs/tuning.md`):",
+        "Robustness of each tuning on its model (sampled loop, dead time exact, "
+        "`docs/tuning.md`; a dash: set-point ramps, filters or a dead band, not analysed):",
         "",
         "| controller | model | Ms | GM | PM [deg] | crossover [rad/s] | stable |",
         "|---|---|---|---|---|---|---|",
