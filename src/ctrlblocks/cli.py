@@ -17,6 +17,10 @@ import click
 # command name -> ("module:attribute", the first sentence of its docstring);
 # each module owns its command.
 _COMMANDS: dict[str, tuple[str, str]] = {
+    "compare": (
+        "ctrlblocks.sim.compare:compare_command",
+        "Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).",
+    ),
     "history": (
         "ctrlblocks.runtime.cli:history",
         "Export the historian DATABASE (SQLite file) to OUT (.csv or .parquet).",
