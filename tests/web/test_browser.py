@@ -322,3 +322,24 @@ def test_a_refused_tuning_shows_the_blocks_error_code(page: Any, url: str) -> No
     page.wait_for_function(
         "() => document.querySelector('#tunings tr[data-key=kp] td').textContent === '2'"
     )
+
+
+def test_a_private_faceplate_shows_the_loops_only_after_a_login(browser: Any, tmp_path: Path):
+    with running_server(make_runtime(tmp_path, public_view=False), make_users(tmp_path)) as url:
+        browser.clear_cookies()
+        p = browser.new_page()
+        p.set_default_timeout(20_000)
+        try:
+            p.goto(url)
+            p.wait_for_function("() => window.faceplate && window.faceplate.info !== null")
+            assert p.is_visible("#login-needed") and not p.is_visible("main")
+            assert js(p, "faceplate.updates") == 0 and js(p, "faceplate.ws") is None
+            log_in(p, "vera")
+            p.wait_for_function("() => window.faceplate.updates > 0")  # the live view connects
+            assert not p.is_visible("#login-needed")
+            assert p.text_content("#loops tr[data-loop=fast] td.name") == "fast"
+            log_out(p)
+            p.wait_for_function("() => document.querySelector('#login-needed').offsetParent")
+            p.wait_for_function("() => window.faceplate.ws === null")  # the server closed it
+        finally:
+            p.close()

@@ -516,3 +516,20 @@ def test_a_non_loopback_address_without_tls_warns(tmp_path: Path, users, caplog)
     assert "without TLS" not in caplog.text
     with pytest.raises(ValueError, match="both"):
         make_server(rt, users=users, certfile=str(certfile))
+
+
+def test_a_removed_users_live_view_closes_within_a_push(private, clock):
+    from starlette.websockets import WebSocketDisconnect
+
+    assert login(private, "vera").status_code == 200
+    users_file = str(private.app.state.users.path)
+    with private.websocket_connect("/ws") as ws:
+        assert ws.receive_json()["type"] == "hello"
+        assert ws.receive_json()["type"] == "update"
+        r = CliRunner().invoke(main, ["operator", "remove", "vera", "--users", users_file])
+        assert r.exit_code == 0, r.output
+        clock.t += 1.0  # the users file is looked at again (once a second)
+        with pytest.raises(WebSocketDisconnect) as closed:
+            for _ in range(50):  # 5 s of pushes at most
+                ws.receive_json()
+        assert closed.value.code == 1008

@@ -225,9 +225,21 @@ class UserStore:
         u = self._users.get(name)
         if u is None or u.get("disabled", False):
             # same work as for a real user, so the time does not tell which names exist
-            verify_password(password, _DUMMY)
+            verify_password(password, self._dummy())
             return False
         return verify_password(password, u)
+
+    def _dummy(self) -> dict[str, Any]:
+        """A record with the scrypt cost of the users in the file (default :data:`SCRYPT`)."""
+        cost = next((u.get("scrypt") for u in self._users.values() if "scrypt" in u), None)
+        try:
+            params = {k: int(cost[k]) for k in ("n", "r", "p")} if cost else SCRYPT
+        except (KeyError, TypeError, ValueError):
+            params = SCRYPT
+        key = tuple(sorted(params.items()))
+        if key not in _DUMMIES:
+            _DUMMIES[key] = hash_password("not a password", salt=b"\0" * 16, **params)
+        return _DUMMIES[key]
 
     def _save(self) -> None:
         if self.path is None:
@@ -250,7 +262,8 @@ def _stamp(path: Path) -> tuple[int, int, int] | None:
     return st.st_mtime_ns, st.st_size, st.st_ino
 
 
-_DUMMY = hash_password("not a password", salt=b"\0" * 16)
+_DUMMIES: dict[tuple[tuple[str, int], ...], dict[str, Any]] = {}
+"""Records of unknown users' checks, per scrypt cost (computed once)."""
 
 
 @dataclasses.dataclass
