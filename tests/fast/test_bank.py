@@ -7,7 +7,8 @@ import pytest
 
 from ctrlblocks import PID
 from ctrlblocks.fast import HAVE_NUMBA, PIDBank, UnsupportedConfig, reference_loop
-from ctrlblocks.fast.bank import _expm_batch
+from ctrlblocks.fast._jit import python_function
+from ctrlblocks.fast.bank import _chain_zoh
 from ctrlblocks.plants import PTn
 
 ENGINES = ["python", *(["auto"] if HAVE_NUMBA else [])]
@@ -78,15 +79,24 @@ def test_bank_state_is_under_200_bytes_per_loop():
     assert bank.param_bytes == 224  # 13 PID + 15 plant floats
 
 
-def test_batched_matrix_exponential_matches_scipy():
-    from scipy import linalg
-
-    rng = np.random.default_rng(0)
-    a = rng.normal(0.0, 1.5, (20, 4, 4))  # norms up to ~10: several squarings
-    got = _expm_batch(a)
-    for j in range(20):
-        ref = linalg.expm(a[j])
-        assert np.max(np.abs(got[j] - ref)) <= 1e-12 * np.max(np.abs(ref))
+@pytest.mark.parametrize("m", [1, 2, 3])
+@pytest.mark.parametrize("ts", [0.01, 0.1, 1.0])
+@pytest.mark.parametrize("engine", ENGINES)
+def test_bank_plant_rows_equal_the_linear_plants_exact_zoh(m, ts, engine):
+    rng = np.random.default_rng(m)
+    k = rng.uniform(0.1, 5.0, 40)
+    t = rng.uniform(0.05, 20.0, (40, m))
+    t[:8] = 2.0  # equal lags (a double pole)
+    t[8:12, 0] = 0.01  # lags much shorter than the sample time: many squarings
+    pp = np.empty((40, 15))
+    fn = _chain_zoh if engine == "auto" else python_function(_chain_zoh)
+    fn(pp, k, t, ts)
+    for j in range(40):
+        plant = PTn(k=k[j], t=tuple(t[j]), ts=ts)  # scipy.linalg.expm of the same matrix
+        phi = np.zeros((3, 3))
+        phi[:m, :m] = plant.phi
+        want = np.r_[phi.ravel(), np.pad(plant.gamma0, (0, 3 - m)), np.pad(plant.c, (0, 3 - m))]
+        np.testing.assert_allclose(pp[j], want, rtol=0, atol=1e-12)
 
 
 def test_bank_refuses_dead_time_and_mixed_sample_times():

@@ -129,3 +129,49 @@ def test_cli_sweep_writes_one_row_per_set_controller_and_case(tmp_path):
 def test_cli_sweep_rejects_a_malformed_vary():
     res = CliRunner().invoke(main, ["sweep", "nowak_fig7", "--vary", "kp"])
     assert res.exit_code != 0 and "KEY=v1,v2" in res.output
+
+
+class _RecordingPool(cf.ThreadPoolExecutor):
+    """A thread pool that records how many parameter sets each task carries."""
+
+    def __init__(self, max_workers: int) -> None:
+        super().__init__(max_workers=max_workers)
+        self.sizes: list[int] = []
+
+    def submit(self, fn, /, *args, **kwargs):
+        self.sizes.append(len(args[2]))
+        return super().submit(fn, *args, **kwargs)
+
+
+def test_batch_size_aims_at_a_tenth_of_a_second_and_a_task_per_worker():
+    from ctrlblocks.fast.sweep import TASK_SECONDS, batch_size
+
+    assert TASK_SECONDS == 0.1
+    assert batch_size(0.01, 100, 2) == 10  # 10 sets of 10 ms = 100 ms per task
+    assert batch_size(0.003, 100, 2) == 34
+    assert batch_size(0.5, 100, 2) == 1  # one set is already more than 100 ms
+    assert batch_size(0.001, 10, 2) == 5  # every worker gets a task
+    assert batch_size(0.001, 0, 2) == 1
+
+
+def test_first_tasks_carry_one_set_and_the_rest_go_in_batches(monkeypatch):
+    sw = sys.modules["ctrlblocks.fast.sweep"]  # the module (the package's `sweep` is the function)
+    monkeypatch.setattr(sw, "TASK_SECONDS", 1e6)  # any set is "fast": batches as large as allowed
+    vary = {"controllers[2].kp": [4.0, 4.5, 5.0, 5.5, 6.0, 6.31, 7.0, 7.5, 8.0]}
+    serial = sweep("nowak_fig7", vary, executor="serial", duration=1.0)
+    pool = _RecordingPool(2)
+    seen: list[int] = []
+    try:
+        rows = sweep("nowak_fig7", vary, executor=pool, duration=1.0,
+                     progress=lambda done, total: seen.append(done))  # fmt: skip
+    finally:
+        pool.shutdown()
+    _rows_equal(serial, rows)  # the order of the parameter sets, whatever finished first
+    assert pool.sizes == [1, 1, 4, 3]  # after the first: 7 left, ceil(7 / 2) per task
+    assert seen == sorted(seen) and seen[-1] == 9
+
+
+def test_given_batch_size_on_a_process_pool_equals_the_serial_sweep():
+    serial = sweep("nowak_fig7", VARY, executor="serial", duration=DURATION)
+    pooled = sweep("nowak_fig7", VARY, duration=DURATION, batch=3)
+    _rows_equal(serial, pooled)

@@ -36,8 +36,10 @@ from __future__ import annotations
 import concurrent.futures as cf
 import itertools
 import logging
+import math
 import os
 import re
+import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from importlib import resources
 from pathlib import Path
@@ -46,9 +48,11 @@ from typing import Any
 __all__ = [
     "SweepError",
     "apply_key",
+    "batch_size",
     "dask_executor",
     "parameter_sets",
     "read_scenario_text",
+    "run_batch",
     "run_one",
     "sweep",
     "write_rows",
@@ -166,6 +170,7 @@ def sweep(
     quick: bool = False,
     duration: float | None = None,
     progress: Callable[[int, int], None] | None = None,
+    batch: int | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``scenario`` for every combination of the values in ``vary``.
 
@@ -183,6 +188,12 @@ def sweep(
     progress : callable, optional
         Called as ``progress(0, total)`` once every parameter set has been
         checked, then as ``progress(done, total)`` after each finished run.
+    batch : int, optional
+        Parameter sets per task sent to the executor.  Default: sized from
+        the time of the first run (measured in the worker) to about
+        :data:`TASK_SECONDS` of work per task, but no larger than gives
+        every worker a task -- so the per-task cost of the executor (a few
+        ms on a process pool or Dask) stays small against the work.
 
     Returns
     -------
@@ -202,39 +213,125 @@ def sweep(
         except ScenarioError as exc:
             given = ", ".join(f"{k} = {v!r}" for k, v in params.items())
             raise SweepError(f"with {given}: {exc}") from None
-    total = len(sets)
     if progress is not None:
-        progress(0, total)
-    results: list[list[dict[str, Any]] | None] = [None] * total
+        progress(0, len(sets))
+    return _flatten(_run_sets(text, file, sets, executor, quick, duration, progress, batch))
+
+
+TASK_SECONDS = 0.1
+"""Work per task the automatic batch size of :func:`sweep` aims at [s]."""
+
+
+def _run_sets(
+    text: str,
+    file: str,
+    sets: list[dict[str, Any]],
+    executor: cf.Executor | str | None,
+    quick: bool,
+    duration: float | None,
+    progress: Callable[[int, int], None] | None,
+    batch: int | None,
+) -> list[list[dict[str, Any]]]:
+    """The rows of every parameter set, in order; batches of sets go to the executor.
+
+    Without a given ``batch`` the first task per worker is one set; the time
+    the first one took (measured in the worker) sizes the batches of the
+    rest (:func:`batch_size`).  At most two tasks per worker are in flight,
+    so the workers never wait for the next task.
+    """
+    total = len(sets)
+    rows: list[list[dict[str, Any]] | None] = [None] * total
+
+    def report(n: int) -> None:
+        if progress is not None:
+            progress(n, total)
+
     if executor == "serial":
         for i, params in enumerate(sets):
-            results[i] = run_one(text, file, params, quick, duration)
-            if progress is not None:
-                progress(i + 1, total)
-        return _flatten(results)
+            rows[i] = run_one(text, file, params, quick, duration)
+            report(i + 1)
+        return rows  # type: ignore[return-value]
     own = executor is None
+    workers = min(total, os.cpu_count() or 1) if own else _workers(executor)
     ex: cf.Executor = (
-        cf.ProcessPoolExecutor(max_workers=min(total, os.cpu_count() or 1))
-        if executor is None
-        else executor  # type: ignore[assignment]
+        cf.ProcessPoolExecutor(max_workers=workers) if own else executor  # type: ignore[assignment]
     )
+    size = None if batch is None else max(1, int(batch))
+    nxt, done = 0, 0
+    running: dict[cf.Future[Any], tuple[int, int]] = {}
+
+    def submit(n: int) -> None:
+        nonlocal nxt
+        chunk = sets[nxt : nxt + n]
+        running[ex.submit(_timed_batch, text, file, chunk, quick, duration)] = (nxt, len(chunk))
+        nxt += len(chunk)
+
     try:
-        futures = {
-            ex.submit(run_one, text, file, params, quick, duration): i
-            for i, params in enumerate(sets)
-        }
-        for done, fut in enumerate(cf.as_completed(futures), start=1):
-            results[futures[fut]] = fut.result()
-            if progress is not None:
-                progress(done, total)
+        for _ in range(min(workers, total)):
+            submit(1 if size is None else size)
+        while running:
+            finished, _pending = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            for fut in finished:
+                start, n = running.pop(fut)
+                batch_rows, seconds = fut.result()
+                rows[start : start + n] = batch_rows
+                done += n
+                if size is None:
+                    size = batch_size(seconds / n, total - nxt, workers)
+                    log.debug("sweep: %.3f s per set -> %d sets per task", seconds / n, size)
+                report(done)
+            while nxt < total and len(running) < 2 * workers:
+                submit(size or 1)
     finally:
         if own:
-            ex.shutdown()
-    return _flatten(results)
+            ex.shutdown(cancel_futures=True)
+    return rows  # type: ignore[return-value]
 
 
-def _flatten(results: Iterable[list[dict[str, Any]] | None]) -> list[dict[str, Any]]:
-    return [row for rows in results if rows is not None for row in rows]
+def batch_size(seconds_per_set: float, n_sets: int, workers: int) -> int:
+    """Sets per task: about :data:`TASK_SECONDS` of work, but at least one task per worker."""
+    want = math.ceil(TASK_SECONDS / max(seconds_per_set, 1e-6))
+    return max(1, min(want, math.ceil(n_sets / max(workers, 1))))
+
+
+def _workers(executor: Any) -> int:
+    """Workers behind ``executor`` (a pool's ``_max_workers``, a Dask client's threads)."""
+    n = getattr(executor, "_max_workers", None)
+    client = getattr(executor, "_client", None)
+    if n is None and client is not None:
+        try:
+            n = sum(client.nthreads().values())
+        except Exception:  # pragma: no cover - a client without workers yet
+            n = None
+    return int(n) if n else os.cpu_count() or 1
+
+
+def run_batch(
+    text: str,
+    file: str,
+    sets: Sequence[Mapping[str, Any]],
+    quick: bool = False,
+    duration: float | None = None,
+) -> list[list[dict[str, Any]]]:
+    """:func:`run_one` for each parameter set of ``sets``, in order (one executor task)."""
+    return [run_one(text, file, params, quick, duration) for params in sets]
+
+
+def _timed_batch(
+    text: str,
+    file: str,
+    sets: Sequence[Mapping[str, Any]],
+    quick: bool,
+    duration: float | None,
+) -> tuple[list[list[dict[str, Any]]], float]:
+    """:func:`run_batch` and the seconds it took in the worker."""
+    t0 = time.perf_counter()
+    out = run_batch(text, file, sets, quick, duration)
+    return out, time.perf_counter() - t0
+
+
+def _flatten(results: Iterable[list[dict[str, Any]]]) -> list[dict[str, Any]]:
+    return [row for rows in results for row in rows]
 
 
 def dask_executor(address: str | None = None, **cluster_kwargs: Any) -> cf.Executor:

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import os
 import sys
 import time
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any
@@ -14,7 +16,7 @@ import click
 from .report import claims_holding, load_shipped, render_report
 from .results import write_result
 from .runner import ScenarioResult, metric_table, run_scenario
-from .scenario import ScenarioError, load_scenario
+from .scenario import Scenario, ScenarioError, load_scenario
 
 _FORMAT = click.option(
     "--format",
@@ -167,8 +169,22 @@ def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str) -> None:
 @click.option("--quick", is_flag=True, help="Short runs (each case cut to its quick_duration).")
 @click.option("--list", "list_only", is_flag=True, help="List the shipped scenarios and exit.")
 @_FORMAT
+@click.option(
+    "--jobs",
+    "-j",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Scenarios run (and plotted) in this many processes at once [default: one per core].",
+)
+@click.option("--no-plots", is_flag=True, help="Skip the PNG plots (traces and metrics only).")
 def reproduce(
-    names: tuple[str, ...], out_dir: Path, quick: bool, list_only: bool, fmt: str
+    names: tuple[str, ...],
+    out_dir: Path,
+    quick: bool,
+    list_only: bool,
+    fmt: str,
+    jobs: int | None,
+    no_plots: bool,
 ) -> None:
     """Run the shipped scenarios (all, or NAMES) and write report.md with plots and metrics."""
     try:
@@ -183,27 +199,25 @@ def reproduce(
         return
     output_dir(out_dir)
     t0 = time.perf_counter()
-    results = []
+    done: dict[int, ScenarioResult] = {}
     n = sum(len(sc.controllers) * len(sc.cases) for sc in scenarios)
     # on a terminal a bar; in a log one line per scenario
     with Progress(n, "reproducing", every=None) as bar:
         bar.note(f"reproducing {len(scenarios)} scenarios ({n} runs) into {out_dir}/")
-        for i, sc in enumerate(scenarios, 1):
-            t_sc = time.perf_counter()
-
-            def tick(what: str, sc=sc) -> None:
-                bar.step(1, f"{sc.name}: {what}")
-
-            result = run_scenario(sc, quick=quick, progress=tick)
-            try:
-                write_result(result, out_dir, fmt=fmt)
-            except OSError as exc:
-                raise click.ClickException(f"cannot write the results: {exc}") from None
-            results.append(result)
-            bar.note(
-                f"[{i}/{len(scenarios)}] {sc.name}: {len(result.runs)} run(s), "
-                f"{time.perf_counter() - t_sc:.1f} s"
-            )
+        try:
+            for i, result, took in run_scenarios(
+                scenarios, out_dir, quick=quick, fmt=fmt, plots=not no_plots, jobs=jobs
+            ):
+                done[i] = result
+                sc = result.scenario
+                bar.step(len(result.runs), f"{sc.name}: done")
+                bar.note(
+                    f"[{len(done)}/{len(scenarios)}] {sc.name}: {len(result.runs)} run(s), "
+                    f"{took:.1f} s"
+                )
+        except OSError as exc:
+            raise click.ClickException(f"cannot write the results: {exc}") from None
+    results = [done[i] for i in range(len(scenarios))]  # the report keeps the shipped order
     seconds = time.perf_counter() - t0
     report = out_dir / "report.md"
     text = render_report(results, quick=quick, seconds=seconds, tables=not names)
@@ -215,3 +229,55 @@ def reproduce(
             click.echo(f"{r.scenario.name}:")
             _echo_claims(ScenarioResult(r.scenario, r.runs, r.metrics, bad, r.quick))
     click.echo(f"{n_hold}/{n_claims} claims hold; report: {report} ({seconds:.1f} s)")
+
+
+def run_scenarios(
+    scenarios: Sequence[Scenario],
+    out_dir: Path,
+    *,
+    quick: bool = False,
+    fmt: str = "auto",
+    plots: bool = True,
+    jobs: int | None = None,
+) -> Iterator[tuple[int, ScenarioResult, float]]:
+    """Run every scenario and write its results; yield ``(index, result, seconds)`` as each ends.
+
+    ``jobs`` processes (default: one per core) each run a whole scenario --
+    simulation, traces, metrics and plots -- so the scenarios and their
+    matplotlib work use all cores; the largest are started first.  With one
+    job (or one scenario) everything runs in this process.  The runs are
+    seeded by the scenarios, so the results do not depend on ``jobs``.
+    """
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(scenarios)))
+    if jobs == 1:
+        for i, sc in enumerate(scenarios):
+            yield (i, *_run_and_write(sc, out_dir, quick, fmt, plots))
+        return
+    order = sorted(range(len(scenarios)), key=lambda i: -_work(scenarios[i], quick))
+    pool = cf.ProcessPoolExecutor(max_workers=jobs)
+    try:
+        futures = {
+            pool.submit(_run_and_write, scenarios[i], out_dir, quick, fmt, plots): i for i in order
+        }
+        for fut in cf.as_completed(futures):
+            yield (futures[fut], *fut.result())
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _run_and_write(
+    sc: Scenario, out_dir: Path, quick: bool, fmt: str, plots: bool
+) -> tuple[ScenarioResult, float]:
+    """One scenario: run, write (traces, metrics, plots); the result and the seconds it took."""
+    t0 = time.perf_counter()
+    result = run_scenario(sc, quick=quick)
+    write_result(result, out_dir, fmt=fmt, plots=plots)
+    return result, time.perf_counter() - t0
+
+
+def _work(sc: Scenario, quick: bool) -> float:
+    """A rough size of a scenario: samples simulated, plus ~3000 samples' worth per plot."""
+    samples = sum(
+        min(case.duration, sc.quick_duration) if quick else case.duration for case in sc.cases
+    )
+    return len(sc.controllers) * samples / sc.ts + 3000.0 * len(sc.cases)

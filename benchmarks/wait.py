@@ -1,0 +1,410 @@
+"""Speed where users wait (issue 18): start-up, the kernel cache, reproduce, bank building, sweeps.
+
+Usage (from the repository root, with ``pip install -e '.[bench]'`` and the
+``dask`` extra for the Dask rows)::
+
+    python benchmarks/wait.py                      # everything, ~10 minutes
+    python benchmarks/wait.py --only startup,bank  # some sections
+    python benchmarks/wait.py --quick              # fewer rounds
+
+Every comparison runs its sides interleaved (A, B, A, B, ...) in fresh
+processes where start-up matters, and reports medians and the ratio of the
+medians of one run.  The machine is shared, so each section prints the load
+average it saw and, for the parallel sections, what the same split of pure
+CPU work gained on the cores at that moment.
+
+Sections (targets of issue 18):
+
+* ``startup``: ``ctrlblocks --help`` vs ``python -c "import numpy"`` (<= 2x);
+  the ``--help`` of every sub-command and ``import ctrlblocks.plants``;
+* ``cache``: first compiled call of ``closed_loop`` and of a bank in a fresh
+  process, cold (empty cache folder) and warm (<= 1 s);
+* ``reproduce``: all shipped scenarios on all cores vs the slowest single
+  scenario (<= 3x), and vs all of them on one process;
+* ``bank``: ``PIDBank.from_arrays`` of 10^6 loops vs 100 steps of it (<= 2x),
+  resident and peak memory per loop;
+* ``sweep``: 2 workers vs 1, process pool and Dask, batched vs one set per
+  task (>= 1.7x when the second core is free).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PY = sys.executable
+Row = dict[str, str]
+
+
+def load() -> str:
+    """The 1-minute load average and the number of cores, as text."""
+    return f"load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
+
+
+def wall(cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None = None) -> float:
+    """Wall time of a subprocess [s] (output discarded; a failure raises)."""
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env=env, cwd=cwd, timeout=1800)  # fmt: skip
+    return time.perf_counter() - t0
+
+
+def interleaved(fns: dict[str, Callable[[], float]], rounds: int) -> dict[str, list[float]]:
+    out: dict[str, list[float]] = {k: [] for k in fns}
+    for _ in range(rounds):
+        for k, fn in fns.items():
+            out[k].append(fn())
+    return out
+
+
+def med(x: list[float]) -> float:
+    return statistics.median(x)
+
+
+def row(what: str, value: str, target: str, met: bool | None, note: str = "") -> Row:
+    ok = "–" if met is None else ("yes" if met else "no")
+    return {"measurement": what, "value": value, "target": target, "met": ok, "note": note}
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), env.get("PYTHONPATH", "")])
+    env.update(extra)
+    return env
+
+
+# ---------------------------------------------------------------------------
+# start-up
+# ---------------------------------------------------------------------------
+
+CLI = "from ctrlblocks.cli import main; main({args!r})"
+
+
+def bench_startup(rounds: int) -> list[Row]:
+    env = _env()
+    cmds = {
+        "numpy": [PY, "-c", "import numpy"],
+        "help": [PY, "-c", CLI.format(args=["--help"])],
+        "plants": [PY, "-c", "import ctrlblocks.plants"],
+    }
+    res = interleaved({k: (lambda c=c: wall(c, env)) for k, c in cmds.items()}, rounds)
+    ratio = med(res["help"]) / med(res["numpy"])
+    rows = [
+        row("`ctrlblocks --help` / `python -c 'import numpy'`", f"{ratio:.2f}x "
+            f"({med(res['help']):.2f} s / {med(res['numpy']):.2f} s)", "<= 2x", ratio <= 2.0,
+            f"medians of {rounds} interleaved rounds; {load()}"),
+        row("`import ctrlblocks.plants`", f"{med(res['plants']):.2f} s", "no scipy.signal",
+            None, "scipy is imported at the first plant (scipy.linalg only)"),
+    ]
+    from ctrlblocks.cli import _COMMANDS
+
+    sub = {n: [PY, "-c", CLI.format(args=[n, "--help"])] for n in sorted(_COMMANDS)}
+    res = interleaved({k: (lambda c=c: wall(c, env)) for k, c in sub.items()}, max(1, rounds // 2))
+    text = ", ".join(f"{n} {med(v):.2f}" for n, v in res.items())
+    rows.append(row("`ctrlblocks CMD --help` [s]", text, "imports only what CMD uses", None,
+                    "a sub-command's --help imports its module (and what it imports)"))  # fmt: skip
+    return rows
+
+
+# ---------------------------------------------------------------------------
+# the disk cache of the compiled kernels
+# ---------------------------------------------------------------------------
+
+FIRST_CALL = """
+import json, time
+t0 = time.perf_counter()
+import numpy as np
+from ctrlblocks import PID
+from ctrlblocks.plants import PTn
+from ctrlblocks.fast import PIDBank, closed_loop
+t1 = time.perf_counter()
+pid = PID(kp=5.69, ti=16.65, td=2.91, ts=0.1, u_min=0.0, u_max=5.0)
+plant = PTn(k=0.73, t=(7.3, 2.2, 1.4), ts=0.1)
+t2 = time.perf_counter()
+closed_loop(pid, plant, np.ones(1000))
+t3 = time.perf_counter()
+PIDBank.from_arrays(kp=[2.0, 3.0], ti=8.0, td=0.5, ts=0.1, plant_k=0.73,
+                    plant_t=[[7.3, 2.2, 1.4]] * 2).run(1.0, 10)
+t4 = time.perf_counter()
+print(json.dumps({"import": t1 - t0, "loop": t3 - t2, "bank": t4 - t3}))
+"""
+
+
+def _first_call(cache: Path) -> dict[str, float]:
+    out = subprocess.run([PY, "-c", FIRST_CALL], capture_output=True, text=True, check=True,
+                         env=_env(CTRLBLOCKS_NUMBA_CACHE=str(cache)), timeout=1800)  # fmt: skip
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def bench_cache(rounds: int) -> list[Row]:
+    with tempfile.TemporaryDirectory() as tmp:
+        cold = _first_call(Path(tmp))
+        warm = [_first_call(Path(tmp)) for _ in range(rounds)]
+    loop = med([w["loop"] for w in warm])
+    bank = med([w["bank"] for w in warm])
+    imp = med([w["import"] for w in warm])
+    return [
+        row("first compiled call in a fresh process, warm cache (closed_loop)", f"{loop:.2f} s",
+            "<= 1 s", loop <= 1.0, f"cold (empty cache) {cold['loop']:.1f} s; median of "
+            f"{rounds} processes; {load()}"),
+        row("first bank (from_arrays + run) in a fresh process, warm cache", f"{bank:.2f} s",
+            "<= 1 s", bank <= 1.0, f"cold {cold['bank']:.1f} s; importing ctrlblocks.fast, "
+            f"numba and the blocks {imp:.2f} s before that"),
+    ]
+
+
+# ---------------------------------------------------------------------------
+# reproduce on all cores
+# ---------------------------------------------------------------------------
+
+
+def bench_reproduce(rounds: int) -> list[Row]:
+    from ctrlblocks.sim.report import shipped_scenarios
+
+    names = [p.stem for p in shipped_scenarios()]
+    cores = os.cpu_count() or 1
+    env = _env()
+    with tempfile.TemporaryDirectory() as tmp:
+
+        def repro(*args: str) -> float:
+            return wall([PY, "-c", CLI.format(args=["reproduce", "--out", tmp, *args])], env)
+
+        single = {n: repro(n, "--jobs", "1") for n in names}
+        slowest = max(single, key=single.__getitem__)
+        sides = {
+            "all": lambda: repro("--jobs", str(cores)),
+            "slowest": lambda: repro(slowest, "--jobs", "1"),
+            "all-serial": lambda: repro("--jobs", "1"),
+            "all-no-plots": lambda: repro("--jobs", str(cores), "--no-plots"),
+        }
+        res = interleaved(sides, rounds)
+    r_all = med(res["all"]) / med(res["slowest"])
+    return [
+        row(f"`reproduce` (all {len(names)} scenarios, --jobs {cores}) / slowest single "
+            f"scenario (`reproduce {slowest}`)", f"{r_all:.2f}x ({med(res['all']):.1f} s / "
+            f"{med(res['slowest']):.1f} s)", "<= 3x", r_all <= 3.0,
+            f"medians of {rounds} interleaved rounds, whole commands; {load()}"),
+        row(f"`reproduce` --jobs {cores} vs --jobs 1", f"{med(res['all-serial']):.1f} s -> "
+            f"{med(res['all']):.1f} s ({med(res['all-serial']) / med(res['all']):.2f}x)",
+            "all cores", None, f"--no-plots: {med(res['all-no-plots']):.1f} s"),
+        row("single scenarios, once each [s]", ", ".join(f"{n} {t:.1f}" for n, t in
+            sorted(single.items(), key=lambda kv: -kv[1])), "", None),
+    ]
+
+
+# ---------------------------------------------------------------------------
+# bank building
+# ---------------------------------------------------------------------------
+
+BANK = """
+import json, sys, time
+import numpy as np
+from ctrlblocks.fast import PIDBank
+
+def status():
+    d = {}
+    for line in open("/proc/self/status"):
+        k, _, v = line.partition(":")
+        if k in ("VmRSS", "VmHWM"):
+            d[k] = int(v.split()[0]) * 1024
+    return d
+
+n, rounds = int(sys.argv[1]), int(sys.argv[2])
+rng = np.random.default_rng(1)
+args = dict(kp=rng.uniform(2, 6, n), ti=rng.uniform(5, 17, n), td=rng.uniform(0.5, 3, n),
+            plant_k=rng.uniform(0.5, 1.0, n), plant_t=rng.uniform(1.0, 8.0, (n, 3)))
+small = {k: v[:8] for k, v in args.items()}
+PIDBank.from_arrays(ts=0.1, u_min=0.0, u_max=5.0, **small).run(1.0, 2)  # compile or load
+with open("/proc/self/clear_refs", "w") as f:
+    f.write("5")  # reset the peak (VmHWM) to the current RSS
+base = status()["VmRSS"]
+build, run = [], []
+for r in range(rounds):
+    t0 = time.perf_counter()
+    bank = PIDBank.from_arrays(ts=0.1, u_min=0.0, u_max=5.0, **args)
+    t1 = time.perf_counter()
+    res = bank.run(1.0, 100)
+    t2 = time.perf_counter()
+    build.append(t1 - t0)
+    run.append(t2 - t1)
+    if r == 0:
+        st = status()
+        mem = {"resident": (st["VmRSS"] - base) / n, "peak": (st["VmHWM"] - base) / n,
+               "arrays": bank.state_bytes + bank.param_bytes}
+    del bank, res
+print(json.dumps({"build": build, "run100": run, **mem}))
+"""
+
+
+def bench_bank(rounds: int, n: int = 1_000_000) -> list[Row]:
+    out = subprocess.run([PY, "-c", BANK, str(n), str(rounds)], capture_output=True, text=True,
+                         check=True, env=_env(), timeout=1800)  # fmt: skip
+    r = json.loads(out.stdout.strip().splitlines()[-1])
+    b, s = med(r["build"]), med(r["run100"])
+    peak_ratio = r["peak"] / r["resident"]
+    return [
+        row(f"`PIDBank.from_arrays` of {n:,} loops / 100 steps of it", f"{b / s:.2f}x "
+            f"({b:.2f} s / {s:.2f} s)", "<= 2x", b / s <= 2.0,
+            f"medians of {rounds} rounds (build, run, build, run ...), one core; {load()}"),
+        row("bank memory per loop (RSS, after build and a run)", f"resident {r['resident']:.0f} "
+            f"B, peak {r['peak']:.0f} B ({peak_ratio:.2f}x)", "peak <= 1.5x resident; "
+            "resident <= 200 B", peak_ratio <= 1.5 and r["resident"] <= 200,
+            f"bank arrays {r['arrays']} B/loop (80 B state + 224 B parameters) + the result "
+            "(y, u, iae: 24 B)"),
+    ]
+
+
+# ---------------------------------------------------------------------------
+# sweeps on 2 workers
+# ---------------------------------------------------------------------------
+
+
+def _burn(n: int) -> int:
+    s = 0
+    for i in range(n):
+        s += i * i
+    return s
+
+
+def _warm() -> None:
+    import ctrlblocks.sim.runner  # noqa: F401  (imports done before the clock starts)
+
+
+def bench_sweep(rounds: int) -> list[Row]:
+    import concurrent.futures as cf
+
+    from ctrlblocks.fast import sweep
+
+    vary = {"controllers[2].kp": [4.0 + 0.1 * i for i in range(24)], "sensor.noise": [0.0, 0.002]}
+    n_sets = 48
+    duration = 20.0  # seconds of simulated time per case: a cheap set (tens of ms)
+
+    def pool_side(workers: int, batch: int | None) -> Callable[[], float]:
+        def run() -> float:
+            with cf.ProcessPoolExecutor(max_workers=workers, initializer=_warm) as ex:
+                for f in [ex.submit(int) for _ in range(workers)]:
+                    f.result()  # workers up before the clock starts
+                t0 = time.perf_counter()
+                sweep("nowak_fig7", vary, executor=ex, duration=duration, batch=batch)
+                return time.perf_counter() - t0
+
+        return run
+
+    def probe(workers: int) -> Callable[[], float]:
+        def run() -> float:
+            with cf.ProcessPoolExecutor(max_workers=workers) as ex:
+                for f in [ex.submit(int) for _ in range(workers)]:
+                    f.result()
+                t0 = time.perf_counter()
+                list(ex.map(_burn, [400_000] * 16))
+                return time.perf_counter() - t0
+
+        return run
+
+    sides: dict[str, Callable[[], float]] = {
+        "pool1": pool_side(1, None),
+        "pool2": pool_side(2, None),
+        "pool2-single": pool_side(2, 1),
+        "probe1": probe(1),
+        "probe2": probe(2),
+    }
+    dask_note = "distributed not installed"
+    clients = {}
+    try:
+        from ctrlblocks.fast import dask_executor
+
+        for w in (1, 2):
+            clients[w] = dask_executor(n_workers=w, threads_per_worker=1, processes=True,
+                                       dashboard_address=None)  # fmt: skip
+        for w in (1, 2):
+            clients[w].submit(_warm).result()
+
+        def dask_side(w: int, batch: int | None) -> Callable[[], float]:
+            def run() -> float:
+                t0 = time.perf_counter()
+                sweep("nowak_fig7", vary, executor=clients[w], duration=duration, batch=batch)
+                return time.perf_counter() - t0
+
+            return run
+
+        sides |= {"dask1": dask_side(1, None), "dask2": dask_side(2, None),
+                  "dask2-single": dask_side(2, 1)}  # fmt: skip
+    except ImportError:
+        pass
+    loads = [os.getloadavg()[0]]
+    try:
+        res = interleaved(sides, rounds)
+    finally:
+        for ex in clients.values():
+            ex.shutdown()
+    loads.append(os.getloadavg()[0])
+    probe_gain = med(res["probe1"]) / med(res["probe2"])
+    seen = (f"load {loads[0]:.1f} -> {loads[1]:.1f} on {os.cpu_count()} cores; pure CPU work "
+            f"split the same way gained {probe_gain:.2f}x on 2 workers in this run")  # fmt: skip
+    per_set = med(res["pool1"]) / n_sets
+    rows = []
+    for kind in ("pool", "dask"):
+        if f"{kind}1" not in res:
+            rows.append(row("Dask sweep", "–", ">= 1.7x", None, dask_note))
+            continue
+        gain = med(res[f"{kind}1"]) / med(res[f"{kind}2"])
+        single = med(res[f"{kind}1"]) / med(res[f"{kind}2-single"])
+        name = "process pool" if kind == "pool" else "Dask LocalCluster (processes)"
+        rows.append(row(f"sweep on {name}: 2 workers vs 1 ({n_sets} sets of ~{per_set * 1e3:.0f}"
+                        " ms)", f"{gain:.2f}x (batched); {single:.2f}x with one set per task",
+                        ">= 1.7x when the 2nd core is free", gain >= 1.7,
+                        f"medians of {rounds} interleaved rounds; {seen}"))  # fmt: skip
+    return rows
+
+
+# ---------------------------------------------------------------------------
+
+
+SECTIONS = {
+    "startup": bench_startup,
+    "cache": bench_cache,
+    "reproduce": bench_reproduce,
+    "bank": bench_bank,
+    "sweep": bench_sweep,
+}
+
+
+def markdown(rows: list[Row]) -> str:
+    cols = ["measurement", "value", "target", "met", "note"]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(r[c] for c in cols) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer rounds")
+    ap.add_argument("--only", default=",".join(SECTIONS), help="comma-separated sections")
+    ap.add_argument("--markdown", type=Path, help="also write the table to this file")
+    args = ap.parse_args(argv)
+    rounds = {"startup": 9, "cache": 5, "reproduce": 3, "bank": 3, "sweep": 5}
+    rows: list[Row] = []
+    for name in args.only.split(","):
+        n = rounds[name] if not args.quick else max(1, rounds[name] // 3)
+        t0 = time.perf_counter()
+        rows.extend(SECTIONS[name](n))
+        print(f"  {name}: done in {time.perf_counter() - t0:.0f} s ({load()})", file=sys.stderr,
+              flush=True)  # fmt: skip
+    table = markdown(rows)
+    print(table)
+    if args.markdown:
+        args.markdown.write_text(table + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
