@@ -16,9 +16,10 @@ single loop is limited by the latency of its own chain of dependent
 operations).  The ADRC bank runs chunks of loops that stay in the L1 cache,
 time outside and loops inside.
 
-State per loop: the PID's ``(i, d, w_prev, e_prev, out)`` and the plant's three
-states: 64 bytes (:attr:`PIDBank.state_bytes`); the parameters add 13 PID and 15
-plant floats per loop (:attr:`PIDBank.param_bytes`).
+State per loop: the PID's ``(i, d, w_prev, e_prev, out, cold)`` and the plant's
+``x`` and ``y``: 80 bytes (10 floats, :attr:`PIDBank.state_bytes`); the
+parameters add 13 PID and 15 plant floats per loop, 224 bytes
+(:attr:`PIDBank.param_bytes`).
 
 Example
 -------

@@ -3,6 +3,8 @@
 ::
 
     ctrlblocks identify bump.csv --time t --u mv --y pv [--method lsq] [--json] [--plot fit.png]
+        [--u-before U] [--delimiter ';'] [--decimal ','] [--encoding cp1252]
+        [--y-unit bar] [--u-unit %]
     ctrlblocks tune adrc --gain K --time-constant T --dead-time L --order N [--settling-time S]
     ctrlblocks tune pid  --gain K --time-constant T --dead-time L --rule simc|amigo|zn|lambda
 
@@ -15,6 +17,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+from pathlib import Path
 
 import click
 
@@ -23,7 +27,7 @@ _METHODS = ("two-point", "sk", "lsq", "lsq-sopdt", "integrating")
 
 def _emit(data: dict, as_json: bool, title: str) -> None:
     if as_json:
-        click.echo(json.dumps(data, indent=2, default=_json_default))
+        click.echo(json.dumps(data, indent=2, default=_json_default, ensure_ascii=False))
         return
     click.echo(title)
     width = max(len(k) for k in data)
@@ -67,6 +71,32 @@ def _finite(d: dict) -> dict:
 @click.option(
     "--plot", "plot_path", type=click.Path(dir_okay=False), help="Write a PNG of data vs model."
 )
+@click.option(
+    "--u-before",
+    type=float,
+    default=None,
+    help="The MV before the record, when the step is at the first sample "
+    "(MV constant from t = 0, PV at rest there).",
+)
+@click.option(
+    "--delimiter",
+    type=click.Choice([",", ";", "tab"]),
+    default=None,
+    help="Column delimiter (default: detected from the header).",
+)
+@click.option(
+    "--decimal",
+    type=click.Choice([".", ","]),
+    default=None,
+    help="Decimal mark (default: ',' when the delimiter is not ',' and the cells use commas).",
+)
+@click.option(
+    "--encoding",
+    default=None,
+    help="Text encoding, e.g. cp1252 (default: UTF-8, else Windows-1252, with a note).",
+)
+@click.option("--y-unit", default=None, help="PV unit (default: from a header like 'pv [degC]').")
+@click.option("--u-unit", default=None, help="MV unit (default: from a header like 'mv [%]').")
 def identify(
     file: str,
     time_col: str,
@@ -75,12 +105,34 @@ def identify(
     method: str,
     as_json: bool,
     plot_path: str | None,
+    u_before: float | None,
+    delimiter: str | None,
+    decimal: str | None,
+    encoding: str | None,
+    y_unit: str | None,
+    u_unit: str | None,
 ) -> None:
-    """Identify a process model from a bump test in FILE (CSV with a header row)."""
+    """Identify a process model from a bump test in FILE (CSV with a header row).
+
+    Time in seconds (or ISO 8601 timestamps); ',' ';' or tab delimiters and
+    decimal commas are detected; a unit in a header cell ('pv [degC]') labels
+    the plot and the JSON.
+    """
     from . import identify as ident
 
+    if plot_path:
+        _check_writable(Path(plot_path), "--plot")
     try:
-        data = ident.read_step_csv(file, time=time_col, u=u_col, y=y_col)
+        data = ident.read_step_csv(
+            file,
+            time=time_col,
+            u=u_col,
+            y=y_col,
+            u_before=u_before,
+            delimiter="\t" if delimiter == "tab" else delimiter,
+            decimal=decimal,
+            encoding=encoding,
+        )
         fitter = {
             "two-point": ident.two_point,
             "sk": ident.sundaresan_krishnaswamy,
@@ -91,13 +143,64 @@ def identify(
         model = fitter(data.t, data.u, data.y)
     except ValueError as exc:  # DataFileError, or a record the method cannot use
         raise click.ClickException(str(exc)) from None
+    for note in data.notes:
+        click.echo(f"note: {file}: {note}", err=True)
+    y_unit = y_unit if y_unit is not None else data.y_unit
+    u_unit = u_unit if u_unit is not None else data.u_unit
     result = model.as_dict()
+    result["y_unit"], result["u_unit"] = y_unit, u_unit
+    result["gain_unit"] = _gain_unit(result["model"], y_unit, u_unit)
+    if data.encoding != "utf-8":
+        result["encoding"] = data.encoding
+    if data.start:
+        result["start"] = data.start
     if plot_path:
         from .plot import plot_identification
 
-        plot_identification(data.t, data.u, data.y, model, plot_path)
+        try:
+            plot_identification(
+                data.t,
+                data.u,
+                data.y,
+                model,
+                plot_path,
+                y_label=_axis_label("PV", y_col, y_unit),
+                u_label=_axis_label("MV", u_col, u_unit),
+                gain_unit=result["gain_unit"],
+            )
+        except OSError as exc:
+            raise click.ClickException(
+                f"--plot {plot_path}: cannot write the plot ({exc.strerror or exc})"
+            ) from None
         result["plot"] = plot_path
+    if not as_json:  # the table shows units only when known
+        result = {k: v for k, v in result.items() if not (k.endswith("_unit") and v is None)}
     _emit(_finite(result), as_json, f"{file}: {result['model'].upper()} model ({method})")
+
+
+def _check_writable(path: Path, option: str) -> None:
+    """Refuse an output file whose directory does not exist or is not writable (before work)."""
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise click.ClickException(f"{option} {path}: no such directory {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise click.ClickException(f"{option} {path}: the directory {parent} is not writable")
+
+
+def _axis_label(role: str, column: str, unit: str | None) -> str:
+    """``"PV: pv [degC]"`` -- role, column name (without its header unit) and unit."""
+    from .identify import split_unit
+
+    name = split_unit(column)[0]
+    return f"{role}: {name}" + (f" [{unit}]" if unit else "")
+
+
+def _gain_unit(model: str, y_unit: str | None, u_unit: str | None) -> str | None:
+    """Unit of the process gain: ``y_unit/u_unit`` (per second for an integrating model)."""
+    if y_unit is None and u_unit is None:
+        return None
+    unit = f"{y_unit or '1'}/{u_unit or '1'}"
+    return unit + "/s" if model == "integrating" else unit
 
 
 @click.group()

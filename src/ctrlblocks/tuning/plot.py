@@ -19,6 +19,9 @@ def plot_identification(
     path: str | Path,
     *,
     title: str = "",
+    y_label: str = "PV",
+    u_label: str = "MV",
+    gain_unit: str | None = None,
 ) -> Path:
     """Write a PNG: measured PV and model output (top), MV (bottom).
 
@@ -32,6 +35,10 @@ def plot_identification(
         Output file (PNG).
     title : str
         Figure title; default: the model and its fit.
+    y_label, u_label : str
+        Axis labels with names and units, e.g. ``"PV: p3 [bar]"``.
+    gain_unit : str, optional
+        Unit of the gain in the default title (``"bar/bar"``).
 
     Returns
     -------
@@ -46,7 +53,7 @@ def plot_identification(
     path = Path(path)
     d = model.as_dict()
     if not title:
-        parts = [f"k = {d['gain']:.4g}"]
+        parts = [f"k = {d['gain']:.4g}" + (f" {gain_unit}" if gain_unit else "")]
         if "time_constant" in d:
             parts.append(f"T = {d['time_constant']:.4g} s")
         if "time_constant_2" in d:
@@ -57,12 +64,12 @@ def plot_identification(
     fig, (ax_y, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 5.0), height_ratios=(3, 1.3))
     ax_y.plot(t, y, ".", ms=2.5, color="0.45", label="measured PV")
     ax_y.plot(t, model.response(t, u), "-", color="C3", lw=1.6, label="model")
-    ax_y.set_ylabel("PV")
+    ax_y.set_ylabel(y_label)
     ax_y.legend(loc="best")
     ax_y.grid(alpha=0.3)
     ax_y.set_title(title, fontsize=10)
     ax_u.step(t, u, where="post", color="C0")
-    ax_u.set_ylabel("MV")
+    ax_u.set_ylabel(u_label)
     ax_u.set_xlabel("time [s]")
     ax_u.grid(alpha=0.3)
     fig.tight_layout()
