@@ -111,3 +111,17 @@ def test_cli_compare_on_the_shipped_example_without_corners(tmp_path):
     bad = CliRunner().invoke(main, ["compare", str(tmp_path / "nope.csv"), "--time", "t",
                                     "--u", "u", "--y", "y"])  # fmt: skip
     assert bad.exit_code == 1 and "Traceback" not in bad.output
+
+
+def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path):
+    t, u, y = _bump()
+    rows = [f"{a:.1f};{b:.3f};{c:.6f}".replace(".", ",") for a, b, c in zip(t, u, y, strict=True)]
+    csv = tmp_path / "bump.csv"
+    csv.write_text("t;mv;pv\n" + "\n".join(rows) + "\n", encoding="cp1252")
+    args = ["compare", str(csv), "--time", "t", "--u", "mv", "--y", "pv", "--delimiter", ";",
+            "--decimal", ",", "--encoding", "cp1252", "--out", str(tmp_path / "o"),
+            "--no-corners", "--json"]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    assert d["fopdt"]["gain"] == pytest.approx(1.2, rel=0.05)

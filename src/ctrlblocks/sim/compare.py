@@ -66,7 +66,7 @@ def _choose(t, u, y) -> tuple[FOPDT, SOPDT | None, Any, str]:
         "the SOPDT fit failed"
         if so is None
         else f"the SOPDT's fit error {100 * so.fit:.3g} % is not below {SOPDT_GAIN:g} times "
-        f"its {100 * fo.fit:.3g} %"
+        f"the FOPDT's {100 * fo.fit:.3g} %"
     )
     return fo, so, fo, why
 
@@ -401,14 +401,25 @@ def _command():
     @click.option("--u-max", type=float, help="MV high limit; default from the data.")
     @click.option("--ts", type=float, help="Controller sample time [s]; default min(T, L)/10.")
     @click.option("--no-corners", is_flag=True, help="Skip the 8 uncertainty corners.")
+    @click.option("--u-before", type=float, default=None,
+                  help="The MV before the record (as for identify).")  # fmt: skip
+    @click.option("--delimiter", type=click.Choice([",", ";", "tab"]), default=None,
+                  help="Column delimiter (default: detected, as for identify).")  # fmt: skip
+    @click.option("--decimal", type=click.Choice([".", ","]), default=None,
+                  help="Decimal mark (default: detected, as for identify).")  # fmt: skip
+    @click.option("--encoding", default=None, help="Text encoding (as for identify).")
     @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
     def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_corners,
-                        as_json) -> None:  # fmt: skip
+                        u_before, delimiter, decimal, encoding, as_json) -> None:  # fmt: skip
         """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV)."""
         from ..tuning import read_step_csv
 
         try:
-            data = read_step_csv(file, time=time_col, u=u_col, y=y_col)
+            data = read_step_csv(
+                file, time=time_col, u=u_col, y=y_col, u_before=u_before,
+                delimiter="\t" if delimiter == "tab" else delimiter, decimal=decimal,
+                encoding=encoding,
+            )  # fmt: skip
             summary = compare(data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts,
                               corners=not no_corners)  # fmt: skip
         except ValueError as exc:
