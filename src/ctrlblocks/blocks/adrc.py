@@ -137,6 +137,8 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import clamp, pt1_coefficient
 
 __all__ = [
@@ -518,6 +520,11 @@ class ADRCConfig(BlockConfig):
     tau_wait : float
         Time [s] u is frozen after Y leaves the saturation; ``0`` = the
         paper's ``3.5/omega_o`` (section 4.3 advises 3..4 / omega_o).
+    precision : str
+        ``"float64"`` (default) or ``"float32"``: compute the cycle as a PLC's
+        REAL does, every intermediate rounded to single precision (the cycle
+        of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
+        the configurations the export covers.
     """
 
     order: int = 2
@@ -537,6 +544,7 @@ class ADRCConfig(BlockConfig):
     y_sat: float = math.inf
     y_sat_lo: float = -math.inf
     tau_wait: float = 0.0
+    precision: str = "float64"
 
     def validate(self) -> None:
         if isinstance(self.order, bool) or self.order not in (1, 2, 3):
@@ -559,6 +567,8 @@ class ADRCConfig(BlockConfig):
         require_bool("anti_backoff", self.anti_backoff)
         require_limits("y_sat_lo", self.y_sat_lo, "y_sat", self.y_sat)
         require_nonnegative("tau_wait", self.tau_wait, ErrorCode.BAD_TIME_CONSTANT)
+        if self.precision != "float64":
+            _check_precision(self, "adrc")
 
 
 # ---------------------------------------------------------------------------
@@ -824,6 +834,7 @@ class ADRC(Block):
         self._ab_sat = 0
         self._ab_wait = 0.0
         self._pending = None
+        self._plc_state = None  # the precision="float32" cycle starts afresh
         if self._warn:
             self.error_id = ErrorCode.WARN_DISCRETISATION
 
@@ -940,6 +951,10 @@ class ADRC(Block):
                 finite = False
             if finite:
                 return self._fast_cycle(float(sp), float(y))
+        if self._config.precision == "float32":
+            if self._cycle_time(dt, self._ts) is None:
+                return self.out
+            return _float32_cycle("adrc")(self, sp, y, y_ok, dt)
         v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
         applied = v
         if self._config.u_real_on and self._pending is not None:

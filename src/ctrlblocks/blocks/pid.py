@@ -74,6 +74,8 @@ from .base import (
 )
 from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
+from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, clamp, deadband, scale
 
 __all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig", "pid_step"]
@@ -325,6 +327,11 @@ class PIDConfig(BlockConfig):
     ff_k, ff_t_lead, ff_t_lag : float
         Lead-lag feed-forward ``ff_k (1 + ff_t_lead s)/(1 + ff_t_lag s)`` on the
         ``dv`` input (Bonde et al. 2021 version 4, Tustin); ``ff_k = 0`` = off.
+    precision : str
+        ``"float64"`` (default) or ``"float32"``: compute the cycle as a PLC's
+        REAL does, every intermediate rounded to single precision (the cycle
+        of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
+        the configurations the export covers.
     """
 
     kp: float = 1.0
@@ -357,6 +364,7 @@ class PIDConfig(BlockConfig):
     ff_k: float = 0.0
     ff_t_lead: float = 0.0
     ff_t_lag: float = 1.0
+    precision: str = "float64"
 
     def isa(self) -> tuple[float, float, float]:
         """The ISA parameters ``(K, Ti, Td)`` of this configuration."""
@@ -427,6 +435,8 @@ class PIDConfig(BlockConfig):
                 f"forward-difference derivative (Åström 1987, (2.10)) is unstable for "
                 f"Td/N <= ts/2 (Td={td!r}, N={self.n!r}, ts={ts!r}); use 'backward'",
             )
+        if self.precision != "float64":
+            _check_precision(self, "pid")
 
 
 # ---------------------------------------------------------------------------
@@ -642,6 +652,7 @@ class PID(Block):
         self._db_hold = u0
         self._limits_status = ErrorCode.NO_ERROR
         self._pending = False
+        self._plc_state = None  # the precision="float32" cycle starts afresh
 
     def _sync_subs(self) -> None:
         """Bring the (inactive) filters and ramps up to date after fast-lane cycles.
@@ -747,6 +758,10 @@ class PID(Block):
                 self.error_id = self._limits_status
                 self._lean_ran = True
                 return out
+        if self._config.precision == "float32":
+            if self._cycle_time(dt, self._ts) is None:
+                return self.out
+            return _float32_cycle("pid")(self, sp, pv, ff, pv_ok, dt)
         v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt, pv_ok=pv_ok)
         self.update_state(v)
         return self.out
