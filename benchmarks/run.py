@@ -151,7 +151,7 @@ def bench_adrc_call(repeats: int) -> Row:
         peer(0.5, 1.0, 1.0)
     from ctrlblocks.blocks.adrc import eso_euler
 
-    coef = adrc._eso_coef
+    coef = tuple(adrc.kernel_params())[:11]  # (h, b0, l1..l4, p1, p2, k1, k2, k3) of the ESO
     res = interleaved(
         {"ours": per_call(lambda: adrc(1.0, 0.5), 20000),
          "peer": per_call(lambda: peer(0.5, 1.0, 1.0), 5000),
@@ -371,10 +371,11 @@ def _nlsys_loop(make_ctrl, plant_factory, sig):
     g5 = model.g[:5]
     hsub, nsub = model.h, model.substeps
     g3o = model.outlet_g
+    s = ctrl.kernel_state()
     if is_pid:
-        x0c = [ctrl._i, ctrl._d, ctrl._w_prev, ctrl._e_prev, ctrl.out, 1.0]
+        x0c = [s.i, s.d, s.w_prev, s.e_prev, s.out, 1.0]
     else:
-        x0c = [ctrl._yh, ctrl._x2, ctrl._x3, ctrl._x4, ctrl._u_prev, ctrl._ref, 0.0, 0.0, 0.0]
+        x0c = [s.yh, s.x2, s.x3, s.x4, s.u_prev, s.ref, 0.0, 0.0, 0.0]
     nc = len(x0c)
     x0 = np.array([*x0c, *plant.snapshot()["p"], plant.u])
 
