@@ -76,6 +76,34 @@ def split_pous(source: str) -> list[str]:
     return [c for c in chunks if c.strip()]
 
 
+_INIT = re.compile(r"^(\s+)(\w+) : (REAL|DINT|BOOL) := ([^;]+);", re.M)
+
+
+def strip_initial_values(chunk: str) -> tuple[str, dict[str, str]]:
+    """``chunk`` without the ``:= value`` of its declarations, and those values by name.
+
+    The exported FB of two configurations of a block differs only in these
+    initial values, so the stripped text (the same for every configuration)
+    is parsed once and the values are read here; test_export parses the
+    complete files.
+    """
+    inits = {m.group(2).lower(): m.group(4).strip() for m in _INIT.finditer(chunk)}
+    return _INIT.sub(r"\1\2 : \3;", chunk), inits
+
+
+def literal(typ: str, text: str) -> Any:
+    """The value of an initial-value literal of type ``typ`` (REAL, DINT, BOOL)."""
+    if typ == BOOL and text in ("TRUE", "FALSE"):
+        return text == "TRUE"
+    if typ == DINT and re.fullmatch(r"-?\d+", text):
+        return int(text)
+    if typ == DINT and re.fullmatch(r"16#[0-9A-F]+", text):
+        return int(text[3:], 16)
+    if typ == REAL and re.fullmatch(r"-?\d+\.\d+(E-?\d+)?", text):
+        return _f32(float(text))
+    raise STError(f"initial value {text!r} is not a {typ} literal")
+
+
 @functools.lru_cache(maxsize=256)
 def parse(chunk: str) -> Any:
     """blark's transformed tree of one chunk of ST (cached); STError if blark refuses it."""
@@ -105,6 +133,7 @@ class Pou:
         self.stmts = node.body.statements if node.body is not None else []
         self.interp = interp
         self.body: Callable[[dict[str, Any]], None] | None = None
+        self.inits: dict[str, str] = {}  # name -> initial value literal (strip_initial_values)
 
     def section(self, name: str) -> str:
         return self.vars[name.lower()][0]
@@ -126,7 +155,10 @@ class Instance:
                       if sec == "TemporaryVariableDeclarations"]  # fmt: skip
         for name, (section, typ, init) in pou.vars.items():
             if section != "TemporaryVariableDeclarations":
-                self.frame[name] = pou.interp.initial(typ, init)
+                text = pou.inits.get(name)
+                self.frame[name] = (
+                    literal(typ, text) if text is not None else pou.interp.initial(typ, init)
+                )
 
     def __call__(self, **inputs: Any) -> None:
         pou = self.pou
@@ -264,9 +296,11 @@ class Interpreter:
         for chunk in split_pous(source):
             if not chunk.startswith("FUNCTION"):
                 continue  # the header comment (test_export parses it)
-            for item in parse(chunk).items:
+            stripped, inits = strip_initial_values(chunk)
+            for item in parse(stripped).items:
                 if isinstance(item, tf.Function | tf.FunctionBlock):
                     pou = Pou(item, self)
+                    pou.inits = inits
                     self.pous[pou.name] = pou
 
     def instance(self, name: str) -> Instance:

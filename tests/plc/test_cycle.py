@@ -204,3 +204,33 @@ def test_reset_restarts_the_float32_cycle():
     first = [pid(1.0, 0.0) for _ in range(5)]
     pid.reset()
     assert [pid(1.0, 0.0) for _ in range(5)] == first
+
+
+@pytest.mark.parametrize(
+    "block",
+    [
+        PID(kp=2.0, ti=3.0, td=0.5, n=8.0, b=0.6, c=0.2, ts=0.05, reverse=True,
+            integral_method="forward", derivative_method="tustin"),
+        PID(kp=1.5, ti=0.0, td=1.0, anti_windup="back_calc_model", tt=2.0, u_min=-5.0),
+        ADRC(order=1, b0=0.5, omega_c=2.0, omega_o=9.0, ts=0.02, t_ref=0.5),
+        ADRC(order=3, b0=0.01, omega_c=0.3, omega_o=1.2, anti_windup="freeze", u_max=9.0),
+    ],
+)  # fmt: skip
+def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch):
+    """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
+    kind = "pid" if isinstance(block, PID) else "adrc"
+    seen = []
+    kernel = getattr(pc, f"{kind}_step")
+
+    def spy(*args):
+        seen.append(args[-1])
+        return kernel(*args)
+
+    monkeypatch.setattr(pc, f"{kind}_step", spy)
+    inputs = getattr(pc, f"{kind}_inputs")(block.config)
+    state = getattr(pc, f"{kind}_state")(block.config)
+    process = ({"sp": 1.0, "pv": 0.0, "ff": 0.0, "pv_ok": True, "manual": False,
+                "man_value": 0.0, "rst": False} if kind == "pid"
+               else {"sp": 1.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0})  # fmt: skip
+    getattr(pc, f"{kind}_cycle")(**process, **inputs, **state)
+    assert tuple(seen[0]) == pytest.approx(tuple(block.kernel_params()), rel=1e-15, abs=1e-300)

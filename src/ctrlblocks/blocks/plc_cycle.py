@@ -29,8 +29,8 @@ functions.  :func:`run_float32` runs them with every value a numpy
 replaced by float32 versions, so each intermediate is rounded as a PLC's
 REAL; the blocks' ``precision="float32"`` option runs their cycle that way.
 
-Infinite limits are passed as +-3.4028235e38 (the largest REAL; a PLC
-literal cannot be infinite).
+Infinite limits are passed as +-3.402823E38 (:data:`REAL_MAX`, the end of
+the REAL range the PLC manuals list; a PLC literal cannot be infinite).
 """
 
 from __future__ import annotations
@@ -52,9 +52,9 @@ from .signals import clamp, pt1_coefficient
 
 __all__ = [
     "ADRC_RESULTS",
-    "FLT_MAX",
     "LEADLAG_RESULTS",
     "PID_RESULTS",
+    "REAL_MAX",
     "adrc_cycle",
     "bandwidth_gains",
     "is_real",
@@ -64,8 +64,10 @@ __all__ = [
     "run_float32",
 ]
 
-FLT_MAX = 3.4028234663852886e38
-"""The largest finite IEEE single (REAL) value; stands for an infinite limit."""
+REAL_MAX = 3.4028230607370965e38
+"""3.402823E38 as a REAL (float32): the end of the REAL range that CODESYS and
+TIA Portal document, written for an infinite limit; a larger magnitude counts
+as an overflow (``is_real`` is False)."""
 
 NO_ERROR = int(ErrorCode.NO_ERROR)
 BAD_INPUT = int(ErrorCode.BAD_INPUT)
@@ -78,8 +80,8 @@ NO_MODE = -1
 
 
 def is_real(x: float) -> bool:
-    """True for a finite REAL: NaN fails every comparison, inf exceeds FLT_MAX."""
-    return abs(x) <= FLT_MAX
+    """True for a finite REAL: NaN fails every comparison, inf exceeds REAL_MAX."""
+    return abs(x) <= REAL_MAX
 
 
 # ---------------------------------------------------------------------------
@@ -508,7 +510,7 @@ def _to32(v: Any) -> Any:
     if isinstance(v, bool | np.bool_ | int | np.integer):
         return v
     x = np.float32(v)
-    return np.float32(np.clip(x, -FLT_MAX, FLT_MAX)) if np.isinf(x) else x
+    return np.float32(np.clip(x, -REAL_MAX, REAL_MAX)) if np.isinf(x) else x
 
 
 def run_float32(fn: Callable[..., tuple[Any, ...]], /, **args: Any) -> tuple[Any, ...]:
@@ -524,7 +526,7 @@ def run_float32(fn: Callable[..., tuple[Any, ...]], /, **args: Any) -> tuple[Any
 
 
 def to_real(x: Any) -> Any:
-    """A process value as a REAL: float32, keeping NaN and inf (a value beyond FLT_MAX is inf)."""
+    """A process value as a REAL: float32, keeping NaN and inf (a value beyond REAL_MAX is inf)."""
     if isinstance(x, bool | np.bool_ | int | np.integer):
         return x
     with np.errstate(all="ignore"):
@@ -532,7 +534,7 @@ def to_real(x: Any) -> Any:
 
 
 def limit_real(x: float) -> np.float32:
-    """A configured limit as a REAL: float32, infinite limits as +-FLT_MAX."""
+    """A configured limit as a REAL: float32, infinite limits as +-REAL_MAX."""
     return _to32(x)  # type: ignore[no-any-return]
 
 
@@ -614,7 +616,7 @@ _LIMITS = {"u_min", "u_max", "out_min", "out_max", "lo", "hi"}
 
 
 def real_args(values: dict[str, Any]) -> dict[str, Any]:
-    """Interface values as REALs: limits infinite -> +-FLT_MAX, process values kept (NaN, inf)."""
+    """Interface values as REALs: limits infinite -> +-REAL_MAX, process values kept (NaN, inf)."""
     return {k: limit_real(v) if k in _LIMITS else to_real(v) for k, v in values.items()}
 
 

@@ -16,7 +16,7 @@ module turns that subset into ST:
   ``return`` assigns the outputs and the new state;
 * a conditional expression becomes ``IF`` when it is a whole assigned or
   returned value, else ``SEL``; ``x - x`` style tricks are not used: NaN and
-  inf are caught by ``ABS(x) <= 3.4028235E38`` (``is_real``);
+  inf are caught by ``ABS(x) <= 3.402823E38`` (``is_real``);
 * a string argument (``pt1_coefficient(t, h, "exact")``) is folded at
   translation time: the function is specialised for that constant;
 * Python comments become ``(* ... *)`` comments at the same place.
@@ -77,12 +77,12 @@ def pou_ref(name: str) -> str:
 
 
 def real_literal(x: float) -> str:
-    """A REAL literal: ``1.0``, ``-2.5E-9``; +-inf as +-3.4028235E38 (the largest REAL)."""
+    """A REAL literal: ``1.0``, ``-2.5E-9``; +-inf as +-3.402823E38 (the documented REAL range)."""
     x = float(x)
     if x != x:
         raise TranslationError("a NaN literal has no REAL spelling")
-    if abs(x) >= 3.4028234663852886e38:  # inf or FLT_MAX: the largest REAL
-        return "3.4028235E38" if x > 0 else "-3.4028235E38"
+    if abs(x) >= 3.4028230607370965e38:  # inf or plc_cycle.REAL_MAX
+        return "3.402823E38" if x > 0 else "-3.402823E38"
     s = repr(x)
     if "e" in s or "E" in s:
         m, e = s.lower().split("e")
