@@ -335,24 +335,9 @@ class PlantServer:
     # -- Modbus -----------------------------------------------------------------------------
 
     async def _start_modbus(self) -> None:
-        try:
-            from pymodbus.server import ModbusTcpServer
-            from pymodbus.simulator import DataType, SimData, SimDevice
-        except ImportError as exc:  # pragma: no cover
-            raise ImportError(
-                "the Modbus server needs pymodbus: pip install 'ctrlblocks[runtime]'"
-            ) from exc
-        n = 2 * len(SIGNALS)
-        device = SimDevice(
-            id=0,
-            simdata=[SimData(0, count=n, values=0, datatype=DataType.REGISTERS)],
-            action=self._modbus_action,
+        self.modbus_port, self._modbus = await _serve_registers(
+            self.host, self.modbus_port, 2 * len(SIGNALS), self._modbus_action
         )
-        port = self.modbus_port or _free_port(self.host)
-        self.modbus_port = port
-        server = ModbusTcpServer(device, address=(self.host, port))
-        await server.serve_forever(background=True)
-        self._modbus = server
 
     async def _modbus_action(
         self,
@@ -487,19 +472,9 @@ class PairServer:
         self._opcua = server
 
     async def _start_modbus(self) -> None:
-        from pymodbus.server import ModbusTcpServer
-        from pymodbus.simulator import DataType, SimData, SimDevice
-
-        device = SimDevice(
-            id=0,
-            simdata=[SimData(0, count=4 * self.n + 2, values=0, datatype=DataType.REGISTERS)],
-            action=self._modbus_action,
+        self.modbus_port, self._modbus = await _serve_registers(
+            self.host, self.modbus_port, 4 * self.n + 2, self._modbus_action
         )
-        port = self.modbus_port or _free_port(self.host)
-        self.modbus_port = port
-        server = ModbusTcpServer(device, address=(self.host, port))
-        await server.serve_forever(background=True)
-        self._modbus = server
 
     async def _modbus_action(
         self,
@@ -526,6 +501,29 @@ class PairServer:
             r = 2 * i - start_address
             registers[r], registers[r + 1] = float32_to_registers(self.pv[i])
         return None
+
+
+async def _serve_registers(host: str, port: int | None, count: int, action: Any) -> tuple[int, Any]:
+    """A Modbus TCP server of ``count`` holding registers whose requests go to ``action``.
+
+    Returns the port (a free one for ``port`` 0 or None) and the running server.
+    """
+    try:
+        from pymodbus.server import ModbusTcpServer
+        from pymodbus.simulator import DataType, SimData, SimDevice
+    except ImportError as exc:  # pragma: no cover
+        raise ImportError(
+            "the Modbus server needs pymodbus: pip install 'ctrlblocks[runtime]'"
+        ) from exc
+    device = SimDevice(
+        id=0,
+        simdata=[SimData(0, count=count, values=0, datatype=DataType.REGISTERS)],
+        action=action,
+    )
+    port = port or _free_port(host)
+    server = ModbusTcpServer(device, address=(host, port))
+    await server.serve_forever(background=True)
+    return port, server
 
 
 def _check_port(host: str, port: int) -> None:
