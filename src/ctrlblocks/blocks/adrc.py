@@ -139,6 +139,7 @@ from .base import (
 )
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
+from .precision import unsupported as _unsupported
 from .signals import clamp, pt1_coefficient
 
 __all__ = [
@@ -1181,10 +1182,7 @@ class ADRC(Block):
         input; ``manual_ok`` False also refuses a block in manual (the banks
         run in auto).
         """
-        c = self._config
-        bad = [n for n in ("u_real_on", "anti_backoff") if getattr(c, n)]
-        if c.discretisation != "euler":
-            bad.append("discretisation")
+        bad = _unsupported(self._config, "adrc")  # the options (also the PLC cycle's check)
         if self.awin:
             bad.append("awin")
         if not manual_ok and self.manual:
