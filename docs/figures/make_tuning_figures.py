@@ -12,7 +12,11 @@ Writes
   Gaussian PV noise of standard deviation 0.002 bar (0.5 % of the PV change),
   seed 4;
 * docs/figures/tuning_identify.png: the record against the least-squares FOPDT
-  and SOPDT models.
+  and SOPDT models;
+* docs/figures/tuning_deadtime_adrc.png and tuning_deadtime_pid.png: the worked
+  dead-time example of docs/tuning.md (k = 2, T = 30 s, L = 5 s), the default
+  ADRC n = 2 and the AMIGO PID with their margins, as ``tune ... --plot`` draws
+  them; the numbers of the example are printed.
 """
 
 from __future__ import annotations
@@ -89,7 +93,48 @@ def figure(t, u, y, path: Path) -> None:
     plt.close(fig)
 
 
+def deadtime_example() -> None:
+    """The worked example of docs/tuning.md: margins and plots on k = 2, T = 30 s, L = 5 s."""
+    import math
+
+    from ctrlblocks import ADRC, PID
+    from ctrlblocks.tuning import FOPDT, adrc_tuning, amigo, simc
+    from ctrlblocks.tuning.margins import Loop
+    from ctrlblocks.tuning.plot import plot_loop
+
+    model = FOPDT(2.0, 30.0, 5.0)
+    old = Loop(model, ADRC(order=2, b0=0.008, omega_c=0.0952, omega_o=0.476, ts=0.2))
+    print("old default ADRC n=2:", old.margins().summary())
+    for n in (1, 2, 3):
+        r = adrc_tuning(2.0, 30.0, 5.0, n)
+        print(f"ADRC n={n}: omega_c {r.omega_c:.4g} omega_o {r.omega_o:.4g} ts {r.ts:g} "
+              f"settling {r.settling_time_loop:.4g} s; {r.margins.summary()}")  # fmt: skip
+        if n == 2:
+            lp = Loop(model, ADRC(**r.config()))
+            plot_loop(
+                lp,
+                r.margins,
+                ROOT / "docs/figures/tuning_deadtime_adrc.png",
+                title=f"Default ADRC n = 2 on 2 e^(-5s)/(30s + 1): omega_c = "
+                f"{r.omega_c:.4g} rad/s, omega_o = {r.omega_o:.4g} rad/s, ts = {r.ts:g} s",
+            )
+    for tun in (amigo(2.0, 30.0, 5.0), simc(2.0, 30.0, 5.0)):
+        lp = Loop(model, PID(**tun.as_kwargs(), ts=0.5, u_min=-math.inf, u_max=math.inf))
+        mg = lp.margins()
+        print(f"PID {tun.rule}: kp {tun.kp:.4g} ti {tun.ti:.4g} td {tun.td:.4g}; settling "
+              f"{lp.settling_time():.4g} s; {mg.summary()}")  # fmt: skip
+        if tun.rule == "amigo":
+            plot_loop(
+                lp,
+                mg,
+                ROOT / "docs/figures/tuning_deadtime_pid.png",
+                title=f"AMIGO PID on 2 e^(-5s)/(30s + 1): kp = {tun.kp:.4g}, "
+                f"ti = {tun.ti:.4g} s, td = {tun.td:.4g} s, b = 0, ts = 0.5 s",
+            )
+
+
 def main() -> None:
+    deadtime_example()
     t, u, y = simulate()
     for p in (ROOT / "docs/examples/bump_k2.csv", ROOT / "tests/tuning/data/bump_k2.csv"):
         write_csv(p, t, u, y)

@@ -17,6 +17,14 @@ import click
 # command name -> ("module:attribute", the first sentence of its docstring);
 # each module owns its command.
 _COMMANDS: dict[str, tuple[str, str]] = {
+    "compare": (
+        "ctrlblocks.sim.compare:compare_command",
+        "Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).",
+    ),
+    "export": (
+        "ctrlblocks.plc.cli:export_command",
+        "Export a tuned PID, ADRC or LeadLag as PLC code (IEC 61131-3 ST, TIA SCL, PLCopen XML).",
+    ),
     "history": (
         "ctrlblocks.runtime.cli:history",
         "Export the historian DATABASE (SQLite file) to OUT (.csv or .parquet).",

@@ -16,6 +16,7 @@ from click.testing import CliRunner
 from ctrlblocks.cli import main
 from ctrlblocks.runtime import SQLiteHistorian
 from ctrlblocks.runtime.cli import serve as runtime_serve
+from ctrlblocks.runtime.historian import HistoryError
 
 from .conftest import DATA
 
@@ -97,7 +98,7 @@ def test_plant_server_and_serve_run_a_loop_and_stop_on_sigterm(tmp_path):
                 try:
                     with SQLiteHistorian(db).reading() as h:
                         rows = [r for r in h.samples() if r["pv_ok"]]
-                except sqlite3.OperationalError:
+                except (sqlite3.OperationalError, HistoryError):
                     # the runtime creates the file before its tables: not ready yet
                     continue
                 if len(rows) >= 20:

@@ -24,6 +24,10 @@ pytestmark = pytest.mark.loopback
 
 SIGNAL_BINDINGS = ("sp", "mode", "manual_value", "u_min", "u_max")
 
+GENEROUS = "timeout = 5.0\n"
+"""The trace tests' I/O timeout: a loaded machine must not turn a slow answer into a fault
+(the fault tests set their own short timeouts)."""
+
 
 def runtime_config(sc, conn_toml: str, addr, *, tmp_path, extra: str = "", bind=SIGNAL_BINDINGS):
     """A runtime config running the scenario's first controller against the plant server."""
@@ -68,6 +72,8 @@ def history(tmp_path, loop="loop"):
 
 async def run_cycles(rt: Runtime, server: PlantServer, n: int) -> None:
     await rt.start()
+    # the lock-step plant steps on MV writes: cycles run unconnected would shift the trace
+    assert all(c.connected for c in rt.connections.values()), "not connected at the first cycle"
     await wait_for(lambda: server.process.k >= n, timeout=30.0)
     await rt.stop()
 
@@ -90,7 +96,7 @@ def test_opcua_loop_equals_the_simulator_exactly(tmp_path, opcua_plant):
     server = fresh(*opcua_plant, PlantProcess(sc))
 
     async def main():
-        conn = f'[connections.plant]\nprotocol = "opcua"\nurl = "{server.opcua_url}"\n'
+        conn = f'[connections.plant]\nprotocol = "opcua"\nurl = "{server.opcua_url}"\n' + GENEROUS
         rt = Runtime(runtime_config(sc, conn, opcua_addr, tmp_path=tmp_path))
         await run_cycles(rt, server, n)
 
@@ -118,7 +124,7 @@ def test_modbus_loop_equals_the_simulator_within_float32(tmp_path):
         await server.start()
         conn = (
             '[connections.plant]\nprotocol = "modbus"\nhost = "127.0.0.1"\n'
-            f'port = {server.modbus_port}\nword_order = "little"\n'
+            f'port = {server.modbus_port}\nword_order = "little"\n' + GENEROUS
         )
         rt = Runtime(runtime_config(sc, conn, modbus_addr, tmp_path=tmp_path, bind=("sp",)))
         try:
@@ -148,7 +154,7 @@ def test_opcua_float_variables_are_written_as_float32(tmp_path):
             PlantProcess(sc), opcua_port=0, modbus_port=None, float_signals=("mv", "pv")
         )
         await server.start()
-        conn = f'[connections.plant]\nprotocol = "opcua"\nurl = "{server.opcua_url}"\n'
+        conn = f'[connections.plant]\nprotocol = "opcua"\nurl = "{server.opcua_url}"\n' + GENEROUS
         rt = Runtime(runtime_config(sc, conn, opcua_addr, tmp_path=tmp_path))
         try:
             await run_cycles(rt, server, n)

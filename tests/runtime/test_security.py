@@ -158,7 +158,13 @@ def test_secured_server_accepts_only_trusted_encrypted_authenticated_clients(pki
                 )
             )
             fake_server = await attempt(
-                client_config(pki, url, server_certificate=str(pki / "intruder.der"), timeout=0.5)
+                client_config(
+                    pki,
+                    url,
+                    server_certificate=str(pki / "intruder.der"),
+                    timeout=0.5,
+                    connect_timeout=2.0,
+                )
             )
             raw = await plaintext_session(url)
         finally:
@@ -174,3 +180,5 @@ def test_secured_server_accepts_only_trusted_encrypted_authenticated_clients(pki
     assert "BadUserAccessDenied" in raw  # and refuses a session forced over one
     # a client given another server certificate cannot talk to this server
     assert fake_server.startswith("OPC UA connect")
+    # and the error says why (it was a bare TimeoutError)
+    assert "is not the pinned server_certificate" in fake_server and "intruder.der" in fake_server

@@ -19,6 +19,7 @@ from ctrlblocks.runtime import (
     FakeClock,
     MemoryAdapter,
     MemoryBus,
+    PlantServer,
     Runtime,
     RuntimeConfigError,
     parse_config,
@@ -443,6 +444,7 @@ def test_cascade_over_opcua_equals_the_simulator_exactly(tmp_path, opcua_plant):
     text = f"""[connections.plant]
 protocol = "opcua"
 url = "{server.opcua_url}"
+timeout = 5.0
 {loop}warn_limit = {50 * sc.ts}
 alarm_limit = {100 * sc.ts}
 [historian]
@@ -453,6 +455,7 @@ flush_interval = 0.2
     async def main():
         rt = Runtime(parse_config(text))
         await rt.start()
+        assert rt.connections["plant"].connected  # else the lock-step trace would shift
         await wait_for(lambda: server.process.k >= n, timeout=30.0)
         await rt.stop()
 
@@ -465,3 +468,61 @@ flush_interval = 0.2
     np.testing.assert_array_equal(mv, ref["u"][:n])
     np.testing.assert_array_equal(pv, ref["ym"][:n])
     assert mv.max() == 1.2  # the secondary saturates: the handshake is exercised
+
+
+# -- end to end over Modbus ----------------------------------------------------------------
+
+
+@pytest.mark.loopback
+@pytest.mark.parametrize(
+    ("text", "n"),
+    [(cascade(ts=0.02, duration=3.0), 150), (OVERRIDE, 150)],
+    ids=["cascade", "override"],
+)
+def test_structures_over_modbus_equal_the_simulator_within_float32(tmp_path, text, n):
+    """The plant server and the runtime over Modbus TCP for a cascade and an override."""
+    from .test_loopback import history, modbus_addr
+
+    sc = parse_scenario(text)
+
+    async def main():
+        server = PlantServer(PlantProcess(sc), opcua_port=None, modbus_port=0)
+        await server.start()
+        loop = loop_tables(
+            sc,
+            pv=modbus_addr("pv"),
+            pv2=modbus_addr("pv2"),
+            conn="plant",
+            sp=f'"plant:{modbus_addr("sp")}"',
+        ).replace('mv = "plant:mv"', f'mv = "plant:{modbus_addr("mv")}"')
+        cfg = parse_config(f"""[connections.plant]
+protocol = "modbus"
+host = "127.0.0.1"
+port = {server.modbus_port}
+timeout = 5.0
+{loop}warn_limit = {50 * sc.ts}
+alarm_limit = {100 * sc.ts}
+[historian]
+path = "{tmp_path / "history.sqlite"}"
+flush_interval = 0.2
+""")
+        rt = Runtime(cfg)
+        try:
+            await rt.start()
+            assert rt.connections["plant"].connected
+            await wait_for(lambda: server.process.k >= n, timeout=60.0)
+            await rt.stop()
+        finally:
+            await server.stop()
+
+    asyncio.run(asyncio.wait_for(main(), 120))
+    rows = history(tmp_path)[:n]
+    assert len(rows) == n and not any(r["overrun"] for r in rows)
+    assert all(r["pv_ok"] and r["write_ok"] for r in rows)
+    ref = simulate(sc, sc.controllers[0].name).signals
+    mv = np.array([r["mv"] for r in rows])
+    pv = np.array([r["pv"] for r in rows])
+    # FLOAT32 on the wire: values rounded to 24 bits, the loop stays on the simulator's trace
+    np.testing.assert_allclose(pv, ref["ym"][:n], rtol=0, atol=1e-4)
+    np.testing.assert_allclose(mv, ref["u"][:n], rtol=0, atol=1e-3)
+    assert np.ptp(mv) > 0.1  # the loop did move

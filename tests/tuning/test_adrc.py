@@ -59,14 +59,17 @@ def test_factor_and_ratio_outside_the_seeds_ranges_warn():
 
 
 def test_full_tuning_for_10b_third_order_uses_table1_b0_min():
-    r = adrc_tuning(0.73, 8.3, 3.0, 3, settling_time=15.0, ts=0.1)
+    # a settling time of 15 s is unstable on the FOPDT (refused, see test_adrc_safe.py): forced
+    r = adrc_tuning(0.73, 8.3, 3.0, 3, settling_time=15.0, ts=0.1, force=True)
     assert (round(r.b0, 4), round(r.b0_min, 4), round(r.b0_max, 4)) == (0.0236, 0.0236, 0.1022)
     assert r.omega_c == pytest.approx(5.0 / 15.0)
     assert r.omega_o == pytest.approx(5.0 * 5.0 / 15.0)
 
 
-def test_default_settling_time_is_one_and_a_half_t_plus_t0():
-    assert adrc_tuning(0.56, 11.0, 3.3, 2, ts=0.1).settling_time == pytest.approx(21.45)
+def test_default_settling_time_is_the_rules_tau_set_of_the_searched_bandwidth():
+    r = adrc_tuning(0.56, 11.0, 3.3, 2, ts=0.1)
+    assert r.settling_time == pytest.approx(SETTLING_FACTOR[2] / r.omega_c)
+    assert r.ms_target == 1.6 and 0.98 * 1.6 <= r.margins.ms <= 1.6
 
 
 def test_first_order_on_a_dead_time_process_warns():
@@ -115,9 +118,15 @@ def _closed_loop(cfg, k, taus, t_end=120.0):
     ids=["10a", "10b"],
 )
 def test_default_second_order_tuning_settles_the_seeds_processes_near_the_design(fopdt, process):
+    """The safe default (Ms <= 1.6 on the FOPDT, dead time exact) on the true lag processes.
+
+    The FOPDT's dead time is harsher than the lags it stands for, so the true loop is
+    slower than the rule's ideal settling time: about 1.3 times the loop on the model.
+    """
     tun = adrc_tuning(*fopdt, 2, ts=0.1)
-    settle, overshoot = _closed_loop(adrc_config(*fopdt, 2, ts=0.1, u_min=0.0, u_max=5.0), *process)
-    assert settle < 1.25 * tun.settling_time_model
+    cfg = adrc_config(*fopdt, 2, ts=0.1, u_min=0.0, u_max=5.0)
+    settle, overshoot = _closed_loop(cfg, *process, t_end=1500.0)
+    assert tun.settling_time_model < settle < 1.5 * tun.settling_time_loop
     assert overshoot < 0.02
 
 

@@ -97,7 +97,7 @@ def test_identify_missing_file_exits_non_zero(tmp_path):
 
 def test_tune_adrc_table1_k2_json():
     r = run("tune", "adrc", "--gain", 0.73, "--time-constant", 8.3, "--dead-time", 3, "--order", 3,
-            "--settling-time", 15, "--ts", 0.1, "--json")  # fmt: skip
+            "--settling-time", 15, "--ts", 0.1, "--force", "--json")  # fmt: skip
     assert r.exit_code == 0, r.output
     d = json.loads(r.output)
     assert (round(d["b0_min"], 4), round(d["b0_max"], 4), d["b0"]) == (0.0236, 0.1022, d["b0_min"])
@@ -177,7 +177,7 @@ def test_tune_adrc_noise_options_lower_omega_o():
     base = ["tune", "adrc", "--gain", 0.73, "--time-constant", 8.3, "--dead-time", 3, "--order", 2,
             "--ts", 0.1, "--json"]  # fmt: skip
     free = json.loads(run(*base).output)
-    limited = json.loads(run(*base, "--noise-std", 0.002, "--u-noise-max", 0.03).output)
+    limited = json.loads(run(*base, "--noise-std", 0.002, "--u-noise-max", 0.0006).output)
     assert limited["omega_o"] < free["omega_o"]
     assert limited["omega_c"] == free["omega_c"]
     r = run(*base, "--noise-std", 0.002)

@@ -71,7 +71,7 @@ def test_rule_equals_hand_evaluated_formula(name):
     call, expected = CASES[name]
     r = call()
     assert (r.kp, r.ti, r.td) == pytest.approx(expected, rel=1e-12)
-    assert r.form == "ISA"
+    assert r.form == "isa"  # the value PID(form=...) takes
 
 
 def test_zn_open_and_closed_agree_for_the_pure_integrator_with_delay_limit():

@@ -1,5 +1,6 @@
 """The function blocks, as a PLC library would list them."""
 
+from . import plc_cycle  # noqa: F401  (registers the precision="float32" cycles)
 from .adrc import ADRC
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
 from .jumprate import JumpAndRate

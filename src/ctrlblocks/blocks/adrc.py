@@ -119,7 +119,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -137,11 +137,15 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import clamp, pt1_coefficient
 
 __all__ = [
     "ADRC",
     "ADRCConfig",
+    "ADRCKernelParams",
+    "ADRCKernelState",
     "adrc_gains",
     "adrc_step",
     "adrc_switches",
@@ -402,7 +406,6 @@ def anti_backoff_states(
     return yh, x2, x3, x4
 
 
-_clamp = clamp  # the name ctrlblocks.fast.kernels registers for compiled code
 
 
 def adrc_step(
@@ -518,6 +521,11 @@ class ADRCConfig(BlockConfig):
     tau_wait : float
         Time [s] u is frozen after Y leaves the saturation; ``0`` = the
         paper's ``3.5/omega_o`` (section 4.3 advises 3..4 / omega_o).
+    precision : str
+        ``"float64"`` (default) or ``"float32"``: compute the cycle as a PLC's
+        REAL does, every intermediate rounded to single precision (the cycle
+        of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
+        the configurations the export covers.
     """
 
     order: int = 2
@@ -537,6 +545,7 @@ class ADRCConfig(BlockConfig):
     y_sat: float = math.inf
     y_sat_lo: float = -math.inf
     tau_wait: float = 0.0
+    precision: str = "float64"
 
     def validate(self) -> None:
         if isinstance(self.order, bool) or self.order not in (1, 2, 3):
@@ -559,6 +568,8 @@ class ADRCConfig(BlockConfig):
         require_bool("anti_backoff", self.anti_backoff)
         require_limits("y_sat_lo", self.y_sat_lo, "y_sat", self.y_sat)
         require_nonnegative("tau_wait", self.tau_wait, ErrorCode.BAD_TIME_CONSTANT)
+        if self.precision != "float64":
+            _check_precision(self, "adrc")
 
 
 # ---------------------------------------------------------------------------
@@ -824,6 +835,7 @@ class ADRC(Block):
         self._ab_sat = 0
         self._ab_wait = 0.0
         self._pending = None
+        self._plc_state = None  # the precision="float32" cycle starts afresh
         if self._warn:
             self.error_id = ErrorCode.WARN_DISCRETISATION
 
@@ -940,6 +952,10 @@ class ADRC(Block):
                 finite = False
             if finite:
                 return self._fast_cycle(float(sp), float(y))
+        if self._config.precision == "float32":
+            if self._cycle_time(dt, self._ts) is None:
+                return self.out
+            return _float32_cycle("adrc")(self, sp, y, y_ok, dt)
         v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
         applied = v
         if self._config.u_real_on and self._pending is not None:
@@ -1137,3 +1153,95 @@ class ADRC(Block):
         if not self.manual:
             self.u_man = a  # In/Out as in the PID: AUTO -> MAN holds the output
         self._pending = None
+
+    # -- the public seam of the compiled paths (fast/, plc/) ---------------------------
+
+    def fast_path_blockers(self, *, manual_ok: bool = True) -> list[str]:
+        """Why :func:`adrc_step` cannot run this ADRC as it is now (empty: it can).
+
+        The one decision for every compiled path: ``discretisation="exact"``,
+        ``u_real_on`` and ``anti_backoff`` are not covered, nor the ``awin``
+        input; ``manual_ok`` False also refuses a block in manual (the banks
+        run in auto).
+        """
+        c = self._config
+        bad = [n for n in ("u_real_on", "anti_backoff") if getattr(c, n)]
+        if c.discretisation != "euler":
+            bad.append("discretisation")
+        if self.awin:
+            bad.append("awin")
+        if not manual_ok and self.manual:
+            bad.append("manual")
+        return bad
+
+    def fast_path_supported(self, *, manual_ok: bool = True) -> bool:
+        """True when :func:`adrc_step` runs this ADRC exactly (:meth:`fast_path_blockers`)."""
+        return not self.fast_path_blockers(manual_ok=manual_ok)
+
+    def kernel_params(self) -> ADRCKernelParams:
+        """The parameters of :func:`adrc_step` at the configured sample time ``ts``."""
+        self._coefficients(float(self._config.ts))
+        return ADRCKernelParams(*self._kernel_params())
+
+    def kernel_state(self) -> ADRCKernelState:
+        """The state :func:`adrc_step` carries from one sample to the next."""
+        return ADRCKernelState(
+            self._yh,
+            self._x2,
+            self._x3,
+            self._x4,
+            self._u_prev,
+            self._ref,
+            self._started,
+            self._track,
+            self._sat,
+        )
+
+    def load_kernel_state(self, state: ADRCKernelState) -> None:
+        """Put back a state after :func:`adrc_step` cycles run outside the block."""
+        self._pending = None
+        self._yh, self._x2, self._x3, self._x4 = (float(v) for v in state[:4])
+        self._u_prev, self._ref = float(state.u_prev), float(state.ref)
+        self._started, self._track = bool(state.started), bool(state.track)
+        self._sat = int(state.sat)
+
+
+class ADRCKernelParams(NamedTuple):
+    """The parameter tuple of :func:`adrc_step` (:meth:`ADRC.kernel_params`), by name."""
+
+    ts: float  # sample time h [s]
+    b0: float
+    l1: float  # observer gains (adrc_gains, Nowak et al. 2018, section 3.3)
+    l2: float
+    l3: float
+    l4: float
+    p1: float  # order switches of the ESO
+    p2: float
+    k1: float
+    k2: float
+    k3: float
+    kp: float  # control law gains
+    kd1: float
+    kd2: float
+    s_yh: float  # sensitivities of the states to u (x4 solve, (11))
+    s_x2: float
+    s_x3: float
+    s_u: float
+    lo: float  # output limits
+    hi: float
+    rule: float  # anti-windup rule
+    a_ref: float  # PT1 coefficient of the reference filter
+
+
+class ADRCKernelState(NamedTuple):
+    """What :func:`adrc_step` carries from sample to sample (:meth:`ADRC.kernel_state`)."""
+
+    yh: float  # the ESO's estimate of y
+    x2: float
+    x3: float
+    x4: float  # the total disturbance estimate
+    u_prev: float  # the u applied last
+    ref: float  # the filtered reference
+    started: bool
+    track: bool  # re-solve x4 at the next cycle (bumpless)
+    sat: int  # the limit the output is at (-1, 0, 1)

@@ -83,6 +83,8 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import clamp
 
 __all__ = ["LeadLag", "LeadLagConfig", "leadlag_coefficients", "leadlag_step"]
@@ -159,6 +161,11 @@ class LeadLagConfig(BlockConfig):
         difference).
     out_min, out_max : float
         Output limits [output units]; infinite means no limit.
+    precision : str
+        ``"float64"`` (default) or ``"float32"``: compute the cycle as a PLC's
+        REAL does, every intermediate rounded to single precision (the cycle
+        of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
+        the configurations the export covers.
     """
 
     k: float = 1.0
@@ -168,6 +175,7 @@ class LeadLagConfig(BlockConfig):
     method: str = "tustin"
     out_min: float = -math.inf
     out_max: float = math.inf
+    precision: str = "float64"
 
     def validate(self) -> None:
         require_finite("k", self.k)
@@ -183,6 +191,8 @@ class LeadLagConfig(BlockConfig):
                 "Tustin with t_lag = 0 puts the pole at z = -1 (undamped ringing); "
                 'use method="euler" or t_lag > 0',
             )
+        if self.precision != "float64":
+            _check_precision(self, "leadlag")
 
 
 class LeadLag(Block):
@@ -232,6 +242,7 @@ class LeadLag(Block):
         self.out = 0.0
         self.enabled = True
         self._x_prev = 0.0
+        self._plc_state = None  # the precision="float32" cycle starts afresh
 
     def preset(self, x: float) -> None:
         """Start at the steady state of input ``x``: output ``K x`` (limited), memory ``x``.
@@ -257,6 +268,8 @@ class LeadLag(Block):
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
+        if self._config.precision == "float32":
+            return _float32_cycle("leadlag")(self, x, enable, dt)
         if not is_finite(x):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out

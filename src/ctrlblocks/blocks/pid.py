@@ -56,7 +56,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 from .base import (
     Block,
@@ -74,9 +74,19 @@ from .base import (
 )
 from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
+from .precision import check_precision as _check_precision
+from .precision import float32_cycle as _float32_cycle
 from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, clamp, deadband, scale
 
-__all__ = ["PID", "AntiWindup", "Bumpless", "PIDConfig", "pid_step"]
+__all__ = [
+    "PID",
+    "AntiWindup",
+    "Bumpless",
+    "PIDConfig",
+    "PIDKernelParams",
+    "PIDKernelState",
+    "pid_step",
+]
 
 log = logging.getLogger(__name__)
 
@@ -325,6 +335,11 @@ class PIDConfig(BlockConfig):
     ff_k, ff_t_lead, ff_t_lag : float
         Lead-lag feed-forward ``ff_k (1 + ff_t_lead s)/(1 + ff_t_lag s)`` on the
         ``dv`` input (Bonde et al. 2021 version 4, Tustin); ``ff_k = 0`` = off.
+    precision : str
+        ``"float64"`` (default) or ``"float32"``: compute the cycle as a PLC's
+        REAL does, every intermediate rounded to single precision (the cycle
+        of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
+        the configurations the export covers.
     """
 
     kp: float = 1.0
@@ -357,6 +372,7 @@ class PIDConfig(BlockConfig):
     ff_k: float = 0.0
     ff_t_lead: float = 0.0
     ff_t_lag: float = 1.0
+    precision: str = "float64"
 
     def isa(self) -> tuple[float, float, float]:
         """The ISA parameters ``(K, Ti, Td)`` of this configuration."""
@@ -427,6 +443,8 @@ class PIDConfig(BlockConfig):
                 f"forward-difference derivative (Åström 1987, (2.10)) is unstable for "
                 f"Td/N <= ts/2 (Td={td!r}, N={self.n!r}, ts={ts!r}); use 'backward'",
             )
+        if self.precision != "float64":
+            _check_precision(self, "pid")
 
 
 # ---------------------------------------------------------------------------
@@ -642,6 +660,7 @@ class PID(Block):
         self._db_hold = u0
         self._limits_status = ErrorCode.NO_ERROR
         self._pending = False
+        self._plc_state = None  # the precision="float32" cycle starts afresh
 
     def _sync_subs(self) -> None:
         """Bring the (inactive) filters and ramps up to date after fast-lane cycles.
@@ -747,6 +766,10 @@ class PID(Block):
                 self.error_id = self._limits_status
                 self._lean_ran = True
                 return out
+        if self._config.precision == "float32":
+            if self._cycle_time(dt, self._ts) is None:
+                return self.out
+            return _float32_cycle("pid")(self, sp, pv, ff, pv_ok, dt)
         v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt, pv_ok=pv_ok)
         self.update_state(v)
         return self.out
@@ -1049,3 +1072,108 @@ class PID(Block):
             if det.steady:
                 self.deadband_active = True
                 self._db_hold = ma.out
+
+    # -- the public seam of the compiled paths (fast/, plc/) ---------------------------
+
+    def fast_path_blockers(self, *, manual_ok: bool = True) -> list[str]:
+        """Why :func:`pid_step` cannot run this PID as it is now (empty: it can).
+
+        The one decision for every compiled path: configuration options the
+        kernel does not cover (velocity algorithm, PV scaling, SP/PV filters,
+        SP or output ramps, the lead-lag feed-forward, the adaptive dead band,
+        bumpless methods other than ``"integrator"``, anti-windup
+        ``back_calc_real``), inputs it does not read (``track``, ``hold``,
+        ``reset_active``, ``awin``), and a re-initialisation in progress.
+        ``manual_ok`` False also refuses a block that last ran in manual (the
+        banks start in auto).
+        """
+        c = self._config
+        bad = []
+        if c.algorithm != "positional":
+            bad.append("algorithm")
+        if c.pv_range is not None:
+            bad.append("pv_range")
+        for name in ("sp_filter", "pv_filter", "sp_rate", "out_rate", "ff_k", "deadband"):
+            if getattr(c, name) != 0.0:
+                bad.append(name)
+        if c.bumpless != Bumpless.INTEGRATOR:
+            bad.append("bumpless")
+        if c.anti_windup not in (AntiWindup.CLAMPING, AntiWindup.BACK_CALC_MODEL):
+            bad.append("anti_windup")
+        bad += [n for n in ("track", "hold", "reset_active", "awin") if getattr(self, n)]
+        if self._reinit and not self._cold:
+            bad.append("re-initialising after a change (run one cycle first)")
+        if not manual_ok and self._mode_prev not in (-1, Mode.AUTO):
+            bad.append("last cycle not in auto")
+        return bad
+
+    def fast_path_supported(self, *, manual_ok: bool = True) -> bool:
+        """True when :func:`pid_step` runs this PID exactly (:meth:`fast_path_blockers`)."""
+        return not self.fast_path_blockers(manual_ok=manual_ok)
+
+    def kernel_params(self) -> PIDKernelParams:
+        """The parameters of :func:`pid_step` at the configured sample time ``ts``."""
+        self._set_h(float(self._config.ts))
+        return PIDKernelParams(*self._prm)
+
+    def kernel_state(self) -> PIDKernelState:
+        """The state :func:`pid_step` carries from one sample to the next."""
+        return PIDKernelState(
+            self._i,
+            self._d,
+            self._w_prev,
+            self._e_prev,
+            self.out,
+            self._cold,
+            self._reinit,
+            self._mode_prev not in (-1, Mode.AUTO),
+        )
+
+    def load_kernel_state(self, state: PIDKernelState) -> None:
+        """Put back a state after :func:`pid_step` cycles run outside the block.
+
+        The block continues as if it had run those cycles itself (in auto, or
+        in manual when ``state.manual``).
+        """
+        self._sync_subs()
+        self._pending = False
+        self._i, self._d = float(state.i), float(state.d)
+        self._w_prev, self._e_prev = float(state.w_prev), float(state.e_prev)
+        self.out = float(state.out)
+        self._cold, self._reinit = bool(state.cold), bool(state.reinit)
+        self._reinit_d = self._reinit
+        if self._cold:
+            self._mode_prev = -1
+        else:
+            self._mode_prev = Mode.MANUAL if state.manual else Mode.AUTO
+
+
+class PIDKernelParams(NamedTuple):
+    """The parameter tuple of :func:`pid_step` (:meth:`PID.kernel_params`), by name."""
+
+    k: float  # gain K
+    sgn: float  # action sign (+1 direct, -1 reverse)
+    b: float  # setpoint weight of P, Åström 1987 (2.2)
+    c: float  # setpoint weight of D
+    ad: float  # derivative coefficient a of Åström 1987 (2.13)
+    bd: float  # derivative coefficient bd of (2.13)
+    ki_h: float  # K h / Ti
+    alpha: float  # weight of e[k-1] in the integral increment
+    beta: float  # weight of e[k]
+    lo: float  # output limits
+    hi: float
+    aw: float  # anti-windup: 0 clamping, 1 back-calculation
+    g: float  # tracking gain h / (Tt + h)
+
+
+class PIDKernelState(NamedTuple):
+    """What :func:`pid_step` carries from sample to sample (:meth:`PID.kernel_state`)."""
+
+    i: float  # the integrator
+    d: float  # the derivative term D[k-1]
+    w_prev: float  # w[k-1] = c r - y
+    e_prev: float  # e[k-1]
+    out: float  # the last output
+    cold: bool  # no history yet: the next cycle starts it
+    reinit: bool  # re-initialising after a change or a bad input
+    manual: bool  # the last cycle ran in a non-auto mode

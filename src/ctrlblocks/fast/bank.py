@@ -16,9 +16,10 @@ single loop is limited by the latency of its own chain of dependent
 operations).  The ADRC bank runs chunks of loops that stay in the L1 cache,
 time outside and loops inside.
 
-State per loop: the PID's ``(i, d, w_prev, e_prev, out)`` and the plant's three
-states: 64 bytes (:attr:`PIDBank.state_bytes`); the parameters add 13 PID and 15
-plant floats per loop (:attr:`PIDBank.param_bytes`).
+State per loop: the PID's ``(i, d, w_prev, e_prev, out, cold)`` and the plant's
+``x`` and ``y``: 80 bytes (10 floats, :attr:`PIDBank.state_bytes`); the
+parameters add 13 PID and 15 plant floats per loop, 224 bytes
+(:attr:`PIDBank.param_bytes`).
 
 Example
 -------
@@ -219,13 +220,13 @@ class PIDBank:
 
     def __init__(self, pids: Sequence[Any], plants: Sequence[Any]) -> None:
         ts = _check_ts(pids, plants)
-        prm = np.array([pid_params(p) for p in pids], dtype=float)
+        # bank loops start in auto (a block that ran in manual: run one auto cycle first)
+        prm = np.array([pid_params(p, manual_ok=False) for p in pids], dtype=float)
         pp, x = _plant_rows(plants)
         st = np.zeros((len(pids), 6))
         for j, p in enumerate(pids):
-            if p._mode_prev not in (-1, 0) or (p._reinit and not p._cold):
-                raise UnsupportedConfig("bank loops start in auto (run one cycle first)")
-            st[j] = (p._i, p._d, p._w_prev, p._e_prev, p.out, float(p._cold))
+            s = p.kernel_state()
+            st[j] = (s.i, s.d, s.w_prev, s.e_prev, s.out, float(s.cold))
         self._init(prm, pp, st, x, ts)
 
     def _init(self, prm: np.ndarray, pp: np.ndarray, st: np.ndarray, x: np.ndarray, ts: float):
@@ -410,15 +411,10 @@ class ADRCBank:
 
     def __init__(self, adrcs: Sequence[Any], plants: Sequence[Any]) -> None:
         self.ts = _check_ts(adrcs, plants)
-        self.prm = np.array([adrc_params(a) for a in adrcs], dtype=float)
+        # bank loops run in auto without awin
+        self.prm = np.array([adrc_params(a, manual_ok=False) for a in adrcs], dtype=float)
         self.pp, self.x = _plant_rows(plants)
-        self.st = np.array(
-            [(a._yh, a._x2, a._x3, a._x4, a._u_prev, a._ref, float(a._started),
-              float(a._track), float(a._sat)) for a in adrcs]
-        )  # fmt: skip
-        for a in adrcs:
-            if a.manual or a.awin:
-                raise UnsupportedConfig("bank loops run in auto without awin")
+        self.st = np.array([[float(v) for v in a.kernel_state()] for a in adrcs])
         self.n = len(adrcs)
         self.compiled = HAVE_NUMBA
 

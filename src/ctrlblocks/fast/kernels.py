@@ -63,7 +63,6 @@ for _f in (
     _adrc.control_law,
     _adrc.x4_update_allowed,
     _adrc.solve_x4,
-    _adrc._clamp,
     _tt.threetank_rk4,
     _pid.pid_step,
     _adrc.adrc_step,
@@ -79,37 +78,29 @@ class UnsupportedConfig(ValueError):
 # PID
 # ---------------------------------------------------------------------------
 
-PID_PARAMS = ("k", "sgn", "b", "c", "ad", "bd", "ki_h", "alpha", "beta", "lo", "hi", "aw", "g")
+PID_PARAMS = _pid.PIDKernelParams._fields
 """Names of the entries of the PID parameter tuple (all floats)."""
 
 
-def pid_params(pid: Any) -> tuple[float, ...]:
+def pid_params(pid: Any, *, manual_ok: bool = True) -> tuple[float, ...]:
     """The parameter tuple of :func:`pid_step` for a configured :class:`~ctrlblocks.PID`.
+
+    The block decides what the kernel can run (:meth:`~ctrlblocks.PID.fast_path_blockers`)
+    and gives its parameters (:meth:`~ctrlblocks.PID.kernel_params`).
 
     Raises
     ------
     UnsupportedConfig
         For the velocity algorithm, PV scaling, SP/PV filters, SP or output
         ramps, the lead-lag feed-forward, the adaptive dead band, bumpless
-        methods other than ``"integrator"`` and anti-windup ``back_calc_real``.
+        methods other than ``"integrator"``, anti-windup ``back_calc_real``,
+        the inputs track/hold/reset_active/awin and a re-initialisation in
+        progress (and, ``manual_ok`` False, a block that last ran in manual).
     """
-    c = pid.config
-    bad = []
-    if c.algorithm != "positional":
-        bad.append("algorithm")
-    if c.pv_range is not None:
-        bad.append("pv_range")
-    for name in ("sp_filter", "pv_filter", "sp_rate", "out_rate", "ff_k", "deadband"):
-        if getattr(c, name) != 0.0:
-            bad.append(name)
-    if c.bumpless != _pid.Bumpless.INTEGRATOR:
-        bad.append("bumpless")
-    if c.anti_windup not in (_pid.AntiWindup.CLAMPING, _pid.AntiWindup.BACK_CALC_MODEL):
-        bad.append("anti_windup")
+    bad = pid.fast_path_blockers(manual_ok=manual_ok)
     if bad:
         raise UnsupportedConfig(f"PID options not covered by the compiled kernel: {bad}")
-    pid._set_h(float(c.ts))
-    return tuple(float(v) for v in pid._prm)
+    return tuple(float(v) for v in pid.kernel_params())
 
 
 pid_step = _pid.pid_step
@@ -119,29 +110,26 @@ pid_step = _pid.pid_step
 # ADRC
 # ---------------------------------------------------------------------------
 
-ADRC_PARAMS = (
-    "ts", "b0", "l1", "l2", "l3", "l4", "p1", "p2", "k1", "k2", "k3",
-    "kp", "kd1", "kd2", "s_yh", "s_x2", "s_x3", "s_u", "lo", "hi", "rule", "a_ref",
-)  # fmt: skip
+ADRC_PARAMS = _adrc.ADRCKernelParams._fields
 """Names of the entries of the ADRC parameter tuple (all floats)."""
 
 
-def adrc_params(adrc: Any) -> tuple[float, ...]:
+def adrc_params(adrc: Any, *, manual_ok: bool = True) -> tuple[float, ...]:
     """The parameter tuple of :func:`adrc_step` for a configured :class:`~ctrlblocks.ADRC`.
+
+    The block decides (:meth:`~ctrlblocks.ADRC.fast_path_blockers`) and gives
+    the parameters (:meth:`~ctrlblocks.ADRC.kernel_params`).
 
     Raises
     ------
     UnsupportedConfig
-        For ``discretisation="exact"``, ``u_real_on`` and ``anti_backoff``.
+        For ``discretisation="exact"``, ``u_real_on``, ``anti_backoff``, the
+        ``awin`` input (and, ``manual_ok`` False, manual).
     """
-    c = adrc.config
-    bad = [n for n in ("u_real_on", "anti_backoff") if getattr(c, n, False)]
-    if c.discretisation != "euler":
-        bad.append("discretisation")
+    bad = adrc.fast_path_blockers(manual_ok=manual_ok)
     if bad:
         raise UnsupportedConfig(f"ADRC options not covered by the compiled kernel: {bad}")
-    adrc._coefficients(float(c.ts))
-    return adrc._kernel_params()
+    return tuple(float(v) for v in adrc.kernel_params())
 
 
 adrc_step = _adrc.adrc_step

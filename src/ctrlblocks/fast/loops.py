@@ -401,23 +401,16 @@ def _controller_arrays(controller: Any) -> tuple[Any, tuple[float, ...], np.ndar
     from ..blocks.pid import PID
 
     if isinstance(controller, PID):
-        if controller.track or controller.hold or controller.reset_active or controller.awin:
-            raise UnsupportedConfig("PID inputs track/hold/reset_active/awin are set")
         prm = pid_params(controller)
-        st = controller
-        was_manual = st._mode_prev not in (-1, 0)
-        cs = np.array([st._i, st._d, st._w_prev, st._e_prev, st.out,
-                       float(st._cold or st._reinit), float(was_manual)])  # fmt: skip
-        if st._reinit and not st._cold:
-            raise UnsupportedConfig("PID is re-initialising after a change; run one cycle first")
+        st = controller.kernel_state()
+        cs = np.array([st.i, st.d, st.w_prev, st.e_prev, st.out,
+                       float(st.cold or st.reinit), float(st.manual)])  # fmt: skip
         return _pid_loop, prm, cs
     if isinstance(controller, ADRC):
-        if controller.awin:
-            raise UnsupportedConfig("ADRC input awin is set")
         prm = adrc_params(controller)
-        st = controller
-        cs = np.array([st._yh, st._x2, st._x3, st._x4, st._u_prev, st._ref,
-                       float(st._started), float(st._track), float(st._sat)])  # fmt: skip
+        a = controller.kernel_state()
+        cs = np.array([a.yh, a.x2, a.x3, a.x4, a.u_prev, a.ref,
+                       float(a.started), float(a.track), float(a.sat)])  # fmt: skip
         return _adrc_loop, prm, cs
     raise UnsupportedConfig(f"no compiled kernel for {type(controller).__name__}")
 

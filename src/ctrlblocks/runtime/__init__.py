@@ -19,6 +19,7 @@ from .config import (
     ConnectionConfig,
     HistorianConfig,
     LoopConfig,
+    RetainConfig,
     RuntimeConfig,
     RuntimeConfigError,
     load_config,
@@ -27,7 +28,7 @@ from .config import (
 from .historian import Historian, PostgresHistorian, SQLiteHistorian, export_history
 from .io import Adapter, Connection, IOFault, MemoryAdapter, MemoryBus, Reading
 from .loop import CommandError, ControlLoop, Sample
-from .plant_server import PlantServer
+from .plant_server import PairServer, PlantServer
 from .runtime import Runtime
 
 __all__ = [
@@ -46,9 +47,11 @@ __all__ = [
     "MemoryAdapter",
     "MemoryBus",
     "MonotonicClock",
+    "PairServer",
     "PlantServer",
     "PostgresHistorian",
     "Reading",
+    "RetainConfig",
     "Runtime",
     "RuntimeConfig",
     "RuntimeConfigError",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import signal
 from collections.abc import Callable
@@ -21,6 +22,39 @@ def _install_stop(loop: asyncio.AbstractEventLoop, stop: Callable[[], None]) -> 
             loop.add_signal_handler(sig, stop)
         except (NotImplementedError, RuntimeError):  # pragma: no cover - non-Unix
             signal.signal(sig, lambda *_: loop.call_soon_threadsafe(stop))
+
+
+class SecretFilter(logging.Filter):
+    """Hide log records that carry a user identity token (asyncua logs the password at DEBUG)."""
+
+    MARKERS = ("UserNameIdentityToken", "Password=", "password=")
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        try:
+            msg = record.getMessage()
+        except Exception:  # a malformed record: leave it to logging
+            return True
+        if any(m in msg for m in self.MARKERS):
+            record.msg, record.args = "(a message with a user identity token: not shown)", ()
+        return True
+
+
+def configure_logging(verbose: int) -> None:
+    """Log levels of ``-v`` (info) and ``-vv`` (debug), secrets filtered out.
+
+    The protocol libraries log every request at INFO (asyncua: two lines per
+    cycle); they show at ``-vv`` only.
+    """
+    logging.basicConfig(
+        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(verbose, 2)],
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    for h in logging.getLogger().handlers:
+        if not any(isinstance(f, SecretFilter) for f in h.filters):
+            h.addFilter(SecretFilter())
+    libs = logging.DEBUG if verbose >= 2 else logging.WARNING
+    for name in ("asyncua", "pymodbus"):
+        logging.getLogger(name).setLevel(libs)
 
 
 def run_until_stopped(runtime: Any) -> None:
@@ -43,21 +77,31 @@ def serve(config: Path, check: bool, verbose: int) -> None:
     On stop every MV goes to its stop value (else its safe value) and the
     historian is flushed.  See docs/runtime.md for the file format.
     """
-    from .config import RuntimeConfigError, load_config
+    from .config import RuntimeConfigError, load_config, require_packages
     from .runtime import Runtime
 
-    logging.basicConfig(
-        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(verbose, 2)],
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-    )
+    configure_logging(verbose)
     try:
         cfg = load_config(config)
+        require_packages(cfg)
     except RuntimeConfigError as exc:
         raise click.ClickException(str(exc)) from None
     if check:
         click.echo(f"{config}: {len(cfg.loops)} loop(s), {len(cfg.connections)} connection(s): OK")
         return
+    describe_files(cfg)
     run_until_stopped(Runtime(cfg))
+
+
+def describe_files(cfg: Any) -> None:
+    """Say where the historian and the retain file are (the user exports from there)."""
+    h = cfg.historian
+    if h.backend == "sqlite":
+        click.echo(f"historian: {h.path}")
+    elif h.backend == "postgresql":
+        click.echo("historian: PostgreSQL (historian.dsn)")
+    if cfg.retain.enabled:
+        click.echo(f"retain: {cfg.retain.path}")
 
 
 @click.command("plant-server")
@@ -107,6 +151,7 @@ def plant_server(
     from .plant_server import PlantServer
 
     logging.basicConfig(level=logging.WARNING)
+    _require_server_packages(opcua_port, modbus_port)
     try:
         process = PlantProcess(load_scenario(scenario), case)
     except (ScenarioError, ValueError, KeyError) as exc:
@@ -138,7 +183,16 @@ def plant_server(
     async def main() -> None:
         stop = asyncio.Event()
         _install_stop(asyncio.get_running_loop(), stop.set)
-        await server.start()
+        try:
+            await server.start()
+        except OSError as exc:  # a busy port, an address not on this machine
+            with contextlib.suppress(Exception):
+                await server.stop()
+            raise click.ClickException(
+                f"cannot serve on {host} (OPC UA port {opcua_port or 'off'}, Modbus port "
+                f"{modbus_port or 'off'}): {exc.strerror or exc}; is another server running? "
+                "choose other ports with --opcua-port/--modbus-port"
+            ) from None
         if server.opcua_url:
             click.echo(f"OPC UA: {server.opcua_url}")
         if server.modbus_port:
@@ -151,6 +205,19 @@ def plant_server(
     asyncio.run(main())
 
 
+def _require_server_packages(opcua_port: int, modbus_port: int) -> None:
+    """Refuse to start the plant server without the libraries of the protocols it serves."""
+    import importlib.util
+
+    for port, pkg, what in ((opcua_port, "asyncua", "OPC UA"), (modbus_port, "pymodbus", "Modbus")):
+        if port and importlib.util.find_spec(pkg) is None:
+            raise click.ClickException(
+                f"the {what} server needs the {pkg} package, which is not installed: "
+                "pip install 'ctrlblocks[runtime]'"
+                + (" (or switch it off with --opcua-port 0)" if pkg == "asyncua" else "")
+            )
+
+
 @click.command()
 @click.argument("database")
 @click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
@@ -158,7 +225,12 @@ def plant_server(
 @click.option("--postgres", is_flag=True, help="DATABASE is a PostgreSQL DSN.")
 def history(database: str, out: Path, loop: str | None, postgres: bool) -> None:
     """Export the historian DATABASE (SQLite file) to OUT (.csv or .parquet)."""
-    from .historian import export_history
+    from .historian import HistoryError, export_history
 
-    path = export_history(database, out, loop=loop, postgres=postgres)
+    try:
+        path = export_history(database, out, loop=loop, postgres=postgres)
+    except (HistoryError, ImportError) as exc:
+        raise click.ClickException(str(exc)) from None
+    except OSError as exc:
+        raise click.ClickException(f"{out}: cannot write ({exc.strerror or exc})") from None
     click.echo(f"wrote {path}")

@@ -48,11 +48,13 @@ __all__ = [
     "ConnectionConfig",
     "HistorianConfig",
     "LoopConfig",
+    "RetainConfig",
     "RuntimeConfig",
     "RuntimeConfigError",
     "WebConfig",
     "load_config",
     "parse_config",
+    "require_packages",
 ]
 
 PROTOCOLS = ("opcua", "modbus", "memory")
@@ -134,6 +136,11 @@ class ConnectionConfig:
     password: str | None = dataclasses.field(default=None, repr=False)  # a secret: never shown
     application_uri: str = "urn:ctrlblocks:runtime"
     stale_after: float = 0.0
+    # -- plant-scale settings (see _Parser.connection_scale) --
+    connect_timeout: float = 10.0
+    stop_timeout: float = 2.0
+    heartbeat: str | None = None
+    heartbeat_max: int = 65535
 
 
 @dataclasses.dataclass(frozen=True)
@@ -163,6 +170,9 @@ class LoopConfig:
     pv2: Binding | None = None
     dv: Binding | None = None
     u0: float = 0.0
+    # -- fault action (see _Parser.fault_action) --
+    on_fault: str = "safe_value"
+    hold_time: float = 0.0
     # engineering bounds and units (the faceplate's keys, see the section at the end)
     sp_range: tuple[float, float] | None = None
     mv_range: tuple[float, float] | None = None
@@ -203,6 +213,15 @@ class WebConfig:
 
 
 @dataclasses.dataclass(frozen=True)
+class RetainConfig:
+    """The ``[retain]`` table: the retentive state file (a PLC's RETAIN memory)."""
+
+    enabled: bool = True
+    path: str = "ctrlblocks-retain.sqlite"
+    interval: float = 5.0
+
+
+@dataclasses.dataclass(frozen=True)
 class RuntimeConfig:
     """A parsed, checked runtime configuration."""
 
@@ -212,6 +231,7 @@ class RuntimeConfig:
     historian: HistorianConfig
     file: str
     web: WebConfig = WebConfig()
+    retain: RetainConfig = RetainConfig()
 
     def build_blocks(self) -> dict[str, Any]:
         """A fresh block for every loop (name -> the block that writes its MV)."""
@@ -236,6 +256,32 @@ def parse_config(text: str, *, file: str = "<string>", base: Path | None = None)
     """Parse runtime configuration TOML ``text``; relative paths are resolved against ``base``."""
     doc = read_toml(text, file, RuntimeConfigError)
     return _Parser(file, base or Path.cwd()).config(doc)
+
+
+PROTOCOL_PACKAGES = {"opcua": "asyncua", "modbus": "pymodbus"}
+"""The library each protocol needs (the ``runtime`` extra)."""
+
+
+def require_packages(config: RuntimeConfig, connections: Any = None) -> None:
+    """Refuse a configuration whose protocols' libraries are not installed.
+
+    ``connections`` limits the check to these names (default all).  The
+    error names the connection and the install command, so ``serve --check``
+    fails and ``serve`` does not start a runtime that would retry for ever.
+    """
+    import importlib.util
+
+    for name, c in config.connections.items():
+        if connections is not None and name not in connections:
+            continue
+        pkg = PROTOCOL_PACKAGES.get(c.protocol)
+        if pkg is not None and importlib.util.find_spec(pkg) is None:
+            raise RuntimeConfigError(
+                config.file,
+                f"connections.{name}.protocol",
+                f"{c.protocol} needs the {pkg} package, which is not installed: "
+                "pip install 'ctrlblocks[runtime]'",
+            )
 
 
 def build_side(lc: LoopConfig, file: str = "<config>") -> ControllerSide:
@@ -293,7 +339,9 @@ class _Parser(TableReader):
     # -- sections -------------------------------------------------------------
 
     def config(self, doc: dict[str, Any]) -> RuntimeConfig:
-        self.check_keys(doc, {"runtime", "connections", "loops", "historian", "web"}, "")
+        self.check_keys(
+            doc, {"runtime", "connections", "loops", "historian", "web", *_SCALE_TABLES}, ""
+        )
         head = self.table(doc, "runtime", "runtime", required=False)
         self.check_keys(head, {"name"}, "runtime")
         name = self.string(head, "name", "runtime.name", default="ctrlblocks")
@@ -320,7 +368,8 @@ class _Parser(TableReader):
                 seen[k] = lc.name
         hist = self.historian(self.table(doc, "historian", "historian", required=False))
         web = _web(self, self.table(doc, "web", "web", required=False))
-        cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file, web)
+        retain = self.retain(self.table(doc, "retain", "retain", required=False), hist)
+        cfg = RuntimeConfig(name, conns, tuple(loops), hist, self.file, web, retain)
         for lc in loops:  # build once: a refused parameter is reported here
             _check_tuning_ranges(self, lc, build_side(lc, self.file))
         return cfg
@@ -331,7 +380,7 @@ class _Parser(TableReader):
             raise self.fail(key, "connection names are letters, digits, _ . - only")
         c = self.as_table(c, key)
         protocol = self.choice(c, "protocol", f"{key}.protocol", PROTOCOLS)
-        common = {"protocol", "timeout", "reconnect_min", "reconnect_max"}
+        common = {"protocol", "timeout", "reconnect_min", "reconnect_max", *_SCALE_CONNECTION_KEYS}
         per = {
             "opcua": {
                 "url",
@@ -402,6 +451,7 @@ class _Parser(TableReader):
             kw["word_order"] = self.choice(
                 c, "word_order", f"{key}.word_order", ("big", "little"), "big"
             )
+        kw.update(self.connection_scale(c, key, protocol))
         return ConnectionConfig(**kw)
 
     def binding(
@@ -450,6 +500,7 @@ class _Parser(TableReader):
             "alarm_limit",
             "write_retries",
             "u0",
+            *_FAULT_LOOP_KEYS,
             *ENGINEERING_KEYS,
             *STRUCTURES[structure],
         }
@@ -580,6 +631,7 @@ class _Parser(TableReader):
             pv2=meas.get("pv2"),
             dv=meas.get("dv"),
             u0=u0,
+            **self.fault_action(raw, key),
             **_engineering(self, raw, key, sp, opt["manual_value"]),
         )
 
@@ -646,8 +698,10 @@ class _Parser(TableReader):
         backend = self.choice(
             h, "backend", "historian.backend", ("sqlite", "postgresql", "none"), "sqlite"
         )
+        # the default file is where the user runs ``serve`` (the README's ``history`` then
+        # finds it); a path given in the file is relative to the file
         path = self.path(h, "path", "historian.path") or str(
-            self.base / "ctrlblocks-history.sqlite"
+            Path.cwd().resolve() / "ctrlblocks-history.sqlite"
         )
         dsn = self.secret(h, "dsn", "historian.dsn") or ""
         env = self.string(h, "dsn_env", "historian.dsn_env", default=None)
@@ -664,6 +718,62 @@ class _Parser(TableReader):
             raise self.fail("historian.retention_days", "must be >= 0 (0 = keep everything)")
         return HistorianConfig(backend, path, dsn, flush, batch, keep)
 
+    # -- plant-scale settings: connect/stop timeouts, heartbeat, fault action, retain -----
+
+    def connection_scale(self, c: Mapping[str, Any], key: str, protocol: str) -> dict[str, Any]:
+        """Connection keys: ``connect_timeout``, ``stop_timeout``, ``heartbeat(_max)``."""
+        kw: dict[str, Any] = {
+            "connect_timeout": self.number(
+                c, "connect_timeout", f"{key}.connect_timeout", 10.0, positive=True
+            ),
+            "stop_timeout": self.number(
+                c, "stop_timeout", f"{key}.stop_timeout", 2.0, positive=True
+            ),
+            "heartbeat_max": self.integer(c, "heartbeat_max", f"{key}.heartbeat_max", 65535, 1),
+        }
+        hb = self.string(c, "heartbeat", f"{key}.heartbeat", default=None)
+        if hb is not None:
+            if protocol == "modbus":
+                _check_modbus_address(hb, f"{key}.heartbeat", self)
+                if parse_modbus_address(hb)[0] != "hr":
+                    raise self.fail(f"{key}.heartbeat", "must be a holding register (hr:N)")
+            elif not hb:
+                raise self.fail(f"{key}.heartbeat", "must be an address")
+        kw["heartbeat"] = hb
+        return kw
+
+    def fault_action(self, raw: Mapping[str, Any], key: str) -> dict[str, Any]:
+        """``on_fault`` (``"safe_value"`` or ``"hold"``) and ``hold_time`` [s] of a loop."""
+        on_fault = self.choice(
+            raw, "on_fault", f"{key}.on_fault", ("safe_value", "hold"), "safe_value"
+        )
+        hold = self.number(raw, "hold_time", f"{key}.hold_time", 0.0)
+        if not (math.isfinite(hold) and hold >= 0):
+            raise self.fail(f"{key}.hold_time", f"must be a finite number >= 0, got {hold!r}")
+        if "hold_time" in raw and on_fault != "hold":
+            raise self.fail(f"{key}.hold_time", 'only with on_fault = "hold"')
+        if on_fault == "hold" and "hold_time" not in raw:
+            raise self.fail(
+                f"{key}.hold_time", 'missing: on_fault = "hold" needs how long to hold [s]'
+            )
+        return {"on_fault": on_fault, "hold_time": hold}
+
+    def retain(self, r: dict[str, Any], hist: HistorianConfig) -> RetainConfig:
+        """The ``[retain]`` table; the default file sits beside the SQLite historian."""
+        self.check_keys(r, {"enabled", "path", "interval"}, "retain")
+        # default: on beside a historian; without one, on only where a path is given
+        enabled = r.get("enabled", hist.backend != "none" or "path" in r)
+        if not isinstance(enabled, bool):
+            raise self.fail("retain.enabled", f"must be true or false, got {enabled!r}")
+        default_dir = Path(hist.path).parent if hist.backend == "sqlite" else self.base
+        path = self.path(r, "path", "retain.path") or str(default_dir / "ctrlblocks-retain.sqlite")
+        interval = self.number(r, "interval", "retain.interval", 5.0, positive=True)
+        return RetainConfig(enabled, path, interval)
+
+
+_SCALE_TABLES = ("retain",)
+_SCALE_CONNECTION_KEYS = ("connect_timeout", "stop_timeout", "heartbeat", "heartbeat_max")
+_FAULT_LOOP_KEYS = ("on_fault", "hold_time")
 
 _MODBUS_RE = re.compile(r"^(?:(hr|ir):)?(\d+)$")
 
@@ -739,7 +849,7 @@ def _engineering(
     p.check_keys(u, set(UNIT_SIGNALS), f"{key}.unit")
     units = {s: p.string(u, s, f"{key}.unit.{s}", default="") for s in UNIT_SIGNALS}
     for s, text in units.items():
-        if len(text) > 16 or any(c in text for c in "<>&\"\n"):
+        if len(text) > 16 or any(c in text for c in '<>&"\n'):
             raise p.fail(f"{key}.unit.{s}", f"a unit of at most 16 plain characters, got {text!r}")
     units["sp"] = units["sp"] or units["pv"]
     out["units"] = units

@@ -37,8 +37,10 @@ from typing import Any
 from .loop import Sample
 
 __all__ = [
+    "EXPORT_FORMATS",
     "SAMPLE_COLUMNS",
     "Historian",
+    "HistoryError",
     "PostgresHistorian",
     "SQLiteHistorian",
     "export_history",
@@ -196,13 +198,17 @@ class Historian:
                 rows = h.samples("level")
         """
         with self._db_lock:
-            self._conn = self._connect()
+            self._conn = self._connect_for_reading()
         try:
             yield self
         finally:
             with self._db_lock:
                 self._conn.close()
                 self._conn = None
+
+    def _connect_for_reading(self) -> Any:
+        """The connection of :meth:`reading` (override: never create a database)."""
+        return self._connect()
 
     # -- writing ----------------------------------------------------------------------
 
@@ -359,6 +365,24 @@ class SQLiteHistorian(Historian):
         conn.execute("PRAGMA synchronous=NORMAL")
         return conn
 
+    def _connect_for_reading(self) -> Any:
+        """An existing database only (``mode=rw``: a missing file is an error, not created)."""
+        p = Path(self.path)
+        if not p.is_file():
+            raise HistoryError(f"{self.path}: no such historian database")
+        uri = f"{p.resolve().as_uri()}?mode=rw"
+        try:
+            conn = sqlite3.connect(uri, uri=True, check_same_thread=False, timeout=10.0)
+            tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master")}
+        except sqlite3.DatabaseError as exc:
+            raise HistoryError(f"{self.path}: not a historian database ({exc})") from None
+        if "samples" not in tables:
+            conn.close()
+            raise HistoryError(
+                f"{self.path}: not a ctrlblocks historian database (no samples table)"
+            )
+        return conn
+
 
 class PostgresHistorian(Historian):
     """The server historian (PostgreSQL via psycopg 3), same schema as SQLite."""
@@ -393,6 +417,14 @@ def open_historian(config: Any, *, name: str = "ctrlblocks") -> Historian | None
     return h
 
 
+class HistoryError(ValueError):
+    """A historian database or an export request that cannot be served (the CLI's message)."""
+
+
+EXPORT_FORMATS = {".csv": "csv", ".parquet": "parquet"}
+"""Export file suffixes and their formats."""
+
+
 def export_history(
     source: str | Path,
     out: str | Path,
@@ -405,17 +437,33 @@ def export_history(
 
     ``source`` is a SQLite file (or a PostgreSQL DSN with ``postgres=True``);
     ``fmt`` is ``"csv"``, ``"parquet"`` (needs pyarrow) or ``"auto"`` (from
-    the suffix of ``out``).  Returns the written path.
+    the suffix of ``out``: ``.csv`` or ``.parquet``).  Returns the written
+    path.  Raises :class:`HistoryError` -- before anything is created -- for
+    a missing database, an unknown suffix, or a ``loop`` the database does
+    not hold; ImportError (with the install command) for Parquet without
+    pyarrow.
     """
     out = Path(out)
     if fmt == "auto":
-        fmt = "parquet" if out.suffix.lower() == ".parquet" else "csv"
+        fmt = EXPORT_FORMATS.get(out.suffix.lower(), "")
+        if not fmt:
+            raise HistoryError(
+                f"{out}: unknown export format {out.suffix or '(no suffix)'!r}; "
+                f"use {' or '.join(EXPORT_FORMATS)}"
+            )
+    if fmt not in EXPORT_FORMATS.values():
+        raise HistoryError(f"unknown export format {fmt!r}; use csv or parquet")
+    if fmt == "parquet" and importlib.util.find_spec("pyarrow") is None:
+        raise ImportError("Parquet export needs pyarrow: pip install pyarrow (or export to .csv)")
     h: Historian = PostgresHistorian(str(source)) if postgres else SQLiteHistorian(source)
     with h.reading():
         rows = h.samples(loop)
+        if loop and not rows:
+            names = [r[0] for r in h.query("SELECT DISTINCT loop FROM samples ORDER BY loop")]
+            raise HistoryError(
+                f"{source}: no samples of loop {loop!r}; loops: {', '.join(names) or 'none'}"
+            )
     if fmt == "parquet":
-        if importlib.util.find_spec("pyarrow") is None:
-            raise ImportError("Parquet export needs pyarrow: pip install pyarrow")
         import pyarrow as pa
         import pyarrow.parquet as pq
 

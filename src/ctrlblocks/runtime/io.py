@@ -10,9 +10,15 @@ the reason it was rejected).  A connection-level failure raises
 
 A :class:`Connection` supervises one adapter for the loops:
 
-* every call is bounded by the connection's ``timeout``; a read that fails or
-  times out returns bad readings (``ok`` false) *in the same call*, so the
-  loop sets ``y_ok`` false in the cycle where the fault happens;
+* requests go one at a time (a lock); the connection's ``timeout`` bounds the
+  request *on the wire*, from the moment it is sent, never the time spent
+  waiting for the lock behind another request; a read that fails or times
+  out returns bad readings (``ok`` false) *in the same call*, so the loop sets
+  ``y_ok`` false in the cycle where the fault happens;
+* connecting is bounded by ``connect_timeout`` (a session set-up takes
+  several round trips: it is not held to the per-request ``timeout``);
+* a non-finite value is never written: :meth:`Connection.write` refuses it
+  per item (the loops replace a non-finite MV by their safe value before);
 * a connection-level error drops the connection and a background task
   reconnects with exponential back-off (``reconnect_min`` doubling up to
   ``reconnect_max``); while it is down, reads return at once with bad
@@ -79,6 +85,15 @@ def checked(value: Any, reason_if_bad: str = "") -> Reading:
 class Adapter(abc.ABC):
     """One protocol client (see the module docstring)."""
 
+    requests: dict[str, int]
+    """Requests sent on the wire, by kind (``"read"``, ``"write"``): a test counts them."""
+
+    def count(self, kind: str, n: int = 1) -> None:
+        """Count ``n`` requests of ``kind`` sent on the wire."""
+        if not hasattr(self, "requests"):
+            self.requests = {"read": 0, "write": 0}
+        self.requests[kind] = self.requests.get(kind, 0) + n
+
     @abc.abstractmethod
     async def connect(self) -> None:
         """Open the connection; raise :class:`IOFault` (or OSError) on failure."""
@@ -144,8 +159,7 @@ class Connection:
             self._lost(exc)
 
     async def _connect_once(self) -> None:
-        timeout = max(4.0 * self.config.timeout, 2.0)
-        await asyncio.wait_for(self.adapter.connect(), timeout)
+        await asyncio.wait_for(self.adapter.connect(), self.config.connect_timeout)
         self.connected = True
         self._timeouts = {"read": 0, "write": 0}
         log.info("connection %s: connected", self.name)
@@ -200,19 +214,27 @@ class Connection:
         self._timeouts[kind] += 1
         return self._timeouts[kind] >= self.MAX_TIMEOUTS
 
-    async def _locked(self, fn: Callable[[Any], Any], arg: Any) -> Any:
-        async with self._lock:  # one request at a time per connection
-            return await fn(arg)
+    async def _request(
+        self, kind: str, fn: Callable[[Any], Any], arg: Any, timeout: float | None = None
+    ) -> tuple[Any, str]:
+        """``fn(arg)`` under the lock, then the timeout: ``(result, "")`` or ``(None, failure)``.
 
-    async def _request(self, kind: str, fn: Callable[[Any], Any], arg: Any) -> tuple[Any, str]:
-        """``fn(arg)`` under the lock and the timeout: ``(result, "")`` or ``(None, failure)``.
-
-        A timeout is counted (``MAX_TIMEOUTS`` in a row drop the connection);
-        any other exception is a connection fault (the connection is dropped
-        and reconnects in the background).
+        The timeout (default the connection's ``timeout``) starts when the lock
+        is held, so it measures the request on the wire, not the wait behind
+        other requests.  A timeout is counted (``MAX_TIMEOUTS`` in a row drop
+        the connection); any other exception is a connection fault (the
+        connection is dropped and reconnects in the background).
         """
+        async with self._lock:  # one request at a time per connection
+            if not self.connected:  # dropped while this request waited
+                return None, f"not connected ({self.last_error})"
+            return await self._timed(kind, fn, arg, timeout or self.config.timeout)
+
+    async def _timed(
+        self, kind: str, fn: Callable[[Any], Any], arg: Any, timeout: float
+    ) -> tuple[Any, str]:
         try:
-            res = await asyncio.wait_for(self._locked(fn, arg), self.config.timeout)
+            res = await asyncio.wait_for(fn(arg), timeout)
         except asyncio.TimeoutError:
             if self._timed_out(kind):
                 self._lost(f"{self.MAX_TIMEOUTS} {kind} timeouts in a row")
@@ -230,12 +252,53 @@ class Connection:
         out, failure = await self._request("read", self.adapter.read, addresses)
         return [bad(failure)] * len(addresses) if failure else out
 
-    async def write(self, items: Sequence[tuple[str, float]]) -> list[str | None]:
-        """Write the values; never raises (per item: None or the failure)."""
+    async def write(
+        self, items: Sequence[tuple[str, float]], timeout: float | None = None
+    ) -> list[str | None]:
+        """Write the values; never raises (per item: None or the failure).
+
+        A non-finite value is refused here ("not finite: not written") and
+        never reaches the adapter.  ``timeout`` [s] replaces the connection's
+        (the final write of the stop values has its own).
+        """
+        res: list[str | None] = [None] * len(items)
+        send: list[tuple[str, float]] = []
+        where: list[int] = []
+        for i, (a, v) in enumerate(items):
+            if not (isinstance(v, (int, float)) and math.isfinite(v)):
+                res[i] = f"{a}: {v!r} is not finite: not written"
+            else:
+                send.append((a, float(v)))
+                where.append(i)
+        if not send:
+            return res
         if not self.connected:
-            return [f"not connected ({self.last_error})"] * len(items)
-        res, failure = await self._request("write", self.adapter.write, items)
-        return [failure] * len(items) if failure else res
+            out: Any = None
+            failure = f"not connected ({self.last_error})"
+        else:
+            out, failure = await self._request("write", self.adapter.write, send, timeout)
+        for j, i in enumerate(where):
+            res[i] = failure if failure else out[j]
+        return res
+
+    async def connect_now(self, timeout: float) -> bool:
+        """One connection attempt now, bounded by ``timeout`` [s] (the stop uses it).
+
+        Replaces the background reconnection's wait; True when connected.
+        """
+        if self.connected:
+            return True
+        if self._task is not None and not self._task.done():
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await self._task
+        try:
+            await asyncio.wait_for(self._connect_once(), timeout)
+        except Exception as exc:  # still not connected
+            self.last_error = describe(exc)
+            return False
+        self.reconnects += 1
+        return True
 
 
 # ---------------------------------------------------------------------------
@@ -296,6 +359,7 @@ class MemoryAdapter(Adapter):
 
     async def read(self, addresses: Sequence[str]) -> list[Reading]:
         self._check()
+        self.count("read")
         if self.bus.on_read is not None:
             r = self.bus.on_read()
             if asyncio.iscoroutine(r):
@@ -312,6 +376,7 @@ class MemoryAdapter(Adapter):
 
     async def write(self, items: Sequence[tuple[str, float]]) -> list[str | None]:
         self._check()
+        self.count("write")
         res: list[str | None] = []
         for a, v in items:
             if a in self.bus.reject:

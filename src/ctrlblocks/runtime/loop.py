@@ -24,7 +24,6 @@ A loop never raises out of its cycle; faults only change its status.
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
 import logging
 import math
@@ -36,7 +35,7 @@ from ..blocks.base import ErrorCode, ParameterError, is_finite, require_limits
 from ..blocks.monitor import CycleMonitor
 from ..loops.structures import ControllerSide
 from .config import MEASUREMENTS, MODES, Binding, LoopConfig
-from .io import Connection, Reading, bad
+from .io import Connection, Reading
 
 __all__ = ["CommandError", "ControlLoop", "Sample"]
 
@@ -121,6 +120,13 @@ class ControlLoop:
         self.dt = config.ts
         self.input_errors: dict[str, str] = {}
         self.last_exception = ""
+        self.mv_alarm = ""
+        self.alarms: list[str] = []  # new alarm messages; the runtime audits and clears them
+        self.holding = False
+        self._fault_since: float | None = None
+        self._last_good_mv: float | None = None
+        self._t = 0.0
+        self._restart_mv: float | None = None  # set by restore_retained
         self._limits_in = (math.nan, math.nan)
         # signal -> binding of the inputs read each cycle
         self._inputs = {n: b for n, b in config.bindings().items() if b.is_io and n != "mv"}
@@ -154,24 +160,6 @@ class ControlLoop:
         b = self.config.bindings().get(signal)
         return b is not None and b.is_io
 
-    async def _read_inputs(self) -> dict[str, Reading]:
-        by_conn: dict[str, list[tuple[str, Binding]]] = {}
-        for sig, b in self._inputs.items():
-            by_conn.setdefault(b.connection, []).append((sig, b))  # type: ignore[arg-type]
-
-        async def one(conn_name: str, items: list[tuple[str, Binding]]) -> dict[str, Reading]:
-            conn = self.connections.get(conn_name)
-            if conn is None:
-                return {s: bad(f"no connection {conn_name!r}") for s, _ in items}
-            readings = await conn.read([b.address for _, b in items])
-            return {s: r for (s, _), r in zip(items, readings, strict=True)}
-
-        results = await asyncio.gather(*(one(c, items) for c, items in by_conn.items()))
-        out: dict[str, Reading] = {}
-        for r in results:
-            out.update(r)
-        return out
-
     def _apply_inputs(self, inputs: Mapping[str, Reading]) -> None:
         errors: dict[str, str] = {}
         for sig, r in inputs.items():
@@ -195,9 +183,26 @@ class ControlLoop:
         self.input_errors = errors
 
     # -- the cycle ----------------------------------------------------------------
+    #
+    # The runtime's scan (:class:`~ctrlblocks.runtime.scan.Scan`) runs the
+    # cycle of many loops on one I/O image: it reads the :meth:`inputs` of
+    # every due loop in one batched request per connection, calls
+    # :meth:`compute` of each, writes every MV in one batched request per
+    # connection, reports each write with :meth:`written` and records
+    # :meth:`sample` (``Scan([loop], connections).run(t, period)`` for one loop alone).
 
-    async def cycle(self, t: float, period: float) -> Sample:
-        """Run one cycle at time ``t`` [s] after a measured ``period`` [s] (module docstring)."""
+    def inputs(self) -> Mapping[str, Binding]:
+        """The I/O inputs read each cycle: signal -> binding (PV, and SP, mode, ... if bound)."""
+        return self._inputs
+
+    def compute(self, t: float, period: float, inputs: Mapping[str, Reading]) -> float | None:
+        """Steps 1, 3 and 4 of the module docstring on this cycle's ``inputs``: the MV to write.
+
+        The MV is checked before it goes out: a non-finite value (a block
+        defect) becomes the loop's ``safe_value``, with ``mv_alarm`` set in the
+        state and an entry in :attr:`alarms` (the runtime audits and logs it).
+        None when the cycle failed with an exception (nothing is written).
+        """
         first = self.cycle_count == 0
         dt: float | None = None
         overrun = False
@@ -207,8 +212,8 @@ class ControlLoop:
                 dt = period
         self.overrun = overrun
         self.dt = self.ts if dt is None else dt
+        self._t = t
         try:
-            inputs = await self._read_inputs()
             self._apply_inputs(inputs)
             # every measurement the structure needs must be good, else the MV
             # blocks see a bad measurement in this cycle (their safe value)
@@ -225,21 +230,80 @@ class ControlLoop:
                         reasons.append(r.reason if sig == "pv" else f"{sig}: {r.reason}")
             pv = inputs["pv"] if "pv" in inputs else inputs["pv2"]
             self.pv, self.pv_ok, self.pv_reason = pv.value, ok, "; ".join(reasons)
-            u = self.side.step(
-                self.sp,
-                meas.get("y", math.nan),
-                y_ok=ok,
-                y2=meas.get("y2", math.nan),
-                y2_ok=ok,
-                dv=meas.get("dv", 0.0),
-                dv_ok=ok,
-                dt=dt,
-            )
+            if self._restart_mv is not None:
+                u = self._bumpless_restart(t, ok, meas, dt)
+            else:
+                u = self._step(t, ok, meas, dt)
+            u = self._guard(u)
             self.mv = u
-            await self._write_mv(u)
+            return u
         except Exception as exc:  # a loop never stops the runtime
             log.exception("loop %s: cycle failed", self.name)
             self.last_exception = f"{type(exc).__name__}: {exc}"
+            return None
+
+    def _step(self, t: float, ok: bool, meas: Mapping[str, float], dt: float | None) -> float:
+        """The structure's step; with ``on_fault = "hold"`` the last good MV while it may hold."""
+        args = dict(
+            y_ok=ok,
+            y2=meas.get("y2", math.nan),
+            y2_ok=ok,
+            dv=meas.get("dv", 0.0),
+            dv_ok=ok,
+            dt=dt,
+        )
+        y = meas.get("y", math.nan)
+        if ok:
+            self._fault_since = None
+            u = self.side.step(self.sp, y, **args)
+            self._last_good_mv = u
+            self.holding = False
+            return u
+        if self._fault_since is None:
+            self._fault_since = t
+        held = self._last_good_mv
+        hold = (
+            self.config.on_fault == "hold"
+            and held is not None
+            and t - self._fault_since < self.config.hold_time - 1e-9
+            and not self.side.manual
+        )
+        self.holding = hold
+        if not hold:
+            return self.side.step(self.sp, y, **args)
+        # hold the last good MV: the blocks run their fault rule, then track the held MV
+        # (the applied value), so the recovery is bumpless from it
+        self.side.compute(self.sp, y, **args)
+        self.side.update(held)
+        self.side.values["v"] = held
+        return held
+
+    def _guard(self, u: float) -> float:
+        """A non-finite MV never leaves the loop: the safe value, an alarm and an audit entry."""
+        if isinstance(u, (int, float)) and math.isfinite(u):
+            self.mv_alarm = ""
+            return float(u)
+        safe = self.config.safe_value
+        msg = f"the block gave a non-finite MV ({u!r}): the safe value {safe!r} is written"
+        if self.mv_alarm != msg:  # once per episode
+            log.error("loop %s: %s", self.name, msg)
+            self.alarms.append(msg)
+        self.mv_alarm = msg
+        return safe
+
+    def written(self, err: str | None) -> None:
+        """Record the outcome of this cycle's MV write (None: accepted; else the failure)."""
+        self.write_ok = err is None
+        if err is not None:
+            self.write_failures += 1
+            if self.write_error != err:
+                log.warning("loop %s: MV write failed: %s", self.name, err)
+            self.write_error = err
+        else:
+            self.write_error = ""
+
+    def sample(self, t: float) -> Sample:
+        """The historian's row of the cycle just run (and count the cycle)."""
         self.cycle_count += 1
         return Sample(
             loop=self.name,
@@ -254,41 +318,117 @@ class ControlLoop:
             error_id=int(self.block.error_id),
             pv_ok=self.pv_ok,
             write_ok=self.write_ok,
-            overrun=overrun,
+            overrun=self.overrun,
         )
 
-    async def _write_mv(self, u: float) -> bool:
-        b = self.config.mv
-        conn = self.connections.get(b.connection)  # type: ignore[arg-type]
-        err: str | None = f"no connection {b.connection!r}"
-        if conn is not None:
-            for _ in range(1 + self.config.write_retries):
-                (err,) = await conn.write([(b.address, u)])
-                if err is None:
-                    break
-        self.write_ok = err is None
-        if err is not None:
-            self.write_failures += 1
-            if self.write_error != err:
-                log.warning("loop %s: MV write failed: %s", self.name, err)
-            self.write_error = err
-        else:
-            self.write_error = ""
-        return self.write_ok
+    @property
+    def stop_value(self) -> float:
+        """The MV written on a graceful stop (``stop_value``, else ``safe_value``)."""
+        c = self.config
+        return c.stop_value if c.stop_value is not None else c.safe_value
 
-    async def write_stop_value(self) -> bool:
-        """Write the configured stop value (``stop_value``, else ``safe_value``) to the MV."""
-        v = self.config.stop_value if self.config.stop_value is not None else self.config.safe_value
-        ok = await self._write_mv(v)
-        self.mv = v
-        return ok
+    # -- retentive state (ctrlblocks.runtime.retain) ----------------------------------
+
+    def retained(self) -> dict[str, Any]:
+        """What survives a restart (module docstring of :mod:`~ctrlblocks.runtime.retain`)."""
+        blk = self.block
+        return {
+            "sp": None if self.is_bound("sp") else self.sp,
+            "mode": None if self.is_bound("mode") else self.mode,
+            "manual_value": None if self.is_bound("manual_value") else float(blk.manual_value),
+            "limits": None if self.is_bound("u_min") else [float(blk.u_min), float(blk.u_max)],
+            "tunings": self.state_tunings(),
+            "file_tunings": dict(self.config.block_params),
+            "mv": self.mv,
+            "snapshots": {role: b.snapshot() for role, b in self.side.blocks.items()},
+        }
+
+    def state_tunings(self) -> dict[str, Any]:
+        """The MV block's tunings (its configuration without the loop-level keys)."""
+        cfg = self.block.config
+        return {
+            f.name: getattr(cfg, f.name)
+            for f in dataclasses.fields(cfg)
+            if f.name not in _LOOP_LEVEL
+        }
+
+    def restore_retained(self, st: Mapping[str, Any]) -> None:
+        """Restore a :meth:`retained` state; the next cycle starts from :meth:`restart_from`.
+
+        Tunings: a retained value is used unless the configuration file's value
+        of that key changed since it was retained (then the file wins, logged).
+        """
+        from .retain import finite_or_none
+
+        tunings = dict(st.get("tunings") or {})
+        before = st.get("file_tunings") or {}
+        now = self.config.block_params
+        for k in list(tunings):
+            if k in now and before.get(k) != now[k]:
+                log.info(
+                    "loop %s: %s = %r from the configuration file replaces the retained %r "
+                    "(the file changed)",
+                    self.name,
+                    k,
+                    now[k],
+                    tunings[k],
+                )
+                del tunings[k]
+        current = self.state_tunings()
+        changed = {
+            k: v
+            for k, v in tunings.items()
+            if k in current and v != current[k] and not isinstance(current[k], (dict, list))
+        }
+        snaps = st.get("snapshots") or {}
+        try:
+            for role, snap in snaps.items():
+                if role in self.side.blocks:
+                    self.side.blocks[role].restore(snap)
+        except Exception as exc:  # a snapshot of another block version: start its state fresh
+            log.warning("loop %s: retained block state not restored (%s)", self.name, exc)
+            for b in self.side.blocks.values():
+                b.reset()
+        if changed:
+            try:
+                self.block.configure(**changed)
+            except (ParameterError, TypeError) as exc:
+                log.warning("loop %s: retained tunings %s refused (%s)", self.name, changed, exc)
+        limits = st.get("limits")
+        if limits and all(finite_or_none(x) is not None for x in limits):
+            self.side.set_limits(float(limits[0]), float(limits[1]))
+        if (sp := finite_or_none(st.get("sp"))) is not None and not self.is_bound("sp"):
+            self.sp = sp
+        mv = finite_or_none(st.get("manual_value"))
+        if mv is not None and not self.is_bound("manual_value"):
+            self._set_manual_value(mv)
+        if st.get("mode") in MODES and not self.is_bound("mode"):
+            self._set_mode(st["mode"], preset=False)
+        self._restart_mv = finite_or_none(st.get("mv"))
+        log.info("loop %s: retained state restored", self.name)
+
+    def restart_from(self, reading: Reading | None) -> None:
+        """The MV read back from the device before the first cycle (bad or None: the retained)."""
+        if reading is not None and reading.ok:
+            self._restart_mv = reading.value
+
+    def _bumpless_restart(self, t: float, ok: bool, meas: Mapping[str, float], dt: float | None):
+        """The first cycle after a restart: output the read-back MV, the blocks track it."""
+        u0 = self._restart_mv
+        self._restart_mv = None
+        manual, mval = self.side.manual, float(self.block.manual_value)
+        self.side.set_manual(True, u0)
+        u = self._step(t, ok, meas, dt)
+        self.side.set_manual(manual, mval if manual else None)
+        if not manual:
+            self._set_manual_value(mval)
+        return u
 
     # -- state and commands ---------------------------------------------------------
 
     def state(self) -> dict[str, Any]:
         """Everything a faceplate shows, as plain values."""
         blk = self.block
-        cfg = blk.config
         m = self.monitor
         return {
             "name": self.name,
@@ -311,15 +451,14 @@ class ControlLoop:
             "write_failures": self.write_failures,
             "input_errors": dict(self.input_errors),
             "last_exception": self.last_exception,
+            "mv_alarm": self.mv_alarm,
+            "on_fault": self.config.on_fault,
+            "holding": self.holding,
             "u_min": float(blk.u_min),
             "u_max": float(blk.u_max),
             "safe_value": self.config.safe_value,
             "on_bad_pv": self.config.on_bad_pv,
-            "tunings": {
-                f.name: getattr(cfg, f.name)
-                for f in dataclasses.fields(cfg)
-                if f.name not in _LOOP_LEVEL
-            },
+            "tunings": self.state_tunings(),
             "bound": {s: str(b) for s, b in self.config.bindings().items() if b.is_io},
             "overrun": self.overrun,
             "dt": self.dt,

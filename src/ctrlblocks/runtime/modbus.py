@@ -15,6 +15,13 @@ word_order   register N           register N+1
 
 A value is written as the nearest FLOAT32, so a loop running on Modbus sees
 its values rounded to about 7 significant digits.
+
+Batching: a cycle's reads are coalesced into contiguous register ranges of
+one kind (at most :data:`MAX_READ_REGISTERS` registers per request, the
+protocol's limit for functions 3 and 4), its writes into contiguous holding
+register ranges (at most :data:`MAX_WRITE_REGISTERS` per function 16).  A
+device that refuses a range (an exception response) marks every value in
+that range bad.
 """
 
 from __future__ import annotations
@@ -27,7 +34,36 @@ from typing import Any
 from .config import ConnectionConfig, parse_modbus_address
 from .io import Adapter, IOFault, Reading, bad, checked, describe
 
-__all__ = ["ModbusAdapter", "float32_to_registers", "registers_to_float32"]
+__all__ = ["ModbusAdapter", "coalesce", "float32_to_registers", "registers_to_float32"]
+
+MAX_READ_REGISTERS = 125
+"""Registers per read request (Modbus application protocol, functions 3 and 4)."""
+
+MAX_WRITE_REGISTERS = 122
+"""Registers per write request (function 16 allows 123; FLOAT32 pairs: 122)."""
+
+
+def coalesce(registers: Sequence[int], limit: int) -> list[tuple[int, int]]:
+    """Contiguous ``(start, count)`` ranges covering the FLOAT32 pairs at ``registers``.
+
+    Pairs that touch or overlap join one range while it stays within
+    ``limit`` registers; a gap starts a new range.
+
+    >>> coalesce([0, 2, 4, 10, 12], 125)
+    [(0, 6), (10, 4)]
+    >>> coalesce([0, 2, 4], 4)
+    [(0, 4), (4, 2)]
+    """
+    out: list[tuple[int, int]] = []
+    for r in sorted(set(registers)):
+        if out:
+            start, count = out[-1]
+            end = start + count
+            if r <= end and r + 2 - start <= limit:
+                out[-1] = (start, max(end, r + 2) - start)
+                continue
+        out.append((r, 2))
+    return out
 
 
 def float32_to_registers(value: float, word_order: str = "big") -> tuple[int, int]:
@@ -89,38 +125,58 @@ class ModbusAdapter(Adapter):
 
     async def read(self, addresses: Sequence[str]) -> list[Reading]:
         client = self._live()
-        out: list[Reading] = []
-        for a in addresses:
-            kind, reg = parse_modbus_address(a)
+        parsed = [parse_modbus_address(a) for a in addresses]
+        values: dict[tuple[str, int], Reading] = {}
+        for kind in ("hr", "ir"):
+            regs = [r for k, r in parsed if k == kind]
             fn = client.read_holding_registers if kind == "hr" else client.read_input_registers
-            try:
-                rr = await fn(reg, count=2, device_id=self.config.unit)
-            except Exception as exc:
-                raise IOFault(f"Modbus read {a}: {describe(exc)}") from exc
-            if rr.isError():
-                out.append(bad(_exception(rr, a)))
-                continue
-            out.append(checked(registers_to_float32(rr.registers, self._order)))
-        return out
+            for start, count in coalesce(regs, MAX_READ_REGISTERS):
+                where = f"{kind}:{start}..{start + count - 1}"
+                self.count("read")
+                try:
+                    rr = await fn(start, count=count, device_id=self.config.unit)
+                except Exception as exc:
+                    raise IOFault(f"Modbus read {where}: {describe(exc)}") from exc
+                for r in regs:
+                    if start <= r < start + count:
+                        if rr.isError():
+                            values[kind, r] = bad(_exception(rr, f"{kind}:{r}"))
+                        else:
+                            i = r - start
+                            values[kind, r] = checked(
+                                registers_to_float32(rr.registers[i : i + 2], self._order)
+                            )
+        return [values[p] for p in parsed]
 
     async def write(self, items: Sequence[tuple[str, float]]) -> list[str | None]:
         client = self._live()
-        res: list[str | None] = []
-        for a, v in items:
+        res: list[str | None] = [None] * len(items)
+        regs: dict[int, tuple[int, int]] = {}  # register -> its two words
+        where: dict[int, list[int]] = {}  # register -> indices of the items writing it
+        for i, (a, v) in enumerate(items):
             kind, reg = parse_modbus_address(a)
             if kind != "hr":
-                res.append(f"{a}: input registers are read-only")
+                res[i] = f"{a}: input registers are read-only"
                 continue
             x = float(v)
             if math.isfinite(x) and abs(x) > 3.4028234663852886e38:
-                res.append(f"{a}: {x!r} does not fit a FLOAT32")
+                res[i] = f"{a}: {x!r} does not fit a FLOAT32"
                 continue
-            regs = list(float32_to_registers(x, self._order))
+            regs[reg] = float32_to_registers(x, self._order)
+            where.setdefault(reg, []).append(i)
+        for start, count in coalesce(list(regs), MAX_WRITE_REGISTERS):
+            words = [0] * count
+            inside = [r for r in regs if start <= r < start + count]
+            for r in sorted(inside):
+                words[r - start : r - start + 2] = regs[r]
+            self.count("write")
             try:
-                rr = await client.write_registers(reg, regs, device_id=self.config.unit)
+                rr = await client.write_registers(start, words, device_id=self.config.unit)
             except Exception as exc:
-                raise IOFault(f"Modbus write {a}: {describe(exc)}") from exc
-            res.append(_exception(rr, a) if rr.isError() else None)
+                raise IOFault(f"Modbus write hr:{start}: {describe(exc)}") from exc
+            for r in inside:
+                for i in where[r]:
+                    res[i] = _exception(rr, items[i][0]) if rr.isError() else None
         return res
 
 

@@ -2,7 +2,15 @@
 
 Addresses are node ids as OPC UA writes them (``ns=2;s=pv``, ``ns=3;i=1001``).
 The adapter reads all addresses of a cycle in one Read service call and
-writes in one Write call.
+writes in one Write call, chunked to the server's operation limits
+(``MaxNodesPerRead``/``MaxNodesPerWrite`` of its ServerCapabilities, read
+once at connect; 0 or absent = no limit).
+
+Timeouts: the asyncua client's own request timeout and health probe are set
+to the connection's ``connect_timeout`` (a session set-up takes several
+round trips); the per-request ``timeout`` is enforced by the
+:class:`~ctrlblocks.runtime.io.Connection` on the wire, so a slow answer is a
+counted timeout, not a dropped connection.
 
 Float vs double: the data type of each node is read once, at its first use;
 values are written as a Variant of that type (``Float`` nodes get a FLOAT32,
@@ -74,6 +82,8 @@ class OpcUaAdapter(Adapter):
         self.config = config
         self._client: Any = None
         self._types: dict[str, Any] = {}  # address -> VariantType of the node
+        self._nodeids: dict[str, Any] = {}  # address -> parsed NodeId
+        self.max_nodes = {"read": 0, "write": 0}  # the server's operation limits (0: none)
         if config.password is not None and config.security == "none":
             log.warning(
                 "connection %s: a password without security may cross the network unencrypted",
@@ -86,7 +96,11 @@ class OpcUaAdapter(Adapter):
         from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
 
         c = self.config
-        client = asyncua.Client(c.url, timeout=c.timeout, watchdog_intervall=max(c.timeout, 1.0))
+        mismatch: list[str] = []  # set by the certificate check: the real reason of a failure
+        expected = ""
+        client = asyncua.Client(
+            c.url, timeout=c.connect_timeout, watchdog_intervall=max(c.connect_timeout, 1.0)
+        )
         client.application_uri = c.application_uri
         if c.security != "none":
             await client.set_security(
@@ -96,13 +110,18 @@ class OpcUaAdapter(Adapter):
                 server_certificate=c.server_certificate,
                 mode=ua.MessageSecurityMode.SignAndEncrypt,
             )
-            expected = fingerprint(Path(c.server_certificate).read_bytes())  # type: ignore[arg-type]
+            expected = fingerprint(_load_der(Path(c.server_certificate)))  # type: ignore[arg-type]
 
             async def check_server(cert: Any, app: Any) -> None:
                 from asyncua.common.utils import ServiceError
                 from cryptography.hazmat.primitives.serialization import Encoding
 
-                if fingerprint(cert.public_bytes(Encoding.DER)) != expected:
+                got = fingerprint(cert.public_bytes(Encoding.DER))
+                if got != expected:
+                    mismatch.append(
+                        f"the server's certificate (SHA-256 {got[:16]}...) is not the pinned "
+                        f"server_certificate {c.server_certificate} ({expected[:16]}...)"
+                    )
                     raise ServiceError(ua.StatusCodes.BadCertificateUntrusted)
 
             client.certificate_validator = check_server
@@ -111,12 +130,19 @@ class OpcUaAdapter(Adapter):
             client.set_password(c.password or "")
         try:
             await client.connect()
-        except Exception as exc:
+        except BaseException as exc:  # also a cancelled (timed-out) connect: no half-open client
             with contextlib.suppress(Exception):
                 await client.disconnect()
+            if not mismatch and c.security != "none" and isinstance(exc, Exception):
+                mismatch += await _pinned_mismatch(c, expected)
+            if mismatch:
+                raise IOFault(f"OPC UA connect {c.url}: {mismatch[0]}") from exc
+            if not isinstance(exc, Exception):
+                raise
             raise IOFault(f"OPC UA connect {c.url}: {describe(exc)}") from exc
         self._client = client
         self._types = {}
+        self.max_nodes = await _operation_limits(client)
 
     async def close(self) -> None:
         client, self._client = self._client, None
@@ -131,6 +157,15 @@ class OpcUaAdapter(Adapter):
             raise IOFault("OPC UA connection closed")
         return self._client
 
+    def _nodeid(self, address: str) -> Any:
+        """The parsed NodeId of ``address`` (parsed once)."""
+        nid = self._nodeids.get(address)
+        if nid is None:
+            from asyncua import ua
+
+            nid = self._nodeids[address] = ua.NodeId.from_string(address)
+        return nid
+
     async def _variant_types(self, addresses: Iterable[str]) -> None:
         from asyncua import ua
 
@@ -138,8 +173,10 @@ class OpcUaAdapter(Adapter):
         new = [a for a in addresses if a not in self._types]
         if not new:
             return
-        nodes = [client.get_node(a) for a in new]
-        dvs = await client.read_attributes(nodes, ua.AttributeIds.DataType)
+        dvs = []
+        for chunk in _chunks([self._nodeid(a) for a in new], self.max_nodes["read"]):
+            self.count("read")
+            dvs += await client.uaclient.read_attributes(chunk, ua.AttributeIds.DataType)
         for a, dv in zip(new, dvs, strict=True):
             vt = None
             if dv.StatusCode is None or dv.StatusCode.is_good():
@@ -153,11 +190,14 @@ class OpcUaAdapter(Adapter):
 
         client = self._live()
         try:
-            nodes = [client.get_node(a) for a in addresses]
+            nodeids = [self._nodeid(a) for a in addresses]
         except Exception as exc:  # a malformed node id
             return [bad(f"bad node id: {exc}")] * len(addresses)
+        dvs = []
         with _faults("read"):
-            dvs = await client.read_attributes(nodes, ua.AttributeIds.Value)
+            for chunk in _chunks(nodeids, self.max_nodes["read"]):
+                self.count("read")
+                dvs += await client.uaclient.read_attributes(chunk, ua.AttributeIds.Value)
         now = _dt.datetime.now(_dt.timezone.utc)
         out = []
         for dv in dvs:
@@ -194,13 +234,17 @@ class OpcUaAdapter(Adapter):
                     res_pre.append(f"{a}: {x!r} does not fit an integer node")
                     continue
                 x = round(x)
-            nodeids.append(client.get_node(a).nodeid)
+            nodeids.append(self._nodeid(a))
             dvs.append(ua.DataValue(ua.Variant(x, vt)))
             res_pre.append(None)
         if not nodeids:
             return res_pre
+        codes = []
+        n = self.max_nodes["write"]
         with _faults("write"):
-            codes = await client.uaclient.write_attributes(nodeids, dvs, ua.AttributeIds.Value)
+            for ids, values in zip(_chunks(nodeids, n), _chunks(dvs, n), strict=True):
+                self.count("write")
+                codes += await client.uaclient.write_attributes(ids, values, ua.AttributeIds.Value)
         it = iter(codes)
         return [
             r
@@ -208,6 +252,59 @@ class OpcUaAdapter(Adapter):
             else (None if (code := next(it)).is_good() else f"status {code.name}")
             for r in res_pre
         ]
+
+
+async def _pinned_mismatch(c: ConnectionConfig, expected: str) -> list[str]:
+    """Why a secured connect failed, if the server presents another certificate than the pinned.
+
+    A client that encrypts for the wrong certificate gets no answer (a bare
+    timeout); the server's endpoints (GetEndpoints needs no security) show
+    which certificate it really has.
+    """
+    import asyncio
+
+    asyncua = _asyncua()
+    try:
+        probe = asyncua.Client(c.url, timeout=min(c.connect_timeout, 5.0))
+        endpoints = await asyncio.wait_for(probe.connect_and_get_server_endpoints(), 5.0)
+    except Exception:  # the server is not reachable at all: the original error stands
+        return []
+    certs = {fingerprint(bytes(e.ServerCertificate)) for e in endpoints if e.ServerCertificate}
+    if not certs or expected in certs:
+        return []
+    got = sorted(certs)[0]
+    return [
+        f"the server's certificate (SHA-256 {got[:16]}...) is not the pinned "
+        f"server_certificate {c.server_certificate} ({expected[:16]}...)"
+    ]
+
+
+def _chunks(items: list[Any], size: int) -> list[list[Any]]:
+    """``items`` in chunks of at most ``size`` (``size`` 0: one chunk)."""
+    if size <= 0 or len(items) <= size:
+        return [items]
+    return [items[i : i + size] for i in range(0, len(items), size)]
+
+
+async def _operation_limits(client: Any) -> dict[str, int]:
+    """The server's MaxNodesPerRead/MaxNodesPerWrite (0 where absent or unreadable)."""
+    from asyncua import ua
+
+    ids = [
+        ua.NodeId(ua.ObjectIds.Server_ServerCapabilities_OperationLimits_MaxNodesPerRead),
+        ua.NodeId(ua.ObjectIds.Server_ServerCapabilities_OperationLimits_MaxNodesPerWrite),
+    ]
+    out = {"read": 0, "write": 0}
+    try:
+        dvs = await client.uaclient.read_attributes(ids, ua.AttributeIds.Value)
+    except Exception:  # a server without the nodes: no limit known
+        log.debug("OPC UA: operation limits not readable", exc_info=True)
+        return out
+    for kind, dv in zip(("read", "write"), dvs, strict=True):
+        v = dv.Value.Value if dv.Value is not None else None
+        if (dv.StatusCode is None or dv.StatusCode.is_good()) and isinstance(v, int) and v > 0:
+            out[kind] = int(v)
+    return out
 
 
 def _data_types() -> dict[int, Any]:

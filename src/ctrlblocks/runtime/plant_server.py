@@ -59,7 +59,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from ..sim.plant_process import PlantProcess
 
-__all__ = ["MODBUS_REGISTERS", "SIGNALS", "PlantServer"]
+__all__ = ["MODBUS_REGISTERS", "SIGNALS", "PairServer", "PlantServer"]
 
 log = logging.getLogger(__name__)
 
@@ -181,7 +181,13 @@ class PlantServer:
     # -- life cycle -------------------------------------------------------------------
 
     async def start(self) -> None:
-        """Start the configured servers (and the plant clock with ``sync="clock"``)."""
+        """Start the configured servers (and the plant clock with ``sync="clock"``).
+
+        A port that is taken raises OSError naming it, before any server starts.
+        """
+        for port in (self.opcua_port, self.modbus_port):
+            if port:
+                _check_port(self.host, port)
         if self.opcua_port is not None:
             await self._start_opcua()
         if self.modbus_port is not None:
@@ -329,24 +335,9 @@ class PlantServer:
     # -- Modbus -----------------------------------------------------------------------------
 
     async def _start_modbus(self) -> None:
-        try:
-            from pymodbus.server import ModbusTcpServer
-            from pymodbus.simulator import DataType, SimData, SimDevice
-        except ImportError as exc:  # pragma: no cover
-            raise ImportError(
-                "the Modbus server needs pymodbus: pip install 'ctrlblocks[runtime]'"
-            ) from exc
-        n = 2 * len(SIGNALS)
-        device = SimDevice(
-            id=0,
-            simdata=[SimData(0, count=n, values=0, datatype=DataType.REGISTERS)],
-            action=self._modbus_action,
+        self.modbus_port, self._modbus = await _serve_registers(
+            self.host, self.modbus_port, 2 * len(SIGNALS), self._modbus_action
         )
-        port = self.modbus_port or _free_port(self.host)
-        self.modbus_port = port
-        server = ModbusTcpServer(device, address=(self.host, port))
-        await server.serve_forever(background=True)
-        self._modbus = server
 
     async def _modbus_action(
         self,
@@ -382,6 +373,169 @@ class PlantServer:
             i = reg - start_address
             registers[i], registers[i + 1] = float32_to_registers(v, self.word_order)
         return None
+
+
+class PairServer:
+    """``n`` independent first-order plants served over OPC UA and/or Modbus TCP (scale tests).
+
+    Plant ``i``: ``y[k+1] = a y[k] + (1 - a) u[k]``, stepped on each write of
+    its MV (lock-step, like ``PlantServer(sync="write")``).  OPC UA
+    ``ns=2;s=pv{i}``, ``ns=2;s=mv{i}`` (Double) and ``ns=2;s=hb`` (a writable
+    heartbeat); Modbus FLOAT32 holding registers ``pv{i}`` at ``2 i`` (the PVs
+    are contiguous: a batched read takes 62 per request), ``mv{i}`` at
+    ``2 n + 2 i``, the heartbeat at ``4 n``.  Bound to
+    ``127.0.0.1`` by default.  ``heartbeats`` lists the heartbeat values
+    written, ``writes`` counts the MV writes.
+    """
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        a: float = 0.9,
+        host: str = "127.0.0.1",
+        opcua_port: int | None = 0,
+        modbus_port: int | None = None,
+    ) -> None:
+        self.n, self.a, self.host = n, a, host
+        self.pv = [0.0] * n
+        self.mv = [0.0] * n
+        self.writes = 0
+        self.heartbeats: list[float] = []
+        self.opcua_port, self.modbus_port = opcua_port, modbus_port
+        self.opcua_url = ""
+        self._opcua: Any = None
+        self._modbus: Any = None
+
+    def _write(self, i: int, u: float) -> None:
+        self.writes += 1
+        self.mv[i] = u
+        if math.isfinite(u):
+            self.pv[i] = self.a * self.pv[i] + (1.0 - self.a) * u
+
+    async def start(self) -> None:
+        """Start the configured servers."""
+        if self.opcua_port is not None:
+            await self._start_opcua()
+        if self.modbus_port is not None:
+            await self._start_modbus()
+
+    async def stop(self) -> None:
+        """Stop the servers."""
+        if self._modbus is not None:
+            await self._modbus.shutdown()
+            self._modbus = None
+        if self._opcua is not None:
+            await self._opcua.stop()
+            self._opcua = None
+
+    async def _start_opcua(self) -> None:
+        from asyncua import Server, ua
+
+        server = Server()
+        await server.init()
+        port = self.opcua_port or _free_port(self.host)
+        self.opcua_port = port
+        self.opcua_url = f"opc.tcp://{self.host}:{port}/ctrlblocks/pairs"
+        server.set_endpoint(self.opcua_url)
+        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        idx = await server.register_namespace(NAMESPACE)
+        obj = await server.nodes.objects.add_object(idx, "Pairs")
+
+        def reader(i: int) -> Any:
+            return lambda nodeid, attr: ua.DataValue(
+                ua.Variant(self.pv[i], ua.VariantType.Double),
+                SourceTimestamp=_dt.datetime.now(_dt.timezone.utc),
+            )
+
+        def setter(i: int | None) -> Any:
+            def set_value(node: Any, attr: Any, value: Any) -> None:
+                node.attributes[attr].value = value
+                u = float(value.Value.Value)
+                if i is None:
+                    self.heartbeats.append(u)
+                else:
+                    self._write(i, u)
+
+            return set_value
+
+        for i in range(self.n):
+            pv = ua.NodeId(f"pv{i}", idx)
+            await obj.add_variable(pv, f"pv{i}", ua.Variant(0.0, ua.VariantType.Double))
+            server.set_attribute_value_callback(pv, reader(i))
+        for name, i in [*((f"mv{i}", i) for i in range(self.n)), ("hb", None)]:
+            nid = ua.NodeId(name, idx)
+            var = await obj.add_variable(nid, name, ua.Variant(0.0, ua.VariantType.Double))
+            await var.set_writable(True)
+            server.set_attribute_value_setter(nid, setter(i))
+        await server.start()
+        self._opcua = server
+
+    async def _start_modbus(self) -> None:
+        self.modbus_port, self._modbus = await _serve_registers(
+            self.host, self.modbus_port, 4 * self.n + 2, self._modbus_action
+        )
+
+    async def _modbus_action(
+        self,
+        function_code: int,
+        start_address: int,
+        address: int,
+        count: int,
+        registers: list[int],
+        set_values: list[int] | list[bool] | None,
+    ) -> Any:
+        from .modbus import float32_to_registers, registers_to_float32
+
+        if set_values:
+            vals = [int(v) for v in set_values]
+            for j in range(0, len(vals) - 1, 2):
+                reg = address + j
+                u = registers_to_float32(vals[j : j + 2])
+                if reg == 4 * self.n:
+                    self.heartbeats.append(u)
+                elif 2 * self.n <= reg < 4 * self.n:
+                    self._write((reg - 2 * self.n) // 2, u)
+            return None
+        for i in range(self.n):
+            r = 2 * i - start_address
+            registers[r], registers[r + 1] = float32_to_registers(self.pv[i])
+        return None
+
+
+async def _serve_registers(host: str, port: int | None, count: int, action: Any) -> tuple[int, Any]:
+    """A Modbus TCP server of ``count`` holding registers whose requests go to ``action``.
+
+    Returns the port (a free one for ``port`` 0 or None) and the running server.
+    """
+    try:
+        from pymodbus.server import ModbusTcpServer
+        from pymodbus.simulator import DataType, SimData, SimDevice
+    except ImportError as exc:  # pragma: no cover
+        raise ImportError(
+            "the Modbus server needs pymodbus: pip install 'ctrlblocks[runtime]'"
+        ) from exc
+    device = SimDevice(
+        id=0,
+        simdata=[SimData(0, count=count, values=0, datatype=DataType.REGISTERS)],
+        action=action,
+    )
+    port = port or _free_port(host)
+    server = ModbusTcpServer(device, address=(host, port))
+    await server.serve_forever(background=True)
+    return port, server
+
+
+def _check_port(host: str, port: int) -> None:
+    """Raise OSError when ``host:port`` cannot be bound (taken, or not an address here)."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, port))
+        except OSError as exc:
+            raise OSError(exc.errno, f"{host}:{port}: {exc.strerror}") from None
 
 
 def _free_port(host: str) -> int:

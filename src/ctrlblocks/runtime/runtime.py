@@ -2,7 +2,9 @@
 
 Scheduling: loops with the same sample time share one asyncio task; the
 task's k-th cycle is due at ``t0 + k ts`` (absolute deadlines, so delays do
-not accumulate), and the loops of a cycle run concurrently.  A cycle that
+not accumulate), and runs a :class:`~ctrlblocks.runtime.scan.Scan` -- one
+I/O image per connection: one batched read of every input, the loops
+compute, one batched write of every MV (and the connection's heartbeat).  A cycle that
 ends after the next deadline skips the missed deadlines (the phase is kept);
 the loop's :class:`~ctrlblocks.blocks.monitor.CycleMonitor` sees the long
 period, flags the overrun, and the next block call uses the measured period
@@ -24,13 +26,24 @@ of the runtime):
 
 Stop (:meth:`Runtime.request_stop`, SIGINT/SIGTERM in ``ctrlblocks serve``):
 the cycles end, every MV is written to its stop value (``stop_value``, else
-``safe_value``), the historian flushes and the connections close.
+``safe_value``) in one final batched write per connection with the
+connection's own ``stop_timeout`` (a connection that is down gets one
+connection attempt first; the items that fail are retried once), the
+loops whose stop value could not be written are named in one log line and
+in the audit table, the historian flushes and the connections close.
+
+Garbage collection: after the start the runtime moves every object that
+exists then (configuration, blocks, libraries) out of the collector's view
+(``gc.freeze``) and raises the generation-0 threshold, so the periodic full
+collections that stalled the cycles for 200-300 ms (docs/performance.md)
+scan only what the cycles allocate.
 """
 
 from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import gc
 import logging
 import math
 from collections.abc import Callable, Mapping
@@ -38,10 +51,12 @@ from typing import Any
 
 from .adapters import make_adapter
 from .clock import Clock, MonotonicClock
-from .config import RuntimeConfig
+from .config import RuntimeConfig, require_packages
 from .historian import Historian, open_historian
 from .io import Adapter, Connection
 from .loop import CommandError, ControlLoop, Sample
+from .retain import RetainStore
+from .scan import Heartbeat, Scan
 
 __all__ = ["Runtime"]
 
@@ -66,6 +81,9 @@ class Runtime:
         :class:`~ctrlblocks.runtime.historian.Historian`; or None (no history).
     on_sample : callable, optional
         Called with every :class:`~ctrlblocks.runtime.loop.Sample` (live views).
+    retain : RetainStore, "config" or None
+        The retentive state file: ``"config"`` (default) from ``[retain]``,
+        a :class:`~ctrlblocks.runtime.retain.RetainStore`, or None (cold starts).
     """
 
     def __init__(
@@ -76,10 +94,12 @@ class Runtime:
         adapters: Mapping[str, Adapter] | None = None,
         historian: Historian | str | None = "config",
         on_sample: Callable[[Sample], None] | None = None,
+        retain: RetainStore | str | None = "config",
     ) -> None:
         self.config = config
         self.clock: Clock = clock or MonotonicClock()
         adapters = dict(adapters or {})
+        require_packages(config, [n for n in config.connections if n not in adapters])
         self.connections: dict[str, Connection] = {
             name: Connection(c, adapters.get(name) or make_adapter(c), self._sleep)
             for name, c in config.connections.items()
@@ -89,6 +109,10 @@ class Runtime:
             lc.name: ControlLoop(lc, sides[lc.name], self.connections) for lc in config.loops
         }
         self._historian_arg = historian
+        if retain == "config":
+            rc = config.retain
+            retain = RetainStore(rc.path) if rc.enabled else None
+        self.retain: RetainStore | None = retain  # type: ignore[assignment]
         self.historian: Historian | None = None
         self.on_sample = on_sample
         self._stop = asyncio.Event()
@@ -96,6 +120,10 @@ class Runtime:
         self._loop: asyncio.AbstractEventLoop | None = None
         self.running = False
         self.stopped = asyncio.Event()
+        self.heartbeats: dict[str, Heartbeat] = {}
+        self.gc_freeze = True  # see the module docstring; a benchmark turns it off to compare
+        self._gc_thresholds: tuple[int, int, int] | None = None
+        self.stop_failures: dict[str, str] = {}  # loop -> why its stop value was not written
 
     @property
     def event_loop(self) -> asyncio.AbstractEventLoop | None:
@@ -121,17 +149,39 @@ class Runtime:
         else:
             self.historian = self._historian_arg  # type: ignore[assignment]
         await asyncio.gather(*(c.start() for c in self.connections.values()))
-        groups: dict[float, list[ControlLoop]] = {}
-        for lp in self.loops.values():
-            groups.setdefault(lp.ts, []).append(lp)
+        if self.retain is not None:
+            await self._restore_retained()
         self._tasks = [
-            asyncio.create_task(self._cycles(ts, lps), name=f"ctrlblocks-ts-{ts:g}")
-            for ts, lps in sorted(groups.items())
+            asyncio.create_task(self._cycles(ts, scan), name=f"ctrlblocks-ts-{ts:g}")
+            for ts, scan in self._scans().items()
         ]
         if self.historian is not None:
             self._tasks.append(asyncio.create_task(self._flusher(), name="ctrlblocks-historian"))
+        if self.retain is not None:
+            self._tasks.append(asyncio.create_task(self._retainer(), name="ctrlblocks-retain"))
         self.running = True
+        if self.gc_freeze and self._gc_thresholds is None:
+            self._gc_thresholds = freeze_garbage_collector()
         log.info("runtime %s: %d loop(s) started", self.config.name, len(self.loops))
+
+    def _scans(self) -> dict[float, Scan]:
+        """One :class:`Scan` per sample time; a heartbeat goes with the fastest loops using it."""
+        groups: dict[float, list[ControlLoop]] = {}
+        for lp in self.loops.values():
+            groups.setdefault(lp.ts, []).append(lp)
+        hb_of: dict[float, dict[str, Heartbeat]] = {ts: {} for ts in groups}
+        for name, conn in self.connections.items():
+            if conn.config.heartbeat is None or not groups:
+                continue
+            using = [
+                ts
+                for ts, lps in groups.items()
+                if any(b.connection == name for lp in lps for b in lp.config.bindings().values())
+            ]
+            ts = min(using or groups)
+            self.heartbeats[name] = Heartbeat(conn.config.heartbeat, conn.config.heartbeat_max)
+            hb_of[ts][name] = self.heartbeats[name]
+        return {ts: Scan(groups[ts], self.connections, hb_of[ts]) for ts in sorted(groups)}
 
     def request_stop(self) -> None:
         """Ask the runtime to stop after the current cycle (safe to call from a signal handler)."""
@@ -150,6 +200,9 @@ class Runtime:
         self._tasks = []
         if self.running:
             await self._shutdown()
+        if self._gc_thresholds is not None:
+            thaw_garbage_collector(self._gc_thresholds)
+            self._gc_thresholds = None
         self.running = False
         self.stopped.set()
 
@@ -161,22 +214,65 @@ class Runtime:
         finally:
             await self.stop()
 
+    # -- retentive state ---------------------------------------------------------------
+
+    async def _restore_retained(self) -> None:
+        """Restore the retained loops and read their MVs back (one batched read per connection)."""
+        assert self.retain is not None
+        states = await asyncio.to_thread(self.retain.load)
+        restored = [lp for n, lp in self.loops.items() if n in states]
+        for lp in restored:
+            lp.restore_retained(states[lp.name])
+        by_conn: dict[str, list[ControlLoop]] = {}
+        for lp in restored:
+            by_conn.setdefault(lp.config.mv.connection or "", []).append(lp)
+        for name, lps in by_conn.items():
+            conn = self.connections.get(name)
+            if conn is None:
+                continue
+            readings = await conn.read([lp.config.mv.address for lp in lps])
+            for lp, r in zip(lps, readings, strict=True):
+                lp.restart_from(r)
+        if restored:
+            log.info("runtime %s: %d loop(s) restored from %s", self.config.name,
+                     len(restored), self.retain.path)  # fmt: skip
+
+    async def save_retained(self) -> None:
+        """Write every loop's retentive state now (also done every interval and on stop)."""
+        if self.retain is None:
+            return
+        states = {n: lp.retained() for n, lp in self.loops.items()}
+        try:
+            await asyncio.to_thread(self.retain.save, states)
+        except Exception:  # the loops go on; the next save retries
+            log.exception("retain file %s: save failed", self.retain.path)
+
+    async def _retainer(self) -> None:
+        interval = self.config.retain.interval
+        while await self._wait_until(self.clock.now() + interval):
+            await self.save_retained()
+
     async def _shutdown(self) -> None:
+        await self.save_retained()  # the operating state, before the stop values go out
+        by_conn: dict[str, list[ControlLoop]] = {}
+        for lp in self.loops.values():
+            by_conn.setdefault(lp.config.mv.connection or "", []).append(lp)
         results = await asyncio.gather(
-            *(lp.write_stop_value() for lp in self.loops.values()), return_exceptions=True
+            *(self._write_stop_values(n, lps) for n, lps in by_conn.items())
         )
-        for lp, ok in zip(self.loops.values(), results, strict=True):
-            written = ok is True
-            if not written:
-                log.error("loop %s: could not write the stop value (%s)", lp.name, lp.write_error)
+        failures = {k: v for r in results for k, v in r.items()}
+        self.stop_failures = failures
+        for lp in self.loops.values():
+            err = failures.get(lp.name)
             self._audit(
-                "runtime",
-                lp.name,
-                "stop",
-                {"mv": None},
-                {"mv": lp.mv},
-                written,
-                "" if written else lp.write_error,
+                "runtime", lp.name, "stop", {"mv": None}, {"mv": lp.mv}, err is None, err or ""
+            )
+        if failures:
+            log.error(
+                "runtime %s: %d stop value(s) NOT written: %s",
+                self.config.name,
+                len(failures),
+                "; ".join(f"{n} ({e})" for n, e in sorted(failures.items())),
             )
         if self.historian is not None:
             try:
@@ -185,6 +281,35 @@ class Runtime:
                 log.exception("historian close failed")
         await asyncio.gather(*(c.close() for c in self.connections.values()))
         log.info("runtime %s: stopped", self.config.name)
+
+    async def _write_stop_values(self, conn_name: str, loops: list[ControlLoop]) -> dict[str, str]:
+        """The final batched write of the stop values on one connection; loop -> failure."""
+        conn = self.connections.get(conn_name)
+        if conn is None:
+            return {lp.name: f"no connection {conn_name!r}" for lp in loops}
+        timeout = conn.config.stop_timeout
+        if not conn.connected:
+            await conn.connect_now(timeout)
+        pending = list(loops)
+        errors: dict[str, str] = {}
+        for _ in range(2):  # the final write, retried once for the items that failed
+            res = await conn.write(
+                [(lp.config.mv.address, lp.stop_value) for lp in pending], timeout=timeout
+            )
+            errors = {}
+            again = []
+            for lp, err in zip(pending, res, strict=True):
+                lp.mv = lp.stop_value
+                lp.written(err)
+                if err is not None:
+                    errors[lp.name] = err
+                    again.append(lp)
+            pending = again
+            if not pending:
+                break
+            if not conn.connected:
+                await conn.connect_now(timeout)
+        return errors
 
     # -- the scheduler ----------------------------------------------------------------
 
@@ -200,7 +325,7 @@ class Runtime:
                 f.cancel()
         return not self._stop.is_set()
 
-    async def _cycles(self, ts: float, loops: list[ControlLoop]) -> None:
+    async def _cycles(self, ts: float, scan: Scan) -> None:
         clock = self.clock
         t0 = clock.now()
         k = 0
@@ -209,9 +334,11 @@ class Runtime:
             t = clock.now()
             period = ts if last is None else t - last
             last = t
-            samples = await asyncio.gather(*(lp.cycle(t, period) for lp in loops))
-            for s in samples:
+            for s in await scan.run(t, period):
                 self._record(s)
+            for lp in scan.loops:
+                while lp.alarms:
+                    self._audit("runtime", lp.name, "alarm", None, None, False, lp.alarms.pop(0))
             k += 1
             late = clock.now() - (t0 + k * ts)
             if late >= 0.0:  # overrun: skip the missed deadlines, keep the phase
@@ -328,3 +455,27 @@ class Runtime:
             self.historian.audit(*args)
         except Exception:  # the audit must not break a command
             log.exception("audit write failed")
+
+
+def freeze_garbage_collector(threshold0: int = 50_000) -> tuple[int, int, int]:
+    """Move every object alive now out of the collector's view and raise its first threshold.
+
+    After the start, nearly every long-lived object exists (configuration,
+    blocks, libraries, the asyncio machinery).  ``gc.freeze()`` puts them in
+    the permanent generation, so a full collection no longer walks them, and
+    a generation-0 threshold of ``threshold0`` allocations (default 700)
+    makes collections rarer; reference counting frees the cycles' own
+    short-lived objects anyway.  Measured effect: docs/performance.md.
+    Returns the previous thresholds (for :func:`thaw_garbage_collector`).
+    """
+    old = gc.get_threshold()
+    gc.collect()
+    gc.freeze()
+    gc.set_threshold(threshold0, old[1], old[2])
+    return old
+
+
+def thaw_garbage_collector(thresholds: tuple[int, int, int]) -> None:
+    """Undo :func:`freeze_garbage_collector` (the runtime's stop)."""
+    gc.unfreeze()
+    gc.set_threshold(*thresholds)

@@ -23,6 +23,7 @@ __all__ = [
     "REPORT_METRICS",
     "TableCheck",
     "claims_holding",
+    "margins_rows",
     "render_report",
     "shipped_scenarios",
     "table1_inverse_half_rule",
@@ -152,6 +153,78 @@ def _tuned_lines(sc: Scenario) -> list[str]:
     return out
 
 
+def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
+    """``(controller, model, margins, tuned)`` for every PID/ADRC whose loop has a linear model.
+
+    A controller tuned by ``[controllers.tune]`` is analysed as configured (the
+    table with the tuned parameters) on the FOPDT fit of its bump test; a controller
+    set by the source (``tuned`` False) in a ``single`` loop on a linear plant
+    is analysed on that plant itself, exactly (:mod:`ctrlblocks.tuning.margins`).
+    Other loops (nonlinear plants, cascades, Smith predictors) have no row.
+    """
+    from ..loops.spec import build
+    from ..plants.linear import LinearPlant
+    from ..tuning.bump import block_margins
+    from ..tuning.identify import FOPDT
+
+    rows: list[tuple[str, str, dict | None, bool]] = []
+    for c in sc.controllers:
+        spec = c.blocks.get("main")
+        if spec is None or isinstance(spec, list):
+            continue
+        info = spec.extra.get("tuned")
+        if info:
+            model = (
+                f"FOPDT fit k = {info['gain']:.4g}, T = {info['time_constant']:.4g} s, "
+                f"T0 = {info['dead_time']:.4g} s"
+            )
+            fit = FOPDT(info["gain"], info["time_constant"], info["dead_time"])
+            rows.append((c.name, model, block_margins(fit, spec.type, spec.params, sc.ts), True))
+            continue
+        if sc.structure != "single" or sc.plant is None or spec.type not in ("PID", "ADRC"):
+            continue
+        plant = build(sc.plant, sc.ts, kind="plant", file=sc.file)  # checked when loaded
+        if not isinstance(plant, LinearPlant):
+            continue
+        mg = block_margins(plant, spec.type, spec.params, sc.ts)
+        rows.append((c.name, f"the plant ({sc.plant.type}, exact)", mg, False))
+    return rows
+
+
+def _margins_lines(sc: Scenario) -> list[str]:
+    rows = margins_rows(sc)
+    if not rows:
+        return []
+    out = [
+        "",
+        "Robustness of each tuning on its model (sampled loop, dead time exact, "
+        "`docs/tuning.md`; a dash: set-point ramps, filters or a dead band, not analysed):",
+        "",
+        "| controller | model | Ms | GM | PM [deg] | crossover [rad/s] | stable |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    warn = []
+
+    def cell(v: float | None, fmt: str) -> str:
+        return "∞" if v is None or v == float("inf") else format(v, fmt)
+
+    for name, model, mg, tuned in rows:
+        if mg is None:
+            out.append(f"| {name} | {model} | – | – | – | – | – |")
+            continue
+        stable = "yes" if mg["stable"] else "**no**"
+        out.append(
+            f"| {name} | {model} | {cell(mg['ms'] if mg['stable'] else None, '.3f')} | "
+            f"{cell(mg['gm'], '.3g')} | {cell(mg['pm'], '.1f')} | "
+            f"{cell(mg['wc_crossover'], '.4g')} | {stable} |"
+        )
+        if not mg["stable"] or mg["ms"] > 2.0:
+            who = "the tuning found" if tuned else "the source's tuning"
+            how = "is unstable" if not mg["stable"] else f"has Ms = {mg['ms']:.3g} > 2 (fragile)"
+            warn.append(f"- ⚠️ {name}: {who} {how} on {model}.")
+    return out + (["", *warn] if warn else [])
+
+
 def claims_holding(results: Sequence[ScenarioResult], *, tables: bool = True) -> tuple[int, int]:
     """``(holding, total)`` claims of ``results`` (with ``tables``: and the Table 1 checks)."""
     return _count_claims(results, table1_inverse_half_rule()[1] if tables else [])
@@ -225,6 +298,7 @@ def render_report(
         if tuned:
             lines += ["", "Tuned from a simulated bump test when the scenario was loaded:", ""]
             lines += tuned
+        lines += _margins_lines(sc)
         for case, png_name in zip(sc.cases, plot_names([c.name for c in sc.cases]), strict=True):
             png = f"{sc.name}/{png_name}.png"
             lines += ["", f"![{sc.title} — {case.name}]({png})"]

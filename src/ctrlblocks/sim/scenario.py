@@ -463,27 +463,38 @@ class _Parser(SpecReader):
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Tune from a simulated bump test on the scenario's plant (``[controllers.tune]``).
 
-        The plant (without actuator and sensor) is stepped by ``du`` from the
-        initial MV; :func:`ctrlblocks.tuning.fit_fopdt` fits an FOPDT; a PID
-        rule (``amigo``, ``simc``, ``zn``, ``lambda``) or the ADRC tuning of
-        Nowak et al. 2018 (inverse half-rule + bandwidths, ``rule = "adrc"``) gives the
-        parameters, which replace those of the block table.
+        The keys are checked here; the bump test (the plant without actuator
+        and sensor, stepped by ``du`` from the initial MV), the FOPDT fit, the
+        rule (``amigo``, ``simc``, ``zn``, ``lambda``, or ``adrc``: Nowak et
+        al. 2018's inverse half-rule and bandwidths, the safe default by Ms
+        without ``settling_time``) and the margins of the tuned parameters on
+        the fit are :func:`ctrlblocks.tuning.bump.tune_from_bump_test` (the
+        report recomputes them for the whole block table).  The parameters
+        found replace those of the block table.
         """
-        from .. import tuning
+        from ..tuning.bump import PID_RULES, tune_from_bump_test
 
         self.as_table(d, key)
-        self.check_keys(d, {"rule", "du", "duration", "controller", "order", "settling_time"}, key)
+        allowed = {"rule", "du", "duration", "controller", "order", "settling_time", "ms"}
+        self.check_keys(d, allowed, key)
         rule = self.string(d, "rule", f"{key}.rule")
-        pid_rules = ("amigo", "simc", "zn", "lambda")
         if block_type == "ADRC":
             if rule != "adrc":
                 raise self.fail(f"{key}.rule", f"for an ADRC must be 'adrc', got {rule!r}")
-        elif rule not in pid_rules:
-            raise self.fail(f"{key}.rule", f"must be one of {', '.join(pid_rules)}; got {rule!r}")
+        elif rule not in PID_RULES:
+            raise self.fail(f"{key}.rule", f"must be one of {', '.join(PID_RULES)}; got {rule!r}")
         du = self.number(d, "du", f"{key}.du")
         if du == 0.0:
             raise self.fail(f"{key}.du", "must be non-zero (the size of the bump)")
         duration = self.number(d, "duration", f"{key}.duration", default=None, positive=True)
+        order = d.get("order", 2)
+        if order not in (1, 2, 3) or isinstance(order, bool):
+            raise self.fail(f"{key}.order", f"must be 1, 2 or 3, got {order!r}")
+        st = self.number(d, "settling_time", f"{key}.settling_time", default=None, positive=True)
+        ms = self.number(d, "ms", f"{key}.ms", default=None, positive=True)
+        ctrl = self.string(d, "controller", f"{key}.controller", default="pid")
+        if ctrl not in ("pi", "pid"):
+            raise self.fail(f"{key}.controller", f"must be 'pi' or 'pid', got {ctrl!r}")
         plant = self.build(plant_spec, ts, kind="plant")
         ini = dict(initial or {})
         u0 = float(ini.get("u", 0.0))
@@ -493,53 +504,12 @@ class _Parser(SpecReader):
             if u_y is not None:
                 u0 = u_y
         try:
-            t, u, y = tuning.bump_test(plant, du, u0=u0, duration=duration)
-            model = tuning.fit_fopdt(t, u, y)
-            info: dict[str, Any] = {
-                "rule": rule,
-                "du": du,
-                "u0": u0,
-                "gain": model.gain,
-                "time_constant": model.time_constant,
-                "dead_time": model.dead_time,
-            }
-            if block_type == "ADRC":
-                order = d.get("order", 2)
-                if order not in (1, 2, 3) or isinstance(order, bool):
-                    raise self.fail(f"{key}.order", f"must be 1, 2 or 3, got {order!r}")
-                st = self.number(
-                    d, "settling_time", f"{key}.settling_time", default=None, positive=True
-                )
-                res = tuning.adrc_tuning(
-                    model.gain,
-                    model.time_constant,
-                    model.dead_time,
-                    order,
-                    settling_time=st,
-                    ts=ts,
-                )
-                tuned = {
-                    "order": order,
-                    "b0": res.b0,
-                    "omega_c": res.omega_c,
-                    "omega_o": res.omega_o,
-                }
-            else:
-                ctrl = self.string(d, "controller", f"{key}.controller", default="pid")
-                if ctrl not in ("pi", "pid"):
-                    raise self.fail(f"{key}.controller", f"must be 'pi' or 'pid', got {ctrl!r}")
-                res = tuning.pid_from_model(model, rule, controller=ctrl)
-                tuned = {"kp": abs(res.kp), "ti": res.ti, "td": res.td}
-                if res.kp < 0:
-                    tuned["reverse"] = True
-                if res.b is not None:
-                    tuned["b"] = res.b
-        except ScenarioError:  # a bad key of the tune table, named by self.fail
-            raise
+            return tune_from_bump_test(
+                plant, block_type, rule, du, ts=ts, u0=u0, duration=duration, controller=ctrl,
+                order=order, settling_time=st, ms=ms,
+            )  # fmt: skip
         except ValueError as exc:  # ParameterError, or a record the fit cannot use
             raise self.fail(key, f"tuning failed: {exc}") from None
-        info["parameters"] = dict(tuned)
-        return tuned, info
 
     # -- time line ---------------------------------------------------------------
 

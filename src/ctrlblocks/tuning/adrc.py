@@ -38,28 +38,39 @@ control law, no formula copied), and ``omega_o`` is lowered in steps of 10 %
 down to ``3 omega_c`` until the MV noise is acceptable (a warning says so,
 or says that even ``3 omega_c`` is too noisy).
 
-Default settling time when none is given: ``tau_set = 1.5 (T + T0)``, about
-40 % of the open-loop 98 % settling time ``T0 + 4 T``.  On the paper's
-processes (10a)/(10b) with their FOPDT fits, n = 2 and this default settle in
-29 s and 23 s (2 %) with about 1 % overshoot (tests/tuning/test_adrc.py), a
-cautious first tuning to be shortened on the running loop (Nowak et al. 2018 itself
-retuned from the estimates, Table 2).  For n = 1 on a process whose FOPDT
-has a large dead time the estimate ``b0 = k/T`` is far too small (Nowak et al. 2018:
-the final b0 was 3 times larger) and the loop oscillates: a warning says so.
+Default when no settling time is given (the safe default): the fastest
+``omega_c`` whose sampled loop on the model -- dead time exact, the block's own
+discretisation, :mod:`ctrlblocks.tuning.margins` -- is stable with a maximum
+sensitivity ``Ms <= 1.6`` (``ms``), ``omega_o = observer_ratio omega_c``.  The
+bandwidth rule itself assumes a process without real dead time: with
+``tau_set = 1.5 (T + T0)`` (the former default) the loop is unstable on every
+FOPDT from ``T0/T`` of about 0.1 upwards, orders 1 and 2 alike (for
+``k = 2, T = 30 s, T0 = 5 s``, n = 2: a closed-loop pole at ``|z| = 1.02``).
+The searched default is stable but slow on such processes: with ``T0/T``
+of 0.17..0.3 the order-2 loop on its FOPDT settles in about 5 to 7 times the
+rule's ``tau_set`` (a slow integral tail; a warning says so).  A settling time
+asked for is checked the same way and refused when ``Ms > 2`` or unstable,
+with the fastest settling time that keeps ``Ms <= 2`` (``force`` keeps it).
+For n = 1 on a process whose FOPDT has a large dead time the estimate
+``b0 = k/T`` is far too small (Nowak et al. 2018: the final b0 was 3 times
+larger): a warning says so.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..blocks.base import ErrorCode, ParameterError, require_finite, require_positive
 from .halfrule import inverse_half_rule
+from .margins import MS_FRAGILE, Loop, Margins
 
 __all__ = [
     "MAX_OMEGA_O_TS",
+    "MS_DEFAULT",
     "SETTLING_FACTOR",
     "ADRCTuning",
     "adrc_bandwidth",
@@ -76,6 +87,11 @@ SETTLING_FACTOR = {n: min(5.0, max(3.0, x)) for n, x in SETTLING_TIME_2PCT.items
 
 MAX_OMEGA_O_TS = 0.2
 """Largest ``omega_o ts`` accepted for the Euler observer (4a)."""
+
+MS_DEFAULT = 1.6
+"""Default maximum sensitivity of the searched tuning (``--ms``; accepted 1.1..2)."""
+
+_SUGGEST_OMEGA_O_TS = 0.1  # omega_o ts of a suggested sample time
 
 OMEGA_O_STABILITY = {1: 2.0 * (math.sqrt(2.0) - 1.0), 2: 0.5198, 3: 0.3784}
 """``omega_o ts`` at which the Euler observer (4a) becomes unstable."""
@@ -99,6 +115,17 @@ class ADRCTuning:
     b0, b0_min, b0_max : float
         Scaling parameter and its range (NaN from :func:`adrc_bandwidth`).
     warnings : list of str
+    margins : Margins or None
+        Robustness of the tuning on its model (:mod:`.margins`; None from
+        :func:`adrc_bandwidth`).
+    ms_target : float
+        The Ms the bandwidths were searched for (NaN when a settling time was given).
+    settling_time_loop : float
+        2 % settling time [s] of a set-point step of the sampled loop on the
+        model, dead time included (NaN: not settled).
+    fastest_settling_time : float
+        Shortest ``settling_time`` [s] (the ``tau_set`` of the rule) whose loop
+        has ``Ms <= 2`` on the model (NaN if not searched).
     """
 
     order: int
@@ -111,6 +138,21 @@ class ADRCTuning:
     b0_min: float = math.nan
     b0_max: float = math.nan
     warnings: list[str] = field(default_factory=list)
+    margins: Margins | None = None
+    ms_target: float = math.nan
+    settling_time_loop: float = math.nan
+    fastest_settling_time: float = math.nan
+
+    def config(self, **extra: Any) -> dict[str, Any]:
+        """Keyword arguments for ``ctrlblocks.ADRC(**tuning.config(u_min=..., u_max=...))``."""
+        return {
+            "order": self.order,
+            "b0": self.b0,
+            "omega_c": self.omega_c,
+            "omega_o": self.omega_o,
+            "ts": self.ts,
+            **extra,
+        }
 
 
 def adrc_bandwidth(
@@ -198,13 +240,33 @@ def adrc_tuning(
     observer_ratio: float = 5.0,
     noise_std: float | None = None,
     u_noise_max: float | None = None,
+    ms: float = MS_DEFAULT,
+    force: bool = False,
+    model: Any = None,
+    discretisation: str = "euler",
 ) -> ADRCTuning:
-    """Full ADRC tuning from an FOPDT model: ``b0`` range and bandwidths.
+    """Full ADRC tuning from an FOPDT model: ``b0``, bandwidths and their margins.
 
-    ``b0`` by :func:`~ctrlblocks.tuning.halfrule.inverse_half_rule` (Nowak
-    et al. 2018, (5)-(9); ``b0 = b0_min`` for n = 3 as the paper advises), bandwidths
-    by :func:`adrc_bandwidth` with ``settling_time`` defaulting to
-    ``1.5 (T + T0)``, then the optional MV-noise check (module docstring).
+    ``b0`` by :func:`~ctrlblocks.tuning.halfrule.inverse_half_rule` (Nowak et
+    al. 2018, (5)-(9); ``b0 = b0_min`` for n = 3 as the paper advises).  Then:
+
+    * **no settling time** (the safe default): ``omega_c`` is the fastest for
+      which the sampled loop on the model, dead time exact, is stable with
+      ``Ms <= ms`` (:mod:`.margins`), ``omega_o = observer_ratio omega_c``
+      (lowered to ``MAX_OMEGA_O_TS/ts`` when the sample time asks, with a
+      warning).  Without ``ts`` the sample time is suggested from the result
+      (``omega_o ts <= 0.1``) and the search repeated at that ``ts``.  The
+      search is coarse (factor 1.5 from ``0.1/(T + T0)``) then a bisection
+      to ``0.995 ms <= Ms <= ms``.  When even the slowest candidate exceeds
+      ``ms`` (dead time too long for this order) a ParameterError says so and
+      points to the Smith predictor and to a lower order.
+    * **a settling time**: the bandwidth rule of :func:`adrc_bandwidth`; a
+      result that is unstable or has ``Ms > 2`` on the model is refused
+      (ParameterError ``BAD_BANDWIDTH``, with the fastest settling time that
+      keeps ``Ms <= 2``) unless ``force``, which keeps it with a warning.
+
+    Then the optional MV-noise check (module docstring) and the final margins
+    and settling time on the model.
 
     Parameters
     ----------
@@ -217,13 +279,53 @@ def adrc_tuning(
     noise_std, u_noise_max : float, optional
         PV noise standard deviation and acceptable MV noise standard
         deviation (give both); ``omega_o`` is lowered to meet it.
+    ms : float
+        Target maximum sensitivity of the search, 1.1..2 (default 1.6).
+    force : bool
+        Keep a requested settling time even when its loop is fragile or unstable.
+    model : optional
+        The model the margins are computed on (an ``FOPDT``, ``SOPDT``,
+        ``Integrating`` or a ``LinearPlant``); default the FOPDT given.
+    discretisation : {"euler", "exact"}
+        The ADRC block's discretisation the margins are computed for.
     """
+    from .identify import FOPDT
+
     ihr = inverse_half_rule(gain, time_constant, dead_time, order)
     T, T0 = float(time_constant), float(dead_time)
+    ratio = require_positive("observer_ratio", observer_ratio, ErrorCode.BAD_BANDWIDTH)
+    target = require_positive("ms", ms, ErrorCode.BAD_PARAMETER)
+    if not 1.1 <= target <= MS_FRAGILE:
+        raise ParameterError(ErrorCode.BAD_PARAMETER, "ms", f"must lie in 1.1..2, got {ms!r}")
+    if ts is not None:
+        ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
+    mdl = FOPDT(float(gain), T, T0) if model is None else model
+    search = _Search(mdl, order, ihr.b0, ratio, T + T0, discretisation)
+    warnings = list(ihr.warnings)
+    fastest = math.nan
     if settling_time is None:
-        settling_time = 1.5 * (T + T0)
-    bw = adrc_bandwidth(settling_time, order, ts, factor=factor, observer_ratio=observer_ratio)
-    warnings = [*ihr.warnings, *bw.warnings]
+        bw, w = search.safe(target, ts, factor)
+        warnings += w
+    else:
+        bw = adrc_bandwidth(settling_time, order, ts, factor=factor, observer_ratio=ratio)
+        warnings += bw.warnings
+        mg = search.loop(bw.omega_c, bw.omega_o, bw.ts).margins()
+        if not mg.stable or mg.ms > MS_FRAGILE:
+            wc2 = search.fastest(MS_FRAGILE, bw.ts)
+            fastest = SETTLING_FACTOR[order] / wc2 if factor is None else factor / wc2
+            how = "unstable" if not mg.stable else f"fragile (Ms = {mg.ms:.3g} > {MS_FRAGILE:g})"
+            msg = (
+                f"settling time {bw.settling_time:g} s gives an {how} loop on the model "
+                f"(dead time {T0:g} s); the fastest settling time with Ms <= {MS_FRAGILE:g} "
+                f"at ts = {bw.ts:g} s is {fastest:.4g} s"
+            )
+            if not force:
+                raise ParameterError(
+                    ErrorCode.BAD_BANDWIDTH,
+                    "settling_time",
+                    msg + "; leave the settling time out for the safe default, or force it",
+                )
+            warnings.append(msg + " (forced)")
     if order == 1 and T0 > 0.25 * T:
         warnings.append(
             f"order 1 with T0/T = {T0 / T:.2f}: the process is of higher order and b0 = k/T is "
@@ -240,10 +342,129 @@ def adrc_tuning(
             require_positive("noise_std", noise_std), require_positive("u_noise_max", u_noise_max),
         )  # fmt: skip
         warnings += w
+    lp = search.loop(bw.omega_c, omega_o, bw.ts)
+    mg = lp.margins()
+    if settling_time is None and mg.ms > target * (1.0 + 1e-6):
+        warnings.append(
+            f"Ms = {mg.ms:.3g} exceeds the target {target:g} after the MV-noise adjustment"
+        )
+    settle = lp.settling_time() if mg.stable else math.nan
+    open_loop = T0 + 4.0 * T  # 98 % settling time of the FOPDT itself
+    if settle > open_loop:
+        lower = f" or a lower order than {order}" if order > 1 else ""
+        warnings.append(
+            f"no ADRC of order {order} reaches Ms <= {target:g} at a useful speed on this model: "
+            f"the loop settles in {settle:.4g} s, slower than the process itself (T0 + 4 T = "
+            f"{open_loop:.4g} s); use the Smith predictor structure (a scenario's structure = "
+            f'"smith"){lower}, or compare a PID (ctrlblocks tune pid)'
+        )
+    elif settle > 3.0 * bw.settling_time:
+        warnings.append(
+            f"the loop on the model settles in {settle:.4g} s, {settle / bw.settling_time:.2g} "
+            "times the rule's settling time: at this bandwidth the ADRC's integral action is "
+            "weak (a slow tail); on a dead-time process compare a PID (ctrlblocks tune pid) or "
+            "the Smith predictor structure"
+        )
     return ADRCTuning(
         bw.order, bw.omega_c, omega_o, bw.ts, bw.settling_time, bw.settling_time_model,
-        ihr.b0, ihr.b0_min, ihr.b0_max, warnings,
+        ihr.b0, ihr.b0_min, ihr.b0_max, warnings, mg,
+        target if settling_time is None else math.nan, settle, fastest,
     )  # fmt: skip
+
+
+class _Search:
+    """The ADRC of one order and b0 on one model: the bandwidth searches of :func:`adrc_tuning`."""
+
+    def __init__(self, model: Any, order: int, b0: float, ratio: float, t_sum: float,
+                 discretisation: str) -> None:  # fmt: skip
+        self.model, self.order, self.b0 = model, _order(order), b0
+        self.ratio, self.t_sum, self.disc = ratio, t_sum, discretisation
+
+    def omega_o(self, wc: float, ts: float) -> float:
+        return min(self.ratio * wc, MAX_OMEGA_O_TS / ts)
+
+    def loop(self, wc: float, wo: float, ts: float) -> Loop:
+        from ..blocks.adrc import ADRC
+
+        block = ADRC(order=self.order, b0=self.b0, omega_c=wc, omega_o=wo, ts=ts,
+                     discretisation=self.disc)  # fmt: skip
+        return Loop(self.model, block)
+
+    def ms(self, wc: float, ts: float) -> float:
+        return self.loop(wc, self.omega_o(wc, ts), ts).peak_sensitivity()
+
+    def fastest(self, target: float, ts: float) -> float:
+        """Largest omega_c [rad/s] with a stable loop and ``Ms <= target`` at ``ts``."""
+        lo = 0.1 / self.t_sum
+        ms_lo = self.ms(lo, ts)
+        if ms_lo > target:
+            raise ParameterError(
+                ErrorCode.BAD_BANDWIDTH,
+                "order",
+                f"no ADRC of order {self.order} reaches Ms <= {target:g} on this model, even "
+                f"with omega_c = {lo:.3g} rad/s (the dead time is too long for the "
+                "bandwidth rule): use the Smith predictor structure (a scenario's "
+                'structure = "smith") or a lower order',
+            )
+        wc_max = MAX_OMEGA_O_TS / ts / 1.5  # omega_o >= 1.5 omega_c at the sample-time bound
+        hi = lo
+        while True:
+            hi = min(hi * 1.5, wc_max)
+            m = self.ms(hi, ts)
+            if m > target:
+                break
+            lo, ms_lo = hi, m
+            if hi >= wc_max:
+                return wc_max
+        while hi / lo > 1.0005 and ms_lo < 0.995 * target:
+            mid = math.sqrt(lo * hi)
+            m = self.ms(mid, ts)
+            if m <= target:
+                lo, ms_lo = mid, m
+            else:
+                hi = mid
+        return lo
+
+    def safe(
+        self, target: float, ts: float | None, factor: float | None
+    ) -> tuple[ADRCTuning, list[str]]:
+        """The fastest tuning with ``Ms <= target``; a suggested ``ts`` when none is given."""
+        n = self.order
+        f = SETTLING_FACTOR[n] if factor is None else require_positive("factor", factor)
+        warnings: list[str] = []
+        if ts is None:
+            # suggest ts from the result (omega_o ts <= 0.1) and search again at it, until
+            # the suggestion repeats; a cycle between two round values takes the shorter ts
+            found: dict[float, float] = {}
+            ts_try = _nice_floor(_SUGGEST_OMEGA_O_TS / (self.ratio * f / (1.5 * self.t_sum)))
+            while ts_try not in found and len(found) < 4:
+                found[ts_try] = self.fastest(target, ts_try)
+                ts_try = _nice_floor(_SUGGEST_OMEGA_O_TS / (self.ratio * found[ts_try]))
+            fixed = (
+                ts_try in found
+                and _nice_floor(_SUGGEST_OMEGA_O_TS / (self.ratio * found[ts_try])) == ts_try
+            )
+            ts = ts_try if fixed else min(found)
+            wc = found[ts]
+        else:
+            wc = self.fastest(target, ts)
+            if wc >= MAX_OMEGA_O_TS / ts / 1.5 * (1 - 1e-12):
+                warnings.append(
+                    f"omega_c is limited by the sample time ts = {ts:g} s (omega_o ts <= "
+                    f"{MAX_OMEGA_O_TS}), not by Ms <= {target:g}: a shorter ts allows a faster loop"
+                )
+        wo = self.omega_o(wc, ts)
+        if wo < self.ratio * wc * (1 - 1e-12):
+            warnings.append(
+                f"observer ratio lowered from {self.ratio:g} to {wo / wc:.3g} (omega_o ts <= "
+                f"{MAX_OMEGA_O_TS} at ts = {ts:g} s)"
+            )
+        warnings.append(
+            f"omega_c = {wc:.4g} rad/s is the fastest with Ms <= {target:g} on the model "
+            f"(dead time included); omega_o = {wo / wc:.3g} omega_c"
+        )
+        tun = ADRCTuning(n, wc, wo, float(ts), f / wc, SETTLING_TIME_2PCT[n] / wc)
+        return tun, warnings
 
 
 def mv_noise(

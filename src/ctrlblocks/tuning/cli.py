@@ -3,8 +3,14 @@
 ::
 
     ctrlblocks identify bump.csv --time t --u mv --y pv [--method lsq] [--json] [--plot fit.png]
+        [--u-before U] [--delimiter ';'] [--decimal ','] [--encoding cp1252]
+        [--y-unit bar] [--u-unit %]
     ctrlblocks tune adrc --gain K --time-constant T --dead-time L --order N [--settling-time S]
     ctrlblocks tune pid  --gain K --time-constant T --dead-time L --rule simc|amigo|zn|lambda
+    ctrlblocks tune pid  --ku KU --pu PU --rule zn|tyreus-luyben
+
+``tune`` prints the margins of the tuning on its model (``ms``, ``gm``,
+``pm`` [deg], ``wc_crossover`` [rad/s], ``stable``; :mod:`.margins`).
 
 ``--json`` prints one JSON object; otherwise a readable table.  Bad input
 (unreadable file, bad column, impossible model) exits with status 1 and one
@@ -15,6 +21,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+from pathlib import Path
 
 import click
 
@@ -23,7 +31,7 @@ _METHODS = ("two-point", "sk", "lsq", "lsq-sopdt", "integrating")
 
 def _emit(data: dict, as_json: bool, title: str) -> None:
     if as_json:
-        click.echo(json.dumps(data, indent=2, default=_json_default))
+        click.echo(json.dumps(data, indent=2, default=_json_default, ensure_ascii=False))
         return
     click.echo(title)
     width = max(len(k) for k in data)
@@ -67,6 +75,32 @@ def _finite(d: dict) -> dict:
 @click.option(
     "--plot", "plot_path", type=click.Path(dir_okay=False), help="Write a PNG of data vs model."
 )
+@click.option(
+    "--u-before",
+    type=float,
+    default=None,
+    help="The MV before the record, when the step is at the first sample "
+    "(MV constant from t = 0, PV at rest there).",
+)
+@click.option(
+    "--delimiter",
+    type=click.Choice([",", ";", "tab"]),
+    default=None,
+    help="Column delimiter (default: detected from the header).",
+)
+@click.option(
+    "--decimal",
+    type=click.Choice([".", ","]),
+    default=None,
+    help="Decimal mark (default: ',' when the delimiter is not ',' and the cells use commas).",
+)
+@click.option(
+    "--encoding",
+    default=None,
+    help="Text encoding, e.g. cp1252 (default: UTF-8, else Windows-1252, with a note).",
+)
+@click.option("--y-unit", default=None, help="PV unit (default: from a header like 'pv [degC]').")
+@click.option("--u-unit", default=None, help="MV unit (default: from a header like 'mv [%]').")
 def identify(
     file: str,
     time_col: str,
@@ -75,12 +109,34 @@ def identify(
     method: str,
     as_json: bool,
     plot_path: str | None,
+    u_before: float | None,
+    delimiter: str | None,
+    decimal: str | None,
+    encoding: str | None,
+    y_unit: str | None,
+    u_unit: str | None,
 ) -> None:
-    """Identify a process model from a bump test in FILE (CSV with a header row)."""
+    """Identify a process model from a bump test in FILE (CSV with a header row).
+
+    Time in seconds (or ISO 8601 timestamps); ',' ';' or tab delimiters and
+    decimal commas are detected; a unit in a header cell ('pv [degC]') labels
+    the plot and the JSON.
+    """
     from . import identify as ident
 
+    if plot_path:
+        _check_writable(Path(plot_path), "--plot")
     try:
-        data = ident.read_step_csv(file, time=time_col, u=u_col, y=y_col)
+        data = ident.read_step_csv(
+            file,
+            time=time_col,
+            u=u_col,
+            y=y_col,
+            u_before=u_before,
+            delimiter="\t" if delimiter == "tab" else delimiter,
+            decimal=decimal,
+            encoding=encoding,
+        )
         fitter = {
             "two-point": ident.two_point,
             "sk": ident.sundaresan_krishnaswamy,
@@ -91,13 +147,64 @@ def identify(
         model = fitter(data.t, data.u, data.y)
     except ValueError as exc:  # DataFileError, or a record the method cannot use
         raise click.ClickException(str(exc)) from None
+    for note in data.notes:
+        click.echo(f"note: {file}: {note}", err=True)
+    y_unit = y_unit if y_unit is not None else data.y_unit
+    u_unit = u_unit if u_unit is not None else data.u_unit
     result = model.as_dict()
+    result["y_unit"], result["u_unit"] = y_unit, u_unit
+    result["gain_unit"] = _gain_unit(result["model"], y_unit, u_unit)
+    if data.encoding != "utf-8":
+        result["encoding"] = data.encoding
+    if data.start:
+        result["start"] = data.start
     if plot_path:
         from .plot import plot_identification
 
-        plot_identification(data.t, data.u, data.y, model, plot_path)
+        try:
+            plot_identification(
+                data.t,
+                data.u,
+                data.y,
+                model,
+                plot_path,
+                y_label=_axis_label("PV", y_col, y_unit),
+                u_label=_axis_label("MV", u_col, u_unit),
+                gain_unit=result["gain_unit"],
+            )
+        except OSError as exc:
+            raise click.ClickException(
+                f"--plot {plot_path}: cannot write the plot ({exc.strerror or exc})"
+            ) from None
         result["plot"] = plot_path
+    if not as_json:  # the table shows units only when known
+        result = {k: v for k, v in result.items() if not (k.endswith("_unit") and v is None)}
     _emit(_finite(result), as_json, f"{file}: {result['model'].upper()} model ({method})")
+
+
+def _check_writable(path: Path, option: str) -> None:
+    """Refuse an output file whose directory does not exist or is not writable (before work)."""
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise click.ClickException(f"{option} {path}: no such directory {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise click.ClickException(f"{option} {path}: the directory {parent} is not writable")
+
+
+def _axis_label(role: str, column: str, unit: str | None) -> str:
+    """``"PV: pv [degC]"`` -- role, column name (without its header unit) and unit."""
+    from .identify import split_unit
+
+    name = split_unit(column)[0]
+    return f"{role}: {name}" + (f" [{unit}]" if unit else "")
+
+
+def _gain_unit(model: str, y_unit: str | None, u_unit: str | None) -> str | None:
+    """Unit of the process gain: ``y_unit/u_unit`` (per second for an integrating model)."""
+    if y_unit is None and u_unit is None:
+        return None
+    unit = f"{y_unit or '1'}/{u_unit or '1'}"
+    return unit + "/s" if model == "integrating" else unit
 
 
 @click.group()
@@ -105,57 +212,118 @@ def tune() -> None:
     """Controller settings from an FOPDT model (gain, time constant, dead time)."""
 
 
-_model_options = [
-    click.option("--gain", type=float, required=True, help="Process gain K [PV unit / MV unit]."),
-    click.option("--time-constant", type=float, required=True, help="Time constant T [s]."),
-    click.option("--dead-time", type=float, required=True, help="Dead time L [s]."),
-]
+ADRC_INFO_KEYS = (
+    "b0_min", "b0_max", "settling_time", "settling_time_model", "settling_time_loop",
+    "fastest_settling_time", "ms_target", "ms", "gm", "pm", "wc_crossover", "stable",
+    "warnings", "plot",
+)  # fmt: skip
+"""Informational keys of ``tune adrc --json``: drop them and ``ADRC(**rest, u_min=, u_max=)``."""
+
+PID_INFO_KEYS = (
+    "rule", "note", "margins_ts", "ms", "gm", "pm", "wc_crossover", "stable", "warnings", "plot",
+)  # fmt: skip
+"""Informational keys of ``tune pid --json``: drop them and ``PID(**rest, ts=, u_min=, u_max=)``."""
 
 
-def _with_model(f):
-    for opt in reversed(_model_options):
-        f = opt(f)
-    return f
+def _model_options(required: bool):
+    need = " (with --ku/--pu: optional, for the margins)" if not required else ""
+    opts = [
+        click.option("--gain", type=float, required=required,
+                     help=f"Process gain K [PV unit / MV unit]{need}."),
+        click.option("--time-constant", type=float, required=required,
+                     help="Time constant T [s]."),
+        click.option("--dead-time", type=float, required=required, help="Dead time L [s]."),
+    ]  # fmt: skip
+
+    def deco(f):
+        for opt in reversed(opts):
+            f = opt(f)
+        return f
+
+    return deco
+
+
+def _plot_option(f):
+    return click.option(
+        "--plot", "plot_path", type=click.Path(dir_okay=False),
+        help="Write a PNG: Nyquist curve with the Ms circle, |S| and |T|, step and load "
+        "responses on the model.",
+    )(f)  # fmt: skip
+
+
+def _margin_keys(mg) -> dict:
+    return mg.as_dict()
+
+
+def _write_plot(lp, mg, path: str, title: str) -> None:
+    from .plot import plot_loop
+
+    try:
+        plot_loop(lp, mg, path, title=title)
+    except OSError as exc:
+        raise click.ClickException(f"cannot write {path}: {exc}") from None
 
 
 @tune.command("adrc")
-@_with_model
+@_model_options(True)
 @click.option("--order", type=int, required=True, help="ADRC order n (1, 2 or 3).")
 @click.option(
     "--settling-time",
     type=float,
-    help="Desired closed-loop settling time [s]; default 1.5 (T + L).",
+    help="Desired settling time [s] (the rule's tau_set); refused when the loop on the model "
+    "is unstable or has Ms > 2 (see --force). Default: the fastest with Ms <= --ms.",
 )
+@click.option(
+    "--ms", "ms", type=float, default=1.6, show_default=True,
+    help="Maximum sensitivity of the default tuning (1.1..2; 1.4 robust, 2 aggressive).",
+)  # fmt: skip
+@click.option("--force", is_flag=True, help="Keep a fragile or unstable --settling-time.")
 @click.option("--ts", type=float, help="Controller sample time [s]; suggested if not given.")
 @click.option(
     "--observer-ratio", type=float, default=5.0, show_default=True, help="omega_o / omega_c."
 )
+@click.option(
+    "--discretisation", type=click.Choice(("euler", "exact")), default="euler",
+    show_default=True, help="The ADRC block's discretisation the margins are computed for.",
+)  # fmt: skip
 @click.option("--noise-std", type=float, help="PV noise standard deviation (with --u-noise-max).")
 @click.option("--u-noise-max", type=float, help="Acceptable MV noise standard deviation.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@_plot_option
 def tune_adrc(
     gain: float,
     time_constant: float,
     dead_time: float,
     order: int,
     settling_time: float | None,
+    ms: float,
+    force: bool,
     ts: float | None,
     observer_ratio: float,
+    discretisation: str,
     noise_std: float | None,
     u_noise_max: float | None,
     as_json: bool,
+    plot_path: str | None,
 ) -> None:
-    """ADRC: b0 by the inverse half-rule, omega_c and omega_o by bandwidth tuning."""
+    """ADRC: b0 by the inverse half-rule, omega_c and omega_o with margins on the model.
+
+    The margins (Ms, gain margin, phase margin [deg], crossover [rad/s],
+    closed-loop stability) are those of the sampled loop on the FOPDT,
+    dead time exact.
+    """
     from .adrc import adrc_tuning
 
     try:
         r = adrc_tuning(
             gain, time_constant, dead_time, order,
             settling_time=settling_time, ts=ts, observer_ratio=observer_ratio,
-            noise_std=noise_std, u_noise_max=u_noise_max,
+            noise_std=noise_std, u_noise_max=u_noise_max, ms=ms, force=force,
+            discretisation=discretisation,
         )  # fmt: skip
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
+    assert r.margins is not None
     out = {
         "order": r.order,
         "b0": r.b0,
@@ -164,21 +332,45 @@ def tune_adrc(
         "omega_c": r.omega_c,
         "omega_o": r.omega_o,
         "ts": r.ts,
+        "discretisation": discretisation,
         "settling_time": r.settling_time,
         "settling_time_model": r.settling_time_model,
+        "settling_time_loop": r.settling_time_loop,
+        "ms_target": r.ms_target,
+        **_margin_keys(r.margins),
         "warnings": r.warnings,
     }
-    _emit(_finite(out), as_json, f"ADRC order {r.order} (Nowak et al. 2018, section 3.3)")
+    if not math.isnan(r.fastest_settling_time):
+        out["fastest_settling_time"] = r.fastest_settling_time
+    if plot_path:
+        from ..blocks.adrc import ADRC
+        from .identify import FOPDT
+        from .margins import Loop
+
+        block = ADRC(**r.config(discretisation=discretisation))
+        lp = Loop(FOPDT(gain, time_constant, dead_time), block)
+        _write_plot(lp, r.margins, plot_path,
+                    f"ADRC n = {r.order}: b0 = {r.b0:.4g}, omega_c = {r.omega_c:.4g} rad/s, "
+                    f"omega_o = {r.omega_o:.4g} rad/s, ts = {r.ts:g} s")  # fmt: skip
+        out["plot"] = plot_path
+    _emit(_finite(out), as_json, f"ADRC order {r.order} (Nowak et al. 2018, section 3.3); "
+          f"margins on the model: {r.margins.summary()}")  # fmt: skip
+
+
+_PID_RULES = ("simc", "amigo", "zn", "lambda", "tyreus-luyben")
 
 
 @tune.command("pid")
-@_with_model
+@_model_options(False)
 @click.option(
     "--rule",
-    type=click.Choice(("simc", "amigo", "zn", "lambda")),
+    type=click.Choice(_PID_RULES),
     required=True,
-    help="Tuning rule.",
+    help="Tuning rule; zn and tyreus-luyben take --ku/--pu (zn without them: the "
+    "step-response rule).",
 )
+@click.option("--ku", type=float, help="Ultimate gain (relay experiment) [MV unit / PV unit].")
+@click.option("--pu", type=float, help="Ultimate period [s].")
 @click.option(
     "--controller", type=click.Choice(("pi", "pid")), default="pid", show_default=True,
     help="Controller type (SIMC gives PID only with --time-constant-2).",
@@ -187,26 +379,55 @@ def tune_adrc(
     "--time-constant-2", type=float, default=0.0, help="SOPDT second time constant [s] (SIMC)."
 )
 @click.option("--tau-c", type=float, help="Closed-loop time constant [s] (SIMC tau_c, lambda).")
+@click.option("--n", "n_filter", type=float, default=10.0, show_default=True,
+              help="Derivative filter N (Tf = Td/N) of the PID, for the margins.")  # fmt: skip
+@click.option("--ts", type=float, help="Sample time [s] of the margins; default min(T, L)/10.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@_plot_option
 def tune_pid(
-    gain: float,
-    time_constant: float,
-    dead_time: float,
+    gain: float | None,
+    time_constant: float | None,
+    dead_time: float | None,
     rule: str,
+    ku: float | None,
+    pu: float | None,
     controller: str,
     time_constant_2: float,
     tau_c: float | None,
+    n_filter: float,
+    ts: float | None,
     as_json: bool,
+    plot_path: str | None,
 ) -> None:
-    """PID (ISA form: kp, ti, td) by SIMC, AMIGO, Ziegler-Nichols or lambda tuning.
+    """PID (ISA form: kp, ti, td) by SIMC, AMIGO, Ziegler-Nichols, Tyreus-Luyben or lambda.
 
     kp is printed as a magnitude with reverse = true for a negative process
-    gain, ready for ctrlblocks.PID(kp=, ti=, td=, reverse=).
+    gain, ready for ctrlblocks.PID(kp=, ti=, td=, reverse=, form=) (drop the
+    informational keys of --json: rule, note, margins_ts and the margins).
+    With a model, the margins of the PID block (its discretisation at
+    --ts, derivative filter --n, set-point weight) on the sampled model,
+    dead time exact.
     """
     from . import pid_rules as r
 
+    model_given = [v is not None for v in (gain, time_constant, dead_time)]
+    ultimate = ku is not None or pu is not None
+    if any(model_given) and not all(model_given):
+        raise click.UsageError("give all of --gain, --time-constant and --dead-time, or none")
+    if ultimate and (ku is None or pu is None):
+        raise click.UsageError("give both --ku and --pu")
+    if not all(model_given) and not ultimate:
+        raise click.UsageError("give the model (--gain, --time-constant, --dead-time) or --ku/--pu")
+    if rule == "tyreus-luyben" and not ultimate:
+        raise click.UsageError("the Tyreus-Luyben rule needs --ku and --pu")
+    if ultimate and rule not in ("zn", "tyreus-luyben"):
+        raise click.UsageError(f"--ku/--pu go with --rule zn or tyreus-luyben, not {rule}")
     try:
-        if rule == "simc":
+        if ultimate:
+            assert ku is not None and pu is not None
+            fn = r.ziegler_nichols_closed if rule == "zn" else r.tyreus_luyben
+            tun = fn(ku, pu, controller=controller)
+        elif rule == "simc":
             tun = r.simc(
                 gain, time_constant, dead_time, time_constant_2=time_constant_2, tau_c=tau_c
             )
@@ -216,9 +437,50 @@ def tune_pid(
             tun = r.ziegler_nichols_open(gain, time_constant, dead_time, controller=controller)
         else:
             tun = r.lambda_tuning(gain, time_constant, dead_time, lam=tau_c, controller=controller)
+        out: dict = {**tun.as_kwargs(), "form": tun.form, "rule": tun.rule}
+        if tun.note:
+            out["note"] = tun.note
+        warnings: list[str] = []
+        title = f"PID ({tun.rule}, {tun.form.upper()} form)"
+        if all(model_given):
+            lp, mg, h = _pid_margins(tun, gain, time_constant, dead_time, time_constant_2,
+                                     n_filter, ts)  # fmt: skip
+            out.update({"margins_ts": h, **_margin_keys(mg)})
+            title += f"; margins on the model at ts = {h:g} s: {mg.summary()}"
+            if not mg.stable or mg.ms > 2.0:
+                warnings.append(
+                    f"the {tun.rule} tuning is {'unstable' if not mg.stable else 'fragile'} on "
+                    f"this model (Ms > 2): detune (SIMC --tau-c, lambda) or check the model"
+                )
+            if plot_path:
+                _write_plot(lp, mg, plot_path, f"{title.split(';')[0]}: kp = {tun.kp:.4g}, "
+                            f"ti = {tun.ti:.4g} s, td = {tun.td:.4g} s, ts = {h:g} s")  # fmt: skip
+                out["plot"] = plot_path
+        else:
+            warnings.append("no model given: margins need --gain, --time-constant, --dead-time")
+            if plot_path:
+                raise click.UsageError("--plot needs the model (--gain, --time-constant, ...)")
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
-    out = {**tun.as_kwargs(), "rule": tun.rule, "form": tun.form}
-    if tun.note:
-        out["note"] = tun.note
-    _emit(out, as_json, f"PID ({tun.rule}, {tun.form} form)")
+    out["warnings"] = warnings
+    _emit(_finite(out), as_json, title)
+
+
+def _pid_margins(tun, gain, time_constant, dead_time, time_constant_2, n_filter, ts):
+    """The loop, margins and sample time of a PID tuning on its FOPDT/SOPDT model."""
+    from ..blocks.pid import PID
+    from .adrc import _nice_floor
+    from .identify import FOPDT, SOPDT
+    from .margins import Loop
+
+    if time_constant_2 > 0.0:
+        model = SOPDT(gain, time_constant, dead_time, time_constant_2)
+    else:
+        model = FOPDT(gain, time_constant, dead_time)
+    if ts is None:
+        scale = min(time_constant, dead_time) if dead_time > 0.0 else time_constant
+        ts = _nice_floor(scale / 10.0)
+    block = PID(**tun.as_kwargs(), form=tun.form, n=n_filter, ts=ts,
+                u_min=-math.inf, u_max=math.inf)  # fmt: skip
+    lp = Loop(model, block)
+    return lp, lp.margins(), ts

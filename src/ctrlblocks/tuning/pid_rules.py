@@ -99,7 +99,8 @@ class PIDTuning:
     rule : str
         The rule that produced them.
     form : str
-        Always ``"ISA"`` (series results are converted, see ``note``).
+        Always ``"isa"``, the PID block's ``form`` value (series results are
+        converted, see ``note``).
     note : str
         Remarks (conversion from series form, choices made).
     b : float or None
@@ -111,7 +112,7 @@ class PIDTuning:
     ti: float
     td: float
     rule: str
-    form: str = "ISA"
+    form: str = "isa"
     note: str = ""
     b: float | None = None
 

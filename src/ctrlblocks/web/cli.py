@@ -8,7 +8,6 @@ and opens the faceplate at http://127.0.0.1:8000.
 from __future__ import annotations
 
 import contextlib
-import logging
 import os
 import tempfile
 from pathlib import Path
@@ -99,10 +98,9 @@ def serve(
 
         ctx.invoke(runtime_serve, config=Path(config), check=check, verbose=verbose)
         return
-    logging.basicConfig(
-        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(verbose, 2)],
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-    )
+    from ..runtime.cli import configure_logging
+
+    configure_logging(verbose)  # -vv never shows a password; -v not the libraries' requests
     from .auth import UserError, UserStore
 
     try:
@@ -119,11 +117,14 @@ def serve(
         runtime, _ = demo_runtime(history)
     else:
         from ..runtime import Runtime, RuntimeConfigError, load_config
+        from ..runtime.cli import describe_files
 
         try:
-            runtime = Runtime(load_config(config))
+            cfg = load_config(config)
+            runtime = Runtime(cfg)
         except RuntimeConfigError as exc:
             raise click.ClickException(str(exc)) from None
+        describe_files(cfg)
     try:
         if check:
             click.echo(f"demo: {len(runtime.loop_names())} loop(s): OK")

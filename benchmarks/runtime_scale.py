@@ -1,0 +1,302 @@
+"""The runtime at plant scale on loopback: many loops on one connection, and the GC's jitter.
+
+Usage (from the repository root, with the ``runtime`` extra)::
+
+    python benchmarks/runtime_scale.py                 # the targets: 3 cases x 60 s
+    python benchmarks/runtime_scale.py --duration 20   # shorter
+    python benchmarks/runtime_scale.py --gc            # GC jitter: gc.freeze on vs off
+    python benchmarks/runtime_scale.py --json out.json --plot periods.png
+
+Cases (targets of issue 14, each at ``ts`` = 100 ms):
+
+* ``opcua``: 200 PID loops on ONE OPC UA connection to a
+  :class:`~ctrlblocks.runtime.PairServer` (200 first-order plants) running in
+  a separate process on 127.0.0.1;
+* ``modbus``: the same on ONE Modbus TCP connection;
+* ``memory``: 1,000 PID loops on in-memory I/O.
+
+Each runs with the SQLite historian (in a temporary folder) and reports:
+cycles recorded (per loop, against ``duration / ts``; target >= 99.9 %),
+spurious faults (samples with a bad PV, a failed write or an overrun, each
+counted; target 0), the period's p50/p99/max (target p99 <= 1.2 ts) and the CPU time
+of the runtime's process per loop (in % of one core, and in microseconds per
+loop-cycle).  The machine is
+whatever it is: on a shared one, say so next to the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import gc
+import json
+import multiprocessing as mp
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ctrlblocks.runtime import (
+    MemoryAdapter,
+    MemoryBus,
+    PairServer,
+    Runtime,
+    parse_config,
+)
+
+BLOCK = '{ type = "PID", kp = 1.0, ti = 1.0, u_min = -10.0, u_max = 10.0 }'
+
+
+def loops_toml(n: int, ts: float, pv, mv) -> str:
+    return "".join(
+        f'[[loops]]\nname = "l{i}"\nts = {ts}\nblock = {BLOCK}\npv = "io:{pv(i)}"\n'
+        f'mv = "io:{mv(i)}"\nsp = 1.0\nsafe_value = 0.0\n'
+        for i in range(n)
+    )
+
+
+def serve_pairs(n: int, protocol: str, port_queue, stop_event) -> None:
+    """The plant server process: ``n`` pairs on OPC UA or Modbus until ``stop_event``."""
+
+    async def main():
+        server = PairServer(
+            n,
+            opcua_port=0 if protocol == "opcua" else None,
+            modbus_port=0 if protocol == "modbus" else None,
+        )
+        await server.start()
+        port_queue.put(server.opcua_url if protocol == "opcua" else server.modbus_port)
+        while not stop_event.is_set():
+            await asyncio.sleep(0.1)
+        await server.stop()
+
+    asyncio.run(main())
+
+
+def config_text(case: str, n: int, ts: float, where, db: Path) -> str:
+    if case == "opcua":
+        conn = f'[connections.io]\nprotocol = "opcua"\nurl = "{where}"\n'
+        loops = loops_toml(n, ts, lambda i: f"ns=2;s=pv{i}", lambda i: f"ns=2;s=mv{i}")
+    elif case == "modbus":
+        conn = (
+            f'[connections.io]\nprotocol = "modbus"\nhost = "127.0.0.1"\nport = {where}\nunit = 0\n'
+        )
+        loops = loops_toml(n, ts, lambda i: f"hr:{2 * i}", lambda i: f"hr:{2 * n + 2 * i}")
+    else:
+        conn = '[connections.io]\nprotocol = "memory"\n'
+        loops = loops_toml(n, ts, lambda i: f"pv{i}", lambda i: f"mv{i}")
+    return conn + loops + f'[historian]\npath = "{db}"\n[retain]\nenabled = false\n'
+
+
+def memory_adapter(n: int) -> MemoryAdapter:
+    bus = MemoryBus({f"pv{i}": 0.0 for i in range(n)})
+    index = {f"mv{i}": f"pv{i}" for i in range(n)}
+
+    def step(address: str, u: float) -> None:
+        pv = index.get(address)
+        if pv is not None:
+            bus.values[pv] = 0.9 * bus.values[pv] + 0.1 * u
+
+    bus.on_write = step
+    return MemoryAdapter(bus)
+
+
+async def run_runtime(cfg, duration: float, adapters, gc_freeze: bool, label: str):
+    samples: dict[str, list] = {}
+
+    def on_sample(s):
+        samples.setdefault(s.loop, []).append((s.t, s.pv_ok, s.write_ok, s.overrun))
+
+    rt = Runtime(cfg, adapters=adapters, on_sample=on_sample)
+    rt.gc_freeze = gc_freeze
+    await rt.start()
+    pauses = GcPauses()
+    gc.callbacks.append(pauses)
+    cpu0, t0 = time.process_time(), time.monotonic()
+    next_report = t0 + 10.0
+    while time.monotonic() - t0 < duration:
+        await asyncio.sleep(0.5)
+        if time.monotonic() >= next_report:
+            done = sum(len(v) for v in samples.values())
+            print(f"  {label}: {time.monotonic() - t0:4.0f} s, {done} samples", flush=True)
+            next_report += 10.0
+    cpu, wall = time.process_time() - cpu0, time.monotonic() - t0
+    gc.callbacks.remove(pauses)
+    await rt.stop()
+    rt.gc_pauses = pauses  # type: ignore[attr-defined]
+    return samples, cpu, wall, rt
+
+
+class GcPauses:
+    """A ``gc.callbacks`` entry: the CPU time of every collection, by generation."""
+
+    def __init__(self) -> None:
+        self.cpu: dict[int, list[float]] = {0: [], 1: [], 2: []}
+        self._start = 0.0
+
+    def __call__(self, phase: str, info: dict) -> None:
+        if phase == "start":
+            self._start = time.thread_time()
+        else:
+            self.cpu[info["generation"]].append(time.thread_time() - self._start)
+
+    def summary(self) -> dict:
+        return {
+            f"gc_gen{g}": {
+                "collections": len(v),
+                "max_ms": round(1e3 * max(v, default=0.0), 2),
+                "total_ms": round(1e3 * sum(v), 1),
+            }
+            for g, v in self.cpu.items()
+        }
+
+
+def measure(case: str, n: int, ts: float, duration: float, gc_freeze: bool = True) -> dict:
+    label = f"{case} {n} loops{'' if gc_freeze else ' (no gc.freeze)'}"
+    print(f"{label}: {duration:g} s at ts = {ts * 1e3:g} ms", flush=True)
+    proc = stop = None
+    where = None
+    if case in ("opcua", "modbus"):
+        ctx = mp.get_context("spawn")
+        q, stop = ctx.Queue(), ctx.Event()
+        proc = ctx.Process(target=serve_pairs, args=(n, case, q, stop), daemon=True)
+        proc.start()
+        where = q.get(timeout=120)
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            db = Path(tmp) / "history.sqlite"
+            cfg = parse_config(config_text(case, n, ts, where, db))
+            adapters = {"io": memory_adapter(n)} if case == "memory" else None
+            samples, cpu, wall, rt = asyncio.run(
+                run_runtime(cfg, duration, adapters, gc_freeze, label)
+            )
+            from ctrlblocks.runtime import SQLiteHistorian
+
+            with SQLiteHistorian(db).reading() as h:
+                stored = h.query("SELECT COUNT(*) FROM samples")[0][0]
+    finally:
+        if proc is not None:
+            stop.set()
+            proc.join(30)
+    expected = wall / ts
+    periods, faults, counts = [], 0, []
+    bad_pv = bad_write = overruns = 0
+    for rows in samples.values():
+        t = np.array([r[0] for r in rows])
+        periods.append(np.diff(t))
+        counts.append(len(rows))
+        faults += sum(1 for _, ok, wok, ov in rows if not ok or not wok or ov)
+        bad_pv += sum(1 for r in rows if not r[1])
+        bad_write += sum(1 for r in rows if not r[2])
+        overruns += sum(1 for r in rows if r[3])
+    p = np.concatenate(periods) if periods else np.array([np.nan])
+    out = {
+        "case": case,
+        "loops": n,
+        "ts_ms": ts * 1e3,
+        "duration_s": round(wall, 2),
+        "gc_freeze": gc_freeze,
+        "cycles_recorded_pct": round(100.0 * min(counts) / expected, 3),
+        "samples_in_historian": int(stored),
+        "samples_seen": int(sum(counts)),
+        "spurious_faults": int(faults),
+        "bad_pv": int(bad_pv),
+        "failed_writes": int(bad_write),
+        "overruns": int(overruns),
+        "period_p50_ms": round(float(np.percentile(p, 50)) * 1e3, 2),
+        "period_p99_ms": round(float(np.percentile(p, 99)) * 1e3, 2),
+        "period_p999_ms": round(float(np.percentile(p, 99.9)) * 1e3, 2),
+        "period_max_ms": round(float(p.max()) * 1e3, 2),
+        "cpu_per_loop_pct": round(100.0 * cpu / wall / n, 4),
+        "cpu_total_pct": round(100.0 * cpu / wall, 1),
+        "cpu_per_loop_cycle_us": round(1e6 * cpu / max(sum(counts), 1), 1),
+        "connection_reconnects": rt.connections["io"].reconnects,
+        "read_requests": rt.connections["io"].adapter.requests.get("read", 0),
+        **rt.gc_pauses.summary(),
+    }
+    out["_periods"] = p
+    ok = (
+        out["cycles_recorded_pct"] >= 99.9
+        and out["spurious_faults"] == 0
+        and out["period_p99_ms"] <= 1.2 * ts * 1e3
+    )
+    out["meets_targets"] = ok
+    print(
+        f"  -> recorded {out['cycles_recorded_pct']} %, faults {faults}, period p50/p99/max "
+        f"{out['period_p50_ms']}/{out['period_p99_ms']}/{out['period_max_ms']} ms, CPU "
+        f"{out['cpu_per_loop_pct']} %/loop ({out['cpu_total_pct']} % total, "
+        f"{out['cpu_per_loop_cycle_us']} us per loop-cycle): "
+        f"{'meets' if ok else 'MISSES'} the targets",
+        flush=True,
+    )
+    print(
+        f"     faults: {bad_pv} bad PV, {bad_write} failed writes, {overruns} overruns; "
+        f"{out['connection_reconnects']} reconnects, {out['read_requests']} read requests",
+        flush=True,
+    )
+    g = out["gc_gen2"]
+    print(
+        f"     full GC: {g['collections']} collections, longest {g['max_ms']} ms CPU; "
+        f"gen 0: {out['gc_gen0']['collections']} collections",
+        flush=True,
+    )
+    return out
+
+
+def plot(results: list[dict], path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for r in results:
+        p = np.sort(r["_periods"]) * 1e3
+        q = 1.0 - np.arange(len(p)) / len(p)
+        tag = "" if r["gc_freeze"] else ", no gc.freeze"
+        ax.semilogy(p, q, label=f"{r['case']}, {r['loops']} loops{tag}")
+    ts = results[0]["ts_ms"]
+    ax.axvline(1.2 * ts, color="k", ls="--", lw=0.8, label=f"target p99 = {1.2 * ts:g} ms")
+    ax.set_xlabel("cycle period [ms]")
+    ax.set_ylabel("fraction of periods longer [-]")
+    ax.set_title(f"runtime cycle periods at ts = {ts:g} ms (loopback)")
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--duration", type=float, default=60.0, help="seconds per case")
+    ap.add_argument("--ts", type=float, default=0.1, help="sample time [s]")
+    ap.add_argument("--cases", default="opcua,modbus,memory")
+    ap.add_argument("--loops", type=int, default=None, help="loops per case (default 200/1000)")
+    ap.add_argument("--gc", action="store_true", help="GC jitter: memory, gc.freeze on and off")
+    ap.add_argument("--json", default=None, help="write the results here")
+    ap.add_argument("--plot", default=None, help="PNG of the period distributions")
+    a = ap.parse_args()
+    print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()}", flush=True)
+    results = []
+    if a.gc:
+        n = a.loops or 50
+        for freeze in (False, True):
+            results.append(measure("memory", n, a.ts, a.duration, gc_freeze=freeze))
+    else:
+        for case in a.cases.split(","):
+            n = a.loops or (1000 if case == "memory" else 200)
+            results.append(measure(case, n, a.ts, a.duration))
+    print(f"load average after: {os.getloadavg()}")
+    if a.plot:
+        plot(results, a.plot)
+    if a.json:
+        clean = [{k: v for k, v in r.items() if not k.startswith("_")} for r in results]
+        Path(a.json).write_text(json.dumps(clean, indent=2))
+        print(f"wrote {a.json}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,68 @@
+"""The ``precision`` option of the PID, ADRC and lead-lag blocks (checked in their configs).
+
+``"float64"`` is the blocks' normal arithmetic; ``"float32"`` runs their PLC
+cycle (:mod:`.plc_cycle`) with every intermediate rounded to single precision,
+as a PLC computing in REAL does.  That cycle covers the configurations the PLC
+export covers; :func:`check_precision` refuses the others where the
+configuration is made.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from .base import ErrorCode, ParameterError, require_choice
+
+__all__ = ["CYCLES", "PRECISIONS", "check_precision", "float32_cycle", "unsupported"]
+
+CYCLES: dict[str, Callable[..., float]] = {}
+"""Block kind -> its ``precision="float32"`` cycle; filled by :mod:`.plc_cycle` when the
+package is imported (plc_cycle is built on the blocks' functions, so the blocks cannot
+import it)."""
+
+
+def float32_cycle(kind: str) -> Callable[..., float]:
+    """The ``precision="float32"`` cycle of a block kind (``"pid"``, ``"adrc"``, ``"leadlag"``)."""
+    return CYCLES[kind]
+
+
+PRECISIONS = ("float64", "float32")
+
+
+def unsupported(config: Any, kind: str) -> list[str]:
+    """Options of a block configuration the PLC cycle does not cover (empty: all covered).
+
+    ``kind`` is ``"pid"``, ``"adrc"`` or ``"leadlag"``.
+    """
+    bad: list[str] = []
+    if kind == "pid":
+        if config.algorithm != "positional":
+            bad.append("algorithm")
+        if config.pv_range is not None:
+            bad.append("pv_range")
+        for name in ("sp_filter", "pv_filter", "sp_rate", "out_rate", "ff_k", "deadband"):
+            if getattr(config, name) != 0.0:
+                bad.append(name)
+        if config.bumpless != "integrator":
+            bad.append("bumpless")
+        if config.anti_windup not in ("clamping", "back_calc_model"):
+            bad.append("anti_windup")
+    elif kind == "adrc":
+        bad = [n for n in ("u_real_on", "anti_backoff") if getattr(config, n)]
+        if config.discretisation != "euler":
+            bad.append("discretisation")
+    return bad
+
+
+def check_precision(config: Any, kind: str) -> None:
+    """Refuse an unknown precision, or ``"float32"`` with options its cycle does not cover."""
+    require_choice("precision", config.precision, PRECISIONS)
+    bad = unsupported(config, kind) if config.precision == "float32" else []
+    if bad:
+        raise ParameterError(
+            ErrorCode.BAD_PARAMETER,
+            "precision",
+            f'precision="float32" (the PLC cycle) does not cover the options {bad}; '
+            'use the defaults of those options or precision="float64"',
+        )

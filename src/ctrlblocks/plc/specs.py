@@ -1,0 +1,202 @@
+"""The interface of each exported function block: names, types, initial values, comments.
+
+This is the one hand-written part of the export besides the dialect syntax:
+which parameter of a block's PLC cycle (:mod:`ctrlblocks.blocks.plc_cycle`) is
+an input, an output or a state variable of the FUNCTION_BLOCK, its PLC name
+and a comment.  The values come from the configured block
+(``plc_cycle.pid_inputs`` / ``pid_state`` ...), the same functions the
+``precision="float32"`` lane starts from; the body is translated from the
+cycle function itself (:mod:`.translate`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from ..blocks import ADRC, PID, LeadLag
+from ..blocks import plc_cycle as pc
+from ..blocks.precision import unsupported
+
+__all__ = ["BlockSpec", "UnsupportedBlock", "spec_for"]
+
+
+class UnsupportedBlock(ValueError):
+    """The block (or its configuration) is not covered by the PLC export."""
+
+
+@dataclass(frozen=True)
+class Var:
+    """One interface variable: PLC name, comment, and (python name of) its value."""
+
+    py: str
+    st: str
+    comment: str
+
+
+@dataclass
+class BlockSpec:
+    """Everything the exporter needs about one block besides its translated body."""
+
+    kind: str
+    fb_name: str
+    title: str
+    cycle: Callable[..., tuple[Any, ...]]
+    results: tuple[str, ...]
+    inputs: list[Var]
+    outputs: list[Var]
+    state: list[Var]
+    values: dict[str, Any]
+    config: Any
+
+    def names(self) -> dict[str, str]:
+        """python name -> PLC name for every parameter and result of the cycle."""
+        return {v.py: v.st for v in (*self.inputs, *self.outputs, *self.state)}
+
+
+_PID_PROCESS = [
+    Var("sp", "SP", "setpoint [eng. units]"),
+    Var("pv", "PV", "process value [eng. units]"),
+    Var("ff", "FF", "feed-forward / offset added before the limits [%]"),
+    Var("pv_ok", "PV_OK", "quality of PV; FALSE = invalid measurement (16#8102)"),
+    Var("manual", "MANUAL", "manual mode: MV := MAN_VALUE (limited), bumpless back to AUTO"),
+    Var("man_value", "MAN_VALUE", "manual value [%]; outside MANUAL it follows MV (In/Out)"),
+    Var("rst", "RST", "reset: MV := RESET_VALUE (limited), integrator set to match"),
+]
+_PID_TUNING = [
+    Var("k", "K", "gain K [%/%] (ISA form, Åström 1987 (2.1))"),
+    Var("ti", "TI", "integral time Ti [s]; 0 = no integral action"),
+    Var("td", "TD", "derivative time Td [s]; 0 = no derivative action"),
+    Var("n", "N", "derivative filter Tf = Td/N"),
+    Var("b", "B", "setpoint weight of P (Åström 1987 (2.2))"),
+    Var("c", "C", "setpoint weight of D (0 = derivative on PV)"),
+    Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
+    Var("u_min", "U_MIN", "output low limit [%]"),
+    Var("u_max", "U_MAX", "output high limit [%]"),
+    Var("tt", "TT", "tracking time constant Tt [s]; 0 = Ti/5 (ts without I)"),
+    Var("reverse", "REVERSE", "reverse action"),
+    Var("i_method", "I_METHOD", "integral discretisation: 0 forward (2.8), 1 backward, 2 Tustin"),
+    Var(
+        "d_method", "D_METHOD", "derivative discretisation: 0 forward, 1 backward, 2 Tustin (2.13)"
+    ),
+    Var("aw", "ANTI_WINDUP", "0 clamping (conditional integration), 1 back-calculation"),
+    Var("reset_value", "RESET_VALUE", "output while RST [%]"),
+    Var("safe_value", "SAFE_VALUE", "output while SP/PV/FF are bad, if USE_SAFE_VALUE [%]"),
+    Var("use_safe", "USE_SAFE_VALUE", "TRUE: SAFE_VALUE on bad inputs; FALSE: hold MV"),
+]
+_PID_OUT = [
+    Var("mv", "MV", "manipulated variable [%] (limited)"),
+    Var("error_id", "ERROR_ID", "status code (ctrlblocks ErrorCode, 16#8xxx; 0 = no error)"),
+    Var("limits_active", "LIMITS_ACTIVE", "the output is at a limit (= AWOUT for a cascade)"),
+    Var("p", "P", "proportional term of this cycle [%]"),
+    Var("i_term", "I_TERM", "integral term of this cycle [%]"),
+    Var("d_term", "D_TERM", "derivative term of this cycle [%]"),
+]
+_PID_STATE_COMMENTS = {
+    "out": "output of the last cycle [%]", "i": "integrator for the next cycle [%]",
+    "d": "derivative state D[k-1]", "w_prev": "c r - y of the last cycle",
+    "e_prev": "control error of the last cycle", "lo": "low limit in force",
+    "hi": "high limit in force", "mode_prev": "mode of the last cycle (-1 none, 0 auto)",
+    "cold": "first cycle after a (re)start", "reinit": "re-initialise the integrator",
+    "reinit_d": "re-initialise the derivative histories",
+}  # fmt: skip
+
+_ADRC_PROCESS = [
+    Var("sp", "SP", "setpoint Y_sp [units of Y]"),
+    Var("y", "PV", "process value Y"),
+    Var("y_ok", "PV_OK", "quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF"),
+    Var("manual", "MANUAL", "MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)"),
+    Var("u_man", "MAN_VALUE", "manual value; outside MANUAL it follows MV (In/Out)"),
+]
+_ADRC_TUNING = [
+    Var("order", "ORDER", "ADRC order n = 1, 2, 3 (one body for all, section 3.2)"),
+    Var("b0", "B0", "scaling parameter b0 > 0"),
+    Var("omega_c", "OMEGA_C", "controller bandwidth [rad/s]"),
+    Var("omega_o", "OMEGA_O", "observer bandwidth [rad/s]"),
+    Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
+    Var("u_min", "U_MIN", "lower limit of MV"),
+    Var("u_max", "U_MAX", "upper limit of MV"),
+    Var("t_ref", "T_REF", "time constant of the reference trajectory [s]; 0 = off"),
+    Var("u_sf", "U_SF", "safe value while PV is invalid"),
+    Var("aw_rule", "ANTI_WINDUP", "x4 anti-windup: 0 off, 1 freeze, 2 directional (section 4.1)"),
+]
+_ADRC_OUT = [
+    Var("mv", "MV", "manipulated variable u (limited)"),
+    Var("error_id", "ERROR_ID", "status code (ctrlblocks ErrorCode, 16#8xxx; 0 = no error)"),
+    Var("awout", "AWOUT", "u_raw beyond a limit (for a primary controller in cascade)"),
+    Var("u_raw", "U_RAW", "u of the control law (4b) before the limits"),
+    Var("x4_out", "DISTURBANCE", "x4: estimate of the total disturbance h"),
+]
+_ADRC_STATE_COMMENTS = {
+    "out": "u of the last cycle", "yh": "ESO state Y_hat", "x2": "ESO state x2",
+    "x3": "ESO state x3", "x4": "ESO state x4 (total disturbance)",
+    "u_prev": "applied u of the last cycle", "ref": "reference trajectory",
+    "started": "the ESO has been started on a valid PV", "track": "re-solve x4 by (11)",
+    "sat": "+1/-1: last u_raw above/below the limits", "lo": "low limit in force",
+    "hi": "high limit in force",
+}  # fmt: skip
+
+_LL_PROCESS = [
+    Var("x", "IN", "input (setpoint or measured disturbance)"),
+    Var("enable", "ENABLE", "FALSE: OUT := 0, the input follows IN (Bonde et al. 2021, Fig. 10)"),
+]
+_LL_TUNING = [
+    Var("k", "K", "gain K"),
+    Var("t_lead", "T_LEAD", "lead time constant Tt [s] (numerator)"),
+    Var("t_lag", "T_LAG", "lag time constant Tn [s] (denominator)"),
+    Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
+    Var("tustin", "TUSTIN", "TRUE Tustin (Bonde et al. 2021, Fig. 10), FALSE backward Euler"),
+    Var("out_min", "OUT_MIN", "output low limit"),
+    Var("out_max", "OUT_MAX", "output high limit"),
+]
+_LL_OUT = [
+    Var("out", "OUT", "output K (1 + Tt s)/(1 + Tn s), limited"),
+    Var("error_id", "ERROR_ID", "status code (ctrlblocks ErrorCode, 16#8xxx; 0 = no error)"),
+]
+
+
+def _state(values: dict[str, Any], comments: dict[str, str], skip: set[str]) -> list[Var]:
+    return [Var(k, k, comments.get(k, "previous tuning (a change is bumpless)"))
+            for k in values if k not in skip]  # fmt: skip
+
+
+def spec_for(block: Any) -> BlockSpec:
+    """The :class:`BlockSpec` of a configured PID, ADRC or LeadLag."""
+    c = block.config
+    if isinstance(block, PID):
+        bad = unsupported(c, "pid")
+        if bad:
+            raise UnsupportedBlock(f"the PLC export does not cover the PID options {bad}")
+        state = pc.pid_state(c)
+        process = {"sp": 0.0, "pv": 0.0, "ff": 0.0, "pv_ok": True, "manual": False,
+                   "man_value": state["out"], "rst": False}  # fmt: skip
+        outputs = {"mv": state["out"], "error_id": 0, "limits_active": False, "p": 0.0,
+                   "i_term": state["i"], "d_term": 0.0}  # fmt: skip
+        values = {**process, **pc.pid_inputs(c), **state, **outputs}
+        return BlockSpec("pid", "CB_PID", "PID (positional ISA form)", pc.pid_cycle,
+                         pc.PID_RESULTS, _PID_PROCESS + _PID_TUNING, _PID_OUT,
+                         _state(state, _PID_STATE_COMMENTS, set()), values, c)  # fmt: skip
+    if isinstance(block, ADRC):
+        bad = unsupported(c, "adrc")
+        if bad:
+            raise UnsupportedBlock(f"the PLC export does not cover the ADRC options {bad}")
+        state = pc.adrc_state(c)
+        process = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": state["out"]}
+        values = {**process, **pc.adrc_inputs(c), **state, "mv": state["out"], "error_id": 0,
+                  "awout": False, "u_raw": state["out"], "x4_out": 0.0}  # fmt: skip
+        return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler ESO, orders 1..3)", pc.adrc_cycle,
+                         pc.ADRC_RESULTS, _ADRC_PROCESS + _ADRC_TUNING, _ADRC_OUT,
+                         _state(state, _ADRC_STATE_COMMENTS, set()), values, c)  # fmt: skip
+    if isinstance(block, LeadLag):
+        state = pc.leadlag_state(c)
+        values = {"x": 0.0, "enable": True, **pc.leadlag_inputs(c), **state, "error_id": 0}
+        return BlockSpec("leadlag", "CB_LEADLAG", "lead-lag K (1 + Tt s)/(1 + Tn s)",
+                         pc.leadlag_cycle, pc.LEADLAG_RESULTS, _LL_PROCESS + _LL_TUNING,
+                         _LL_OUT, _state(state, {"x_prev": "input of the last sample",
+                                                 "lo": "low limit in force",
+                                                 "hi": "high limit in force"}, {"out"}),
+                         values, c)  # fmt: skip
+    raise UnsupportedBlock(
+        f"no PLC export for {type(block).__name__}; blocks exported: PID, ADRC, LeadLag"
+    )

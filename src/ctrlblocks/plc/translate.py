@@ -1,0 +1,901 @@
+"""Translate the blocks' restricted Python to IEC 61131-3 Structured Text (via :mod:`ast`).
+
+The per-cycle code of the blocks (:mod:`ctrlblocks.blocks.plc_cycle` and the
+pure functions it calls in ``blocks/pid.py``, ``adrc.py``, ``leadlag.py``,
+``signals.py``) is written in a small subset of Python: float / bool / int
+scalars, ``if``/``elif``/``else``, conditional expressions, ``and``/``or``/
+``not``, arithmetic, tuples (as several return values, or as a parameter
+tuple unpacked in one statement), and calls of other such functions.  This
+module turns that subset into ST:
+
+* every called function becomes a ``FUNCTION`` POU (a tuple-returning one
+  gets ``VAR_OUTPUT`` parameters, one per returned value, and is called with
+  ``=>``); its parameter tuple (``k, sgn, ... = prm``) becomes separate inputs;
+* the top-level cycle function becomes the body of the ``FUNCTION_BLOCK``:
+  its parameters are the FB's inputs and state variables, its final
+  ``return`` assigns the outputs and the new state;
+* a conditional expression becomes ``IF`` when it is a whole assigned or
+  returned value, else ``SEL``; ``x - x`` style tricks are not used: NaN and
+  inf are caught by ``ABS(x) <= 3.402823E38`` (``is_real``);
+* a string argument (``pt1_coefficient(t, h, "exact")``) is folded at
+  translation time: the function is specialised for that constant;
+* Python comments become ``(* ... *)`` comments at the same place.
+
+Anything outside the subset raises :class:`TranslationError` naming the
+function and line, so a change of a kernel that the PLC cannot follow is
+caught by the export tests instead of producing wrong code.
+
+The output is *neutral* ST: variable references are wrapped as
+``\\x01name\\x02`` and POU names as ``\\x03NAME\\x04`` so that a dialect can
+render them (Siemens SCL writes ``#name`` and ``"NAME"``).
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import io
+import textwrap
+import tokenize
+import types
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["Pou", "Program", "TranslationError", "pou_ref", "real_literal", "var"]
+
+REAL, BOOL, DINT = "REAL", "BOOL", "DINT"
+_ANN = {"float": REAL, "bool": BOOL, "int": DINT}
+# identifiers that are keywords (or standard names) in at least one of the dialects
+_RESERVED = {
+    "ref", "to", "by", "do", "of", "if", "or", "and", "xor", "not", "mod", "at", "on",
+    "end", "var", "exit", "return", "then", "else", "case", "for", "while", "repeat",
+    "until", "time", "date", "real", "int", "bool", "word", "string", "in", "r", "s",
+    "q", "pt", "et", "sel", "max", "min", "abs", "exp", "ln", "log", "sqrt", "limit",
+    "trunc", "type", "step", "region", "const", "task", "retain", "super", "this",
+    "method", "property", "interface", "extends", "implements", "action", "program",
+    "function", "class", "new", "begin", "version", "void", "array", "struct", "pointer",
+}  # fmt: skip
+
+PREC_OR, PREC_XOR, PREC_AND, PREC_EQ, PREC_CMP, PREC_ADD, PREC_MUL, PREC_UNARY, PREC_ATOM = range(
+    1, 10
+)
+
+
+class TranslationError(ValueError):
+    """The Python code uses a construct the ST translator does not cover."""
+
+
+def var(name: str) -> str:
+    """A variable reference in neutral ST (rendered by the dialect)."""
+    return f"\x01{name}\x02"
+
+
+def pou_ref(name: str) -> str:
+    """A POU (function) name in neutral ST (rendered by the dialect)."""
+    return f"\x03{name}\x04"
+
+
+def real_literal(x: float) -> str:
+    """A REAL literal: ``1.0``, ``-2.5E-9``; +-inf as +-3.402823E38 (the documented REAL range)."""
+    x = float(x)
+    if x != x:
+        raise TranslationError("a NaN literal has no REAL spelling")
+    if abs(x) >= 3.4028230607370965e38:  # inf or plc_cycle.REAL_MAX
+        return "3.402823E38" if x > 0 else "-3.402823E38"
+    s = repr(x)
+    if "e" in s or "E" in s:
+        m, e = s.lower().split("e")
+        if "." not in m:
+            m += ".0"
+        return f"{m}E{int(e)}"
+    return s if "." in s else s + ".0"
+
+
+@dataclass
+class Pou:
+    """One translated FUNCTION: interface and neutral-ST body lines."""
+
+    name: str
+    doc: str
+    inputs: list[tuple[str, str]]
+    outputs: list[tuple[str, str]]
+    locals: dict[str, str]
+    ret_type: str | None
+    body: list[str]
+    source: str
+    calls: list[str] = field(default_factory=list)
+
+
+@dataclass
+class _Sig:
+    """What a caller needs to know about a translated function."""
+
+    pou: str
+    params: list[str]  # python parameter names in order
+    inputs: dict[str, list[str]]  # python param -> ST input names (a tuple param expands)
+    ret_type: str | None  # single value
+    outputs: list[tuple[str, str]]  # tuple return: (ST name, type)
+
+
+def _st_name(name: str) -> str:
+    return name + "_" if name.lower() in _RESERVED else name
+
+
+class Program:
+    """The set of POUs translated for one export (functions are shared between blocks)."""
+
+    def __init__(self, prefix: str = "CB_") -> None:
+        self.prefix = prefix
+        self.pous: dict[str, Pou] = {}
+        self._sigs: dict[tuple[Any, ...], _Sig] = {}
+
+    def function(self, fn: Callable[..., Any], consts: dict[str, Any] | None = None) -> _Sig:
+        """Translate ``fn`` (specialised for constant arguments ``consts``) as a FUNCTION."""
+        consts = consts or {}
+        key = (fn, tuple(sorted(consts.items())))
+        if key not in self._sigs:
+            tr = _Translator(self, fn, consts, fb=None)
+            self._sigs[key] = tr.translate_function()
+        return self._sigs[key]
+
+    def fb_body(
+        self, fn: Callable[..., Any], results: tuple[str, ...], names: dict[str, str]
+    ) -> tuple[list[str], dict[str, str], dict[str, str]]:
+        """Translate ``fn`` as the body of a FUNCTION_BLOCK.
+
+        ``names`` maps every parameter and result of ``fn`` to its FB variable
+        name; ``results`` names the values of the final ``return``.  Returns
+        ``(body lines, {FB var: type}, {temp: type})``.
+        """
+        tr = _Translator(self, fn, {}, fb=(results, names))
+        return tr.translate_fb()
+
+    def ordered(self) -> list[Pou]:
+        """The POUs, callees before callers (some compilers need that order)."""
+        done: list[str] = []
+
+        def visit(n: str) -> None:
+            if n in done:
+                return
+            for c in self.pous[n].calls:
+                visit(c)
+            done.append(n)
+
+        for n in list(self.pous):
+            visit(n)
+        return [self.pous[n] for n in done]
+
+
+def _source(fn: Callable[..., Any]) -> tuple[ast.FunctionDef, str, int, dict[int, str]]:
+    try:
+        src = inspect.getsource(fn)
+        first = inspect.getsourcelines(fn)[1]
+    except (OSError, TypeError) as exc:  # pragma: no cover - built-ins
+        raise TranslationError(f"no Python source for {fn!r}") from exc
+    src = textwrap.dedent(src)
+    tree = ast.parse(src)
+    node = tree.body[0]
+    if not isinstance(node, ast.FunctionDef):
+        raise TranslationError(f"{fn.__qualname__} is not a plain function")
+    comments: dict[int, str] = {}
+    for tok in tokenize.generate_tokens(io.StringIO(src).readline):
+        if tok.type == tokenize.COMMENT:
+            text = tok.string.lstrip("#").strip()
+            if text and not text.startswith(("fmt:", "type:", "noqa", "pragma")):
+                comments[tok.start[0]] = text
+    return node, src, first, comments
+
+
+class _Translator:
+    def __init__(
+        self,
+        prog: Program,
+        fn: Callable[..., Any],
+        consts: dict[str, Any],
+        fb: tuple[tuple[str, ...], dict[str, str]] | None,
+    ) -> None:
+        self.prog = prog
+        self.fn = fn
+        self.consts = dict(consts)
+        self.fb = fb
+        self.node, self.src, self.first, self.comments = _source(fn)
+        self.glb = fn.__globals__
+        self.types: dict[str, str] = {}  # python name -> ST type
+        self.st: dict[str, str] = {}  # python name -> ST variable name
+        self.locals: dict[str, str] = {}  # ST local -> type
+        self.tuples: dict[str, list[ast.expr]] = {}
+        self.version: dict[str, int] = {}
+        self.tuple_versions: dict[str, dict[str, int]] = {}
+        self.calls: list[str] = []
+        self.lines: list[str] = []
+        self.indent = 0
+        self.last_line = 0
+        self.ret_name = ""
+        self.outputs: list[tuple[str, str]] = []
+        self.ret_type: str | None = None
+
+    # -- errors and comments ---------------------------------------------------
+
+    def err(self, node: ast.AST, msg: str) -> TranslationError:
+        line = self.first + getattr(node, "lineno", 1) - 1
+        mod = self.fn.__module__
+        return TranslationError(f"{mod}.{self.fn.__qualname__}, line {line}: {msg}")
+
+    def emit(self, text: str) -> None:
+        self.lines.append("    " * self.indent + text)
+
+    def emit_comments(self, node: ast.stmt) -> None:
+        end = getattr(node, "end_lineno", node.lineno)
+        for ln in sorted(self.comments):
+            if self.last_line < ln <= end and ln != self.node.lineno:
+                self.emit("(* " + self.comments[ln].replace("*)", "* )") + " *)")
+        self.last_line = max(self.last_line, end)
+
+    # -- names and types -----------------------------------------------------------
+
+    def declare(self, name: str, typ: str, node: ast.AST) -> str:
+        if name in self.st and name not in self.types:
+            self.types[name] = typ  # a result variable of the FB, named beforehand
+            return self.st[name]
+        if name in self.st:
+            old = self.types[name]
+            if old != typ and not (old == REAL and typ == DINT):
+                raise self.err(node, f"{name!r} changes type from {old} to {typ}")
+            return self.st[name]
+        st = _st_name(name)
+        taken = {v.lower() for v in self.st.values()} | {self.ret_name.lower()}
+        while st.lower() in taken:
+            st += "_"
+        self.st[name] = st
+        self.types[name] = typ
+        self.locals[st] = typ
+        return st
+
+    def bump(self, name: str) -> None:
+        self.version[name] = self.version.get(name, 0) + 1
+
+    # -- entry points ----------------------------------------------------------------
+
+    def _params(self) -> list[tuple[str, str | None]]:
+        out = []
+        for a in self.node.args.args:
+            ann = ast.unparse(a.annotation) if a.annotation is not None else ""
+            out.append((a.arg, _ANN.get(ann)))
+        return out
+
+    def _body_statements(self) -> list[ast.stmt]:
+        body = list(self.node.body)
+        if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+            body = body[1:]
+        return body
+
+    def _doc(self) -> str:
+        doc = ast.get_docstring(self.node) or ""
+        return doc.strip().split("\n\n")[0].replace("\n", " ")
+
+    def translate_function(self) -> _Sig:
+        fn = self.fn
+        name = self.prog.prefix + fn.__name__.lstrip("_").upper()
+        if self.consts:
+            name += "_" + "_".join(str(v).upper() for v in self.consts.values())
+        self.ret_name = name
+        body = self._body_statements()
+        params = self._params()
+        assigned = {
+            t.id
+            for st in ast.walk(self.node)
+            if isinstance(st, ast.Assign | ast.AugAssign)
+            for t in ([st.target] if isinstance(st, ast.AugAssign) else st.targets)
+            for t in ([t] if isinstance(t, ast.Name) else getattr(t, "elts", []))
+            if isinstance(t, ast.Name)
+        }
+        inputs: list[tuple[str, str]] = []
+        sig_inputs: dict[str, list[str]] = {}
+        copy_in: list[tuple[str, str]] = []
+        for pname, ptype in params:
+            if pname in self.consts:
+                continue
+            if ptype is None:
+                # a parameter tuple: expanded by ``a, b, c = pname`` at the top
+                unpack = next(
+                    (
+                        s
+                        for s in body
+                        if isinstance(s, ast.Assign)
+                        and isinstance(s.value, ast.Name)
+                        and s.value.id == pname
+                        and isinstance(s.targets[0], ast.Tuple)
+                    ),
+                    None,
+                )
+                if unpack is None:
+                    raise self.err(self.node, f"parameter {pname!r} needs a type annotation")
+                body.remove(unpack)
+                names = [e.id for e in unpack.targets[0].elts if isinstance(e, ast.Name)]
+                st_names = []
+                for n in names:
+                    st_names.append(self.declare(n, REAL, unpack))
+                    del self.locals[self.st[n]]
+                    inputs.append((self.st[n], REAL))
+                sig_inputs[pname] = st_names
+                continue
+            st = self.declare(pname, ptype, self.node)
+            del self.locals[st]
+            if pname in assigned:
+                # an input the body writes: the input is copied to a local of the same name
+                inp = pname + "_in"
+                inputs.append((inp, ptype))
+                self.locals[st] = ptype
+                copy_in.append((st, inp))
+                sig_inputs[pname] = [inp]
+            else:
+                inputs.append((st, ptype))
+                sig_inputs[pname] = [st]
+        ret = self.node.returns
+        ann = ast.unparse(ret) if ret is not None else ""
+        if ann in _ANN:
+            self.ret_type = _ANN[ann]
+        else:
+            self.outputs = self._tuple_outputs(body, ann)
+            for oname, otype in self.outputs:
+                self.st.setdefault(oname, oname)
+                self.types.setdefault(oname, otype)
+                self.locals.pop(oname, None)
+        for st, inp in copy_in:
+            self.emit(f"{var(st)} := {var(inp)};")
+        self.block(body, top=True)
+        pou = Pou(
+            name=name,
+            doc=self._doc(),
+            inputs=inputs,
+            outputs=self.outputs,
+            locals={k: v for k, v in self.locals.items() if k not in dict(self.outputs)},
+            ret_type=self.ret_type or (BOOL if self.outputs else None),
+            body=self.lines,
+            source=f"{fn.__module__}.{fn.__qualname__}",
+            calls=self.calls,
+        )
+        if self.outputs:
+            pou.body = [*pou.body, f"{var(name)} := TRUE;"]
+        self.prog.pous[name] = pou
+        return _Sig(
+            pou=name,
+            params=[p for p, _ in params if p not in self.consts],
+            inputs=sig_inputs,
+            ret_type=self.ret_type,
+            outputs=self.outputs,
+        )
+
+    def _tuple_outputs(self, body: list[ast.stmt], ann: str) -> list[tuple[str, str]]:
+        rets = [
+            n
+            for s in body
+            for n in ast.walk(s)
+            if isinstance(n, ast.Return) and n.value is not None
+        ]
+        if not rets or not all(isinstance(r.value, ast.Tuple) for r in rets):
+            raise self.err(self.node, "returns neither a scalar annotation nor tuples")
+        last = rets[-1].value
+        assert isinstance(last, ast.Tuple)
+        params = {a.arg for a in self.node.args.args}
+        elt_types: list[str | None] = []
+        if ann.startswith("tuple[") and "..." not in ann:
+            elt_types = [_ANN.get(t.strip()) for t in ann[6:-1].split(",")]
+        outs: list[tuple[str, str]] = []
+        used: set[str] = set()
+        for j, e in enumerate(last.elts):
+            nm = e.id if isinstance(e, ast.Name) else ""
+            if not nm or nm in params or nm in used or nm in self.st:
+                nm = f"r{j}"
+            used.add(nm)
+            typ = elt_types[j] if j < len(elt_types) and elt_types[j] else REAL
+            outs.append((_st_name(nm), typ))
+        # outputs named after locals: those locals *are* the outputs
+        for (oname, otype), e in zip(outs, last.elts, strict=True):
+            if isinstance(e, ast.Name) and _st_name(e.id) == oname:
+                self.st[e.id] = oname
+                self.types[e.id] = otype
+        return outs
+
+    def translate_fb(self) -> tuple[list[str], dict[str, str], dict[str, str]]:
+        assert self.fb is not None
+        results, names = self.fb
+        params = self._params()
+        fbvars: dict[str, str] = {}
+        for pname, ptype in params:
+            if ptype is None:
+                raise self.err(self.node, f"FB parameter {pname!r} needs a scalar annotation")
+            st = names[pname]
+            self.st[pname] = st
+            self.types[pname] = ptype
+            fbvars[st] = ptype
+        for rname in results:
+            if rname not in self.st:
+                self.st[rname] = names[rname]
+        body = self._body_statements()
+        final = body[-1]
+        if not (isinstance(final, ast.Return) and isinstance(final.value, ast.Tuple)):
+            raise self.err(final, "the cycle function must end with 'return <tuple>'")
+        self.block(body[:-1], top=False)
+        self.emit_comments(final)
+        elts = final.value.elts
+        if len(elts) != len(results):
+            raise self.err(final, f"returns {len(elts)} values, the results name {len(results)}")
+        # result variables named like locals are the same ST variables
+        pending: list[tuple[str, str, str]] = []
+        for rname, e in zip(results, elts, strict=True):
+            st = names[rname]
+            text, _, typ = self.expr(e)
+            if rname not in dict(params):
+                fbvars[st] = self.types.get(rname, typ)
+            if isinstance(e, ast.Name) and self.st.get(e.id) == st:
+                continue
+            pending.append((st, text, typ))
+        written: set[str] = set()
+        for st, text, _typ in pending:
+            if any(var(w) in text for w in written):
+                raise self.err(final, f"result {st} reads a result assigned before it")
+            self.emit(f"{var(st)} := {text};")
+            written.add(st)
+        temps = {k: v for k, v in self.locals.items() if k not in fbvars}
+        for k in list(temps):
+            if k.lower() in {v.lower() for v in fbvars}:
+                del temps[k]
+        return self.lines, fbvars, temps
+
+    # -- statements ----------------------------------------------------------------------
+
+    def block(self, stmts: list[ast.stmt], top: bool) -> None:
+        for i, s in enumerate(stmts):
+            self.emit_comments(s)
+            last = top and i == len(stmts) - 1
+            self.stmt(s, last)
+
+    def stmt(self, s: ast.stmt, last: bool) -> None:
+        if isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant):
+            return
+        if isinstance(s, ast.Assign):
+            if len(s.targets) != 1:
+                raise self.err(s, "chained assignment")
+            self.assign(s.targets[0], s.value, s)
+        elif isinstance(s, ast.AugAssign):
+            if not isinstance(s.target, ast.Name):
+                raise self.err(s, "augmented assignment to a non-name")
+            self.assign(s.target, ast.BinOp(left=ast.Name(s.target.id), op=s.op, right=s.value), s)
+        elif isinstance(s, ast.If):
+            self.if_stmt(s, last)
+        elif isinstance(s, ast.Return):
+            self.return_stmt(s, last)
+        else:
+            raise self.err(s, f"statement {type(s).__name__} is not translated")
+
+    def const_test(self, e: ast.expr) -> bool | None:
+        try:
+            v = self.fold(e)
+        except TranslationError:
+            return None
+        return bool(v) if isinstance(v, bool | int | float | str) else None
+
+    def if_stmt(self, s: ast.If, last: bool) -> None:
+        c = self.const_test(s.test)
+        if c is not None:
+            self.block(s.body if c else s.orelse, top=last)
+            return
+        self.emit(f"IF {self.expr(s.test)[0]} THEN")
+        self.indent += 1
+        self.block(s.body, top=False)
+        self.indent -= 1
+        orelse = s.orelse
+        while len(orelse) == 1 and isinstance(orelse[0], ast.If):
+            sub = orelse[0]
+            self.emit_comments(sub)
+            self.emit(f"ELSIF {self.expr(sub.test)[0]} THEN")
+            self.indent += 1
+            self.block(sub.body, top=False)
+            self.indent -= 1
+            orelse = sub.orelse
+        if orelse:
+            self.emit("ELSE")
+            self.indent += 1
+            self.block(orelse, top=False)
+            self.indent -= 1
+        self.emit("END_IF;")
+
+    def return_stmt(self, s: ast.Return, last: bool) -> None:
+        if self.fb is not None:
+            raise self.err(s, "an early return in the cycle function")
+        if s.value is None:
+            raise self.err(s, "a bare return")
+        if self.ret_type is not None:
+            self.assign_value(self.ret_name, self.ret_type, s.value, s)
+        else:
+            if not isinstance(s.value, ast.Tuple) or len(s.value.elts) != len(self.outputs):
+                raise self.err(s, "returns a different number of values")
+            pending = []
+            for (oname, _otype), e in zip(self.outputs, s.value.elts, strict=True):
+                if isinstance(e, ast.Name) and self.st.get(e.id) == oname:
+                    continue
+                pending.append((oname, e))
+            written: list[str] = []
+            for oname, e in pending:
+                text = self.expr(e)[0]
+                if any(var(w) in text for w in written):
+                    raise self.err(s, f"output {oname} reads an output assigned before it")
+                self.emit(f"{var(oname)} := {text};")
+                written.append(oname)
+        if not last:
+            self.emit("RETURN;")
+
+    def assign(self, target: ast.expr, value: ast.expr, s: ast.stmt) -> None:
+        if isinstance(target, ast.Name):
+            if isinstance(value, ast.Tuple):
+                self.bind_tuple(target.id, value, s)
+                return
+            if isinstance(value, ast.Call) and self.is_tuple_call(value):
+                raise self.err(s, "a tuple-returning call assigned to one name")
+            typ = self.expr(value)[2]
+            st = self.declare(target.id, self.types.get(target.id, typ), s)
+            self.assign_value(st, self.types[target.id], value, s)
+            self.bump(target.id)
+            return
+        if isinstance(target, ast.Tuple):
+            names = [e.id for e in target.elts if isinstance(e, ast.Name)]
+            if len(names) != len(target.elts):
+                raise self.err(s, "tuple targets must be names")
+            if isinstance(value, ast.Call):
+                self.call_statement(names, value, s)
+                return
+            if isinstance(value, ast.Tuple) and len(value.elts) == len(names):
+                texts = [self.expr(e) for e in value.elts]
+                for n, (text, _p, typ) in zip(names, texts, strict=True):
+                    if any(
+                        var(self.st[m]) in text for m in names[: names.index(n)] if m in self.st
+                    ):
+                        raise self.err(s, "parallel tuple assignment that reads its own targets")
+                    st = self.declare(n, self.types.get(n, typ), s)
+                    self.emit(f"{var(st)} := {text};")
+                    self.bump(n)
+                return
+        raise self.err(s, "assignment form not translated")
+
+    def assign_value(self, st: str, typ: str, value: ast.expr, s: ast.stmt) -> None:
+        if isinstance(value, ast.IfExp):
+            c = self.const_test(value.test)
+            if c is not None:
+                self.assign_value(st, typ, value.body if c else value.orelse, s)
+                return
+            self.emit(f"IF {self.expr(value.test)[0]} THEN")
+            self.indent += 1
+            self.assign_value(st, typ, value.body, s)
+            self.indent -= 1
+            orelse = value.orelse
+            while isinstance(orelse, ast.IfExp):
+                self.emit(f"ELSIF {self.expr(orelse.test)[0]} THEN")
+                self.indent += 1
+                self.assign_value(st, typ, orelse.body, s)
+                self.indent -= 1
+                orelse = orelse.orelse
+            self.emit("ELSE")
+            self.indent += 1
+            self.assign_value(st, typ, orelse, s)
+            self.indent -= 1
+            self.emit("END_IF;")
+            return
+        self.emit(f"{var(st)} := {self.coerce(value, typ)};")
+
+    def bind_tuple(self, name: str, value: ast.Tuple, s: ast.stmt) -> None:
+        """``prm = (a, b, c)``: a compile-time tuple; non-trivial elements get locals."""
+        callee_names = self.lookahead_names(name)
+        elts: list[ast.expr] = []
+        for j, e in enumerate(value.elts):
+            if isinstance(e, ast.Name | ast.Constant):
+                elts.append(e)
+                continue
+            nm = callee_names[j] if j < len(callee_names) else f"{name}_{j}"
+            while nm in self.st and self.st[nm] not in self.locals:
+                nm += "_"
+            typ = self.expr(e)[2]
+            st = self.declare(nm, typ, s)
+            self.assign_value(st, typ, e, s)
+            self.bump(nm)
+            elts.append(ast.Name(nm))
+        self.tuples[name] = elts
+        self.tuple_versions[name] = {
+            e.id: self.version.get(e.id, 0) for e in elts if isinstance(e, ast.Name)
+        }
+
+    def lookahead_names(self, tuple_name: str) -> list[str]:
+        for n in ast.walk(self.node):
+            if not isinstance(n, ast.Call):
+                continue
+            fn = self.resolve(n.func)
+            if not isinstance(fn, types.FunctionType):
+                continue
+            for j, a in enumerate(n.args):
+                if isinstance(a, ast.Name) and a.id == tuple_name:
+                    node = _source(fn)[0]
+                    pname = node.args.args[j].arg
+                    for st in node.body:
+                        if (
+                            isinstance(st, ast.Assign)
+                            and isinstance(st.value, ast.Name)
+                            and st.value.id == pname
+                            and isinstance(st.targets[0], ast.Tuple)
+                        ):
+                            return [e.id for e in st.targets[0].elts if isinstance(e, ast.Name)]
+        return []
+
+    # -- calls -----------------------------------------------------------------------------
+
+    def resolve(self, func: ast.expr) -> Any:
+        if isinstance(func, ast.Name):
+            if func.id in self.st:
+                return None
+            return self.glb.get(func.id, getattr(__builtins__, func.id, None) if False else None)
+        if isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name):
+            mod = self.glb.get(func.value.id)
+            return getattr(mod, func.attr, None) if mod is not None else None
+        return None
+
+    def is_tuple_call(self, c: ast.Call) -> bool:
+        fn = self.resolve(c.func)
+        if isinstance(fn, types.FunctionType) and fn.__module__.startswith("ctrlblocks."):
+            return not self.user_sig(c, fn).ret_type
+        return False
+
+    def user_sig(self, c: ast.Call, fn: types.FunctionType) -> _Sig:
+        node = _source(fn)[0]
+        consts = {}
+        for j, a in enumerate(c.args):
+            if isinstance(a, ast.Constant) and isinstance(a.value, str):
+                consts[node.args.args[j].arg] = a.value
+        return self.prog.function(fn, consts)
+
+    def call_args(self, c: ast.Call, sig: _Sig) -> list[str]:
+        if c.keywords:
+            raise self.err(c, "keyword arguments")
+        args = [a for a in c.args if not (isinstance(a, ast.Constant) and isinstance(a.value, str))]
+        if len(args) != len(sig.params):
+            raise self.err(c, f"{sig.pou} takes {len(sig.params)} arguments, got {len(args)}")
+        pou = self.prog.pous[sig.pou]
+        types_in = dict(pou.inputs)
+        out = []
+        for pname, a in zip(sig.params, args, strict=True):
+            st_inputs = sig.inputs[pname]
+            if isinstance(a, ast.Name) and a.id in self.tuples:
+                elts = self.tuples[a.id]
+                for nm, ver in self.tuple_versions[a.id].items():
+                    if self.version.get(nm, 0) != ver:
+                        raise self.err(c, f"{nm!r} changed after tuple {a.id!r} was built")
+                if len(elts) != len(st_inputs):
+                    raise self.err(
+                        c, f"tuple {a.id!r} has {len(elts)} values, needs {len(st_inputs)}"
+                    )
+                for inp, e in zip(st_inputs, elts, strict=True):
+                    out.append(f"{inp} := {self.coerce(e, types_in[inp])}")
+            else:
+                if len(st_inputs) != 1:
+                    raise self.err(c, f"{pname!r} of {sig.pou} must be a tuple built here")
+                out.append(f"{st_inputs[0]} := {self.coerce(a, types_in[st_inputs[0]])}")
+        return out
+
+    def call_statement(self, names: list[str], c: ast.Call, s: ast.stmt) -> None:
+        fn = self.resolve(c.func)
+        if not (isinstance(fn, types.FunctionType) and fn.__module__.startswith("ctrlblocks.")):
+            raise self.err(s, "a tuple assignment from something other than a block function")
+        sig = self.user_sig(c, fn)
+        if sig.ret_type is not None or len(sig.outputs) != len(names):
+            raise self.err(s, f"{sig.pou} returns {len(sig.outputs)} values, {len(names)} targets")
+        args = self.call_args(c, sig)
+        outs = []
+        for n, (oname, otype) in zip(names, sig.outputs, strict=True):
+            st = self.declare(n, self.types.get(n, otype), s)
+            if self.types[n] != otype and not (self.types[n] == REAL and otype == DINT):
+                raise self.err(s, f"{n!r} is {self.types[n]}, {sig.pou}.{oname} is {otype}")
+            outs.append(f"{oname} => {var(st)}")
+            self.bump(n)
+        if sig.pou not in self.calls:
+            self.calls.append(sig.pou)
+        self.emit_call(pou_ref(sig.pou), args + outs)
+
+    def emit_call(self, name: str, params: list[str]) -> None:
+        self.emit(f"{name}(")
+        for j, p in enumerate(params):
+            self.emit("    " + p + ("," if j < len(params) - 1 else ");"))
+
+    # -- expressions: (text, precedence, type) -------------------------------------------
+
+    def fold(self, e: ast.expr) -> Any:
+        """Evaluate a constant expression (string constants, module constants)."""
+        if isinstance(e, ast.Constant):
+            return e.value
+        if isinstance(e, ast.Name):
+            if e.id in self.consts:
+                return self.consts[e.id]
+            if e.id not in self.st:
+                v = self.glb.get(e.id)
+                if isinstance(v, bool | int | float | str):
+                    return v
+        if isinstance(e, ast.Compare) and len(e.ops) == 1:
+            a, b = self.fold(e.left), self.fold(e.comparators[0])
+            op = e.ops[0]
+            if isinstance(op, ast.Eq):
+                return a == b
+            if isinstance(op, ast.NotEq):
+                return a != b
+        raise TranslationError("not a constant")
+
+    def coerce(self, e: ast.expr, typ: str) -> str:
+        text, _p, t = self.expr(e, want=typ)
+        if t == typ:
+            return text
+        if typ == REAL and t == DINT:
+            return f"DINT_TO_REAL({text})"
+        raise self.err(e, f"a {t} value where {typ} is needed")
+
+    def wrap(self, sub: tuple[str, int, str], prec: int) -> str:
+        return sub[0] if sub[1] >= prec else f"({sub[0]})"
+
+    def expr(self, e: ast.expr, want: str | None = None) -> tuple[str, int, str]:
+        if isinstance(e, ast.Constant) or (
+            isinstance(e, ast.Name) and e.id not in self.st and e.id not in self.tuples
+        ):
+            try:
+                v = self.fold(e)
+            except TranslationError:
+                raise self.err(e, f"unknown name {getattr(e, 'id', e)!r}") from None
+            if isinstance(v, bool):
+                return ("TRUE" if v else "FALSE"), PREC_ATOM, BOOL
+            if isinstance(v, int):
+                if want == REAL:
+                    return real_literal(float(v)), PREC_ATOM if v >= 0 else PREC_UNARY, REAL
+                return str(int(v)), PREC_ATOM if v >= 0 else PREC_UNARY, DINT
+            if isinstance(v, float):
+                return real_literal(v), PREC_ATOM if v >= 0 else PREC_UNARY, REAL
+            raise self.err(e, f"constant {v!r} has no ST type here")
+        if isinstance(e, ast.Name):
+            if e.id in self.tuples:
+                raise self.err(e, f"tuple {e.id!r} used as a value")
+            return var(self.st[e.id]), PREC_ATOM, self.types[e.id]
+        if isinstance(e, ast.UnaryOp):
+            if isinstance(e.op, ast.Not):
+                sub = self.expr(e.operand)
+                return f"NOT {self.wrap(sub, PREC_UNARY)}", PREC_UNARY, BOOL
+            if isinstance(e.op, ast.USub):
+                if isinstance(e.operand, ast.Constant):
+                    return self.expr(ast.Constant(-e.operand.value), want)
+                sub = self.expr(e.operand, want)
+                return f"-{self.wrap(sub, PREC_ATOM)}", PREC_UNARY, sub[2]
+            raise self.err(e, "unary operator")
+        if isinstance(e, ast.BinOp):
+            return self.binop(e, want)
+        if isinstance(e, ast.BoolOp):
+            op, prec = ("AND", PREC_AND) if isinstance(e.op, ast.And) else ("OR", PREC_OR)
+            # comparisons inside AND/OR always in parentheses (readable in every dialect)
+            parts = [self.wrap(self.expr(v), PREC_UNARY) for v in e.values]
+            return f" {op} ".join(parts), prec, BOOL
+        if isinstance(e, ast.Compare):
+            return self.compare(e)
+        if isinstance(e, ast.IfExp):
+            c = self.const_test(e.test)
+            if c is not None:
+                return self.expr(e.body if c else e.orelse, want)
+            a = self.expr(e.body, want)
+            b = self.expr(e.orelse, want)
+            typ = REAL if REAL in (a[2], b[2]) else a[2]
+            test = self.expr(e.test)[0]
+            return (
+                f"SEL({test}, {self.coerce(e.orelse, typ)}, {self.coerce(e.body, typ)})",
+                PREC_ATOM,
+                typ,
+            )
+        if isinstance(e, ast.Call):
+            return self.call_expr(e, want)
+        raise self.err(e, f"expression {type(e).__name__} is not translated")
+
+    def binop(self, e: ast.BinOp, want: str | None) -> tuple[str, int, str]:
+        if isinstance(e.op, ast.RShift) and isinstance(e.right, ast.Constant):
+            left = self.expr(e.left)
+            if left[2] != DINT:
+                raise self.err(e, ">> needs an integer")
+            return f"{self.wrap(left, PREC_MUL)} / {2 ** int(e.right.value)}", PREC_MUL, DINT
+        if (
+            isinstance(e.op, ast.BitAnd)
+            and isinstance(e.right, ast.Constant)
+            and e.right.value == 1
+        ):
+            left = self.expr(e.left)
+            return f"{self.wrap(left, PREC_MUL)} MOD 2", PREC_MUL, DINT
+        ops = {ast.Add: ("+", PREC_ADD), ast.Sub: ("-", PREC_ADD), ast.Mult: ("*", PREC_MUL),
+               ast.Div: ("/", PREC_MUL)}  # fmt: skip
+        if isinstance(e.op, ast.Pow):
+            typ = REAL
+            return (
+                f"EXPT({self.coerce(e.left, REAL)}, {self.coerce(e.right, REAL)})",
+                PREC_ATOM,
+                typ,
+            )
+        if type(e.op) not in ops:
+            raise self.err(e, f"operator {type(e.op).__name__}")
+        op, prec = ops[type(e.op)]
+        lt = self.expr(e.left)[2]
+        rt = self.expr(e.right)[2]
+        typ = REAL if REAL in (lt, rt) or isinstance(e.op, ast.Div) else lt
+        if typ == REAL:
+            left = self.expr_as(e.left, REAL)
+            right = self.expr_as(e.right, REAL)
+        else:
+            left, right = self.expr(e.left), self.expr(e.right)
+        return f"{self.wrap(left, prec)} {op} {self.wrap(right, prec + 1)}", prec, typ
+
+    def expr_as(self, e: ast.expr, typ: str) -> tuple[str, int, str]:
+        sub = self.expr(e, want=typ)
+        if sub[2] == typ:
+            return sub
+        return self.coerce(e, typ), PREC_ATOM, typ
+
+    def compare(self, e: ast.Compare) -> tuple[str, int, str]:
+        sym = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "=", ast.NotEq: "<>"}
+        c = self.const_test(e)
+        if c is not None:
+            return ("TRUE" if c else "FALSE"), PREC_ATOM, BOOL
+        parts = []
+        left = e.left
+        for op, right in zip(e.ops, e.comparators, strict=True):
+            if type(op) not in sym:
+                raise self.err(e, f"comparison {type(op).__name__}")
+            lt, rt = self.expr(left)[2], self.expr(right)[2]
+            typ = REAL if REAL in (lt, rt) else lt
+            a, b = self.expr_as(left, typ), self.expr_as(right, typ)
+            prec = PREC_EQ if isinstance(op, ast.Eq | ast.NotEq) else PREC_CMP
+            parts.append(
+                (f"{self.wrap(a, prec + 1)} {sym[type(op)]} {self.wrap(b, prec + 1)}", prec)
+            )
+            left = right
+        if len(parts) == 1:
+            return parts[0][0], parts[0][1], BOOL
+        return " AND ".join(f"({p})" for p, _ in parts), PREC_AND, BOOL
+
+    def call_expr(self, c: ast.Call, want: str | None) -> tuple[str, int, str]:
+        f = c.func
+        name = ""
+        if isinstance(f, ast.Name):
+            name = f.id
+        elif isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name):
+            name = f"{f.value.id}.{f.attr}"
+        std = {"abs": "ABS", "math.exp": "EXP", "math.sqrt": "SQRT", "math.log": "LN"}
+        if name in std:
+            a = self.expr(c.args[0], want)
+            typ = a[2] if name == "abs" else REAL
+            text = self.coerce(c.args[0], typ)
+            return f"{std[name]}({text})", PREC_ATOM, typ
+        if name in ("min", "max"):
+            typ = REAL if any(self.expr(a)[2] == REAL for a in c.args) else DINT
+            return (
+                f"{name.upper()}({', '.join(self.coerce(a, typ) for a in c.args)})",
+                PREC_ATOM,
+                typ,
+            )
+        if name == "float":
+            return self.coerce(c.args[0], REAL), PREC_ATOM, REAL
+        if name == "int":
+            a = self.expr(c.args[0])
+            if a[2] == DINT:
+                return a
+            return f"TRUNC({a[0]})", PREC_ATOM, DINT
+        if name == "bool":
+            a = self.expr(c.args[0])
+            if a[2] != BOOL:
+                raise self.err(c, "bool() of a number")
+            return a
+        fn = self.resolve(f)
+        if not (isinstance(fn, types.FunctionType) and fn.__module__.startswith("ctrlblocks.")):
+            raise self.err(c, f"call of {name or ast.unparse(f)!r} is not translated")
+        sig = self.user_sig(c, fn)
+        if sig.ret_type is None:
+            raise self.err(c, f"{sig.pou} returns a tuple: assign it to names")
+        if sig.pou not in self.calls:
+            self.calls.append(sig.pou)
+        args = self.call_args(c, sig)
+        return f"{pou_ref(sig.pou)}({', '.join(args)})", PREC_ATOM, sig.ret_type

@@ -1,0 +1,116 @@
+"""Retentive state, like a PLC's RETAIN memory: what an operator set survives a restart.
+
+Per loop: setpoint, mode and manual value (where they are not bound to
+I/O), the MV limits, the MV block's tunings, the last MV and every block's
+snapshot (integrators, filters, observer states).  The runtime writes them
+every ``interval`` seconds and on stop, all loops in one SQLite transaction
+(atomic: a crash leaves the previous complete set), to a file with a schema
+version (``[retain]`` in the configuration; default beside the historian).
+
+On restart the runtime restores each loop's state and reads the MVs back
+from the devices; the first cycle outputs the read-back MV (the retained
+one if it cannot be read) and the blocks track it, so the loop continues
+without a bump.  A tuning whose value in the configuration file changed
+since it was retained comes from the file, with a log line saying which.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import sqlite3
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+__all__ = ["SCHEMA_VERSION", "RetainStore"]
+
+log = logging.getLogger(__name__)
+
+SCHEMA_VERSION = 1
+"""Version of the retain file's layout; a file of another version is not restored."""
+
+
+def _plain(x: Any) -> Any:
+    """``x`` with tuples as lists and enums as ints (JSON; NaN/inf as JSON's extensions)."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, bool) or x is None or isinstance(x, str):
+        return x
+    if isinstance(x, int):
+        return int(x)
+    if isinstance(x, float):
+        return float(x)
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return str(x)
+
+
+class RetainStore:
+    """The retain file (SQLite): :meth:`save` all loops at once, :meth:`load` them back."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = str(path)
+
+    def _connect(self) -> sqlite3.Connection:
+        conn = sqlite3.connect(self.path, timeout=10.0)
+        conn.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT)")
+        conn.execute(
+            "CREATE TABLE IF NOT EXISTS loops (name TEXT PRIMARY KEY, t_wall REAL, state TEXT)"
+        )
+        return conn
+
+    def save(self, states: Mapping[str, Mapping[str, Any]]) -> None:
+        """Write every loop's state in one transaction (replacing the previous set)."""
+        rows = [(n, time.time(), json.dumps(_plain(dict(s)))) for n, s in states.items()]
+        conn = self._connect()
+        try:
+            with conn:  # one transaction: all or nothing
+                conn.execute(
+                    "INSERT OR REPLACE INTO meta VALUES ('schema_version', ?)",
+                    (str(SCHEMA_VERSION),),
+                )
+                conn.execute("DELETE FROM loops")
+                conn.executemany("INSERT INTO loops VALUES (?, ?, ?)", rows)
+        finally:
+            conn.close()
+
+    def load(self) -> dict[str, dict[str, Any]]:
+        """The retained states by loop name (empty without a file or for another schema)."""
+        if not Path(self.path).is_file():
+            return {}
+        try:
+            conn = self._connect()
+        except sqlite3.DatabaseError as exc:
+            log.warning("retain file %s unreadable (%s): cold start", self.path, exc)
+            return {}
+        try:
+            row = conn.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+            if row is None or row[0] != str(SCHEMA_VERSION):
+                log.warning(
+                    "retain file %s has schema version %s, not %d: cold start",
+                    self.path,
+                    None if row is None else row[0],
+                    SCHEMA_VERSION,
+                )
+                return {}
+            return {n: json.loads(s) for n, s in conn.execute("SELECT name, state FROM loops")}
+        except (sqlite3.DatabaseError, ValueError) as exc:
+            log.warning("retain file %s unreadable (%s): cold start", self.path, exc)
+            return {}
+        finally:
+            conn.close()
+
+
+def finite_or_none(x: Any) -> float | None:
+    """``x`` as a finite float, else None."""
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None

@@ -1,0 +1,151 @@
+"""Tuning from a simulated bump test, with margins: the ``[controllers.tune]`` of scenarios.
+
+:func:`tune_from_bump_test` is the whole workflow a scenario asks for when it
+is loaded: step the plant by ``du`` from the operating point
+(:func:`~ctrlblocks.tuning.relay.bump_test`), fit an FOPDT
+(:func:`~ctrlblocks.tuning.identify.fit_fopdt`), apply the rule (a PID rule
+of :func:`~ctrlblocks.tuning.pid_rules.pid_from_model` or the ADRC tuning of
+:func:`~ctrlblocks.tuning.adrc.adrc_tuning`: the safe default by Ms when no
+settling time is given) and compute the margins of the block as configured
+(the scenario table's parameters with the tuned ones) on the fitted model
+(:mod:`ctrlblocks.tuning.margins`).  The scenario parser checks the table's
+keys and calls this function; every tuning failure is a ``ValueError``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ..blocks.base import ErrorCode, ParameterError
+
+__all__ = ["PID_RULES", "tune_from_bump_test"]
+
+PID_RULES = ("amigo", "simc", "zn", "lambda")
+"""The PID rules of ``[controllers.tune]`` (``rule = "adrc"`` for an ADRC)."""
+
+
+def tune_from_bump_test(
+    plant: Any,
+    block_type: str,
+    rule: str,
+    du: float,
+    *,
+    ts: float,
+    u0: float = 0.0,
+    duration: float | None = None,
+    controller: str = "pid",
+    order: int = 2,
+    settling_time: float | None = None,
+    ms: float | None = None,
+    block_params: Mapping[str, Any] | None = None,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Bump test, FOPDT fit, rule and margins; returns ``(tuned, info)``.
+
+    Parameters
+    ----------
+    plant : Plant
+        The process (without actuator and sensor), stepped by ``du`` from ``u0``.
+    block_type : {"PID", "ADRC"}
+    rule : str
+        One of :data:`PID_RULES` for a PID, ``"adrc"`` for an ADRC.
+    du : float
+        Size of the bump [MV unit], non-zero.
+    ts : float
+        The controller's sample time [s].
+    u0, duration
+        Operating point [MV unit] and record length [s] (see ``bump_test``).
+    controller : {"pi", "pid"}
+        PID rules only.
+    order, settling_time, ms
+        ADRC only: order 1..3, the rule's settling time [s] (None: the safe
+        default) and the Ms target of the default (None: 1.6).
+    block_params : mapping, optional
+        The other parameters of the block table (``n``, ``b``, ``u_min``, ...):
+        the margins are those of the block built from them and the tuned ones.
+
+    Returns
+    -------
+    tuned : dict
+        The block parameters found (they replace those of the table).
+    info : dict
+        ``rule, du, u0, gain, time_constant, dead_time, parameters`` and
+        ``margins`` (``ms, gm, pm, wc_crossover, stable`` on the FOPDT fit, or
+        None when the block's configuration has no linear margins, e.g. a PID
+        with a PV filter) and ``warnings``.
+    """
+    from .adrc import MS_DEFAULT, adrc_tuning
+    from .identify import fit_fopdt
+    from .pid_rules import pid_from_model
+    from .relay import bump_test
+
+    if du == 0.0:
+        raise ParameterError(ErrorCode.BAD_PARAMETER, "du", "must be non-zero")
+    t, u, y = bump_test(plant, du, u0=u0, duration=duration)
+    model = fit_fopdt(t, u, y)
+    info: dict[str, Any] = {
+        "rule": rule,
+        "du": du,
+        "u0": u0,
+        "gain": model.gain,
+        "time_constant": model.time_constant,
+        "dead_time": model.dead_time,
+    }
+    params = dict(block_params or {})
+    warnings: list[str] = []
+    if block_type == "ADRC":
+        if rule != "adrc":
+            raise ParameterError(ErrorCode.BAD_PARAMETER, "rule", "an ADRC is tuned by 'adrc'")
+        res = adrc_tuning(
+            model.gain, model.time_constant, model.dead_time, order,
+            settling_time=settling_time, ts=ts, ms=MS_DEFAULT if ms is None else ms,
+            discretisation=str(params.get("discretisation", "euler")),
+        )  # fmt: skip
+        tuned: dict[str, Any] = {
+            "order": order,
+            "b0": res.b0,
+            "omega_c": res.omega_c,
+            "omega_o": res.omega_o,
+        }
+        warnings += res.warnings
+    else:
+        res_pid = pid_from_model(model, rule, controller=controller)
+        tuned = {"kp": abs(res_pid.kp), "ti": res_pid.ti, "td": res_pid.td}
+        if res_pid.kp < 0:
+            tuned["reverse"] = True
+        if res_pid.b is not None:
+            tuned["b"] = res_pid.b
+    info["parameters"] = dict(tuned)
+    info["margins"] = block_margins(model, block_type, {**params, **tuned}, ts)
+    mg = info["margins"]
+    if mg is not None and (not mg["stable"] or mg["ms"] > 2.0):
+        warnings.append(
+            f"the {rule} tuning is {'unstable' if not mg['stable'] else 'fragile (Ms > 2)'} "
+            "on the FOPDT fit of the bump test"
+        )
+    info["warnings"] = warnings
+    return tuned, info
+
+
+def block_margins(
+    model: Any, block_type: str, params: Mapping[str, Any], ts: float
+) -> dict[str, Any] | None:
+    """``Margins.as_dict()`` of the block ``block_type(**params, ts=ts)`` on ``model``.
+
+    None when the block cannot be analysed (not a PID/ADRC, or a configuration
+    without the plain linear law, e.g. a PID with a PV filter, or refused
+    parameters, which the caller reports itself).
+    """
+    from ..blocks.adrc import ADRC
+    from ..blocks.pid import PID
+    from .margins import margins
+
+    cls = {"PID": PID, "ADRC": ADRC}.get(block_type)
+    if cls is None:
+        return None
+    try:
+        block = cls(**{**params, "ts": ts})
+        mg = margins(model, block)
+    except (ParameterError, TypeError):
+        return None
+    return dict(mg.as_dict())

@@ -1,0 +1,513 @@
+"""Robustness margins of a tuned loop: the exact discrete loop at the controller's ts.
+
+What is computed
+----------------
+For a process model and a configured :class:`ctrlblocks.PID` or
+:class:`ctrlblocks.ADRC`, the loop is the one the simulator runs: at sample
+``k`` the block reads ``y[k]`` and the set point ``r[k]``, computes ``u[k]``,
+and the process advances by ``ts`` with ``u[k]`` held (zero-order hold).
+
+* **Process**: the exact ZOH sampling of the model with its dead time
+  (Åström & Wittenmark 1997, section 2.3),
+  through :class:`ctrlblocks.plants.linear.LinearPlant`: a dead time
+  ``L = d ts + eps`` that is not a multiple of ``ts`` is exact as well (the
+  modified z-transform, the two input matrices ``Gamma0``/``Gamma1`` of that
+  module), so ``P(z) = C (zI - Phi)^-1 (Gamma0 + Gamma1 z^-1) z^-d``; no Padé
+  approximation anywhere.
+* **Controller**: the block itself, linear inside its limits.  Its state
+  update and output are linear in (state, ``r``, ``y``); the matrices of the
+  discrete 2-DOF controller ``x+ = A x + B [r; y]``, ``u = C x + D [r; y]``
+  are read off the real block by running one cycle from unit states and unit
+  inputs (:meth:`Block.snapshot`/:meth:`Block.restore`), so the equivalent of
+  the ESO (4a) and the law (4b) of Nowak et al. 2018 (both discretisations,
+  orders 1..3) and of the PID's own discretisation (integral and derivative
+  methods, filter ``Td/N``, set-point weights ``b``, ``c``) is exactly the
+  code that runs, not a second implementation.  States the inputs cannot
+  reach (the integrator of a PID without integral action, the x2/x3 of a
+  lower ADRC order) are left out.
+* **Loop**: the feedback part ``C_y(z) = -(C (zI - A)^-1 B_y + D_y)`` gives
+  the loop transfer function ``L = C_y P``, the sensitivity ``S = 1/(1 + L)``
+  and the complementary sensitivity ``T = L/(1 + L)`` on ``z = e^{j w ts}``,
+  ``0 < w <= pi/ts``.
+
+Margins (Åström & Hägglund 2006, section 4.4):
+``ms = max |S|`` (the inverse of the shortest distance from ``L`` to -1),
+``gm`` the gain margin (ratio, ``inf`` when ``L`` never crosses the negative
+real axis), ``pm`` the phase margin [deg], ``wc_crossover`` the gain
+crossover frequency [rad/s] (``|L| = 1``; the crossing with the smallest phase
+margin).  **Stability** is decided by the closed-loop poles (the eigenvalues
+of the loop's state matrix, dead-time shift register included): ``stable``
+means all of them strictly inside the unit circle.  The margins of an
+unstable loop mean nothing; ``ms`` is then reported as ``inf``.
+
+Margin targets used by the tuning tools: ``ms <= 1.4`` robust, ``1.4..2``
+the usual range (Åström & Hägglund 2006, section 4.4: ``ms = 1.4`` and
+``2`` bracket good designs; ``ms = 2`` guarantees ``gm >= 2`` and
+``pm >= 29 deg``), above 2 fragile.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import optimize
+
+from ..blocks.adrc import ADRC
+from ..blocks.base import ErrorCode, ParameterError
+from ..blocks.pid import PID
+from ..plants.linear import LinearPlant
+from .identify import FOPDT, SOPDT, Integrating
+
+__all__ = [
+    "MS_FRAGILE",
+    "DiscreteSS",
+    "Loop",
+    "Margins",
+    "controller_ss",
+    "loop",
+    "margins",
+    "model_plant",
+    "plant_ss",
+]
+
+MS_FRAGILE = 2.0
+"""Above this maximum sensitivity a tuning is called fragile (refused by default)."""
+
+_POLE_TOL = 1e-10  # a closed-loop pole with |z| > 1 - _POLE_TOL counts as unstable
+_GRID = 2000  # log-spaced frequencies over _DECADES below the Nyquist frequency
+_DECADES = 6.0
+
+
+@dataclass(frozen=True)
+class DiscreteSS:
+    """A discrete state space ``x+ = a x + b w``, ``v = c x + d w`` with sample time ``ts`` [s]."""
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+    ts: float
+
+    def response(self, w: np.ndarray) -> np.ndarray:
+        """Frequency response at ``w`` [rad/s]: array (len(w), outputs, inputs), complex."""
+        z = np.exp(1j * np.asarray(w, float) * self.ts)
+        n = self.a.shape[0]
+        if n == 0:
+            return np.broadcast_to(self.d, (len(z), *self.d.shape)).astype(complex)
+        m = z[:, None, None] * np.eye(n) - self.a
+        x = np.linalg.solve(m, np.broadcast_to(self.b, (len(z), *self.b.shape)))
+        return self.c @ x + self.d
+
+
+# ---------------------------------------------------------------------------
+# The process
+# ---------------------------------------------------------------------------
+
+
+def model_plant(model: Any, ts: float) -> LinearPlant:
+    """The :class:`LinearPlant` of a tuning model at the sample time ``ts`` [s].
+
+    ``model`` is a :class:`~ctrlblocks.tuning.identify.FOPDT`, ``SOPDT`` or
+    ``Integrating`` (``k e^{-L s}/s``), or already a ``LinearPlant`` (any of
+    :mod:`ctrlblocks.plants.linear`, whose own ``ts`` must equal ``ts``).
+    """
+    from ..plants.linear import FOPDT as PlantFOPDT
+    from ..plants.linear import PT2
+
+    if isinstance(model, LinearPlant):
+        if not math.isclose(model.ts, ts, rel_tol=1e-12):
+            raise ParameterError(
+                ErrorCode.NO_CYCLE, "ts", f"the plant has ts = {model.ts:g} s, the block {ts:g} s"
+            )
+        return model
+    if isinstance(model, SOPDT):
+        return PT2(model.gain, model.time_constant, model.time_constant_2, ts, model.dead_time)
+    if isinstance(model, FOPDT):
+        return PlantFOPDT(model.gain, model.time_constant, model.dead_time, ts)
+    if isinstance(model, Integrating):
+        return LinearPlant([model.gain], [1.0, 0.0], ts=ts, dead_time=model.dead_time)
+    raise TypeError(f"no process model: {model!r}")
+
+
+def plant_ss(plant: LinearPlant) -> DiscreteSS:
+    """Input ``u[k]``, output ``y[k]``: the ZOH sampling with the dead time as a shift register.
+
+    States: the plant's ``x`` and the past inputs ``u[k-1] .. u[k-d-1]``
+    (Åström & Wittenmark 1997, section 2.3, "Time delay"; the update (2)
+    of :mod:`ctrlblocks.plants.linear`).
+    """
+    nx, d = plant.n_states, plant.dead_samples
+    m = d + 1  # u[k-1] .. u[k-d-1]
+    a = np.zeros((nx + m, nx + m))
+    b = np.zeros((nx + m, 1))
+    a[:nx, :nx] = plant.phi
+    g0, g1 = plant.gamma0, plant.gamma1
+    if d == 0:
+        b[:nx, 0] = g0
+    else:
+        a[:nx, nx + d - 1] = g0
+    a[:nx, nx + d] += g1
+    b[nx, 0] = 1.0
+    for j in range(1, m):
+        a[nx + j, nx + j - 1] = 1.0
+    c = np.zeros((1, nx + m))
+    c[0, :nx] = plant.c
+    return DiscreteSS(a, b, c, np.zeros((1, 1)), plant.ts)
+
+
+# ---------------------------------------------------------------------------
+# The controller: matrices read off the real block
+# ---------------------------------------------------------------------------
+
+_ADRC_STATES = {
+    1: ("_yh", "_x4", "_u_prev", "_ref"),
+    2: ("_yh", "_x2", "_x4", "_u_prev", "_ref"),
+    3: ("_yh", "_x2", "_x3", "_x4", "_u_prev", "_ref"),
+}
+
+
+def controller_ss(block: PID | ADRC) -> DiscreteSS:
+    """The discrete 2-DOF controller of ``block`` inside its limits: inputs ``[r, y]``, output u.
+
+    The block's configuration is copied with infinite output limits (the
+    margins are those of the linear loop); the matrices come from one cycle of
+    that block per unit state and unit input (module docstring).  A PID with
+    filters, ramps, scaling, a dead band, feed-forward or the velocity form is
+    refused (its law is then not the plain linear one analysed here).
+    """
+    cfg = block.config
+    if isinstance(block, ADRC):
+        probe: PID | ADRC = ADRC(cfg, u_min=-math.inf, u_max=math.inf, anti_backoff=False)
+        fields = _ADRC_STATES[int(cfg.order)]  # x2, x3 unused below order 2, 3
+    elif isinstance(block, PID):
+        plain = (
+            cfg.algorithm == "positional"
+            and cfg.pv_range is None
+            and cfg.sp_filter == cfg.pv_filter == cfg.sp_rate == cfg.out_rate == 0.0
+            and cfg.deadband == 0.0
+            and cfg.ff_k == 0.0
+        )
+        if not plain:
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER,
+                "PID",
+                "margins need the plain positional PID (no filters, ramps, scaling, "
+                "dead band, feed-forward or velocity form)",
+            )
+        probe = PID(cfg, u_min=-math.inf, u_max=math.inf, bumpless="integrator")
+        # without integral action the integrator is a constant (unreachable) state
+        fields = ("_i", "_d", "_w_prev", "_e_prev")[0 if cfg.ti > 0.0 else 1 :]
+    else:
+        raise TypeError(f"margins are defined for PID and ADRC blocks, not {type(block).__name__}")
+    probe(0.0, 0.0)  # leave the first-cycle start-up (ESO start, PID cold start)
+    probe(0.0, 0.0)
+    template = probe.snapshot()
+    n = len(fields)
+
+    def cycle(x: Sequence[float], r: float, y: float) -> tuple[np.ndarray, float]:
+        snap = dict(template)
+        snap.update(zip(fields, (float(v) for v in x), strict=True))
+        probe.restore(snap)
+        u = float(probe(r, y))
+        new = probe.snapshot()
+        return np.array([float(new[f]) for f in fields]), u
+
+    a = np.zeros((n, n))
+    b = np.zeros((n, 2))
+    c = np.zeros((1, n))
+    d = np.zeros((1, 2))
+    zero = np.zeros(n)
+    for j in range(n):
+        e = zero.copy()
+        e[j] = 1.0
+        a[:, j], c[0, j] = cycle(e, 0.0, 0.0)
+    b[:, 0], d[0, 0] = cycle(zero, 1.0, 0.0)
+    b[:, 1], d[0, 1] = cycle(zero, 0.0, 1.0)
+    return DiscreteSS(a, b, c, d, float(cfg.ts))
+
+
+# ---------------------------------------------------------------------------
+# The loop and its margins
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Margins:
+    """Robustness of one loop (module docstring).
+
+    Attributes
+    ----------
+    ms : float
+        Maximum sensitivity ``max |S|`` (``inf`` when the loop is unstable).
+    gm : float
+        Gain margin (ratio; ``inf`` when there is no phase crossover).
+    pm : float
+        Phase margin [deg] (``inf`` when ``|L|`` never reaches 1).
+    wc_crossover : float
+        Gain-crossover frequency [rad/s] (NaN without crossover).
+    w_gm : float
+        Phase-crossover frequency of the gain margin [rad/s] (NaN without).
+    w_ms : float
+        Frequency of the sensitivity peak [rad/s].
+    stable : bool
+        All closed-loop poles strictly inside the unit circle.
+    radius : float
+        Largest closed-loop pole modulus.
+    ts : float
+        Sample time of the analysed loop [s].
+    """
+
+    ms: float
+    gm: float
+    pm: float
+    wc_crossover: float
+    w_gm: float
+    w_ms: float
+    stable: bool
+    radius: float
+    ts: float
+
+    def as_dict(self) -> dict[str, float | bool]:
+        """The keys of ``ctrlblocks tune ... --json``: ``ms, gm, pm, wc_crossover, stable``."""
+        return {
+            "ms": self.ms,
+            "gm": self.gm,
+            "pm": self.pm,
+            "wc_crossover": self.wc_crossover,
+            "stable": self.stable,
+        }
+
+    def summary(self) -> str:
+        """One line, e.g. ``Ms 1.60, GM 3.1 (9.8 dB), PM 52 deg at 0.12 rad/s, stable``."""
+        if not self.stable:
+            return f"UNSTABLE closed loop (largest pole |z| = {self.radius:.4g})"
+        gm = "inf" if math.isinf(self.gm) else f"{self.gm:.3g} ({20 * math.log10(self.gm):.1f} dB)"
+        pm = "inf" if math.isinf(self.pm) else f"{self.pm:.1f} deg"
+        wc = "" if math.isnan(self.wc_crossover) else f" at {self.wc_crossover:.4g} rad/s"
+        return f"Ms {self.ms:.3f}, GM {gm}, PM {pm}{wc}, stable"
+
+
+_SAMPLED: dict[tuple[Any, ...], tuple[LinearPlant, DiscreteSS]] = {}
+
+
+def _sampled(model: Any, ts: float) -> tuple[LinearPlant, DiscreteSS]:
+    """The plant of ``model`` at ``ts`` and its state space (cached for the tuning models)."""
+    if isinstance(model, LinearPlant):
+        plant = model_plant(model, ts)
+        return plant, plant_ss(plant)
+    names = ("gain", "time_constant", "time_constant_2", "dead_time")
+    key = (type(model).__name__, *(getattr(model, f, None) for f in names), ts)
+    hit = _SAMPLED.get(key)
+    if hit is None:
+        plant = model_plant(model, ts)
+        hit = (plant, plant_ss(plant))
+        if len(_SAMPLED) > 256:
+            _SAMPLED.clear()
+        _SAMPLED[key] = hit
+    return hit
+
+
+class Loop:
+    """The sampled loop of a process model and a block (module docstring).
+
+    Parameters
+    ----------
+    model : FOPDT, SOPDT, Integrating or LinearPlant
+        The process model (dead time exact).
+    block : PID or ADRC
+        The configured controller; its ``ts`` is the loop's sample time.
+    """
+
+    def __init__(self, model: Any, block: PID | ADRC) -> None:
+        self.ctrl = controller_ss(block)
+        self.ts = self.ctrl.ts
+        self.plant, self.pss = _sampled(model, self.ts)
+
+    # -- frequency responses -------------------------------------------------
+
+    def process(self, w: np.ndarray) -> np.ndarray:
+        """``P(e^{j w ts})`` from the plant's own matrices (dead time as ``z^-d``)."""
+        p = self.plant
+        z = np.exp(1j * np.asarray(w, float) * self.ts)
+        n = p.n_states
+        m = z[:, None, None] * np.eye(n) - p.phi
+        g = p.gamma0[None, :] + p.gamma1[None, :] / z[:, None]
+        x = np.linalg.solve(m, g[:, :, None])[:, :, 0]
+        return (x @ p.c) * z ** (-p.dead_samples)
+
+    def controller(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(C_r, C_y)`` at ``w``: ``u = C_r r - C_y y`` (``C_y`` the feedback part)."""
+        g = self.ctrl.response(w)
+        return g[:, 0, 0], -g[:, 0, 1]
+
+    def loop_gain(self, w: np.ndarray) -> np.ndarray:
+        """``L = C_y P`` at ``w`` [rad/s]."""
+        return self.controller(w)[1] * self.process(w)
+
+    def sensitivity(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(S, T)`` at ``w``."""
+        L = self.loop_gain(w)
+        return 1.0 / (1.0 + L), L / (1.0 + L)
+
+    # -- poles ---------------------------------------------------------------
+
+    def closed_loop_a(self) -> np.ndarray:
+        """State matrix of the closed loop (process with its shift register, then controller)."""
+        p, c = self.pss, self.ctrl
+        np_, nc = p.a.shape[0], c.a.shape[0]
+        by = c.b[:, 1:]
+        dy = c.d[0, 1]
+        a = np.zeros((np_ + nc, np_ + nc))
+        a[:np_, :np_] = p.a + dy * p.b @ p.c
+        a[:np_, np_:] = p.b @ c.c
+        a[np_:, :np_] = by @ p.c
+        a[np_:, np_:] = c.a
+        return a
+
+    def poles(self) -> np.ndarray:
+        """Closed-loop poles (eigenvalues of :meth:`closed_loop_a`)."""
+        return np.linalg.eigvals(self.closed_loop_a())
+
+    # -- margins -------------------------------------------------------------
+
+    def grid(self) -> np.ndarray:
+        """The frequency grid [rad/s]: log-spaced up to the Nyquist frequency ``pi/ts``."""
+        wn = math.pi / self.ts
+        return wn * np.logspace(-_DECADES, 0.0, _GRID)
+
+    def stable(self) -> bool:
+        """All closed-loop poles strictly inside the unit circle (module docstring)."""
+        return float(np.max(np.abs(self.poles()))) < 1.0 - _POLE_TOL
+
+    def peak_sensitivity(self, points: int = 400) -> float:
+        """Quick ``max |S|`` on a coarse grid plus a local refinement; ``inf`` if unstable.
+
+        For searches (:func:`ctrlblocks.tuning.adrc.adrc_tuning`); the final
+        numbers come from :meth:`margins`.
+        """
+        if not self.stable():
+            return math.inf
+        w = math.pi / self.ts * np.logspace(-_DECADES, 0.0, points)
+        s = np.abs(1.0 / (1.0 + self.loop_gain(w)))
+        return self._refine_peak(w, int(np.argmax(s)))[0]
+
+    def margins(self) -> Margins:
+        """Ms, GM, PM, crossover and stability (module docstring)."""
+        radius = float(np.max(np.abs(self.poles())))
+        stable = radius < 1.0 - _POLE_TOL
+        w = self.grid()
+        L = self.loop_gain(w)
+        s = np.abs(1.0 / (1.0 + L))
+        i = int(np.argmax(s))
+        ms, w_ms = self._refine_peak(w, i)
+        gm, w_gm = self._gain_margin(w, L)
+        pm, wc = self._phase_margin(w, L)
+        return Margins(ms if stable else math.inf, gm, pm, wc, w_gm, w_ms, stable, radius, self.ts)
+
+    def _refine_peak(self, w: np.ndarray, i: int) -> tuple[float, float]:
+        lo, hi = w[max(i - 1, 0)], w[min(i + 1, len(w) - 1)]
+
+        def neg(x: float) -> float:
+            return -float(np.abs(1.0 / (1.0 + self.loop_gain(np.array([x]))[0])))
+
+        best = (-neg(w[i]), float(w[i]))
+        if hi > lo:
+            r = optimize.minimize_scalar(neg, bounds=(lo, hi), method="bounded",
+                                         options={"xatol": 1e-7 * hi})  # fmt: skip
+            if -r.fun > best[0]:
+                best = (-float(r.fun), float(r.x))
+        return best
+
+    def _gain_margin(self, w: np.ndarray, L: np.ndarray) -> tuple[float, float]:
+        im = L.imag
+        best = (math.inf, math.nan)
+        for k in np.nonzero(np.sign(im[:-1]) * np.sign(im[1:]) <= 0)[0]:
+            if im[k] == im[k + 1]:
+                wk = float(w[k])
+            else:
+                wk = optimize.brentq(
+                    lambda x: float(self.loop_gain(np.array([x]))[0].imag), w[k], w[k + 1],
+                    xtol=1e-12 * w[k + 1],
+                )  # fmt: skip
+            lk = self.loop_gain(np.array([wk]))[0]
+            if lk.real < 0.0 and -1.0 / lk.real < best[0]:
+                best = (-1.0 / lk.real, wk)
+        real_end = L[-1].real < 0.0 and abs(L[-1].imag) < 1e-9 * max(1.0, abs(L[-1]))
+        if real_end and -1.0 / L[-1].real < best[0]:  # the Nyquist frequency: L is real there
+            best = (-1.0 / L[-1].real, float(w[-1]))
+        return float(best[0]), best[1]
+
+    def _phase_margin(self, w: np.ndarray, L: np.ndarray) -> tuple[float, float]:
+        lg = np.log(np.abs(L))
+        best = (math.inf, math.nan)
+        for k in np.nonzero(np.sign(lg[:-1]) * np.sign(lg[1:]) <= 0)[0]:
+            if lg[k] == lg[k + 1]:
+                wk = w[k]
+            else:
+                wk = optimize.brentq(
+                    lambda x: float(np.log(np.abs(self.loop_gain(np.array([x]))[0]))),
+                    w[k], w[k + 1], xtol=1e-12 * w[k + 1],
+                )  # fmt: skip
+            pm = math.degrees(float(np.angle(-self.loop_gain(np.array([wk]))[0])))
+            if pm < best[0]:
+                best = (pm, float(wk))
+        return best
+
+    # -- time responses on the model -------------------------------------------
+
+    def simulate(
+        self, t_end: float, *, r: float = 1.0, load: float = 0.0, t_load: float = 0.0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(t, y, u)`` [s, PV, MV] of the linear loop on the model, from rest.
+
+        Set-point step ``r`` at ``t = 0`` and a step ``load`` added to the
+        process input from ``t_load`` [s] on; the simulator's order (``u[k]``
+        from ``y[k]``, then the process advances), no limits.
+        """
+        n = round(t_end / self.ts) + 1
+        p, c = self.pss, self.ctrl
+        a = self.closed_loop_a()
+        b_r = np.concatenate([p.b[:, 0] * c.d[0, 0], c.b[:, 0]])
+        b_l = np.concatenate([p.b[:, 0], np.zeros(c.a.shape[0])])
+        c_y = np.concatenate([p.c[0], np.zeros(c.a.shape[0])])
+        c_u = np.concatenate([c.d[0, 1] * p.c[0], c.c[0]])
+        x = np.zeros(a.shape[0])
+        t = np.arange(n) * self.ts
+        ys, us = np.zeros(n), np.zeros(n)
+        for k in range(n):
+            ys[k] = c_y @ x
+            us[k] = c_u @ x + c.d[0, 0] * r
+            x = a @ x + b_r * r + (b_l * load if t[k] >= t_load else 0.0)
+        return t, ys, us
+
+    def response_time(self) -> float:
+        """A time [s] after which the step response has surely settled: 10 times the
+        slowest closed-loop time constant, plus the dead time (at most 200000 samples)."""
+        r = float(np.max(np.abs(self.poles())))
+        tau = -self.ts / math.log(r) if 0.0 < r < 1.0 else 0.0
+        return min(10.0 * tau + self.plant.dead_time + 10.0 * self.ts, 200000 * self.ts)
+
+    def settling_time(self, t_end: float | None = None, band: float = 0.02) -> float:
+        """2 % settling time [s] of the set-point step response on the model (NaN: not settled).
+
+        ``t_end`` defaults to :meth:`response_time`.
+        """
+        t, y, _u = self.simulate(self.response_time() if t_end is None else t_end)
+        outside = np.flatnonzero(np.abs(y - 1.0) > band)
+        if len(outside) == 0:
+            return 0.0
+        return math.nan if outside[-1] == len(y) - 1 else float(t[outside[-1] + 1])
+
+
+def loop(model: Any, block: PID | ADRC) -> Loop:
+    """Shorthand for :class:`Loop`."""
+    return Loop(model, block)
+
+
+def margins(model: Any, block: PID | ADRC) -> Margins:
+    """Margins of ``block`` on ``model`` (module docstring); see :class:`Margins`."""
+    return Loop(model, block).margins()

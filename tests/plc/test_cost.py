@@ -1,0 +1,33 @@
+"""The operation counts per call that docs/plc.md gives (execution-cost estimate)."""
+
+from __future__ import annotations
+
+import pytest
+
+from ctrlblocks import ADRC, PID, LeadLag, plc
+
+from .st_interpreter import Interpreter
+
+pytest.importorskip("blark")
+
+# (block, FB, inputs) -> documented (arithmetic, comparison, standard function, call) counts
+CASES = [
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (35, 42, 5, 12)),
+    (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
+     {"SP": 1.0, "PV": 0.5}, (65, 27, 8, 13)),
+    (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",
+     {"SP": 1.0, "PV": 0.5}, (73, 28, 9, 13)),
+    (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 5, 1, 4)),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("make", "fb_name", "inputs", "documented"), CASES)
+def test_operations_per_auto_call_are_the_documented_ones(make, fb_name, inputs, documented):
+    it = Interpreter(plc.export(make()), count=True)
+    fb = it.instance(fb_name)
+    for _ in range(5):
+        fb(**inputs)
+    it.counts.clear()
+    fb(**inputs)
+    kinds = ("arithmetic", "comparison", "standard function", "function call")
+    assert tuple(it.counts.get(k, 0) for k in kinds) == documented

@@ -1,0 +1,236 @@
+"""The PLC cycle (blocks.plc_cycle) is the blocks' behaviour, and float32 is REAL arithmetic.
+
+* run in float64, the cycle functions give the blocks' own outputs over the
+  long traces (so the plumbing around the kernels -- modes, bad input,
+  retuning, limits -- is the blocks' plumbing, not a second behaviour);
+* ``precision="float32"`` stays within float32 rounding of float64 and really
+  rounds every intermediate (Åström 1987, section 2: the increment
+  ``K h e / Ti`` lost when added to a large integral);
+* the option is refused where the cycle does not cover the configuration.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ctrlblocks import ADRC, PID, LeadLag, ParameterError
+from ctrlblocks.blocks import adrc as adrc_mod
+from ctrlblocks.blocks import plc_cycle as pc
+
+from .traces import adrc_trace, leadlag_trace, pid_trace
+
+FB_TO_PY = {
+    "pid": {"SP": "sp", "PV": "pv", "FF": "ff", "PV_OK": "pv_ok", "MANUAL": "manual",
+            "MAN_VALUE": "man_value", "RST": "rst", "K": "k", "TI": "ti", "U_MIN": "u_min",
+            "U_MAX": "u_max"},
+    "adrc": {"SP": "sp", "PV": "y", "PV_OK": "y_ok", "MANUAL": "manual", "MAN_VALUE": "u_man",
+             "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max"},
+    "leadlag": {"IN": "x", "ENABLE": "enable", "T_LEAD": "t_lead", "OUT_MIN": "out_min",
+                "OUT_MAX": "out_max"},
+}  # fmt: skip
+
+
+def _run64(kind, block, trace):
+    """The cycle function in float64, fed with the trace's inputs; its outputs per sample."""
+    fn, results, inputs, state, process = {
+        "pid": (pc.pid_cycle, pc.PID_RESULTS, pc.pid_inputs, pc.pid_state,
+                {"sp": 0.0, "pv": 0.0, "ff": 0.0, "pv_ok": True, "manual": False,
+                 "man_value": 0.0, "rst": False}),
+        "adrc": (pc.adrc_cycle, pc.ADRC_RESULTS, pc.adrc_inputs, pc.adrc_state,
+                 {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0}),
+        "leadlag": (pc.leadlag_cycle, pc.LEADLAG_RESULTS, pc.leadlag_inputs,
+                    pc.leadlag_state, {"x": 0.0, "enable": True}),
+    }[kind]  # fmt: skip
+    args = {**process, **inputs(block.config), **state(block.config)}
+    if "man_value" in args:
+        args["man_value"] = args["out"]
+    if "u_man" in args:
+        args["u_man"] = args["out"]
+    out = []
+    for inp in trace.inputs:
+        for k, v in inp.items():
+            args[FB_TO_PY[kind][k]] = v
+        res = dict(zip(results, fn(**args), strict=True))
+        for k in args:
+            if k in res:
+                args[k] = res[k]
+        if "man_value" in res:
+            args["man_value"] = res["man_value"]
+        mv = res.get("mv", res.get("out"))
+        out.append((mv, res["error_id"]))
+    return out
+
+
+@pytest.mark.parametrize(
+    ("kind", "make"),
+    [
+        ("pid", lambda: pid_trace(1000, seed=7)),
+        ("pid", lambda: pid_trace(400, seed=8, anti_windup="back_calc_model", reverse=True)),
+        ("adrc", lambda: adrc_trace(1000, seed=9)),
+        ("adrc", lambda: adrc_trace(400, seed=10, order=3, b0=0.01, omega_c=0.3, omega_o=1.2)),
+        ("leadlag", lambda: leadlag_trace(400, seed=11)),
+    ],
+)
+def test_cycle_in_float64_is_the_block(kind, make):
+    start, trace = make()
+    # the same inputs through the normal (float64) block
+    cls = type(start)
+    block = cls(**{**vars(start.config), "precision": "float64"})
+    ref = []
+    for inp in trace.inputs:
+        if kind == "pid":
+            for name, attr in (("MANUAL", "manual"), ("MAN_VALUE", "manual_value"),
+                               ("RST", "reset_active")):  # fmt: skip
+                if name in inp:
+                    setattr(block, attr, inp[name])
+            if "K" in inp:
+                block.configure(kp=inp["K"], ti=inp["TI"])
+            if "U_MIN" in inp:
+                block.configure(u_min=inp["U_MIN"], u_max=inp["U_MAX"])
+            ref.append((block(inp["SP"], inp["PV"], ff=inp["FF"], pv_ok=inp["PV_OK"]),
+                        int(block.error_id)))  # fmt: skip
+        elif kind == "adrc":
+            if "MANUAL" in inp:
+                block.manual = inp["MANUAL"]
+            if "MAN_VALUE" in inp:
+                block.u_man = inp["MAN_VALUE"]
+            if "OMEGA_C" in inp:
+                block.configure(omega_c=inp["OMEGA_C"], omega_o=inp["OMEGA_O"])
+            if "U_MIN" in inp:
+                block.set_limits(inp["U_MIN"], inp["U_MAX"])
+            ref.append((block(inp["SP"], inp["PV"], y_ok=inp["PV_OK"]), int(block.error_id)))
+        else:
+            if "T_LEAD" in inp:
+                block.configure(t_lead=inp["T_LEAD"], out_min=inp["OUT_MIN"],
+                                out_max=inp["OUT_MAX"])  # fmt: skip
+            ref.append((block(inp["IN"], enable=inp["ENABLE"]), int(block.error_id)))
+    got = _run64(kind, start, trace)
+    scale = max(abs(u) for u, _e in ref) + 1.0
+    for k, ((u, e), (v, f)) in enumerate(zip(got, ref, strict=True)):
+        assert abs(u - v) <= 1e-12 * scale, f"sample {k}: cycle {u!r}, block {v!r}"
+        assert e == f, f"sample {k}: cycle 16#{e:04X}, block 16#{f:04X}"
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_bandwidth_gains_spelled_out_equal_adrc_gains(n):
+    wc, wo = 0.7, 3.3
+    assert pc.bandwidth_gains(n, wc, wo) == pytest.approx(adrc_mod.adrc_gains(n, wc, wo), rel=1e-15)
+
+
+def test_float32_block_stays_within_single_precision_of_float64():
+    _start, trace = pid_trace(1000, seed=12)
+    ref = PID(kp=1.5, ti=4.0, td=0.5, ts=0.1, u_min=0.0, u_max=100.0)
+    f32 = [u for u, _e, _f in trace.outputs]
+    # replay the float32 block's inputs through the float64 block (same events)
+    worst = 0.0
+    for inp, u32 in zip(trace.inputs, f32, strict=True):
+        if "MANUAL" in inp:
+            ref.manual = inp["MANUAL"]
+        if "MAN_VALUE" in inp:
+            ref.manual_value = inp["MAN_VALUE"]
+        if "RST" in inp:
+            ref.reset_active = inp["RST"]
+        if "K" in inp:
+            ref.configure(kp=inp["K"], ti=inp["TI"])
+        if "U_MIN" in inp:
+            ref.configure(u_min=inp["U_MIN"], u_max=inp["U_MAX"])
+        u64 = ref(inp["SP"], inp["PV"], ff=inp["FF"], pv_ok=inp["PV_OK"])
+        assert np.float32(u32) == u32  # a REAL value
+        worst = max(worst, abs(u32 - u64))
+    assert 0.0 < worst < 1e-3  # rounding differs, but only at single precision (% of range)
+
+
+def test_float32_loses_the_integral_increment_as_astrom_warns():
+    """Åström 1987, (2.8) and section 2: ``K h e/Ti`` is rounded off when added to I."""
+    kw = {"kp": 1.0, "ti": 1000.0, "ts": 0.01, "u_min": 0.0, "u_max": 100.0,
+          "reset_value": 50.0, "integral_method": "forward"}  # fmt: skip
+    f32 = PID(**kw, precision="float32")
+    f64 = PID(**kw)
+    for blk in (f32, f64):
+        blk.manual, blk.manual_value = True, 50.0
+        blk(50.0, 50.0)  # integrator set to 50 % bumplessly
+        blk.manual = False
+    e = 0.01  # a 0.01 % control error: increment K h e / Ti = 1e-7 per sample
+    for _ in range(2000):
+        u32 = f32(50.0 + e, 50.0)
+        u64 = f64(50.0 + e, 50.0)
+    # the switch to AUTO continues at 50 %; then float64 integrates 1999 * 1e-7 = 2e-4,
+    # while in float32 ulp(50) = 3.8e-6 > 2 * 1e-7 rounds every increment away
+    assert u64 - 50.0 == pytest.approx(1999 * 1e-7, rel=1e-6)
+    assert abs(u32 - 50.0) <= float(np.spacing(np.float32(50.0)))
+    assert np.spacing(np.float32(50.0)) > 2 * 1e-7
+
+
+def test_velocity_form_needs_precision_only_where_the_increments_are_added():
+    """Åström 1987, section 2 (incremental form): increments are fine in short words."""
+    k, h, ti, e = 1.0, 0.01, 1000.0, 0.01
+    inc32 = np.float32(k) * np.float32(h) / np.float32(ti) * np.float32(e)
+    assert abs(float(inc32) - 1e-7) < 1e-7 * 1e-6  # the increment itself is accurate in REAL
+    acc32, acc64 = np.float32(50.0), 50.0
+    for _ in range(2000):
+        acc32 = acc32 + inc32  # a REAL output integrator loses it
+        acc64 = acc64 + float(inc32)  # an LREAL one keeps it
+    assert acc32 == np.float32(50.0)
+    assert acc64 - 50.0 == pytest.approx(2e-4, rel=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("cls", "kw", "field"),
+    [
+        (PID, {"sp_rate": 1.0}, "sp_rate"),
+        (PID, {"algorithm": "velocity", "ti": 1.0}, "algorithm"),
+        (ADRC, {"discretisation": "exact"}, "discretisation"),
+        (ADRC, {"anti_backoff": True}, "anti_backoff"),
+    ],
+)
+def test_float32_is_refused_where_the_plc_cycle_does_not_cover_the_options(cls, kw, field):
+    with pytest.raises(ParameterError, match=field) as exc:
+        cls(**kw, precision="float32")
+    assert exc.value.code == 0x8210
+
+
+def test_unknown_precision_is_refused_and_the_old_configuration_stays():
+    ll = LeadLag(k=2.0)
+    with pytest.raises(ParameterError, match="precision"):
+        ll.configure(precision="float16")
+    assert ll.config.precision == "float64" and ll.config.k == 2.0
+
+
+def test_reset_restarts_the_float32_cycle():
+    pid = PID(kp=1.0, ti=1.0, u_min=-math.inf, u_max=math.inf, precision="float32")
+    first = [pid(1.0, 0.0) for _ in range(5)]
+    pid.reset()
+    assert [pid(1.0, 0.0) for _ in range(5)] == first
+
+
+@pytest.mark.parametrize(
+    "block",
+    [
+        PID(kp=2.0, ti=3.0, td=0.5, n=8.0, b=0.6, c=0.2, ts=0.05, reverse=True,
+            integral_method="forward", derivative_method="tustin"),
+        PID(kp=1.5, ti=0.0, td=1.0, anti_windup="back_calc_model", tt=2.0, u_min=-5.0),
+        ADRC(order=1, b0=0.5, omega_c=2.0, omega_o=9.0, ts=0.02, t_ref=0.5),
+        ADRC(order=3, b0=0.01, omega_c=0.3, omega_o=1.2, anti_windup="freeze", u_max=9.0),
+    ],
+)  # fmt: skip
+def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch):
+    """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
+    kind = "pid" if isinstance(block, PID) else "adrc"
+    seen = []
+    kernel = getattr(pc, f"{kind}_step")
+
+    def spy(*args):
+        seen.append(args[-1])
+        return kernel(*args)
+
+    monkeypatch.setattr(pc, f"{kind}_step", spy)
+    inputs = getattr(pc, f"{kind}_inputs")(block.config)
+    state = getattr(pc, f"{kind}_state")(block.config)
+    process = ({"sp": 1.0, "pv": 0.0, "ff": 0.0, "pv_ok": True, "manual": False,
+                "man_value": 0.0, "rst": False} if kind == "pid"
+               else {"sp": 1.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0})  # fmt: skip
+    getattr(pc, f"{kind}_cycle")(**process, **inputs, **state)
+    assert tuple(seen[0]) == pytest.approx(tuple(block.kernel_params()), rel=1e-15, abs=1e-300)

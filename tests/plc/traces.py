@@ -1,0 +1,160 @@
+"""Long input traces for the PLC equivalence tests, and the code that replays them.
+
+A trace is made by closing the loop with the ``precision="float32"`` block
+(a simple plant in float64), while the events of a plant day happen:
+setpoint steps, PV noise, limits hit, MAN/AUTO switches, RESET, NaN and inf
+measurements, PV_OK false, a bad setpoint, retuning and new limits mid-run.
+Each sample records the FB inputs that changed and the block's outputs; the
+replay feeds the same inputs to the interpreted FUNCTION_BLOCK.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ctrlblocks import ADRC, PID, LeadLag
+
+NAN, INF = math.nan, math.inf
+
+
+@dataclass
+class Trace:
+    """Per sample: FB inputs to write, and the block's (MV, ERROR_ID, flag)."""
+
+    inputs: list[dict[str, Any]] = field(default_factory=list)
+    outputs: list[tuple[float, int, bool]] = field(default_factory=list)
+
+
+def ulps(a: float, b: float) -> int:
+    """Distance in units in the last place between two float32 values (0 for equal NaNs)."""
+    x, y = np.float32(a), np.float32(b)
+    if np.isnan(x) and np.isnan(y):
+        return 0
+    ix, iy = (int(v.view(np.int32)) for v in (x, y))
+    ix = ix if ix >= 0 else -(ix & 0x7FFFFFFF)
+    iy = iy if iy >= 0 else -(iy & 0x7FFFFFFF)
+    return abs(ix - iy)
+
+
+def pid_trace(n: int, seed: int, **config: Any) -> tuple[PID, Trace]:
+    """A closed-loop day of a float32 PID on ``y' = (2 u/100 - y)/5`` (y in % of range)."""
+    cfg = {"kp": 1.5, "ti": 4.0, "td": 0.5, "ts": 0.1, "u_min": 0.0, "u_max": 100.0, **config}
+    pid = PID(**cfg, precision="float32")
+    rng = np.random.default_rng(seed)
+    tr = Trace()
+    y, sp = 20.0, 30.0
+    for k in range(n):
+        inp: dict[str, Any] = {}
+        f = k / n
+        if k in (int(0.15 * n), int(0.55 * n)):
+            sp = 90.0 if k < 0.5 * n else 40.0  # a large step: the output hits a limit
+        if k == int(0.3 * n):
+            pid.manual = True
+            pid.manual_value = 35.0
+            inp["MANUAL"], inp["MAN_VALUE"] = True, 35.0
+        if k == int(0.36 * n):
+            pid.manual = False
+            inp["MANUAL"] = False
+        if k == int(0.4 * n):
+            pid.reset_active = True
+            inp["RST"] = True
+        if k == int(0.41 * n):
+            pid.reset_active = False
+            inp["RST"] = False
+        if k == int(0.45 * n):
+            pid.configure(kp=2.5, ti=2.0)  # retune mid-run (bumpless)
+            inp["K"], inp["TI"] = 2.5, 2.0
+        if k == int(0.7 * n):
+            pid.configure(u_min=10.0, u_max=60.0)  # new limits at run time
+            inp["U_MIN"], inp["U_MAX"] = 10.0, 60.0
+        pv_ok = not (0.6 * n <= k < 0.62 * n)
+        pv = y + 0.3 * rng.standard_normal()
+        if int(0.5 * n) <= k < int(0.5 * n) + 3:
+            pv = NAN
+        if k == int(0.8 * n):
+            pv = INF
+        spk = NAN if k == int(0.85 * n) else sp
+        ff = 5.0 if f > 0.9 else 0.0
+        inp.update({"SP": spk, "PV": pv, "FF": ff, "PV_OK": pv_ok})
+        u = pid(spk, pv, ff=ff, pv_ok=pv_ok)
+        tr.inputs.append(inp)
+        tr.outputs.append((u, int(pid.error_id), bool(pid.limits_active)))
+        y += 0.1 * (2.0 * u / 100.0 * 50.0 - y) / 5.0
+    return PID(**cfg), tr  # the configuration the trace started from (to export)
+
+
+def adrc_trace(n: int, seed: int, **config: Any) -> tuple[ADRC, Trace]:
+    """A closed-loop day of a float32 ADRC on ``y'' = -0.5 y' + 0.05 u`` (plus a load)."""
+    cfg = {"order": 2, "b0": 0.05, "omega_c": 0.5, "omega_o": 2.5, "ts": 0.1,
+           "u_min": 0.0, "u_max": 100.0, **config}  # fmt: skip
+    adrc = ADRC(**cfg, precision="float32")
+    rng = np.random.default_rng(seed)
+    tr = Trace()
+    y, dy, sp = 0.0, 0.0, 1.0
+    for k in range(n):
+        inp: dict[str, Any] = {}
+        if k == int(0.2 * n):
+            sp = 4.0  # saturates the output for a while
+        if k == int(0.3 * n):
+            adrc.manual = True
+            adrc.u_man = 20.0
+            inp["MANUAL"], inp["MAN_VALUE"] = True, 20.0
+        if k == int(0.35 * n):
+            adrc.manual = False
+            inp["MANUAL"] = False
+        if k == int(0.45 * n):
+            adrc.configure(omega_c=0.8, omega_o=3.0)  # retune mid-run (bumpless by (11))
+            inp["OMEGA_C"], inp["OMEGA_O"] = 0.8, 3.0
+        if k == int(0.7 * n):
+            adrc.set_limits(5.0, 60.0)
+            inp["U_MIN"], inp["U_MAX"] = 5.0, 60.0
+        y_ok = not (0.6 * n <= k < 0.62 * n)
+        pv = y + 0.01 * rng.standard_normal()
+        if int(0.5 * n) <= k < int(0.5 * n) + 3:
+            pv = NAN
+        spk = NAN if k == int(0.85 * n) else sp
+        inp.update({"SP": spk, "PV": pv, "PV_OK": y_ok})
+        u = adrc(spk, pv, y_ok=y_ok)
+        tr.inputs.append(inp)
+        tr.outputs.append((u, int(adrc.error_id), bool(adrc.awout)))
+        load = -0.05 if k > 0.75 * n else 0.0
+        ddy = -0.5 * dy + 0.05 * u + load
+        y += 0.1 * dy
+        dy += 0.1 * ddy
+    return ADRC(**cfg), tr
+
+
+def leadlag_trace(n: int, seed: int, **config: Any) -> tuple[LeadLag, Trace]:
+    """A float32 lead-lag fed with steps, noise, NaN, a disabled stretch, limits and a retune."""
+    cfg = {"k": 1.5, "t_lead": 2.0, "t_lag": 1.0, "ts": 0.1, **config}
+    ll = LeadLag(**cfg, precision="float32")
+    rng = np.random.default_rng(seed)
+    tr = Trace()
+    for k in range(n):
+        inp: dict[str, Any] = {}
+        x = (1.0 if k > 0.1 * n else 0.0) + (3.0 if k > 0.5 * n else 0.0)
+        x += 0.05 * rng.standard_normal()
+        if k in (int(0.3 * n), int(0.3 * n) + 1):
+            x = NAN
+        enable = not (0.4 * n <= k < 0.45 * n)
+        if k == int(0.6 * n):
+            ll.configure(t_lead=0.5, out_min=-1.0, out_max=4.0)
+            inp["T_LEAD"], inp["OUT_MIN"], inp["OUT_MAX"] = 0.5, -1.0, 4.0
+        inp.update({"IN": x, "ENABLE": enable})
+        out = ll(x, enable=enable)
+        tr.inputs.append(inp)
+        tr.outputs.append((out, int(ll.error_id), False))
+    return LeadLag(**cfg), tr
+
+
+def replay(fb: Any, trace: Trace, mv: str, flag: str | None) -> list[tuple[float, int, bool]]:
+    """Call the interpreted FB instance with the trace's inputs; its (MV, ERROR_ID, flag)."""
+    out = []
+    for inp in trace.inputs:
+        fb(**inp)
+        out.append((float(fb[mv]), int(fb["ERROR_ID"]), bool(fb[flag]) if flag else False))
+    return out

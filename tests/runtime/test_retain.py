@@ -1,0 +1,157 @@
+"""Retentive state: a restart restores what the operator set and starts bumpless."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import sqlite3
+
+from ctrlblocks.runtime import FakeClock, MemoryAdapter, MemoryBus, Runtime, parse_config
+from ctrlblocks.runtime.retain import SCHEMA_VERSION, RetainStore
+
+from .conftest import loop_toml
+from .test_io_image import bounded
+from .test_runtime_memory import FirstOrder
+
+CONN = '[connections.io]\nprotocol = "memory"\n[historian]\nbackend = "none"\n'
+
+
+def runtime(bus: MemoryBus, retain_path, kp: float = 1.0, extra: str = ""):
+    block = f'{{ type = "PID", kp = {kp}, ti = 1.0, u_min = -10.0, u_max = 10.0 }}'
+    cfg = parse_config(CONN + loop_toml(ts=0.1, block=block, extra=extra))
+    clock = FakeClock()
+    samples = []
+    rt = Runtime(
+        cfg,
+        clock=clock,
+        adapters={"io": MemoryAdapter(bus)},
+        historian=None,
+        on_sample=samples.append,
+        retain=RetainStore(retain_path),
+    )
+    return rt, clock, samples
+
+
+def first_life(bus, path):
+    rt, clock, samples = runtime(bus, path)
+
+    async def main():
+        await rt.start()
+        await clock.run_until(0.45)
+        rt.command("loop", user="op", sp=2.0)
+        rt.command("loop", user="op", tunings={"kp": 1.5})
+        rt.command("loop", user="op", u_min=-5.0, u_max=5.0)
+        await clock.run_until(1.95)
+        await rt.stop()
+
+    bounded(main())
+    return samples
+
+
+def test_a_restart_restores_the_operators_state_and_starts_bumpless_from_the_read_back_mv(
+    tmp_path,
+):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    path = tmp_path / "retain.sqlite"
+    first_life(bus, path)
+    bus.values["mv"] = 3.3  # the device holds its own value after the stop
+    rt, clock, samples = runtime(bus, path)
+
+    async def main():
+        await rt.start()
+        st = rt.state("loop")
+        await clock.run_until(0.55)
+        await rt.stop()
+        return st
+
+    st = bounded(main())
+    assert st["sp"] == 2.0 and st["tunings"]["kp"] == 1.5
+    assert (st["u_min"], st["u_max"]) == (-5.0, 5.0) and st["mode"] == "auto"
+    assert abs(samples[0].mv - 3.3) < 1e-9  # the read-back MV: no bump
+    assert samples[0].mode == samples[1].mode == "auto"
+    # then the PID continues from there as after a bumpless manual-to-auto transfer
+    assert abs(samples[1].mv - samples[0].mv) < 0.5
+
+
+def test_without_a_read_back_the_retained_mv_is_the_start(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    path = tmp_path / "retain.sqlite"
+    first = first_life(bus, path)
+    last_mv = first[-1].mv
+    del bus.values["mv"]  # cannot be read back
+    rt, clock, samples = runtime(bus, path)
+
+    async def main():
+        await rt.start()
+        await clock.run_until(0.05)
+        await rt.stop()
+
+    bounded(main())
+    assert abs(samples[0].mv - last_mv) < 1e-9
+
+
+def test_a_tuning_changed_in_the_file_wins_over_the_retained_one_with_a_log_line(tmp_path, caplog):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    path = tmp_path / "retain.sqlite"
+    first_life(bus, path)
+    rt, _clock, _samples = runtime(bus, path, kp=3.0)
+
+    async def main():
+        with caplog.at_level(logging.INFO, logger="ctrlblocks.runtime"):
+            await rt.start()
+        st = rt.state("loop")
+        await rt.stop()
+        return st
+
+    st = bounded(main())
+    assert st["tunings"]["kp"] == 3.0 and st["sp"] == 2.0
+    msgs = [r.getMessage() for r in caplog.records]
+    assert (
+        "loop loop: kp = 3.0 from the configuration file replaces the retained 1.5 "
+        "(the file changed)" in msgs
+    )
+
+
+def test_the_state_is_saved_every_interval_atomically_with_a_schema_version(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    path = tmp_path / "retain.sqlite"
+    cfg = parse_config(
+        CONN.replace('backend = "none"\n', 'backend = "none"\n[retain]\n')
+        + f'path = "{path}"\ninterval = 1.0\n'
+        + loop_toml(ts=0.1)
+    )
+    clock = FakeClock()
+    rt = Runtime(cfg, clock=clock, adapters={"io": MemoryAdapter(bus)}, historian=None)
+    assert rt.retain is not None and rt.retain.path == str(path)
+
+    async def main():
+        await rt.start()
+        await clock.run_until(0.5)
+        saved_early = path.exists()
+        await clock.run_until(1.2)
+        await asyncio.sleep(0.2)  # the save runs in a thread
+        with sqlite3.connect(path) as c:
+            rows = c.execute("SELECT name FROM loops").fetchall()
+            version = c.execute("SELECT value FROM meta").fetchall()
+        rt.request_stop()
+        await rt.stop()
+        return saved_early, rows, version
+
+    saved_early, rows, version = bounded(main())
+    assert not saved_early and rows == [("loop",)] and version == [(str(SCHEMA_VERSION),)]
+
+
+def test_a_retain_file_of_another_schema_version_is_a_cold_start(tmp_path, caplog):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    path = tmp_path / "retain.sqlite"
+    first_life(bus, path)
+    with sqlite3.connect(path) as c:
+        c.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
+    with caplog.at_level(logging.WARNING, logger="ctrlblocks.runtime"):
+        assert RetainStore(path).load() == {}
+    assert "schema version 99, not 1: cold start" in caplog.text
