@@ -66,7 +66,7 @@ def _choose(t, u, y) -> tuple[FOPDT, SOPDT | None, Any, str]:
         "the SOPDT fit failed"
         if so is None
         else f"the SOPDT's fit error {100 * so.fit:.3g} % is not below {SOPDT_GAIN:g} times "
-        f"its {100 * fo.fit:.3g} %"
+        f"the FOPDT's {100 * fo.fit:.3g} %"
     )
     return fo, so, fo, why
 
@@ -340,6 +340,10 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
+def _range(v: Any, scale: float) -> str:
+    return "–" if not v else f"{_cell(v[0], '.4g', scale)} .. {_cell(v[1], '.4g', scale)}"
+
+
 def _cell(x: Any, fmt: str = ".4g", scale: float = 1.0) -> str:
     return "–" if x is None or not math.isfinite(x) else format(scale * x, fmt)
 
@@ -380,6 +384,19 @@ def _report(out: Path, summary, t, u, y, model, nominal) -> None:
             f"| {name} | {_cell(v['iae_tracking'])} | {_cell(v['overshoot'], '.3g', 100)} | "
             f"{_cell(v['settling_time'])} | {_cell(v['iae_load'])} | {_cell(v['tv_u'])} |"
         )
+    if any(m["corners"] for m in summary["metrics"].values()):
+        lines += [
+            "",
+            "## Spread over the uncertainty corners (gain ±20 %, T ±30 %, L ±30 %)",
+            "",
+            "| controller | IAE step | overshoot [%] | IAE load |",
+            "|---|---|---|---|",
+        ]
+        for name, m in summary["metrics"].items():
+            c = m["corners"] or {}
+            cells = [_range(c.get(k), scale) for k, scale in
+                     (("iae_tracking", 1.0), ("overshoot", 100.0), ("iae_load", 1.0))]  # fmt: skip
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
     lines += ["", f"![simulation on the model]({png.name})", "", "## Verdict", ""]
     lines += [f"- {s['text']}" for s in summary["verdict"]]
     lines += ["", "The scenario that was run: `compare.toml` (edit it and run `ctrlblocks run "
@@ -401,14 +418,25 @@ def _command():
     @click.option("--u-max", type=float, help="MV high limit; default from the data.")
     @click.option("--ts", type=float, help="Controller sample time [s]; default min(T, L)/10.")
     @click.option("--no-corners", is_flag=True, help="Skip the 8 uncertainty corners.")
+    @click.option("--u-before", type=float, default=None,
+                  help="The MV before the record (as for identify).")  # fmt: skip
+    @click.option("--delimiter", type=click.Choice([",", ";", "tab"]), default=None,
+                  help="Column delimiter (default: detected, as for identify).")  # fmt: skip
+    @click.option("--decimal", type=click.Choice([".", ","]), default=None,
+                  help="Decimal mark (default: detected, as for identify).")  # fmt: skip
+    @click.option("--encoding", default=None, help="Text encoding (as for identify).")
     @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
     def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_corners,
-                        as_json) -> None:  # fmt: skip
+                        u_before, delimiter, decimal, encoding, as_json) -> None:  # fmt: skip
         """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV)."""
         from ..tuning import read_step_csv
 
         try:
-            data = read_step_csv(file, time=time_col, u=u_col, y=y_col)
+            data = read_step_csv(
+                file, time=time_col, u=u_col, y=y_col, u_before=u_before,
+                delimiter="\t" if delimiter == "tab" else delimiter, decimal=decimal,
+                encoding=encoding,
+            )  # fmt: skip
             summary = compare(data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts,
                               corners=not no_corners)  # fmt: skip
         except ValueError as exc:
