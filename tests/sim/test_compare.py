@@ -125,3 +125,19 @@ def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path):
     assert r.exit_code == 0, r.output
     d = json.loads(r.output)
     assert d["fopdt"]["gain"] == pytest.approx(1.2, rel=0.05)
+
+
+def test_compare_on_a_three_tank_bump_test_with_corners_reports_the_spread(tmp_path):
+    """The paper's kind of process: a bump test on the three-tank model, with noise."""
+    from ctrlblocks.plants import ThreeTank
+    from ctrlblocks.tuning import bump_test
+
+    plant = ThreeTank(ts=0.1)
+    t, u, y = bump_test(plant, 0.5, u0=2.2, duration=60.0)
+    y = y + np.random.default_rng(5).normal(0.0, 0.002, len(y))
+    s = compare(t[::5], u[::5], y[::5], tmp_path, ts=0.1)
+    assert s["fopdt"]["gain"] == pytest.approx(fit_fopdt(t[::5], u[::5], y[::5]).gain, rel=1e-9)
+    for m in s["metrics"].values():
+        lo, hi = m["corners"]["iae_load"]
+        assert lo <= m["model"]["iae_load"] * 1.5 and hi >= lo
+    assert "Spread over the uncertainty corners" in (tmp_path / "compare.md").read_text()

@@ -340,6 +340,10 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
+def _range(v: Any, scale: float) -> str:
+    return "–" if not v else f"{_cell(v[0], '.4g', scale)} .. {_cell(v[1], '.4g', scale)}"
+
+
 def _cell(x: Any, fmt: str = ".4g", scale: float = 1.0) -> str:
     return "–" if x is None or not math.isfinite(x) else format(scale * x, fmt)
 
@@ -380,6 +384,19 @@ def _report(out: Path, summary, t, u, y, model, nominal) -> None:
             f"| {name} | {_cell(v['iae_tracking'])} | {_cell(v['overshoot'], '.3g', 100)} | "
             f"{_cell(v['settling_time'])} | {_cell(v['iae_load'])} | {_cell(v['tv_u'])} |"
         )
+    if any(m["corners"] for m in summary["metrics"].values()):
+        lines += [
+            "",
+            "## Spread over the uncertainty corners (gain ±20 %, T ±30 %, L ±30 %)",
+            "",
+            "| controller | IAE step | overshoot [%] | IAE load |",
+            "|---|---|---|---|",
+        ]
+        for name, m in summary["metrics"].items():
+            c = m["corners"] or {}
+            cells = [_range(c.get(k), scale) for k, scale in
+                     (("iae_tracking", 1.0), ("overshoot", 100.0), ("iae_load", 1.0))]  # fmt: skip
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
     lines += ["", f"![simulation on the model]({png.name})", "", "## Verdict", ""]
     lines += [f"- {s['text']}" for s in summary["verdict"]]
     lines += ["", "The scenario that was run: `compare.toml` (edit it and run `ctrlblocks run "
