@@ -1034,7 +1034,7 @@ class ADRC(Block):
         """
         sp, y = as_input(sp), as_input(y)
         if pv_ok is not True:
-            y_ok = bool(y_ok) and bool(pv_ok)
+            y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
         if (
             self._lean
             and dt is None
@@ -1110,7 +1110,7 @@ class ADRC(Block):
         ``pv_ok`` (``y_ok``, its older alias) is the quality of the measurement.
         """
         if pv_ok is not True:
-            y_ok = bool(y_ok) and bool(pv_ok)
+            y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
         self._pending = None
         sp, y, y_ok = as_input(sp), as_input(y), as_flag(y_ok, False)
         h = self._cycle_time(dt, self._ts)
