@@ -428,3 +428,11 @@ def test_one_huge_pv_sample_does_not_pin_a_clamping_pid(td: float, bound: int) -
         if n > 20 and abs(u - u0) < 0.5:
             break
     assert n < bound
+
+
+def test_adrc_anti_backoff_with_gains_that_underflow_never_raises() -> None:
+    # found by the long campaign: omega_c = omega_o = 5e-324 gives kp + Gamma = 0 in (12b)
+    a = ADRC(order=2, omega_c=5e-324, omega_o=5e-324, anti_backoff=True, y_sat=2.0, y_sat_lo=-1.0)
+    for y in (0.0, 1.0, 2.5, 3.0, 0.5):
+        a(1.0, y)
+        _finite_inside(a)
