@@ -411,8 +411,9 @@ def anti_backoff_states(
     """
     gamma = p1 * kd1 * l1 + p2 * kd2 * l2 + k1 * l1 + k2 * l2 + k3 * l3
     den = kp + gamma
-    # (gains that underflowed to 0, e.g. omega = 5e-324: Y_hat on the saturation)
-    yh = (kp * r + gamma * y_sat) / den if den != 0.0 else y_sat
+    yh = y_sat  # gains that underflowed to 0 (omega = 5e-324): Y_hat on the saturation
+    if den != 0.0:
+        yh = (kp * r + gamma * y_sat) / den
     e = y_sat - yh
     x4 = -(k1 * l1 + k2 * l2 + k3 * l3) * e - (k1 + k2 + k3) * b0 * u_prev
     aux = x4 + b0 * u_prev
