@@ -208,8 +208,11 @@ def test_reproduce_prints_one_line_per_scenario_when_not_on_a_terminal(tmp_path)
     assert res.exit_code == 0, res.output
     lines = res.output.splitlines()
     assert lines[0] == f"reproducing 2 scenarios (3 runs) into {tmp_path}/"
-    assert re.fullmatch(r"\[1/2\] astrom_fig52: 1 run\(s\), \d+\.\d s", lines[1])
-    assert re.fullmatch(r"\[2/2\] codesys_deadband: 2 run\(s\), \d+\.\d s", lines[2])
+    # scenarios may finish in any order (they run in parallel): one line each, counted up
+    assert [ln[:6] for ln in lines[1:3]] == ["[1/2] ", "[2/2] "]
+    done = sorted(ln[6:] for ln in lines[1:3])
+    assert re.fullmatch(r"astrom_fig52: 1 run\(s\), \d+\.\d s", done[0])
+    assert re.fullmatch(r"codesys_deadband: 2 run\(s\), \d+\.\d s", done[1])
     assert lines[3].startswith("5/5 claims hold")
 
 
@@ -247,3 +250,30 @@ def test_event_lines_carry_their_labels_in_the_plot(tmp_path) -> None:
     texts = sorted((t.xy[0], t.get_text()) for t in ax.texts)
     plt.close(fig)
     assert texts == [(1.0, "step up"), (2.5, "load input = 0.2")]
+
+
+# -- one overshoot unit in every table ---------------------------------------------------
+
+
+def test_every_report_table_shows_the_overshoot_in_percent(tmp_path) -> None:
+    import json
+
+    res = CliRunner().invoke(
+        main, ["reproduce", "astrom_fig34", "nowak_fig6", "--quick", "--out", str(tmp_path)]
+    )
+    assert res.exit_code == 0, res.output
+    report = (tmp_path / "report.md").read_text(encoding="utf-8")
+    heads = [ln for ln in report.splitlines() if "vershoot" in ln and ln.startswith(("|", "O"))]
+    assert heads, "the report has an overshoot table"
+    assert all("[%]" in h for h in heads), heads
+    assert "| overshoot |" not in report
+    # astrom_fig34 has one window: the whole-run table, in percent of metrics.json's fraction
+    metrics = json.loads((tmp_path / "astrom_fig34" / "metrics.json").read_text())
+    table = report.split('<a id="astrom_fig34"></a>')[1].split("<a id=")[0]
+    col = table.splitlines()
+    at = next(i for i, ln in enumerate(col) if "| overshoot [%] |" in ln)
+    head = col[at].split(" | ")
+    rows = [ln.split(" | ") for ln in col[at + 2 : at + 2 + len(metrics)]]
+    k = head.index("overshoot [%]")
+    for m, row in zip(metrics, rows, strict=True):
+        assert float(row[k]) == pytest.approx(100.0 * m["overshoot"], rel=1e-3)

@@ -139,6 +139,7 @@ from .base import (
 )
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
+from .precision import unsupported as _unsupported
 from .signals import clamp, pt1_coefficient
 
 __all__ = [
@@ -677,7 +678,9 @@ class ADRC(Block):
         applied u and x4 is re-solved from (11) every cycle, so that the next
         AUTO cycle starts exactly at the last applied u (section 4.2).
     u_man : float
-        Manual value (alias ``manual_value``).  In/Out as in the PID block:
+        Manual value, also ``manual_value`` (the name every controller uses,
+        :class:`~ctrlblocks.blocks.protocols.Controller`; ``u_man`` stays as
+        its alias for one release).  In/Out as in the PID block:
         outside MAN it follows the applied u, so AUTO -> MAN holds the output.
     awin : bool
         Freeze the x4 update (this block is a primary controller whose
@@ -928,15 +931,21 @@ class ADRC(Block):
         sp: float,
         y: float,
         *,
+        pv_ok: bool = True,
         y_ok: bool = True,
         u_real: float | None = None,
         dt: float | None = None,
     ) -> float:
         """Run one cycle; return the manipulated variable u.
 
+        ``pv_ok`` is the quality of the measurement (the name of every
+        controller, :class:`~ctrlblocks.blocks.protocols.Controller`); ``y_ok``
+        is its older alias, kept for one release (False in either is bad).
         ``u_real`` is used for the ESO when ``u_real_on`` is configured (a
         missing or NaN ``u_real`` then falls back to u and sets ``BAD_INPUT``).
         """
+        if pv_ok is not True:
+            y_ok = bool(y_ok) and bool(pv_ok)
         if (
             self._lean
             and dt is None
@@ -1001,12 +1010,21 @@ class ADRC(Block):
         )  # fmt: skip
 
     def compute_output(
-        self, sp: float, y: float, *, y_ok: bool = True, dt: float | None = None
+        self,
+        sp: float,
+        y: float,
+        *,
+        pv_ok: bool = True,
+        y_ok: bool = True,
+        dt: float | None = None,
     ) -> float:
         """Compute this cycle's u without committing the state (Åström 1987, section 6).
 
         Idempotent within a cycle: it always starts from the committed state.
+        ``pv_ok`` (``y_ok``, its older alias) is the quality of the measurement.
         """
+        if pv_ok is not True:
+            y_ok = bool(y_ok) and bool(pv_ok)
         self._pending = None
         h = self._cycle_time(dt, self._ts)
         if h is None:
@@ -1164,10 +1182,7 @@ class ADRC(Block):
         input; ``manual_ok`` False also refuses a block in manual (the banks
         run in auto).
         """
-        c = self._config
-        bad = [n for n in ("u_real_on", "anti_backoff") if getattr(c, n)]
-        if c.discretisation != "euler":
-            bad.append("discretisation")
+        bad = _unsupported(self._config, "adrc")  # the options (also the PLC cycle's check)
         if self.awin:
             bad.append("awin")
         if not manual_ok and self.manual:

@@ -76,6 +76,7 @@ from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
+from .precision import unsupported as _unsupported
 from .signals import PT1, MovingAverage, RateLimiter, SteadyStateDetector, clamp, deadband, scale
 
 __all__ = [
@@ -1087,19 +1088,7 @@ class PID(Block):
         ``manual_ok`` False also refuses a block that last ran in manual (the
         banks start in auto).
         """
-        c = self._config
-        bad = []
-        if c.algorithm != "positional":
-            bad.append("algorithm")
-        if c.pv_range is not None:
-            bad.append("pv_range")
-        for name in ("sp_filter", "pv_filter", "sp_rate", "out_rate", "ff_k", "deadband"):
-            if getattr(c, name) != 0.0:
-                bad.append(name)
-        if c.bumpless != Bumpless.INTEGRATOR:
-            bad.append("bumpless")
-        if c.anti_windup not in (AntiWindup.CLAMPING, AntiWindup.BACK_CALC_MODEL):
-            bad.append("anti_windup")
+        bad = _unsupported(self._config, "pid")  # the options (also the PLC cycle's check)
         bad += [n for n in ("track", "hold", "reset_active", "awin") if getattr(self, n)]
         if self._reinit and not self._cold:
             bad.append("re-initialising after a change (run one cycle first)")

@@ -33,7 +33,9 @@ PRECISIONS = ("float64", "float32")
 def unsupported(config: Any, kind: str) -> list[str]:
     """Options of a block configuration the PLC cycle does not cover (empty: all covered).
 
-    ``kind`` is ``"pid"``, ``"adrc"`` or ``"leadlag"``.
+    ``kind`` is ``"pid"``, ``"adrc"`` or ``"leadlag"``.  The PLC cycle and the
+    compiled kernels run the same per-cycle functions, so this is also the
+    configuration part of ``PID.fast_path_blockers`` / ``ADRC.fast_path_blockers``.
     """
     bad: list[str] = []
     if kind == "pid":

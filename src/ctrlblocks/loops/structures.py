@@ -58,6 +58,7 @@ import inspect
 import math
 from typing import Any, ClassVar
 
+from ..blocks.protocols import Controller
 from .spec import BlockSpec, ControllerSpec, SpecReader, TuneHook, build
 from .toml import KeyPathError
 
@@ -74,19 +75,26 @@ _ENTRY_KEYS = ("name", "color", "style")  # keys of every controller entry
 
 
 class _Controller:
-    """Uniform two-phase access to a controller block."""
+    """Uniform two-phase access to a controller block.
+
+    A :class:`~ctrlblocks.blocks.protocols.Controller` (PID, ADRC, a block of
+    your own with that interface) runs in two phases with ``pv_ok`` and
+    ``dt``; its ``ff`` input is wired when its ``compute_output`` has one (the
+    feed-forward structure refuses a main block without it when the file is
+    read).  Any other block is called once per sample as ``block(sp, y)``,
+    with NaN for an invalid measurement.
+    """
 
     def __init__(self, block: Any) -> None:
         self.block = block
-        self.two_phase = hasattr(block, "compute_output") and hasattr(block, "update_state")
+        self.two_phase = isinstance(block, Controller)
+        self.ok_name = "pv_ok" if self.two_phase else None
+        self.takes_dt = self.two_phase
         fn = block.compute_output if self.two_phase else block
         try:
-            params = inspect.signature(fn).parameters
-        except (TypeError, ValueError):  # pragma: no cover
-            params = {}
-        self.ok_name = next((n for n in ("y_ok", "pv_ok") if n in params), None)
-        self.takes_ff = "ff" in params
-        self.takes_dt = "dt" in params
+            self.takes_ff = "ff" in inspect.signature(fn).parameters
+        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
+            self.takes_ff = False
 
     def _inputs(self, y: float, ok: bool, dt: float | None) -> tuple[float, dict[str, Any]]:
         """``y`` and the keyword arguments for the quality flag and ``dt``."""

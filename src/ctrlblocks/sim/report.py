@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .. import __version__
 from .names import plot_names, slug
-from .runner import ScenarioResult, metric_table
+from .runner import TABLE_UNITS, ScenarioResult, in_table_unit, metric_table
 from .scenario import Scenario, load_scenario
 
 __all__ = [
@@ -121,7 +121,7 @@ def window_tables(result: ScenarioResult, metric: str = "iae") -> list[str]:
             continue
         wins = rows[0]["windows"]
         head = [f"{w['label']} ({w['t0']:g} s)" for w in wins]
-        name = "Overshoot [%]" if metric == "overshoot" else metric.upper()
+        name = TABLE_UNITS[metric][0].capitalize() if metric in TABLE_UNITS else metric.upper()
         title = f"{name} per event window" + (
             f" — {case.name}" if len(result.scenario.cases) > 1 else ""
         )
@@ -129,9 +129,7 @@ def window_tables(result: ScenarioResult, metric: str = "iae") -> list[str]:
         out.append("| controller | " + " | ".join(head) + " |")
         out.append("|---|" + "---|" * len(head))
         for m in rows:
-            vals = [w[metric] for w in m["windows"]]
-            if metric == "overshoot":
-                vals = [None if v is None else 100.0 * v for v in vals]
+            vals = [in_table_unit(metric, w[metric]) for w in m["windows"]]
             cells = ["–" if v is None else f"{v:.4g}" for v in vals]
             out.append(f"| {m['controller']} | " + " | ".join(cells) + " |")
     return out
@@ -282,7 +280,8 @@ def render_report(
     lines += [
         "",
         "Metrics (definitions in `docs/simulator.md`): IAE, ISE, ITAE of the error "
-        "e = SP − y; overshoot as a fraction of the step; settling time to the 2 % band; "
+        "e = SP − y; overshoot in % of the step (in every table); settling time to the "
+        "2 % band; "
         "total variation (tv_u) and largest rate of the MV.  A dash means undefined "
         "(e.g. no setpoint step).",
     ]

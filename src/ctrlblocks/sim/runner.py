@@ -198,14 +198,28 @@ def _signal_stat(
     return float(np.mean(x))
 
 
+TABLE_UNITS: dict[str, tuple[str, float]] = {"overshoot": ("overshoot [%]", 100.0)}
+"""Metrics shown in another unit in tables: name -> (column title, factor).
+
+``metrics.json`` keeps the overshoot as a fraction of the step; every table
+(``run``'s, the report's whole-run and per-window tables) shows percent.
+"""
+
+
 def metric_table(result: ScenarioResult, names: tuple[str, ...] = METRIC_NAMES) -> str:
     """The comparison table of a scenario (one row per controller and case) as markdown."""
-    cols = ["controller", "case", *names]
+    heads = [TABLE_UNITS.get(n, (n, 1.0))[0] for n in names]
+    cols = ["controller", "case", *heads]
     lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for m in result.metrics:
-        cells = [m["controller"], m["case"]] + [_fmt(m[n]) for n in names]
+        cells = [m["controller"], m["case"]] + [_fmt(in_table_unit(n, m[n])) for n in names]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def in_table_unit(name: str, v: Any) -> Any:
+    factor = TABLE_UNITS.get(name, (name, 1.0))[1]
+    return v * factor if isinstance(v, float) and factor != 1.0 else v
 
 
 def _fmt(v: Any) -> str:
