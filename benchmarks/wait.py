@@ -40,6 +40,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from run import _burn, _warm  # the pure-CPU probe and the worker warm-up of run.py
+
 ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
 Row = dict[str, str]
@@ -268,25 +271,14 @@ def bench_bank(rounds: int, n: int = 1_000_000) -> list[Row]:
 # ---------------------------------------------------------------------------
 
 
-def _burn(n: int) -> int:
-    s = 0
-    for i in range(n):
-        s += i * i
-    return s
-
-
-def _warm() -> None:
-    import ctrlblocks.sim.runner  # noqa: F401  (imports done before the clock starts)
-
-
 def bench_sweep(rounds: int) -> list[Row]:
     import concurrent.futures as cf
 
     from ctrlblocks.fast import sweep
 
-    vary = {"controllers[2].kp": [4.0 + 0.1 * i for i in range(24)], "sensor.noise": [0.0, 0.002]}
-    n_sets = 48
-    duration = 20.0  # seconds of simulated time per case: a cheap set (tens of ms)
+    vary = {"controllers[2].kp": [4.0 + 0.05 * i for i in range(48)], "sensor.noise": [0.0, 0.002]}
+    n_sets = 96
+    duration = 2.0  # seconds of simulated time per case: a cheap set (~10-50 ms)
 
     def pool_side(workers: int, batch: int | None) -> Callable[[], float]:
         def run() -> float:
@@ -324,7 +316,7 @@ def bench_sweep(rounds: int) -> list[Row]:
 
         for w in (1, 2):
             clients[w] = dask_executor(n_workers=w, threads_per_worker=1, processes=True,
-                                       dashboard_address=None)  # fmt: skip
+                                       dashboard_address="127.0.0.1:0")  # fmt: skip
         for w in (1, 2):
             clients[w].submit(_warm).result()
 
@@ -389,12 +381,14 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer rounds")
     ap.add_argument("--only", default=",".join(SECTIONS), help="comma-separated sections")
+    ap.add_argument("--rounds", type=int, help="rounds of every section (default: per section)")
     ap.add_argument("--markdown", type=Path, help="also write the table to this file")
     args = ap.parse_args(argv)
     rounds = {"startup": 9, "cache": 5, "reproduce": 3, "bank": 3, "sweep": 5}
     rows: list[Row] = []
     for name in args.only.split(","):
         n = rounds[name] if not args.quick else max(1, rounds[name] // 3)
+        n = args.rounds or n
         t0 = time.perf_counter()
         rows.extend(SECTIONS[name](n))
         print(f"  {name}: done in {time.perf_counter() - t0:.0f} s ({load()})", file=sys.stderr,

@@ -3,7 +3,8 @@
 Twenty PID loops on one OPC UA connection and twenty on one Modbus
 connection, against :class:`~ctrlblocks.runtime.PairServer` (twenty
 first-order plants stepped on each MV write) on 127.0.0.1.  The adapters
-count the requests they send; the heartbeat reaches the server.
+count the requests they send; the heartbeat reaches the server; the stop
+values all reach it in the final batched write.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ pv = "plant:{pv(i)}"
 mv = "plant:{mv(i)}"
 sp = 1.0
 safe_value = 0.0
+stop_value = -1.0
 warn_limit = {40 * ts}
 alarm_limit = {80 * ts}
 """
@@ -65,6 +67,7 @@ def test_opcua_reads_every_loop_in_one_read_service_call_per_cycle():
     # one Read per cycle, plus the one read of the nodes' data types before the first write
     assert req["read"] == cycles + 1
     assert req["write"] == cycles + 1  # one Write per cycle (MVs and heartbeat), + the stop
+    assert server.mv == [-1.0] * N  # every stop value reached the server, in one request
     hb = server.heartbeats
     assert len(hb) == cycles and hb[:3] == [1.0, 2.0, 3.0]
     assert hb == [float(k + 1) for k in range(len(hb))]
@@ -89,4 +92,5 @@ def test_modbus_reads_coalesced_register_ranges_once_per_cycle():
     assert req["read"] == cycles  # 20 PVs = 40 contiguous registers: one request
     # the 20 MVs and the heartbeat are contiguous (registers 40..81): one request per cycle
     assert req["write"] == cycles + 1
+    assert server.mv == [-1.0] * N
     assert server.heartbeats[:3] == [1.0, 2.0, 3.0]
