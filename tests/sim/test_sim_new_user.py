@@ -97,25 +97,12 @@ def test_no_hint_when_nothing_is_close() -> None:
 
 def test_the_runtime_loop_file_reports_block_typos_the_same_way() -> None:
     from ctrlblocks.runtime import RuntimeConfigError, parse_config
+    from tests.runtime.test_config import CONN, LOOP
 
-    text = """
-[connections.plc]
-protocol = "opcua"
-url = "opc.tcp://127.0.0.1:4840"
-
-[[loops]]
-name = "level"
-ts = 0.1
-block = { type = "ADRC", order = 1, b0 = 0.5, omegac = 1.0, omega_o = 5.0 }
-pv = "plc:ns=2;s=pv"
-mv = "plc:ns=2;s=mv"
-sp = 1.0
-safe_value = 0.0
-"""
     with pytest.raises(RuntimeConfigError) as e:
-        parse_config(text)
-    assert e.value.key == "loops[0].block.omegac"
-    assert e.value.problem.startswith("unknown key 'omegac' (did you mean 'omega_c'?)")
+        parse_config(CONN + LOOP.replace("ti = 8.0", "tii = 8.0"))
+    assert e.value.key == "loops[0].block.tii"
+    assert e.value.problem.startswith("unknown key 'tii' (did you mean 'ti'?); valid keys: ")
 
 
 def test_sweep_vary_typos_are_errors_with_the_meant_key(tmp_path) -> None:
