@@ -95,6 +95,10 @@ SIGNAL_STATS = ("max", "min", "final", "mean")
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
 
 
+
+_CSV_KEYS = ("file", "time", "u", "y", "u_before", "delimiter", "decimal", "encoding")
+"""The keys of a ``[controllers.tune]`` table that read a recorded bump test."""
+
 class ScenarioError(KeyPathError):
     """A scenario file is malformed.
 
@@ -471,20 +475,28 @@ class _Parser(SpecReader):
         the fit are :func:`ctrlblocks.tuning.bump.tune_from_bump_test` (the
         report recomputes them for the whole block table).  The parameters
         found replace those of the block table.
+
+        With ``file = "bump.csv"`` the recorded bump test of the real process
+        is fitted instead (path relative to the scenario file; the keys
+        ``time``, ``u``, ``y``, ``u_before``, ``delimiter``, ``decimal`` and
+        ``encoding`` are those of ``ctrlblocks identify``, read by
+        :func:`ctrlblocks.tuning.identify.read_step_csv`); ``du`` is then the
+        record's.
         """
         from ..tuning.bump import PID_RULES, tune_from_bump_test
 
         self.as_table(d, key)
         allowed = {"rule", "du", "duration", "controller", "order", "settling_time", "ms"}
-        self.check_keys(d, allowed, key)
+        self.check_keys(d, allowed | set(_CSV_KEYS), key)
         rule = self.string(d, "rule", f"{key}.rule")
         if block_type == "ADRC":
             if rule != "adrc":
                 raise self.fail(f"{key}.rule", f"for an ADRC must be 'adrc', got {rule!r}")
         elif rule not in PID_RULES:
             raise self.fail(f"{key}.rule", f"must be one of {', '.join(PID_RULES)}; got {rule!r}")
-        du = self.number(d, "du", f"{key}.du")
-        if du == 0.0:
+        record = self._tune_record(d, key) if "file" in d else None
+        du = 0.0 if record is not None else self.number(d, "du", f"{key}.du")
+        if du == 0.0 and record is None:
             raise self.fail(f"{key}.du", "must be non-zero (the size of the bump)")
         duration = self.number(d, "duration", f"{key}.duration", default=None, positive=True)
         order = d.get("order", 2)
@@ -506,10 +518,31 @@ class _Parser(SpecReader):
         try:
             return tune_from_bump_test(
                 plant, block_type, rule, du, ts=ts, u0=u0, duration=duration, controller=ctrl,
-                order=order, settling_time=st, ms=ms,
+                order=order, settling_time=st, ms=ms, record=record,
             )  # fmt: skip
         except ValueError as exc:  # ParameterError, or a record the fit cannot use
             raise self.fail(key, f"tuning failed: {exc}") from None
+
+    def _tune_record(self, d: Mapping[str, Any], key: str) -> tuple[Any, Any, Any]:
+        """The recorded bump test ``file`` of a ``[controllers.tune]`` table: ``(t, u, y)``."""
+        from ..tuning.identify import DataFileError, read_step_csv
+
+        strings = {}
+        for name in ("file", "time", "u", "y", "delimiter", "decimal", "encoding"):
+            if name in d:
+                strings[name] = self.string(d, name, f"{key}.{name}")
+        u_before = self.number(d, "u_before", f"{key}.u_before", default=None)
+        path = Path(strings.pop("file"))
+        if not path.is_absolute() and not self.file.startswith("<"):
+            path = Path(self.file).parent / path
+        try:
+            data = read_step_csv(
+                path, strings.pop("time", "t"), strings.pop("u", "u"), strings.pop("y", "y"),
+                u_before=u_before, **strings,
+            )  # fmt: skip
+        except (DataFileError, OSError) as exc:
+            raise self.fail(f"{key}.file", str(exc)) from None
+        return data.t, data.u, data.y
 
     # -- time line ---------------------------------------------------------------
 

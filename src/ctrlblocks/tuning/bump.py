@@ -39,6 +39,7 @@ def tune_from_bump_test(
     settling_time: float | None = None,
     ms: float | None = None,
     block_params: Mapping[str, Any] | None = None,
+    record: tuple[Any, Any, Any] | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """Bump test, FOPDT fit, rule and margins; returns ``(tuned, info)``.
 
@@ -63,6 +64,10 @@ def tune_from_bump_test(
     block_params : mapping, optional
         The other parameters of the block table (``n``, ``b``, ``u_min``, ...):
         the margins are those of the block built from them and the tuned ones.
+    record : (t, u, y), optional
+        A recorded bump test (e.g. :func:`~ctrlblocks.tuning.identify.read_step_csv`
+        of the plant's real data) fitted instead of a simulated one; ``plant``,
+        ``du``, ``u0`` and ``duration`` are then not used.
 
     Returns
     -------
@@ -79,14 +84,17 @@ def tune_from_bump_test(
     from .pid_rules import pid_from_model
     from .relay import bump_test
 
-    if du == 0.0:
-        raise ParameterError(ErrorCode.BAD_PARAMETER, "du", "must be non-zero")
-    t, u, y = bump_test(plant, du, u0=u0, duration=duration)
+    if record is None:
+        if du == 0.0:
+            raise ParameterError(ErrorCode.BAD_PARAMETER, "du", "must be non-zero")
+        t, u, y = bump_test(plant, du, u0=u0, duration=duration)
+    else:
+        t, u, y = record
     model = fit_fopdt(t, u, y)
     info: dict[str, Any] = {
         "rule": rule,
-        "du": du,
-        "u0": u0,
+        "du": du if record is None else float(u[-1] - u[0]),
+        "u0": u0 if record is None else float(u[0]),
         "gain": model.gain,
         "time_constant": model.time_constant,
         "dead_time": model.dead_time,
