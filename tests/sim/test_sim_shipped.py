@@ -42,6 +42,24 @@ def _result(name: str) -> ScenarioResult:
     return run_scenario(sc)
 
 
+def test_the_readme_and_the_reproduced_page_state_the_pinned_claim_count():
+    """README's "today N of M hold" and docs/reproduced.md say what the verdicts give."""
+    import re
+    from pathlib import Path
+
+    from ctrlblocks.sim.report import table1_inverse_half_rule
+
+    checks = [h for v in VERDICTS.values() for h in v]
+    checks += [c.holds for c in table1_inverse_half_rule()[1]]
+    n, m = sum(checks), len(checks)
+    words = {1: "one", 2: "two", 3: "three", 4: "four", 5: "five", 6: "six"}
+    root = Path(__file__).resolve().parents[2]
+    readme = " ".join((root / "README.md").read_text(encoding="utf-8").split())
+    assert f"today {n} of {m} hold; the {words.get(m - n, m - n)} that do not" in readme
+    page = (root / "docs" / "reproduced.md").read_text(encoding="utf-8")
+    assert re.search(rf"\*\*{n} of {m} claims of the sources hold", page)
+
+
 def test_every_shipped_scenario_has_pinned_verdicts():
     names = sorted(p.stem for p in shipped_scenarios())
     assert names == sorted(VERDICTS)
