@@ -11,6 +11,7 @@ go to the Python path with the reason logged; ``engine="compiled"`` refuses them
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 
@@ -21,7 +22,7 @@ from ctrlblocks.fast._jit import HAVE_NUMBA
 from ctrlblocks.plants import Noise
 from ctrlblocks.sim import parse_scenario, run_scenario
 from ctrlblocks.sim.dispatch import CompiledLaneError, simulate
-from ctrlblocks.sim.report import load_shipped
+from ctrlblocks.sim.report import load_shipped, shipped_scenarios
 
 needs_numba = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled lane needs numba")
 
@@ -288,3 +289,26 @@ def test_noise_samples_are_the_values_of_repeated_sample_calls(kind, t_corr, fir
     got = b.samples(600)
     assert got.tolist() == want
     assert b.sample() == a.sample() and math.isfinite(b.sample())  # the state continues
+
+
+def test_cli_engine_python_and_auto_write_the_same_metrics_and_compiled_refuses_smith(tmp_path):
+    from click.testing import CliRunner
+
+    from ctrlblocks.cli import main
+
+    scenario = next(p for p in shipped_scenarios() if p.stem == "nowak_fig6")
+    out = {}
+    for engine in ("python", "auto"):
+        d = tmp_path / engine
+        res = CliRunner().invoke(main, ["run", str(scenario), "--out", str(d), "--quick",
+                                        "--format", "csv", "--engine", engine])  # fmt: skip
+        assert res.exit_code == 0, res.output
+        out[engine] = json.loads((d / "nowak_fig6" / "metrics.json").read_text())
+    assert out["python"] == out["auto"]
+    smith = tmp_path / "smith.toml"
+    smith.write_text(SMITH, encoding="utf-8")
+    res = CliRunner().invoke(main, ["run", str(smith), "--out", str(tmp_path / "s"),
+                                    "--engine", "compiled"])  # fmt: skip
+    assert res.exit_code == 1
+    assert "the compiled lane cannot run this: structure 'smith'" in res.output
+    assert "Traceback" not in res.output
