@@ -151,7 +151,7 @@ class LoopTuning:
             self.ended = True
             if self.on_end is not None:
                 self.on_end(self)
-        self._status = None
+        self.changed()
         return u
 
     def retained(self, state: dict[str, Any]) -> dict[str, Any]:
@@ -163,6 +163,10 @@ class LoopTuning:
         if state.get("manual_value") is not None:
             out["manual_value"] = mval
         return out
+
+    def changed(self) -> None:
+        """Forget the cached :meth:`status` (something in it changed)."""
+        self._status = None
 
     def status(self) -> dict[str, Any]:
         """Plain values for a faceplate, the CLI or the audit (cached between cycles)."""
@@ -196,11 +200,17 @@ class LiveTuning:
         self.tunings: dict[str, LoopTuning] = {}
         self._tasks: set[asyncio.Task[None]] = set()
 
+    def _loop(self, name: str) -> ControlLoop:
+        try:
+            return self.runtime.loops[name]
+        except KeyError:
+            raise CommandError("loop", f"unknown loop {name!r}") from None
+
     # -- queries ---------------------------------------------------------------------
 
     def status(self, loop: str) -> dict[str, Any] | None:
         """The tuning of ``loop`` (running or the last one), None when there was none."""
-        self.runtime._get(loop)
+        self._loop(loop)
         tu = self.tunings.get(loop)
         return None if tu is None else tu.status()
 
@@ -245,7 +255,7 @@ class LiveTuning:
         test runs on the loop, when a result waits for a decision, when the loop
         has no good PV or MV yet, or for a bad option.
         """
-        lp = self.runtime._get(loop)
+        lp = self._loop(loop)
         options = {
             "method": method, "amplitude": amplitude, "mv_min": mv_min, "mv_max": mv_max,
             "pv_min": pv_min, "pv_max": pv_max, "max_time": max_time,
@@ -332,7 +342,7 @@ class LiveTuning:
         tu = self._running(loop, user, "tune-abort")
         tu.tuner.abort(f"aborted by {user}" + (f": {reason}" if reason else ""))
         tu.aborted_by = user
-        tu._status = None
+        tu.changed()
         return tu.status()
 
     def command(self, lp: ControlLoop, user: str, changes: Mapping[str, Any]) -> dict[str, Any]:
@@ -362,7 +372,7 @@ class LiveTuning:
         if tu.running:
             tu.tuner.abort(f"operator command {','.join(sorted(changes))} by {user}")
             tu.aborted_by = user
-            tu._status = None
+            tu.changed()
         return old
 
     def ended(self, tu: LoopTuning) -> None:
@@ -396,7 +406,7 @@ class LiveTuning:
     def _result(self, tu: LoopTuning, mg: dict[str, dict[str, Any]]) -> None:
         tu.margins = mg
         tu.margins_ready = True
-        tu._status = None
+        tu.changed()
         st = tu.status()
         self.runtime.audit(
             "runtime", "tune-result", loop=tu.loop.name, ok=True,
@@ -428,7 +438,7 @@ class LiveTuning:
                                new={"proposal": proposal}, message=str(exc))  # fmt: skip
             raise
         tu.decision, tu.decided_by, tu.accepted = "accepted", user, proposal
-        tu._status = None
+        tu.changed()
         self.runtime.audit(user, "tune-accept", loop=loop, old=_plain(old.get("tunings")),
                            new=_plain({"proposal": proposal, "tunings": tunings}))  # fmt: skip
         self._retain_now()
@@ -438,12 +448,12 @@ class LiveTuning:
         """Reject the result of the finished test of ``loop`` (nothing changes); its status."""
         tu = self._done(loop, user, "tune-reject")
         tu.decision, tu.decided_by = "rejected", user
-        tu._status = None
+        tu.changed()
         self.runtime.audit(user, "tune-reject", loop=loop, new={"method": tu.method})
         return tu.status()
 
     def _running(self, loop: str, user: str, action: str) -> LoopTuning:
-        self.runtime._get(loop)
+        self._loop(loop)
         tu = self.tunings.get(loop)
         if tu is None or not tu.running:
             msg = "no test is running on this loop"
@@ -452,7 +462,7 @@ class LiveTuning:
         return tu
 
     def _done(self, loop: str, user: str, action: str) -> LoopTuning:
-        self.runtime._get(loop)
+        self._loop(loop)
         tu = self.tunings.get(loop)
         if tu is None or tu.state != "done":
             msg = (
