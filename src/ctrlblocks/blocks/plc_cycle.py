@@ -55,7 +55,7 @@ from .adrc import (
     solve_x4,
     x4_update_allowed,
 )
-from .base import ErrorCode, Mode
+from .base import ErrorCode, Mode, as_input
 from .leadlag import leadlag_coefficients, leadlag_step
 from .pid import (
     clamping_blocks,
@@ -1061,7 +1061,7 @@ def _float32_function(fn: Callable[..., Any]) -> Callable[..., Any]:
 def _to32(v: Any) -> Any:
     if isinstance(v, bool | np.bool_ | int | np.integer):
         return v
-    with np.errstate(over="ignore"):
+    with np.errstate(over="ignore"):  # a limit beyond REAL_MAX: clipped below, no warning
         x = np.float32(v)
     return np.float32(np.clip(x, -REAL_MAX, REAL_MAX)) if np.isinf(x) else x
 
@@ -1204,7 +1204,10 @@ def _lane(
     state = block.__dict__.get("_plc_state")
     if state is None:
         state = real_args(initial(block.config))
-    args = {**real_args(inputs), **real_args(config_inputs), **state}
+    # The block's edge (blocks/base.py): process values and the attribute inputs
+    # (manual value) become floats once, anything unusable NaN; flags stay bools.
+    process = {k: v if type(v) is bool else as_input(v) for k, v in inputs.items()}
+    args = {**real_args(process), **real_args(config_inputs), **state}
     res = dict(zip(names, run_float32(fn, **args), strict=True))
     block._plc_state = {k: res[k] for k in state}
     return res
