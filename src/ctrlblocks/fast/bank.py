@@ -115,23 +115,24 @@ def _fill_rows(out, k, ti, td, n, b, c, h, lo, hi, reverse, dmeth, imeth, aw, tt
 
 
 @jitable
-def _at(cols, j, m):
-    """Parameter ``m`` of loop ``j`` in the :data:`Columns` ``cols``."""
+def _row(cols, j, out, o):
+    """``out[o:]`` = the parameters of loop ``j`` in the :data:`Columns` ``cols``."""
     table, shared, where = cols
-    c = where[m]
-    return table[j, c] if c >= 0 else shared[m]
+    for m in range(where.shape[0]):
+        c = where[m]
+        out[o + m] = table[j, c] if c >= 0 else shared[m]
 
 
 @jitable
 def _load(prm, pp, st, x, j):
     """Parameters and state of loop ``j`` as locals (once per run: the loop runs on them)."""
-    r = (_at(prm, j, 0), _at(prm, j, 1), _at(prm, j, 2), _at(prm, j, 3), _at(prm, j, 4),
-         _at(prm, j, 5), _at(prm, j, 6), _at(prm, j, 7), _at(prm, j, 8), _at(prm, j, 9),
-         _at(prm, j, 10), _at(prm, j, 11), _at(prm, j, 12))  # fmt: skip
-    q = (_at(pp, j, 0), _at(pp, j, 1), _at(pp, j, 2), _at(pp, j, 3), _at(pp, j, 4),
-         _at(pp, j, 5), _at(pp, j, 6), _at(pp, j, 7), _at(pp, j, 8), _at(pp, j, 9),
-         _at(pp, j, 10), _at(pp, j, 11), 0.0, 0.0, 0.0, _at(pp, j, 12), _at(pp, j, 13),
-         _at(pp, j, 14))  # fmt: skip
+    a = np.empty(_N_PID + _N_PLANT)  # one small buffer: few calls that pass arrays
+    _row(prm, j, a, 0)
+    _row(pp, j, a, _N_PID)
+    r = (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11],
+         a[12])  # fmt: skip
+    q = (a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24],
+         0.0, 0.0, 0.0, a[25], a[26], a[27])  # fmt: skip
     return (r, q, st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], st[j, 5] != 0.0,
             x[j, 0], x[j, 1], x[j, 2], x[j, 3])  # fmt: skip
 
