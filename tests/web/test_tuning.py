@@ -126,3 +126,47 @@ def test_a_proposal_outside_the_engineering_range_is_refused_and_the_result_reje
     assert r.status_code == 200 and r.json()["tuning"]["state"] == "rejected"
     assert r.json()["state"]["tunings"]["kp"] == 1.0
     assert ("alice", "tune-reject", True) in audit_actions(client, "fast")
+
+
+def test_the_command_line_tunes_a_loop_of_a_running_faceplate(tmp_path: Path, users: Any) -> None:
+    """``ctrlblocks tune-live`` against a real server on 127.0.0.1: start, wait, accept."""
+    from click.testing import CliRunner
+
+    from ctrlblocks.cli import main
+    from ctrlblocks.plants import FOPDT, process
+    from ctrlblocks.web.demo import simulated_runtime
+
+    from .conftest import OPERATOR, running_server
+
+    plants = lag_plants()
+    plants["fast"] = process(FOPDT(k=1.0, t=0.5, dead_time=0.2, ts=TS))
+    plants["fast"].reset(1.0)
+    text = TEST_TOML.replace('"@HISTORY@"', json.dumps(str(tmp_path / "history.sqlite")))
+    rt, _ = simulated_runtime(text.replace("@PUBLIC@", "false"), plants)
+    env = {"CTRLBLOCKS_USER": OPERATOR[0], "PW": OPERATOR[1]}
+    runner = CliRunner()
+    with running_server(rt, users) as url:
+        def cli(*args: str) -> Any:
+            return runner.invoke(main, ["tune-live", "--url", url, "--loop", "fast",
+                                        "--password-env", "PW", *args], env=env)  # fmt: skip
+
+        res = cli("--method", "step", "--amplitude", "0.5", "--pv-max", "1.9")
+        assert res.exit_code == 0, res.output
+        assert "step test: done" in res.output and "model: FOPDT gain 1" in res.output
+        assert "PID_AMIGO" in res.output and "Ms " in res.output
+        assert "nothing applied" in res.output
+        res = cli("--accept", "PID_AMIGO")
+        assert res.exit_code == 0 and "accepted by alice: PID_AMIGO" in res.output, res.output
+        res = cli("--status", "--json")
+        assert json.loads(res.output)["state"] == "accepted"
+        res = cli("--abort")
+        assert res.exit_code == 1 and "no test is running" in res.output
+        assert "Traceback" not in res.output
+        res = runner.invoke(main, ["tune-live", "--url", url, "--loop", "fast", "--user", "bob",
+                                   "--password-env", "PW", "--reject"],
+                            env={"PW": "bob's long password"})  # fmt: skip
+        assert res.exit_code == 1 and "live tuning needs an engineer" in res.output
+    res = runner.invoke(main, ["tune-live", "--url", url, "--loop", "fast", "--status"])
+    assert res.exit_code == 1 and "cannot reach the faceplate" in res.output
+    res = runner.invoke(main, ["tune-live", "--loop", "fast", "--method", "step"])
+    assert res.exit_code == 2 and "--amplitude" in res.output
