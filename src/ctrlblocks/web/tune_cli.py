@@ -190,6 +190,12 @@ def tune_live(
     else:
         for line in describe(st):
             click.echo(line)
+    if st["state"] == "done":
+        click.echo(
+            f"nothing applied: accept with 'ctrlblocks tune-live --loop {loop} --accept NAME' "
+            "(or --reject)",
+            err=True,
+        )
     if st["state"] in ("aborted", "failed"):
         sys.exit(1)
 
@@ -239,12 +245,7 @@ def _decide(client: Any, loop: str, base: str, st: dict[str, Any], as_json: bool
     if st["state"] != "done":
         return st
     if as_json or not (sys.stdin.isatty() and sys.stdout.isatty()):
-        click.echo(
-            f"nothing applied: accept with 'ctrlblocks tune-live --loop {loop} --accept NAME' "
-            "(or --reject)",
-            err=True,
-        )
-        return st
+        return st  # the caller says how to decide
     for line in describe(st):
         click.echo(line)
     names = list(st["proposals"])
