@@ -34,21 +34,27 @@ def audit_actions(client: Any, loop: str) -> list[tuple[str, str, bool]]:
     return [(r["who"], r["action"], r["ok"]) for r in client.get(f"/api/audit?loop={loop}").json()]
 
 
-@pytest.fixture
-def dead_time_client(tmp_path: Path, users: Any) -> Any:
-    """The faceplate of the test runtime with loop ``fast`` on k e^(-0.2 s)/(0.5 s + 1)."""
-    from fastapi.testclient import TestClient
-
+def dead_time_runtime(tmp_path: Path, public_view: bool) -> Any:
+    """The test runtime with loop ``fast`` on k e^(-0.2 s)/(0.5 s + 1) (k = 1), at y = 1."""
     from ctrlblocks.plants import FOPDT, process
-    from ctrlblocks.web import create_app
     from ctrlblocks.web.demo import simulated_runtime
 
     plants = lag_plants()
     plants["fast"] = process(FOPDT(k=1.0, t=0.5, dead_time=0.2, ts=TS))
     plants["fast"].reset(1.0)
     text = TEST_TOML.replace('"@HISTORY@"', json.dumps(str(tmp_path / "history.sqlite")))
-    rt, _ = simulated_runtime(text.replace("@PUBLIC@", "true"), plants)
-    with TestClient(create_app(rt, users=users)) as c:
+    rt, _ = simulated_runtime(text.replace("@PUBLIC@", json.dumps(public_view)), plants)
+    return rt
+
+
+@pytest.fixture
+def dead_time_client(tmp_path: Path, users: Any) -> Any:
+    """A TestClient of the faceplate of :func:`dead_time_runtime`."""
+    from fastapi.testclient import TestClient
+
+    from ctrlblocks.web import create_app
+
+    with TestClient(create_app(dead_time_runtime(tmp_path, True), users=users)) as c:
         yield c
 
 
@@ -133,16 +139,10 @@ def test_the_command_line_tunes_a_loop_of_a_running_faceplate(tmp_path: Path, us
     from click.testing import CliRunner
 
     from ctrlblocks.cli import main
-    from ctrlblocks.plants import FOPDT, process
-    from ctrlblocks.web.demo import simulated_runtime
 
     from .conftest import OPERATOR, running_server
 
-    plants = lag_plants()
-    plants["fast"] = process(FOPDT(k=1.0, t=0.5, dead_time=0.2, ts=TS))
-    plants["fast"].reset(1.0)
-    text = TEST_TOML.replace('"@HISTORY@"', json.dumps(str(tmp_path / "history.sqlite")))
-    rt, _ = simulated_runtime(text.replace("@PUBLIC@", "false"), plants)
+    rt = dead_time_runtime(tmp_path, False)
     env = {"CTRLBLOCKS_USER": OPERATOR[0], "PW": OPERATOR[1]}
     runner = CliRunner()
     with running_server(rt, users) as url:

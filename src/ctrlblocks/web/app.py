@@ -649,8 +649,13 @@ def create_app(
 
     # -- commands ------------------------------------------------------------------
 
-    @app.post("/api/loops/{name}/command", response_model=None)
-    async def command(name: str, request: Request) -> Any:
+    async def admitted(
+        name: str, request: Request, action: str, route: str, who_may: str
+    ) -> tuple[Any, dict[str, Any]] | JSONResponse:
+        """(session, body) of a command-like request, or the refusal (rate, loop, body, login).
+
+        A request without a login is audited (bounded, :func:`audit_refusal`).
+        """
         client = client_of(request)
         if not command_rate.hit(client):
             return _error(429, "too many commands from this address: slow down", "command")
@@ -664,13 +669,22 @@ def create_app(
             audit_refusal(
                 client,
                 who="anonymous",
-                action="command",
+                action=action,
                 loop=name,
-                new=summary(client, f"/api/loops/{name}/command", body),
+                new=summary(client, f"/api/loops/{name}/{route}", body),
                 ok=False,
                 message="refused: not logged in",
             )
-            return _error(401, "log in as an operator to change a loop", "login")
+            return _error(401, f"log in as {who_may}", "login")
+        return s, body
+
+    @app.post("/api/loops/{name}/command", response_model=None)
+    async def command(name: str, request: Request) -> Any:
+        got = await admitted(name, request, "command", "command",
+                             "an operator to change a loop")  # fmt: skip
+        if isinstance(got, JSONResponse):
+            return got
+        s, body = got
         action = ",".join(sorted(str(k)[:32] for k in body))
         may = PERMISSIONS.get(s.role, frozenset())
         denied = sorted(str(k) for k in body if k in PERMISSIONS["engineer"] and k not in may)
@@ -731,27 +745,11 @@ def create_app(
 
     async def tune_action(name: str, request: Request, action: str) -> Any:
         """Start, abort, accept or reject a live tuning (checks as for a command)."""
-        client = client_of(request)
-        if not command_rate.hit(client):
-            return _error(429, "too many commands from this address: slow down", "command")
-        if name not in runtime.loop_names():
-            return unknown_loop(name)
-        body = await json_body(request)
-        if isinstance(body, JSONResponse):
-            return body
-        s = session_of(request)
         audit_action = f"tune-{action}"
-        if s is None:
-            audit_refusal(
-                client,
-                who="anonymous",
-                action=audit_action,
-                loop=name,
-                new=summary(client, f"/api/loops/{name}/tune", body),
-                ok=False,
-                message="refused: not logged in",
-            )
-            return _error(401, "log in as an engineer to tune a loop", "login")
+        got = await admitted(name, request, audit_action, "tune", "an engineer to tune a loop")
+        if isinstance(got, JSONResponse):
+            return got
+        s, body = got
         if "tune" not in PERMISSIONS.get(s.role, frozenset()):
             msg = f"refused: a {s.role} may not tune a loop"
             runtime.audit(s.user, audit_action, loop=name, new=json_safe(body), ok=False,

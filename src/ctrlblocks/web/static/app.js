@@ -358,19 +358,20 @@ function message(ok, status, text) {
   el.className = ok ? "ok" : "refused";
 }
 
-async function command(changes, what) {
+// POST a loop action (route under api/loops/NAME/), report the answer; the answer's JSON or null
+async function post(route, body, what) {
   const name = S.selected;
   let r;
   try {
-    r = await fetch(`api/loops/${encodeURIComponent(name)}/command`, {
+    r = await fetch(`api/loops/${encodeURIComponent(name)}/${route}`, {
       method: "POST",
       credentials: "same-origin",
       headers: { "Content-Type": "application/json" },
-      body: JSON.stringify(changes),
+      body: JSON.stringify(body),
     });
   } catch (e) {
     message(false, 0, `${what}: no answer from the server (${e})`);
-    return false;
+    return null;
   }
   const j = await r.json();
   if (r.ok) {
@@ -384,7 +385,11 @@ async function command(changes, what) {
     message(false, r.status, `${name}: ${what} refused — ${code}${e.field ? e.field + ": " : ""}${e.message}`);
   }
   loadAudit();
-  return r.ok;
+  return r.ok ? j : null;
+}
+
+async function command(changes, what) {
+  return (await post("command", changes, what)) !== null;
 }
 
 $("btn-auto").addEventListener("click", () => command({ mode: "auto" }, "AUTO"));
@@ -677,32 +682,9 @@ function renderTuning(tu) {
 }
 
 async function tuneAction(action, body, what) {
-  const name = S.selected;
-  const path = action === "start" ? "tune" : `tune/${action}`;
-  let r;
-  try {
-    r = await fetch(`api/loops/${encodeURIComponent(name)}/${path}`, {
-      method: "POST",
-      credentials: "same-origin",
-      headers: { "Content-Type": "application/json" },
-      body: JSON.stringify(body),
-    });
-  } catch (e) {
-    message(false, 0, `${what}: no answer from the server (${e})`);
-    return false;
-  }
-  const j = await r.json();
-  if (r.ok) {
-    S.states[name] = j.state;
-    message(true, r.status, `${name}: ${what} accepted`);
-    renderTuning(j.tuning);
-  } else {
-    const e = j.error;
-    const code = e.code_hex ? `${e.code_hex} ${e.name}: ` : "";
-    message(false, r.status, `${name}: ${what} refused — ${code}${e.field ? e.field + ": " : ""}${e.message}`);
-  }
-  loadAudit();
-  return r.ok;
+  const j = await post(action === "start" ? "tune" : `tune/${action}`, body, what);
+  if (j) renderTuning(j.tuning);
+  return j !== null;
 }
 
 $("tune-start").addEventListener("click", () => {
