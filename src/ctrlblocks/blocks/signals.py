@@ -195,6 +195,7 @@ class PT1(Block):
     Config = PT1Config
     _state_fields = ("out",)
     config: PT1Config
+    _config: PT1Config
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
@@ -271,6 +272,7 @@ class RateLimiter(Block):
     Config = RateLimiterConfig
     _state_fields = ("out", "limiting")
     config: RateLimiterConfig
+    _config: RateLimiterConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         self._ts = float(self._config.ts)
@@ -327,6 +329,7 @@ class DeadBand(Block):
     Config = DeadBandConfig
     _state_fields = ("out",)
     config: DeadBandConfig
+    _config: DeadBandConfig
 
     def _reset_state(self) -> None:
         self.out = 0.0
@@ -374,6 +377,7 @@ class Scale(Block):
     Config = ScaleConfig
     _state_fields = ("out",)
     config: ScaleConfig
+    _config: ScaleConfig
 
     def _reset_state(self) -> None:
         self.out = float(self._config.out_lo)
@@ -434,6 +438,10 @@ class MovingAverage(Block):
     Config = MovingAverageConfig
     _state_fields = ("out", "_buf", "_idx", "_count", "_sum")
     config: MovingAverageConfig
+    _config: MovingAverageConfig
+    _buf: list[float]
+    _idx: int
+    _count: int
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         """A new window length keeps the newest ``min(count, n)`` values, oldest first."""
@@ -547,6 +555,7 @@ class SteadyStateDetector(Block):
     Config = SteadyStateDetectorConfig
     _state_fields = ("out", "steady", "_anchor", "_elapsed", "_started")
     config: SteadyStateDetectorConfig
+    _config: SteadyStateDetectorConfig
 
     def _reset_state(self) -> None:
         self.out = 0.0
@@ -607,6 +616,7 @@ class Saturation(Block):
     Config = SaturationConfig
     _state_fields = ("out", "high", "low")
     config: SaturationConfig
+    _config: SaturationConfig
 
     def _reset_state(self) -> None:
         c = self._config
