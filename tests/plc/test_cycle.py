@@ -21,7 +21,15 @@ from ctrlblocks import ADRC, PID, LeadLag, ParameterError
 from ctrlblocks.blocks import adrc as adrc_mod
 from ctrlblocks.blocks import plc_cycle as pc
 
-from .traces import ADRC_OPTIONS, PID_MODES, PID_OPTIONS, adrc_trace, leadlag_trace, pid_trace
+from .traces import (
+    ADRC_OPTIONS,
+    PID_MODES,
+    PID_OPTIONS,
+    REAL_SPIKE,
+    adrc_trace,
+    leadlag_trace,
+    pid_trace,
+)
 
 ADRC_PROCESS = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0,
                 "awin": False, "u_real": math.nan}  # fmt: skip
@@ -82,8 +90,10 @@ def _run64(kind, block, trace):
         ),
         ("adrc", lambda: adrc_trace(1000, seed=9)),
         ("adrc", lambda: adrc_trace(400, seed=10, order=3, b0=0.01, omega_c=0.3, omega_o=1.2)),
-        *(("adrc", functools.partial(adrc_trace, 600, 40 + j, modes=True, **cfg))
-          for j, cfg in enumerate(ADRC_OPTIONS)),
+        *(
+            ("adrc", functools.partial(adrc_trace, 600, 40 + j, modes=True, **cfg))
+            for j, cfg in enumerate(ADRC_OPTIONS)
+        ),
         ("leadlag", lambda: leadlag_trace(400, seed=11)),
     ],
 )
@@ -123,6 +133,10 @@ def test_cycle_in_float64_is_the_block(kind, make):
                                 out_max=inp["OUT_MAX"])  # fmt: skip
             ref.append((block(inp["IN"], enable=inp["ENABLE"]), int(block.error_id)))
     got = _run64(kind, start, trace)
+    # Up to the PV spikes: beyond the REAL range the cycle (written for REAL) sees a bad
+    # input or an overflow where float64 computes on (test_overflow_... covers them).
+    end = next((k for k, i in enumerate(trace.inputs) if i.get("PV") in SPIKES), len(ref))
+    got, ref = got[:end], ref[:end]
     scale = max(abs(u) for u, _e in ref) + 1.0
     for k, ((u, e), (v, f)) in enumerate(zip(got, ref, strict=True)):
         assert abs(u - v) <= 1e-12 * scale, f"sample {k}: cycle {u!r}, block {v!r}"
@@ -133,6 +147,34 @@ def test_cycle_in_float64_is_the_block(kind, make):
 def test_bandwidth_gains_spelled_out_equal_adrc_gains(n):
     wc, wo = 0.7, 3.3
     assert pc.bandwidth_gains(n, wc, wo) == pytest.approx(adrc_mod.adrc_gains(n, wc, wo), rel=1e-15)
+
+
+SPIKES = (REAL_SPIKE, 1.7e308)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda p: PID(kp=1.5, ti=4.0, td=0.5, u_min=0.0, u_max=100.0, precision=p),
+        lambda p: PID(kp=1.5, ti=4.0, algorithm="velocity", out_rate=20.0, precision=p),
+        lambda p: ADRC(order=2, b0=0.05, omega_c=0.5, omega_o=2.5, precision=p),
+        lambda p: ADRC(order=3, b0=0.05, discretisation="exact", precision=p),
+    ],
+)
+def test_overflow_of_the_law_holds_the_output_and_recovers_as_the_block_does(make):
+    """A PV in range whose law overflows: the output is held (16#8103), never NaN, and the
+    next good cycles continue from it without a bump -- in REAL (the FB's cycle, PV 3e38)
+    as the float64 block does (its output guard, PV 1.7e308)."""
+    for precision, spike in (("float32", REAL_SPIKE), ("float64", 1.7e308)):
+        blk = make(precision)
+        for _ in range(50):
+            held = blk(30.0, 29.0)
+        assert blk(30.0, spike) == held
+        assert blk.error_id == 0x8103
+        after = [blk(30.0, 29.0) for _ in range(3)]
+        assert all(math.isfinite(u) for u in after)
+        assert abs(after[0] - held) < 0.05 * (abs(held) + 1.0), (precision, held, after)
+        assert blk.error_id in (0, 0x8301)
 
 
 @pytest.mark.parametrize("n", [1, 2, 3])

@@ -19,6 +19,8 @@ import numpy as np
 from ctrlblocks import ADRC, PID, LeadLag
 
 NAN, INF = math.nan, math.inf
+REAL_SPIKE = 3e38
+"""A PV inside the REAL range whose P term is not: the law overflows REAL (16#8103)."""
 
 
 @dataclass
@@ -66,7 +68,9 @@ def pid_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[PI
     """A closed-loop day of a float32 PID on ``y' = (2 u/100 - y)/5`` (y in % of range).
 
     ``modes`` adds TRACK, HOLD and AWIN stretches, a DV signal (for the lead-lag
-    feed-forward) and a measured actuator position lagging the output.
+    feed-forward), a measured actuator position lagging the output, and two PV
+    spikes near the end that overflow the law in float64 (1.7e308: inf as a REAL,
+    so a bad input for the FB) and in REAL (:data:`REAL_SPIKE`).
     """
     cfg = {"kp": 1.5, "ti": 4.0, "td": 0.5, "ts": 0.1, "u_min": 0.0, "u_max": 100.0, **config}
     pid = PID(**cfg, precision="float32")
@@ -122,6 +126,8 @@ def pid_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[PI
         if k == int(0.8 * n):
             pv = INF
         spk = NAN if k == int(0.85 * n) else sp
+        if modes and k in (int(0.93 * n), int(0.97 * n)):
+            pv = REAL_SPIKE if k == int(0.97 * n) else 1.7e308  # overflows LREAL, then REAL
         ff = 5.0 if f > 0.9 else 0.0
         inp.update({"SP": spk, "PV": pv, "FF": ff, "PV_OK": pv_ok})
         u = pid(spk, pv, ff=ff, pv_ok=pv_ok, dv=inp.get("DV", 0.0))
@@ -150,7 +156,8 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
     """A closed-loop day of a float32 ADRC on ``y'' = -0.5 y' + 0.05 u`` (plus a load).
 
     ``modes`` adds an AWIN stretch and a measured actuator value ``U_REAL`` lagging
-    u (with a NaN sample), and makes the plant self-regulating (``- 0.1 y``); with
+    u (with a NaN sample), the two overflowing PV spikes of :func:`pid_trace`, and
+    makes the plant self-regulating (``- 0.1 y``); with
     ``anti_backoff`` the PV saturates at ``y_sat``.
     """
     cfg = {"order": 2, "b0": 0.05, "omega_c": 0.5, "omega_o": 2.5, "ts": 0.1,
@@ -186,6 +193,8 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
         if int(0.5 * n) <= k < int(0.5 * n) + 3:
             pv = NAN
         spk = NAN if k == int(0.85 * n) else sp
+        if modes and k in (int(0.93 * n), int(0.97 * n)):
+            pv = REAL_SPIKE if k == int(0.97 * n) else 1.7e308  # overflows LREAL, then REAL
         if cfg.get("anti_backoff"):
             pv = min(max(pv, cfg["y_sat_lo"]), cfg["y_sat"])  # the sensor saturates
         inp.update({"SP": spk, "PV": pv, "PV_OK": y_ok})

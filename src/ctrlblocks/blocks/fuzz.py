@@ -537,7 +537,7 @@ class Driver:
         if dt is not None or getattr(ctl, "awin", False):
             return
         if getattr(ctl.config, "precision", "float64") != "float64":
-            return  # the float32 PLC cycle restarts from its reset state (docs/reliability.md)
+            return  # float32: bumpless to single-precision rounding only (docs/reliability.md)
         was_manual = prev_mode is not None and prev_mode != Mode.AUTO
         # (ADRC with u_real_on: a missing u_real is BAD_INPUT while the law runs on its own u)
         was_bad = prev_err in _BAD_DATA and not getattr(ctl.config, "u_real_on", False)

@@ -94,6 +94,7 @@ NO_ERROR = int(ErrorCode.NO_ERROR)
 BAD_INPUT = int(ErrorCode.BAD_INPUT)
 BAD_MEASUREMENT = int(ErrorCode.BAD_MEASUREMENT)
 BAD_LIMITS = int(ErrorCode.BAD_LIMITS)
+BAD_RESULT = int(ErrorCode.BAD_RESULT)
 AUTO = int(Mode.AUTO)
 MANUAL = int(Mode.MANUAL)
 RESET = int(Mode.RESET)
@@ -103,6 +104,13 @@ NO_MODE = -1
 def is_real(x: float) -> bool:
     """True for a finite REAL: NaN fails every comparison, inf exceeds REAL_MAX."""
     return abs(x) <= REAL_MAX
+
+
+def finite_or_zero(x: float) -> float:
+    """``x`` if it is a finite REAL, else 0 (a memory made finite after an overflow)."""
+    if is_real(x):
+        return x
+    return 0.0
 
 
 # ---------------------------------------------------------------------------
@@ -469,6 +477,7 @@ def pid_cycle(
     p = 0.0
     i_term = i
     d_term = d
+    overflow = False
     if not ok:
         # hold (or the safe value); the next good cycle continues without a bump
         if mode == AUTO and use_safe:
@@ -506,6 +515,9 @@ def pid_cycle(
             ff_tot = ff + ll_out
         from_mode = mode == AUTO and mode_prev != NO_MODE and mode_prev != AUTO
         transfer = from_mode or (mode == AUTO and reinit)
+        # the memory of the last cycle, kept if the law overflows REAL in this one
+        d_old, w_old, e_old, supp_old = d, w_prev, e_prev, suppressed
+        pp_old, dp_old, fp_old = p_prev, d_prev, ff_prev
         if from_mode and bumpless == BUMPLESS_SUPPRESS_P:
             suppressed = True
         if velocity or out_rate > 0.0 or awin or aw == BACK_CALC_REAL or suppressed:
@@ -524,11 +536,34 @@ def pid_cycle(
             limits_active = v_raw > hi or v_raw < lo
             ramp_out = mv
         d_term = d
-        cold = False
-        reinit = False
-        reinit_d = False
+        if is_real(v_raw):
+            cold = False
+            reinit = False
+            reinit_d = False
+        else:
+            # the law overflowed REAL: hold the output (or the safe value) and restart
+            # bumplessly from it on the next good cycle (Block._contain, PID._resume)
+            overflow = True
+            mv = out
+            if use_safe:
+                mv = safe_value
+            mv = clamp(mv, lo, hi)
+            i, x, bias, ramp_out = mv, mv, mv, mv
+            d, w_prev, e_prev = finite_or_zero(d_old), finite_or_zero(w_old), finite_or_zero(e_old)
+            p_prev, d_prev = finite_or_zero(pp_old), finite_or_zero(dp_old)
+            ff_prev, suppressed = finite_or_zero(fp_old), supp_old
+            sp_f, pv_f, sp_w = finite_or_zero(sp_f), finite_or_zero(pv_f), finite_or_zero(sp_w)
+            if not is_real(ll_out):
+                ll_out = 0.0
+                ll_x = 0.0
+            p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d_term)
+            limits_active = False
+            reinit = True
+            reinit_d = True
     if err == NO_ERROR:
         err = lim_err
+    if overflow:
+        err = BAD_RESULT
     if mode != MANUAL:
         man_value = mv  # In/Out: outside MANUAL the manual value follows the output
     out = mv
@@ -560,7 +595,6 @@ EULER_LIMIT_3 = EULER_LIMIT[3]
 EULER_LIMIT_4 = EULER_LIMIT[4]
 ONE_THIRD = 1.0 / 3.0
 ELEVEN_SIXTHS = 11.0 / 6.0
-BAD_RESULT = int(ErrorCode.BAD_RESULT)
 WARN_DISCRETISATION = int(ErrorCode.WARN_DISCRETISATION)
 
 
