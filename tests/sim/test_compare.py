@@ -132,6 +132,18 @@ def test_monte_carlo_spread_equals_running_each_drawn_model_by_hand(result):
         assert mc["worst"] == pytest.approx(max(vals), rel=1e-9) and mc["not_finite"] == 0
 
 
+def test_the_commands_sweep_gives_the_numbers_of_the_serial_runs(result, tmp_path):
+    """``ctrlblocks compare`` runs the uncertain models as one fast.sweep over ``plant``."""
+    from ctrlblocks.sim.cli import _sweep_runner
+
+    _out, (t, u, y), s = result
+    swept = compare(t, u, y, tmp_path, monte_carlo=3, seed=7, run_models=_sweep_runner(1))
+    for name, m in s["metrics"].items():
+        for key in ("iae_tracking", "iae_load", "tv_u_load"):
+            assert swept["metrics"][name]["monte_carlo"][key] == m["monte_carlo"][key]
+            assert swept["metrics"][name]["corners"][key] == m["corners"][key]
+
+
 def _resolve(data, path):
     return reduce(lambda node, key: node[key], path, data)
 

@@ -27,8 +27,9 @@ The workflow (one function, :func:`compare`):
    corners (gain +-20 %, time constants +-30 %, dead time +-30 %) and,
    optionally, on ``monte_carlo`` models drawn uniformly from that box
    (seeded; each time constant drawn on its own).  Corners and Monte-Carlo
-   models are one :func:`ctrlblocks.fast.sweep` over the ``plant`` table
-   (serial, or on a process pool with ``jobs > 1``);
+   models are run by ``run_models``: the command passes one
+   :func:`ctrlblocks.fast.sweep` over the ``plant`` table (serial, or on a
+   process pool with ``--jobs``);
 4. **report**: ``compare.md`` with the fit plot, the margins table, the
    metrics (IAE, overshoot, settling time and MV travel of the step; IAE,
    peak error and MV travel of the load), the spread over the corners and the
@@ -294,10 +295,10 @@ def compare(
     corners: bool = True,
     monte_carlo: int = 0,
     seed: int = 1,
-    jobs: int = 1,
     y_label: str = "PV (units of the data)",
     u_label: str = "MV (units of the data)",
     progress: Callable[[str], None] | None = None,
+    run_models: ModelRunner | None = None,
 ) -> dict[str, Any]:
     """Identify, tune, simulate and judge; writes ``compare.md``, ``compare.json``,
     ``compare.toml`` and PNGs to ``out_dir``; returns the JSON summary (module docstring).
@@ -316,12 +317,16 @@ def compare(
         Also run the 8 corners of the uncertainty box.
     monte_carlo, seed : int
         Also run this many models drawn from the box with this seed.
-    jobs : int
-        Worker processes for the corners and Monte-Carlo models (1: serial).
     y_label, u_label : str
         Axis labels of the plots, with units.
     progress : callable, optional
         Called with one line of text per step (also when not on a terminal).
+    run_models : callable, optional
+        ``run_models(scenario_file, plant_tables, progress)`` returns the
+        metric rows (controller, case, metrics) of the scenario run with each
+        ``[plant]`` table, in order; ``ctrlblocks compare`` passes a
+        :func:`ctrlblocks.fast.sweep` over the ``plant`` key.  Default: one
+        run after the other in this process (the same numbers).
     """
     from .runner import run_scenario
     from .scenario import parse_scenario
@@ -363,7 +368,8 @@ def compare(
         tables += _box_models(model, int(monte_carlo), int(seed))
         labels += [f"monte carlo {i}" for i in range(int(monte_carlo))]
     if tables:
-        per_model.update(zip(labels, _sweep_models(path, tables, jobs, say), strict=True))
+        runner = run_models or _serial_models
+        per_model.update(zip(labels, _run_models(path, tables, runner, say), strict=True))
     results = _metrics(ctrls, per_model, corners, int(monte_carlo))
     summary = {
         "fopdt": fo.as_dict(),
@@ -388,19 +394,37 @@ def compare(
     return summary
 
 
-def _sweep_models(path: Path, tables: list[dict[str, Any]], jobs: int,
-                  say: Callable[[str], None]) -> list[dict[str, dict[str, float]]]:  # fmt: skip
-    """The metrics of every plant table, by one sweep of the written scenario."""
-    from ..fast.sweep import sweep
+ModelRunner = Callable[[Path, list[dict[str, Any]], Callable[[int, int], None]], list[Any]]
+"""``(scenario file, plant tables, progress(done, total)) -> metric rows`` (see :func:`compare`)."""
 
+
+def _serial_models(path: Path, tables: list[dict[str, Any]],
+                   progress: Callable[[int, int], None]) -> list[dict[str, Any]]:  # fmt: skip
+    """The metric rows of the scenario at ``path`` with each plant table, one after the other."""
+    from ..loops.toml import read_toml
+    from .runner import run_scenario
+    from .scenario import ScenarioError, parse_scenario_doc
+
+    text = path.read_text(encoding="utf-8")
+    rows: list[dict[str, Any]] = []
+    for i, plant in enumerate(tables):
+        doc = read_toml(text, str(path), ScenarioError)
+        doc["plant"] = plant
+        rows += run_scenario(parse_scenario_doc(doc, file=str(path))).metrics
+        progress(i + 1, len(tables))
+    return rows
+
+
+def _run_models(path: Path, tables: list[dict[str, Any]], runner: ModelRunner,
+                say: Callable[[str], None]) -> list[dict[str, dict[str, float]]]:  # fmt: skip
+    """The summary metrics of every plant table (``runner``: see :func:`compare`)."""
     marks = {max(1, round(len(tables) * f / 10)) for f in range(1, 11)}
 
     def progress(done: int, total: int) -> None:
         if done in marks:
             say(f"uncertain models: {done}/{total} run")
 
-    rows = sweep(path, {"plant": tables}, executor="serial" if jobs <= 1 else None,
-                 progress=progress)  # fmt: skip
+    rows = runner(path, tables, progress)
     per = len(rows) // len(tables)
     return [_row_metrics(rows[i * per : (i + 1) * per]) for i in range(len(tables))]
 
@@ -712,77 +736,3 @@ def _report(out: Path, summary, t, u, y, model, nominal, y_label: str, u_label: 
     lines += ["", "The scenario that was run: `compare.toml` (edit it and run `ctrlblocks run "
               "compare.toml`); all numbers: `compare.json`.", ""]  # fmt: skip
     (out / "compare.md").write_text("\n".join(lines), encoding="utf-8")
-
-
-def _command():
-    import click
-
-    @click.command("compare")
-    @click.argument("file", type=click.Path(dir_okay=False))
-    @click.option("--time", "time_col", required=True, help="Name of the time column [s].")
-    @click.option("--u", "u_col", required=True, help="Name of the MV column.")
-    @click.option("--y", "y_col", required=True, help="Name of the PV column.")
-    @click.option("--out", "out_dir", default="compare", show_default=True,
-                  type=click.Path(file_okay=False), help="Output folder.")  # fmt: skip
-    @click.option("--u-min", type=float, help="MV low limit; default from the data.")
-    @click.option("--u-max", type=float, help="MV high limit; default from the data.")
-    @click.option("--ts", type=float, help="Controller sample time [s]; default min(T, L)/10.")
-    @click.option("--no-corners", is_flag=True, help="Skip the 8 uncertainty corners.")
-    @click.option("--monte-carlo", type=click.IntRange(0, 100000), default=0,
-                  help="Also run N models drawn from the uncertainty box.")  # fmt: skip
-    @click.option("--seed", type=int, default=1, show_default=True,
-                  help="Seed of the Monte-Carlo draw.")  # fmt: skip
-    @click.option("--jobs", type=click.IntRange(1, 256), default=1, show_default=True,
-                  help="Worker processes for the uncertain models.")  # fmt: skip
-    @click.option("--u-before", type=float, default=None,
-                  help="The MV before the record (as for identify).")  # fmt: skip
-    @click.option("--delimiter", type=click.Choice([",", ";", "tab"]), default=None,
-                  help="Column delimiter (default: detected, as for identify).")  # fmt: skip
-    @click.option("--decimal", type=click.Choice([".", ","]), default=None,
-                  help="Decimal mark (default: detected, as for identify).")  # fmt: skip
-    @click.option("--encoding", default=None, help="Text encoding (as for identify).")
-    @click.option("--y-unit", default=None, help="PV unit (default: from a header 'pv [degC]').")
-    @click.option("--u-unit", default=None, help="MV unit (default: from a header 'mv [%]').")
-    @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
-    def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_corners,
-                        monte_carlo, seed, jobs, u_before, delimiter, decimal, encoding, y_unit,
-                        u_unit, as_json) -> None:  # fmt: skip
-        """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).
-
-        Progress lines go to stderr; the verdict (or with --json the summary)
-        to stdout.
-        """
-        from ..tuning import read_step_csv
-        from ..tuning.cli import _axis_label
-
-        try:
-            data = read_step_csv(
-                file, time=time_col, u=u_col, y=y_col, u_before=u_before,
-                delimiter="\t" if delimiter == "tab" else delimiter, decimal=decimal,
-                encoding=encoding,
-            )  # fmt: skip
-            yl = _axis_label("PV", y_col, y_unit if y_unit is not None else data.y_unit)
-            ul = _axis_label("MV", u_col, u_unit if u_unit is not None else data.u_unit)
-            summary = compare(
-                data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts,
-                corners=not no_corners, monte_carlo=monte_carlo, seed=seed, jobs=jobs,
-                y_label=yl if yl.endswith("]") else yl + " (units of the data)",
-                u_label=ul if ul.endswith("]") else ul + " (units of the data)",
-                progress=lambda msg: click.echo(f"compare: {msg}", err=True),
-            )  # fmt: skip
-        except ValueError as exc:
-            raise click.ClickException(str(exc)) from None
-        except OSError as exc:
-            raise click.ClickException(f"--out {out_dir}: {exc.strerror or exc}") from None
-        if as_json:
-            click.echo(json.dumps(_jsonable(summary), indent=2))
-            return
-        click.echo(f"{file}: {summary['why']}")
-        for s in summary["verdict"]:
-            click.echo(f"  {s['text']}")
-        click.echo(f"report: {Path(out_dir) / 'compare.md'}")
-
-    return compare_command
-
-
-compare_command = _command()
