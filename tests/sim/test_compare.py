@@ -256,14 +256,10 @@ def test_every_plot_axis_has_units(readme_run, tmp_path, monkeypatch):
     # a header with units ("pv [degC]") puts them on the axes and in the tables
     import ctrlblocks.tuning.plot as tplot
 
-    seen = {}
-    real = tplot.plot_identification
-
-    def spy(*a, **kw):
-        seen.update(kw)
-        return real(*a, **kw)
-
-    monkeypatch.setattr(tplot, "plot_identification", spy)
+    seen: dict = {}
+    real = tplot.plot_identification  # recorded, then drawn
+    monkeypatch.setattr(tplot, "plot_identification",
+                        lambda *a, **kw: seen.update(kw) or real(*a, **kw))  # fmt: skip
     t, u, y = _bump()
     rows = [f"{a:.1f},{b:.3f},{c:.6f}" for a, b, c in zip(t, u, y, strict=True)]
     csv = tmp_path / "bump.csv"

@@ -75,3 +75,15 @@ def test_the_rule_b0_tuning_reports_its_integral_gain_too():
     block = ADRC(order=2, b0=r.b0, omega_c=r.omega_c, omega_o=r.omega_o, ts=0.1)
     assert r.integral_gain == pytest.approx(Loop(FOPDT(0.73, 8.3, 3.0), block).integral_gain())
     assert r.b0_rule == r.b0 and math.isfinite(r.integral_gain)
+
+
+@pytest.mark.parametrize(("order", "b0_ratio", "ki_ratio", "settle"),
+                         [(1, 4.1, 3.2, 74.0), (2, 7.6, 20.0, 96.0), (3, 7.6, 15.0, 203.0)])
+def test_docs_worked_dead_time_example_with_b0_searched(order, b0_ratio, ki_ratio, settle):
+    """docs/tuning.md, the table of rules: k = 2, T = 30 s, L = 5 s, ts = 0.5 s."""
+    rule = adrc_tuning(2.0, 30.0, 5.0, order, ts=0.5)
+    found = adrc_tuning(2.0, 30.0, 5.0, order, ts=0.5, b0_search=True)
+    assert found.b0 / rule.b0 == pytest.approx(b0_ratio, abs=0.05)
+    assert found.integral_gain / rule.integral_gain == pytest.approx(ki_ratio, rel=0.03)
+    assert found.settling_time_loop == pytest.approx(settle, abs=1.0)
+    assert round(found.margins.ms, 2) == 1.6

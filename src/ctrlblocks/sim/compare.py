@@ -49,16 +49,15 @@ from typing import Any
 
 import numpy as np
 
-from ..tuning import adrc_tuning, amigo, fit_fopdt, fit_sopdt, simc
+from ..tuning import adrc_tuning, amigo, simc
 from ..tuning.adrc import _nice_floor
-from ..tuning.identify import FOPDT, SOPDT
+from ..tuning.bump import SOPDT_GAIN, better_model
+from ..tuning.bump import fopdt_of as _fopdt_of
+from ..tuning.identify import SOPDT
 
 __all__ = ["BOX", "MS_LIMIT", "SOPDT_GAIN", "compare", "scenario_toml"]
 
 log = logging.getLogger("ctrlblocks.compare")
-
-SOPDT_GAIN = 0.8
-"""The SOPDT is used when its fit error is below this fraction of the FOPDT's."""
 
 MS_LIMIT = 2.0
 """A tuning with a larger maximum sensitivity on the model is left out of the verdict."""
@@ -89,33 +88,6 @@ _FROM_ROW = {  # summary metric -> (case, metric of the simulator)
     "tv_u_load": ("load", "tv_u"),
 }
 METRICS = tuple(_FROM_ROW)
-
-
-def _choose(t, u, y) -> tuple[FOPDT, SOPDT | None, Any, str]:
-    fo = fit_fopdt(t, u, y)
-    try:
-        so: SOPDT | None = fit_sopdt(t, u, y)
-    except ValueError:
-        so = None
-    if so is not None and so.fit < SOPDT_GAIN * fo.fit:
-        why = (f"SOPDT: its fit error {100 * so.fit:.3g} % is below {SOPDT_GAIN:g} times the "
-               f"FOPDT's {100 * fo.fit:.3g} %")  # fmt: skip
-        return fo, so, so, why
-    why = "FOPDT: " + (
-        "the SOPDT fit failed"
-        if so is None
-        else f"the SOPDT's fit error {100 * so.fit:.3g} % is not below {SOPDT_GAIN:g} times "
-        f"the FOPDT's {100 * fo.fit:.3g} %"
-    )
-    return fo, so, fo, why
-
-
-def _fopdt_of(model: Any) -> tuple[float, float, float]:
-    """``(k, T, L)``: the model itself, or the half rule of an SOPDT (Skogestad 2003)."""
-    if isinstance(model, SOPDT):
-        t2 = model.time_constant_2
-        return model.gain, model.time_constant + t2 / 2, model.dead_time + t2 / 2
-    return model.gain, model.time_constant, model.dead_time
 
 
 def _loop_numbers(model: Any, block_type: str, params: dict[str, Any], ts: float):
@@ -335,7 +307,7 @@ def compare(
     t, u, y = (np.asarray(v, float) for v in (t, u, y))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    fo, so, model, why = _choose(t, u, y)
+    fo, so, model, why = better_model(t, u, y)
     say(f"identified: {why}")
     k, T, L = _fopdt_of(model)
     noise = float(np.std(y - model.response(t, u)))
