@@ -86,4 +86,4 @@ def test_docs_worked_dead_time_example_with_b0_searched(order, b0_ratio, ki_rati
     assert found.b0 / rule.b0 == pytest.approx(b0_ratio, abs=0.05)
     assert found.integral_gain / rule.integral_gain == pytest.approx(ki_ratio, rel=0.03)
     assert found.settling_time_loop == pytest.approx(settle, abs=1.0)
-    assert round(found.margins.ms, 2) == 1.6
+    assert 1.59 <= found.margins.ms <= 1.6
