@@ -57,6 +57,10 @@ _COMMANDS: dict[str, tuple[str, str]] = {
         "ctrlblocks.fast.cli:sweep_command",
         "Run SCENARIO (a TOML file or a shipped name) for every combination of --vary values.",
     ),
+    "tune-live": (
+        "ctrlblocks.web.tune_cli:tune_live",
+        "Auto-tune a loop of a running 'ctrlblocks serve' live: a step or relay test, then accept.",
+    ),
     "tune": (
         "ctrlblocks.tuning.cli:tune",
         "Controller settings from an FOPDT model (gain, time constant, dead time).",

@@ -108,6 +108,35 @@ def test_compute_output_is_idempotent_within_a_cycle() -> None:
     assert pid.snapshot() == ref.snapshot()
 
 
+def test_compute_output_commits_nothing_until_update_state() -> None:
+    # the two-phase contract of blocks.base: one pending value, the committed state
+    # (filters and ramps included) untouched until update_state, no scratch attributes
+    pid = PID(kp=1.0, ti=1.0, td=0.2, ts=0.1, u_min=-10, u_max=10, sp_filter=0.5,
+              pv_filter=0.3, sp_rate=2.0, out_rate=5.0, ff_k=0.5, ff_t_lead=1.0)  # fmt: skip
+    for k in range(10):
+        pid(1.0, _pv(k), dv=0.1 * k)
+    before = pid.snapshot()
+    names = set(vars(pid))
+    v1 = pid.compute_output(2.0, 0.4, dv=1.0)
+    pid.compute_output(-3.0, 5.0, dv=-2.0)  # another candidate first ...
+    after = pid.snapshot()
+    private = [n for n in PID._state_fields if n.startswith("_")]  # not the readable outputs
+    assert [after[n] for n in private] == [before[n] for n in private]
+    assert after["_subs"] == before["_subs"]
+    assert set(vars(pid)) == names
+    assert pid.compute_output(2.0, 0.4, dv=1.0) == v1  # ... then the real one
+    pid.update_state(v1)
+    assert pid.snapshot()["_subs"] != before["_subs"]
+    ref = PID(pid.config)
+    for k in range(10):
+        ref(1.0, _pv(k), dv=0.1 * k)
+    assert ref(2.0, 0.4, dv=1.0) == v1
+    assert pid.snapshot() == ref.snapshot()
+    snap = pid.snapshot()
+    pid.update_state(0.0)  # no pending cycle: nothing happens
+    assert pid.snapshot() == snap
+
+
 def test_call_is_compute_then_update_with_its_own_output() -> None:
     a = PID(kp=1.0, ti=0.5, ts=0.1, u_min=-1, u_max=1)
     b = PID(a.config)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import concurrent.futures as cf
+import json
 import os
 import sys
 import time
@@ -362,11 +363,9 @@ def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_
     (``ctrlblocks.sim.compare``).  Progress lines go to stderr; the verdict
     (or with --json the summary) to stdout.
     """
-    import json
-
     from ..tuning import read_step_csv
     from ..tuning.cli import _axis_label
-    from .compare import _jsonable, compare
+    from .compare import compare, jsonable
 
     try:
         data = read_step_csv(
@@ -389,7 +388,7 @@ def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_
     except OSError as exc:
         raise click.ClickException(f"--out {out_dir}: {exc.strerror or exc}") from None
     if as_json:
-        click.echo(json.dumps(_jsonable(summary), indent=2))
+        click.echo(json.dumps(jsonable(summary), indent=2))
         return
     click.echo(f"{file}: {summary['why']}")
     for s in summary["verdict"]:

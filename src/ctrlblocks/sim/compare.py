@@ -360,7 +360,7 @@ def compare(
         "metrics": results,
     }
     summary["verdict"] = _verdict(summary)
-    (out / "compare.json").write_text(json.dumps(_jsonable(summary), indent=2), encoding="utf-8")
+    (out / "compare.json").write_text(json.dumps(jsonable(summary), indent=2), encoding="utf-8")
     _report(out, summary, t, u, y, model, nominal, y_label, u_label)
     say(f"report: {out / 'compare.md'}")
     return summary
@@ -597,15 +597,15 @@ def _monte_carlo_sentences(s, res, contenders) -> list[dict[str, Any]]:
     return out
 
 
-def _jsonable(x: Any) -> Any:
+def jsonable(x: Any) -> Any:
     if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
+        return {k: jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
+        return [jsonable(v) for v in x]
     if isinstance(x, float) and not math.isfinite(x):
         return None
     if isinstance(x, np.floating):
-        return _jsonable(float(x))
+        return jsonable(float(x))
     return x
 
 
