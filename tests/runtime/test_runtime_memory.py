@@ -560,3 +560,22 @@ def test_every_command_path_refuses_a_value_outside_the_engineering_ranges(tmp_p
     assert len(refused) == 8 and not any(r["ok"] for r in refused)
     assert refused[0]["message"].startswith("sp: outside the engineering range [0, 5]")
 
+
+def test_with_flush_after_cycle_every_sample_is_written_and_stop_does_not_wait(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(loop_toml(ts=5.0), {"io": bus}, tmp_path, historian=True)
+    rt.flush_after_cycle = True  # the benchmark's switch (docs/performance.md)
+
+    async def main():
+        await rt.start()
+        await clock.run_until(12.0)  # three cycles on the fake clock
+        await asyncio.sleep(1.5)  # the flush interval (1 s): the flusher waits for a cycle end
+        t = asyncio.get_running_loop().time()
+        await rt.stop()  # releases that wait (no next cycle for 5 s) and flushes
+        return asyncio.get_running_loop().time() - t
+
+    took = asyncio.run(main())
+    assert took < 4.0
+    with SQLiteHistorian(tmp_path / "h.sqlite").reading() as hr:
+        assert hr.query("SELECT COUNT(*) FROM samples")[0][0] == len(samples) == 3
