@@ -598,6 +598,7 @@ class PID(Block):
 
     Config = PIDConfig
     config: PIDConfig
+    _config: PIDConfig
     _state_fields = (
         "out",
         "p",
@@ -638,7 +639,8 @@ class PID(Block):
         self.reset_active = False
         self.actuator_pos = math.nan
         self.awin = False
-        self._subs: dict[str, Block] = {}
+        # filters, ramps, lead-lag, detector by name (several block classes, used by name)
+        self._subs: dict[str, Any] = {}
         self._pending: _Cycle | None = None
         super().__init__(config, **params)
 
@@ -690,7 +692,7 @@ class PID(Block):
         window = max(1, round(c.t_stab / ts))
         self._sync("_ma", MovingAverage, n=window)
         self._cycle_subs = _SubStates(tuple(self._subs[name] for name in _SUB_COMPUTE))
-        if old is not None and _law(old) != _law(c):
+        if old is not None and _law(old) != _law(c):  # type: ignore[arg-type]
             # a change of the law is bumpless: the next cycle re-initialises the integrator
             self._reinit = True
 
