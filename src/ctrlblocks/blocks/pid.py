@@ -648,6 +648,8 @@ class PID(Block):
 
     Config = PIDConfig
     config: PIDConfig
+    _config: PIDConfig
+    _law_in_force: tuple[Any, ...]
     _state_fields = (
         "out",
         "p",
@@ -688,7 +690,8 @@ class PID(Block):
         self.reset_active = False
         self.actuator_pos = math.nan
         self.awin = False
-        self._subs: dict[str, Block] = {}
+        # filters, ramps, lead-lag, detector by name (several block classes, used by name)
+        self._subs: dict[str, Any] = {}
         self._pending: _Cycle | None = None
         super().__init__(config, **params)
 
@@ -797,7 +800,7 @@ class PID(Block):
     def _retune(self, changes: dict[str, Any]) -> None:
         """:meth:`configure` for tuning fields only (its docstring)."""
         old = self._config
-        new = self._replace_config(old, changes)
+        new: PIDConfig = self._replace_config(old, changes)  # type: ignore[assignment]
         new.validate_tuning()
         self._config = new
         try:
