@@ -238,6 +238,52 @@ def test_refusals_leave_the_loop_as_it_was():
     assert refused.count("tune-start") == 5 and "tune-abort" in refused
 
 
+def test_a_setpoint_from_io_that_changes_aborts_the_test_at_the_next_cycle():
+    bus = MemoryBus()
+    tank = TankOnBus(bus)
+    bus.values["sp"] = tank.plant.y
+    text = CONN + loop_toml(ts=0.1, block=PID_BLOCK, sp='"io:sp"',
+                            extra=f'mode = "manual"\nmanual_value = {U0}\n')  # fmt: skip
+    clock = FakeClock()
+    rt = Runtime(parse_config(text + '\n[historian]\nbackend = "none"\n'), clock=clock,
+                 adapters={"io": MemoryAdapter(bus)}, historian=None, retain=None)  # fmt: skip
+
+    async def main():
+        await rt.start()
+        await clock.run_until(1.0)
+        rt.tuning.start("loop", user="eng", method="step", amplitude=0.5, pre_time=0.1)
+        await clock.run_until(3.0)
+        bus.values["sp"] = 1.6  # the setpoint changes in the PLC
+        await clock.run_until(3.35)
+        st = rt.state("loop")
+        await rt.stop()
+        return st
+
+    st = bounded(main())
+    assert st["tuning"]["state"] == "aborted"
+    assert "the setpoint changed to 1.6" in st["tuning"]["reason"]
+    assert st["mode"] == "manual" and st["mv"] == U0
+
+
+def test_a_stop_during_a_test_retains_the_loop_as_it_was_before_the_test(tmp_path):
+    from ctrlblocks.runtime.retain import RetainStore
+
+    rt, clock, _ = tank_runtime(mode="auto")
+    rt.retain = RetainStore(tmp_path / "retain.sqlite")
+
+    async def main():
+        await rt.start()
+        await clock.run_until(5.0)
+        rt.tuning.start("loop", user="eng", method="step", amplitude=0.5, pre_time=0.1)
+        await clock.run_until(8.0)
+        assert rt.state("loop")["mode"] == "manual"  # held at the experiment's MV
+        await rt.stop()
+
+    bounded(main())
+    kept = RetainStore(tmp_path / "retain.sqlite").load()["loop"]
+    assert kept["mode"] == "auto" and kept["mv"] == pytest.approx(U0, abs=1e-6)
+
+
 @pytest.mark.loopback
 def test_over_opcua_the_live_tunings_equal_the_offline_step_and_relay_results(
     tmp_path, opcua_plant
