@@ -284,6 +284,31 @@ def test_a_stop_during_a_test_retains_the_loop_as_it_was_before_the_test(tmp_pat
     assert kept["mode"] == "auto" and kept["mv"] == pytest.approx(U0, abs=1e-6)
 
 
+def test_a_defect_in_the_experiment_aborts_the_test_and_the_loop_goes_on(monkeypatch):
+    from ctrlblocks.tuning.live import LiveTuner
+
+    rt, clock, tank = tank_runtime(mode="manual")
+
+    def broken(self, pv):
+        raise OverflowError("a defect")
+
+    async def main():
+        await rt.start()
+        await clock.run_until(1.0)
+        rt.tuning.start("loop", user="eng", method="relay", amplitude=0.5)
+        monkeypatch.setattr(LiveTuner, "step", broken)
+        n = len(tank.mvs)
+        await clock.run_until(2.0)
+        st = rt.state("loop")
+        await rt.stop()
+        return n, st
+
+    n, st = bounded(main())
+    assert st["tuning"]["state"] == "aborted"
+    assert "OverflowError: a defect" in st["tuning"]["reason"]
+    assert tank.mvs[n:-1] == [U0] * (len(tank.mvs) - n - 1)  # every cycle wrote: u0, then manual
+
+
 @pytest.mark.loopback
 def test_over_opcua_the_live_tunings_equal_the_offline_step_and_relay_results(
     tmp_path, opcua_plant
@@ -381,6 +406,9 @@ path = "{tmp_path / "history.sqlite"}"
         assert step["proposals"]["PID_AMIGO"][key] == pytest.approx(
             getattr(step_off.pid, key), rel=0.05
         )
+    # lock-step over OPC UA Double: the runtime saw the offline experiment's samples exactly
+    assert m["time_constant"] == pytest.approx(step_off.model.time_constant, rel=1e-9)
+    assert relay["model"]["pu"] == pytest.approx(relay_off.pu, rel=1e-9)
     assert relay["model"]["ku"] == pytest.approx(relay_off.ku, rel=0.05)
     assert relay["model"]["pu"] == pytest.approx(relay_off.pu, rel=0.05)
     for key in ("kp", "ti", "td"):

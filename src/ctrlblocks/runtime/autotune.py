@@ -139,7 +139,12 @@ class LoopTuning:
             if why:
                 self.tuner.abort(why)
         y = meas.get("y", math.nan)
-        u = self.tuner.step(y if ok else math.nan)
+        try:
+            u = self.tuner.step(y if ok else math.nan)
+        except Exception as exc:  # a defect of the experiment never stops the loop
+            log.exception("loop %s: live test failed", lp.name)
+            self.tuner.abort(f"the test failed: {type(exc).__name__}: {exc}")
+            u = self.u0
         lp.side.set_manual(True, u)
         lp.side.compute(lp.sp, y, y_ok=ok, dt=dt)
         lp.side.update(u)
