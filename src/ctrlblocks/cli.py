@@ -18,7 +18,7 @@ import click
 # each module owns its command.
 _COMMANDS: dict[str, tuple[str, str]] = {
     "compare": (
-        "ctrlblocks.sim.compare:compare_command",
+        "ctrlblocks.sim.cli:compare_command",
         "Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).",
     ),
     "export": (

@@ -357,7 +357,8 @@ class BlockConfig:
     """
 
     def __post_init__(self) -> None:
-        for name, kind in _numeric_fields(type(self)):
+        cls: type = type(self)
+        for name, kind in _numeric_fields(cls):
             v = getattr(self, name)
             if kind == "tuple" and isinstance(v, (tuple, list)):
                 if all(_is_number(x) for x in v):

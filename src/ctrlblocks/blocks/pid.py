@@ -417,14 +417,7 @@ class PIDConfig(BlockConfig):
         return isa_parameters(self.form, self.kp, self.ti, self.td)
 
     def validate(self) -> None:
-        coeffs = ErrorCode.BAD_PID_COEFFS
-        require_choice("form", self.form, FORMS)
-        kp = require_positive("kp", self.kp, coeffs)
-        require_nonnegative("ti", self.ti, coeffs)
-        require_nonnegative("td", self.td, coeffs)
-        require_positive("n", self.n, coeffs)
-        require_finite("b", self.b, coeffs)
-        require_finite("c", self.c, coeffs)
+        kp = self._validate_gains()
         ts = require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
         require_limits("u_min", self.u_min, "u_max", self.u_max)
         require_choice("integral_method", self.integral_method, METHODS)
@@ -449,8 +442,7 @@ class PIDConfig(BlockConfig):
         require_nonnegative("sp_rate", self.sp_rate, ErrorCode.BAD_RATE)
         require_nonnegative("out_rate", self.out_rate, ErrorCode.BAD_RATE)
         require_choice("anti_windup", self.anti_windup, AntiWindup.ALL, ErrorCode.BAD_ANTIWINDUP)
-        if self.tt is not None:
-            require_positive("tt", self.tt, ErrorCode.BACK_CALC_T)
+        self._validate_tt()
         require_choice("bumpless", self.bumpless, Bumpless.ALL)
         if self.bumpless == Bumpless.TRACK_SETPOINT and self.sp_rate == 0.0:
             raise ParameterError(
@@ -480,16 +472,49 @@ class PIDConfig(BlockConfig):
             require_finite("safe_value", self.safe_value)
         require_finite("ff_k", self.ff_k)
         LeadLagConfig(k=1.0, t_lead=self.ff_t_lead, t_lag=self.ff_t_lag, ts=ts).validate()
+        self._validate_derivative(kp, ts)
+        if self.precision != "float64":
+            _check_precision(self, "pid")
+
+    def validate_tuning(self) -> None:
+        """The checks of :meth:`validate` that read a tuning field (:data:`TUNING_FIELDS`).
+
+        Enough for a configuration made from a valid one by changing tuning
+        fields only: every other check reads fields that did not change.
+        """
+        kp = self._validate_gains()
+        self._validate_tt()
+        self._validate_derivative(kp, float(self.ts))
+
+    def _validate_gains(self) -> float:
+        coeffs = ErrorCode.BAD_PID_COEFFS
+        require_choice("form", self.form, FORMS)
+        kp = require_positive("kp", self.kp, coeffs)
+        require_nonnegative("ti", self.ti, coeffs)
+        require_nonnegative("td", self.td, coeffs)
+        require_positive("n", self.n, coeffs)
+        require_finite("b", self.b, coeffs)
+        require_finite("c", self.c, coeffs)
+        return kp
+
+    def _validate_tt(self) -> None:
+        if self.tt is not None:
+            require_positive("tt", self.tt, ErrorCode.BACK_CALC_T)
+
+    def _validate_derivative(self, kp: float, ts: float) -> None:
         _k, _ti, td = isa_parameters(self.form, kp, self.ti, self.td)
         if self.derivative_method == "forward" and td > 0.0 and td / self.n <= ts / 2.0:
             raise ParameterError(
-                coeffs,
+                ErrorCode.BAD_PID_COEFFS,
                 "td",
                 f"forward-difference derivative (Åström 1987, (2.10)) is unstable for "
                 f"Td/N <= ts/2 (Td={td!r}, N={self.n!r}, ts={ts!r}); use 'backward'",
             )
-        if self.precision != "float64":
-            _check_precision(self, "pid")
+
+
+TUNING_FIELDS = frozenset(("kp", "ti", "td", "n", "b", "c", "tt"))
+"""The PID's tuning fields: a change of only these retunes the law without touching
+its filters, ramps and limits (:meth:`PID.configure`)."""
 
 
 # ---------------------------------------------------------------------------
@@ -660,27 +685,16 @@ class PID(Block):
             and c.bumpless == Bumpless.INTEGRATOR
             and c.anti_windup in (AntiWindup.CLAMPING, AntiWindup.BACK_CALC_MODEL)
         )
-        k, ti, td = c.isa()
-        self._k, self._ti, self._td = k, ti, td
-        self._ki = k / ti if ti > 0.0 else 0.0
-        self._kd = k * td
-        self._tf = td / c.n
         self._imeth = METHODS.index(c.integral_method)
         self._dmeth = METHODS.index(c.derivative_method)
         self._alpha, self._beta = integral_weights(self._imeth)
-        self._tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else float(c.ts))
         self._lo, self._hi = float(c.u_min), float(c.u_max)
         self._sgn = -1.0 if c.reverse else 1.0
         self._velocity = c.algorithm == "velocity"
         self._range = (float(c.pv_range[0]), float(c.pv_range[1])) if c.pv_range else None
         self._db = abs(float(c.deadband))
-        self._ts = float(c.ts)
-        self._set_h(self._ts)
-        require_coefficients(
-            "kp/ti/td/n", ErrorCode.BAD_PID_COEFFS,
-            self._k, self._ki, self._kd, self._tf, self._ad, self._bd, self._ki_h, self._tt,
-        )  # fmt: skip
-        ts = self._ts
+        self._ts = ts = float(c.ts)
+        self._set_tuning(c)
         self._sync("_sp_filter", PT1, t=c.sp_filter, ts=ts)
         self._sync("_pv_filter", PT1, t=c.pv_filter, ts=ts)
         self._sync("_sp_ramp", RateLimiter, rate_up=c.sp_rate, rate_down=c.sp_rate, ts=ts)
@@ -689,10 +703,36 @@ class PID(Block):
         self._sync("_det", SteadyStateDetector, tolerance=0.5, t_stab=c.t_stab, ts=ts)
         window = max(1, round(c.t_stab / ts))
         self._sync("_ma", MovingAverage, n=window)
-        self._cycle_subs = _SubStates(tuple(self._subs[name] for name in _SUB_COMPUTE))
-        if old is not None and _law(old) != _law(c):
-            # a change of the law is bumpless: the next cycle re-initialises the integrator
-            self._reinit = True
+        if old is None:  # the sub-blocks are made once; configure re-parameterises them
+            self._cycle_subs = _SubStates(tuple(self._subs[name] for name in _SUB_COMPUTE))
+        self._relaw(old is not None)
+
+    def _relaw(self, bumpless: bool) -> None:
+        """Note the law in force; a change of it (``bumpless``) re-initialises the integrator."""
+        law = _law(self._config)
+        if bumpless and law != self._law_in_force:
+            self._reinit = True  # the next cycle continues from the output, without a bump
+        self._law_in_force = law
+
+    def _set_tuning(self, c: PIDConfig) -> None:
+        """The law's gains from the tuning fields of ``c``, at the sample time ``ts``.
+
+        Refuses coefficients that are not finite (``BAD_PID_COEFFS``) before it
+        changes anything.
+        """
+        k, ti, td = c.isa()
+        ki = k / ti if ti > 0.0 else 0.0
+        kd = k * td
+        tf = td / c.n
+        tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else float(c.ts))
+        ts = self._ts
+        ad, bd = derivative_coefficients(kd, tf, ts, self._dmeth)
+        require_coefficients(
+            "kp/ti/td/n", ErrorCode.BAD_PID_COEFFS, k, ki, kd, tf, ad, bd, ki * ts, tt
+        )
+        self._k, self._ti, self._td = k, ti, td
+        self._ki, self._kd, self._tf, self._tt = ki, kd, tf, tt
+        self._set_h(ts)
 
     def _sync(self, name: str, cls: type[Block], **params: Any) -> None:
         sub = self._subs.get(name)
@@ -711,12 +751,37 @@ class PID(Block):
                      self._hi, aw, tracking_gain(h, self._tt))  # fmt: skip
 
     def configure(self, **changes: Any) -> None:
-        """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``."""
+        """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``.
+
+        A change of tuning fields only (:data:`TUNING_FIELDS`, e.g. a gain
+        schedule retuning every cycle) takes a shorter path with the same
+        result: the checks that read those fields
+        (:meth:`PIDConfig.validate_tuning`), the gains derived from them and
+        the bumpless re-initialisation; the filters, ramps and limits, which
+        do not depend on them, stay as they are.
+        """
+        if changes and TUNING_FIELDS.issuperset(changes) and self._config.precision == "float64":
+            self._retune(changes)
+            return
         super().configure(**changes)
         if "u_min" in changes or "u_max" in changes:
             self._limits_status = ErrorCode.NO_ERROR
             if self.error_id == ErrorCode.BAD_LIMITS:
                 self.error_id = ErrorCode.NO_ERROR
+
+    def _retune(self, changes: dict[str, Any]) -> None:
+        """:meth:`configure` for tuning fields only (its docstring)."""
+        old = self._config
+        new = self._replace_config(old, changes)
+        new.validate_tuning()
+        self._config = new
+        try:
+            self._set_tuning(new)
+        except Exception:
+            self._config = old
+            raise
+        self._sync_subs()
+        self._relaw(True)
 
     def output_limits(self) -> tuple[float, float]:
         """``(u_min, u_max)`` in force."""
