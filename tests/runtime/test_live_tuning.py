@@ -42,12 +42,16 @@ class TankOnBus:
             self.bus.values["pv"] = self.plant.step(u)
 
 
-def tank_runtime(mode: str = "manual", extra: str = "", historian=None):
-    """A PI loop on the tank at its operating point (``mode="auto"``: switched at 0.5 s)."""
+def tank_runtime(mode: str = "manual", sp_from_io: bool = False, historian=None):
+    """A PI loop on the tank at its operating point (``mode="auto"``: switched at 0.5 s).
+
+    ``sp_from_io``: the setpoint is read from the bus (address ``sp``).
+    """
     bus = MemoryBus()
     tank = TankOnBus(bus)
-    sp = f"{tank.plant.y!r}"
-    extra = f'mode = "manual"\nmanual_value = {U0}\n' + extra
+    bus.values["sp"] = tank.plant.y
+    sp = '"io:sp"' if sp_from_io else f"{tank.plant.y!r}"
+    extra = f'mode = "manual"\nmanual_value = {U0}\n'
     text = CONN + loop_toml(ts=0.1, block=PID_BLOCK, sp=sp, extra=extra)
     text += '\n[historian]\nbackend = "none"\n'
     clock = FakeClock()
@@ -74,6 +78,14 @@ def audited(rt: Runtime) -> list[tuple[str, str, bool, str]]:
 
     rt.audit = audit  # type: ignore[method-assign]
     return rows
+
+
+async def state_then_stop(rt: Runtime, clock: FakeClock, t: float) -> dict:
+    """Run the cycles until ``t``, then the state of loop "loop", then stop the runtime."""
+    await clock.run_until(t)
+    st = rt.state("loop")
+    await rt.stop()
+    return st
 
 
 async def run_test(rt: Runtime, clock: FakeClock, limit: float = 200.0) -> None:
@@ -225,10 +237,7 @@ def test_refusals_leave_the_loop_as_it_was():
             rt.tuning.accept("loop", user="eng", proposal="PID_AMIGO")
         await clock.run_until(3.0)
         rt.tuning.abort("loop", user="eng", reason="testing the abort")
-        await clock.run_until(3.2)
-        st = rt.state("loop")
-        await rt.stop()
-        return st
+        return await state_then_stop(rt, clock, 3.2)
 
     st = bounded(main())
     assert st["tuning"]["state"] == "aborted"
@@ -239,14 +248,8 @@ def test_refusals_leave_the_loop_as_it_was():
 
 
 def test_a_setpoint_from_io_that_changes_aborts_the_test_at_the_next_cycle():
-    bus = MemoryBus()
-    tank = TankOnBus(bus)
-    bus.values["sp"] = tank.plant.y
-    text = CONN + loop_toml(ts=0.1, block=PID_BLOCK, sp='"io:sp"',
-                            extra=f'mode = "manual"\nmanual_value = {U0}\n')  # fmt: skip
-    clock = FakeClock()
-    rt = Runtime(parse_config(text + '\n[historian]\nbackend = "none"\n'), clock=clock,
-                 adapters={"io": MemoryAdapter(bus)}, historian=None, retain=None)  # fmt: skip
+    rt, clock, tank = tank_runtime(sp_from_io=True)
+    bus = tank.bus
 
     async def main():
         await rt.start()
@@ -254,10 +257,7 @@ def test_a_setpoint_from_io_that_changes_aborts_the_test_at_the_next_cycle():
         rt.tuning.start("loop", user="eng", method="step", amplitude=0.5, pre_time=0.1)
         await clock.run_until(3.0)
         bus.values["sp"] = 1.6  # the setpoint changes in the PLC
-        await clock.run_until(3.35)
-        st = rt.state("loop")
-        await rt.stop()
-        return st
+        return await state_then_stop(rt, clock, 3.35)
 
     st = bounded(main())
     assert st["tuning"]["state"] == "aborted"
