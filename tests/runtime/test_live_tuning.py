@@ -428,3 +428,13 @@ def test_a_proposal_the_margins_call_unstable_or_fragile_needs_force():
     assert fragile({"stable": True, "ms": 2.5}) == "is fragile (Ms 2.50 > 2)"
     assert fragile({"stable": True, "ms": 1.5}) == ""
     assert fragile({}) == "" and fragile(None) == ""  # a relay test: no model, no margins
+
+
+def test_the_runtime_does_not_load_the_tuning_libraries_until_a_test_starts():
+    import subprocess
+    import sys
+
+    code = "import sys, ctrlblocks.runtime; print('ctrlblocks.tuning.live' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120, check=True)  # fmt: skip
+    assert out.stdout.strip() == "False"  # (scipy's import takes seconds)
