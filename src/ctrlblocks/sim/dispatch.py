@@ -117,20 +117,20 @@ def compiled_blockers(sim: _Simulation) -> list[str]:
     """
     bad = list(sim.side.kind.compiled_blockers(sim.side))
     if bad:
-        return bad
+        return bad  # another structure: the process side does not matter
     if not _have_numba():
-        return ["numba is not installed"]
+        bad.append("numba is not installed")
     from ..fast.simlane import plant_blocker
 
     proc = sim.proc
     why = plant_blocker(proc.model)
     if why is not None:
-        return [why]
+        bad.append(why)
     if proc.plant.fault is not None:
-        return ["a sensor fault is set"]
+        bad.append("a sensor fault is set")
     if not math.isfinite(proc.plant.y_true):
-        return ["the initial measurement is not finite"]
-    return [why for ev in sim.events if (why := _event_blocker(sim, ev))]
+        bad.append("the initial measurement is not finite")
+    return bad + [why for ev in sim.events if (why := _event_blocker(sim, ev))]
 
 
 def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
