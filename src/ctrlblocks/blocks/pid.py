@@ -54,9 +54,11 @@ docstring and ``docs/blocks/pid.md``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 import operator
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from .base import (
@@ -557,6 +559,22 @@ class _Cycle(NamedTuple):
     db_hold: bool = False  # the adaptive dead band holds the output
 
 
+@functools.cache
+def _state_setter(names: tuple[str, ...]) -> Callable[[Any, tuple[Any, ...]], None]:
+    """``put(block, values)``: one assignment of ``values`` to the attributes ``names``.
+
+    Generated once per tuple of names, as :mod:`dataclasses` generates its
+    methods: an unpacking assignment is several times cheaper than a loop of
+    ``setattr`` (the two-phase cycle puts states back every sample).
+    """
+    if not all(n.isidentifier() for n in names):
+        raise ValueError(f"not attribute names: {names!r}")
+    namespace: dict[str, Any] = {}
+    targets = ", ".join(f"b.{n}" for n in names)
+    exec(f"def put(b, v):\n    {targets}, = v\n", namespace)  # names checked above
+    return namespace["put"]
+
+
 class _SubStates:
     """Takes and puts back the state (fields and status) of the sub-blocks a cycle calls.
 
@@ -568,18 +586,25 @@ class _SubStates:
     def __init__(self, subs: tuple[Block, ...]) -> None:
         names = [(*b._state_fields, "error_id") for b in subs]
         self._subs = tuple(
-            (b, operator.attrgetter(*n), n) for b, n in zip(subs, names, strict=True)
+            (b, operator.attrgetter(*n), _state_setter(n)) for b, n in zip(subs, names, strict=True)
         )
 
     def take(self) -> tuple[tuple[Any, ...], ...]:
         """The states now."""
-        return tuple([get(b) for b, get, _n in self._subs])
+        return tuple([get(b) for b, get, _put in self._subs])
 
     def put(self, states: tuple[tuple[Any, ...], ...]) -> None:
         """Put back states from :meth:`take`."""
-        for (b, _get, names), st in zip(self._subs, states, strict=True):
-            for name, v in zip(names, st, strict=True):
-                setattr(b, name, v)
+        for (b, _get, put), st in zip(self._subs, states, strict=True):
+            put(b, st)
+
+
+_SUBS = _Cycle._fields.index("subs")
+
+
+def _with_subs(cycle: _Cycle, subs: tuple[tuple[Any, ...], ...]) -> _Cycle:
+    """``cycle`` with the sub-block states ``subs`` (a cheap ``_replace``)."""
+    return tuple.__new__(_Cycle, (*cycle[:_SUBS], subs, *cycle[_SUBS + 1 :]))
 
 
 class PID(Block):
@@ -623,6 +648,8 @@ class PID(Block):
 
     Config = PIDConfig
     config: PIDConfig
+    _config: PIDConfig
+    _law_in_force: tuple[Any, ...]
     _state_fields = (
         "out",
         "p",
@@ -663,7 +690,8 @@ class PID(Block):
         self.reset_active = False
         self.actuator_pos = math.nan
         self.awin = False
-        self._subs: dict[str, Block] = {}
+        # filters, ramps, lead-lag, detector by name (several block classes, used by name)
+        self._subs: dict[str, Any] = {}
         self._pending: _Cycle | None = None
         super().__init__(config, **params)
 
@@ -772,7 +800,7 @@ class PID(Block):
     def _retune(self, changes: dict[str, Any]) -> None:
         """:meth:`configure` for tuning fields only (its docstring)."""
         old = self._config
-        new = self._replace_config(old, changes)
+        new: PIDConfig = self._replace_config(old, changes)  # type: ignore[assignment]
         new.validate_tuning()
         self._config = new
         try:
@@ -1037,7 +1065,7 @@ class PID(Block):
         subs = self._cycle_subs
         committed = subs.take()
         cycle = self._compute(sp, pv, ff, dv, dt, pv_ok, out_prev)
-        self._pending = cycle._replace(subs=subs.take())
+        self._pending = _with_subs(cycle, subs.take())
         subs.put(committed)
         return self.out
 
