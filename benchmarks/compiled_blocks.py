@@ -16,7 +16,8 @@ What it does, in a temporary folder (the package itself is never touched):
 2. runs the fuzz campaign's seeded random actions (``ctrlblocks.blocks.fuzz``:
    inputs with NaN/inf, modes, limits, reconfiguration, snapshot/restore,
    reset) on every exported block with the interpreted and with the compiled
-   blocks and compares ``out`` and ``error_id`` after every action (1e-12);
+   blocks and compares ``out`` and ``error_id`` after every action (1e-12),
+   against an uncompiled copy of the same files;
 3. times one call of ``PID`` and ``ADRC`` against simple-pid and pyadrc, in
    fresh processes, interpreted and compiled rounds interleaved, and prints
    the medians and the ratios with the load average.
@@ -131,6 +132,8 @@ def build(tmp: Path, typing: bool, only: list[str]) -> tuple[Path, list[str], fl
     src = tmp / "src"
     shutil.copytree(ROOT / "src" / "ctrlblocks", src / "ctrlblocks",
                     ignore=shutil.ignore_patterns("__pycache__", "*.so"))  # fmt: skip
+    # the interpreted reference: the same files, uncompiled (the tree may change meanwhile)
+    shutil.copytree(src / "ctrlblocks", tmp / "plain" / "ctrlblocks")
     mods = sorted(
         f"ctrlblocks/blocks/{p.name}"
         for p in (src / "ctrlblocks" / "blocks").glob("*.py")
@@ -178,12 +181,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--modules", default="", help="only these modules of blocks/ (a,b,...)")
     ap.add_argument("--keep", type=Path, help="build here and keep it (default: a temp folder)")
     args = ap.parse_args(argv)
-    plain = ROOT / "src"
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = args.keep or Path(tmp_name)
         print(f"compiling blocks/ with Cython ({load()}) ...", file=sys.stderr, flush=True)
         only = [m for m in args.modules.split(",") if m]
         src, mods, secs = build(tmp, not args.no_annotation_typing, only)
+        plain = tmp / "plain"
         print(f"  {len(mods)} modules in {secs:.0f} s", file=sys.stderr, flush=True)
         print("traces: the fuzz campaign's actions on every block ...", file=sys.stderr,
               flush=True)  # fmt: skip

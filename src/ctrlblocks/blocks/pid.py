@@ -1179,7 +1179,7 @@ class PID(Block):
         else:
             if transfer:
                 i_k = out_prev - p_used - d - ff_tot
-            elif self._ki == 0.0 or self._cold or self.awin:
+            elif self._ki_h == 0.0 or self._cold or self.awin:  # as pid_step: K h/Ti
                 i_k = self._i
             else:
                 di = integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
@@ -1300,7 +1300,9 @@ class PID(Block):
             self._p_prev, self._d_prev, self._ff_prev = p, d, ff
         elif auto:
             i_k = cycle.i
-            if self._ki != 0.0:
+            # integral action present: K h/Ti of this cycle, the one test pid_step and the
+            # compiled kernels make (K/Ti may be a denormal whose product with h is 0)
+            if self._ki_h != 0.0:
                 if c.anti_windup == AntiWindup.CLAMPING:
                     ref, v = u, self.out
                 elif c.anti_windup == AntiWindup.BACK_CALC_MODEL:
