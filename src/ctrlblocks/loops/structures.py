@@ -54,6 +54,7 @@ lead-lag (not called) and keeps its last output as ``ff``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
 from typing import Any, ClassVar
@@ -90,11 +91,7 @@ class _Controller:
         self.two_phase = isinstance(block, Controller)
         self.ok_name = "pv_ok" if self.two_phase else None
         self.takes_dt = self.two_phase
-        fn = block.compute_output if self.two_phase else block
-        try:
-            self.takes_ff = "ff" in inspect.signature(fn).parameters
-        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
-            self.takes_ff = False
+        self.takes_ff = _takes_ff(type(block)) if self.two_phase else _has_ff(block)
 
     def _inputs(self, y: float, ok: bool, dt: float | None) -> tuple[float, dict[str, Any]]:
         """``y`` and the keyword arguments for the quality flag and ``dt``."""
@@ -144,6 +141,20 @@ class _Controller:
             if getattr(getattr(b, "config", None), "u_real_on", False):
                 applied = measured
         b.update_state(applied)
+
+
+def _has_ff(fn: Any) -> bool:
+    """Whether the callable ``fn`` takes a keyword ``ff``."""
+    try:
+        return "ff" in inspect.signature(fn).parameters
+    except (TypeError, ValueError):  # pragma: no cover - builtins without signature
+        return False
+
+
+@functools.lru_cache(maxsize=256)
+def _takes_ff(cls: type) -> bool:
+    """Whether ``compute_output`` of the two-phase blocks of ``cls`` takes ``ff`` (read once)."""
+    return _has_ff(cls.compute_output)
 
 
 def set_manual(block: Any, on: bool, value: float | None = None) -> None:
