@@ -30,6 +30,8 @@ VERDICTS: dict[str, list[bool]] = {
     # estimated b0: n = 2 is better than the final value in IAE; n = 1 oscillates
     "nowak_table2_b0": [True, False, False, True, True, True],
     "nowak_smith": [True, True, True],
+    "ratio_blend": [True, True, True, True, True],
+    "split_range_heat_cool": [True, True, True, True, True],
     # the safe default ADRC (Ms <= 1.6 on the FOPDT fit with its 3 s dead time) has a slow
     # integral tail: not offset-free within the 80 s windows (the PID is)
     "tuned_three_tank": [True, False, False, True],

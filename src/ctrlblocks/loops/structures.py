@@ -42,13 +42,21 @@ Structures and what they read (``structure`` -> measurements):
 ``override``   ``y`` and/or ``y2``, as each block's ``measure`` says
 ``feedforward``  ``y``, ``dv`` (through the lead-lag into the PID's ``ff``)
 ``smith``      ``y`` (the controller sees ``y + y_model_fast - y_model``)
+``split_range``  ``y``; one controller, two actuators (:mod:`.split`)
+``ratio``      ``y`` (the controlled flow), ``w`` (the wild flow; the
+               setpoint input is the ratio, :mod:`.ratio`)
 ``open_loop``  none (the block is driven by the setpoint)
 =============  ==========================================================
 
-Quality flags (``y_ok``, ``y2_ok``, ``dv_ok``): a block is called with the
-flag of what it measures (cascade: primary ``y_ok``, secondary ``y2_ok``;
-override: every block ``y_ok and y2_ok``); a bad ``dv`` freezes the
-lead-lag (not called) and keeps its last output as ``ff``.
+Actuators: a structure writes one MV, except ``split_range``, which writes
+two (:attr:`Structure.actuators`; :meth:`ControllerSide.actuator_values`
+maps the controller output to them).
+
+Quality flags (``y_ok``, ``y2_ok``, ``dv_ok``, ``w_ok``): a block is called
+with the flag of what it measures (cascade: primary ``y_ok``, secondary
+``y2_ok``; override: every block ``y_ok and y2_ok``); a bad ``dv`` freezes
+the lead-lag (not called) and keeps its last output as ``ff``; a bad ``w``
+makes the ratio station hold the last good setpoint.
 """
 
 from __future__ import annotations
@@ -58,8 +66,11 @@ import inspect
 import math
 from typing import Any, ClassVar
 
+from ..blocks.base import ParameterError
 from ..blocks.protocols import Controller
+from .ratio import RatioConfig, RatioStation
 from .spec import BlockSpec, ControllerSpec, SpecReader, TuneHook, build
+from .split import SplitRange
 from .toml import KeyPathError
 
 __all__ = [
@@ -189,6 +200,12 @@ class Structure:
         The runtime runs it (a controller against process I/O).
     tuned_roles : tuple of str
         Roles whose table may hold a ``tune`` table (a bump test on the plant).
+    actuators : int
+        How many MVs the structure writes (``split_range``: 2).
+    setpoint_signal : str or None
+        The signal of :attr:`ControllerSide.values` that is the setpoint of
+        ``y`` when the structure's setpoint input is something else (the
+        ratio structure: ``sp_flow``); None: the setpoint input itself.
     """
 
     name: ClassVar[str]
@@ -200,6 +217,8 @@ class Structure:
     series_plant: ClassVar[bool] = False
     runtime: ClassVar[bool] = True
     tuned_roles: ClassVar[tuple[str, ...]] = ("main",)
+    actuators: ClassVar[int] = 1
+    setpoint_signal: ClassVar[str | None] = None
 
     # -- reading a controller entry -------------------------------------------------
 
@@ -244,6 +263,10 @@ class Structure:
     def reset_models(self, side: ControllerSide) -> None:
         """Put the structure's own models (if any) in the steady state of ``side.u0``."""
 
+    def actuator_values(self, spec: ControllerSpec, u: float) -> tuple[float, ...]:
+        """The :attr:`actuators` MVs written for the controller output ``u`` (one: ``u``)."""
+        return (u,)
+
 
 @dataclasses.dataclass(frozen=True)
 class _Measured:
@@ -256,6 +279,8 @@ class _Measured:
     dv: float
     dv_ok: bool
     dt: float | None
+    w: float = math.nan
+    w_ok: bool = True
 
 
 class Single(Structure):
@@ -460,8 +485,125 @@ class Smith(Single):
         side.model_fast.reset(side.u0)
 
 
+class SplitRangeStructure(Structure):
+    """One controller, two actuators by a static split of its output (:mod:`.split`).
+
+    The entry has the controller table ``main`` and the split table ``split``
+    (``split``, ``gap``, ``a``, ``b`` of :class:`~.split.SplitRange`); the
+    split's combined range is the controller's limits ``u_min..u_max`` (its
+    anti-windup acts when both actuators are at their far ends).  The
+    controller output ``v`` is continuous and the MVs ``u_a = a(v)``,
+    ``u_b = b(v)`` are continuous functions of it: no bump when the active
+    actuator changes.  Signals: ``u_a``, ``u_b`` and their limit status
+    codes ``a_status``, ``b_status`` (0 active, 1 idle, 2 limit).
+    """
+
+    name = "split_range"
+    roles = ("main",)
+    options = ("split",)
+    actuators = 2
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", "split"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        block = r.build(main, ts, kind="block")
+        lo, hi = float(getattr(block, "u_min", math.nan)), float(getattr(block, "u_max", math.nan))
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise r.fail(
+                f"{key}.main.u_min",
+                "the split range needs the controller's finite limits u_min and u_max "
+                "(they are the two actuators' combined range)",
+            )
+        table = r.table(e, "split", f"{key}.split", False)
+        r.check_keys(table, {"split", "gap", "a", "b"}, f"{key}.split")
+        try:
+            split = SplitRange.from_table(table, lo, hi)
+        except ParameterError as exc:
+            raise r.fail(f"{key}.split.{exc.field}", exc.message) from None
+        except TypeError as exc:  # pragma: no cover - keys are checked above
+            raise r.fail(f"{key}.split", str(exc)) from None
+        return {"main": main}, {"split": split}
+
+    def compute(self, side, sp, m):
+        u = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
+        split: SplitRange = side.spec.options["split"]
+        a, b = split(u)
+        sa, sb = split.status(u)
+        return u, {"u_a": a, "u_b": b, "a_status": float(sa), "b_status": float(sb)}
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u)  # the controller tracks its own (continuous) output
+
+    def actuator_values(self, spec, u):
+        return spec.options["split"](u)
+
+
+class RatioStructure(Structure):
+    """Ratio control: the station's ``bias + r w`` is the flow loop's setpoint (:mod:`.ratio`).
+
+    The structure's setpoint input is the requested *ratio*; ``w`` is the
+    wild flow and ``y`` the controlled flow.  The entry has the flow
+    controller ``main`` and the station table ``ratio`` (``r_min``,
+    ``r_max``, ``bias``, ``rate`` of :class:`~.ratio.RatioConfig`).
+    Signals: ``sp_flow`` (the flow setpoint), ``ratio`` (the working ratio),
+    ``wild`` (the last good wild flow), ``wild_hold`` (1 while a bad wild
+    flow holds the setpoint) and ``ratio_limited`` (1 while the request is
+    outside the ratio limits).
+    """
+
+    name = "ratio"
+    roles = ("main",)
+    options = ("ratio",)
+    measurements = ("y", "w")
+    setpoint_signal = "sp_flow"
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", "ratio"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        table = r.table(e, "ratio", f"{key}.ratio", False)
+        r.check_keys(table, {"r_min", "r_max", "bias", "rate"}, f"{key}.ratio")
+        kw = {}
+        for name in ("r_min", "r_max", "bias", "rate"):
+            if name in table:
+                kw[name] = r.number(table, name, f"{key}.ratio.{name}")
+        try:
+            cfg = RatioConfig(**kw, ts=ts)
+        except ParameterError as exc:
+            raise r.fail(f"{key}.ratio.{exc.field}", exc.message) from None
+        return {"main": main}, {"ratio": cfg}
+
+    def setup(self, side):
+        super().setup(side)
+        side.station = RatioStation(side.spec.options["ratio"])
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u, measured=measured)
+
+    def compute(self, side, sp, m):
+        st: RatioStation = side.station
+        sp_flow = st(sp, m.w, m.w_ok, m.dt)
+        u = side.ctrls["main"].output(sp_flow, m.y, m.y_ok, 0.0, m.dt)
+        return u, {
+            "sp_flow": sp_flow,
+            "ratio": st.ratio,
+            "wild": st.wild,
+            "wild_hold": float(st.holding),
+            "ratio_limited": float(st.limited),
+        }
+
+
 STRUCTURES: dict[str, Structure] = {
-    s.name: s for s in (Single(), Cascade(), Override(), FeedForward(), Smith(), OpenLoop())
+    s.name: s
+    for s in (
+        Single(),
+        Cascade(),
+        Override(),
+        FeedForward(),
+        Smith(),
+        SplitRangeStructure(),
+        RatioStructure(),
+        OpenLoop(),
+    )
 }
 """Every loop structure, by name (one object each; the module docstring)."""
 
@@ -563,6 +705,7 @@ class ControllerSide:
         self.error = error
         self.u0 = u0
         self.blocks: dict[str, Any] = {}
+        self.station: RatioStation | None = None  # the ratio structure's station
         self.kind.setup(self)
         self.ctrls = {r: _Controller(self.blocks[r]) for r in self.kind.controller_roles(self)}
         self.mv_blocks = [self.blocks[r] for r in self.kind.mv_roles_of(self)]
@@ -596,6 +739,14 @@ class ControllerSide:
         """Put the Smith predictor's models in the steady state of ``u0``."""
         self.kind.reset_models(self)
 
+    def actuator_values(self, u: float | None = None) -> tuple[float, ...]:
+        """The MVs to write for the controller output ``u`` (default the last computed).
+
+        One value for every structure but ``split_range``, which gives its
+        two actuators' values ``(a(u), b(u))`` (:mod:`.split`).
+        """
+        return self.kind.actuator_values(self.spec, self.u if u is None else u)
+
     # -- the two phases ------------------------------------------------------------
 
     def compute(
@@ -608,6 +759,8 @@ class ControllerSide:
         y2_ok: bool = True,
         dv: float = 0.0,
         dv_ok: bool = True,
+        w: float = math.nan,
+        w_ok: bool = True,
         dt: float | None = None,
     ) -> float:
         """ComputeOutput and ShapeOutput: the MV of this sample (no block state committed).
@@ -616,9 +769,10 @@ class ControllerSide:
         ----------
         sp : float
             The setpoint (of the primary in a cascade) [PV units].
-        y, y2, dv : float
-            The measurements the structure reads (:attr:`measurements`).
-        y_ok, y2_ok, dv_ok : bool
+        y, y2, dv, w : float
+            The measurements the structure reads (:attr:`measurements`;
+            ``w``: the ratio structure's wild flow).
+        y_ok, y2_ok, dv_ok, w_ok : bool
             Their quality flags (module docstring).
         dt : float, optional
             This sample's period [s] for the controllers (default ``ts``).
@@ -626,9 +780,11 @@ class ControllerSide:
         Returns
         -------
         float
-            The MV ``u``; the structure's signals are in :attr:`values`.
+            The MV ``u`` (the controller output; a split range's two MVs are
+            :meth:`actuator_values`); the structure's signals are in :attr:`values`.
         """
-        u, vals = self.kind.compute(self, sp, _Measured(y, y_ok, y2, y2_ok, dv, dv_ok, dt))
+        m = _Measured(y, y_ok, y2, y2_ok, dv, dv_ok, dt, w, w_ok)
+        u, vals = self.kind.compute(self, sp, m)
         vals["v"] = u
         self.u = u
         self.values = vals
