@@ -436,3 +436,27 @@ def test_adrc_anti_backoff_with_gains_that_underflow_never_raises() -> None:
     for y in (0.0, 1.0, 2.5, 3.0, 0.5):
         a(1.0, y)
         _finite_inside(a)
+
+
+@pytest.mark.parametrize(
+    ("make", "attr"),
+    [
+        (
+            lambda: ADRC(order=1, b0=1.0, omega_c=1.0, omega_o=5.0, ts=0.1, precision="float32"),
+            "u_man",
+        ),
+        (lambda: PID(kp=1.0, ti=10.0, ts=0.1, precision="float32"), "manual_value"),
+    ],
+)
+def test_float32_cycle_converts_a_huge_int_manual_value_at_the_edge(make, attr) -> None:
+    # Found by the long fuzz run (ADRC, seed 7001): the float32 cycle passed the
+    # manual value through unconverted, and float(10**400) raised OverflowError.
+    b = make()
+    b(1.0, 0.5)
+    b.manual = True
+    setattr(b, attr, 10**400)
+    out = b(1.0, 0.5)
+    assert math.isfinite(out)
+    assert b.error_id == ErrorCode.BAD_INPUT
+    setattr(b, attr, 2.0)
+    assert b(1.0, 0.5) == pytest.approx(2.0)

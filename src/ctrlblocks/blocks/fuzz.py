@@ -41,6 +41,7 @@ import math
 import random
 import sys
 import time
+import traceback
 from collections.abc import Callable
 from typing import Any
 
@@ -818,6 +819,9 @@ def run(
                     f"--steps {done[n] + 1}",
                     file=out,
                 )
+                if exc.__cause__ is not None:  # where the block raised, for the fix
+                    tb = traceback.format_exception(exc.__cause__)
+                    print("".join(tb[-6:]).rstrip(), file=out)
                 if n in runs:
                     print("last actions:\n" + runs[n].driver.reproducer(), file=out, flush=True)
                 return 1

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from .adrc import adrc_step, adrc_switches
-from .base import ErrorCode, Mode
+from .base import ErrorCode, Mode, as_input
 from .leadlag import leadlag_coefficients, leadlag_step
 from .pid import derivative_coefficients, integral_weights, pid_step, tracking_gain
 from .precision import CYCLES
@@ -509,7 +509,8 @@ def _float32_function(fn: Callable[..., Any]) -> Callable[..., Any]:
 def _to32(v: Any) -> Any:
     if isinstance(v, bool | np.bool_ | int | np.integer):
         return v
-    x = np.float32(v)
+    with np.errstate(over="ignore"):  # a limit beyond REAL_MAX: clipped below, no warning
+        x = np.float32(v)
     return np.float32(np.clip(x, -REAL_MAX, REAL_MAX)) if np.isinf(x) else x
 
 
@@ -632,7 +633,10 @@ def _lane(
     state = block.__dict__.get("_plc_state")
     if state is None:
         state = real_args(initial(block.config))
-    args = {**real_args(inputs), **real_args(config_inputs), **state}
+    # The block's edge (blocks/base.py): process values and the attribute inputs
+    # (manual value) become floats once, anything unusable NaN; flags stay bools.
+    process = {k: v if type(v) is bool else as_input(v) for k, v in inputs.items()}
+    args = {**real_args(process), **real_args(config_inputs), **state}
     res = dict(zip(names, run_float32(fn, **args), strict=True))
     block._plc_state = {k: res[k] for k in state}
     return res

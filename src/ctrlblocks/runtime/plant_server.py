@@ -385,7 +385,9 @@ class PairServer:
     are contiguous: a batched read takes 62 per request), ``mv{i}`` at
     ``2 n + 2 i``, the heartbeat at ``4 n``.  Bound to
     ``127.0.0.1`` by default.  ``heartbeats`` lists the heartbeat values
-    written, ``writes`` counts the MV writes.
+    written, ``writes`` counts the MV writes.  ``push=True`` stores each new PV
+    in the OPC UA address space on the MV write instead of computing it on read,
+    so that subscriptions see the change (the read-vs-subscription benchmark).
     """
 
     def __init__(
@@ -396,8 +398,9 @@ class PairServer:
         host: str = "127.0.0.1",
         opcua_port: int | None = 0,
         modbus_port: int | None = None,
+        push: bool = False,
     ) -> None:
-        self.n, self.a, self.host = n, a, host
+        self.n, self.a, self.host, self.push = n, a, host, push
         self.pv = [0.0] * n
         self.mv = [0.0] * n
         self.writes = 0
@@ -448,21 +451,31 @@ class PairServer:
                 SourceTimestamp=_dt.datetime.now(_dt.timezone.utc),
             )
 
+        pv_ids = [ua.NodeId(f"pv{i}", idx) for i in range(self.n)]
+        pushes: set[asyncio.Task[None]] = set()
+
         def setter(i: int | None) -> Any:
             def set_value(node: Any, attr: Any, value: Any) -> None:
                 node.attributes[attr].value = value
                 u = float(value.Value.Value)
                 if i is None:
                     self.heartbeats.append(u)
-                else:
-                    self._write(i, u)
+                    return
+                self._write(i, u)
+                if self.push:  # into the address space: subscriptions see it
+                    dv = ua.DataValue(ua.Variant(self.pv[i], ua.VariantType.Double))
+                    task = asyncio.get_running_loop().create_task(
+                        server.write_attribute_value(pv_ids[i], dv)
+                    )
+                    pushes.add(task)
+                    task.add_done_callback(pushes.discard)
 
             return set_value
 
-        for i in range(self.n):
-            pv = ua.NodeId(f"pv{i}", idx)
+        for i, pv in enumerate(pv_ids):
             await obj.add_variable(pv, f"pv{i}", ua.Variant(0.0, ua.VariantType.Double))
-            server.set_attribute_value_callback(pv, reader(i))
+            if not self.push:
+                server.set_attribute_value_callback(pv, reader(i))
         for name, i in [*((f"mv{i}", i) for i in range(self.n)), ("hb", None)]:
             nid = ua.NodeId(name, idx)
             var = await obj.add_variable(nid, name, ua.Variant(0.0, ua.VariantType.Double))
