@@ -24,7 +24,10 @@ Sections (targets of issue 18):
 * ``bank``: ``PIDBank.from_arrays`` of 10^6 loops vs 100 steps of it (<= 2x),
   resident and peak memory per loop;
 * ``sweep``: 2 workers vs 1, process pool and Dask, batched vs one set per
-  task (>= 1.7x when the second core is free).
+  task (>= 1.7x when the second core is free);
+* ``simulator``: the Nowak et al. 2018, Fig. 7 scenario through
+  ``run_scenario`` (which dispatches its runs to the compiled lane) vs
+  ``fast.closed_loop`` of the same six runs (<= 2x), and the forced Python path.
 """
 
 from __future__ import annotations
@@ -361,12 +364,73 @@ def bench_sweep(rounds: int) -> list[Row]:
 # ---------------------------------------------------------------------------
 
 
+# ---------------------------------------------------------------------------
+# the simulator on the compiled lane
+# ---------------------------------------------------------------------------
+
+
+def bench_simulator(rounds: int) -> list[Row]:
+    from run import _fig7_runs
+
+    from ctrlblocks.fast import closed_loop
+    from ctrlblocks.sim import run_scenario
+    from ctrlblocks.sim.dispatch import simulate
+    from ctrlblocks.sim.report import load_shipped
+
+    (sc,) = load_shipped(["nowak_fig7"])
+    ctrls, cases, plant = _fig7_runs()
+
+    def timed(fn: Callable[[], object]) -> Callable[[], float]:
+        def run() -> float:
+            t0 = time.perf_counter()
+            fn()
+            return time.perf_counter() - t0
+
+        return run
+
+    def loops() -> None:
+        for make in ctrls.values():
+            for sig in cases.values():
+                closed_loop(make(), plant(), **sig)
+
+    def runs_only() -> None:
+        for case in sc.cases:
+            for ctrl in sc.controllers:
+                simulate(sc, ctrl, case)
+
+    sides = {
+        "run_scenario": timed(lambda: run_scenario(sc)),
+        "closed_loop": timed(loops),
+        "simulate": timed(runs_only),
+    }
+    for fn in sides.values():
+        fn()  # compile or load the kernels, import everything
+    res = interleaved(sides, rounds)
+    python = interleaved({"python": timed(lambda: run_scenario(sc, engine="python"))},
+                         max(1, rounds // 5))["python"]  # fmt: skip
+    ms = {k: 1e3 * med(v) for k, v in res.items()}
+    r = ms["run_scenario"] / ms["closed_loop"]
+    return [
+        row("Fig. 7 scenario (6 runs, 12,000 samples): `run_scenario` / `fast.closed_loop` "
+            "of the same runs", f"{r:.2f}x ({ms['run_scenario']:.2f} ms / "
+            f"{ms['closed_loop']:.2f} ms)", "<= 2x", r <= 2.0,
+            f"medians of {rounds} interleaved rounds, one process; {load()}"),
+        row("... of which the six simulations (`sim.dispatch.simulate`, no metrics)",
+            f"{ms['simulate']:.2f} ms ({ms['simulate'] / ms['closed_loop']:.2f}x closed_loop)",
+            "", None, "the rest: metrics of every run and event window, claims"),
+        row("Fig. 7 `run_scenario(engine=\"python\")` (the reference path)",
+            f"{1e3 * med(python):.0f} ms ({1e3 * med(python) / ms['run_scenario']:.0f}x auto)",
+            "", None, f"median of {len(python)}; {load()}"),
+    ]
+
+
 SECTIONS = {
     "startup": bench_startup,
     "cache": bench_cache,
     "reproduce": bench_reproduce,
     "bank": bench_bank,
     "sweep": bench_sweep,
+    "simulator": bench_simulator,
 }
 
 
@@ -384,7 +448,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, help="rounds of every section (default: per section)")
     ap.add_argument("--markdown", type=Path, help="also write the table to this file")
     args = ap.parse_args(argv)
-    rounds = {"startup": 9, "cache": 5, "reproduce": 3, "bank": 3, "sweep": 5}
+    rounds = {"startup": 9, "cache": 5, "reproduce": 3, "bank": 3, "sweep": 5, "simulator": 15}
     rows: list[Row] = []
     for name in args.only.split(","):
         n = rounds[name] if not args.quick else max(1, rounds[name] // 3)

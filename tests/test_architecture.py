@@ -41,6 +41,7 @@ CLI_LAYER = 4
 PEER_IMPORTS: set[tuple[str, str]] = {
     ("tuning", "plants"),  # tuning experiments (bump tests) run on process models
     ("fast", "sim"),  # fast.sweep runs the simulator's scenarios
+    ("sim", "fast"),  # sim.dispatch runs single loops on the compiled lane (module-level acyclic)
     ("", "blocks"),  # the package's __init__ re-exports the blocks
     ("cli", "web"),  # ``ctrlblocks web`` starts the faceplate
 }

@@ -7,7 +7,8 @@ from typing import Any
 
 import click
 
-from ..sim.cli import Progress, output_dir
+from ..sim.cli import ENGINE, Progress, output_dir
+from ..sim.dispatch import CompiledLaneError
 from .sweep import SweepError, dask_executor, parameter_sets, sweep, write_rows
 
 
@@ -64,6 +65,7 @@ def parse_vary(items: tuple[str, ...]) -> dict[str, list[Any]]:
 )
 @click.option("--quick", is_flag=True, help="Cut every case to the scenario's quick_duration.")
 @click.option("--duration", type=float, default=None, help="Cut every case to this time [s].")
+@ENGINE
 def sweep_command(
     scenario: str,
     vary_items: tuple[str, ...],
@@ -73,6 +75,7 @@ def sweep_command(
     dask_address: str | None,
     quick: bool,
     duration: float | None,
+    engine: str,
 ) -> None:
     """Run SCENARIO (a TOML file or a shipped name) for every combination of --vary values."""
     import concurrent.futures as cf
@@ -100,9 +103,10 @@ def sweep_command(
                 executor=executor,
                 quick=quick,
                 duration=duration,
+                engine=engine,
                 progress=lambda done, _total: bar.step(done - bar.done) if done else None,
             )
-    except SweepError as exc:
+    except (SweepError, CompiledLaneError) as exc:
         raise click.ClickException(str(exc)) from None
     finally:
         if executor not in (None, "serial"):

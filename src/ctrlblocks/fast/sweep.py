@@ -140,6 +140,7 @@ def run_one(
     params: Mapping[str, Any],
     quick: bool = False,
     duration: float | None = None,
+    engine: str = "auto",
 ) -> list[dict[str, Any]]:
     """Run one parameter set; one row per controller and case (metrics, no traces).
 
@@ -148,7 +149,8 @@ def run_one(
     """
     from ..sim.runner import run_scenario
 
-    result = run_scenario(_scenario(text, file, params), quick=quick, duration=duration)
+    sc = _scenario(text, file, params)
+    result = run_scenario(sc, quick=quick, duration=duration, engine=engine)
     claims = {
         f"claim {i}": (None if c.holds is None else bool(c.holds))
         for i, c in enumerate(result.claims)
@@ -171,6 +173,7 @@ def sweep(
     duration: float | None = None,
     progress: Callable[[int, int], None] | None = None,
     batch: int | None = None,
+    engine: str = "auto",
 ) -> list[dict[str, Any]]:
     """Run ``scenario`` for every combination of the values in ``vary``.
 
@@ -183,7 +186,7 @@ def sweep(
     executor : Executor, "serial" or None
         Where the runs go; None = a process pool with one worker per core
         (made and shut down here).
-    quick, duration
+    quick, duration, engine
         As :func:`ctrlblocks.sim.run_scenario`.
     progress : callable, optional
         Called as ``progress(0, total)`` once every parameter set has been
@@ -215,7 +218,7 @@ def sweep(
             raise SweepError(f"with {given}: {exc}") from None
     if progress is not None:
         progress(0, len(sets))
-    return _flatten(_run_sets(text, file, sets, executor, quick, duration, progress, batch))
+    return _flatten(_run_sets(text, file, sets, executor, quick, duration, progress, batch, engine))
 
 
 TASK_SECONDS = 0.1
@@ -231,6 +234,7 @@ def _run_sets(
     duration: float | None,
     progress: Callable[[int, int], None] | None,
     batch: int | None,
+    engine: str = "auto",
 ) -> list[list[dict[str, Any]]]:
     """The rows of every parameter set, in order; batches of sets go to the executor.
 
@@ -248,7 +252,7 @@ def _run_sets(
 
     if executor == "serial":
         for i, params in enumerate(sets):
-            rows[i] = run_one(text, file, params, quick, duration)
+            rows[i] = run_one(text, file, params, quick, duration, engine)
             report(i + 1)
         return rows  # type: ignore[return-value]
     own = executor is None
@@ -263,7 +267,8 @@ def _run_sets(
     def submit(n: int) -> None:
         nonlocal nxt
         chunk = sets[nxt : nxt + n]
-        running[ex.submit(_timed_batch, text, file, chunk, quick, duration)] = (nxt, len(chunk))
+        fut = ex.submit(_timed_batch, text, file, chunk, quick, duration, engine)
+        running[fut] = (nxt, len(chunk))
         nxt += len(chunk)
 
     try:
@@ -312,9 +317,10 @@ def run_batch(
     sets: Sequence[Mapping[str, Any]],
     quick: bool = False,
     duration: float | None = None,
+    engine: str = "auto",
 ) -> list[list[dict[str, Any]]]:
     """:func:`run_one` for each parameter set of ``sets``, in order (one executor task)."""
-    return [run_one(text, file, params, quick, duration) for params in sets]
+    return [run_one(text, file, params, quick, duration, engine) for params in sets]
 
 
 def _timed_batch(
@@ -323,10 +329,11 @@ def _timed_batch(
     sets: Sequence[Mapping[str, Any]],
     quick: bool,
     duration: float | None,
+    engine: str = "auto",
 ) -> tuple[list[list[dict[str, Any]]], float]:
     """:func:`run_batch` and the seconds it took in the worker."""
     t0 = time.perf_counter()
-    out = run_batch(text, file, sets, quick, duration)
+    out = run_batch(text, file, sets, quick, duration, engine)
     return out, time.perf_counter() - t0
 
 

@@ -219,6 +219,8 @@ class Structure:
     tuned_roles: ClassVar[tuple[str, ...]] = ("main",)
     actuators: ClassVar[int] = 1
     setpoint_signal: ClassVar[str | None] = None
+    compiled_lane: ClassVar[bool] = False
+    """The simulator's compiled lane has a loop for this structure (``ctrlblocks.sim.dispatch``)."""
 
     # -- reading a controller entry -------------------------------------------------
 
@@ -267,6 +269,26 @@ class Structure:
         """The :attr:`actuators` MVs written for the controller output ``u`` (one: ``u``)."""
         return (u,)
 
+    def compiled_blockers(self, side: ControllerSide) -> list[str]:
+        """Why the simulator's compiled lane cannot run ``side`` (empty: it can).
+
+        The one decision on the controller side: the structure needs a
+        compiled loop (:attr:`compiled_lane`) and every controller block must
+        be one the kernels cover, as the block itself says
+        (``fast_path_blockers``, e.g. :meth:`ctrlblocks.PID.fast_path_blockers`).
+        """
+        if not self.compiled_lane:
+            return [f"structure {self.name!r} has no compiled loop"]
+        bad = []
+        for role in self.controller_roles(side):
+            block = side.blocks[role]
+            check = getattr(block, "fast_path_blockers", None)
+            if check is None:
+                bad.append(f"{role}: {type(block).__name__} has no compiled kernel")
+            else:
+                bad += [f"{role}: {why}" for why in check(manual_ok=True)]
+        return bad
+
 
 @dataclasses.dataclass(frozen=True)
 class _Measured:
@@ -288,6 +310,7 @@ class Single(Structure):
 
     name = "single"
     roles = ("main",)
+    compiled_lane = True
 
     def parse(self, r, e, key, ts, tune):
         table = {k: v for k, v in e.items() if k not in _ENTRY_KEYS}
@@ -305,6 +328,7 @@ class OpenLoop(Single):
     """A block driven by the setpoint profile (Åström 1987, Fig. 5.2: jump and rate)."""
 
     name = "open_loop"
+    compiled_lane = False
     measurements = ()
     runtime = False
     tuned_roles = ()
@@ -426,6 +450,7 @@ class FeedForward(Single):
     """The measured disturbance through a lead-lag into the controller's ``ff`` (before limits)."""
 
     name = "feedforward"
+    compiled_lane = False
     roles = ("main", "feedforward")
     measurements = ("y", "dv")
 
@@ -452,6 +477,7 @@ class Smith(Single):
     """Smith predictor (Nowak et al. 2018, section 3.1): ``y + y_model_fast - y_model``."""
 
     name = "smith"
+    compiled_lane = False
     roles = ("main", "model")
 
     def parse(self, r, e, key, ts, tune):

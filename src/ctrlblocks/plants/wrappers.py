@@ -147,6 +147,35 @@ class Noise:
         self._x = x
         return x
 
+    def samples(self, m: int) -> np.ndarray:
+        """The next ``m`` noise values at once: what ``m`` calls of :meth:`sample` return.
+
+        The white values come from the generator in the same chunks, so the
+        sequence (and the state afterwards) is the same to the bit.
+        """
+        parts = [np.array(self._buf[self._i : self._i + m], dtype=float)]
+        self._i += parts[0].shape[0]
+        have = parts[0].shape[0]
+        while have < m:
+            if self.kind == "uniform":
+                arr = self._rng.uniform(-self.level, self.level, _CHUNK)
+            else:
+                arr = self._rng.normal(0.0, self.level, _CHUNK)
+            self._buf = arr.tolist()
+            take = min(_CHUNK, m - have)
+            parts.append(arr[:take])
+            self._i = take
+            have += take
+        w = np.concatenate(parts)
+        if self.a == 0.0:
+            return w
+        x = self._x
+        for j, wj in enumerate(w.tolist()):
+            x = wj if x is None else self.a * x + self.b * wj
+            w[j] = x
+        self._x = x
+        return w
+
     def snapshot(self) -> dict[str, Any]:
         """A copy of the generator state (restore continues the same sequence)."""
         return {

@@ -134,6 +134,7 @@ class ControlLoop:
         self._last_good_mv: float | None = None
         self._t = 0.0
         self._restart_mv: float | None = None  # set by restore_retained
+        self.tuning: Any = None  # a live tuning (ctrlblocks.runtime.autotune.LoopTuning)
         self._limits_in = (math.nan, math.nan)
         # signal -> binding of the inputs read each cycle
         self._inputs = {
@@ -243,6 +244,8 @@ class ControlLoop:
             self.pv, self.pv_ok, self.pv_reason = pv.value, ok, "; ".join(reasons)
             if self._restart_mv is not None:
                 u = self._bumpless_restart(t, ok, meas, dt)
+            elif self.tuning is not None and self.tuning.active:
+                u = self.tuning.cycle(ok, meas, dt)
             else:
                 u = self._step(t, ok, meas, dt)
             u = self._guard(u)
@@ -353,7 +356,7 @@ class ControlLoop:
     def retained(self) -> dict[str, Any]:
         """What survives a restart (module docstring of :mod:`~ctrlblocks.runtime.retain`)."""
         blk = self.block
-        return {
+        st = {
             "sp": None if self.is_bound("sp") else self.sp,
             "mode": None if self.is_bound("mode") else self.mode,
             "manual_value": None if self.is_bound("manual_value") else float(blk.manual_value),
@@ -363,6 +366,9 @@ class ControlLoop:
             "mv": self.mv,
             "snapshots": {role: b.snapshot() for role, b in self.side.blocks.items()},
         }
+        if self.tuning is not None and self.tuning.active:  # a stop during a live test
+            st = self.tuning.retained(st)
+        return st
 
     def state_tunings(self) -> dict[str, Any]:
         """The MV block's tunings (its configuration without the loop-level keys)."""
@@ -485,6 +491,7 @@ class ControlLoop:
             "safe_value": self.config.safe_value,
             "on_bad_pv": self.config.on_bad_pv,
             "tunings": self.state_tunings(),
+            "tuning": None if self.tuning is None else self.tuning.status(),
             "bound": {s: str(b) for s, b in self.config.bindings().items() if b.is_io},
             "overrun": self.overrun,
             "dt": self.dt,

@@ -22,7 +22,10 @@ of the runtime):
 * :meth:`Runtime.submit` -- the same from another thread
   (:attr:`Runtime.event_loop` tells which loop the runtime runs on);
 * :meth:`Runtime.audit` -- an audit row for what a front end does (logins,
-  logouts, refused attempts), next to the commands.
+  logouts, refused attempts), next to the commands;
+* :attr:`Runtime.tuning` -- live auto-tuning of a loop (step or relay test,
+  result, accept or reject; :mod:`ctrlblocks.runtime.autotune`); a command to
+  a loop under test ends the test first.
 
 Stop (:meth:`Runtime.request_stop`, SIGINT/SIGTERM in ``ctrlblocks serve``):
 the cycles end, every MV is written to its stop value (``stop_value``, else
@@ -50,6 +53,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from .adapters import make_adapter
+from .autotune import LiveTuning
 from .clock import Clock, MonotonicClock
 from .config import RuntimeConfig, require_packages
 from .historian import Historian, open_historian
@@ -124,6 +128,7 @@ class Runtime:
         self.gc_freeze = True  # see the module docstring; a benchmark turns it off to compare
         self._gc_thresholds: tuple[int, int, int] | None = None
         self.stop_failures: dict[str, str] = {}  # loop -> why its stop value was not written
+        self.tuning = LiveTuning(self)  # live auto-tuning of the loops (runtime.autotune)
 
     @property
     def event_loop(self) -> asyncio.AbstractEventLoop | None:
@@ -414,7 +419,7 @@ class Runtime:
         lp = self._get(loop)
         action = ",".join(sorted(changes))
         try:
-            old = lp.command(**changes)
+            old = self.tuning.command(lp, user, changes)  # a command ends a live test
         except CommandError as exc:
             self._audit(user, loop, action, None, changes, False, str(exc))
             raise

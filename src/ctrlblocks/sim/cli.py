@@ -13,6 +13,7 @@ from typing import IO, Any
 
 import click
 
+from .dispatch import ENGINES, CompiledLaneError
 from .report import claims_holding, load_shipped, render_report
 from .results import write_result
 from .runner import ScenarioResult, metric_table, run_scenario
@@ -25,6 +26,16 @@ _FORMAT = click.option(
     default="auto",
     show_default=True,
     help="Trace file format (auto: Parquet when pyarrow is installed, else CSV).",
+)
+
+ENGINE = click.option(
+    "--engine",
+    type=click.Choice(ENGINES),
+    default="auto",
+    show_default=True,
+    help="Where runs are simulated: auto = the compiled lane for every run it can do "
+    "(same traces), else the Python path; python = the reference path only; "
+    "compiled = refuse a run the lane cannot do.",
 )
 
 
@@ -137,7 +148,8 @@ def _echo_claims(result: ScenarioResult) -> None:
 )
 @click.option("--quick", is_flag=True, help="Cut every case to the scenario's quick_duration.")
 @_FORMAT
-def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str) -> None:
+@ENGINE
+def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str, engine: str) -> None:
     """Run SCENARIO_FILE (TOML): every controller in every case; write traces, metrics, plots."""
     try:
         sc = load_scenario(scenario_file)
@@ -145,8 +157,13 @@ def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str) -> None:
         raise click.ClickException(str(exc)) from None
     output_dir(out_dir)
     n = len(sc.controllers) * len(sc.cases)
-    with Progress(n, sc.name) as bar:
-        result = run_scenario(sc, quick=quick, progress=lambda what: bar.step(1, what))
+    try:
+        with Progress(n, sc.name) as bar:
+            result = run_scenario(
+                sc, quick=quick, progress=lambda what: bar.step(1, what), engine=engine
+            )
+    except CompiledLaneError as exc:
+        raise click.ClickException(str(exc)) from None
     try:
         files = write_result(result, out_dir, fmt=fmt)
     except OSError as exc:
@@ -177,6 +194,7 @@ def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str) -> None:
     help="Scenarios run (and plotted) in this many processes at once [default: one per core].",
 )
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots (traces and metrics only).")
+@ENGINE
 def reproduce(
     names: tuple[str, ...],
     out_dir: Path,
@@ -185,6 +203,7 @@ def reproduce(
     fmt: str,
     jobs: int | None,
     no_plots: bool,
+    engine: str,
 ) -> None:
     """Run the shipped scenarios (all, or NAMES) and write report.md with plots and metrics."""
     try:
@@ -206,8 +225,9 @@ def reproduce(
         bar.note(f"reproducing {len(scenarios)} scenarios ({n} runs) into {out_dir}/")
         try:
             for i, result, took in run_scenarios(
-                scenarios, out_dir, quick=quick, fmt=fmt, plots=not no_plots, jobs=jobs
-            ):
+                scenarios, out_dir, quick=quick, fmt=fmt, plots=not no_plots, jobs=jobs,
+                engine=engine,
+            ):  # fmt: skip
                 done[i] = result
                 sc = result.scenario
                 bar.step(len(result.runs), f"{sc.name}: done")
@@ -217,6 +237,8 @@ def reproduce(
                 )
         except OSError as exc:
             raise click.ClickException(f"cannot write the results: {exc}") from None
+        except CompiledLaneError as exc:
+            raise click.ClickException(str(exc)) from None
     results = [done[i] for i in range(len(scenarios))]  # the report keeps the shipped order
     seconds = time.perf_counter() - t0
     report = out_dir / "report.md"
@@ -239,6 +261,7 @@ def run_scenarios(
     fmt: str = "auto",
     plots: bool = True,
     jobs: int | None = None,
+    engine: str = "auto",
 ) -> Iterator[tuple[int, ScenarioResult, float]]:
     """Run every scenario and write its results; yield ``(index, result, seconds)`` as each ends.
 
@@ -247,17 +270,19 @@ def run_scenarios(
     matplotlib work use all cores; the largest are started first.  With one
     job (or one scenario) everything runs in this process.  The runs are
     seeded by the scenarios, so the results do not depend on ``jobs``.
+    ``engine`` is :func:`~ctrlblocks.sim.run_scenario`'s.
     """
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(scenarios)))
     if jobs == 1:
         for i, sc in enumerate(scenarios):
-            yield (i, *_run_and_write(sc, out_dir, quick, fmt, plots))
+            yield (i, *_run_and_write(sc, out_dir, quick, fmt, plots, engine))
         return
     order = sorted(range(len(scenarios)), key=lambda i: -_work(scenarios[i], quick))
     pool = cf.ProcessPoolExecutor(max_workers=jobs)
     try:
         futures = {
-            pool.submit(_run_and_write, scenarios[i], out_dir, quick, fmt, plots): i for i in order
+            pool.submit(_run_and_write, scenarios[i], out_dir, quick, fmt, plots, engine): i
+            for i in order
         }
         for fut in cf.as_completed(futures):
             yield (futures[fut], *fut.result())
@@ -266,11 +291,11 @@ def run_scenarios(
 
 
 def _run_and_write(
-    sc: Scenario, out_dir: Path, quick: bool, fmt: str, plots: bool
+    sc: Scenario, out_dir: Path, quick: bool, fmt: str, plots: bool, engine: str = "auto"
 ) -> tuple[ScenarioResult, float]:
     """One scenario: run, write (traces, metrics, plots); the result and the seconds it took."""
     t0 = time.perf_counter()
-    result = run_scenario(sc, quick=quick)
+    result = run_scenario(sc, quick=quick, engine=engine)
     write_result(result, out_dir, fmt=fmt, plots=plots)
     return result, time.perf_counter() - t0
 

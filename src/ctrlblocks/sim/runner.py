@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from .loop import Run, event_times, simulate
+from .dispatch import simulate
+from .loop import Run, event_times
 from .metrics import METRIC_NAMES, compute_metrics, window_index, windows_from_events
 from .scenario import Claim, Scenario
 
@@ -68,6 +69,7 @@ def run_scenario(
     quick: bool = False,
     duration: float | None = None,
     progress: Callable[[str], None] | None = None,
+    engine: str = "auto",
 ) -> ScenarioResult:
     """Run every controller of ``scenario`` in every case.
 
@@ -82,6 +84,11 @@ def run_scenario(
         Stop each case at this time [s] (overrides ``quick``).
     progress : callable, optional
         Called with ``"controller / case"`` after each run (for a progress bar).
+    engine : {"auto", "compiled", "python"}
+        Where the runs are simulated (:mod:`ctrlblocks.sim.dispatch`): ``auto``
+        puts every run the compiled lane can do on it (same traces) and the
+        others on the Python path; ``python`` forces the reference path;
+        ``compiled`` refuses a run the lane cannot do (``CompiledLaneError``).
     """
     if duration is None and quick:
         duration = scenario.quick_duration
@@ -91,7 +98,7 @@ def run_scenario(
     table: list[dict[str, Any]] = []
     for case in scenario.cases:
         for ctrl in scenario.controllers:
-            run = simulate(scenario, ctrl, case, duration=duration)
+            run = simulate(scenario, ctrl, case, duration=duration, engine=engine)
             runs.append(run)
             s = run.signals
             whole = compute_metrics(s["t"], s["sp"], s["y"], s["u"], run.ts, band=band)

@@ -1,0 +1,285 @@
+"""Which engine runs a simulation: the compiled lane where it can, else the Python path.
+
+:func:`simulate` is :func:`ctrlblocks.sim.simulate` with a choice of engine:
+
+``"python"``
+    the reference: the block and plant objects, sample by sample
+    (:mod:`ctrlblocks.sim.loop`);
+``"compiled"``
+    the compiled lane (:func:`ctrlblocks.fast.simlane.single_loop`, numba),
+    refused with :class:`CompiledLaneError` (naming the reason) for a run it
+    cannot do;
+``"auto"`` (default of :func:`~ctrlblocks.sim.run_scenario` and the CLI)
+    the compiled lane for every run it can do, else the Python path, with the
+    reason logged at DEBUG level (logger ``ctrlblocks.sim.dispatch``).
+
+The compiled lane runs the ``single`` structure (the structure decides:
+:meth:`~ctrlblocks.loops.structures.Structure.compiled_blockers`) with a
+PID or ADRC whose configuration its kernels cover (the blocks decide:
+``fast_path_blockers``), a linear plant of order <= 3 (any dead time) or the
+three-tank process, inside the scenario's actuator (range, rate, input
+load) and sensor (range, noise, output load), with setpoint steps and ramps,
+input and output loads, the three-tank's outlet switch, mode and manual-value
+events, and the warm-up.  Everything else -- the other structures, limits
+and ``set`` events, sensor faults, other plant switches, numba not installed
+-- runs the Python path.
+
+The lane's traces equal the Python path's (same operations in the same
+order; tests/sim/test_dispatch.py compares both for every supported case, and
+the stored trace hashes, recorded with the Python path, hold with ``auto``).
+The measurement noise is drawn by the scenario's own generator, in the
+Python path's order (:meth:`ctrlblocks.plants.Noise.samples`).
+"""
+
+from __future__ import annotations
+
+import bisect
+import logging
+import math
+from typing import Any
+
+import numpy as np
+
+from .loop import Run, _Simulation
+from .loop import simulate as python_simulate
+from .scenario import Case, ControllerSpec, Event, Scenario
+
+__all__ = ["ENGINES", "CompiledLaneError", "compiled_blockers", "simulate"]
+
+log = logging.getLogger(__name__)
+
+ENGINES = ("auto", "compiled", "python")
+"""The engines :func:`simulate` (and ``run_scenario``, the CLI's ``--engine``) accept."""
+
+
+class CompiledLaneError(ValueError):
+    """``engine="compiled"`` for a run the compiled lane cannot do (the message says why)."""
+
+
+def simulate(
+    scenario: Scenario,
+    controller: ControllerSpec | str,
+    case: Case | str | None = None,
+    *,
+    duration: float | None = None,
+    engine: str = "auto",
+) -> Run:
+    """Run one controller of ``scenario`` in one case on ``engine`` (module docstring).
+
+    The other parameters are those of :func:`ctrlblocks.sim.simulate`.
+    """
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if engine == "python":
+        return python_simulate(scenario, controller, case, duration=duration)
+    if isinstance(controller, str):
+        controller = next(c for c in scenario.controllers if c.name == controller)
+    if case is None:
+        case = scenario.cases[0]
+    elif isinstance(case, str):
+        case = scenario.case(case)
+    t_end = case.duration if duration is None else min(duration, case.duration)
+    sim = _Simulation(scenario, controller, case, t_end)
+    why = compiled_blockers(sim)
+    run = None if why else _run_lane(sim)
+    if run is None and not why:
+        why = ["a measurement or an output became non-finite (quality handling)"]
+    if run is not None:
+        return run
+    reason = "; ".join(why)
+    where = f"{scenario.name} / {controller.name} / {case.name}"
+    if engine == "compiled":
+        raise CompiledLaneError(f"{where}: the compiled lane cannot run this: {reason}")
+    log.debug("%s: Python path (%s)", where, reason)
+    return python_simulate(scenario, controller, case, duration=duration)
+
+
+# ---------------------------------------------------------------------------
+# what the lane covers
+# ---------------------------------------------------------------------------
+
+
+def _have_numba() -> bool:
+    from ..fast._jit import HAVE_NUMBA
+
+    return HAVE_NUMBA
+
+
+def compiled_blockers(sim: _Simulation) -> list[str]:
+    """Why the compiled lane cannot run ``sim`` (empty: it can).
+
+    The structure (with its blocks) decides for the controller side; this
+    function for the process side, the events and the environment.
+    """
+    bad = list(sim.side.kind.compiled_blockers(sim.side))
+    if bad:
+        return bad
+    if not _have_numba():
+        return ["numba is not installed"]
+    from ..fast.simlane import plant_blocker
+
+    proc = sim.proc
+    why = plant_blocker(proc.model)
+    if why is not None:
+        return [why]
+    if proc.plant.fault is not None:
+        return ["a sensor fault is set"]
+    if not math.isfinite(proc.plant.y_true):
+        return ["the initial measurement is not finite"]
+    return [why for ev in sim.events if (why := _event_blocker(sim, ev))]
+
+
+def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
+    f, k = ev.fields, ev.kind
+    where = f"event at t={ev.t:g} ({k})"
+    if k == "setpoint":
+        return None
+    if k == "load":
+        at = f.get("at", "input")
+        return None if at in ("input", "output") else f"{where}: load at {at!r}"
+    if k == "plant":
+        outlet = f.get("target", "plant") == "plant" and f["param"] == "outlet"
+        if outlet and hasattr(sim.proc.model, "discrete_model"):  # the three-tank's valve
+            return None
+        return f"{where}: plant parameter {f['param']!r} switched"
+    if k in ("mode", "manual_value"):
+        if "target" in f:
+            return f"{where}: names a target"
+        v = f.get("manual_value" if k == "mode" else "value")
+        if v is not None and not math.isfinite(v):
+            return f"{where}: non-finite manual value"
+        return None
+    return f"{where}: not covered"
+
+
+# ---------------------------------------------------------------------------
+# the run
+# ---------------------------------------------------------------------------
+
+
+def _run_lane(sim: _Simulation) -> Run | None:
+    """The run on the compiled lane; None when it stopped at a non-finite value."""
+    from ..fast.simlane import single_loop
+
+    sc, proc, h, n = sim.sc, sim.proc, sim.ts, sim.n
+    block = sim.side.main
+    ini = sc.initial
+    if ini["warmup"] > 0 or ini["mode"] == "manual":  # _Simulation._warmup
+        nw = round(ini["warmup"] / h)
+        u_man, manual0 = proc.u0, ini["mode"] == "manual"
+    else:
+        nw, u_man, manual0 = 0, float(block.manual_value), bool(block.manual)
+    sensor, act = proc.plant, proc.actuator
+    sig = _signals(sim, n, manual0)
+    res = single_loop(
+        block, proc.model, warmup=nw, sp_warmup=sig.pop("sp_warmup"),
+        y_warmup=proc.plant.y_true, u_man=u_man,
+        actuator=(act.u_min, act.u_max, act.rate * act.ts, act.u),
+        sensor=(sensor.y_min, sensor.y_max), signals=sig, noise=_noise(sensor, nw, n),
+    )  # fmt: skip
+    if res.stopped >= 0:
+        return None
+    return Run(
+        scenario=sc.name,
+        controller=sim.ctrl_spec.name,
+        case=sim.case.name,
+        ts=h,
+        signals={
+            "sp": sig["sp"],
+            "y": res.y,
+            "ym": res.ym,
+            "u": res.u,
+            "v": res.u.copy(),
+            "u_act": res.u_act,
+            "load": sig["load_in"],
+            "t": np.arange(n) * h,
+        },
+        events=sim.events,
+        duration=n * h,
+    )
+
+
+def _noise(sensor: Any, nw: int, n: int) -> np.ndarray:
+    """The sensor's noise value of each recorded sample, as the Python path draws them.
+
+    One value is drawn at every plant step and every reset; the warm-up does
+    both in each of its ``nw`` samples.
+    """
+    gen = sensor.noise
+    if gen is None or n == 0:
+        return np.zeros(n)
+    seq = np.concatenate(([sensor.noise_value], gen.samples(2 * nw + n - 1)))
+    return np.ascontiguousarray(seq[2 * nw : 2 * nw + n])
+
+
+def _due_sample(t_ev: float, h: float) -> int:
+    """The first sample ``k`` at which an event at ``t_ev`` is due (ProcessSide.due)."""
+    k = max(0, math.floor((t_ev - 0.5 * h) / h))
+    while k > 0 and t_ev <= (k - 1) * h + 0.5 * h:
+        k -= 1
+    while t_ev > k * h + 0.5 * h:
+        k += 1
+    return k
+
+
+def _signals(sim: _Simulation, n: int, manual0: bool) -> dict[str, Any]:
+    """Per-sample arrays of the events (see :func:`~ctrlblocks.fast.simlane.single_loop`)."""
+    proc, h = sim.proc, sim.ts
+    model = proc.model
+    tank = model.discrete_model() if hasattr(model, "discrete_model") else None
+    g3o = tank.g[5] if tank is not None else 0.0
+    changes: dict[str, list[tuple[int, float]]] = {
+        "load_in": [(0, proc.actuator.load)],
+        "load_out": [(0, proc.plant.load)],
+        "manual": [(0, float(manual0))],
+        "g3o": [(0, g3o)],
+    }
+    u_man = np.full(n, math.nan)
+    by_k: dict[int, list[Event]] = {}
+    for ev in proc.pending:
+        k = _due_sample(ev.t, h)
+        if k >= n:
+            continue
+        by_k.setdefault(k, []).append(ev)
+        f = ev.fields
+        if ev.kind == "load":
+            key = "load_in" if f.get("at", "input") == "input" else "load_out"
+            changes[key].append((k, f["value"]))
+        elif ev.kind == "plant":
+            changes["g3o"].append((k, tank.outlet_g[f["value"]]))  # type: ignore[union-attr]
+        elif ev.kind == "mode":
+            changes["manual"].append((k, float(f["mode"] == "manual")))
+            if "manual_value" in f:
+                u_man[k] = f["manual_value"]
+        elif ev.kind == "manual_value":
+            u_man[k] = f["value"]
+    out: dict[str, Any] = {"sp_warmup": proc.setpoint.value, "u_man": u_man}
+    for name, ch in changes.items():
+        a = np.empty(n)
+        for j, (k, v) in enumerate(ch):
+            a[k : ch[j + 1][0] if j + 1 < len(ch) else n] = v
+        out[name] = a
+    out["sp"] = _setpoints(proc.setpoint, by_k, n, h)
+    return out
+
+
+def _setpoints(prof: Any, by_k: dict[int, list[Event]], n: int, h: float) -> np.ndarray:
+    """The setpoint of every sample: ``advance(h)``, then the setpoint events (loop.run)."""
+    sp = np.empty(n)
+    keys = sorted(by_k)
+    k = 0
+    while k < n:
+        if k > 0:
+            prof.advance(h)
+        for ev in by_k.get(k, ()):
+            if ev.kind == "setpoint":
+                prof.step_to(ev.fields["value"], ev.fields.get("ramp"))
+        sp[k] = prof.value
+        if prof.value == prof.target:  # constant up to the next event (advance does nothing)
+            j = bisect.bisect_right(keys, k)
+            nxt = keys[j] if j < len(keys) else n
+            sp[k + 1 : nxt] = prof.value
+            k = nxt
+        else:
+            k += 1
+    return sp
