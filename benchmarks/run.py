@@ -299,8 +299,10 @@ def bench_bank(exe: dict[str, Path], repeats: int, sizes: list[int], work: int) 
         r = row(f"bank of {n_loops:,} PID loops, per loop-step", res["ours"], res["c"],
                 "<= 0.7x", lambda x: x <= 0.7,
                 "C -O2 one loop at a time (latency-bound), no traces")  # fmt: skip
-        r["note"] = (f"one core; state {bank.state_bytes} B/loop (+{bank.param_bytes} B "
-                     f"parameters); {steps} steps; on all cores (parallel=True): "
+        r["note"] = (f"one core; state {bank.state_bytes} B/loop (+"
+                     f"{bank.stored_bytes - bank.state_bytes} B of its {bank.param_bytes} B of "
+                     f"parameters not shared by all loops); {steps} steps; on all cores "
+                     f"(parallel=True): "
                      f"{min(res['par']):.3g} ns = {par:.2f}x")  # fmt: skip
         rows.append(r)
     return rows

@@ -4,7 +4,7 @@ Layers (docs/architecture.md), lowest first; a module never imports a module of
 a higher layer, and peers of one layer import each other only where
 ``PEER_IMPORTS`` allows it::
 
-    0 blocks
+    0 blocks (and ctrlblocks._lazy, the packages' lazy re-exports)
     1 plants, tuning
     2 loops
     3 sim, runtime, fast, plc
@@ -24,6 +24,7 @@ PACKAGE = SRC / "ctrlblocks"
 
 LAYERS: dict[str, int] = {
     "": 0,  # the package's __init__: re-exports the blocks
+    "_lazy": 0,  # the packages' lazy re-exports (PEP 562; standard library only)
     "blocks": 0,
     "plants": 1,
     "tuning": 1,

@@ -12,6 +12,8 @@ from click.testing import CliRunner
 from ctrlblocks import cli
 
 HEAVY = ("scipy", "matplotlib", "numba", "pyarrow", "distributed", "asyncua", "fastapi")
+#: third-party packages no ``--help`` may import (each is the library of one command's work)
+HEAVY_ALL = (*HEAVY, "pymodbus", "psycopg", "uvicorn", "websockets", "httpx", "control", "dask")
 
 PROBE = """
 import json, sys
@@ -61,6 +63,50 @@ def test_sweep_help_does_not_import_numba_and_run_help_not_scipy_signal():
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          check=True, timeout=120)  # fmt: skip
     assert json.loads(out.stdout.strip().splitlines()[-1]) is False
+
+
+EVERY_HELP = """
+import json, sys
+from ctrlblocks.cli import _COMMANDS, main
+heavy = set({heavy!r})
+out = {{}}
+for args in [[name] for name in sorted(_COMMANDS)] + [["tune", "pid"], ["tune", "adrc"]]:
+    try:
+        main([*args, "--help"])
+    except SystemExit:
+        pass
+    out[" ".join(args)] = sorted({{m.split(".")[0] for m in sys.modules}} & heavy)
+print(json.dumps(out))
+"""
+
+
+def test_every_commands_help_imports_no_heavy_library():
+    # one process for all: a library any --help imported stays in sys.modules, so the
+    # first command listing it is the one that imported it
+    out = subprocess.run([sys.executable, "-c", EVERY_HELP.format(heavy=HEAVY_ALL)],
+                         capture_output=True, text=True, check=True, timeout=180)  # fmt: skip
+    imported = json.loads(out.stdout.strip().splitlines()[-1])
+    assert len(imported) == len(cli._COMMANDS) + 2
+    assert {name: mods for name, mods in imported.items() if mods} == {}
+
+
+def test_lazy_package_exports_import_their_module_on_first_use():
+    probe = ("import json, sys, ctrlblocks.runtime as r, ctrlblocks.tuning as t\n"
+             "before = ['ctrlblocks.runtime.historian' in sys.modules, 'scipy' in sys.modules]\n"
+             "from ctrlblocks.runtime import export_history\n"
+             "simc = t.simc\n"
+             "print(json.dumps([before, export_history.__module__, simc.__module__,\n"
+             "                  'simc' in dir(t)]))")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True, timeout=120)  # fmt: skip
+    before, hist_mod, simc_mod, listed = json.loads(out.stdout.strip())
+    assert before == [False, False]
+    assert (hist_mod, simc_mod, listed) == ("ctrlblocks.runtime.historian",
+                                            "ctrlblocks.tuning.pid_rules", True)  # fmt: skip
+    import ctrlblocks.tuning
+
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        ctrlblocks.tuning.nonexistent  # noqa: B018
 
 
 def test_import_ctrlblocks_plants_does_not_import_scipy():

@@ -18,7 +18,7 @@ import click
 # each module owns its command.
 _COMMANDS: dict[str, tuple[str, str]] = {
     "compare": (
-        "ctrlblocks.sim.compare:compare_command",
+        "ctrlblocks.sim.cli:compare_command",
         "Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).",
     ),
     "export": (
@@ -56,6 +56,10 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "sweep": (
         "ctrlblocks.fast.cli:sweep_command",
         "Run SCENARIO (a TOML file or a shipped name) for every combination of --vary values.",
+    ),
+    "tune-live": (
+        "ctrlblocks.web.tune_cli:tune_live",
+        "Auto-tune a loop of a running 'ctrlblocks serve' live: a step or relay test, then accept.",
     ),
     "tune": (
         "ctrlblocks.tuning.cli:tune",

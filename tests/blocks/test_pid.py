@@ -108,6 +108,35 @@ def test_compute_output_is_idempotent_within_a_cycle() -> None:
     assert pid.snapshot() == ref.snapshot()
 
 
+def test_compute_output_commits_nothing_until_update_state() -> None:
+    # the two-phase contract of blocks.base: one pending value, the committed state
+    # (filters and ramps included) untouched until update_state, no scratch attributes
+    pid = PID(kp=1.0, ti=1.0, td=0.2, ts=0.1, u_min=-10, u_max=10, sp_filter=0.5,
+              pv_filter=0.3, sp_rate=2.0, out_rate=5.0, ff_k=0.5, ff_t_lead=1.0)  # fmt: skip
+    for k in range(10):
+        pid(1.0, _pv(k), dv=0.1 * k)
+    before = pid.snapshot()
+    names = set(vars(pid))
+    v1 = pid.compute_output(2.0, 0.4, dv=1.0)
+    pid.compute_output(-3.0, 5.0, dv=-2.0)  # another candidate first ...
+    after = pid.snapshot()
+    private = [n for n in PID._state_fields if n.startswith("_")]  # not the readable outputs
+    assert [after[n] for n in private] == [before[n] for n in private]
+    assert after["_subs"] == before["_subs"]
+    assert set(vars(pid)) == names
+    assert pid.compute_output(2.0, 0.4, dv=1.0) == v1  # ... then the real one
+    pid.update_state(v1)
+    assert pid.snapshot()["_subs"] != before["_subs"]
+    ref = PID(pid.config)
+    for k in range(10):
+        ref(1.0, _pv(k), dv=0.1 * k)
+    assert ref(2.0, 0.4, dv=1.0) == v1
+    assert pid.snapshot() == ref.snapshot()
+    snap = pid.snapshot()
+    pid.update_state(0.0)  # no pending cycle: nothing happens
+    assert pid.snapshot() == snap
+
+
 def test_call_is_compute_then_update_with_its_own_output() -> None:
     a = PID(kp=1.0, ti=0.5, ts=0.1, u_min=-1, u_max=1)
     b = PID(a.config)
@@ -240,3 +269,56 @@ def test_clamping_also_stops_the_integrator_while_the_output_ramp_limits() -> No
         free(10.0, 0.0)
     # trapezoid: 0.1 (0 + 10)/2 in the step cycle, then 0.1 * 10 per cycle: winds up
     assert free.i == pytest.approx(0.5 + 28 * 1.0, rel=1e-8)
+
+
+# --- retuning (tuning fields only: the short path of configure) ------------------------
+
+
+def _retune_pair(**cfg: object) -> tuple[PID, PID]:
+    a, b = PID(**cfg), PID(**cfg)
+    for k in range(15):
+        a(1.0, _pv(k), dv=0.1 * k)
+        b(1.0, _pv(k), dv=0.1 * k)
+    return a, b
+
+
+@pytest.mark.parametrize(
+    "cfg",
+    [
+        {"kp": 1.5, "ti": 2.0, "td": 0.3, "ts": 0.1, "u_min": -10, "u_max": 10},
+        {"kp": 1.5, "ti": 2.0, "td": 0.3, "ts": 0.1, "sp_filter": 0.5, "out_rate": 4.0,
+         "ff_k": 0.5, "anti_windup": "back_calc_model", "tt": 0.7},
+        {"kp": 0.8, "ti": 0.0, "td": 0.2, "ts": 0.1, "algorithm": "velocity", "form": "series"},
+    ],
+)  # fmt: skip
+def test_a_tuning_change_gives_the_state_of_the_full_configure(cfg: dict) -> None:
+    a, b = _retune_pair(**cfg)
+    changes = {"kp": 2.5, "ti": 3.0, "td": 0.1, "b": 0.7, "c": 0.2, "n": 8.0}
+    a.configure(**changes)  # tuning fields only: the short path
+    b.configure(**changes, u_min=b.config.u_min)  # with another field: the full path
+    assert a.config == b.config
+    assert a.snapshot() == b.snapshot()
+    for k in range(20):  # the same bumpless continuation, bit for bit
+        assert a(2.0, _pv(k), dv=0.2) == b(2.0, _pv(k), dv=0.2)
+    assert a.snapshot() == b.snapshot()
+
+
+def test_a_refused_tuning_change_keeps_configuration_and_state() -> None:
+    pid = PID(kp=1.0, ti=2.0, td=0.0, n=10.0, ts=0.1, derivative_method="forward")
+    for k in range(10):
+        pid(1.0, _pv(k))
+    cfg, snap = pid.config, pid.snapshot()
+    for changes, code in (
+        ({"td": 0.4}, ErrorCode.BAD_PID_COEFFS),  # Td/N = 0.04 <= ts/2: unstable (2.10)
+        ({"kp": -1.0}, ErrorCode.BAD_PID_COEFFS),
+        ({"tt": 0.0}, ErrorCode.BACK_CALC_T),
+        ({"kp": 1e308, "ti": 1e-300}, ErrorCode.BAD_PID_COEFFS),  # K/Ti overflows
+    ):
+        with pytest.raises(ParameterError) as exc:
+            pid.configure(**changes)
+        assert exc.value.code == code
+        assert pid.config is cfg and pid.snapshot() == snap
+    twin = PID(cfg)  # never asked to retune
+    for k in range(10):
+        twin(1.0, _pv(k))
+    assert pid(1.0, 0.5) == twin(1.0, 0.5)

@@ -345,3 +345,12 @@ path = "{tmp_path / "history.sqlite"}"
         actions = [r["action"] for r in h.audit_rows("p3", 100)]
     for a in ("tune-start", "tune-result", "tune-reject"):
         assert actions.count(a) == 2, actions
+
+
+def test_a_proposal_the_margins_call_unstable_or_fragile_needs_force():
+    from ctrlblocks.runtime.autotune import fragile
+
+    assert fragile({"stable": False, "ms": None}) == "makes the loop unstable"
+    assert fragile({"stable": True, "ms": 2.5}) == "is fragile (Ms 2.50 > 2)"
+    assert fragile({"stable": True, "ms": 1.5}) == ""
+    assert fragile({}) == "" and fragile(None) == ""  # a relay test: no model, no margins

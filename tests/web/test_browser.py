@@ -343,3 +343,33 @@ def test_a_private_faceplate_shows_the_loops_only_after_a_login(browser: Any, tm
             p.wait_for_function("() => window.faceplate.ws === null")  # the server closed it
         finally:
             p.close()
+
+
+def test_an_engineer_runs_a_live_tuning_from_the_panel_and_rejects_it(page: Any) -> None:
+    log_in(page, "bob")
+    assert js(page, "$('tune-start').disabled")  # an operator may not tune
+    log_out(page)
+    log_in(page)
+    page.click("#tune-box summary")
+    page.select_option("#tune-method", "step")
+    page.fill("#tune-amplitude", "0.5")
+    page.fill("#tune-pv-max", "1.9")
+    page.click("#tune-start")
+    wait_message(page, "step test accepted")
+    page.wait_for_function(
+        "() => document.querySelector('#tune-status').textContent.includes('step test running')"
+    )
+    page.wait_for_function(
+        "() => document.querySelector('#tune-status').textContent === 'step test done'"
+        " && !document.querySelector('#tune-proposals').textContent.includes('computing')",
+        timeout=40_000,
+    )
+    assert "model: FOPDT gain 1.0" in page.text_content("#tune-model")  # the lag: k = 1
+    rows = page.locator("#tune-proposals tbody tr")
+    assert rows.count() >= 2 and rows.first.get_attribute("data-proposal") == "PID_AMIGO"
+    # a lag without dead time: the model rules' gains make the loop unstable, shown so
+    assert "UNSTABLE" in rows.first.text_content()
+    page.click("#tune-reject")
+    wait_message(page, "reject accepted")
+    assert page.text_content("#tune-status") == "step test rejected by alice"
+    assert rows.first.locator("button").count() == 0  # nothing left to accept

@@ -120,6 +120,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -790,6 +791,8 @@ class ADRC(Block):
 
     Config = ADRCConfig
     config: ADRCConfig
+    _config: ADRCConfig
+    _eso: Callable[..., tuple[float, float, float, float]]  # eso_euler or eso_exact
     _state_fields = (
         "out",
         "u_man",
@@ -837,7 +840,7 @@ class ADRC(Block):
             "b0/omega_c/omega_o/ts", ErrorCode.BAD_BANDWIDTH,
             *self._gains, *self._law, *self._sens, *self._eso_coef,
         )  # fmt: skip
-        if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):
+        if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):  # type: ignore[attr-defined]
             self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
             self._limits_bad = False
         self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else 3.5 / float(c.omega_o)

@@ -33,7 +33,23 @@ cascades) also offer the two-phase form of Åström (1987, section 6,
 Listing 6.3): ``compute_output(...)`` returns the output without touching the
 state; the structure shapes it; ``update_state(applied)`` then updates the
 state with the value actually applied, so anti-windup tracking uses
-simultaneous values.
+simultaneous values.  Every two-phase block (PID, ADRC) keeps this contract
+the same way:
+
+* ``compute_output`` computes the cycle from the *committed* state and keeps
+  the result as ONE pending value (``self._pending``, an immutable tuple of
+  what the second phase needs; None when no cycle is pending).  It writes the
+  readable outputs (``out``, the terms, ``error_id``) but no state: called
+  again in the same cycle it starts from the committed state again and
+  replaces the pending value, so it gives the same result for the same
+  inputs.  Sub-blocks that commit when called (the PID's filters and ramps)
+  are run from their committed state and their new state travels in the
+  pending value too;
+* ``update_state(applied)`` commits the pending value with ``applied`` and
+  clears it; without a pending value it does nothing;
+* ``reset``, ``restore`` and ``load_kernel_state`` drop a pending value; the
+  output guard's ``_resume`` (after ``BAD_RESULT``) rewrites it, so that the
+  commit re-initialises the block bumplessly.
 """
 
 from __future__ import annotations
@@ -341,7 +357,8 @@ class BlockConfig:
     """
 
     def __post_init__(self) -> None:
-        for name, kind in _numeric_fields(type(self)):
+        cls: type = type(self)
+        for name, kind in _numeric_fields(cls):
             v = getattr(self, name)
             if kind == "tuple" and isinstance(v, (tuple, list)):
                 if all(_is_number(x) for x in v):

@@ -355,7 +355,7 @@ def _make(spec: Spec, cfg: dict[str, Any]) -> Block:
         from .pid import PID
 
         pid = PID(**cfg["_pid"])
-        return spec.cls(pid, breakpoints=(0.0, 100.0), kp=cfg["kp"])  # type: ignore[call-arg]
+        return spec.cls(pid, breakpoints=(0.0, 100.0), kp=cfg["kp"])  # type: ignore[arg-type]
     return spec.cls(**cfg)
 
 
@@ -415,7 +415,7 @@ class Driver:
 
     # -- helpers ---------------------------------------------------------------
 
-    def _ctl(self, b: Block) -> Block:
+    def _ctl(self, b: Block) -> Any:
         return b.controller if self.spec.name == "GainSchedule" else b  # type: ignore[attr-defined]
 
     def _twin_ok(self) -> bool:
@@ -446,7 +446,7 @@ class Driver:
         except Exception as exc:
             raise Breach(f"{self.spec.name}: {what} raised {exc!r}") from exc
 
-    def _both(self, what: str, fn: Callable[[Block], Any]) -> None:
+    def _both(self, what: str, fn: Callable[[Any], Any]) -> None:
         self._guarded(what, lambda: fn(self.block))
         if self.twin is not None:
             self._guarded(what + " (twin)", lambda: fn(self.twin))
@@ -464,7 +464,7 @@ class Driver:
 
     # -- one process step ------------------------------------------------------
 
-    def _call(self, b: Block, two_phase: bool, vals: list[Any], dt: Any, flags: list[Any]) -> Any:
+    def _call(self, b: Any, two_phase: bool, vals: list[Any], dt: Any, flags: list[Any]) -> Any:
         n = self.spec.name
         if self.spec.controller:
             sp = vals[0]
@@ -479,8 +479,8 @@ class Driver:
                 kw = {"dt": dt, "pv_ok": flags[0]}
             args = (sp, pv, vals[4]) if n == "GainSchedule" else (sp, pv)
             if two_phase:
-                v = b.compute_output(*args, **kw)  # type: ignore[attr-defined]
-                b.update_state(v)  # type: ignore[attr-defined]
+                v = b.compute_output(*args, **kw)
+                b.update_state(v)
                 return v
             return b(*args, **kw)
         v = vals[0]
@@ -598,7 +598,7 @@ class Driver:
         self.log.append(("configure", changes))
         self._dirty = True
         blocks = [self.block] + ([self.twin] if self.twin is not None else [])
-        outcomes = []
+        outcomes: list[ErrorCode | str | None] = []
         for b in blocks:
             cfg = b.config
             snap = self._guarded("snapshot", b.snapshot)

@@ -208,6 +208,7 @@ class JumpAndRate(Block):
     Config = JumpAndRateConfig
     _state_fields = ("out", "x", "jump_limited", "rate_limited")
     config: JumpAndRateConfig
+    _config: JumpAndRateConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config

@@ -225,6 +225,7 @@ class LeadLag(Block):
     Config = LeadLagConfig
     _state_fields = ("out", "enabled", "_x_prev", "_plc_state")
     config: LeadLagConfig
+    _config: LeadLagConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config

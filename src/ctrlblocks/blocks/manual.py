@@ -243,6 +243,7 @@ class ManualStation(Block):
     Config = ManualStationConfig
     _state_fields = ("out", "held", "direction", "tracking")
     config: ManualStationConfig
+    _config: ManualStationConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config

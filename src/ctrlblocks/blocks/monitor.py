@@ -114,7 +114,7 @@ class CycleMonitorConfig(BlockConfig):
         ts = float(self.ts) if ts is None else ts
         warn = 1.5 * ts if self.warn_limit is None else self.warn_limit
         alarm = 2.0 * ts if self.alarm_limit is None else self.alarm_limit
-        return warn, alarm  # type: ignore[return-value]
+        return warn, alarm
 
 
 class CycleMonitor(Block):
@@ -150,6 +150,7 @@ class CycleMonitor(Block):
         "alarm",
     )
     config: CycleMonitorConfig
+    _config: CycleMonitorConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config

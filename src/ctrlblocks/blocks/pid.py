@@ -54,8 +54,11 @@ docstring and ``docs/blocks/pid.md``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
+import operator
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from .base import (
@@ -416,14 +419,7 @@ class PIDConfig(BlockConfig):
         return isa_parameters(self.form, self.kp, self.ti, self.td)
 
     def validate(self) -> None:
-        coeffs = ErrorCode.BAD_PID_COEFFS
-        require_choice("form", self.form, FORMS)
-        kp = require_positive("kp", self.kp, coeffs)
-        require_nonnegative("ti", self.ti, coeffs)
-        require_nonnegative("td", self.td, coeffs)
-        require_positive("n", self.n, coeffs)
-        require_finite("b", self.b, coeffs)
-        require_finite("c", self.c, coeffs)
+        kp = self._validate_gains()
         ts = require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
         require_limits("u_min", self.u_min, "u_max", self.u_max)
         require_choice("integral_method", self.integral_method, METHODS)
@@ -448,8 +444,7 @@ class PIDConfig(BlockConfig):
         require_nonnegative("sp_rate", self.sp_rate, ErrorCode.BAD_RATE)
         require_nonnegative("out_rate", self.out_rate, ErrorCode.BAD_RATE)
         require_choice("anti_windup", self.anti_windup, AntiWindup.ALL, ErrorCode.BAD_ANTIWINDUP)
-        if self.tt is not None:
-            require_positive("tt", self.tt, ErrorCode.BACK_CALC_T)
+        self._validate_tt()
         require_choice("bumpless", self.bumpless, Bumpless.ALL)
         if self.bumpless == Bumpless.TRACK_SETPOINT and self.sp_rate == 0.0:
             raise ParameterError(
@@ -479,16 +474,49 @@ class PIDConfig(BlockConfig):
             require_finite("safe_value", self.safe_value)
         require_finite("ff_k", self.ff_k)
         LeadLagConfig(k=1.0, t_lead=self.ff_t_lead, t_lag=self.ff_t_lag, ts=ts).validate()
+        self._validate_derivative(kp, ts)
+        if self.precision != "float64":
+            _check_precision(self, "pid")
+
+    def validate_tuning(self) -> None:
+        """The checks of :meth:`validate` that read a tuning field (:data:`TUNING_FIELDS`).
+
+        Enough for a configuration made from a valid one by changing tuning
+        fields only: every other check reads fields that did not change.
+        """
+        kp = self._validate_gains()
+        self._validate_tt()
+        self._validate_derivative(kp, float(self.ts))
+
+    def _validate_gains(self) -> float:
+        coeffs = ErrorCode.BAD_PID_COEFFS
+        require_choice("form", self.form, FORMS)
+        kp = require_positive("kp", self.kp, coeffs)
+        require_nonnegative("ti", self.ti, coeffs)
+        require_nonnegative("td", self.td, coeffs)
+        require_positive("n", self.n, coeffs)
+        require_finite("b", self.b, coeffs)
+        require_finite("c", self.c, coeffs)
+        return kp
+
+    def _validate_tt(self) -> None:
+        if self.tt is not None:
+            require_positive("tt", self.tt, ErrorCode.BACK_CALC_T)
+
+    def _validate_derivative(self, kp: float, ts: float) -> None:
         _k, _ti, td = isa_parameters(self.form, kp, self.ti, self.td)
         if self.derivative_method == "forward" and td > 0.0 and td / self.n <= ts / 2.0:
             raise ParameterError(
-                coeffs,
+                ErrorCode.BAD_PID_COEFFS,
                 "td",
                 f"forward-difference derivative (Åström 1987, (2.10)) is unstable for "
                 f"Td/N <= ts/2 (Td={td!r}, N={self.n!r}, ts={ts!r}); use 'backward'",
             )
-        if self.precision != "float64":
-            _check_precision(self, "pid")
+
+
+TUNING_FIELDS = frozenset(("kp", "ti", "td", "n", "b", "c", "tt"))
+"""The PID's tuning fields: a change of only these retunes the law without touching
+its filters, ramps and limits (:meth:`PID.configure`)."""
 
 
 # ---------------------------------------------------------------------------
@@ -502,6 +530,81 @@ def _law(c: PIDConfig) -> tuple[Any, ...]:
 
 
 _SUB_COMPUTE = ("_sp_filter", "_pv_filter", "_sp_ramp", "_out_ramp", "_ll")
+"""The sub-blocks ``compute_output`` calls; their states travel in the pending cycle."""
+
+_SKIP, _BAD, _LAW = 0, 1, 2
+
+
+class _Cycle(NamedTuple):
+    """One PID cycle computed by ``compute_output``, committed by ``update_state``.
+
+    The pending value of the two-phase contract (:mod:`.base`): everything the
+    second phase needs, nothing stored on the block in between.
+    """
+
+    kind: int  # _SKIP bad dt (nothing to commit), _BAD bad input, _LAW the law ran
+    out_prev: float  # the committed output this cycle started from [%]
+    mode: Mode
+    h: float  # this cycle's sample time [s]
+    subs: tuple[tuple[Any, ...], ...] = ()  # states of _SUB_COMPUTE after the cycle
+    e: float = 0.0  # control deviation [%]
+    w: float = 0.0  # c r - y of the derivative [%]
+    d: float = 0.0  # D term [%]
+    p: float = 0.0  # P term as used (0 while suppressed) [%]
+    ff: float = 0.0  # feed-forward [%]
+    i: float = 0.0  # integrator (velocity form: the I term) [%]
+    v_raw: float = 0.0  # output before the limits [%]
+    bias: float = 0.0  # velocity form: bias of the reset feedback [%]
+    suppressed: bool = False  # P action suppressed (SUPPRESS_P_ACTION)
+    db_hold: bool = False  # the adaptive dead band holds the output
+
+
+@functools.cache
+def _state_setter(names: tuple[str, ...]) -> Callable[[Any, tuple[Any, ...]], None]:
+    """``put(block, values)``: one assignment of ``values`` to the attributes ``names``.
+
+    Generated once per tuple of names, as :mod:`dataclasses` generates its
+    methods: an unpacking assignment is several times cheaper than a loop of
+    ``setattr`` (the two-phase cycle puts states back every sample).
+    """
+    if not all(n.isidentifier() for n in names):
+        raise ValueError(f"not attribute names: {names!r}")
+    namespace: dict[str, Any] = {}
+    targets = ", ".join(f"b.{n}" for n in names)
+    exec(f"def put(b, v):\n    {targets}, = v\n", namespace)  # names checked above
+    return namespace["put"]
+
+
+class _SubStates:
+    """Takes and puts back the state (fields and status) of the sub-blocks a cycle calls.
+
+    :meth:`take` gives plain tuples, :meth:`put` writes such tuples back.
+    """
+
+    __slots__ = ("_subs",)
+
+    def __init__(self, subs: tuple[Block, ...]) -> None:
+        names = [(*b._state_fields, "error_id") for b in subs]
+        self._subs = tuple(
+            (b, operator.attrgetter(*n), _state_setter(n)) for b, n in zip(subs, names, strict=True)
+        )
+
+    def take(self) -> tuple[tuple[Any, ...], ...]:
+        """The states now."""
+        return tuple([get(b) for b, get, _put in self._subs])
+
+    def put(self, states: tuple[tuple[Any, ...], ...]) -> None:
+        """Put back states from :meth:`take`."""
+        for (b, _get, put), st in zip(self._subs, states, strict=True):
+            put(b, st)
+
+
+_SUBS = _Cycle._fields.index("subs")
+
+
+def _with_subs(cycle: _Cycle, subs: tuple[tuple[Any, ...], ...]) -> _Cycle:
+    """``cycle`` with the sub-block states ``subs`` (a cheap ``_replace``)."""
+    return tuple.__new__(_Cycle, (*cycle[:_SUBS], subs, *cycle[_SUBS + 1 :]))
 
 
 class PID(Block):
@@ -586,7 +689,7 @@ class PID(Block):
         self.actuator_pos = math.nan
         self.awin = False
         self._subs: dict[str, Block] = {}
-        self._pending = False
+        self._pending: _Cycle | None = None
         super().__init__(config, **params)
 
     # -- configuration ---------------------------------------------------------
@@ -607,27 +710,16 @@ class PID(Block):
             and c.bumpless == Bumpless.INTEGRATOR
             and c.anti_windup in (AntiWindup.CLAMPING, AntiWindup.BACK_CALC_MODEL)
         )
-        k, ti, td = c.isa()
-        self._k, self._ti, self._td = k, ti, td
-        self._ki = k / ti if ti > 0.0 else 0.0
-        self._kd = k * td
-        self._tf = td / c.n
         self._imeth = METHODS.index(c.integral_method)
         self._dmeth = METHODS.index(c.derivative_method)
         self._alpha, self._beta = integral_weights(self._imeth)
-        self._tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else float(c.ts))
         self._lo, self._hi = float(c.u_min), float(c.u_max)
         self._sgn = -1.0 if c.reverse else 1.0
         self._velocity = c.algorithm == "velocity"
         self._range = (float(c.pv_range[0]), float(c.pv_range[1])) if c.pv_range else None
         self._db = abs(float(c.deadband))
-        self._ts = float(c.ts)
-        self._set_h(self._ts)
-        require_coefficients(
-            "kp/ti/td/n", ErrorCode.BAD_PID_COEFFS,
-            self._k, self._ki, self._kd, self._tf, self._ad, self._bd, self._ki_h, self._tt,
-        )  # fmt: skip
-        ts = self._ts
+        self._ts = ts = float(c.ts)
+        self._set_tuning(c)
         self._sync("_sp_filter", PT1, t=c.sp_filter, ts=ts)
         self._sync("_pv_filter", PT1, t=c.pv_filter, ts=ts)
         self._sync("_sp_ramp", RateLimiter, rate_up=c.sp_rate, rate_down=c.sp_rate, ts=ts)
@@ -636,9 +728,36 @@ class PID(Block):
         self._sync("_det", SteadyStateDetector, tolerance=0.5, t_stab=c.t_stab, ts=ts)
         window = max(1, round(c.t_stab / ts))
         self._sync("_ma", MovingAverage, n=window)
-        if old is not None and _law(old) != _law(c):
-            # a change of the law is bumpless: the next cycle re-initialises the integrator
-            self._reinit = True
+        if old is None:  # the sub-blocks are made once; configure re-parameterises them
+            self._cycle_subs = _SubStates(tuple(self._subs[name] for name in _SUB_COMPUTE))
+        self._relaw(old is not None)
+
+    def _relaw(self, bumpless: bool) -> None:
+        """Note the law in force; a change of it (``bumpless``) re-initialises the integrator."""
+        law = _law(self._config)
+        if bumpless and law != self._law_in_force:
+            self._reinit = True  # the next cycle continues from the output, without a bump
+        self._law_in_force = law
+
+    def _set_tuning(self, c: PIDConfig) -> None:
+        """The law's gains from the tuning fields of ``c``, at the sample time ``ts``.
+
+        Refuses coefficients that are not finite (``BAD_PID_COEFFS``) before it
+        changes anything.
+        """
+        k, ti, td = c.isa()
+        ki = k / ti if ti > 0.0 else 0.0
+        kd = k * td
+        tf = td / c.n
+        tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else float(c.ts))
+        ts = self._ts
+        ad, bd = derivative_coefficients(kd, tf, ts, self._dmeth)
+        require_coefficients(
+            "kp/ti/td/n", ErrorCode.BAD_PID_COEFFS, k, ki, kd, tf, ad, bd, ki * ts, tt
+        )
+        self._k, self._ti, self._td = k, ti, td
+        self._ki, self._kd, self._tf, self._tt = ki, kd, tf, tt
+        self._set_h(ts)
 
     def _sync(self, name: str, cls: type[Block], **params: Any) -> None:
         sub = self._subs.get(name)
@@ -657,12 +776,37 @@ class PID(Block):
                      self._hi, aw, tracking_gain(h, self._tt))  # fmt: skip
 
     def configure(self, **changes: Any) -> None:
-        """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``."""
+        """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``.
+
+        A change of tuning fields only (:data:`TUNING_FIELDS`, e.g. a gain
+        schedule retuning every cycle) takes a shorter path with the same
+        result: the checks that read those fields
+        (:meth:`PIDConfig.validate_tuning`), the gains derived from them and
+        the bumpless re-initialisation; the filters, ramps and limits, which
+        do not depend on them, stay as they are.
+        """
+        if changes and TUNING_FIELDS.issuperset(changes) and self._config.precision == "float64":
+            self._retune(changes)
+            return
         super().configure(**changes)
         if "u_min" in changes or "u_max" in changes:
             self._limits_status = ErrorCode.NO_ERROR
             if self.error_id == ErrorCode.BAD_LIMITS:
                 self.error_id = ErrorCode.NO_ERROR
+
+    def _retune(self, changes: dict[str, Any]) -> None:
+        """:meth:`configure` for tuning fields only (its docstring)."""
+        old = self._config
+        new = self._replace_config(old, changes)
+        new.validate_tuning()
+        self._config = new
+        try:
+            self._set_tuning(new)
+        except Exception:
+            self._config = old
+            raise
+        self._sync_subs()
+        self._relaw(True)
 
     def output_limits(self) -> tuple[float, float]:
         """``(u_min, u_max)`` in force."""
@@ -688,17 +832,24 @@ class PID(Block):
         self._i = self._x = self._bias = held
         self._db_hold = held
         self.deadband_active = False
+        cycle = self._pending
+        subs = self._cycle_subs
+        if cycle is not None:  # repair the states the pending cycle would commit
+            committed = subs.take()
+            subs.put(cycle.subs)
         for sub in self._subs.values():
             if not _NINF < sub.out < _INF:
                 sub.reset()
         self._subs["_out_ramp"].preset(held)
+        if cycle is not None:
+            # update_state: nothing is known, re-initialise on recovery
+            self._pending = cycle._replace(kind=_BAD, subs=subs.take())
+            subs.put(committed)
         self.limits_active = False
         if not self.manual:
             self.manual_value = held
         self._reinit = self._reinit_d = True
         self._plc_state = None  # the float32 cycle restarts too
-        if self._pending:
-            self._c_kind = 1  # update_state: nothing is known, re-initialise on recovery
 
     def set_limits(self, u_min: float, u_max: float) -> None:
         """Change the output limits at run time; never raises.
@@ -752,7 +903,7 @@ class PID(Block):
         self._reinit_d = False
         self._db_hold = u0
         self._limits_status = ErrorCode.NO_ERROR
-        self._pending = False
+        self._pending = None
         self._plc_state = None  # the precision="float32" cycle starts afresh
 
     def _sync_subs(self) -> None:
@@ -785,7 +936,7 @@ class PID(Block):
         super().restore(snapshot)
         for name, sub_snap in snapshot.get("_subs", {}).items():
             self._subs[name].restore(sub_snap)
-        self._pending = False
+        self._pending = None
 
     # -- status ----------------------------------------------------------------
 
@@ -838,7 +989,7 @@ class PID(Block):
             and pv_ok is True
             and dv == 0.0
             and self._mode_prev == 0
-            and not (self._cold or self._reinit or self._pending)
+            and not (self._cold or self._reinit or self._pending is not None)
             and self._h == self._ts
             and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
             and _NINF < sp < _INF
@@ -877,8 +1028,11 @@ class PID(Block):
     ) -> float:
         """ComputeOutput of Åström 1987, Listing 6.3: the limited output of this cycle.
 
-        Commits no state: calling it again in the same cycle (before
-        :meth:`update_state`) gives the same result for the same inputs.
+        Commits no state (the two-phase contract of :mod:`.base`): the cycle
+        is computed from the committed state and kept as one pending value
+        that :meth:`update_state` commits; calling this again in the same
+        cycle starts from the committed state again and gives the same result
+        for the same inputs.
 
         Parameters
         ----------
@@ -901,36 +1055,34 @@ class PID(Block):
         """
         sp, pv, ff, dv = as_input(sp), as_input(pv), as_input(ff), as_input(dv)
         pv_ok = as_flag(pv_ok, False)
-        subs = self._subs
-        if self._pending:
-            for name in _SUB_COMPUTE:
-                sub = subs[name]
-                for f, val in self._saved[name].items():
-                    setattr(sub, f, val)
-        else:
-            self._saved = {
-                name: {f: getattr(subs[name], f) for f in subs[name]._state_fields}
-                for name in _SUB_COMPUTE
-            }
-            self._saved_out = self.out
-        self._pending = True
-        out_prev = self._saved_out
-        self._c_kind = 0  # 0 skip, 1 bad input, 2 normal
-        self._c_status = ErrorCode.NO_ERROR
+        pending = self._pending
+        out_prev = self.out if pending is None else pending.out_prev
+        # the filters, ramps and lead-lag commit when called: run them from their
+        # committed state, keep the state they reach in the pending cycle, put it back
+        subs = self._cycle_subs
+        committed = subs.take()
+        cycle = self._compute(sp, pv, ff, dv, dt, pv_ok, out_prev)
+        self._pending = _with_subs(cycle, subs.take())
+        subs.put(committed)
+        return self.out
 
+    def _compute(
+        self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool,
+        out_prev: float,
+    ) -> _Cycle:  # fmt: skip
+        """The law of one cycle from the committed state; sets the outputs, returns the cycle."""
         h = self._cycle_time(dt, self._ts)
         if h is None:
-            self._c_status = ErrorCode.NO_CYCLE
             self.error_id = ErrorCode.NO_CYCLE
             self.out = out_prev
-            return out_prev
+            return _Cycle(_SKIP, out_prev, Mode.AUTO, self._h)
         if h != self._h:
             self._set_h(h)
-        self._c_h = h
         mode = self.mode
-        self._c_mode = mode
         c = self._config
+        subs = self._subs
         lo, hi = self._lo, self._hi
+        limits_status = self._limits_status
 
         ok = is_finite(sp) and is_finite(pv) and is_finite(ff) and is_finite(dv)
         bad = ErrorCode.BAD_INPUT if not ok else ErrorCode.NO_ERROR
@@ -948,14 +1100,13 @@ class PID(Block):
         elif mode == Mode.RESET:
             target = clamp(float(c.reset_value), lo, hi)
             subs["_out_ramp"].preset(target)  # "immediately" (controltheplant 2024, section 2.3.5)
-            self._limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
+            limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
 
         if not ok:
-            self._c_kind = 1
-            self._c_status = bad or ErrorCode.BAD_INPUT
             if target is None:
                 target = out_prev if c.safe_value is None else float(c.safe_value)
-            return self._finish(target, target, h)
+            cycle = _Cycle(_BAD, out_prev, mode, h, v_raw=target)
+            return self._finish(cycle, bad or ErrorCode.BAD_INPUT, limits_status, True)
 
         # --- inputs: scaling, filters, setpoint ramp -------------------------
         x_sp, x_pv = float(sp), float(pv)
@@ -990,9 +1141,6 @@ class PID(Block):
         else:
             w_prev, d_prev, e_prev = self._w_prev, self._d, self._e_prev
         d = derivative_step(self._ad, self._bd, d_prev, w, w_prev)
-
-        self._c_kind = 2
-        self._c_e, self._c_w, self._c_d, self._c_p, self._c_ff = e, w, d, p, ff_tot
         self.sp_w, self.pv_f, self.e = sp_w, pv_f, e
 
         # --- non-auto modes and the adaptive dead band -----------------------
@@ -1012,18 +1160,19 @@ class PID(Block):
                 target = self._db_hold
             else:
                 transfer = True  # dead band released: continue without a bump
-        self._c_suppressed = suppressed
-        self._c_db_hold = db_hold
         p_used = 0.0 if suppressed else p
-        self._c_p_used = p_used
 
         if target is not None:
-            self._c_i = self._i
-            return self._finish(target, target, h)
+            cycle = _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p_used, ff_tot, self._i,
+                           target, 0.0, suppressed, db_hold)  # fmt: skip
+            return self._finish(cycle, ErrorCode.NO_ERROR, limits_status, True)
 
         # --- auto ----------------------------------------------------------------
+        bias = 0.0
         if self._velocity:
-            v_raw = self._velocity_output(p_used, d, ff_tot, e, e_prev, out_prev, transfer)
+            v_raw, i_k, bias = self._velocity_output(
+                p_used, d, ff_tot, e, e_prev, out_prev, transfer, h
+            )
         else:
             if transfer:
                 i_k = out_prev - p_used - d - ff_tot
@@ -1036,15 +1185,18 @@ class PID(Block):
                     v = p_used + i_k + d + ff_tot
                     if clamping_blocks(di, v, lo, hi):
                         i_k = clamping_integral(self._i, di, p_used + d + ff_tot, lo, hi)
-                        self._c_i = i_k
-                        return self._finish(v, None, h)  # the demand, beyond the limit
+                        # the demand, beyond the limit, so that the limit status is set
+                        cycle = _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p_used, ff_tot,
+                                       i_k, v, 0.0, suppressed, False)  # fmt: skip
+                        return self._finish(cycle, ErrorCode.NO_ERROR, limits_status, False)
                     if clamping_blocks(di, p_used + i_k + ff_tot, lo, hi):  # D hides the limit
                         i_k = clamping_integral(self._i, di, p_used + ff_tot, lo, hi)
                     elif ramp_blocks(di, clamp(v, lo, hi), subs["_out_ramp"].out, c.out_rate * h):
                         i_k = self._i
-            self._c_i = i_k
             v_raw = p_used + i_k + d + ff_tot
-        return self._finish(v_raw, None, h)
+        cycle = _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p_used, ff_tot, i_k, v_raw, bias,
+                       suppressed, False)  # fmt: skip
+        return self._finish(cycle, ErrorCode.NO_ERROR, limits_status, False)
 
     def _velocity_output(
         self,
@@ -1055,65 +1207,74 @@ class PID(Block):
         e_prev: float,
         out_prev: float,
         transfer: bool,
-    ) -> float:
-        """Velocity algorithm (controltheplant 2024, 2.3.1; Åström 1987, Figs. 2.2, 2.4, 2.5)."""
+        h: float,
+    ) -> tuple[float, float, float]:
+        """Velocity algorithm (controltheplant 2024, 2.3.1; Åström 1987, Figs. 2.2, 2.4, 2.5).
+
+        Returns ``(x, I, bias)``: the output integrator before the limits, the
+        I term it holds and the bias of the reset feedback.
+        """
         if transfer:
-            self._c_bias = self._c_i = out_prev - p - d - ff
-            return out_prev
+            bias = out_prev - p - d - ff
+            return out_prev, bias, bias
         if self._cold:
             p_prev = d_prev = ff_prev = 0.0
         else:
             p_prev, d_prev, ff_prev = self._p_prev, self._d_prev, self._ff_prev
         x = self._x + (p - p_prev) + (d - d_prev) + (ff - ff_prev)
-        self._c_bias = self._bias
         if self._ki != 0.0:  # switch A of Fig. 2.5: the increments of I
             if not (self._cold or self.awin):
                 x += integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
         else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
-            x += tracking_gain(self._c_h, self._tt) * (p + d + ff + self._bias - x)
-        self._c_i = x - p - d - ff
-        return x
+            x += tracking_gain(h, self._tt) * (p + d + ff + self._bias - x)
+        return x, x - p - d - ff, self._bias
 
-    def _finish(self, v_raw: float, target: float | None, h: float) -> float:
-        """Limits, output ramp, status; stores the cycle for :meth:`update_state`."""
+    def _finish(self, cycle: _Cycle, status: int, limits_status: int, held: bool) -> _Cycle:
+        """Limits, output ramp, status and the terms shown for ``cycle``; returns it.
+
+        ``held``: the output is a mode's target (or the dead band's), the I
+        shown is what makes ``P + I + D + FF`` equal the output.
+        """
         lo, hi = self._lo, self._hi
+        v_raw = cycle.v_raw
         v_lim = clamp(v_raw, lo, hi)
         ramp = self._subs["_out_ramp"]
         # a law that overflowed (v not finite) is the output guard's case (BAD_RESULT)
-        out = ramp(v_lim, dt=h) if _NINF < v_raw < _INF else math.nan
-        self._c_vraw = v_raw
+        out = ramp(v_lim, dt=cycle.h) if _NINF < v_raw < _INF else math.nan
         self.limits_active = v_raw > hi or v_raw < lo or ramp.limiting
         self.out = out
-        if self._c_kind == 2:
-            self.p = self._c_p_used
-            self.d = self._c_d
-            self.ff = self._c_ff
-            self.i = self._c_i if target is None else out - self.p - self.d - self.ff
-        status = self._c_status or self._limits_status
-        self.error_id = status
-        return out
+        if cycle.kind == _LAW:
+            self.p, self.d, self.ff = cycle.p, cycle.d, cycle.ff
+            self.i = out - cycle.p - cycle.d - cycle.ff if held else cycle.i
+        self.error_id = status or limits_status
+        return cycle
 
     def update_state(self, applied: float) -> None:
         """UpdateState of Åström 1987, Listing 6.3 with the value actually applied [%].
 
-        In auto the integrator tracks ``applied`` with time constant ``tt``
-        (Åström 1987, Fig. 3.6); with CLAMPING on ``applied - out``, with
-        BACK_CALC_MODEL on ``applied - v`` (``v`` before limits), with
-        BACK_CALC_REAL on ``actuator_pos - v``.  In the other modes (and while
-        the dead band holds the output) the integrator is set so that
-        ``P + I + D + FF = applied``.  A non-finite ``applied`` counts as ``out``.
+        Commits the cycle :meth:`compute_output` left pending.  In auto the
+        integrator tracks ``applied`` with time constant ``tt`` (Åström 1987,
+        Fig. 3.6); with CLAMPING on ``applied - out``, with BACK_CALC_MODEL on
+        ``applied - v`` (``v`` before limits), with BACK_CALC_REAL on
+        ``actuator_pos - v``.  In the other modes (and while the dead band
+        holds the output) the integrator is set so that ``P + I + D + FF =
+        applied``.  A non-finite ``applied`` counts as ``out``.
         """
-        if not self._pending:
+        cycle = self._pending
+        if cycle is None:
             log.debug("PID.update_state without compute_output: ignored")
             return
-        self._pending = False
-        if self._c_kind == 0:
+        self._pending = None
+        if cycle.kind == _SKIP:
             return
+        self._cycle_subs.put(cycle.subs)
+        mode = cycle.mode
+        if mode == Mode.RESET:
+            self._limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
         u = float(applied) if is_finite(applied) else self.out
-        mode = self._c_mode
         if mode != Mode.MANUAL:
             self.manual_value = u
-        if self._c_kind == 1:  # bad input: nothing is known, re-initialise on recovery
+        if cycle.kind == _BAD:  # bad input: nothing is known, re-initialise on recovery
             self._reinit = self._reinit_d = True
             self._mode_prev = mode
             if self.deadband_active:  # leave the dead band: the recovery continues from u
@@ -1121,53 +1282,53 @@ class PID(Block):
                 self._subs["_det"].reset()
             return
         c = self._config
-        p, d, ff = self._c_p_used, self._c_d, self._c_ff
-        auto = mode == Mode.AUTO and not self._c_db_hold
+        p, d, ff = cycle.p, cycle.d, cycle.ff
+        auto = mode == Mode.AUTO and not cycle.db_hold
         if self._velocity:
             if auto:
                 track_to = u
                 if c.anti_windup == AntiWindup.BACK_CALC_REAL and is_finite(self.actuator_pos):
                     track_to = float(self.actuator_pos)
-                self._x = self.out + tracking_gain(self._c_h, self._tt) * (track_to - self.out)
-                self._bias = self._c_bias
+                self._x = self.out + tracking_gain(cycle.h, self._tt) * (track_to - self.out)
+                self._bias = cycle.bias
             else:
                 self._x = u
                 self._bias = u - p - d - ff
             self._p_prev, self._d_prev, self._ff_prev = p, d, ff
         elif auto:
-            i_k = self._c_i
+            i_k = cycle.i
             if self._ki != 0.0:
                 if c.anti_windup == AntiWindup.CLAMPING:
                     ref, v = u, self.out
                 elif c.anti_windup == AntiWindup.BACK_CALC_MODEL:
-                    ref, v = u, self._c_vraw
+                    ref, v = u, cycle.v_raw
                 else:
                     ref = float(self.actuator_pos) if is_finite(self.actuator_pos) else u
-                    v = self._c_vraw
-                i_k += tracking_gain(self._c_h, self._tt) * (ref - v)
+                    v = cycle.v_raw
+                i_k += tracking_gain(cycle.h, self._tt) * (ref - v)
             self._i = i_k
         else:
             self._i = u - p - d - ff
         self._d = d
-        self._w_prev = self._c_w
-        self._e_prev = self._c_e
-        self.p_suppressed = self._c_suppressed
-        self._update_deadband(mode, u)
+        self._w_prev = cycle.w
+        self._e_prev = cycle.e
+        self.p_suppressed = cycle.suppressed
+        self._update_deadband(mode, u, cycle.e, cycle.h)
         self._mode_prev = mode
         self._cold = self._reinit = self._reinit_d = False
 
-    def _update_deadband(self, mode: Mode, u: float) -> None:
+    def _update_deadband(self, mode: Mode, u: float, e: float, h: float) -> None:
         """Adaptive dead band (controltheplant 2024, 2.3.10): steady-state detector + average."""
         if self._db == 0.0:
             return
         det, ma = self._subs["_det"], self._subs["_ma"]
-        inside = deadband(self._c_e, self._db) == 0.0
+        inside = deadband(e, self._db) == 0.0
         if mode != Mode.AUTO or not inside:
             self.deadband_active = False
             det.reset()
             ma(u)
             return
-        det(0.0, dt=self._c_h)  # counts the time spent inside the band
+        det(0.0, dt=h)  # counts the time spent inside the band
         if not self.deadband_active:
             ma(u)
             if det.steady:
@@ -1225,7 +1386,7 @@ class PID(Block):
         in manual when ``state.manual``).
         """
         self._sync_subs()
-        self._pending = False
+        self._pending = None
         self._i, self._d = float(state.i), float(state.d)
         self._w_prev, self._e_prev = float(state.w_prev), float(state.e_prev)
         self.out = float(state.out)

@@ -129,7 +129,8 @@ class PulseWidth(Block):
     Config = PulseWidthConfig
     _state_fields = ("out", "t_in", "t_on", "applied", "asked", "carry", "duty")
 
-    config: PulseWidthConfig  # type: ignore[assignment]
+    config: PulseWidthConfig
+    _config: PulseWidthConfig
 
     def __init__(self, config: PulseWidthConfig | None = None, /, **params: Any) -> None:
         super().__init__(config, **params)
@@ -150,7 +151,7 @@ class PulseWidth(Block):
 
     def __call__(self, v: float, dt: float | None = None) -> float:
         """One sample: controller output ``v`` -> on (1.0) or off (0.0)."""
-        c: PulseWidthConfig = self._config  # type: ignore[assignment]
+        c: PulseWidthConfig = self._config
         h = self._cycle_time(dt, c.ts)
         if h is None:
             self.out = 0.0

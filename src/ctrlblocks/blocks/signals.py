@@ -172,6 +172,7 @@ class PT1(Block):
     Config = PT1Config
     _state_fields = ("out",)
     config: PT1Config
+    _config: PT1Config
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
@@ -249,6 +250,7 @@ class RateLimiter(Block):
     Config = RateLimiterConfig
     _state_fields = ("out", "limiting")
     config: RateLimiterConfig
+    _config: RateLimiterConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
@@ -317,6 +319,7 @@ class DeadBand(Block):
     Config = DeadBandConfig
     _state_fields = ("out",)
     config: DeadBandConfig
+    _config: DeadBandConfig
 
     def _reset_state(self) -> None:
         self.out = 0.0
@@ -364,6 +367,7 @@ class Scale(Block):
     Config = ScaleConfig
     _state_fields = ("out",)
     config: ScaleConfig
+    _config: ScaleConfig
 
     def _reset_state(self) -> None:
         self.out = float(self._config.out_lo)
@@ -424,6 +428,10 @@ class MovingAverage(Block):
     Config = MovingAverageConfig
     _state_fields = ("out", "_buf", "_idx", "_count", "_sum")
     config: MovingAverageConfig
+    _config: MovingAverageConfig
+    _buf: list[float]
+    _idx: int
+    _count: int
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         """A new window length keeps the newest ``min(count, n)`` values, oldest first."""
@@ -537,6 +545,7 @@ class SteadyStateDetector(Block):
     Config = SteadyStateDetectorConfig
     _state_fields = ("out", "steady", "_anchor", "_elapsed", "_started")
     config: SteadyStateDetectorConfig
+    _config: SteadyStateDetectorConfig
 
     def _reset_state(self) -> None:
         self.out = 0.0
@@ -597,6 +606,7 @@ class Saturation(Block):
     Config = SaturationConfig
     _state_fields = ("out", "high", "low")
     config: SaturationConfig
+    _config: SaturationConfig
 
     def _reset_state(self) -> None:
         c = self._config

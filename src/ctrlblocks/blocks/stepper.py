@@ -162,13 +162,14 @@ class StepController(Block):
         "manual_command",
     )
 
-    config: StepControllerConfig  # type: ignore[assignment]
+    config: StepControllerConfig
+    _config: StepControllerConfig
 
     def __init__(self, config: StepControllerConfig | None = None, /, **params: Any) -> None:
         super().__init__(config, **params)
 
     def _reset_state(self) -> None:
-        c: StepControllerConfig = self._config  # type: ignore[assignment]
+        c: StepControllerConfig = self._config
         self.out = 0.0
         self.pending = 0.0
         self.position = 0.5 * c.span  # unknown without feedback: mid-travel
@@ -197,7 +198,7 @@ class StepController(Block):
 
     def preset_position(self, position: float) -> None:
         """Set the position estimate [%] (e.g. after a reference run to an end switch)."""
-        c: StepControllerConfig = self._config  # type: ignore[assignment]
+        c: StepControllerConfig = self._config
         if is_finite(position):
             self.position = clamp(float(position), 0.0, c.span)
 
@@ -213,7 +214,7 @@ class StepController(Block):
         feedback: float | None = None,
     ) -> float:
         """One sample: demanded position ``u`` [%] -> motor command (+1, -1 or 0)."""
-        c: StepControllerConfig = self._config  # type: ignore[assignment]
+        c: StepControllerConfig = self._config
         h = self._cycle_time(dt, c.ts)
         if h is None:
             return self._stop()
@@ -301,4 +302,4 @@ class StepController(Block):
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         if old is not None:  # a smaller span keeps the estimate inside the travel
-            self.position = clamp(self.position, 0.0, self._config.span)  # type: ignore[attr-defined]
+            self.position = clamp(self.position, 0.0, self._config.span)

@@ -18,8 +18,9 @@ and the sweep workers do not import numba.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from .._lazy import lazy_exports
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._jit import HAVE_NUMBA
@@ -32,14 +33,10 @@ if TYPE_CHECKING:  # pragma: no cover
 from .sweep import SweepError, dask_executor, sweep, write_rows
 
 _WHERE = {
-    "HAVE_NUMBA": "._jit",
-    "ADRCBank": ".bank",
-    "BankResult": ".bank",
-    "PIDBank": ".bank",
-    "UnsupportedConfig": ".kernels",
-    "LoopResult": ".loops",
-    "closed_loop": ".loops",
-    "reference_loop": ".loops",
+    "._jit": ("HAVE_NUMBA",),
+    ".bank": ("ADRCBank", "BankResult", "PIDBank"),
+    ".kernels": ("UnsupportedConfig",),
+    ".loops": ("LoopResult", "closed_loop", "reference_loop"),
 }
 
 __all__ = [
@@ -58,13 +55,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    if name not in _WHERE:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(_WHERE[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)

@@ -18,8 +18,14 @@ time outside and loops inside.
 
 State per loop: the PID's ``(i, d, w_prev, e_prev, out, cold)`` and the plant's
 ``x`` and ``y``: 80 bytes (10 floats, :attr:`PIDBank.state_bytes`); the
-parameters add 13 PID and 15 plant floats per loop, 224 bytes
-(:attr:`PIDBank.param_bytes`).
+parameters are 13 PID and 15 plant floats per loop, 224 bytes
+(:attr:`PIDBank.param_bytes`), of which the bank stores once what all loops
+share: a parameter that has the same value (the same bits) in every loop is
+one number, not a column -- the limits, weights and methods of a study that
+varies only the tunings, the zero upper triangle and the output vector of the
+lag chains.  :attr:`PIDBank.stored_bytes` is what a loop then costs (192
+bytes for varied ``kp, ti, td`` and plants).  Exact: the kernel reads the very
+same numbers.
 
 Example
 -------
@@ -60,6 +66,15 @@ __all__ = ["ADRCBank", "BankResult", "PIDBank"]
 
 _N_PID = 13
 _N_PLANT = 15  # phi (9), gamma0 (3), c (3): no dead time in a bank
+_CHUNK = 1 << 16
+"""Rows made at a time while a bank is built (a small buffer, not a full-width table)."""
+
+Columns = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""A parameter table stored by columns: ``(table, shared, where)``.
+
+``where[m] >= 0``: parameter ``m`` of loop ``j`` is ``table[j, where[m]]``; else
+every loop has ``shared[m]``.  See :func:`_columns` and :func:`_at`.
+"""
 
 
 @dataclasses.dataclass
@@ -100,13 +115,24 @@ def _fill_rows(out, k, ti, td, n, b, c, h, lo, hi, reverse, dmeth, imeth, aw, tt
 
 
 @jitable
+def _row(cols, j, out, o):
+    """``out[o:]`` = the parameters of loop ``j`` in the :data:`Columns` ``cols``."""
+    table, shared, where = cols
+    for m in range(where.shape[0]):
+        c = where[m]
+        out[o + m] = table[j, c] if c >= 0 else shared[m]
+
+
+@jitable
 def _load(prm, pp, st, x, j):
-    """Parameters and state of loop ``j`` as locals."""
-    r = (prm[j, 0], prm[j, 1], prm[j, 2], prm[j, 3], prm[j, 4], prm[j, 5], prm[j, 6],
-         prm[j, 7], prm[j, 8], prm[j, 9], prm[j, 10], prm[j, 11], prm[j, 12])  # fmt: skip
-    q = (pp[j, 0], pp[j, 1], pp[j, 2], pp[j, 3], pp[j, 4], pp[j, 5], pp[j, 6], pp[j, 7],
-         pp[j, 8], pp[j, 9], pp[j, 10], pp[j, 11], 0.0, 0.0, 0.0, pp[j, 12], pp[j, 13],
-         pp[j, 14])  # fmt: skip
+    """Parameters and state of loop ``j`` as locals (once per run: the loop runs on them)."""
+    a = np.empty(_N_PID + _N_PLANT)  # one small buffer: few calls that pass arrays
+    _row(prm, j, a, 0)
+    _row(pp, j, a, _N_PID)
+    r = (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11],
+         a[12])  # fmt: skip
+    q = (a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24],
+         0.0, 0.0, 0.0, a[25], a[26], a[27])  # fmt: skip
     return (r, q, st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], st[j, 5] != 0.0,
             x[j, 0], x[j, 1], x[j, 2], x[j, 3])  # fmt: skip
 
@@ -182,7 +208,7 @@ def _run_four(prm, pp, st, x, sp, n_steps, j, iae, h):
 @jit
 def _run(prm, pp, st, x, sp, n_steps, iae, h):
     """Every loop for ``n_steps`` samples, four at a time, on one core."""
-    n_loops = prm.shape[0]
+    n_loops = st.shape[0]
     n4 = n_loops - n_loops % 4
     for j in range(0, n4, 4):
         _run_four(prm, pp, st, x, sp, n_steps, j, iae, h)
@@ -193,7 +219,7 @@ def _run(prm, pp, st, x, sp, n_steps, iae, h):
 @jit_parallel
 def _run_parallel(prm, pp, st, x, sp, n_steps, iae, h):
     """The groups of four spread over all cores (they share nothing)."""
-    n_loops = prm.shape[0]
+    n_loops = st.shape[0]
     n4 = n_loops - n_loops % 4
     for m in prange(n4 // 4):
         _run_four(prm, pp, st, x, sp, n_steps, 4 * m, iae, h)
@@ -227,11 +253,11 @@ class PIDBank:
         for j, p in enumerate(pids):
             s = p.kernel_state()
             st[j] = (s.i, s.d, s.w_prev, s.e_prev, s.out, float(s.cold))
-        self._init(prm, pp, st, x, ts)
+        self._init(_columns_of(prm), _columns_of(pp), st, x, ts)
 
-    def _init(self, prm: np.ndarray, pp: np.ndarray, st: np.ndarray, x: np.ndarray, ts: float):
-        self.prm, self.pp, self.st, self.x = prm, pp, st, x
-        self.n = prm.shape[0]
+    def _init(self, prm: Columns, pp: Columns, st: np.ndarray, x: np.ndarray, ts: float):
+        self._prm, self._pp, self.st, self.x = prm, pp, st, x
+        self.n = st.shape[0]
         self.ts = ts
         self.compiled = HAVE_NUMBA
 
@@ -270,8 +296,10 @@ class PIDBank:
             raise UnsupportedConfig("plant_t must have 1..3 lags per loop")
 
         def arr(v: Any, dtype: Any = float) -> np.ndarray:
+            # length N, or length 1 for a value shared by all loops (never copied N times)
             a = np.asarray(v, dtype=dtype)
-            return np.ascontiguousarray(np.broadcast_to(a, (n_loops,)))
+            np.broadcast_shapes(a.shape, (n_loops,))
+            return np.ascontiguousarray(a.reshape(-1) if a.ndim else a.reshape(1))
 
         kp_a, ti_a, td_a, n_a = arr(kp), arr(ti), arr(td), arr(n)
         lo, hi = arr(u_min), arr(u_max)
@@ -285,11 +313,21 @@ class PIDBank:
         aw = {"clamping": 0.0, "back_calc_model": 1.0}.get(anti_windup)
         if aw is None:
             raise UnsupportedConfig("bank anti_windup: 'clamping' or 'back_calc_model'")
-        prm = np.empty((n_loops, _N_PID))
-        _fill_rows(prm, kp_a, ti_a, td_a, n_a, arr(b), arr(c), float(ts), lo, hi,
-                   arr(reverse, np.bool_), _pid.METHODS.index(derivative_method),
-                   _pid.METHODS.index(integral_method), aw, arr(tt))  # fmt: skip
-        pp = _lag_chain_zoh(arr(plant_k), t, float(ts))
+        h, dmeth = float(ts), _pid.METHODS.index(derivative_method)
+        imeth = _pid.METHODS.index(integral_method)
+        b_a, c_a, rev_a, tt_a, k_a = arr(b), arr(c), arr(reverse, np.bool_), arr(tt), arr(plant_k)
+        t = np.ascontiguousarray(t)
+
+        def pid_rows(out: np.ndarray, j0: int, j1: int) -> None:
+            _fill_rows(out, *(_part(v, j0, j1) for v in (kp_a, ti_a, td_a, n_a, b_a, c_a)), h,
+                       _part(lo, j0, j1), _part(hi, j0, j1), _part(rev_a, j0, j1), dmeth,
+                       imeth, aw, _part(tt_a, j0, j1))  # fmt: skip
+
+        def plant_rows(out: np.ndarray, j0: int, j1: int) -> None:
+            _chain_zoh(out, _part(k_a, j0, j1), t[j0:j1], h)
+
+        prm = _columns(pid_rows, n_loops, _N_PID)
+        pp = _columns(plant_rows, n_loops, _N_PLANT)
         st = np.zeros((n_loops, 6))
         st[:, 5] = 1.0  # cold: the first cycle starts the histories
         x = np.zeros((n_loops, 4))
@@ -304,8 +342,23 @@ class PIDBank:
 
     @property
     def param_bytes(self) -> int:
-        """Bytes of parameters per loop (13 PID + 15 plant floats)."""
-        return int(self.prm.itemsize * self.prm.shape[1] + self.pp.itemsize * self.pp.shape[1])
+        """Bytes of one loop's parameter set (13 PID + 15 plant floats)."""
+        return 8 * (_N_PID + _N_PLANT)
+
+    @property
+    def stored_bytes(self) -> int:
+        """Bytes the bank holds per loop: the state and the parameters not shared by all loops."""
+        return self.state_bytes + 8 * (self._prm[0].shape[1] + self._pp[0].shape[1])
+
+    @property
+    def prm(self) -> np.ndarray:
+        """The PID parameter rows, ``(N, 13)`` (a copy, made from the columns; see ``pid_step``)."""
+        return _rows(self._prm, self.n)
+
+    @property
+    def pp(self) -> np.ndarray:
+        """The plant rows ``(phi, gamma0, c)``, ``(N, 15)`` (a copy, made from the columns)."""
+        return _rows(self._pp, self.n)
 
     @property
     def y(self) -> np.ndarray:
@@ -327,8 +380,59 @@ class PIDBank:
             fn = python_function(fn)
         spa = np.ascontiguousarray(np.broadcast_to(np.asarray(sp, dtype=float), (self.n,)))
         iae = np.zeros(self.n)
-        fn(self.prm, self.pp, self.st, self.x, spa, int(n_steps), iae, self.ts)
+        fn(self._prm, self._pp, self.st, self.x, spa, int(n_steps), iae, self.ts)
         return BankResult(self.x[:, 3].copy(), self.st[:, 4].copy(), iae)
+
+
+def _part(v: np.ndarray, j0: int, j1: int) -> np.ndarray:
+    """Rows ``j0:j1`` of an input of length N, or a value shared by all loops, repeated."""
+    return v[j0:j1] if v.shape[0] > 1 else np.full(j1 - j0, v[0], dtype=v.dtype)
+
+
+def _columns(fill: Any, n: int, width: int) -> Columns:
+    """The :data:`Columns` of ``n`` rows that ``fill(out, j0, j1)`` writes into ``out``.
+
+    Two passes over chunks of :data:`_CHUNK` rows (the rows are cheap to make,
+    a full-width table of N rows is not): the first finds the parameters whose
+    bits differ between loops, the second stores only those.  Bits, not
+    values: ``-0.0`` and ``0.0`` stay apart, so every loop reads exactly the
+    number its row had.
+    """
+    chunks = [(j0, min(j0 + _CHUNK, n)) for j0 in range(0, n, _CHUNK)]
+    buf = np.empty((chunks[0][1], width))
+    fill(buf, 0, chunks[0][1])
+    shared = buf[0].copy()
+    varies = np.zeros(width, dtype=bool)
+    for j0, j1 in chunks:
+        if j0:
+            fill(buf[: j1 - j0], j0, j1)
+        varies |= np.any(buf[: j1 - j0].view(np.int64) != shared.view(np.int64), axis=0)
+    where = np.full(width, -1, dtype=np.int64)
+    where[varies] = np.arange(int(varies.sum()))
+    table = np.empty((n, int(varies.sum())))
+    for j0, j1 in chunks:
+        if j0 or len(chunks) > 1:
+            fill(buf[: j1 - j0], j0, j1)
+        table[j0:j1] = buf[: j1 - j0][:, varies]
+    return table, shared, where
+
+
+def _columns_of(rows: np.ndarray) -> Columns:
+    """The :data:`Columns` of a full table of rows."""
+
+    def fill(out: np.ndarray, j0: int, j1: int) -> None:
+        out[:] = rows[j0:j1]
+
+    return _columns(fill, rows.shape[0], rows.shape[1])
+
+
+def _rows(cols: Columns, n: int) -> np.ndarray:
+    """The full ``(n, width)`` table of :data:`Columns` ``cols``."""
+    table, shared, where = cols
+    out = np.empty((n, shared.shape[0]))
+    out[:] = shared
+    out[:, where >= 0] = table
+    return out
 
 
 def _plant_rows(plants: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
@@ -430,20 +534,6 @@ class ADRCBank:
         iae = np.zeros(self.n)
         fn(self.prm, self.pp, self.st, self.x, spa, int(n_steps), int(chunk), iae, self.ts)
         return BankResult(self.x[:, 3].copy(), self.st[:, 4].copy(), iae)
-
-
-def _lag_chain_zoh(k: np.ndarray, t: np.ndarray, ts: float) -> np.ndarray:
-    """Exact ZOH rows ``(phi, gamma0, c)`` of the lag chains of ``PTn`` (plants.linear).
-
-    Same realisation as ``PTn`` (states = lag outputs, y = the last lag),
-    padded to three states; the rows are computed loop by loop by
-    :func:`_chain_zoh`, compiled, without temporaries (a million loops in a
-    fraction of a second, no memory beyond the rows).
-    """
-    pp = np.empty((t.shape[0], _N_PLANT))
-    _chain_zoh(pp, np.ascontiguousarray(k, dtype=float), np.ascontiguousarray(t, dtype=float),
-               float(ts))  # fmt: skip
-    return pp
 
 
 _TAYLOR_DEGREE = 14

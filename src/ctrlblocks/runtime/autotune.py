@@ -302,7 +302,7 @@ class LiveTuning:
             opts[k] = float(v)
         if opts["mv_min"] < lo or opts["mv_max"] > hi:
             raise CommandError(
-                "mv_min",
+                "mv_min" if opts["mv_min"] < lo else "mv_max",
                 f"the MV bounds {opts['mv_min']:g}..{opts['mv_max']:g} must lie inside the "
                 f"loop's limits {lo:g}..{hi:g}",
                 ErrorCode.BAD_LIMITS,
@@ -418,17 +418,27 @@ class LiveTuning:
 
     # -- the decision -----------------------------------------------------------------
 
-    def accept(self, loop: str, *, user: str, proposal: str) -> dict[str, Any]:
+    def accept(
+        self, loop: str, *, user: str, proposal: str, force: bool = False
+    ) -> dict[str, Any]:
         """Apply ``proposal`` of the finished test to ``loop`` (bumpless); the old tunings.
 
         Goes through :meth:`Runtime.command` (validated by the block; audited as a
-        command), then writes the retain file.
+        command), then writes the retain file.  A proposal whose margins on the
+        identified model say the loop would be unstable or fragile
+        (``Ms > MS_FRAGILE``, :data:`~ctrlblocks.tuning.margins.MS_FRAGILE`) is
+        refused unless ``force``.
         """
         tu = self._done(loop, user, "tune-accept")
         proposals = tu.tuner.result.proposals if tu.tuner.result else {}
+        msg = ""
         if proposal not in proposals:
             msg = f"unknown proposal {proposal!r}; proposals: {sorted(proposals)}"
-            self.runtime.audit(user, "tune-accept", loop=loop, ok=False, message=msg)
+        elif not force and (why := fragile(tu.margins.get(proposal))):
+            msg = f"{proposal} {why} on the identified model: accept it with force"
+        if msg:
+            self.runtime.audit(user, "tune-accept", loop=loop, ok=False, message=msg,
+                               new={"proposal": proposal})  # fmt: skip
             raise CommandError("proposal", msg)
         try:
             tunings = block_tunings(tu.loop, proposals[proposal])
@@ -484,6 +494,20 @@ class LiveTuning:
         task = loop.create_task(self.runtime.save_retained())
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
+
+
+def fragile(margins: Mapping[str, Any] | None) -> str:
+    """Why a proposal's margins make it unsafe to apply ("" when they do not, or are unknown)."""
+    from ..tuning.margins import MS_FRAGILE
+
+    if not margins or "stable" not in margins:
+        return ""
+    if not margins["stable"]:
+        return "makes the loop unstable"
+    ms = margins.get("ms")
+    if isinstance(ms, (int, float)) and ms > MS_FRAGILE:
+        return f"is fragile (Ms {ms:.2f} > {MS_FRAGILE:g})"
+    return ""
 
 
 def block_tunings(lp: ControlLoop, proposal: Mapping[str, Any]) -> dict[str, Any]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import concurrent.futures as cf
+import json
 import os
 import sys
 import time
@@ -306,3 +307,47 @@ def _work(sc: Scenario, quick: bool) -> float:
         min(case.duration, sc.quick_duration) if quick else case.duration for case in sc.cases
     )
     return len(sc.controllers) * samples / sc.ts + 3000.0 * len(sc.cases)
+
+
+@click.command("compare")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--time", "time_col", required=True, help="Name of the time column [s].")
+@click.option("--u", "u_col", required=True, help="Name of the MV column.")
+@click.option("--y", "y_col", required=True, help="Name of the PV column.")
+@click.option("--out", "out_dir", default="compare", show_default=True,
+              type=click.Path(file_okay=False), help="Output folder.")  # fmt: skip
+@click.option("--u-min", type=float, help="MV low limit; default from the data.")
+@click.option("--u-max", type=float, help="MV high limit; default from the data.")
+@click.option("--ts", type=float, help="Controller sample time [s]; default min(T, L)/10.")
+@click.option("--no-corners", is_flag=True, help="Skip the 8 uncertainty corners.")
+@click.option("--u-before", type=float, default=None,
+              help="The MV before the record (as for identify).")  # fmt: skip
+@click.option("--delimiter", type=click.Choice([",", ";", "tab"]), default=None,
+              help="Column delimiter (default: detected, as for identify).")  # fmt: skip
+@click.option("--decimal", type=click.Choice([".", ","]), default=None,
+              help="Decimal mark (default: detected, as for identify).")  # fmt: skip
+@click.option("--encoding", default=None, help="Text encoding (as for identify).")
+@click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
+def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_corners,
+                    u_before, delimiter, decimal, encoding, as_json) -> None:  # fmt: skip
+    """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV)."""
+    from ..tuning import read_step_csv
+    from .compare import compare, jsonable
+
+    try:
+        data = read_step_csv(
+            file, time=time_col, u=u_col, y=y_col, u_before=u_before,
+            delimiter="\t" if delimiter == "tab" else delimiter, decimal=decimal,
+            encoding=encoding,
+        )  # fmt: skip
+        summary = compare(data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts,
+                          corners=not no_corners)  # fmt: skip
+    except ValueError as exc:
+        raise click.ClickException(str(exc)) from None
+    if as_json:
+        click.echo(json.dumps(jsonable(summary), indent=2))
+        return
+    click.echo(f"{file}: {summary['why']}")
+    for s in summary["verdict"]:
+        click.echo(f"  {s['text']}")
+    click.echo(f"report: {Path(out_dir) / 'compare.md'}")

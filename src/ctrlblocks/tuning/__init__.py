@@ -14,32 +14,69 @@
 The guide is docs/tuning.md.
 """
 
-from .adrc import ADRCTuning, adrc_bandwidth, adrc_config, adrc_tuning
-from .halfrule import InverseHalfRule, half_rule, inverse_half_rule
-from .identify import (
-    FOPDT,
-    SOPDT,
-    DataFileError,
-    Integrating,
-    StepData,
-    fit_fopdt,
-    fit_integrating,
-    fit_sopdt,
-    read_step_csv,
-    sundaresan_krishnaswamy,
-    two_point,
-)
-from .pid_rules import (
-    PIDTuning,
-    amigo,
-    lambda_tuning,
-    pid_from_model,
-    simc,
-    tyreus_luyben,
-    ziegler_nichols_closed,
-    ziegler_nichols_open,
-)
-from .relay import BumpTestResult, RelayResult, bump_test, relay_autotune, step_pretune
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .adrc import ADRCTuning, adrc_bandwidth, adrc_config, adrc_tuning
+    from .halfrule import InverseHalfRule, half_rule, inverse_half_rule
+    from .identify import (
+        FOPDT,
+        SOPDT,
+        DataFileError,
+        Integrating,
+        StepData,
+        fit_fopdt,
+        fit_integrating,
+        fit_sopdt,
+        read_step_csv,
+        sundaresan_krishnaswamy,
+        two_point,
+    )
+    from .pid_rules import (
+        PIDTuning,
+        amigo,
+        lambda_tuning,
+        pid_from_model,
+        simc,
+        tyreus_luyben,
+        ziegler_nichols_closed,
+        ziegler_nichols_open,
+    )
+    from .relay import BumpTestResult, RelayResult, bump_test, relay_autotune, step_pretune
+
+# imported on first use (PEP 562): ``ctrlblocks <command> --help`` imports none of them
+_WHERE = {
+    ".adrc": ("ADRCTuning", "adrc_bandwidth", "adrc_config", "adrc_tuning"),
+    ".halfrule": ("InverseHalfRule", "half_rule", "inverse_half_rule"),
+    ".identify": (
+        "FOPDT",
+        "SOPDT",
+        "DataFileError",
+        "Integrating",
+        "StepData",
+        "fit_fopdt",
+        "fit_integrating",
+        "fit_sopdt",
+        "read_step_csv",
+        "sundaresan_krishnaswamy",
+        "two_point",
+    ),
+    ".pid_rules": (
+        "PIDTuning",
+        "amigo",
+        "lambda_tuning",
+        "pid_from_model",
+        "simc",
+        "tyreus_luyben",
+        "ziegler_nichols_closed",
+        "ziegler_nichols_open",
+    ),
+    ".relay": ("BumpTestResult", "RelayResult", "bump_test", "relay_autotune", "step_pretune"),
+}
 
 __all__ = [
     "FOPDT",
@@ -74,3 +111,5 @@ __all__ = [
     "ziegler_nichols_closed",
     "ziegler_nichols_open",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)

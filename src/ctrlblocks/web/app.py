@@ -23,6 +23,15 @@ route                                   who       what
                                                   ``{"sp": 2.0}`` (operator, engineer);
                                                   ``{"u_min": 0, "u_max": 80}``,
                                                   ``{"tunings": {"kp": 1.5}}`` (engineer)
+``GET /api/loops/NAME/tune``            live      the live tuning of the loop (running, or the
+                                                  last one with its result), null if none
+``POST /api/loops/NAME/tune``           engineer  start one: ``{"method": "step",
+                                                  "amplitude": 5, "pv_max": 80}``
+``POST /api/loops/NAME/tune/abort``     engineer  ``{"reason": ".."}`` (optional)
+``POST /api/loops/NAME/tune/accept``    engineer  ``{"proposal": "PID_AMIGO"}``: applied
+                                                  bumplessly, retained (``"force": true``
+                                                  for one the margins call fragile)
+``POST /api/loops/NAME/tune/reject``    engineer  ``{}``
 ======================================  ========  ===============================================
 
 A command is checked here first -- body size, JSON shape, login, the role's
@@ -189,6 +198,59 @@ def coerce_command(changes: Mapping[str, Any], state: Mapping[str, Any]) -> dict
     return out
 
 
+TUNE_OPTIONS = ("method", "amplitude", "mv_min", "mv_max", "pv_min", "pv_max", "max_time",
+                "hysteresis", "pre_time")  # fmt: skip
+"""Keys of a ``POST /api/loops/NAME/tune`` body (:meth:`LiveTuning.start
+<ctrlblocks.runtime.autotune.LiveTuning.start>`)."""
+
+
+def tune_options(body: Mapping[str, Any], bounds: LoopBounds) -> dict[str, Any]:
+    """The start options of a tuning body: text to numbers, empty = default, MV range kept.
+
+    The experiment's MV bounds default to the loop's engineering ``mv_range``
+    where it is narrower than the output limits, and may not leave it.
+    """
+    unknown = sorted(str(k)[:32] for k in body if k not in TUNE_OPTIONS)
+    if unknown:
+        raise CommandError(unknown[0], f"unknown option; options: {', '.join(TUNE_OPTIONS)}")
+    out: dict[str, Any] = {}
+    for k, v in body.items():
+        if k == "method":
+            out[k] = v
+        elif v is None or (isinstance(v, str) and not v.strip()):
+            continue
+        else:
+            out[k] = _to_number(v, 0.0) if isinstance(v, str) else v
+    rng = bounds.mv
+    if rng is not None:
+        out.setdefault("mv_min", max(rng.lo, float(bounds.block.u_min)))
+        out.setdefault("mv_max", min(rng.hi, float(bounds.block.u_max)))
+        for k in ("mv_min", "mv_max"):
+            x = out[k]
+            if isinstance(x, (int, float)) and not isinstance(x, bool):
+                why = rng.refuses(float(x))
+                if why is not None:
+                    raise CommandError(k, why, ErrorCode.BAD_LIMITS)
+    return out
+
+
+def proposal_outside(
+    runtime: Any, loop: str, proposal: str, bounds: LoopBounds
+) -> tuple[str, str, int] | None:
+    """The engineering-range refusal of accepting ``proposal`` (None: inside, or unknown)."""
+    from ..runtime.autotune import block_tunings
+
+    st = runtime.tuning.status(loop) or {}
+    prop = (st.get("proposals") or {}).get(proposal)
+    if prop is None:
+        return None  # the runtime refuses it with the list of proposals
+    try:
+        tunings = block_tunings(runtime.loops[loop], prop)
+    except CommandError:
+        return None  # the runtime refuses it with the reason
+    return bounds.check({"tunings": tunings})
+
+
 def _lower_priority() -> None:
     """Run this thread (password hashing) at a lower CPU priority than the control cycle.
 
@@ -349,11 +411,19 @@ def create_app(
             return _error(400, f"the body is {problem}", "body")
         return body
 
-    async def run_command(loop: str, user: str, changes: dict[str, Any]) -> dict[str, Any]:
+    async def on_runtime(fn: Callable[..., Any], *args: Any, **kw: Any) -> Any:
+        """``fn(*args, **kw)`` on the runtime's event loop (it may be another thread's)."""
         rt_loop = runtime.event_loop
         if rt_loop is None or rt_loop is asyncio.get_running_loop():
-            return runtime.command(loop, user=user, **changes)
-        return await asyncio.wrap_future(runtime.submit(loop, user=user, **changes))
+            return fn(*args, **kw)
+
+        async def call() -> Any:
+            return fn(*args, **kw)
+
+        return await asyncio.wrap_future(asyncio.run_coroutine_threadsafe(call(), rt_loop))
+
+    async def run_command(loop: str, user: str, changes: dict[str, Any]) -> dict[str, Any]:
+        return await on_runtime(runtime.command, loop, user=user, **changes)  # type: ignore[no-any-return]
 
     def loop_state(name: str) -> dict[str, Any]:
         if name not in runtime.loop_names():
@@ -579,8 +649,13 @@ def create_app(
 
     # -- commands ------------------------------------------------------------------
 
-    @app.post("/api/loops/{name}/command", response_model=None)
-    async def command(name: str, request: Request) -> Any:
+    async def admitted(
+        name: str, request: Request, action: str, route: str, who_may: str
+    ) -> tuple[Any, dict[str, Any]] | JSONResponse:
+        """(session, body) of a command-like request, or the refusal (rate, loop, body, login).
+
+        A request without a login is audited (bounded, :func:`audit_refusal`).
+        """
         client = client_of(request)
         if not command_rate.hit(client):
             return _error(429, "too many commands from this address: slow down", "command")
@@ -594,13 +669,22 @@ def create_app(
             audit_refusal(
                 client,
                 who="anonymous",
-                action="command",
+                action=action,
                 loop=name,
-                new=summary(client, f"/api/loops/{name}/command", body),
+                new=summary(client, f"/api/loops/{name}/{route}", body),
                 ok=False,
                 message="refused: not logged in",
             )
-            return _error(401, "log in as an operator to change a loop", "login")
+            return _error(401, f"log in as {who_may}", "login")
+        return s, body
+
+    @app.post("/api/loops/{name}/command", response_model=None)
+    async def command(name: str, request: Request) -> Any:
+        got = await admitted(name, request, "command", "command",
+                             "an operator to change a loop")  # fmt: skip
+        if isinstance(got, JSONResponse):
+            return got
+        s, body = got
         action = ",".join(sorted(str(k)[:32] for k in body))
         may = PERMISSIONS.get(s.role, frozenset())
         denied = sorted(str(k) for k in body if k in PERMISSIONS["engineer"] and k not in may)
@@ -638,6 +722,70 @@ def create_app(
             runtime.audit(s.user, action, loop=name, new=json_safe(changes), ok=False, message=msg)
             return _error(422, msg, str(field), code)
         return {"ok": True, "old": json_safe(old), "state": loop_state(name)}
+
+    # -- live auto-tuning (engineer) ---------------------------------------------------
+
+    @app.get("/api/loops/{name}/tune", response_model=None)
+    async def tune_status(name: str, request: Request) -> Any:
+        if not may_view(request):
+            return not_logged_in()
+        if name not in runtime.loop_names():
+            return unknown_loop(name)
+        return json_safe(runtime.tuning.status(name))
+
+    @app.post("/api/loops/{name}/tune", response_model=None)
+    async def tune_start(name: str, request: Request) -> Any:
+        return await tune_action(name, request, "start")
+
+    @app.post("/api/loops/{name}/tune/{action}", response_model=None)
+    async def tune_decide(name: str, action: str, request: Request) -> Any:
+        if action not in ("abort", "accept", "reject"):
+            return _error(404, f"unknown tuning action {action[:32]!r}", "action")
+        return await tune_action(name, request, action)
+
+    async def tune_action(name: str, request: Request, action: str) -> Any:
+        """Start, abort, accept or reject a live tuning (checks as for a command)."""
+        audit_action = f"tune-{action}"
+        got = await admitted(name, request, audit_action, "tune", "an engineer to tune a loop")
+        if isinstance(got, JSONResponse):
+            return got
+        s, body = got
+        if "tune" not in PERMISSIONS.get(s.role, frozenset()):
+            msg = f"refused: a {s.role} may not tune a loop"
+            runtime.audit(s.user, audit_action, loop=name, new=json_safe(body), ok=False,
+                          message=msg)  # fmt: skip
+            return _error(403, f"a {s.role} may not tune a loop (engineers may)", "tune")
+        try:
+            if action == "start":
+                try:
+                    kw = tune_options(body, bounds[name])
+                except CommandError as exc:
+                    runtime.audit(s.user, audit_action, loop=name, new=json_safe(body),
+                                  ok=False, message=str(exc))  # fmt: skip
+                    raise
+                st = await on_runtime(runtime.tuning.start, name, user=s.user, **kw)
+            elif action == "abort":
+                reason = str(body.get("reason", ""))[:200]
+                st = await on_runtime(runtime.tuning.abort, name, user=s.user, reason=reason)
+            elif action == "reject":
+                st = await on_runtime(runtime.tuning.reject, name, user=s.user)
+            else:
+                proposal = body.get("proposal")
+                if not isinstance(proposal, str):
+                    raise CommandError("proposal", "give the name of a proposal")
+                outside = proposal_outside(runtime, name, proposal[:64], bounds[name])
+                if outside is not None:
+                    field, msg, code = outside
+                    runtime.audit(s.user, audit_action, loop=name, ok=False,
+                                  new={"proposal": proposal[:64]},
+                                  message=f"{field}: {msg}")  # fmt: skip
+                    return _error(422, msg, field, code)
+                await on_runtime(runtime.tuning.accept, name, user=s.user, proposal=proposal[:64],
+                                 force=body.get("force") is True)  # fmt: skip
+                st = runtime.tuning.status(name)
+        except CommandError as exc:
+            return _error(422, exc.message, exc.field, exc.code)
+        return {"ok": True, "tuning": json_safe(st), "state": loop_state(name)}
 
     # -- live push -------------------------------------------------------------------
 

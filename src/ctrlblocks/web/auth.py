@@ -6,7 +6,8 @@ Who may do what (:data:`PERMISSIONS`, enforced by the server):
   configuration says so (``[web] public_view = true``; the demo does);
 * a *viewer* (logged in) watches: loop list, trends, history, CSV, audit trail;
 * an *operator* may also change mode, manual value and setpoint;
-* an *engineer* may also change the output limits and the tunings.
+* an *engineer* may also change the output limits and the tunings, and run,
+  abort, accept or reject a live auto-tuning.
 
 The users file is JSON, written with mode 0600::
 
@@ -66,9 +67,10 @@ ROLES = ("viewer", "operator", "engineer")
 PERMISSIONS: dict[str, frozenset[str]] = {
     "viewer": frozenset(),
     "operator": frozenset({"mode", "manual_value", "sp"}),
-    "engineer": frozenset({"mode", "manual_value", "sp", "u_min", "u_max", "tunings"}),
+    "engineer": frozenset({"mode", "manual_value", "sp", "u_min", "u_max", "tunings", "tune"}),
 }
-"""Command keys each role may send (``POST /api/loops/NAME/command``)."""
+"""Command keys each role may send (``POST /api/loops/NAME/command``); ``tune``: live
+auto-tuning (``/api/loops/NAME/tune``)."""
 
 SESSION_HOURS = 8.0
 """Lifetime of a login session [h] (one shift)."""

@@ -34,6 +34,7 @@ const CONTROLS = {
   sp: ["sp-input", "btn-sp"],
   u_min: ["umin", "umax", "btn-limits"],
   tunings: ["btn-tunings", "btn-tunings-reset"],
+  tune: ["tune-start", "tune-abort", "tune-reject"],
 };
 
 const MAIN_TUNINGS = {
@@ -112,6 +113,7 @@ function applyPermissions() {
     }
   }
   for (const inp of $("tunings").querySelectorAll("input")) inp.disabled = !may.has("tunings");
+  for (const b of $("tune-proposals").querySelectorAll("button")) b.disabled = !may.has("tune");
   const role = (S.info && S.info.role) || "none";
   $("role-note").textContent = ROLE_NOTES[role] || "";
   $("role-note").hidden = !ROLE_NOTES[role];
@@ -298,6 +300,7 @@ function renderPlate() {
   for (const row of $("tunings").tBodies[0].rows) {
     row.cells[1].textContent = fmtParam(st.tunings[row.dataset.key]);
   }
+  renderTuning(st.tuning);
   updateChart();
 }
 
@@ -355,19 +358,20 @@ function message(ok, status, text) {
   el.className = ok ? "ok" : "refused";
 }
 
-async function command(changes, what) {
+// POST a loop action (route under api/loops/NAME/), report the answer; the answer's JSON or null
+async function post(route, body, what) {
   const name = S.selected;
   let r;
   try {
-    r = await fetch(`api/loops/${encodeURIComponent(name)}/command`, {
+    r = await fetch(`api/loops/${encodeURIComponent(name)}/${route}`, {
       method: "POST",
       credentials: "same-origin",
       headers: { "Content-Type": "application/json" },
-      body: JSON.stringify(changes),
+      body: JSON.stringify(body),
     });
   } catch (e) {
     message(false, 0, `${what}: no answer from the server (${e})`);
-    return false;
+    return null;
   }
   const j = await r.json();
   if (r.ok) {
@@ -381,7 +385,11 @@ async function command(changes, what) {
     message(false, r.status, `${name}: ${what} refused — ${code}${e.field ? e.field + ": " : ""}${e.message}`);
   }
   loadAudit();
-  return r.ok;
+  return r.ok ? j : null;
+}
+
+async function command(changes, what) {
+  return (await post("command", changes, what)) !== null;
 }
 
 $("btn-auto").addEventListener("click", () => command({ mode: "auto" }, "AUTO"));
@@ -611,6 +619,83 @@ $("btn-history").addEventListener("click", async () => {
   el.innerHTML = "";
   S.histChart = new uPlot(chartOpts(el, `${S.selected}: history`), [c.t_wall, c.sp, c.pv, c.mv], el);
 });
+
+
+// ---------------------------------------------------------------- live tuning
+
+const TUNE_FIELDS = { amplitude: "tune-amplitude", max_time: "tune-max-time",
+  mv_min: "tune-mv-min", mv_max: "tune-mv-max", pv_min: "tune-pv-min", pv_max: "tune-pv-max" };
+S.tuneShown = null;    // what the proposals table shows (rebuilt only when it changes)
+
+function renderTuning(tu) {
+  const status = $("tune-status");
+  if (!tu) {
+    status.textContent = "no test yet";
+    status.className = "";
+  } else {
+    const why = tu.reason ? ` — ${tu.reason}` : "";
+    const by = tu.decided_by ? ` by ${tu.decided_by}` + (tu.accepted ? `: ${tu.accepted}` : "") : "";
+    const prog = tu.state === "running"
+      ? ` ${fmt(tu.elapsed)} s of at most ${fmt(tu.max_time)} s, MV ${fmt(tu.mv)}` : "";
+    status.textContent = `${tu.method} test ${tu.state}${prog}${why}${by}`;
+    status.className = tu.state;
+  }
+  const key = tu ? JSON.stringify([S.selected, tu.state, tu.margins_ready, tu.proposals || null])
+    : S.selected;
+  if (key === S.tuneShown) return;
+  S.tuneShown = key;
+  const m = tu && tu.model;
+  $("tune-model").textContent = !m ? ""
+    : m.kind === "FOPDT"
+      ? `model: FOPDT gain ${fmt(m.gain)}, time constant ${fmt(m.time_constant)} s, dead time ${fmt(m.dead_time)} s`
+      : `ultimate point: ku ${fmt(m.ku)}, pu ${fmt(m.pu)} s (no model for margins: a step test gives one)`;
+  const tbody = $("tune-proposals").tBodies[0];
+  tbody.innerHTML = "";
+  const may = new Set((S.info && S.info.may_change) || []);
+  for (const [name, p] of Object.entries((tu && tu.proposals) || {})) {
+    const tr = document.createElement("tr");
+    tr.dataset.proposal = name;
+    const mg = (tu.margins || {})[name];
+    const settings = Object.entries(p).filter(([k]) => k !== "type")
+      .map(([k, v]) => `${k} ${fmtParam(v)}`).join(", ");
+    const cells = [name, `${p.type}: ${settings}`,
+                   mg ? (mg.summary || mg.error) : (tu.margins_ready ? "-" : "computing ...")];
+    for (const c of cells) {
+      const td = document.createElement("td");
+      td.textContent = c;
+      tr.appendChild(td);
+    }
+    if (mg && (mg.stable === false || mg.ms > 2)) tr.className = "fragile";
+    const td = document.createElement("td");
+    if (tu.state === "done") {
+      const b = document.createElement("button");
+      b.type = "button";
+      b.textContent = "Accept";
+      b.disabled = !may.has("tune");
+      b.addEventListener("click", () => tuneAction("accept", { proposal: name }, `accept ${name}`));
+      td.appendChild(b);
+    }
+    tr.appendChild(td);
+    tbody.appendChild(tr);
+  }
+  $("tune-warnings").textContent = ((tu && tu.warnings) || []).join(" · ");
+}
+
+async function tuneAction(action, body, what) {
+  const j = await post(action === "start" ? "tune" : `tune/${action}`, body, what);
+  if (j) renderTuning(j.tuning);
+  return j !== null;
+}
+
+$("tune-start").addEventListener("click", () => {
+  const body = { method: $("tune-method").value };
+  for (const [k, id] of Object.entries(TUNE_FIELDS)) {
+    if ($(id).value.trim()) body[k] = $(id).value;
+  }
+  tuneAction("start", body, `${body.method} test`);
+});
+$("tune-abort").addEventListener("click", () => tuneAction("abort", { reason: "from the faceplate" }, "abort"));
+$("tune-reject").addEventListener("click", () => tuneAction("reject", {}, "reject"));
 
 // ---------------------------------------------------------------- audit
 
