@@ -88,9 +88,13 @@ def test_simulator_and_runtime_tables_are_derived_from_the_structures():
         "smith": "main",
         "split_range": "main",
         "ratio": "main",
+        "pulse_width": "main",
+        "three_step": "main",
+        "scheduled": "main",
         "open_loop": "main",
     }
-    assert [n for n, s in STRUCTURES.items() if s.series_plant] == ["cascade", "override"]
+    series = [n for n, s in STRUCTURES.items() if s.series_plant]
+    assert series == ["cascade", "override", "three_step"]
     assert {n: s.actuators for n, s in STRUCTURES.items() if s.actuators != 1} == {"split_range": 2}
 
 

@@ -4,21 +4,32 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
+import shutil
+from functools import reduce
+from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from ctrlblocks.blocks.adrc import ADRC
 from ctrlblocks.cli import main
+from ctrlblocks.fast.sweep import apply_key
+from ctrlblocks.loops.toml import read_toml
 from ctrlblocks.plants.linear import FOPDT as PlantFOPDT
-from ctrlblocks.sim.compare import compare, scenario_toml
+from ctrlblocks.sim.compare import BOX, _box_models, compare, scenario_toml
 from ctrlblocks.sim.runner import run_scenario
-from ctrlblocks.sim.scenario import load_scenario, parse_scenario
-from ctrlblocks.tuning import adrc_tuning, amigo, fit_fopdt
+from ctrlblocks.sim.scenario import ScenarioError, load_scenario, parse_scenario, parse_scenario_doc
+from ctrlblocks.tuning import adrc_tuning, amigo, fit_fopdt, fit_sopdt
 from ctrlblocks.tuning.bump import block_margins
+from ctrlblocks.tuning.margins import Loop, margins
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
-def _bump(k=1.2, t=12.0, L=3.0, noise=0.002, ts=0.5, seed=3):
+def _bump(k=1.0, t=5.0, L=5.0, noise=0.002, ts=0.5, seed=3):
+    """A bump test of ``k e^{-L s}/(t s + 1)`` (default: dead time as long as the lag)."""
     plant = PlantFOPDT(k, t, L, ts)
     plant.reset(1.0)
     tt = np.arange(0.0, 120.0, ts)
@@ -33,9 +44,26 @@ def _bump(k=1.2, t=12.0, L=3.0, noise=0.002, ts=0.5, seed=3):
 
 @pytest.fixture(scope="module")
 def result(tmp_path_factory):
+    """compare on a dead-time-dominant FOPDT, with the corners and 3 Monte-Carlo models."""
     out = tmp_path_factory.mktemp("cmp")
     t, u, y = _bump()
-    return out, (t, u, y), compare(t, u, y, out, corners=False)
+    return out, (t, u, y), compare(t, u, y, out, monte_carlo=3, seed=7)
+
+
+@pytest.fixture(scope="module")
+def readme_run(tmp_path_factory):
+    """The README's compare command, run verbatim in a copy of the example's folder tree."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    (cmd,) = [ln[2:] for ln in text.splitlines() if ln.startswith("$ ctrlblocks compare ")]
+    cwd = tmp_path_factory.mktemp("readme")
+    (cwd / "docs" / "examples").mkdir(parents=True)
+    shutil.copy(ROOT / "docs" / "examples" / "bump_k2.csv", cwd / "docs" / "examples")
+    args = shlex.split(cmd)[1:]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.chdir(cwd)
+        res = CliRunner().invoke(main, args)
+    out = cwd / args[args.index("--out") + 1]
+    return cmd, res, out, json.loads((out / "compare.json").read_text())
 
 
 def test_compare_identifies_tunes_and_margins_as_by_hand(result):
@@ -46,10 +74,16 @@ def test_compare_identifies_tunes_and_margins_as_by_hand(result):
     ctrls = {c["name"]: c for c in s["controllers"]}
     am = amigo(fo.gain, fo.time_constant, fo.dead_time)
     assert ctrls["PID AMIGO"]["params"]["kp"] == pytest.approx(am.kp, rel=1e-9)
-    a2 = adrc_tuning(fo.gain, fo.time_constant, fo.dead_time, 2, ts=s["ts"], model=fo)
-    assert ctrls["ADRC n=2"]["params"]["omega_c"] == pytest.approx(a2.omega_c, rel=1e-9)
-    mg = block_margins(fo, "ADRC", ctrls["ADRC n=2"]["params"], s["ts"])
+    a2 = adrc_tuning(fo.gain, fo.time_constant, fo.dead_time, 2, ts=s["ts"], model=fo,
+                     b0_search=True)  # fmt: skip
+    p2 = ctrls["ADRC n=2"]["params"]
+    assert p2["omega_c"] == pytest.approx(a2.omega_c, rel=1e-9)
+    assert p2["b0"] == pytest.approx(a2.b0, rel=1e-9)
+    assert ctrls["ADRC n=2"]["b0_rule"] == pytest.approx(a2.b0_rule, rel=1e-9)
+    mg = block_margins(fo, "ADRC", p2, s["ts"])
     assert ctrls["ADRC n=2"]["margins"]["ms"] == pytest.approx(mg["ms"], rel=1e-9)
+    ki = Loop(fo, ADRC(**p2, ts=s["ts"])).integral_gain()
+    assert ctrls["ADRC n=2"]["margins"]["ki"] == pytest.approx(ki, rel=1e-9)
     for c in ctrls.values():
         m = c["margins"]
         assert c["eligible"] == bool(m and m["stable"] and m["ms"] <= 2.0)
@@ -57,36 +91,107 @@ def test_compare_identifies_tunes_and_margins_as_by_hand(result):
 
 def test_compare_metrics_equal_running_the_written_scenario_by_hand(result):
     out, _, s = result
-    sc = load_scenario(out / "compare.toml")
-    r = run_scenario(sc)
+    r = run_scenario(load_scenario(out / "compare.toml"))
     for name, m in s["metrics"].items():
-        assert m["model"]["iae_tracking"] == pytest.approx(
-            r.metric(name, "main", "iae", 1), rel=1e-9
-        )
-        assert m["model"]["iae_load"] == pytest.approx(r.metric(name, "main", "iae", 2), rel=1e-9)
+        for key, case, metric in (("iae_tracking", "setpoint", "iae"),
+                                  ("overshoot", "setpoint", "overshoot"),
+                                  ("tv_u_tracking", "setpoint", "tv_u"),
+                                  ("iae_load", "load", "iae"),
+                                  ("tv_u_load", "load", "tv_u")):  # fmt: skip
+            assert m["model"][key] == pytest.approx(r.metric(name, case, metric), rel=1e-9)
     assert (out / "compare.md").read_text().count("|") > 40
-    assert (out / "fit.png").stat().st_size > 10000 and (out / "main.png").stat().st_size > 10000
+    for png in ("fit.png", "setpoint.png", "load.png"):
+        assert (out / png).stat().st_size > 10000
 
 
-def test_every_verdict_sentence_quotes_its_metric_from_the_json(result):
-    out, _, _s = result
-    data = json.loads((out / "compare.json").read_text())
-    assert data["verdict"]
+def test_monte_carlo_models_are_seeded_draws_from_the_box():
+    fo = fit_fopdt(*_bump())
+    a, b, c = _box_models(fo, 200, 7), _box_models(fo, 200, 7), _box_models(fo, 200, 8)
+    assert a == b and a != c
+    gains = np.array([p["k"] for p in a]) / fo.gain
+    lags = np.array([p["t"] for p in a]) / fo.time_constant
+    dead = np.array([p["dead_time"] for p in a]) / fo.dead_time
+    for x, half in ((gains, BOX["gain"]), (lags, BOX["time_constant"]), (dead, BOX["dead_time"])):
+        assert np.all(np.abs(x - 1.0) <= half) and np.ptp(x) > 1.6 * half  # fills the box
+
+
+def test_monte_carlo_spread_equals_running_each_drawn_model_by_hand(result):
+    out, (t, u, y), s = result
+    assert s["monte_carlo"] == {"n": 3, "seed": 7}
+    fo = fit_fopdt(t, u, y)
+    text = (out / "compare.toml").read_text()
+    runs = []
+    for plant in _box_models(fo, 3, 7):
+        doc = read_toml(text, "compare.toml", ScenarioError)
+        apply_key(doc, "plant", plant)
+        runs.append(run_scenario(parse_scenario_doc(doc, file="compare.toml")))
+    for name, m in s["metrics"].items():
+        vals = [r.metric(name, "load", "iae") for r in runs]
+        mc = m["monte_carlo"]["iae_load"]
+        assert mc["median"] == pytest.approx(float(np.median(vals)), rel=1e-9)
+        assert mc["worst"] == pytest.approx(max(vals), rel=1e-9) and mc["not_finite"] == 0
+
+
+def test_the_commands_sweep_gives_the_numbers_of_the_serial_runs(result, tmp_path):
+    """``ctrlblocks compare`` runs the uncertain models as one fast.sweep over ``plant``."""
+    from ctrlblocks.sim.cli import _sweep_runner
+
+    _out, (t, u, y), s = result
+    swept = compare(t, u, y, tmp_path, monte_carlo=3, seed=7, run_models=_sweep_runner(1))
+    for name, m in s["metrics"].items():
+        for key in ("iae_tracking", "iae_load", "tv_u_load"):
+            assert swept["metrics"][name]["monte_carlo"][key] == m["monte_carlo"][key]
+            assert swept["metrics"][name]["corners"][key] == m["corners"][key]
+
+
+def _resolve(data, path):
+    return reduce(lambda node, key: node[key], path, data)
+
+
+def _check_quotes(data):
     for st in data["verdict"]:
-        if st["metric"] == "ms":
-            continue
-        v = data["metrics"][st["controller"]]["model"][st["metric"]]
-        assert f"{v:.4g}" in st["text"], st
+        for q in st["quotes"]:
+            v = _resolve(data, q["path"])
+            shown = "not finite" if v is None else format(q["scale"] * v, q["fmt"])
+            assert shown == q["shown"] and shown in st["text"], st
 
 
-def test_a_process_where_pid_wins_says_so(result):
+def test_every_verdict_number_is_read_back_from_the_json(result, readme_run):
+    out, _, _s = result
+    for data in (json.loads((out / "compare.json").read_text()), readme_run[3]):
+        assert data["verdict"]
+        _check_quotes(data)
+        assert sum(len(st["quotes"]) for st in data["verdict"]) >= 10
+
+
+def test_the_verdict_speaks_of_mv_travel_and_of_the_overshoot_under_longer_dead_time(readme_run):
+    data = readme_run[3]
+    texts = [st["text"] for st in data["verdict"]]
+    travel = [st for st in data["verdict"] if "MV travel (" in st["text"]]
+    assert len(travel) == 2  # set-point step and load, best ADRC against best PID
+    for st in travel:
+        assert any(q["path"][-1].startswith("tv_u_") for q in st["quotes"])
+    dead = [st for st in data["verdict"] if st["text"].startswith("Under +30 % dead time")]
+    assert len(dead) == 2, texts
+    for st in dead:
+        name = st["quotes"][0]["path"][1]
+        runs = data["metrics"][name]["corner_runs"]
+        worst = max(v["overshoot"] for k, v in runs.items() if k.endswith("L x1.3"))
+        assert st["quotes"][0]["path"][2:] == ["dead_time_plus", "overshoot"]
+        assert _resolve(data, st["quotes"][0]["path"]) == pytest.approx(worst, rel=1e-12)
+
+
+def test_a_process_where_pid_clearly_wins_says_so(result):
+    """Dead time as long as the lag: no ADRC reaches the AMIGO PID's load rejection."""
     _, _, s = result
     texts = [x["text"] for x in s["verdict"]]
-    assert any(x.startswith("PID wins on iae_load") for x in texts), texts
+    assert any(x.startswith("PID wins the load rejection (iae_load)") for x in texts), texts
     ms = s["metrics"]
-    best_pid = min(v["model"]["iae_load"] for n, v in ms.items() if n.startswith("PI"))
-    best_adrc = min(v["model"]["iae_load"] for n, v in ms.items() if n.startswith("ADRC"))
-    assert best_pid < best_adrc
+    kind = {c["name"]: c["type"] for c in s["controllers"] if c["eligible"]}
+    best_pid = min(ms[n]["model"]["iae_load"] for n in kind if kind[n] == "PID")
+    best_adrc = min(ms[n]["model"]["iae_load"] for n in kind if kind[n] == "ADRC")
+    assert best_pid < 0.9 * best_adrc
+    assert not any(x.startswith("ADRC wins") for x in texts)
 
 
 def test_corner_scenarios_change_the_plant_by_the_factors():
@@ -100,21 +205,80 @@ def test_corner_scenarios_change_the_plant_by_the_factors():
     assert p["dead_time"] == pytest.approx(1.3 * fo.dead_time)
 
 
-def test_cli_compare_on_the_shipped_example_without_corners(tmp_path):
-    r = CliRunner().invoke(main, ["compare", "docs/examples/bump_k2.csv", "--time", "time_s",
-                                  "--u", "p_supply_bar", "--y", "p3_bar", "--out",
-                                  str(tmp_path), "--no-corners", "--json"])  # fmt: skip
-    assert r.exit_code == 0, r.output
-    d = json.loads(r.output)
-    assert d["model_used"] in ("fopdt", "sopdt") and d["verdict"]
+def test_the_readmes_compare_command_runs_verbatim_on_the_shipped_example(readme_run):
+    cmd, res, out, d = readme_run
+    assert cmd.startswith("ctrlblocks compare docs/examples/bump_k2.csv")
+    assert res.exit_code == 0, res.output
+    assert res.stdout.splitlines()[-1] == "report: compare/compare.md"
+    assert "compare: uncertain models: 8/8 run" in res.stderr  # progress, not on a terminal
+    assert d["model_used"] == "sopdt" and d["verdict"]
     assert all(math.isfinite(c["margins"]["ms"]) for c in d["controllers"] if c["eligible"])
-    bad = CliRunner().invoke(main, ["compare", str(tmp_path / "nope.csv"), "--time", "t",
-                                    "--u", "u", "--y", "y"])  # fmt: skip
-    assert bad.exit_code == 1 and "Traceback" not in bad.output
+    for f in ("compare.md", "compare.toml", "fit.png", "setpoint.png", "load.png"):
+        assert (out / f).is_file()
+    # docs/tuning.md shows this run's output (shortened with "...")
+    from tests.test_docs_outputs import _matches
+
+    doc = (ROOT / "docs" / "tuning.md").read_text(encoding="utf-8")
+    block = doc.split("$ " + cmd + "\n", 1)[1].split("```", 1)[0]
+    assert _matches(res.stdout.splitlines(), [ln for ln in block.splitlines() if ln.strip()])
+
+
+def test_adrc_is_tuned_and_analysed_on_the_chosen_sopdt(readme_run):
+    """The paper's Table 2 ADRC: unstable on the FOPDT fit, stable on the better SOPDT fit."""
+    d = readme_run[3]
+    from ctrlblocks.tuning import read_step_csv
+
+    data = read_step_csv(ROOT / "docs/examples/bump_k2.csv", "time_s", "p_supply_bar", "p3_bar")
+    fo, so = fit_fopdt(data.t, data.u, data.y), fit_sopdt(data.t, data.u, data.y)
+    table2 = ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1)
+    assert not margins(fo, table2).stable
+    assert margins(so, table2).ms == pytest.approx(2.2, abs=0.05)
+    ctrls = {c["name"]: c for c in d["controllers"]}
+    for n in (1, 2, 3):
+        c = ctrls[f"ADRC n={n}"]
+        assert c["margins"]["ms"] == pytest.approx(
+            block_margins(so, "ADRC", c["params"], d["ts"])["ms"], rel=1e-9
+        )
+        assert c["margins"]["ms"] <= 1.6 * (1 + 1e-6)
+    # searching b0 with the bandwidth beats the rule's b0 on the load (integral gain)
+    half = so.time_constant_2 / 2
+    rule = adrc_tuning(so.gain, so.time_constant + half, so.dead_time + half, 2, ts=d["ts"],
+                       model=so)  # fmt: skip
+    assert ctrls["ADRC n=2"]["margins"]["ki"] > 5 * rule.integral_gain
+    assert ctrls["ADRC n=2"]["b0_rule"] == pytest.approx(rule.b0, rel=1e-12)
+
+
+def test_every_plot_axis_has_units(readme_run, tmp_path, monkeypatch):
+    _cmd, _res, out, _d = readme_run
+    doc = read_toml((out / "compare.toml").read_text(), "compare.toml", ScenarioError)
+    assert doc["plot"]["upper_label"] == "PV: p3_bar (units of the data)"
+    assert doc["plot"]["lower_label"] == "MV: p_supply_bar (units of the data)"
+    # a header with units ("pv [degC]") puts them on the axes and in the tables
+    import ctrlblocks.tuning.plot as tplot
+
+    seen: dict = {}
+    real = tplot.plot_identification  # recorded, then drawn
+    monkeypatch.setattr(tplot, "plot_identification",
+                        lambda *a, **kw: seen.update(kw) or real(*a, **kw))  # fmt: skip
+    t, u, y = _bump()
+    rows = [f"{a:.1f},{b:.3f},{c:.6f}" for a, b, c in zip(t, u, y, strict=True)]
+    csv = tmp_path / "bump.csv"
+    csv.write_text("t [s],mv [%],pv [degC]\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    r = CliRunner().invoke(main, ["compare", str(csv), "--time", "t [s]", "--u", "mv [%]",
+                                  "--y", "pv [degC]", "--out", str(tmp_path / "o"),
+                                  "--no-corners"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert (seen["y_label"], seen["u_label"]) == ("PV: pv [degC]", "MV: mv [%]")
+    assert seen["gain_unit"] == "degC/%"
+    doc = read_toml((tmp_path / "o" / "compare.toml").read_text(), "c.toml", ScenarioError)
+    labels = (doc["plot"]["upper_label"], doc["plot"]["lower_label"])
+    assert labels == ("PV: pv [degC]", "MV: mv [%]")
+    md = (tmp_path / "o" / "compare.md").read_text()
+    assert "IAE load [degC·s]" in md and "MV travel load [%]" in md and "ki [%/(degC·s)]" in md
 
 
 def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path):
-    t, u, y = _bump()
+    t, u, y = _bump(k=1.2, t=12.0, L=3.0)
     rows = [f"{a:.1f};{b:.3f};{c:.6f}".replace(".", ",") for a, b, c in zip(t, u, y, strict=True)]
     csv = tmp_path / "bump.csv"
     csv.write_text("t;mv;pv\n" + "\n".join(rows) + "\n", encoding="cp1252")
@@ -123,8 +287,11 @@ def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path):
             "--no-corners", "--json"]  # fmt: skip
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
-    d = json.loads(r.output)
+    d = json.loads(r.stdout)
     assert d["fopdt"]["gain"] == pytest.approx(1.2, rel=0.05)
+    bad = CliRunner().invoke(main, ["compare", str(tmp_path / "nope.csv"), "--time", "t",
+                                    "--u", "u", "--y", "y"])  # fmt: skip
+    assert bad.exit_code == 1 and "Traceback" not in bad.output
 
 
 def test_compare_on_a_three_tank_bump_test_with_corners_reports_the_spread(tmp_path):
@@ -140,4 +307,5 @@ def test_compare_on_a_three_tank_bump_test_with_corners_reports_the_spread(tmp_p
     for m in s["metrics"].values():
         lo, hi = m["corners"]["iae_load"]
         assert lo <= m["model"]["iae_load"] * 1.5 and hi >= lo
-    assert "Spread over the uncertainty corners" in (tmp_path / "compare.md").read_text()
+    assert "Spread over the 8 uncertainty corners" in (tmp_path / "compare.md").read_text()
+    _check_quotes(json.loads((tmp_path / "compare.json").read_text()))

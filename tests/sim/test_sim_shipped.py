@@ -30,11 +30,14 @@ VERDICTS: dict[str, list[bool]] = {
     # estimated b0: n = 2 is better than the final value in IAE; n = 1 oscillates
     "nowak_table2_b0": [True, False, False, True, True, True],
     "nowak_smith": [True, True, True],
+    "gain_schedule_three_tank": [True, True, True],
+    "pulse_width_heater": [True, True, True, True],
     "ratio_blend": [True, True, True, True, True],
     "split_range_heat_cool": [True, True, True, True, True],
-    # the safe default ADRC (Ms <= 1.6 on the FOPDT fit with its 3 s dead time) has a slow
-    # integral tail: not offset-free within the 80 s windows (the PID is)
-    "tuned_three_tank": [True, False, False, True],
+    "three_step_valve": [True, True, True, True],
+    # the safe default ADRC, tuned on the SOPDT fit with b0 searched, is offset-free in the
+    # 80 s windows (with the inverse half-rule b0 on the FOPDT fit its two claims failed)
+    "tuned_three_tank": [True, True, True, True],
 }
 
 
@@ -188,7 +191,17 @@ def test_tuned_scenario_identifies_the_three_tank_model_and_tunes_both():
     assert info["gain"] == pytest.approx(0.73, rel=0.02)
     assert 2.5 < info["dead_time"] < 3.5 and 6.5 < info["time_constant"] < 8.5
     assert pid.params["kp"] == info["parameters"]["kp"] > 0
-    assert adrc.params["order"] == 2 and 0.02 < adrc.params["b0"] < 0.035
+    # the ADRC's safe default: on the better (SOPDT) fit, b0 searched with the bandwidths
+    a_info = adrc.extra["tuned"]
+    assert a_info["model"]["model"] == "sopdt" and "SOPDT" in a_info["why"]
+    so = a_info["model"]
+    assert 0.8 < so["dead_time"] < 1.2 and 2.5 < so["time_constant_2"] < 3.3
+    from ctrlblocks.tuning import inverse_half_rule
+    from ctrlblocks.tuning.bump import fopdt_of, tuned_model
+
+    rule_b0 = inverse_half_rule(*fopdt_of(tuned_model(a_info)[0]), 2).b0
+    assert adrc.params["order"] == 2 and 0.1 < adrc.params["b0"] < 0.2
+    assert adrc.params["b0"] > 4 * rule_b0
 
 
 def test_report_has_margins_for_tuned_and_linear_loops_and_warns_on_fragile_tunings():
@@ -196,7 +209,8 @@ def test_report_has_margins_for_tuned_and_linear_loops_and_warns_on_fragile_tuni
 
     (sc,) = load_shipped(["tuned_three_tank"])
     rows = margins_rows(sc)
-    assert [r[3] for r in rows] == [True, True]  # both tuned, on the FOPDT fit
+    assert [r[3] for r in rows] == [True, True]  # both tuned: PID on the FOPDT, ADRC on the SOPDT
+    assert rows[0][1].startswith("FOPDT fit") and rows[1][1].startswith("SOPDT fit")
     assert all(r[2]["stable"] and r[2]["ms"] <= 1.6 for r in rows)
     (fig1,) = load_shipped(["nowak_fig1"])
     (_name, model, mg, tuned), _ = margins_rows(fig1)

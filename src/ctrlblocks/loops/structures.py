@@ -45,6 +45,10 @@ Structures and what they read (``structure`` -> measurements):
 ``split_range``  ``y``; one controller, two actuators (:mod:`.split`)
 ``ratio``      ``y`` (the controlled flow), ``w`` (the wild flow; the
                setpoint input is the ratio, :mod:`.ratio`)
+``pulse_width``  ``y``; the controller output through a PWM (on/off MV)
+``three_step``  ``y``, ``y2`` (the valve position: end switches, feedback);
+               a step controller's OPEN/CLOSE commands are the MV
+``scheduled``  ``y``; the controller's parameters follow the setpoint
 ``open_loop``  none (the block is driven by the setpoint)
 =============  ==========================================================
 
@@ -68,6 +72,9 @@ from typing import Any, ClassVar
 
 from ..blocks.base import ParameterError
 from ..blocks.protocols import Controller
+from ..blocks.pwm import PulseWidth
+from ..blocks.schedule import GainSchedule
+from ..blocks.stepper import StepController
 from .ratio import RatioConfig, RatioStation
 from .spec import BlockSpec, ControllerSpec, SpecReader, TuneHook, build
 from .split import SplitRange
@@ -600,13 +607,13 @@ class RatioStructure(Structure):
 
     def setup(self, side):
         super().setup(side)
-        side.station = RatioStation(side.spec.options["ratio"])
+        side.aux = RatioStation(side.spec.options["ratio"])
 
     def update(self, side, u, measured):
         side.ctrls["main"].update(u, measured=measured)
 
     def compute(self, side, sp, m):
-        st: RatioStation = side.station
+        st: RatioStation = side.aux
         sp_flow = st(sp, m.w, m.w_ok, m.dt)
         u = side.ctrls["main"].output(sp_flow, m.y, m.y_ok, 0.0, m.dt)
         return u, {
@@ -616,6 +623,197 @@ class RatioStructure(Structure):
             "wild_hold": float(st.holding),
             "ratio_limited": float(st.limited),
         }
+
+
+
+class _OutputStage(Structure):
+    """A controller whose continuous output drives an output block that makes the MV.
+
+    The controller tracks its own output (the output block realises it on
+    average: a PWM duty, a motor's travel), so its anti-windup and modes are
+    unchanged.  Subclasses name the output block's table (:attr:`stage_key`)
+    and its class; without the table the controller output is the MV (the
+    continuous reference in the same scenario).
+    """
+
+    roles = ("main",)
+    runtime = False  # the runtime writes analogue MVs only (docs/structures.md)
+    stage_key: ClassVar[str]
+    stage_block: ClassVar[type]
+    stage_options: ClassVar[tuple[str, ...]] = ()
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", self.stage_key}, key)
+        main = r.role(e, "main", key, ts, tune)
+        opts: dict[str, Any] = {}
+        if self.stage_key in e:
+            tkey = f"{key}.{self.stage_key}"
+            table = r.table(e, self.stage_key, tkey, True)
+            opts = {k: table[k] for k in self.stage_options if k in table}
+            params = {k: v for k, v in table.items() if k not in self.stage_options}
+            spec = r.block_spec(
+                {"type": self.stage_block.__name__, **params},
+                tkey,
+                ts,
+                kind="block",
+                table_keys=self.stage_options,
+            )
+            opts[self.stage_key] = spec
+        return {"main": main}, opts
+
+    def setup(self, side):
+        super().setup(side)
+        spec = side.spec.options.get(self.stage_key)
+        side.aux = None if spec is None else side.make(spec, "block")
+
+    def controller_roles(self, side):
+        return ["main"]
+
+    def compute(self, side, sp, m):
+        v = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
+        side.pending = (v,)
+        if side.aux is None:
+            return v, {"v_ctrl": v}
+        return self.stage(side, v, m)
+
+    def stage(self, side: ControllerSide, v: float, m: _Measured) -> tuple[float, dict]:
+        """The output block's MV for the controller output ``v``, and its signals."""
+        raise NotImplementedError
+
+    def update(self, side, u, measured):
+        (v,) = side.pending
+        side.ctrls["main"].update(v)
+
+
+class PulseWidthStructure(_OutputStage):
+    """A controller and a pulse-width output (:class:`~ctrlblocks.PulseWidth`): an on/off MV.
+
+    ``[controllers.pwm]`` holds the PulseWidth parameters (``period``,
+    ``t_min_on``, ``t_min_off``, ``in_lo``, ``in_hi``); the MV is ``in_hi``
+    while the output is on and ``in_lo`` while it is off (a heater's full
+    power or none).  Signals: ``v_ctrl`` (the controller output), ``duty``.
+    """
+
+    name = "pulse_width"
+    options = ("pwm",)
+    stage_key = "pwm"
+    stage_block = PulseWidth
+
+    def stage(self, side, v, m):
+        pwm: PulseWidth = side.aux
+        on = pwm(v, m.dt)
+        c = pwm.config
+        return c.in_lo + on * (c.in_hi - c.in_lo), {"v_ctrl": v, "duty": pwm.duty}
+
+
+class ThreeStepStructure(_OutputStage):
+    """A controller and a three-point step controller (:class:`~ctrlblocks.StepController`).
+
+    The controller's output is the valve position it demands [%]; the step
+    controller turns it into OPEN (+1) / CLOSE (-1) motor commands, the MV.
+    The process is ``[inner_plant]`` = the motorised valve
+    (:class:`~ctrlblocks.plants.MotorValve`, ``y2`` = its position) in series
+    with ``[plant]``.  The valve's end switches are its position at 0 and at
+    the span; ``feedback = true`` in ``[controllers.stepper]`` also wires the
+    position as feedback.  Signals: ``demand``, ``position_est`` (the block's
+    estimate), ``est_error`` (``|estimate - position|``), ``pulses`` (pulses
+    started so far).
+    """
+
+    name = "three_step"
+    options = ("stepper",)
+    measurements = ("y", "y2")
+    series_plant = True
+    tuned_roles = ()
+    stage_key = "stepper"
+    stage_block = StepController
+    stage_options = ("feedback",)
+
+    def parse(self, r, e, key, ts, tune):
+        blocks, opts = super().parse(r, e, key, ts, tune)
+        fb = opts.get("feedback", False)
+        if not isinstance(fb, bool):
+            raise r.fail(f"{key}.stepper.feedback", f"must be true or false, got {fb!r}")
+        return blocks, opts
+
+    def stage(self, side, v, m):
+        sc: StepController = side.aux
+        span = sc.config.span
+        pos = m.y2
+        known = m.y2_ok and math.isfinite(pos)
+        cmd = sc(
+            v,
+            m.dt,
+            open_limit=known and pos >= span,
+            close_limit=known and pos <= 0.0,
+            feedback=pos if side.spec.options.get("feedback") and known else None,
+        )
+        est_error = abs(sc.position - pos) if known else math.nan
+        return cmd, {
+            "demand": v,
+            "position_est": sc.position,
+            "est_error": est_error,
+            "pulses": float(sc.pulses),
+        }
+
+
+class ScheduledStructure(Structure):
+    """Gain scheduling: the parameters follow the setpoint (:class:`~ctrlblocks.GainSchedule`).
+
+    ``[controllers.schedule]`` holds ``on = "sp"`` (the scheduling variable),
+    ``breakpoints`` and, per parameter, its values at the breakpoints
+    (``kp = [...]``, ``ti = [...]``).  Every sample the schedule retunes the
+    controller for the setpoint (through its ``configure``, bumplessly; only
+    when the parameters change) before it computes.  Scheduling on the
+    measurement is refused: it retunes every sample, and the PID holds its
+    output in the sample after each retune (its bumpless rule), so it would
+    not act.  Signals: ``w`` (the scheduling variable) and the scheduled
+    parameters.
+    """
+
+    name = "scheduled"
+    roles = ("main",)
+    options = ("schedule",)
+    runtime = False
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", "schedule"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        skey = f"{key}.schedule"
+        table = dict(r.table(e, "schedule", skey, True))
+        on = table.pop("on", "sp")
+        if on != "sp":
+            raise r.fail(
+                f"{skey}.on",
+                f"must be 'sp', got {on!r}: a schedule on a measurement retunes every sample, "
+                "and the PID holds its output in each sample after a retune (its bumpless "
+                "rule), so it would not act (docs/structures.md)",
+            )
+        bps = table.pop("breakpoints", None)
+        if not isinstance(bps, list) or not table:
+            raise r.fail(skey, "needs breakpoints = [...] and at least one parameter = [...]")
+        try:
+            GainSchedule(r.build(main, ts, kind="block"), breakpoints=bps, **table)
+        except ParameterError as exc:
+            raise r.fail(f"{skey}.{exc.field}", exc.message) from None
+        except (TypeError, ValueError) as exc:
+            raise r.fail(skey, str(exc)) from None
+        return {"main": main}, {"schedule": {"on": on, "breakpoints": bps, **table}}
+
+    def setup(self, side):
+        super().setup(side)
+        sched = dict(side.spec.options["schedule"])
+        sched.pop("on")
+        side.aux = GainSchedule(side.blocks["main"], **sched)
+
+    def compute(self, side, sp, m):
+        gs: GainSchedule = side.aux
+        gs.schedule(sp)  # retune the controller for w = sp (a bad w keeps the parameters)
+        u = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
+        return u, {"w": gs.w, **gs.parameters}
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u, measured=measured)
 
 
 STRUCTURES: dict[str, Structure] = {
@@ -628,6 +826,9 @@ STRUCTURES: dict[str, Structure] = {
         Smith(),
         SplitRangeStructure(),
         RatioStructure(),
+        PulseWidthStructure(),
+        ThreeStepStructure(),
+        ScheduledStructure(),
         OpenLoop(),
     )
 }
@@ -731,7 +932,7 @@ class ControllerSide:
         self.error = error
         self.u0 = u0
         self.blocks: dict[str, Any] = {}
-        self.station: RatioStation | None = None  # the ratio structure's station
+        self.aux: Any = None  # the structure's own object: ratio station, gain schedule, ...
         self.kind.setup(self)
         self.ctrls = {r: _Controller(self.blocks[r]) for r in self.kind.controller_roles(self)}
         self.mv_blocks = [self.blocks[r] for r in self.kind.mv_roles_of(self)]

@@ -1,4 +1,4 @@
-"""``ctrlblocks run`` and ``ctrlblocks reproduce``: the simulator on the command line."""
+"""``ctrlblocks run``, ``reproduce`` and ``compare``: the simulator on the command line."""
 
 from __future__ import annotations
 
@@ -309,6 +309,22 @@ def _work(sc: Scenario, quick: bool) -> float:
     return len(sc.controllers) * samples / sc.ts + 3000.0 * len(sc.cases)
 
 
+def _sweep_runner(jobs: int) -> Any:
+    """``run_models`` of :func:`ctrlblocks.sim.compare.compare`: one sweep over ``plant``.
+
+    Serial for ``jobs = 1``, else on a process pool of ``jobs`` workers.
+    """
+    from ..fast.sweep import sweep
+
+    def run(path: Path, tables: list[dict[str, Any]], progress: Any) -> list[dict[str, Any]]:
+        if jobs <= 1:
+            return sweep(path, {"plant": tables}, executor="serial", progress=progress)
+        with cf.ProcessPoolExecutor(max_workers=jobs) as ex:
+            return sweep(path, {"plant": tables}, executor=ex, progress=progress)
+
+    return run
+
+
 @click.command("compare")
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--time", "time_col", required=True, help="Name of the time column [s].")
@@ -320,6 +336,12 @@ def _work(sc: Scenario, quick: bool) -> float:
 @click.option("--u-max", type=float, help="MV high limit; default from the data.")
 @click.option("--ts", type=float, help="Controller sample time [s]; default min(T, L)/10.")
 @click.option("--no-corners", is_flag=True, help="Skip the 8 uncertainty corners.")
+@click.option("--monte-carlo", type=click.IntRange(0, 100000), default=0,
+              help="Also run N models drawn from the uncertainty box.")  # fmt: skip
+@click.option("--seed", type=int, default=1, show_default=True,
+              help="Seed of the Monte-Carlo draw.")  # fmt: skip
+@click.option("--jobs", type=click.IntRange(1, 256), default=1, show_default=True,
+              help="Worker processes for the uncertain models.")  # fmt: skip
 @click.option("--u-before", type=float, default=None,
               help="The MV before the record (as for identify).")  # fmt: skip
 @click.option("--delimiter", type=click.Choice([",", ";", "tab"]), default=None,
@@ -327,11 +349,22 @@ def _work(sc: Scenario, quick: bool) -> float:
 @click.option("--decimal", type=click.Choice([".", ","]), default=None,
               help="Decimal mark (default: detected, as for identify).")  # fmt: skip
 @click.option("--encoding", default=None, help="Text encoding (as for identify).")
+@click.option("--y-unit", default=None, help="PV unit (default: from a header 'pv [degC]').")
+@click.option("--u-unit", default=None, help="MV unit (default: from a header 'mv [%]').")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
 def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_corners,
-                    u_before, delimiter, decimal, encoding, as_json) -> None:  # fmt: skip
-    """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV)."""
+                    monte_carlo, seed, jobs, u_before, delimiter, decimal, encoding, y_unit,
+                    u_unit, as_json) -> None:  # fmt: skip
+    """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).
+
+    Identifies FOPDT and SOPDT models, tunes PID and ADRC on the better one,
+    simulates them on it, on its uncertainty corners and on --monte-carlo N
+    drawn models, and writes compare.md/json/toml and plots to --out
+    (``ctrlblocks.sim.compare``).  Progress lines go to stderr; the verdict
+    (or with --json the summary) to stdout.
+    """
     from ..tuning import read_step_csv
+    from ..tuning.cli import _axis_label
     from .compare import compare, jsonable
 
     try:
@@ -340,10 +373,20 @@ def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_
             delimiter="\t" if delimiter == "tab" else delimiter, decimal=decimal,
             encoding=encoding,
         )  # fmt: skip
-        summary = compare(data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts,
-                          corners=not no_corners)  # fmt: skip
+        yl = _axis_label("PV", y_col, y_unit if y_unit is not None else data.y_unit)
+        ul = _axis_label("MV", u_col, u_unit if u_unit is not None else data.u_unit)
+        summary = compare(
+            data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts,
+            corners=not no_corners, monte_carlo=monte_carlo, seed=seed,
+            y_label=yl if yl.endswith("]") else yl + " (units of the data)",
+            u_label=ul if ul.endswith("]") else ul + " (units of the data)",
+            progress=lambda msg: click.echo(f"compare: {msg}", err=True),
+            run_models=_sweep_runner(jobs),
+        )  # fmt: skip
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
+    except OSError as exc:
+        raise click.ClickException(f"--out {out_dir}: {exc.strerror or exc}") from None
     if as_json:
         click.echo(json.dumps(jsonable(summary), indent=2))
         return

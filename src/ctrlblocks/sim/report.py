@@ -136,6 +136,8 @@ def window_tables(result: ScenarioResult, metric: str = "iae") -> list[str]:
 
 
 def _tuned_lines(sc: Scenario) -> list[str]:
+    from ..tuning.bump import tuned_model
+
     out = []
     for c in sc.controllers:
         for spec in c.blocks.values():
@@ -143,11 +145,14 @@ def _tuned_lines(sc: Scenario) -> list[str]:
             if not info:
                 continue
             params = ", ".join(f"{k} = {v:.4g}" for k, v in info["parameters"].items())
-            out.append(
+            line = (
                 f"- {c.name}: bump {info['du']:+g} from u = {info['u0']:.4g}; FOPDT k = "
                 f"{info['gain']:.4g}, T = {info['time_constant']:.4g} s, T0 = "
-                f"{info['dead_time']:.4g} s; rule {info['rule']}: {params}"
+                f"{info['dead_time']:.4g} s"
             )
+            if (info.get("model") or {}).get("model") == "sopdt":
+                line += f"; tuned on the {tuned_model(info)[1]} ({info['why']})"
+            out.append(f"{line}; rule {info['rule']}: {params}")
     return out
 
 
@@ -155,15 +160,15 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
     """``(controller, model, margins, tuned)`` for every PID/ADRC whose loop has a linear model.
 
     A controller tuned by ``[controllers.tune]`` is analysed as configured (the
-    table with the tuned parameters) on the FOPDT fit of its bump test; a controller
+    table with the tuned parameters) on the fit of its bump test it was tuned on
+    (the FOPDT, or the SOPDT for an ADRC's safe default); a controller
     set by the source (``tuned`` False) in a ``single`` loop on a linear plant
     is analysed on that plant itself, exactly (:mod:`ctrlblocks.tuning.margins`).
     Other loops (nonlinear plants, cascades, Smith predictors) have no row.
     """
     from ..loops.spec import build
     from ..plants.linear import LinearPlant
-    from ..tuning.bump import block_margins
-    from ..tuning.identify import FOPDT
+    from ..tuning.bump import block_margins, tuned_model
 
     rows: list[tuple[str, str, dict | None, bool]] = []
     for c in sc.controllers:
@@ -172,11 +177,7 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
             continue
         info = spec.extra.get("tuned")
         if info:
-            model = (
-                f"FOPDT fit k = {info['gain']:.4g}, T = {info['time_constant']:.4g} s, "
-                f"T0 = {info['dead_time']:.4g} s"
-            )
-            fit = FOPDT(info["gain"], info["time_constant"], info["dead_time"])
+            fit, model = tuned_model(info)
             rows.append((c.name, model, block_margins(fit, spec.type, spec.params, sc.ts), True))
             continue
         if sc.structure != "single" or sc.plant is None or spec.type not in ("PID", "ADRC"):

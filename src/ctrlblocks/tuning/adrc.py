@@ -54,6 +54,24 @@ with the fastest settling time that keeps ``Ms <= 2`` (``force`` keeps it).
 For n = 1 on a process whose FOPDT has a large dead time the estimate
 ``b0 = k/T`` is far too small (Nowak et al. 2018: the final b0 was 3 times
 larger): a warning says so.
+
+Searched b0 (``b0_search=True``, used by ``ctrlblocks compare``): the inverse
+half-rule's b0 comes from the FOPDT's gain and time constant and is only a
+starting point (Nowak et al. 2018, section 5.1 and Table 2: the b0 finally
+used on the three-tank rig was larger).  ``b0`` is then searched jointly with
+the bandwidths: for each candidate ``b0`` (factors of 1.5 around the rule's,
+0.2 to 25 times it) the safe default above gives the fastest ``omega_c`` with
+``Ms <= ms`` on the model (``omega_o`` by the observer ratio); the candidate
+whose loop has the largest integral gain ``ki`` (:meth:`.margins.Loop.integral_gain`)
+is kept, then refined by two bisections of ``log b0`` between its
+neighbours (the candidates' ``omega_c`` to ``Ms`` within 1 % of the target,
+the kept one within 0.5 %).  That is the MIGO principle of Åström & Hägglund 2006 (chapter 7:
+maximise ``ki`` under an Ms constraint; with a well-damped loop the
+integrated error of a unit step load is ``IE = 1/ki``, section 4.4) applied
+to the ADRC's two free parameters.  On the SOPDT of the three-tank bump test
+(docs/examples) at ts = 0.1 s the order-2 ADRC found has ``b0 = 0.125``
+(5 times the rule's), ``omega_c = 0.62 rad/s`` and ``1/ki = 0.83 s`` against
+``1/ki = 18.5 s`` with the rule's b0.
 """
 
 from __future__ import annotations
@@ -126,6 +144,11 @@ class ADRCTuning:
     fastest_settling_time : float
         Shortest ``settling_time`` [s] (the ``tau_set`` of the rule) whose loop
         has ``Ms <= 2`` on the model (NaN if not searched).
+    integral_gain : float
+        ``ki`` of the loop's controller [MV/(PV s)] (:meth:`.margins.Loop.integral_gain`;
+        NaN from :func:`adrc_bandwidth`).
+    b0_rule : float
+        The inverse half-rule's b0 (equal to ``b0`` unless ``b0_search``).
     """
 
     order: int
@@ -142,6 +165,8 @@ class ADRCTuning:
     ms_target: float = math.nan
     settling_time_loop: float = math.nan
     fastest_settling_time: float = math.nan
+    integral_gain: float = math.nan
+    b0_rule: float = math.nan
 
     def config(self, **extra: Any) -> dict[str, Any]:
         """Keyword arguments for ``ctrlblocks.ADRC(**tuning.config(u_min=..., u_max=...))``."""
@@ -244,6 +269,7 @@ def adrc_tuning(
     force: bool = False,
     model: Any = None,
     discretisation: str = "euler",
+    b0_search: bool = False,
 ) -> ADRCTuning:
     """Full ADRC tuning from an FOPDT model: ``b0``, bandwidths and their margins.
 
@@ -288,6 +314,11 @@ def adrc_tuning(
         ``Integrating`` or a ``LinearPlant``); default the FOPDT given.
     discretisation : {"euler", "exact"}
         The ADRC block's discretisation the margins are computed for.
+    b0_search : bool
+        Search ``b0`` jointly with the bandwidths (module docstring: the
+        largest integral gain with ``Ms <= ms`` on the model) instead of
+        taking the inverse half-rule's; only for the safe default (no
+        ``settling_time``).
     """
     from .identify import FOPDT
 
@@ -300,10 +331,17 @@ def adrc_tuning(
     if ts is not None:
         ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
     mdl = FOPDT(float(gain), T, T0) if model is None else model
+    if b0_search and settling_time is not None:
+        raise ParameterError(
+            ErrorCode.BAD_PARAMETER, "b0_search", "searches the safe default: no settling_time"
+        )
     search = _Search(mdl, order, ihr.b0, ratio, T + T0, discretisation)
     warnings = list(ihr.warnings)
     fastest = math.nan
-    if settling_time is None:
+    if b0_search:
+        search, bw, w = _search_b0(search, target, ts, factor)
+        warnings += w
+    elif settling_time is None:
         bw, w = search.safe(target, ts, factor)
         warnings += w
     else:
@@ -326,7 +364,7 @@ def adrc_tuning(
                     msg + "; leave the settling time out for the safe default, or force it",
                 )
             warnings.append(msg + " (forced)")
-    if order == 1 and T0 > 0.25 * T:
+    if order == 1 and T0 > 0.25 * T and not b0_search:
         warnings.append(
             f"order 1 with T0/T = {T0 / T:.2f}: the process is of higher order and b0 = k/T is "
             "too small (Nowak et al. 2018, Table 2: 3 times); expect oscillation, prefer order 2"
@@ -338,7 +376,7 @@ def adrc_tuning(
                 ErrorCode.BAD_PARAMETER, "noise_std/u_noise_max", "give both or neither"
             )
         omega_o, w = _limit_mv_noise(
-            order, ihr.b0, bw.omega_c, omega_o, bw.ts,
+            order, search.b0, bw.omega_c, omega_o, bw.ts,
             require_positive("noise_std", noise_std), require_positive("u_noise_max", u_noise_max),
         )  # fmt: skip
         warnings += w
@@ -367,9 +405,69 @@ def adrc_tuning(
         )
     return ADRCTuning(
         bw.order, bw.omega_c, omega_o, bw.ts, bw.settling_time, bw.settling_time_model,
-        ihr.b0, ihr.b0_min, ihr.b0_max, warnings, mg,
+        search.b0, ihr.b0_min, ihr.b0_max, warnings, mg,
         target if settling_time is None else math.nan, settle, fastest,
+        lp.integral_gain(), ihr.b0,
     )  # fmt: skip
+
+
+_B0_FACTORS = (0.2, 25.0)  # the searched b0 range, times the inverse half-rule's
+_B0_STEP = 1.5
+
+
+def _search_b0(
+    rule: _Search, target: float, ts: float | None, factor: float | None
+) -> tuple[_Search, ADRCTuning, list[str]]:
+    """The b0 (and safe-default bandwidths) with the largest ``ki`` (module docstring)."""
+    found: dict[float, tuple[float, _Search, ADRCTuning, list[str]]] = {}
+
+    def score(b0: float) -> float:
+        if b0 not in found:
+            s = _Search(rule.model, rule.order, b0, rule.ratio, rule.t_sum, rule.disc)
+            s.tol = 0.99  # candidates: Ms within 1 % of the target; the kept one to 0.5 %
+            try:
+                bw, w = s.safe(target, ts, factor)
+            except ParameterError:
+                found[b0] = (-math.inf, s, None, [])  # type: ignore[arg-type]
+            else:
+                ki = s.loop(bw.omega_c, bw.omega_o, bw.ts).integral_gain()
+                found[b0] = (ki, s, bw, w)
+        return found[b0][0]
+
+    lo_f, hi_f = (math.log(f) / math.log(_B0_STEP) for f in _B0_FACTORS)
+    steps = range(math.floor(lo_f), math.ceil(hi_f) + 1)
+    grid = [rule.b0 * _B0_STEP**j for j in steps]
+    j0 = grid.index(rule.b0)
+    # walk up and down from the rule's b0 while ki grows (one maximum: Ms binds the b0 that
+    # is too small through a slow omega_c, the sample time the b0 that is too large)
+    best = j0
+    for direction in (1, -1):
+        j = j0 + direction
+        while 0 <= j < len(grid) and score(grid[j]) > score(grid[j - direction]):
+            j += direction
+        if 0 <= j - direction < len(grid) and score(grid[j - direction]) > score(grid[best]):
+            best = j - direction
+    score(grid[best])
+    if not math.isfinite(found[grid[best]][0]):
+        rule.safe(target, ts, factor)  # raises the rule's own "no ADRC of order n" error
+    lo = grid[max(best - 1, 0)]
+    hi = grid[min(best + 1, len(grid) - 1)]
+    mid = grid[best]
+    for _ in range(2):  # bisections of log b0 around the best point
+        pts = [lo, math.sqrt(lo * mid), mid, math.sqrt(mid * hi), hi]
+        i = max(range(5), key=lambda k: score(pts[k]))
+        lo, mid, hi = pts[max(i - 1, 0)], pts[i], pts[min(i + 1, 4)]
+    s = found[max(found, key=lambda b: found[b][0])][1]
+    s.tol = rule.tol
+    bw, w = s.safe(target, ts, factor)
+    ki = s.loop(bw.omega_c, bw.omega_o, bw.ts).integral_gain()
+    w = [
+        *w,
+        f"b0 = {s.b0:.4g} ({s.b0 / rule.b0:.3g} times the inverse half-rule's {rule.b0:.4g}) "
+        f"gives the largest integral gain ki = {ki:.4g} (IE = 1/ki = {1 / ki:.4g} per unit "
+        f"load) with Ms <= {target:g} on the model",
+    ]
+    return s, bw, w
 
 
 class _Search:
@@ -379,6 +477,7 @@ class _Search:
                  discretisation: str) -> None:  # fmt: skip
         self.model, self.order, self.b0 = model, _order(order), b0
         self.ratio, self.t_sum, self.disc = ratio, t_sum, discretisation
+        self.tol = 0.995  # the bisection stops at tol * target <= Ms <= target
 
     def omega_o(self, wc: float, ts: float) -> float:
         return min(self.ratio * wc, MAX_OMEGA_O_TS / ts)
@@ -416,7 +515,7 @@ class _Search:
             lo, ms_lo = hi, m
             if hi >= wc_max:
                 return wc_max
-        while hi / lo > 1.0005 and ms_lo < 0.995 * target:
+        while hi / lo > 1.0005 and ms_lo < self.tol * target:
             mid = math.sqrt(lo * hi)
             m = self.ms(mid, ts)
             if m <= target:

@@ -5,11 +5,18 @@ is loaded: step the plant by ``du`` from the operating point
 (:func:`~ctrlblocks.tuning.relay.bump_test`), fit an FOPDT
 (:func:`~ctrlblocks.tuning.identify.fit_fopdt`), apply the rule (a PID rule
 of :func:`~ctrlblocks.tuning.pid_rules.pid_from_model` or the ADRC tuning of
-:func:`~ctrlblocks.tuning.adrc.adrc_tuning`: the safe default by Ms when no
-settling time is given) and compute the margins of the block as configured
-(the scenario table's parameters with the tuned ones) on the fitted model
-(:mod:`ctrlblocks.tuning.margins`).  The scenario parser checks the table's
-keys and calls this function; every tuning failure is a ``ValueError``.
+:func:`~ctrlblocks.tuning.adrc.adrc_tuning`) and compute the margins of the
+block as configured (the scenario table's parameters with the tuned ones) on
+the fitted model (:mod:`ctrlblocks.tuning.margins`).
+
+The ADRC's safe default (no settling time) is tuned as ``ctrlblocks compare``
+tunes it: on the better of the FOPDT and SOPDT fits (:func:`better_model`: the
+SOPDT when its fit error is below :data:`SOPDT_GAIN` times the FOPDT's) with
+``b0`` searched jointly with the bandwidths (``adrc_tuning(b0_search=True)``),
+and its margins are those on that model.  With a settling time the paper's
+rule is applied as written: inverse half-rule b0 and bandwidths on the FOPDT.
+The scenario parser checks the table's keys and calls this function; every
+tuning failure is a ``ValueError``.
 """
 
 from __future__ import annotations
@@ -19,10 +26,68 @@ from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError
 
-__all__ = ["PID_RULES", "tune_from_bump_test"]
+__all__ = ["PID_RULES", "SOPDT_GAIN", "better_model", "fopdt_of", "tune_from_bump_test"]
+
+SOPDT_GAIN = 0.8
+"""The SOPDT is used when its fit error is below this fraction of the FOPDT's."""
 
 PID_RULES = ("amigo", "simc", "zn", "lambda")
 """The PID rules of ``[controllers.tune]`` (``rule = "adrc"`` for an ADRC)."""
+
+
+def better_model(t: Any, u: Any, y: Any, fopdt: Any = None) -> tuple[Any, Any, Any, str]:
+    """``(fopdt, sopdt or None, the model used, why)`` of a bump test ``(t, u, y)``.
+
+    Both least-squares fits (``fopdt`` if already fitted); the SOPDT is used
+    when its normalised RMS error is below :data:`SOPDT_GAIN` times the
+    FOPDT's (the second lag explains the record, not only the noise).
+    """
+    from .identify import fit_fopdt, fit_sopdt
+
+    fo = fit_fopdt(t, u, y) if fopdt is None else fopdt
+    try:
+        so = fit_sopdt(t, u, y)
+    except ValueError:
+        so = None
+    if so is not None and so.fit < SOPDT_GAIN * fo.fit:
+        why = (f"SOPDT: its fit error {100 * so.fit:.3g} % is below {SOPDT_GAIN:g} times the "
+               f"FOPDT's {100 * fo.fit:.3g} %")  # fmt: skip
+        return fo, so, so, why
+    why = "FOPDT: " + (
+        "the SOPDT fit failed"
+        if so is None
+        else f"the SOPDT's fit error {100 * so.fit:.3g} % is not below {SOPDT_GAIN:g} times "
+        f"the FOPDT's {100 * fo.fit:.3g} %"
+    )
+    return fo, so, fo, why
+
+
+def fopdt_of(model: Any) -> tuple[float, float, float]:
+    """``(k, T, L)``: an FOPDT's own, or the half rule of an SOPDT (Skogestad 2003)."""
+    from .identify import SOPDT
+
+    if isinstance(model, SOPDT):
+        t2 = model.time_constant_2
+        return model.gain, model.time_constant + t2 / 2, model.dead_time + t2 / 2
+    return model.gain, model.time_constant, model.dead_time
+
+
+def tuned_model(info: Mapping[str, Any]) -> tuple[Any, str]:
+    """``(model, description)`` a ``[controllers.tune]`` result was tuned and analysed on."""
+    from .identify import FOPDT, SOPDT
+
+    m = info.get("model") or {"model": "fopdt"}
+    if m["model"] == "sopdt":
+        return (
+            SOPDT(m["gain"], m["time_constant"], m["dead_time"], m["time_constant_2"]),
+            f"SOPDT fit k = {m['gain']:.4g}, T1 = {m['time_constant']:.4g} s, "
+            f"T2 = {m['time_constant_2']:.4g} s, T0 = {m['dead_time']:.4g} s",
+        )
+    return (
+        FOPDT(info["gain"], info["time_constant"], info["dead_time"]),
+        f"FOPDT fit k = {info['gain']:.4g}, T = {info['time_constant']:.4g} s, "
+        f"T0 = {info['dead_time']:.4g} s",
+    )
 
 
 def tune_from_bump_test(
@@ -74,10 +139,12 @@ def tune_from_bump_test(
     tuned : dict
         The block parameters found (they replace those of the table).
     info : dict
-        ``rule, du, u0, gain, time_constant, dead_time, parameters`` and
-        ``margins`` (``ms, gm, pm, wc_crossover, stable`` on the FOPDT fit, or
-        None when the block's configuration has no linear margins, e.g. a PID
-        with a PV filter) and ``warnings``.
+        ``rule, du, u0, gain, time_constant, dead_time`` (the FOPDT fit),
+        ``model`` (``as_dict()`` of the model tuned on: the FOPDT, or for the
+        ADRC's safe default possibly the SOPDT) and ``why``, ``parameters``
+        and ``margins`` (``ms, gm, pm, wc_crossover, stable`` on that model,
+        or None when the block's configuration has no linear margins, e.g. a
+        PID with a PV filter) and ``warnings``.
     """
     from .adrc import MS_DEFAULT, adrc_tuning
     from .identify import fit_fopdt
@@ -91,6 +158,9 @@ def tune_from_bump_test(
     else:
         t, u, y = record
     model = fit_fopdt(t, u, y)
+    tuned_on, why = model, "FOPDT"
+    if block_type == "ADRC" and settling_time is None:
+        _fo, _so, tuned_on, why = better_model(t, u, y, model)
     info: dict[str, Any] = {
         "rule": rule,
         "du": du if record is None else float(u[-1] - u[0]),
@@ -98,6 +168,8 @@ def tune_from_bump_test(
         "gain": model.gain,
         "time_constant": model.time_constant,
         "dead_time": model.dead_time,
+        "model": tuned_on.as_dict(),
+        "why": why,
     }
     params = dict(block_params or {})
     warnings: list[str] = []
@@ -105,9 +177,10 @@ def tune_from_bump_test(
         if rule != "adrc":
             raise ParameterError(ErrorCode.BAD_PARAMETER, "rule", "an ADRC is tuned by 'adrc'")
         res = adrc_tuning(
-            model.gain, model.time_constant, model.dead_time, order,
+            *fopdt_of(tuned_on), order,
             settling_time=settling_time, ts=ts, ms=MS_DEFAULT if ms is None else ms,
             discretisation=str(params.get("discretisation", "euler")),
+            model=tuned_on, b0_search=settling_time is None,
         )  # fmt: skip
         tuned: dict[str, Any] = {
             "order": order,
@@ -124,12 +197,12 @@ def tune_from_bump_test(
         if res_pid.b is not None:
             tuned["b"] = res_pid.b
     info["parameters"] = dict(tuned)
-    info["margins"] = block_margins(model, block_type, {**params, **tuned}, ts)
+    info["margins"] = block_margins(tuned_on, block_type, {**params, **tuned}, ts)
     mg = info["margins"]
     if mg is not None and (not mg["stable"] or mg["ms"] > 2.0):
         warnings.append(
             f"the {rule} tuning is {'unstable' if not mg['stable'] else 'fragile (Ms > 2)'} "
-            "on the FOPDT fit of the bump test"
+            f"on the {info['model']['model'].upper()} fit of the bump test"
         )
     info["warnings"] = warnings
     return tuned, info

@@ -372,6 +372,23 @@ class Loop:
         """Closed-loop poles (eigenvalues of :meth:`closed_loop_a`)."""
         return np.linalg.eigvals(self.closed_loop_a())
 
+    def integral_gain(self) -> float:
+        """The controller's integral gain ``ki`` [MV/(PV s)]: ``(z - 1)/ts C_y(z)`` at ``z -> 1``.
+
+        For a PID ``kp/ti``; for an ADRC that of its equivalent feedback
+        controller (the ESO's disturbance estimate integrates).  With a
+        stable loop and a unit step load at the process input the integrated
+        error is ``IE = -1/ki``, the PV's integrated deviation ``1/ki``
+        (final-value theorem; Åström & Hägglund 2006,
+        section 4.4: the load-disturbance measure the MIGO design maximises
+        ``ki`` for under an Ms constraint, chapter 7).  Evaluated at
+        ``w = 1e-7 pi/ts`` (relative error of order ``1e-7``); 0 without
+        integral action.
+        """
+        w = np.array([1e-7 * math.pi / self.ts])
+        z = np.exp(1j * w[0] * self.ts)
+        return float(((z - 1.0) / self.ts * self.controller(w)[1][0]).real)
+
     # -- margins -------------------------------------------------------------
 
     def grid(self) -> np.ndarray:
