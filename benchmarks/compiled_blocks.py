@@ -16,7 +16,8 @@ What it does, in a temporary folder (the package itself is never touched):
 2. runs the fuzz campaign's seeded random actions (``ctrlblocks.blocks.fuzz``:
    inputs with NaN/inf, modes, limits, reconfiguration, snapshot/restore,
    reset) on every exported block with the interpreted and with the compiled
-   blocks and compares ``out`` and ``error_id`` after every action (1e-12);
+   blocks and compares ``out`` and ``error_id`` after every action (1e-12),
+   against an uncompiled copy of the same files;
 3. times one call of ``PID`` and ``ADRC`` against simple-pid and pyadrc, in
    fresh processes, interpreted and compiled rounds interleaved, and prints
    the medians and the ratios with the load average.
@@ -47,12 +48,12 @@ BUILD = """
 import sys
 from setuptools import Extension, setup
 from Cython.Build import cythonize
-mods = sys.argv[1:]
+typing, mods = sys.argv[1] == "True", sys.argv[2:]
 sys.argv[1:] = ["build_ext", "--inplace"]
 exts = [Extension(m[:-3].replace("/", "."), [m], extra_compile_args=["-ffp-contract=off", "-O2"])
         for m in mods]
-setup(ext_modules=cythonize(exts, compiler_directives={"language_level": 3}, nthreads=2,
-                            quiet=True))
+directives = {"language_level": 3, "annotation_typing": typing}
+setup(ext_modules=cythonize(exts, compiler_directives=directives, nthreads=2, quiet=True))
 """
 
 TRACES = """
@@ -109,26 +110,38 @@ def load() -> str:
     return f"load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
 
 
+class RunFailed(RuntimeError):
+    """A measuring process failed; the message is the last line of its error output."""
+
+
 def run_json(script: str, src: Path, *args: str, timeout: float = 1800) -> dict:
     env = dict(os.environ, PYTHONPATH=str(src))
     out = subprocess.run([PY, "-c", script, *args], capture_output=True, text=True, env=env,
-                         check=True, timeout=timeout, cwd=src)  # fmt: skip
+                         timeout=timeout, cwd=src)  # fmt: skip
+    if out.returncode:
+        raise RunFailed((out.stderr.strip().splitlines() or ["(no output)"])[-1])
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def build(tmp: Path) -> tuple[Path, list[str], float]:
-    """The copy of the package in ``tmp/src`` with blocks/ compiled; (src, modules, seconds)."""
+def build(tmp: Path, typing: bool, only: list[str]) -> tuple[Path, list[str], float]:
+    """The copy of the package in ``tmp/src`` with blocks/ compiled; (src, modules, seconds).
+
+    ``typing``: Cython's ``annotation_typing`` (its default): a ``float``
+    annotation becomes a C double, converted when the function is entered.
+    """
     src = tmp / "src"
     shutil.copytree(ROOT / "src" / "ctrlblocks", src / "ctrlblocks",
                     ignore=shutil.ignore_patterns("__pycache__", "*.so"))  # fmt: skip
+    # the interpreted reference: the same files, uncompiled (the tree may change meanwhile)
+    shutil.copytree(src / "ctrlblocks", tmp / "plain" / "ctrlblocks")
     mods = sorted(
         f"ctrlblocks/blocks/{p.name}"
         for p in (src / "ctrlblocks" / "blocks").glob("*.py")
-        if p.name not in SKIP
+        if p.name not in SKIP and (not only or p.stem in only)
     )
     t0 = time.perf_counter()
-    subprocess.run([PY, "-c", BUILD, *mods], cwd=src, check=True, capture_output=True,
-                   timeout=3600)  # fmt: skip
+    subprocess.run([PY, "-c", BUILD, str(typing), *mods], cwd=src, check=True,
+                   capture_output=True, timeout=7200)  # fmt: skip
     return src, mods, time.perf_counter() - t0
 
 
@@ -163,17 +176,27 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=3000, help="actions per block and seed")
     ap.add_argument("--seeds", type=int, default=3, help="seeds per block")
     ap.add_argument("--mypyc", action="store_true", help="also try mypyc on the same modules")
+    ap.add_argument("--no-annotation-typing", action="store_true",
+                    help="Cython keeps float annotations as Python objects")  # fmt: skip
+    ap.add_argument("--modules", default="", help="only these modules of blocks/ (a,b,...)")
+    ap.add_argument("--keep", type=Path, help="build here and keep it (default: a temp folder)")
     args = ap.parse_args(argv)
-    plain = ROOT / "src"
     with tempfile.TemporaryDirectory() as tmp_name:
-        tmp = Path(tmp_name)
+        tmp = args.keep or Path(tmp_name)
         print(f"compiling blocks/ with Cython ({load()}) ...", file=sys.stderr, flush=True)
-        src, mods, secs = build(tmp)
+        only = [m for m in args.modules.split(",") if m]
+        src, mods, secs = build(tmp, not args.no_annotation_typing, only)
+        plain = tmp / "plain"
         print(f"  {len(mods)} modules in {secs:.0f} s", file=sys.stderr, flush=True)
         print("traces: the fuzz campaign's actions on every block ...", file=sys.stderr,
               flush=True)  # fmt: skip
         a = run_json(TRACES, plain, str(args.steps), str(args.seeds))
-        b = run_json(TRACES, src, str(args.steps), str(args.seeds))
+        try:
+            b = run_json(TRACES, src, str(args.steps), str(args.seeds))
+        except RunFailed as exc:  # the compiled blocks broke a promise of the contract
+            print(f"compiled: {len(mods)} modules of blocks/ by Cython in {secs:.0f} s")
+            print(f"traces: the compiled blocks failed the campaign: {exc}")
+            return 1
         assert not a["compiled"] and b["compiled"], "the compiled modules were not imported"
         n, worst, codes = compare_traces(a, b)
         res: dict[str, dict[str, list[float]]] = {"interpreted": {}, "compiled": {}}

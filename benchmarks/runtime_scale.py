@@ -3,9 +3,19 @@
 Usage (from the repository root, with the ``runtime`` extra)::
 
     python benchmarks/runtime_scale.py                 # the targets: 3 cases x 60 s
+    python benchmarks/runtime_scale.py --cases opcua   # one case: opcua, modbus or memory
+    python benchmarks/runtime_scale.py --cases memory --loops 1000 --duration 60
     python benchmarks/runtime_scale.py --duration 20   # shorter
     python benchmarks/runtime_scale.py --gc            # GC jitter: gc.freeze on vs off
+    python benchmarks/runtime_scale.py --historian none  # the same without the historian
+    python benchmarks/runtime_scale.py --stalls        # which cycles stalled, and why
+    python benchmarks/runtime_scale.py --stalls --flush after-cycle  # flush in the idle time
     python benchmarks/runtime_scale.py --json out.json --plot periods.png
+
+``--stalls`` lists every cycle period above 1.5 ``ts`` with the historian
+flushes that ran during it (start, duration, rows) and prints how many
+stalls overlapped a flush; with ``--historian none`` there is no flush, so
+the two runs side by side tell whether the historian causes the stalls.
 
 Cases (targets of issue 14, each at ``ts`` = 100 ms):
 
@@ -75,7 +85,7 @@ def serve_pairs(n: int, protocol: str, port_queue, stop_event) -> None:
     asyncio.run(main())
 
 
-def config_text(case: str, n: int, ts: float, where, db: Path) -> str:
+def config_text(case: str, n: int, ts: float, where, db: Path, historian: str = "sqlite") -> str:
     if case == "opcua":
         conn = f'[connections.io]\nprotocol = "opcua"\nurl = "{where}"\n'
         loops = loops_toml(n, ts, lambda i: f"ns=2;s=pv{i}", lambda i: f"ns=2;s=mv{i}")
@@ -87,7 +97,8 @@ def config_text(case: str, n: int, ts: float, where, db: Path) -> str:
     else:
         conn = '[connections.io]\nprotocol = "memory"\n'
         loops = loops_toml(n, ts, lambda i: f"pv{i}", lambda i: f"mv{i}")
-    return conn + loops + f'[historian]\npath = "{db}"\n[retain]\nenabled = false\n'
+    hist = f'path = "{db}"' if historian == "sqlite" else 'backend = "none"'
+    return conn + loops + f"[historian]\n{hist}\n[retain]\nenabled = false\n"
 
 
 def memory_adapter(n: int) -> MemoryAdapter:
@@ -103,7 +114,24 @@ def memory_adapter(n: int) -> MemoryAdapter:
     return MemoryAdapter(bus)
 
 
-async def run_runtime(cfg, duration: float, adapters, gc_freeze: bool, label: str):
+class FlushLog:
+    """Wraps a historian's ``flush``: (monotonic start, duration, rows) of every call."""
+
+    def __init__(self, historian) -> None:
+        self.calls: list[tuple[float, float, int]] = []
+        self._flush = historian.flush
+        historian.flush = self
+
+    def __call__(self) -> int:
+        t = time.monotonic()
+        n = self._flush()
+        self.calls.append((t, time.monotonic() - t, n))
+        return n
+
+
+async def run_runtime(
+    cfg, duration: float, adapters, gc_freeze: bool, label: str, flush: str = "any-time"
+):
     samples: dict[str, list] = {}
 
     def on_sample(s):
@@ -111,7 +139,9 @@ async def run_runtime(cfg, duration: float, adapters, gc_freeze: bool, label: st
 
     rt = Runtime(cfg, adapters=adapters, on_sample=on_sample)
     rt.gc_freeze = gc_freeze
+    rt.flush_after_cycle = flush == "after-cycle"
     await rt.start()
+    rt.flush_log = FlushLog(rt.historian) if rt.historian is not None else None
     pauses = GcPauses()
     gc.callbacks.append(pauses)
     cpu0, t0 = time.process_time(), time.monotonic()
@@ -153,8 +183,41 @@ class GcPauses:
         }
 
 
-def measure(case: str, n: int, ts: float, duration: float, gc_freeze: bool = True) -> dict:
+def stall_report(samples: dict[str, list], flushes: list, ts: float) -> dict:
+    """Cycle periods above 1.5 ts (from the first loop's samples) and the flushes during them."""
+    rows = next(iter(samples.values()), [])
+    t = np.array([r[0] for r in rows])  # the runtime's clock: time.monotonic
+    t0 = t[0] if len(t) else 0.0
+    stalls = []
+    for k in np.nonzero(np.diff(t) > 1.5 * ts)[0]:
+        a, b = t[k], t[k + 1]
+        during = [f for f in flushes if f[0] < b and f[0] + f[1] > a - ts]
+        stalls.append((a - t0, b - a, during))
+    durs = np.array([f[1] for f in flushes]) if flushes else np.array([0.0])
+    for a, d, during in stalls:
+        what = ", ".join(f"flush at {f[0] - t0 - a:+.3f} s, {1e3 * f[1]:.0f} ms, {f[2]} rows"
+                         for f in during) or "no flush"  # fmt: skip
+        print(f"     stall at {a:7.2f} s: period {1e3 * d:.0f} ms; {what}", flush=True)
+    hit = sum(1 for s in stalls if s[2])
+    print(
+        f"     {len(stalls)} stalls, {hit} next to a flush; {len(flushes)} flushes, "
+        f"duration p50/max {1e3 * np.percentile(durs, 50):.1f}/{1e3 * durs.max():.1f} ms",
+        flush=True,
+    )
+    return {"stalls": len(stalls), "stalls_next_to_flush": hit, "flushes": len(flushes),
+            "flush_p50_ms": round(1e3 * float(np.percentile(durs, 50)), 2),
+            "flush_max_ms": round(1e3 * float(durs.max()), 2)}  # fmt: skip
+
+
+def measure(
+    case: str, n: int, ts: float, duration: float, gc_freeze: bool = True,
+    historian: str = "sqlite", stalls: bool = False, flush: str = "any-time",
+) -> dict:  # fmt: skip
     label = f"{case} {n} loops{'' if gc_freeze else ' (no gc.freeze)'}"
+    if flush != "any-time":
+        label += f" (flush {flush})"
+    if historian != "sqlite":
+        label += f" (historian {historian})"
     print(f"{label}: {duration:g} s at ts = {ts * 1e3:g} ms", flush=True)
     proc = stop = None
     where = None
@@ -167,15 +230,17 @@ def measure(case: str, n: int, ts: float, duration: float, gc_freeze: bool = Tru
     try:
         with tempfile.TemporaryDirectory() as tmp:
             db = Path(tmp) / "history.sqlite"
-            cfg = parse_config(config_text(case, n, ts, where, db))
+            cfg = parse_config(config_text(case, n, ts, where, db, historian))
             adapters = {"io": memory_adapter(n)} if case == "memory" else None
             samples, cpu, wall, rt = asyncio.run(
-                run_runtime(cfg, duration, adapters, gc_freeze, label)
+                run_runtime(cfg, duration, adapters, gc_freeze, label, flush)
             )
             from ctrlblocks.runtime import SQLiteHistorian
 
-            with SQLiteHistorian(db).reading() as h:
-                stored = h.query("SELECT COUNT(*) FROM samples")[0][0]
+            stored = 0
+            if historian == "sqlite":
+                with SQLiteHistorian(db).reading() as h:
+                    stored = h.query("SELECT COUNT(*) FROM samples")[0][0]
     finally:
         if proc is not None:
             stop.set()
@@ -217,6 +282,11 @@ def measure(case: str, n: int, ts: float, duration: float, gc_freeze: bool = Tru
         **rt.gc_pauses.summary(),
     }
     out["_periods"] = p
+    out["historian"] = historian
+    out["flush"] = flush
+    out["load_average"] = [round(x, 2) for x in os.getloadavg()]
+    if stalls:
+        out.update(stall_report(samples, rt.flush_log.calls if rt.flush_log else [], ts))
     ok = (
         out["cycles_recorded_pct"] >= 99.9
         and out["spurious_faults"] == 0
@@ -270,12 +340,31 @@ def plot(results: list[dict], path: str) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per case")
     ap.add_argument("--ts", type=float, default=0.1, help="sample time [s]")
-    ap.add_argument("--cases", default="opcua,modbus,memory")
+    ap.add_argument(
+        "--cases", default="opcua,modbus,memory",
+        help="comma-separated: opcua (200 loops, one OPC UA connection to a plant server "
+        "process), modbus (the same over Modbus TCP), memory (1,000 loops, in-memory I/O)",
+    )  # fmt: skip
     ap.add_argument("--loops", type=int, default=None, help="loops per case (default 200/1000)")
     ap.add_argument("--gc", action="store_true", help="GC jitter: memory, gc.freeze on and off")
+    ap.add_argument(
+        "--historian", default="sqlite", choices=("sqlite", "none"),
+        help="sqlite (default, as in production) or none: the same run without a historian",
+    )  # fmt: skip
+    ap.add_argument(
+        "--flush", default="any-time", choices=("any-time", "after-cycle"),
+        help="when the historian flushes: any-time (the runtime's default) or after-cycle "
+        "(right after a cycle's writes, Runtime.flush_after_cycle)",
+    )  # fmt: skip
+    ap.add_argument(
+        "--stalls", action="store_true",
+        help="list the cycles longer than 1.5 ts with the historian flushes next to them",
+    )  # fmt: skip
     ap.add_argument("--json", default=None, help="write the results here")
     ap.add_argument("--plot", default=None, help="PNG of the period distributions")
     a = ap.parse_args()
@@ -284,11 +373,13 @@ def main() -> None:
     if a.gc:
         n = a.loops or 50
         for freeze in (False, True):
-            results.append(measure("memory", n, a.ts, a.duration, gc_freeze=freeze))
+            results.append(
+                measure("memory", n, a.ts, a.duration, freeze, a.historian, a.stalls, a.flush)
+            )
     else:
         for case in a.cases.split(","):
             n = a.loops or (1000 if case == "memory" else 200)
-            results.append(measure(case, n, a.ts, a.duration))
+            results.append(measure(case, n, a.ts, a.duration, True, a.historian, a.stalls, a.flush))
     print(f"load average after: {os.getloadavg()}")
     if a.plot:
         plot(results, a.plot)

@@ -460,3 +460,23 @@ def test_float32_cycle_converts_a_huge_int_manual_value_at_the_edge(make, attr) 
     assert b.error_id == ErrorCode.BAD_INPUT
     setattr(b, attr, 2.0)
     assert b(1.0, 0.5) == pytest.approx(2.0)
+
+
+def test_pid_fast_lane_and_two_phase_agree_when_the_integral_gain_underflows() -> None:
+    # Found by the long fuzz run (PID, seed 7201): K/Ti = 3e-323 is not 0 but K h/Ti
+    # is; the fast lane (pid_step) then skipped the back-calculation and the two-phase
+    # path did not, so the per-call block stayed wound up beyond u_max for ever.
+    def make() -> PID:
+        return PID(kp=5e-324, ti=0.15, td=0.07, ts=0.0012, u_min=0.0, u_max=1.0,
+                   anti_windup="back_calc_model", reset_value=5.0)  # fmt: skip
+
+    a, b = make(), make()
+    for k in range(50):
+        sp = 1.0 if k < 25 else -1.0
+        ua = a(sp, 0.5)
+        ub = b.compute_output(sp, 0.5)
+        b.update_state(ub)
+        assert ua == ub
+        assert a.i == b.i
+        assert a.snapshot() == b.snapshot()
+    assert a.i == 5.0  # no integral action at all: the integrator keeps its reset value

@@ -512,3 +512,70 @@ def test_an_exception_in_a_cycle_is_in_the_state_and_the_loop_goes_on():
     st = asyncio.run(main())
     assert st["last_exception"] == "RuntimeError: boom"
     assert len(samples) == 5 and st["cycle"] == 5
+
+
+def test_every_command_path_refuses_a_value_outside_the_engineering_ranges(tmp_path):
+    # the loop checks sp_range, mv_range and tuning_ranges itself (runtime.bounds): a
+    # Python caller, the faceplate and the live tuner all get the same refusal
+    extra = "sp_range = [0.0, 5.0]\nmv_range = [-2.0, 8.0]\ntuning_ranges = { kp = [0.1, 3.0] }"
+    block = '{ type = "PID", kp = 1.0, ti = 1.0, u_min = -1.0, u_max = 6.0 }'
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, _ = make(loop_toml(block=block, extra=extra), {"io": bus}, tmp_path, historian=True)
+    lp = rt.loops["loop"]
+
+    async def main():
+        await run(rt, clock, 0.55)
+        rt.command("loop", user="alice", mode="manual", manual_value=2.0)
+        before = rt.state("loop")
+        for changes, field, code in (
+            ({"sp": 5.5}, "sp", ErrorCode.BAD_PARAMETER),
+            ({"sp": -0.1}, "sp", ErrorCode.BAD_PARAMETER),
+            ({"manual_value": 8.01}, "manual_value", ErrorCode.BAD_PARAMETER),
+            ({"u_min": -3.0, "u_max": 4.0}, "u_min", ErrorCode.BAD_LIMITS),
+            ({"u_min": 0.0, "u_max": 9.0}, "u_max", ErrorCode.BAD_LIMITS),
+            ({"tunings": {"kp": 3.5}}, "tunings.kp", ErrorCode.BAD_PARAMETER),
+            ({"tunings": {"ti": 2e6}}, "tunings.ti", ErrorCode.BAD_PARAMETER),  # derived cap
+            ({"sp": 2.0, "manual_value": 9.0}, "manual_value", ErrorCode.BAD_PARAMETER),
+        ):
+            with pytest.raises(CommandError) as exc:
+                rt.command("loop", user="bob", **changes)
+            assert (exc.value.field, exc.value.code) == (field, code), changes
+            assert "outside the engineering range" in exc.value.message or "magnitude" in (
+                exc.value.message
+            )
+        after = rt.state("loop")
+        assert {k: after[k] for k in ("sp", "manual_value", "mode")} == {
+            k: before[k] for k in ("sp", "manual_value", "mode")
+        }
+        assert (lp.block.u_min, lp.block.u_max, lp.block.config.kp) == (-1.0, 6.0, 1.0)
+        assert lp.sp == 1.0  # all-or-nothing: the good sp of the last command did not land
+        rt.command("loop", user="carol", sp=5.0, manual_value=8.0, u_min=-2.0, u_max=8.0)
+        assert (lp.sp, lp.block.u_min, lp.block.u_max) == (5.0, -2.0, 8.0)  # the edges are in
+        await rt.stop()
+
+    asyncio.run(main())
+    with SQLiteHistorian(tmp_path / "h.sqlite").reading() as h:
+        refused = [r for r in h.audit_rows() if r["who"] == "bob"]
+    assert len(refused) == 8 and not any(r["ok"] for r in refused)
+    assert refused[0]["message"].startswith("sp: outside the engineering range [0, 5]")
+
+
+def test_with_flush_after_cycle_every_sample_is_written_and_stop_does_not_wait(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, samples = make(loop_toml(ts=5.0), {"io": bus}, tmp_path, historian=True)
+    rt.flush_after_cycle = True  # the benchmark's switch (docs/performance.md)
+
+    async def main():
+        await rt.start()
+        await clock.run_until(12.0)  # three cycles on the fake clock
+        await asyncio.sleep(1.5)  # the flush interval (1 s): the flusher waits for a cycle end
+        t = asyncio.get_running_loop().time()
+        await rt.stop()  # releases that wait (no next cycle for 5 s) and flushes
+        return asyncio.get_running_loop().time() - t
+
+    took = asyncio.run(main())
+    assert took < 4.0
+    with SQLiteHistorian(tmp_path / "h.sqlite").reading() as hr:
+        assert hr.query("SELECT COUNT(*) FROM samples")[0][0] == len(samples) == 3

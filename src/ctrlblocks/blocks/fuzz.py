@@ -55,6 +55,12 @@ LANE_TOL = 1e-9
 """Per-call and two-phase outputs agree to ``LANE_TOL * max(1, |out|)`` (they run the
 same operations, so in practice they are equal)."""
 
+STATE_CHECKED = frozenset({"PID"})
+"""Blocks whose per-call and two-phase STATES (snapshots) are compared after every action,
+not only their outputs.  Still open for the ADRC (the reference-filter state ``_ref`` in
+MAN, ``--block ADRC --seed 99``) and GainSchedule (its PID's state after snapshot/restore,
+``--seed 99``): see docs/reliability.md."""
+
 BUMP_TOL = 1e-9
 """A bumpless transfer moves the output by at most ``BUMP_TOL * scale``, ``scale`` =
 ``max(1, |u|, |P| + |I| + |D| + |FF|)`` (PID) or ``max(1, |u|, |u_raw|)`` (ADRC): the
@@ -374,15 +380,23 @@ def _same(a: float, b: float, tol: float) -> bool:
     return abs(a - b) <= tol * max(1.0, abs(a), abs(b))
 
 
-def _snap_equal(a: Any, b: Any) -> bool:
-    """Equality of snapshots that treats NaN as equal to NaN."""
+def _snap_equal(a: Any, b: Any, tol: float = 0.0) -> bool:
+    """Equality of snapshots that treats NaN as equal to NaN; floats to ``tol`` (relative)."""
     if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_snap_equal(a[k], b[k]) for k in a)
+        return a.keys() == b.keys() and all(_snap_equal(a[k], b[k], tol) for k in a)
     if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return len(a) == len(b) and all(_snap_equal(x, y) for x, y in zip(a, b, strict=True))
+        return len(a) == len(b) and all(_snap_equal(x, y, tol) for x, y in zip(a, b, strict=True))
     if a != a and b != b:  # NaN, also a numpy NaN (the float32 cycle's state)
         return True
+    if tol and type(a) is float and type(b) is float:
+        return _same(a, b, tol)
     return bool(a == b)
+
+
+def _snap_diff(a: dict[str, Any], b: dict[str, Any], tol: float) -> str:
+    """The first state variables in which two snapshots differ (for the breach report)."""
+    keys = [k for k in a if k not in b or not _snap_equal(a[k], b[k], tol)]
+    return ", ".join(f"{k}: {a.get(k)!r} vs {b.get(k)!r}" for k in keys[:4])
 
 
 _BAD_DATA = (ErrorCode.BAD_INPUT, ErrorCode.BAD_MEASUREMENT, ErrorCode.BAD_RESULT)
@@ -460,6 +474,15 @@ class Driver:
             raise Breach(
                 f"{self.spec.name}: per-call and two-phase paths differ after {what}: "
                 f"out {a.out!r} vs {b.out!r}, error_id {a.error_id!r} vs {b.error_id!r}"
+            )
+        # the states too: a divergence behind an output held at a limit shows only later
+        if self.spec.name not in STATE_CHECKED:
+            return
+        sa, sb = a.snapshot(), b.snapshot()
+        if not _snap_equal(sa, sb, LANE_TOL):
+            raise Breach(
+                f"{self.spec.name}: per-call and two-phase states differ after {what}: "
+                + _snap_diff(sa, sb, LANE_TOL)
             )
 
     # -- one process step ------------------------------------------------------

@@ -648,6 +648,8 @@ class PID(Block):
 
     Config = PIDConfig
     config: PIDConfig
+    _config: PIDConfig
+    _law_in_force: tuple[Any, ...]
     _state_fields = (
         "out",
         "p",
@@ -688,7 +690,8 @@ class PID(Block):
         self.reset_active = False
         self.actuator_pos = math.nan
         self.awin = False
-        self._subs: dict[str, Block] = {}
+        # filters, ramps, lead-lag, detector by name (several block classes, used by name)
+        self._subs: dict[str, Any] = {}
         self._pending: _Cycle | None = None
         super().__init__(config, **params)
 
@@ -797,7 +800,7 @@ class PID(Block):
     def _retune(self, changes: dict[str, Any]) -> None:
         """:meth:`configure` for tuning fields only (its docstring)."""
         old = self._config
-        new = self._replace_config(old, changes)
+        new: PIDConfig = self._replace_config(old, changes)  # type: ignore[assignment]
         new.validate_tuning()
         self._config = new
         try:
@@ -1176,7 +1179,7 @@ class PID(Block):
         else:
             if transfer:
                 i_k = out_prev - p_used - d - ff_tot
-            elif self._ki == 0.0 or self._cold or self.awin:
+            elif self._ki_h == 0.0 or self._cold or self.awin:  # as pid_step: K h/Ti
                 i_k = self._i
             else:
                 di = integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
@@ -1297,7 +1300,9 @@ class PID(Block):
             self._p_prev, self._d_prev, self._ff_prev = p, d, ff
         elif auto:
             i_k = cycle.i
-            if self._ki != 0.0:
+            # integral action present: K h/Ti of this cycle, the one test pid_step and the
+            # compiled kernels make (K/Ti may be a denormal whose product with h is 0)
+            if self._ki_h != 0.0:
                 if c.anti_windup == AntiWindup.CLAMPING:
                     ref, v = u, self.out
                 elif c.anti_windup == AntiWindup.BACK_CALC_MODEL:

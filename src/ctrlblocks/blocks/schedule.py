@@ -110,6 +110,8 @@ class GainSchedule(Block):
 
     Config = GainScheduleConfig
     _state_fields = ("w",)
+    _config: GainScheduleConfig
+    controller: Any  # a PID or an ADRC: called with (sp, pv, ...) and reconfigured
 
     def __init__(
         self,
@@ -134,7 +136,7 @@ class GainSchedule(Block):
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         """Check that the controller accepts the parameters of every breakpoint."""
-        c: GainScheduleConfig = self._config  # type: ignore[assignment]
+        c: GainScheduleConfig = self._config
         base = self.controller.config
         for i, bp in enumerate(c.breakpoints):
             params = {name: float(values[i]) for name, values in c.table}
@@ -180,7 +182,7 @@ class GainSchedule(Block):
     @property
     def parameters(self) -> dict[str, float]:
         """The parameters the table gives at the present scheduling variable."""
-        c: GainScheduleConfig = self._config  # type: ignore[assignment]
+        c: GainScheduleConfig = self._config
         return {name: interpolate(c.breakpoints, values, self.w) for name, values in c.table}
 
     # -- the cycle ---------------------------------------------------------------

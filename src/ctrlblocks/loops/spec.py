@@ -16,6 +16,7 @@ path where the file is read, not in the middle of a run.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
@@ -96,20 +97,27 @@ def available_types(kind: str) -> list[str]:
 
 def parameter_names(cls: Callable[..., Any]) -> set[str] | None:
     """The keyword parameters a block or plant class takes (None: it takes any)."""
+    names = _parameter_names(cls)
+    return None if names is None else set(names)
+
+
+@functools.lru_cache(maxsize=256)
+def _parameter_names(cls: Callable[..., Any]) -> frozenset[str] | None:
+    """:func:`parameter_names`, read once per class (``inspect.signature`` is slow)."""
     config_cls = getattr(cls, "Config", None)
     if dataclasses.is_dataclass(config_cls):
-        return {f.name for f in dataclasses.fields(config_cls)}
+        return frozenset(f.name for f in dataclasses.fields(config_cls))
     try:
         params = inspect.signature(cls).parameters.values()
     except (TypeError, ValueError):  # pragma: no cover - builtins without signature
         return None
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
         return None
-    return {
+    return frozenset(
         p.name
         for p in params
         if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
-    }
+    )
 
 
 def build(

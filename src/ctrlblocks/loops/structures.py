@@ -66,6 +66,7 @@ makes the ratio station hold the last good setpoint.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
 from typing import Any, ClassVar
@@ -108,11 +109,7 @@ class _Controller:
         self.two_phase = isinstance(block, Controller)
         self.ok_name = "pv_ok" if self.two_phase else None
         self.takes_dt = self.two_phase
-        fn = block.compute_output if self.two_phase else block
-        try:
-            self.takes_ff = "ff" in inspect.signature(fn).parameters
-        except (TypeError, ValueError):  # pragma: no cover - builtins without signature
-            self.takes_ff = False
+        self.takes_ff = _takes_ff(type(block)) if self.two_phase else _has_ff(block)
 
     def _inputs(self, y: float, ok: bool, dt: float | None) -> tuple[float, dict[str, Any]]:
         """``y`` and the keyword arguments for the quality flag and ``dt``."""
@@ -164,6 +161,20 @@ class _Controller:
         b.update_state(applied)
 
 
+def _has_ff(fn: Any) -> bool:
+    """Whether the callable ``fn`` takes a keyword ``ff``."""
+    try:
+        return "ff" in inspect.signature(fn).parameters
+    except (TypeError, ValueError):  # pragma: no cover - builtins without signature
+        return False
+
+
+@functools.lru_cache(maxsize=256)
+def _takes_ff(cls: type) -> bool:
+    """Whether ``compute_output`` of the two-phase blocks of ``cls`` takes ``ff`` (read once)."""
+    return _has_ff(cls.compute_output)
+
+
 def set_manual(block: Any, on: bool, value: float | None = None) -> None:
     """Switch ``block`` to manual (``on``) or auto, with a new manual value when given."""
     if value is not None:
@@ -213,6 +224,13 @@ class Structure:
         The signal of :attr:`ControllerSide.values` that is the setpoint of
         ``y`` when the structure's setpoint input is something else (the
         ratio structure: ``sp_flow``); None: the setpoint input itself.
+    closed_loop : bool
+        The structure measures a plant and closes a loop around it (False:
+        ``open_loop``, a block driven by the setpoint profile, no plant).
+    margins_on_plant : bool
+        The main block alone closes the loop around the plant, so its
+        stability margins on a linear plant model are the loop's (the
+        simulator's report analyses them).
     """
 
     name: ClassVar[str]
@@ -228,6 +246,8 @@ class Structure:
     setpoint_signal: ClassVar[str | None] = None
     compiled_lane: ClassVar[bool] = False
     """The simulator's compiled lane has a loop for this structure (``ctrlblocks.sim.dispatch``)."""
+    closed_loop: ClassVar[bool] = True
+    margins_on_plant: ClassVar[bool] = False
 
     # -- reading a controller entry -------------------------------------------------
 
@@ -260,6 +280,27 @@ class Structure:
     def measurements_of(self, side: ControllerSide) -> tuple[str, ...]:
         """The measurements this side's :meth:`compute` reads."""
         return self.measurements
+
+    def hold_for_warmup(self, side: ControllerSide, u0: float, y2: float) -> None:
+        """Put the controllers in manual, each at its output in the steady state of ``u0``.
+
+        The simulator's warm-up (``initial.warmup``): with the plant in the
+        steady state of the initial MV ``u0`` (``y2``: the inner plant's
+        output there, if there is one) the controllers' bumpless logic then
+        initialises their states consistently.  Default: every controller
+        holds ``u0``.
+        """
+        for ctrl in side.ctrls.values():
+            set_manual(ctrl.block, True, u0)
+
+    def step(
+        self, side: ControllerSide, sp: float, y: float, y_ok: bool, dt: float | None,
+        measurements: dict[str, Any],
+    ) -> float:  # fmt: skip
+        """One whole sample (:meth:`ControllerSide.step`): compute, then update with the MV."""
+        u = side.compute(sp, y, y_ok=y_ok, dt=dt, **measurements)
+        side.update(u)
+        return u
 
     def compute(self, side: ControllerSide, sp: float, m: _Measured) -> tuple[float, dict]:
         """ComputeOutput and ShapeOutput: the MV and the structure's signals."""
@@ -318,6 +359,7 @@ class Single(Structure):
     name = "single"
     roles = ("main",)
     compiled_lane = True
+    margins_on_plant = True
 
     def parse(self, r, e, key, ts, tune):
         table = {k: v for k, v in e.items() if k not in _ENTRY_KEYS}
@@ -330,6 +372,12 @@ class Single(Structure):
     def update(self, side, u, measured):
         side.ctrls["main"].update(u, measured=measured)
 
+    def step(self, side, sp, y, y_ok, dt, measurements):
+        # the block's one call: the same result as the two phases, on its fast lane
+        u = side.u = side.ctrls["main"].cycle(sp, y, y_ok, dt)
+        side.values = {"v": u}
+        return u
+
 
 class OpenLoop(Single):
     """A block driven by the setpoint profile (Åström 1987, Fig. 5.2: jump and rate)."""
@@ -339,6 +387,9 @@ class OpenLoop(Single):
     measurements = ()
     runtime = False
     tuned_roles = ()
+    closed_loop = False
+    margins_on_plant = False
+    step = Structure.step
 
     def parse(self, r, e, key, ts, tune):
         return super().parse(r, e, key, ts, None)
@@ -377,6 +428,11 @@ class Cascade(Structure):
         u = side.ctrls["secondary"].output(v1, m.y2, m.y2_ok, dt=m.dt)
         side.pending = (v1,)
         return u, {"sp2": v1}
+
+    def hold_for_warmup(self, side, u0, y2):
+        # the primary's output is the secondary's setpoint: y2 in the steady state
+        set_manual(side.blocks["primary"], True, y2)
+        set_manual(side.blocks["secondary"], True, u0)
 
     def update(self, side, u, measured):
         (v1,) = side.pending
@@ -460,6 +516,8 @@ class FeedForward(Single):
     compiled_lane = False
     roles = ("main", "feedforward")
     measurements = ("y", "dv")
+    margins_on_plant = False
+    step = Structure.step
 
     def parse(self, r, e, key, ts, tune):
         blocks, opts = Structure.parse(self, r, e, key, ts, tune)
@@ -486,6 +544,8 @@ class Smith(Single):
     name = "smith"
     compiled_lane = False
     roles = ("main", "model")
+    margins_on_plant = False
+    step = Structure.step
 
     def parse(self, r, e, key, ts, tune):
         r.check_keys(e, {*_ENTRY_KEYS, "main", "model"}, key)
@@ -1038,15 +1098,9 @@ class ControllerSide:
         """:meth:`compute` then :meth:`update` with the computed MV; return the MV.
 
         A single loop calls its block once (``block(sp, y, ...)``, the same
-        result as the two phases, on the block's fast lane).
+        result as the two phases, on the block's fast lane; :meth:`Structure.step`).
         """
-        if self.structure == "single":
-            u = self.u = self.ctrls["main"].cycle(sp, y, y_ok, dt)
-            self.values = {"v": u}
-            return u
-        u = self.compute(sp, y, y_ok=y_ok, dt=dt, **measurements)
-        self.update(u)
-        return u
+        return self.kind.step(self, sp, y, y_ok, dt, measurements)
 
     # -- mode, manual value, limits -------------------------------------------------
 

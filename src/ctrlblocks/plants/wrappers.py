@@ -150,23 +150,26 @@ class Noise:
     def samples(self, m: int) -> np.ndarray:
         """The next ``m`` noise values at once: what ``m`` calls of :meth:`sample` return.
 
-        The white values come from the generator in the same chunks, so the
-        sequence (and the state afterwards) is the same to the bit.
+        The white values are what the chunks of :meth:`sample` hold, drawn in
+        one call of the generator (numpy's generators give the same stream
+        for one call of ``k * 256`` values as for ``k`` calls of 256; the
+        tests check it), so the sequence and the state afterwards are the
+        same to the bit.
         """
-        parts = [np.array(self._buf[self._i : self._i + m], dtype=float)]
-        self._i += parts[0].shape[0]
-        have = parts[0].shape[0]
-        while have < m:
+        head = np.array(self._buf[self._i : self._i + m], dtype=float)
+        self._i += head.shape[0]
+        need = m - head.shape[0]
+        if need <= 0:
+            w = head
+        else:
+            chunks = -(-need // _CHUNK)
             if self.kind == "uniform":
-                arr = self._rng.uniform(-self.level, self.level, _CHUNK)
+                arr = self._rng.uniform(-self.level, self.level, chunks * _CHUNK)
             else:
-                arr = self._rng.normal(0.0, self.level, _CHUNK)
-            self._buf = arr.tolist()
-            take = min(_CHUNK, m - have)
-            parts.append(arr[:take])
-            self._i = take
-            have += take
-        w = np.concatenate(parts)
+                arr = self._rng.normal(0.0, self.level, chunks * _CHUNK)
+            self._buf = arr[(chunks - 1) * _CHUNK :].tolist()
+            self._i = need - (chunks - 1) * _CHUNK
+            w = np.concatenate((head, arr[:need]))
         if self.a == 0.0:
             return w
         x = self._x

@@ -41,6 +41,7 @@ from typing import Any
 from ..blocks.base import ErrorCode, ParameterError, is_finite, require_limits
 from ..blocks.monitor import CycleMonitor
 from ..loops.structures import ControllerSide
+from .bounds import LoopBounds
 from .config import MEASUREMENTS, MODES, Binding, LoopConfig
 from .io import Connection, Reading
 
@@ -135,6 +136,8 @@ class ControlLoop:
         self._t = 0.0
         self._restart_mv: float | None = None  # set by restore_retained
         self.tuning: Any = None  # a live tuning (ctrlblocks.runtime.autotune.LoopTuning)
+        # the engineering ranges every command is checked against (runtime.bounds)
+        self.bounds = LoopBounds(self)
         self._limits_in = (math.nan, math.nan)
         # signal -> binding of the inputs read each cycle
         self._inputs = {
@@ -516,7 +519,10 @@ class ControlLoop:
         ``u_min`` and ``u_max`` (together), ``tunings`` (a dict for the
         block's ``configure``, which validates it and keeps the old
         configuration on refusal; its bumpless rules apply).  A signal bound
-        to I/O cannot be commanded.  Raises :class:`CommandError`.
+        to I/O cannot be commanded, and a setpoint, manual value, limit or
+        tuning outside the loop's engineering ranges (:attr:`bounds`,
+        ``sp_range``, ``mv_range``, ``tuning_ranges``) is refused.  Raises
+        :class:`CommandError`; nothing changes then.
         """
         allowed = {"mode", "manual_value", "sp", "u_min", "u_max", "tunings"}
         unknown = sorted(set(changes) - allowed)
@@ -541,6 +547,9 @@ class ControlLoop:
                 limits = require_limits("u_min", changes["u_min"], "u_max", changes["u_max"])
             except ParameterError as exc:
                 raise CommandError(exc.field, exc.message, exc.code) from None
+        outside = self.bounds.check(changes)  # the engineering ranges (runtime.bounds)
+        if outside is not None:
+            raise CommandError(*outside)
         tunings = changes.get("tunings")
         if tunings is not None:
             if not isinstance(tunings, Mapping) or not tunings:

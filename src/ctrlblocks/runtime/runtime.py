@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextlib
 import gc
 import logging
 import math
@@ -120,12 +121,16 @@ class Runtime:
         self.historian: Historian | None = None
         self.on_sample = on_sample
         self._stop = asyncio.Event()
+        self._cycle_end = asyncio.Event()  # set when a cycle has written and recorded
         self._tasks: list[asyncio.Task[None]] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self.running = False
         self.stopped = asyncio.Event()
         self.heartbeats: dict[str, Heartbeat] = {}
         self.gc_freeze = True  # see the module docstring; a benchmark turns it off to compare
+        # True: the historian flushes right after a cycle's writes, in the idle rest of the
+        # period, instead of at any time (a benchmark's switch, docs/performance.md)
+        self.flush_after_cycle = False
         self._gc_thresholds: tuple[int, int, int] | None = None
         self.stop_failures: dict[str, str] = {}  # loop -> why its stop value was not written
         self.tuning = LiveTuning(self)  # live auto-tuning of the loops (runtime.autotune)
@@ -195,6 +200,7 @@ class Runtime:
     async def stop(self) -> None:
         """Stop: end the cycles, write stop values, flush the historian, close connections."""
         self._stop.set()
+        self._cycle_end.set()  # a flusher waiting for the end of a cycle goes on
         for t in self._tasks:
             try:
                 await t
@@ -343,6 +349,7 @@ class Runtime:
             last = t
             for s in await scan.run(t, period):
                 self._record(s)
+            self._cycle_end.set()  # a flush may run now (_flusher, flush_after_cycle)
             for lp in scan.loops:
                 while lp.alarms:
                     self._audit("runtime", lp.name, "alarm", None, None, False, lp.alarms.pop(0))
@@ -365,11 +372,18 @@ class Runtime:
         assert h is not None
         interval = self.config.historian.flush_interval
         batch = self.config.historian.batch
+        longest = max((lc.ts for lc in self.config.loops), default=interval)
         while not self._stop.is_set():
             waited = 0.0
             while waited < interval and h.pending < batch and not self._stop.is_set():
                 await asyncio.sleep(min(0.05, interval))
                 waited += min(0.05, interval)
+            if self.flush_after_cycle:
+                # in the idle rest of a period: the flush thread holds the GIL while it
+                # binds the rows, and a cycle it overlaps waits for it
+                self._cycle_end.clear()
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._cycle_end.wait(), timeout=longest)
             try:
                 await asyncio.to_thread(h.flush)
             except Exception:  # retried at the next flush

@@ -63,10 +63,14 @@ def simulate(
     *,
     duration: float | None = None,
     engine: str = "auto",
+    cache: dict[Any, Any] | None = None,
 ) -> Run:
     """Run one controller of ``scenario`` in one case on ``engine`` (module docstring).
 
-    The other parameters are those of :func:`ctrlblocks.sim.simulate`.
+    The other parameters are those of :func:`ctrlblocks.sim.simulate`;
+    ``cache`` (a dict, empty at first) lets the runs of one scenario share
+    what the lane computes once per case (:func:`~ctrlblocks.sim.run_scenario`
+    passes one per call).
     """
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
@@ -81,7 +85,7 @@ def simulate(
     t_end = case.duration if duration is None else min(duration, case.duration)
     sim = _Simulation(scenario, controller, case, t_end)
     why = compiled_blockers(sim)
-    run = None if why else _run_lane(sim)
+    run = None if why else _run_lane(sim, {} if cache is None else cache)
     if run is None and not why:
         why = ["a measurement or an output became non-finite (quality handling)"]
     if run is not None:
@@ -113,20 +117,20 @@ def compiled_blockers(sim: _Simulation) -> list[str]:
     """
     bad = list(sim.side.kind.compiled_blockers(sim.side))
     if bad:
-        return bad
+        return bad  # another structure: the process side does not matter
     if not _have_numba():
-        return ["numba is not installed"]
+        bad.append("numba is not installed")
     from ..fast.simlane import plant_blocker
 
     proc = sim.proc
     why = plant_blocker(proc.model)
     if why is not None:
-        return [why]
+        bad.append(why)
     if proc.plant.fault is not None:
-        return ["a sensor fault is set"]
+        bad.append("a sensor fault is set")
     if not math.isfinite(proc.plant.y_true):
-        return ["the initial measurement is not finite"]
-    return [why for ev in sim.events if (why := _event_blocker(sim, ev))]
+        bad.append("the initial measurement is not finite")
+    return bad + [why for ev in sim.events if (why := _event_blocker(sim, ev))]
 
 
 def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
@@ -157,8 +161,12 @@ def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
 # ---------------------------------------------------------------------------
 
 
-def _run_lane(sim: _Simulation) -> Run | None:
-    """The run on the compiled lane; None when it stopped at a non-finite value."""
+def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
+    """The run on the compiled lane; None when it stopped at a non-finite value.
+
+    ``cache`` keeps the per-sample arrays of a case (events, noise) for the
+    scenario's other controllers: the process side is the same for all.
+    """
     from ..fast.simlane import single_loop
 
     sc, proc, h, n = sim.sc, sim.proc, sim.ts, sim.n
@@ -170,12 +178,16 @@ def _run_lane(sim: _Simulation) -> Run | None:
     else:
         nw, u_man, manual0 = 0, float(block.manual_value), bool(block.manual)
     sensor, act = proc.plant, proc.actuator
-    sig = _signals(sim, n, manual0)
+    key = (sim.case.name, n, nw)
+    if key not in cache:
+        cache[key] = _signals(sim, n) | {"noise": _noise(sensor, nw, n)}
+    sig = dict(cache[key])
+    sig["manual"] = _piecewise([(0, float(manual0)), *sig["manual_changes"]], n)
     res = single_loop(
-        block, proc.model, warmup=nw, sp_warmup=sig.pop("sp_warmup"),
+        block, proc.model, warmup=nw, sp_warmup=sig["sp_warmup"],
         y_warmup=proc.plant.y_true, u_man=u_man,
         actuator=(act.u_min, act.u_max, act.rate * act.ts, act.u),
-        sensor=(sensor.y_min, sensor.y_max), signals=sig, noise=_noise(sensor, nw, n),
+        sensor=(sensor.y_min, sensor.y_max), signals=sig, noise=sig["noise"],
     )  # fmt: skip
     if res.stopped >= 0:
         return None
@@ -185,13 +197,13 @@ def _run_lane(sim: _Simulation) -> Run | None:
         case=sim.case.name,
         ts=h,
         signals={
-            "sp": sig["sp"],
+            "sp": sig["sp"].copy(),
             "y": res.y,
             "ym": res.ym,
             "u": res.u,
             "v": res.u.copy(),
             "u_act": res.u_act,
-            "load": sig["load_in"],
+            "load": sig["load_in"].copy(),
             "t": np.arange(n) * h,
         },
         events=sim.events,
@@ -222,8 +234,20 @@ def _due_sample(t_ev: float, h: float) -> int:
     return k
 
 
-def _signals(sim: _Simulation, n: int, manual0: bool) -> dict[str, Any]:
-    """Per-sample arrays of the events (see :func:`~ctrlblocks.fast.simlane.single_loop`)."""
+def _piecewise(changes: list[tuple[int, float]], n: int) -> np.ndarray:
+    """``n`` samples holding each value of ``(k, value)`` (sorted by ``k``) from its ``k`` on."""
+    a = np.empty(n)
+    for j, (k, v) in enumerate(changes):
+        a[k : changes[j + 1][0] if j + 1 < len(changes) else n] = v
+    return a
+
+
+def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
+    """Per-sample arrays of the events (see :func:`~ctrlblocks.fast.simlane.single_loop`).
+
+    The mode is left as its changes (``manual_changes``): its initial value
+    depends on the controller.
+    """
     proc, h = sim.proc, sim.ts
     model = proc.model
     tank = model.discrete_model() if hasattr(model, "discrete_model") else None
@@ -231,9 +255,9 @@ def _signals(sim: _Simulation, n: int, manual0: bool) -> dict[str, Any]:
     changes: dict[str, list[tuple[int, float]]] = {
         "load_in": [(0, proc.actuator.load)],
         "load_out": [(0, proc.plant.load)],
-        "manual": [(0, float(manual0))],
         "g3o": [(0, g3o)],
     }
+    manual: list[tuple[int, float]] = []
     u_man = np.full(n, math.nan)
     by_k: dict[int, list[Event]] = {}
     for ev in proc.pending:
@@ -248,17 +272,14 @@ def _signals(sim: _Simulation, n: int, manual0: bool) -> dict[str, Any]:
         elif ev.kind == "plant":
             changes["g3o"].append((k, tank.outlet_g[f["value"]]))  # type: ignore[union-attr]
         elif ev.kind == "mode":
-            changes["manual"].append((k, float(f["mode"] == "manual")))
+            manual.append((k, float(f["mode"] == "manual")))
             if "manual_value" in f:
                 u_man[k] = f["manual_value"]
         elif ev.kind == "manual_value":
             u_man[k] = f["value"]
     out: dict[str, Any] = {"sp_warmup": proc.setpoint.value, "u_man": u_man}
-    for name, ch in changes.items():
-        a = np.empty(n)
-        for j, (k, v) in enumerate(ch):
-            a[k : ch[j + 1][0] if j + 1 < len(ch) else n] = v
-        out[name] = a
+    out |= {name: _piecewise(ch, n) for name, ch in changes.items()}
+    out["manual_changes"] = manual
     out["sp"] = _setpoints(proc.setpoint, by_k, n, h)
     return out
 

@@ -217,7 +217,7 @@ class _Simulation:
     def _sample(self, record: bool) -> None:
         proc, side = self.proc, self.side
         sp = proc.setpoint.value
-        if self.structure == "open_loop":
+        if not self.side.kind.closed_loop:
             out = side.compute(sp)
             if record:
                 self._record(sp=sp, y=out, ym=out, u=out, v=out, load=0.0)
@@ -253,14 +253,11 @@ class _Simulation:
         """
         ini = self.sc.initial
         nw = round(ini["warmup"] / self.ts)
-        u0 = self.proc.u0
         manual_blocks = [c.block for c in self.side.ctrls.values()]
-        if self.structure == "cascade":
-            set_manual(self.blocks["primary"], True, self.proc.inner.y)
-            set_manual(self.blocks["secondary"], True, u0)
-        else:
-            for b in manual_blocks:
-                set_manual(b, True, u0)
+        inner = self.proc.inner
+        self.side.kind.hold_for_warmup(
+            self.side, self.proc.u0, math.nan if inner is None else inner.y
+        )
         for _ in range(nw):
             self._sample(record=False)
             self.proc.reset()  # keep the plant exactly at its steady state
@@ -271,7 +268,7 @@ class _Simulation:
                 b.manual = on
 
     def run(self) -> Run:
-        if self.structure != "open_loop" and (
+        if self.side.kind.closed_loop and (
             self.sc.initial["warmup"] > 0 or self.sc.initial["mode"] == "manual"
         ):
             self._warmup()

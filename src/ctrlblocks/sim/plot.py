@@ -9,18 +9,52 @@ event's ``label``) at the top of the upper axes.  ``[plot]`` in the
 scenario chooses the signals (``upper``, ``lower``) and the axis labels.
 
 matplotlib is used with the non-interactive Agg backend, so plotting works
-without a display.
+without a display.  Long traces are drawn decimated (:func:`decimate`: the
+minimum and the maximum of every bin of samples, about two points per pixel
+column), which leaves the picture the same and makes drawing -- and the
+legend's placement, which scans every point -- cheaper; the trace files keep
+every sample.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from .names import plot_names
 from .runner import ScenarioResult
 
-__all__ = ["plot_result"]
+__all__ = ["decimate", "plot_result"]
+
+PLOT_POINTS = 1500
+"""Points drawn per line at most (the figures are 750 pixels wide at 100 dpi)."""
+
+
+def decimate(
+    t: np.ndarray, x: np.ndarray, points: int = PLOT_POINTS
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, x)`` reduced to about ``points`` samples that draw the same line.
+
+    The samples are cut into ``points / 2`` bins of equal length; of each bin
+    the minimum and the maximum are kept (in time order), and the first and
+    last samples always.  A NaN in a bin is kept (it is the minimum), so gaps
+    stay gaps.  Shorter traces are returned as they are.
+    """
+    n = len(x)
+    if n <= points:
+        return t, x
+    b = math.ceil(n / max(1, points // 2))
+    m = n // b * b
+    bins = x[:m].reshape(-1, b)
+    base = np.arange(bins.shape[0]) * b
+    keep = np.concatenate(([0], base + bins.argmin(axis=1), base + bins.argmax(axis=1),
+                           np.arange(m, n), [n - 1]))  # fmt: skip
+    idx = np.unique(keep)
+    return t[idx], x[idx]
+
 
 _COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"]
 _SIGNAL_STYLE = {
@@ -148,7 +182,8 @@ def _draw(
                 continue
             if name == "sp":
                 if not sp_drawn:
-                    ax.plot(t, run.signals["sp"], label=labels["sp"], **_SIGNAL_STYLE["sp"])
+                    ax.plot(*decimate(t, run.signals["sp"]), label=labels["sp"],
+                            **_SIGNAL_STYLE["sp"])  # fmt: skip
                     sp_drawn = True
                 continue
             if single:
@@ -161,8 +196,7 @@ def _draw(
                 ls = styles[k % len(styles)]
             lw = 1.2 if single or name not in ("u", "u_act", "v") else 0.9
             ax.plot(
-                t,
-                run.signals[name],
+                *decimate(t, run.signals[name]),
                 color=color,
                 linestyle=ls,
                 linewidth=lw,

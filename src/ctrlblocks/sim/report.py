@@ -167,6 +167,7 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
     Other loops (nonlinear plants, cascades, Smith predictors) have no row.
     """
     from ..loops.spec import build
+    from ..loops.structures import STRUCTURES
     from ..plants.linear import LinearPlant
     from ..tuning.bump import block_margins, tuned_model
 
@@ -180,7 +181,9 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
             fit, model = tuned_model(info)
             rows.append((c.name, model, block_margins(fit, spec.type, spec.params, sc.ts), True))
             continue
-        if sc.structure != "single" or sc.plant is None or spec.type not in ("PID", "ADRC"):
+        if not STRUCTURES[sc.structure].margins_on_plant or sc.plant is None:
+            continue
+        if spec.type not in ("PID", "ADRC"):
             continue
         plant = build(sc.plant, sc.ts, kind="plant", file=sc.file)  # checked when loaded
         if not isinstance(plant, LinearPlant):

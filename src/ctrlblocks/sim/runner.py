@@ -96,9 +96,10 @@ def run_scenario(
     want_windows = bool(scenario.metrics.get("windows", True))
     runs: list[Run] = []
     table: list[dict[str, Any]] = []
+    lane_cache: dict[Any, Any] = {}  # the compiled lane's per-case arrays
     for case in scenario.cases:
         for ctrl in scenario.controllers:
-            run = simulate(scenario, ctrl, case, duration=duration, engine=engine)
+            run = simulate(scenario, ctrl, case, duration=duration, engine=engine, cache=lane_cache)
             runs.append(run)
             s = run.signals
             whole = compute_metrics(s["t"], s["sp"], s["y"], s["u"], run.ts, band=band)

@@ -288,7 +288,7 @@ class _Parser(SpecReader):
 
         plant = None
         inner = None
-        if structure != "open_loop":
+        if _STRUCTURES[structure].closed_loop:
             plant = self.block_spec(self.table(doc, "plant", "plant", True), "plant", ts)
         if _STRUCTURES[structure].series_plant:
             inner = self.block_spec(

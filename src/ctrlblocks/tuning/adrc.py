@@ -65,10 +65,10 @@ the bandwidths: for each candidate ``b0`` (factors of 1.5 around the rule's,
 whose loop has the largest integral gain ``ki`` (:meth:`.margins.Loop.integral_gain`)
 is kept, then refined by two bisections of ``log b0`` between its
 neighbours (the candidates' ``omega_c`` to ``Ms`` within 1 % of the target,
-the kept one within 0.5 %).  That is the MIGO principle of Åström & Hägglund 2006 (chapter 7:
-maximise ``ki`` under an Ms constraint; with a well-damped loop the
-integrated error of a unit step load is ``IE = 1/ki``, section 4.4) applied
-to the ADRC's two free parameters.  On the SOPDT of the three-tank bump test
+the kept one within 0.5 %).  That is the MIGO principle of Åström &
+Hägglund 2006 (chapter 7: maximise ``ki`` under an Ms constraint; the
+integrated error of a unit step load is ``-1/ki``, the final-value theorem)
+applied to the ADRC's two free parameters.  On the SOPDT of the three-tank bump test
 (docs/examples) at ts = 0.1 s the order-2 ADRC found has ``b0 = 0.125``
 (5 times the rule's), ``omega_c = 0.62 rad/s`` and ``1/ki = 0.83 s`` against
 ``1/ki = 18.5 s`` with the rule's b0.

@@ -35,11 +35,11 @@ route                                   who       what
 ======================================  ========  ===============================================
 
 A command is checked here first -- body size, JSON shape, login, the role's
-permissions (:data:`~ctrlblocks.web.auth.PERMISSIONS`), the loop's
-engineering ranges (:class:`~ctrlblocks.web.bounds.LoopBounds`) -- and then
-goes to :meth:`Runtime.command <ctrlblocks.runtime.Runtime.command>`, so the
-loop and the block validate it (the block's own ``configure`` and bumpless
-rules), a refused command changes nothing, and the runtime writes it
+permissions (:data:`~ctrlblocks.web.auth.PERMISSIONS`) -- and then goes to
+:meth:`Runtime.command <ctrlblocks.runtime.Runtime.command>`, so the loop
+checks its engineering ranges (:class:`~ctrlblocks.runtime.bounds.LoopBounds`,
+as for every other caller) and the block validates it (its own ``configure``
+and bumpless rules), a refused command changes nothing, and the runtime writes it
 (accepted or refused, with the user's name) to the historian's audit table.
 Answers: 200 ``{"ok": true, "old": {...}, "state": {...}}``; 401 without a
 login; 403 for a key the role may not change; 413 for a body above 4 KB; 429
@@ -93,10 +93,10 @@ from fastapi.staticfiles import StaticFiles
 from starlette.websockets import WebSocketDisconnect
 
 from ..blocks.base import ErrorCode, ParameterError
+from ..runtime.bounds import LoopBounds
 from ..runtime.historian import SAMPLE_COLUMNS
 from ..runtime.loop import CommandError
 from .auth import NAME_RE, PERMISSIONS, SessionStore, UserStore
-from .bounds import LoopBounds
 from .defences import LoginGuard, SlidingWindow, json_problem, read_body, summary
 from .live import LiveHub, json_safe
 
@@ -321,7 +321,10 @@ def create_app(
     audit_rate = SlidingWindow(*AUDIT_REFUSALS, clock)
     suppressed: dict[str, int] = {}  # client -> refusals not written to the audit trail
     hub = LiveHub(runtime, seconds=trend_seconds)
-    bounds = {n: LoopBounds(runtime.loops[n], confirm_step) for n in runtime.loop_names()}
+    # the loops' own engineering ranges (they check every command), with the page's step
+    bounds = {
+        n: runtime.loops[n].bounds.with_confirm_step(confirm_step) for n in runtime.loop_names()
+    }
     hashing: dict[str, Any] = {"pool": None, "pending": 0}
     last_users_check = [-math.inf]
 
@@ -698,19 +701,7 @@ def create_app(
                 denied[0][:32],
             )
         changes = coerce_command(body, runtime.state(name))
-        outside = bounds[name].check(changes)
-        if outside is not None:
-            field, msg, code = outside
-            runtime.audit(
-                s.user,
-                action,
-                loop=name,
-                new=json_safe(changes),
-                ok=False,
-                message=f"{field}: {msg}",
-            )
-            return _error(422, msg, field, code)
-        try:
+        try:  # the loop checks the engineering ranges and audits a refusal
             old = await run_command(name, s.user, changes)
         except CommandError as exc:
             return _error(422, exc.message, exc.field, exc.code)
