@@ -12,11 +12,17 @@ pytest.importorskip("blark")
 
 # (block, FB, inputs) -> documented (arithmetic, comparison, standard function, call) counts
 CASES = [
-    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (37, 47, 5, 13)),
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (50, 67, 6, 20)),
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0, algorithm="velocity"), "CB_PID",
+     {"SP": 50.0, "PV": 40.0}, (57, 64, 8, 21)),
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0, sp_filter=1.0, pv_filter=1.0, sp_rate=5.0,
+                 out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (61, 82, 10, 25)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (65, 27, 8, 13)),
+     {"SP": 1.0, "PV": 0.5}, (68, 36, 9, 16)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (73, 28, 9, 13)),
+     {"SP": 1.0, "PV": 0.5}, (76, 38, 10, 16)),
+    (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, discretisation="exact"), "CB_ADRC",
+     {"SP": 1.0, "PV": 0.5}, (140, 41, 11, 19)),
     (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 5, 1, 4)),
 ]  # fmt: skip
 

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -20,14 +21,30 @@ from ctrlblocks import ADRC, PID, LeadLag, ParameterError
 from ctrlblocks.blocks import adrc as adrc_mod
 from ctrlblocks.blocks import plc_cycle as pc
 
-from .traces import adrc_trace, leadlag_trace, pid_trace
+from .traces import (
+    ADRC_OPTIONS,
+    PID_MODES,
+    PID_OPTIONS,
+    REAL_SPIKE,
+    adrc_trace,
+    leadlag_trace,
+    pid_trace,
+)
+
+ADRC_PROCESS = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0,
+                "awin": False, "u_real": math.nan}  # fmt: skip
+PID_PROCESS = {"sp": 0.0, "pv": 0.0, "ff": 0.0, "dv": 0.0, "pv_ok": True, "manual": False,
+               "man_value": 0.0, "rst": False, "track": False, "track_value": 0.0,
+               "hold": False, "awin": False, "actuator_pos": math.nan}  # fmt: skip
 
 FB_TO_PY = {
     "pid": {"SP": "sp", "PV": "pv", "FF": "ff", "PV_OK": "pv_ok", "MANUAL": "manual",
             "MAN_VALUE": "man_value", "RST": "rst", "K": "k", "TI": "ti", "U_MIN": "u_min",
-            "U_MAX": "u_max"},
+            "U_MAX": "u_max", "DV": "dv", "TRACK": "track", "TRACK_VALUE": "track_value",
+            "HOLD": "hold", "AWIN": "awin", "ACTUATOR_POS": "actuator_pos"},
     "adrc": {"SP": "sp", "PV": "y", "PV_OK": "y_ok", "MANUAL": "manual", "MAN_VALUE": "u_man",
-             "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max"},
+             "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max",
+             "AWIN": "awin", "U_REAL": "u_real"},
     "leadlag": {"IN": "x", "ENABLE": "enable", "T_LEAD": "t_lead", "OUT_MIN": "out_min",
                 "OUT_MAX": "out_max"},
 }  # fmt: skip
@@ -36,11 +53,9 @@ FB_TO_PY = {
 def _run64(kind, block, trace):
     """The cycle function in float64, fed with the trace's inputs; its outputs per sample."""
     fn, results, inputs, state, process = {
-        "pid": (pc.pid_cycle, pc.PID_RESULTS, pc.pid_inputs, pc.pid_state,
-                {"sp": 0.0, "pv": 0.0, "ff": 0.0, "pv_ok": True, "manual": False,
-                 "man_value": 0.0, "rst": False}),
+        "pid": (pc.pid_cycle, pc.PID_RESULTS, pc.pid_inputs, pc.pid_state, PID_PROCESS),
         "adrc": (pc.adrc_cycle, pc.ADRC_RESULTS, pc.adrc_inputs, pc.adrc_state,
-                 {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0}),
+                 ADRC_PROCESS),
         "leadlag": (pc.leadlag_cycle, pc.LEADLAG_RESULTS, pc.leadlag_inputs,
                     pc.leadlag_state, {"x": 0.0, "enable": True}),
     }[kind]  # fmt: skip
@@ -69,8 +84,16 @@ def _run64(kind, block, trace):
     [
         ("pid", lambda: pid_trace(1000, seed=7)),
         ("pid", lambda: pid_trace(400, seed=8, anti_windup="back_calc_model", reverse=True)),
+        *(
+            ("pid", functools.partial(pid_trace, 600, 20 + j, modes=True, **cfg))
+            for j, cfg in enumerate(PID_OPTIONS)
+        ),
         ("adrc", lambda: adrc_trace(1000, seed=9)),
         ("adrc", lambda: adrc_trace(400, seed=10, order=3, b0=0.01, omega_c=0.3, omega_o=1.2)),
+        *(
+            ("adrc", functools.partial(adrc_trace, 600, 40 + j, modes=True, **cfg))
+            for j, cfg in enumerate(ADRC_OPTIONS)
+        ),
         ("leadlag", lambda: leadlag_trace(400, seed=11)),
     ],
 )
@@ -82,32 +105,38 @@ def test_cycle_in_float64_is_the_block(kind, make):
     ref = []
     for inp in trace.inputs:
         if kind == "pid":
-            for name, attr in (("MANUAL", "manual"), ("MAN_VALUE", "manual_value"),
-                               ("RST", "reset_active")):  # fmt: skip
+            for name, attr in PID_MODES.items():
                 if name in inp:
                     setattr(block, attr, inp[name])
             if "K" in inp:
                 block.configure(kp=inp["K"], ti=inp["TI"])
             if "U_MIN" in inp:
                 block.configure(u_min=inp["U_MIN"], u_max=inp["U_MAX"])
-            ref.append((block(inp["SP"], inp["PV"], ff=inp["FF"], pv_ok=inp["PV_OK"]),
-                        int(block.error_id)))  # fmt: skip
+            u = block(inp["SP"], inp["PV"], ff=inp["FF"], pv_ok=inp["PV_OK"], dv=inp.get("DV", 0.0))
+            ref.append((u, int(block.error_id)))
         elif kind == "adrc":
             if "MANUAL" in inp:
                 block.manual = inp["MANUAL"]
             if "MAN_VALUE" in inp:
                 block.u_man = inp["MAN_VALUE"]
+            if "AWIN" in inp:
+                block.awin = inp["AWIN"]
             if "OMEGA_C" in inp:
                 block.configure(omega_c=inp["OMEGA_C"], omega_o=inp["OMEGA_O"])
             if "U_MIN" in inp:
                 block.set_limits(inp["U_MIN"], inp["U_MAX"])
-            ref.append((block(inp["SP"], inp["PV"], y_ok=inp["PV_OK"]), int(block.error_id)))
+            u = block(inp["SP"], inp["PV"], y_ok=inp["PV_OK"], u_real=inp.get("U_REAL"))
+            ref.append((u, int(block.error_id)))
         else:
             if "T_LEAD" in inp:
                 block.configure(t_lead=inp["T_LEAD"], out_min=inp["OUT_MIN"],
                                 out_max=inp["OUT_MAX"])  # fmt: skip
             ref.append((block(inp["IN"], enable=inp["ENABLE"]), int(block.error_id)))
     got = _run64(kind, start, trace)
+    # Up to the PV spikes: beyond the REAL range the cycle (written for REAL) sees a bad
+    # input or an overflow where float64 computes on (test_overflow_... covers them).
+    end = next((k for k, i in enumerate(trace.inputs) if i.get("PV") in SPIKES), len(ref))
+    got, ref = got[:end], ref[:end]
     scale = max(abs(u) for u, _e in ref) + 1.0
     for k, ((u, e), (v, f)) in enumerate(zip(got, ref, strict=True)):
         assert abs(u - v) <= 1e-12 * scale, f"sample {k}: cycle {u!r}, block {v!r}"
@@ -118,6 +147,64 @@ def test_cycle_in_float64_is_the_block(kind, make):
 def test_bandwidth_gains_spelled_out_equal_adrc_gains(n):
     wc, wo = 0.7, 3.3
     assert pc.bandwidth_gains(n, wc, wo) == pytest.approx(adrc_mod.adrc_gains(n, wc, wo), rel=1e-15)
+
+
+SPIKES = (REAL_SPIKE, 1.7e308)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda p: PID(kp=1.5, ti=4.0, td=0.5, u_min=0.0, u_max=100.0, precision=p),
+        lambda p: PID(kp=1.5, ti=4.0, algorithm="velocity", out_rate=20.0, precision=p),
+        lambda p: ADRC(order=2, b0=0.05, omega_c=0.5, omega_o=2.5, precision=p),
+        lambda p: ADRC(order=3, b0=0.05, discretisation="exact", precision=p),
+    ],
+)
+def test_overflow_of_the_law_holds_the_output_and_recovers_as_the_block_does(make):
+    """A PV in range whose law overflows: the output is held (16#8103), never NaN, and the
+    next good cycles continue from it without a bump -- in REAL (the FB's cycle, PV 3e38)
+    as the float64 block does (its output guard, PV 1.7e308)."""
+    for precision, spike in (("float32", REAL_SPIKE), ("float64", 1.7e308)):
+        blk = make(precision)
+        for _ in range(50):
+            held = blk(30.0, 29.0)
+        assert blk(30.0, spike) == held
+        assert blk.error_id == 0x8103
+        after = [blk(30.0, 29.0) for _ in range(3)]
+        assert all(math.isfinite(u) for u in after)
+        assert abs(after[0] - held) < 0.05 * (abs(held) + 1.0), (precision, held, after)
+        assert blk.error_id in (0, 0x8301)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("a", [1e-9, 1e-4, 0.05, 0.0999, 0.1, 0.3, 1.0, 3.0, 40.0])
+def test_exact_coefficients_spelled_out_equal_the_blocks_ackermann_ones(n, a):
+    """plc_cycle.exact_coefficients (PLC arithmetic, no expm1, no matrices) against
+    adrc._exact_coefficients (numpy, expm1) for every order, omega ts from 1e-9 to 40."""
+    b0, h = 0.7, 0.05
+    wc, wo = 0.4 * a / h, a / h
+    got = pc.exact_coefficients(n, b0, wc, wo, h)
+    coef, gains = adrc_mod._exact_coefficients(n, b0, wc, wo, h)
+    assert got == pytest.approx((*coef, *gains), rel=1e-13, abs=0.0)
+
+
+@pytest.mark.parametrize("a", [1e-12, 1e-6, 0.01, 0.0999, 0.1, 0.5, 2.0, 50.0])
+def test_pole_distance_equals_expm1(a):
+    d, q = pc.pole_distance(a / 0.1, 0.1)
+    assert d == pytest.approx(-math.expm1(-a), rel=3e-14)
+    assert q == pytest.approx(-math.expm1(-a) / 0.1, rel=3e-14)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("disc", ["euler", "exact"])
+def test_discretisation_ok_is_the_blocks_trusted_range(n, disc):
+    for a in np.linspace(0.05, 2.0, 40):
+        for ratio in (0.2, 1.0):
+            args = (n, ratio * a / 0.1, a / 0.1, 0.1)
+            assert pc.discretisation_ok(*args, disc == "exact") == (
+                adrc_mod.discretisation_trusted(*args, disc)
+            )
 
 
 def test_float32_block_stays_within_single_precision_of_float64():
@@ -180,10 +267,7 @@ def test_velocity_form_needs_precision_only_where_the_increments_are_added():
 @pytest.mark.parametrize(
     ("cls", "kw", "field"),
     [
-        (PID, {"sp_rate": 1.0}, "sp_rate"),
-        (PID, {"algorithm": "velocity", "ti": 1.0}, "algorithm"),
-        (ADRC, {"discretisation": "exact"}, "discretisation"),
-        (ADRC, {"anti_backoff": True}, "anti_backoff"),
+        (PID, {"deadband": 1.0}, "deadband"),
     ],
 )
 def test_float32_is_refused_where_the_plc_cycle_does_not_cover_the_options(cls, kw, field):
@@ -229,8 +313,7 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     monkeypatch.setattr(pc, f"{kind}_step", spy)
     inputs = getattr(pc, f"{kind}_inputs")(block.config)
     state = getattr(pc, f"{kind}_state")(block.config)
-    process = ({"sp": 1.0, "pv": 0.0, "ff": 0.0, "pv_ok": True, "manual": False,
-                "man_value": 0.0, "rst": False} if kind == "pid"
-               else {"sp": 1.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0})  # fmt: skip
+    process = ({**PID_PROCESS, "sp": 1.0} if kind == "pid"
+               else {**ADRC_PROCESS, "sp": 1.0})  # fmt: skip
     getattr(pc, f"{kind}_cycle")(**process, **inputs, **state)
     assert tuple(seen[0]) == pytest.approx(tuple(block.kernel_params()), rel=1e-15, abs=1e-300)

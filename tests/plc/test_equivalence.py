@@ -22,7 +22,7 @@ import pytest
 from ctrlblocks import plc
 
 from .st_interpreter import Interpreter
-from .traces import adrc_trace, leadlag_trace, pid_trace, replay, ulps
+from .traces import ADRC_OPTIONS, PID_OPTIONS, adrc_trace, leadlag_trace, pid_trace, replay, ulps
 
 pytest.importorskip("blark")
 
@@ -61,6 +61,15 @@ def test_pid_fb_equals_float32_block_for_other_options(config):
     assert _compare(block, trace, "CB_PID", "MV", "LIMITS_ACTIVE") == 0
 
 
+@pytest.mark.parametrize("config", PID_OPTIONS, ids=lambda c: ",".join(c))
+def test_pid_fb_equals_float32_block_for_velocity_filters_ramps_ff_and_modes(config):
+    """Velocity form, filters, ramps, lead-lag FF, PV scaling, TRACK/HOLD/AWIN, every
+    anti-windup and bumpless method: bit-identical over a trace with all the events."""
+    block, trace = pid_trace(900, seed=30, modes=True, **config)
+    assert {e for _u, e, _f in trace.outputs} >= {0, 0x8101, 0x8102, 0x8103}  # 8103: overflow
+    assert _compare(block, trace, "CB_PID", "MV", "LIMITS_ACTIVE") == 0
+
+
 def test_adrc_fb_equals_float32_block_over_a_long_trace():
     block, trace = adrc_trace(1500, seed=3)
     assert {e for _u, e, _f in trace.outputs} >= {0, 0x8101, 0x8102}
@@ -77,6 +86,17 @@ def test_adrc_fb_equals_float32_block_over_a_long_trace():
 )
 def test_adrc_fb_equals_float32_block_for_every_order(config):
     block, trace = adrc_trace(400, seed=4, **config)
+    assert _compare(block, trace, "CB_ADRC", "MV", "AWOUT") == 0
+
+
+@pytest.mark.parametrize("config", ADRC_OPTIONS, ids=lambda c: ",".join(c))
+def test_adrc_fb_equals_float32_block_for_exact_u_real_anti_backoff_and_awin(config):
+    """The exact (ZOH) observer, U_REAL, the anti-backoff action at a saturating sensor,
+    AWIN and the 16#8301 warning: bit-identical over a trace with all the events."""
+    block, trace = adrc_trace(900, seed=50, modes=True, **config)
+    # 16#8103: the law overflowed REAL (not with a saturating sensor: the spike is clipped)
+    expected = {0, 0x8101, 0x8102} | (set() if config.get("anti_backoff") else {0x8103})
+    assert {e for _u, e, _f in trace.outputs} >= expected
     assert _compare(block, trace, "CB_ADRC", "MV", "AWOUT") == 0
 
 

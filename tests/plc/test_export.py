@@ -31,8 +31,14 @@ BLOCKS = {
     "adrc1": lambda: ADRC(order=1, b0=0.5, omega_c=1.0, omega_o=5.0, ts=0.05),
     "adrc3": lambda: ADRC(order=3, b0=0.01, omega_c=0.3, omega_o=1.2, t_ref=1.0),
     "leadlag": lambda: LeadLag(k=2.0, t_lead=1.0, t_lag=3.0, method="euler", out_max=9.0),
-}
-FB = {"pid": "CB_PID", "adrc1": "CB_ADRC", "adrc3": "CB_ADRC", "leadlag": "CB_LEADLAG"}
+    "pid_options": lambda: PID(kp=2.0, ti=3.0, algorithm="velocity", pv_range=(0.0, 250.0),
+                               sp_filter=1.0, out_rate=5.0, ff_k=0.5, bumpless="suppress_p_action",
+                               anti_windup="back_calc_real"),
+    "adrc_options": lambda: ADRC(order=2, b0=0.05, discretisation="exact", u_real_on=True,
+                                 anti_backoff=True, y_sat=90.0, y_sat_lo=-1.0),
+}  # fmt: skip
+FB = {"pid": "CB_PID", "adrc1": "CB_ADRC", "adrc3": "CB_ADRC", "leadlag": "CB_LEADLAG",
+      "pid_options": "CB_PID", "adrc_options": "CB_ADRC"}  # fmt: skip
 
 
 def _bodies(st: str) -> dict[str, list[str]]:
@@ -177,10 +183,8 @@ def test_tia_scl_follows_the_dialect_rules(name):
 
 
 def test_export_refuses_what_it_does_not_cover():
-    with pytest.raises(plc.UnsupportedBlock, match="algorithm"):
-        plc.export(PID(algorithm="velocity", ti=1.0))
-    with pytest.raises(plc.UnsupportedBlock, match="discretisation"):
-        plc.export(ADRC(discretisation="exact"))
+    with pytest.raises(plc.UnsupportedBlock, match="deadband"):
+        plc.export(PID(deadband=0.5, ti=1.0))
     with pytest.raises(plc.UnsupportedBlock, match="MovingAverage"):
         plc.export(MovingAverage(n=3))
     with pytest.raises(ValueError, match="unknown PLC target"):

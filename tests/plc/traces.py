@@ -19,6 +19,8 @@ import numpy as np
 from ctrlblocks import ADRC, PID, LeadLag
 
 NAN, INF = math.nan, math.inf
+REAL_SPIKE = 3e38
+"""A PV inside the REAL range whose P term is not: the law overflows REAL (16#8103)."""
 
 
 @dataclass
@@ -40,16 +42,62 @@ def ulps(a: float, b: float) -> int:
     return abs(ix - iy)
 
 
-def pid_trace(n: int, seed: int, **config: Any) -> tuple[PID, Trace]:
-    """A closed-loop day of a float32 PID on ``y' = (2 u/100 - y)/5`` (y in % of range)."""
+PID_MODES = {"MANUAL": "manual", "MAN_VALUE": "manual_value", "RST": "reset_active",
+             "TRACK": "track", "TRACK_VALUE": "track_value", "HOLD": "hold", "AWIN": "awin",
+             "ACTUATOR_POS": "actuator_pos"}  # fmt: skip
+"""FB inputs of the PID that are block attributes (the others are call arguments or tunings)."""
+
+
+PID_OPTIONS = [
+    {"algorithm": "velocity"},
+    {"algorithm": "velocity", "ti": 0.0, "out_rate": 20.0, "integral_method": "forward"},
+    {"sp_filter": 1.0, "pv_filter": 0.5, "sp_rate": 10.0, "out_rate": 30.0},
+    {"ff_k": 2.0, "ff_t_lead": 1.0, "ff_t_lag": 3.0, "pv_range": (-50.0, 150.0), "c": 0.5},
+    {"anti_windup": "back_calc_real", "tt": 1.0, "derivative_method": "tustin"},
+    {"algorithm": "velocity", "anti_windup": "back_calc_real", "bumpless": "track_setpoint",
+     "sp_rate": 5.0, "pv_filter": 0.3},
+    {"bumpless": "suppress_p_action", "dev_tol": 2.0, "out_rate": 50.0, "reverse": True},
+    {"algorithm": "velocity", "ff_k": -1.0, "ff_t_lead": 0.0, "ff_t_lag": 0.5, "b": 0.5,
+     "anti_windup": "back_calc_model", "sp_filter": 2.0},
+]  # fmt: skip
+"""PID options beyond the positional law of ``pid_step``: velocity form, filters, ramps,
+feed-forward, PV scaling, every anti-windup and bumpless method."""
+
+
+def pid_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[PID, Trace]:
+    """A closed-loop day of a float32 PID on ``y' = (2 u/100 - y)/5`` (y in % of range).
+
+    ``modes`` adds TRACK, HOLD and AWIN stretches, a DV signal (for the lead-lag
+    feed-forward), a measured actuator position lagging the output, and two PV
+    spikes near the end that overflow the law in float64 (1.7e308: inf as a REAL,
+    so a bad input for the FB) and in REAL (:data:`REAL_SPIKE`).
+    """
     cfg = {"kp": 1.5, "ti": 4.0, "td": 0.5, "ts": 0.1, "u_min": 0.0, "u_max": 100.0, **config}
     pid = PID(**cfg, precision="float32")
     rng = np.random.default_rng(seed)
     tr = Trace()
     y, sp = 20.0, 30.0
+    pos = 0.0
     for k in range(n):
         inp: dict[str, Any] = {}
         f = k / n
+        if modes:
+            for at, name, value in ((0.2, "TRACK", True), (0.22, "TRACK", False),
+                                    (0.25, "HOLD", True), (0.27, "HOLD", False),
+                                    (0.65, "AWIN", True), (0.68, "AWIN", False)):  # fmt: skip
+                if k == int(at * n):
+                    inp[name] = value
+            if k == int(0.2 * n):
+                inp["TRACK_VALUE"] = 42.0
+            if k == int(0.21 * n):
+                inp["TRACK_VALUE"] = NAN  # a bad tracking value holds the output
+            if k == int(0.215 * n):
+                inp["TRACK_VALUE"] = 47.5
+            inp["ACTUATOR_POS"] = pos
+            inp["DV"] = 2.0 * math.sin(k / 25.0) + (NAN if k == int(0.33 * n) else 0.0)
+            for name, value in inp.items():
+                if name in PID_MODES:
+                    setattr(pid, PID_MODES[name], value)
         if k in (int(0.15 * n), int(0.55 * n)):
             sp = 90.0 if k < 0.5 * n else 40.0  # a large step: the output hits a limit
         if k == int(0.3 * n):
@@ -78,25 +126,53 @@ def pid_trace(n: int, seed: int, **config: Any) -> tuple[PID, Trace]:
         if k == int(0.8 * n):
             pv = INF
         spk = NAN if k == int(0.85 * n) else sp
+        if modes and k in (int(0.93 * n), int(0.97 * n)):
+            pv = REAL_SPIKE if k == int(0.97 * n) else 1.7e308  # overflows LREAL, then REAL
         ff = 5.0 if f > 0.9 else 0.0
         inp.update({"SP": spk, "PV": pv, "FF": ff, "PV_OK": pv_ok})
-        u = pid(spk, pv, ff=ff, pv_ok=pv_ok)
+        u = pid(spk, pv, ff=ff, pv_ok=pv_ok, dv=inp.get("DV", 0.0))
+        pos += 0.3 * (u - pos)  # the actuator follows the output with a lag
         tr.inputs.append(inp)
         tr.outputs.append((u, int(pid.error_id), bool(pid.limits_active)))
         y += 0.1 * (2.0 * u / 100.0 * 50.0 - y) / 5.0
     return PID(**cfg), tr  # the configuration the trace started from (to export)
 
 
-def adrc_trace(n: int, seed: int, **config: Any) -> tuple[ADRC, Trace]:
-    """A closed-loop day of a float32 ADRC on ``y'' = -0.5 y' + 0.05 u`` (plus a load)."""
+ADRC_OPTIONS = [
+    {"discretisation": "exact"},
+    {"discretisation": "exact", "order": 1, "b0": 0.5, "t_ref": 2.0, "anti_windup": "freeze"},
+    {"discretisation": "exact", "order": 3, "b0": 0.01, "omega_c": 0.3, "omega_o": 1.2},
+    {"u_real_on": True, "anti_windup": "off"},
+    {"anti_backoff": True, "y_sat": 3.0, "y_sat_lo": -0.5, "tau_wait": 1.0},
+    {"discretisation": "exact", "u_real_on": True, "anti_backoff": True, "y_sat": 3.0,
+     "y_sat_lo": -0.5, "t_ref": 1.0},
+    {"omega_o": 5.0},  # omega_o ts = 0.5: beyond the trusted Euler range, 16#8301
+]  # fmt: skip
+"""ADRC options beyond the Euler law of ``adrc_step``: the exact discretisation, u_real,
+the anti-backoff action (with a sensor that saturates), a warned discretisation."""
+
+
+def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[ADRC, Trace]:
+    """A closed-loop day of a float32 ADRC on ``y'' = -0.5 y' + 0.05 u`` (plus a load).
+
+    ``modes`` adds an AWIN stretch and a measured actuator value ``U_REAL`` lagging
+    u (with a NaN sample), the two overflowing PV spikes of :func:`pid_trace`, and
+    makes the plant self-regulating (``- 0.1 y``); with
+    ``anti_backoff`` the PV saturates at ``y_sat``.
+    """
     cfg = {"order": 2, "b0": 0.05, "omega_c": 0.5, "omega_o": 2.5, "ts": 0.1,
            "u_min": 0.0, "u_max": 100.0, **config}  # fmt: skip
     adrc = ADRC(**cfg, precision="float32")
     rng = np.random.default_rng(seed)
     tr = Trace()
     y, dy, sp = 0.0, 0.0, 1.0
+    u_act = 0.0
     for k in range(n):
         inp: dict[str, Any] = {}
+        if modes:
+            if k in (int(0.65 * n), int(0.68 * n)):
+                adrc.awin = inp["AWIN"] = k == int(0.65 * n)
+            inp["U_REAL"] = NAN if k == int(0.4 * n) else u_act
         if k == int(0.2 * n):
             sp = 4.0  # saturates the output for a while
         if k == int(0.3 * n):
@@ -117,12 +193,19 @@ def adrc_trace(n: int, seed: int, **config: Any) -> tuple[ADRC, Trace]:
         if int(0.5 * n) <= k < int(0.5 * n) + 3:
             pv = NAN
         spk = NAN if k == int(0.85 * n) else sp
+        if modes and k in (int(0.93 * n), int(0.97 * n)):
+            pv = REAL_SPIKE if k == int(0.97 * n) else 1.7e308  # overflows LREAL, then REAL
+        if cfg.get("anti_backoff"):
+            pv = min(max(pv, cfg["y_sat_lo"]), cfg["y_sat"])  # the sensor saturates
         inp.update({"SP": spk, "PV": pv, "PV_OK": y_ok})
-        u = adrc(spk, pv, y_ok=y_ok)
+        u = adrc(spk, pv, y_ok=y_ok, u_real=inp.get("U_REAL"))
+        u_act += 0.5 * (u - u_act)  # the actuator follows u with a lag
         tr.inputs.append(inp)
         tr.outputs.append((u, int(adrc.error_id), bool(adrc.awout)))
         load = -0.05 if k > 0.75 * n else 0.0
         ddy = -0.5 * dy + 0.05 * u + load
+        if modes:
+            ddy -= 0.1 * y  # a self-regulating plant: the loop works in both directions
         y += 0.1 * dy
         dy += 0.1 * ddy
     return ADRC(**cfg), tr

@@ -42,12 +42,16 @@ class TankOnBus:
             self.bus.values["pv"] = self.plant.step(u)
 
 
-def tank_runtime(mode: str = "manual", extra: str = "", historian=None):
-    """A PI loop on the tank at its operating point (``mode="auto"``: switched at 0.5 s)."""
+def tank_runtime(mode: str = "manual", sp_from_io: bool = False, historian=None):
+    """A PI loop on the tank at its operating point (``mode="auto"``: switched at 0.5 s).
+
+    ``sp_from_io``: the setpoint is read from the bus (address ``sp``).
+    """
     bus = MemoryBus()
     tank = TankOnBus(bus)
-    sp = f"{tank.plant.y!r}"
-    extra = f'mode = "manual"\nmanual_value = {U0}\n' + extra
+    bus.values["sp"] = tank.plant.y
+    sp = '"io:sp"' if sp_from_io else f"{tank.plant.y!r}"
+    extra = f'mode = "manual"\nmanual_value = {U0}\n'
     text = CONN + loop_toml(ts=0.1, block=PID_BLOCK, sp=sp, extra=extra)
     text += '\n[historian]\nbackend = "none"\n'
     clock = FakeClock()
@@ -74,6 +78,14 @@ def audited(rt: Runtime) -> list[tuple[str, str, bool, str]]:
 
     rt.audit = audit  # type: ignore[method-assign]
     return rows
+
+
+async def state_then_stop(rt: Runtime, clock: FakeClock, t: float) -> dict:
+    """Run the cycles until ``t``, then the state of loop "loop", then stop the runtime."""
+    await clock.run_until(t)
+    st = rt.state("loop")
+    await rt.stop()
+    return st
 
 
 async def run_test(rt: Runtime, clock: FakeClock, limit: float = 200.0) -> None:
@@ -225,10 +237,7 @@ def test_refusals_leave_the_loop_as_it_was():
             rt.tuning.accept("loop", user="eng", proposal="PID_AMIGO")
         await clock.run_until(3.0)
         rt.tuning.abort("loop", user="eng", reason="testing the abort")
-        await clock.run_until(3.2)
-        st = rt.state("loop")
-        await rt.stop()
-        return st
+        return await state_then_stop(rt, clock, 3.2)
 
     st = bounded(main())
     assert st["tuning"]["state"] == "aborted"
@@ -236,6 +245,68 @@ def test_refusals_leave_the_loop_as_it_was():
     assert st["mode"] == "manual" and st["mv"] == U0
     refused = [a for _, a, ok, _ in rows if not ok]
     assert refused.count("tune-start") == 5 and "tune-abort" in refused
+
+
+def test_a_setpoint_from_io_that_changes_aborts_the_test_at_the_next_cycle():
+    rt, clock, tank = tank_runtime(sp_from_io=True)
+    bus = tank.bus
+
+    async def main():
+        await rt.start()
+        await clock.run_until(1.0)
+        rt.tuning.start("loop", user="eng", method="step", amplitude=0.5, pre_time=0.1)
+        await clock.run_until(3.0)
+        bus.values["sp"] = 1.6  # the setpoint changes in the PLC
+        return await state_then_stop(rt, clock, 3.35)
+
+    st = bounded(main())
+    assert st["tuning"]["state"] == "aborted"
+    assert "the setpoint changed to 1.6" in st["tuning"]["reason"]
+    assert st["mode"] == "manual" and st["mv"] == U0
+
+
+def test_a_stop_during_a_test_retains_the_loop_as_it_was_before_the_test(tmp_path):
+    from ctrlblocks.runtime.retain import RetainStore
+
+    rt, clock, _ = tank_runtime(mode="auto")
+    rt.retain = RetainStore(tmp_path / "retain.sqlite")
+
+    async def main():
+        await rt.start()
+        await clock.run_until(5.0)
+        rt.tuning.start("loop", user="eng", method="step", amplitude=0.5, pre_time=0.1)
+        await clock.run_until(8.0)
+        assert rt.state("loop")["mode"] == "manual"  # held at the experiment's MV
+        await rt.stop()
+
+    bounded(main())
+    kept = RetainStore(tmp_path / "retain.sqlite").load()["loop"]
+    assert kept["mode"] == "auto" and kept["mv"] == pytest.approx(U0, abs=1e-6)
+
+
+def test_a_defect_in_the_experiment_aborts_the_test_and_the_loop_goes_on(monkeypatch):
+    from ctrlblocks.tuning.live import LiveTuner
+
+    rt, clock, tank = tank_runtime(mode="manual")
+
+    def broken(self, pv):
+        raise OverflowError("a defect")
+
+    async def main():
+        await rt.start()
+        await clock.run_until(1.0)
+        rt.tuning.start("loop", user="eng", method="relay", amplitude=0.5)
+        monkeypatch.setattr(LiveTuner, "step", broken)
+        n = len(tank.mvs)
+        await clock.run_until(2.0)
+        st = rt.state("loop")
+        await rt.stop()
+        return n, st
+
+    n, st = bounded(main())
+    assert st["tuning"]["state"] == "aborted"
+    assert "OverflowError: a defect" in st["tuning"]["reason"]
+    assert tank.mvs[n:-1] == [U0] * (len(tank.mvs) - n - 1)  # every cycle wrote: u0, then manual
 
 
 @pytest.mark.loopback
@@ -335,6 +406,9 @@ path = "{tmp_path / "history.sqlite"}"
         assert step["proposals"]["PID_AMIGO"][key] == pytest.approx(
             getattr(step_off.pid, key), rel=0.05
         )
+    # lock-step over OPC UA Double: the runtime saw the offline experiment's samples exactly
+    assert m["time_constant"] == pytest.approx(step_off.model.time_constant, rel=1e-9)
+    assert relay["model"]["pu"] == pytest.approx(relay_off.pu, rel=1e-9)
     assert relay["model"]["ku"] == pytest.approx(relay_off.ku, rel=0.05)
     assert relay["model"]["pu"] == pytest.approx(relay_off.pu, rel=0.05)
     for key in ("kp", "ti", "td"):
@@ -354,3 +428,13 @@ def test_a_proposal_the_margins_call_unstable_or_fragile_needs_force():
     assert fragile({"stable": True, "ms": 2.5}) == "is fragile (Ms 2.50 > 2)"
     assert fragile({"stable": True, "ms": 1.5}) == ""
     assert fragile({}) == "" and fragile(None) == ""  # a relay test: no model, no margins
+
+
+def test_the_runtime_does_not_load_the_tuning_libraries_until_a_test_starts():
+    import subprocess
+    import sys
+
+    code = "import sys, ctrlblocks.runtime; print('ctrlblocks.tuning.live' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120, check=True)  # fmt: skip
+    assert out.stdout.strip() == "False"  # (scipy's import takes seconds)

@@ -95,3 +95,20 @@ def test_the_operator_can_abort_and_a_test_that_runs_out_of_time_fails() -> None
     assert tuner.state is TunerState.FAILED
     assert "no steady relay limit cycle" in tuner.reason
     assert tuner.status()["state"] == "failed"
+
+
+def test_an_evaluation_that_raises_ends_the_test_failed_not_the_caller(monkeypatch) -> None:
+    import ctrlblocks.tuning.live as live
+
+    def broken(exp):
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.setattr(live, "_step_result", broken)
+    plant = FOPDT(k=2.0, t=1.0, dead_time=0.2, ts=0.1)
+    plant.reset(1.0)
+    tuner = LiveTuner("step", ts=0.1, u0=1.0, amplitude=0.5, mv_min=0.0, mv_max=5.0,
+                      max_time=5.0)  # fmt: skip
+    us = _run(tuner, plant)
+    assert tuner.state is TunerState.FAILED
+    assert tuner.reason == "ZeroDivisionError: division by zero"
+    assert us[-1] == 1.0 and tuner.result is None

@@ -1056,7 +1056,7 @@ class ADRC(Block):
         if self._config.precision == "float32":
             if self._cycle_time(dt, self._ts) is None:
                 return self.out
-            return _float32_cycle("adrc")(self, sp, y, y_ok, dt)
+            return _float32_cycle("adrc")(self, sp, y, y_ok, dt, u_real)
         v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
         applied = v
         if self._config.u_real_on and self._pending is not None:

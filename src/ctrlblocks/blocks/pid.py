@@ -1014,7 +1014,7 @@ class PID(Block):
         if self._config.precision == "float32":
             if self._cycle_time(dt, self._ts) is None:
                 return self.out
-            return _float32_cycle("pid")(self, sp, pv, ff, pv_ok, dt)
+            return _float32_cycle("pid")(self, sp, pv, ff, pv_ok, dt, dv)
         v = self.compute_output(sp, pv, ff=ff, dv=dv, dt=dt, pv_ok=pv_ok)
         self.update_state(v)
         return self.out

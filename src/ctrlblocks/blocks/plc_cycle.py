@@ -43,12 +43,33 @@ from typing import Any
 
 import numpy as np
 
-from .adrc import adrc_step, adrc_switches
+from .adrc import (
+    EULER_LIMIT,
+    EXACT_LIMIT,
+    adrc_step,
+    adrc_switches,
+    anti_backoff_states,
+    control_law,
+    eso_euler,
+    eso_exact,
+    solve_x4,
+    x4_update_allowed,
+)
 from .base import ErrorCode, Mode, as_input
 from .leadlag import leadlag_coefficients, leadlag_step
-from .pid import derivative_coefficients, integral_weights, pid_step, tracking_gain
+from .pid import (
+    clamping_blocks,
+    clamping_integral,
+    derivative_coefficients,
+    derivative_step,
+    integral_increment,
+    integral_weights,
+    pid_step,
+    ramp_blocks,
+    tracking_gain,
+)
 from .precision import CYCLES
-from .signals import clamp, pt1_coefficient
+from .signals import clamp, pt1_coefficient, pt1_step, rate_limit_step, scale
 
 __all__ = [
     "ADRC_RESULTS",
@@ -73,6 +94,7 @@ NO_ERROR = int(ErrorCode.NO_ERROR)
 BAD_INPUT = int(ErrorCode.BAD_INPUT)
 BAD_MEASUREMENT = int(ErrorCode.BAD_MEASUREMENT)
 BAD_LIMITS = int(ErrorCode.BAD_LIMITS)
+BAD_RESULT = int(ErrorCode.BAD_RESULT)
 AUTO = int(Mode.AUTO)
 MANUAL = int(Mode.MANUAL)
 RESET = int(Mode.RESET)
@@ -84,26 +106,188 @@ def is_real(x: float) -> bool:
     return abs(x) <= REAL_MAX
 
 
+def finite_or_zero(x: float) -> float:
+    """``x`` if it is a finite REAL, else 0 (a memory made finite after an overflow)."""
+    if is_real(x):
+        return x
+    return 0.0
+
+
 # ---------------------------------------------------------------------------
 # PID
 # ---------------------------------------------------------------------------
 
 PID_RESULTS = (
     "mv", "error_id", "limits_active", "man_value", "p", "i_term", "d_term",
-    "out", "i", "d", "w_prev", "e_prev", "lo", "hi", "mode_prev", "cold", "reinit", "reinit_d",
-    "k_prev", "ti_prev", "td_prev", "n_prev", "b_prev", "c_prev", "rev_prev",
+    "out", "i", "d", "w_prev", "e_prev", "x", "bias", "p_prev", "d_prev", "ff_prev",
+    "sp_f", "pv_f", "sp_w", "ll_x", "ll_out", "suppressed", "ramp_out", "lo", "hi", "mode_prev",
+    "cold", "reinit", "reinit_d", "k_prev", "ti_prev", "td_prev", "n_prev", "b_prev",
+    "c_prev", "rev_prev", "vel_prev", "scale_prev", "pv_lo_prev", "pv_hi_prev",
 )  # fmt: skip
 """Names of the values :func:`pid_cycle` returns: outputs, then the new state."""
+
+TRACK = int(Mode.TRACK)
+HOLD = int(Mode.HOLD)
+CLAMPING = 0
+BACK_CALC_REAL = 2
+BUMPLESS_TRACK_SP = 1
+BUMPLESS_SUPPRESS_P = 2
+
+
+def pid_general_step(
+    sp: float,
+    pv: float,
+    ff: float,
+    target_mode: bool,
+    target: float,
+    cold: bool,
+    hist: bool,
+    transfer: bool,
+    suppressed: bool,
+    dev_tol: float,
+    awin: bool,
+    velocity: bool,
+    ki: float,
+    actuator_pos: float,
+    ramp_y: float,
+    rate: float,
+    h: float,
+    i: float,
+    d: float,
+    w_prev: float,
+    e_prev: float,
+    x: float,
+    bias: float,
+    p_prev: float,
+    d_prev: float,
+    ff_prev: float,
+    out_prev: float,
+    prm: tuple[float, ...],
+) -> tuple[
+    float, float, float, bool, float, float, float, float, float, float, float, float, float,
+    float, float, bool,
+]:  # fmt: skip
+    """One cycle of the PID in every algorithm: :meth:`PID.compute_output` + ``update_state``.
+
+    The configurations :func:`.pid.pid_step` does not cover -- the velocity
+    algorithm (controltheplant 2024, section 2.3.1; Åström 1987, Figs. 2.2,
+    2.4, 2.5), the output ramp and its conditional integration, ``awin``,
+    back-calculation on the measured actuator position (Åström 1987, Fig. 3.2
+    A), the SUPPRESS_P_ACTION bumpless method -- with the same functions
+    (:func:`.pid.derivative_step` (2.13), :func:`.pid.integral_increment`
+    (2.8), :func:`.pid.clamping_blocks`, :func:`.pid.ramp_blocks`,
+    :func:`.pid.tracking_gain`) in the block's order, applied value = output.
+    ``target_mode``: MANUAL/TRACK/HOLD/RESET with the output ``target``; ``hist``
+    restarts the D and error histories; ``ramp_y``/``rate`` the output ramp's
+    last value and rate [%/s] (0 off); ``prm`` as for :func:`.pid.pid_step`.
+
+    Returns ``(out, ramped, v_raw, limiting, p, i_shown, i_new, d, w, e, x_new,
+    bias_new, p_prev_new, ff_used, d_prev_new, suppressed_new)``.
+    """
+    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
+    e = sgn * (sp - pv)
+    p = k * sgn * (b * sp - pv)
+    w = sgn * (c * sp - pv)
+    if hist:
+        w_prev = w
+        d = 0.0
+        e_prev = e
+    dn = derivative_step(ad, bd, d, w, w_prev)
+    if suppressed and abs(e) <= dev_tol:
+        transfer = True  # the P action comes back: re-initialise the integrator
+        suppressed = False
+    p_used = p
+    if suppressed:
+        p_used = 0.0
+    i_k = i
+    x_new = x
+    bias_new = bias
+    if target_mode:
+        v_raw = target
+    elif velocity:
+        if transfer:
+            bias_new = out_prev - p_used - dn - ff
+            i_k = bias_new
+            v_raw = out_prev
+        else:
+            pp = p_prev
+            dp = d_prev
+            fp = ff_prev
+            if cold:
+                pp = 0.0
+                dp = 0.0
+                fp = 0.0
+            xv = x + (p_used - pp) + (dn - dp) + (ff - fp)
+            if ki != 0.0:  # switch A of Fig. 2.5: the increments of I
+                if not (cold or awin):
+                    xv = xv + integral_increment(ki_h, alpha, beta, e_prev, e)
+            else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
+                xv = xv + g * (p_used + dn + ff + bias - xv)
+            i_k = xv - p_used - dn - ff
+            v_raw = xv
+    elif transfer:
+        i_k = out_prev - p_used - dn - ff
+        v_raw = p_used + i_k + dn + ff
+    elif ki == 0.0 or cold or awin:
+        v_raw = p_used + i_k + dn + ff
+    else:
+        di = integral_increment(ki_h, alpha, beta, e_prev, e)
+        i_k = i + di
+        v = p_used + i_k + dn + ff
+        v_raw = v
+        if aw == 0.0 and clamping_blocks(di, v, lo, hi):
+            # integrate up to the limit; v_raw stays the demand beyond it
+            i_k = clamping_integral(i, di, p_used + dn + ff, lo, hi)
+        else:
+            if aw == 0.0 and clamping_blocks(di, p_used + i_k + ff, lo, hi):
+                i_k = clamping_integral(i, di, p_used + ff, lo, hi)  # D hides the limit
+            elif aw == 0.0 and ramp_blocks(di, clamp(v, lo, hi), ramp_y, rate * h):
+                i_k = i  # the output ramp holds the output back
+            v_raw = p_used + i_k + dn + ff
+    ramped, limiting = rate_limit_step(clamp(v_raw, lo, hi), ramp_y, rate, rate, h)
+    out = clamp(ramped, lo, hi)  # limits narrowed at run time win over the ramp (output guard)
+    # update_state with the applied value = out
+    i_new = i
+    if target_mode:
+        i_k = out - p_used - dn - ff
+        if velocity:
+            x_new = out
+            bias_new = out - p_used - dn - ff
+        else:
+            i_new = out - p_used - dn - ff
+    elif velocity:
+        track_to = out
+        if aw == 2.0 and is_real(actuator_pos):
+            track_to = actuator_pos
+        x_new = out + g * (track_to - out)
+    else:
+        i_new = i_k
+        if ki != 0.0:
+            ref = out
+            vv = out
+            if aw != 0.0:
+                vv = v_raw
+            if aw == 2.0 and is_real(actuator_pos):
+                ref = actuator_pos
+            i_new = i_k + g * (ref - vv)
+    return (out, ramped, v_raw, limiting, p_used, i_k, i_new, dn, w, e, x_new, bias_new, p_used,
+            ff, dn, suppressed)  # fmt: skip
 
 
 def pid_cycle(
     sp: float,
     pv: float,
     ff: float,
+    dv: float,
     pv_ok: bool,
     manual: bool,
     man_value: float,
     rst: bool,
+    track: bool,
+    track_value: float,
+    hold: bool,
+    awin: bool,
+    actuator_pos: float,
     k: float,
     ti: float,
     td: float,
@@ -118,6 +302,19 @@ def pid_cycle(
     i_method: int,
     d_method: int,
     aw: int,
+    velocity: bool,
+    scale_pv: bool,
+    pv_lo: float,
+    pv_hi: float,
+    sp_filter: float,
+    pv_filter: float,
+    sp_rate: float,
+    out_rate: float,
+    ff_k: float,
+    ff_t_lead: float,
+    ff_t_lag: float,
+    bumpless: int,
+    dev_tol: float,
     reset_value: float,
     safe_value: float,
     use_safe: bool,
@@ -126,6 +323,18 @@ def pid_cycle(
     d: float,
     w_prev: float,
     e_prev: float,
+    x: float,
+    bias: float,
+    p_prev: float,
+    d_prev: float,
+    ff_prev: float,
+    sp_f: float,
+    pv_f: float,
+    sp_w: float,
+    ll_x: float,
+    ll_out: float,
+    suppressed: bool,
+    ramp_out: float,
     lo: float,
     hi: float,
     mode_prev: int,
@@ -139,13 +348,25 @@ def pid_cycle(
     b_prev: float,
     c_prev: float,
     rev_prev: bool,
+    vel_prev: bool,
+    scale_prev: bool,
+    pv_lo_prev: float,
+    pv_hi_prev: float,
 ) -> tuple[Any, ...]:
-    """One cycle of the positional ISA PID (:class:`~ctrlblocks.PID` plain configuration).
+    """One cycle of the ISA PID (:class:`~ctrlblocks.PID`, every option but the dead band).
 
     Tunings ``k, ti, td`` are the ISA ``(K, Ti, Td)``; ``tt = 0`` takes the
     block's default ``Ti/5`` (``ts`` without integral action); ``i_method`` /
     ``d_method`` 0 forward, 1 backward, 2 Tustin; ``aw`` 0 clamping,
-    1 back-calculation (actuator model).  Returns :data:`PID_RESULTS`.
+    1 back-calculation (actuator model), 2 back-calculation on ``actuator_pos``;
+    ``bumpless`` 0 integrator, 1 track setpoint, 2 suppress P action.
+    The input stage -- PV scaling to 0..100 %, the SP and PV filters (PT1,
+    exact pole), the setpoint ramp, the lead-lag feed-forward on ``dv``
+    (Bonde et al. 2021 version 4, Tustin) -- runs here; the law in
+    :func:`.pid.pid_step` for the positional form without output ramp,
+    ``awin``, ``back_calc_real`` and P suppression, else in
+    :func:`pid_general_step` (the same results where both apply).
+    Returns :data:`PID_RESULTS`.
     """
     lim_err = NO_ERROR
     if u_min <= u_max:
@@ -153,6 +374,7 @@ def pid_cycle(
         hi = u_max
     else:
         lim_err = BAD_LIMITS
+    out = clamp(out, lo, hi)  # new limits contain the last output (Block.configure)
     if cold:
         k_prev = k
         ti_prev = ti
@@ -161,6 +383,10 @@ def pid_cycle(
         b_prev = b
         c_prev = c
         rev_prev = reverse
+        vel_prev = velocity
+        scale_prev = scale_pv
+        pv_lo_prev = pv_lo
+        pv_hi_prev = pv_hi
     if (
         k != k_prev
         or ti != ti_prev
@@ -169,6 +395,9 @@ def pid_cycle(
         or b != b_prev
         or c != c_prev
         or reverse != rev_prev
+        or velocity != vel_prev
+        or scale_pv != scale_prev
+        or (scale_pv and (pv_lo != pv_lo_prev or pv_hi != pv_hi_prev))
     ):
         reinit = True  # a change of the law is bumpless: re-initialise the integrator
     k_prev = k
@@ -178,9 +407,17 @@ def pid_cycle(
     b_prev = b
     c_prev = c
     rev_prev = reverse
+    vel_prev = velocity
+    scale_prev = scale_pv
+    pv_lo_prev = pv_lo
+    pv_hi_prev = pv_hi
     mode = AUTO
     if rst:
         mode = RESET
+    elif track:
+        mode = TRACK
+    elif hold:
+        mode = HOLD
     elif manual:
         mode = MANUAL
     # coefficients of this cycle (PID._set_h)
@@ -197,6 +434,7 @@ def pid_cycle(
         tt_used = ti / 5.0
     ad, bd = derivative_coefficients(k * td, td / n, ts, d_method)
     alpha, beta = integral_weights(i_method)
+    aw_flag = float(aw)
     prm = (
         k,
         sgn,
@@ -209,63 +447,133 @@ def pid_cycle(
         beta,
         lo,
         hi,
-        float(aw),
+        aw_flag,
         tracking_gain(ts, tt_used),
     )
     # process data
-    ok = is_real(sp) and is_real(pv) and is_real(ff)
+    ok = is_real(sp) and is_real(pv) and is_real(ff) and is_real(dv)
     err = NO_ERROR
     if not ok:
         err = BAD_INPUT
     if not pv_ok:
         ok = False
         err = BAD_MEASUREMENT
-    man_ok = is_real(man_value)
-    if mode == MANUAL and not man_ok:
-        ok = False
-        if err == NO_ERROR:
-            err = BAD_INPUT
+    # the output of a mode other than AUTO
+    target = out
+    ramp_y = ramp_out
+    if mode == RESET:
+        target = clamp(reset_value, lo, hi)
+        ramp_y = target  # the output ramp is preset: RESET acts immediately
+    elif mode in (MANUAL, TRACK):
+        value = man_value
+        if mode == TRACK:
+            value = track_value
+        if is_real(value):
+            target = value
+        else:
+            ok = False
+            if err == NO_ERROR:
+                err = BAD_INPUT
     p = 0.0
     i_term = i
     d_term = d
+    overflow = False
     if not ok:
         # hold (or the safe value); the next good cycle continues without a bump
-        target = out
-        if mode == RESET:
-            target = clamp(reset_value, lo, hi)
-        elif mode == MANUAL and man_ok:
-            target = man_value
-        elif mode == AUTO and use_safe:
+        if mode == AUTO and use_safe:
             target = safe_value
-        mv = clamp(target, lo, hi)
-        limits_active = target > hi or target < lo
+        ramp_out, limits_active = rate_limit_step(
+            clamp(target, lo, hi), ramp_y, out_rate, out_rate, ts
+        )
+        mv = clamp(ramp_out, lo, hi)
+        limits_active = limits_active or target > hi or target < lo
         reinit = True
         reinit_d = True
     else:
-        u_target = man_value
-        if mode == RESET:
-            u_target = clamp(reset_value, lo, hi)
+        # input stage: scaling, filters, setpoint ramp, lead-lag feed-forward
+        x_sp = sp
+        x_pv = pv
+        if scale_pv:
+            x_sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
+            x_pv = scale(pv, pv_lo, pv_hi, 0.0, 100.0)
+        if cold:
+            sp_f = x_sp
+            pv_f = x_pv
+        sp_f = pt1_step(pt1_coefficient(sp_filter, ts, "exact"), sp_f, 1.0, x_sp)
+        pv_f = pt1_step(pt1_coefficient(pv_filter, ts, "exact"), pv_f, 1.0, x_pv)
+        if bumpless == BUMPLESS_TRACK_SP and mode != AUTO:
+            sp_w = pv_f  # in a non-auto mode the working setpoint follows the PV
+        else:
+            if cold:
+                sp_w = sp_f
+            sp_w, _sp_ramping = rate_limit_step(sp_f, sp_w, sp_rate, sp_rate, ts)
+        ff_tot = ff
+        if ff_k != 0.0:
+            l0, l1, la = leadlag_coefficients(ff_k, ff_t_lead, ff_t_lag, ts, True)
+            ll_out = leadlag_step(dv, ll_x, ll_out, l0, l1, la, -REAL_MAX, REAL_MAX)
+            ll_x = dv
+            ff_tot = ff + ll_out
         from_mode = mode == AUTO and mode_prev != NO_MODE and mode_prev != AUTO
         transfer = from_mode or (mode == AUTO and reinit)
-        mv, v_raw, p, i_term, i, d, w_prev, e_prev = pid_step(
-            sp, pv, ff, mode != AUTO, u_target, cold or reinit_d, transfer,
-            i, d, w_prev, e_prev, out, prm,
-        )  # fmt: skip
+        # the memory of the last cycle, kept if the law overflows REAL in this one
+        d_old, w_old, e_old, supp_old = d, w_prev, e_prev, suppressed
+        pp_old, dp_old, fp_old = p_prev, d_prev, ff_prev
+        if from_mode and bumpless == BUMPLESS_SUPPRESS_P:
+            suppressed = True
+        if velocity or out_rate > 0.0 or awin or aw == BACK_CALC_REAL or suppressed:
+            (mv, ramp_out, v_raw, limits_active, p, i_term, i, d, w_prev, e_prev, x, bias, p_prev,
+             ff_prev, d_prev, suppressed) = pid_general_step(
+                sp_w, pv_f, ff_tot, mode != AUTO, target, cold, cold or reinit_d, transfer,
+                suppressed, dev_tol, awin, velocity, ki, actuator_pos, ramp_y, out_rate, ts,
+                i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out, prm,
+            )  # fmt: skip
+            limits_active = limits_active or v_raw > hi or v_raw < lo
+        else:
+            mv, v_raw, p, i_term, i, d, w_prev, e_prev = pid_step(
+                sp_w, pv_f, ff_tot, mode != AUTO, target, cold or reinit_d, transfer,
+                i, d, w_prev, e_prev, out, prm,
+            )  # fmt: skip
+            limits_active = v_raw > hi or v_raw < lo
+            ramp_out = mv
         d_term = d
-        limits_active = v_raw > hi or v_raw < lo
-        cold = False
-        reinit = False
-        reinit_d = False
+        if is_real(v_raw):
+            cold = False
+            reinit = False
+            reinit_d = False
+        else:
+            # the law overflowed REAL: hold the output (or the safe value) and restart
+            # bumplessly from it on the next good cycle (Block._contain, PID._resume)
+            overflow = True
+            mv = out
+            if use_safe:
+                mv = safe_value
+            mv = clamp(mv, lo, hi)
+            i, x, bias, ramp_out = mv, mv, mv, mv
+            d, w_prev, e_prev = finite_or_zero(d_old), finite_or_zero(w_old), finite_or_zero(e_old)
+            p_prev, d_prev = finite_or_zero(pp_old), finite_or_zero(dp_old)
+            ff_prev, suppressed = finite_or_zero(fp_old), supp_old
+            sp_f, pv_f, sp_w = finite_or_zero(sp_f), finite_or_zero(pv_f), finite_or_zero(sp_w)
+            if not is_real(ll_out):
+                ll_out = 0.0
+                ll_x = 0.0
+            p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d_term)
+            limits_active = False
+            reinit = True
+            reinit_d = True
     if err == NO_ERROR:
         err = lim_err
+    if overflow:
+        err = BAD_RESULT
     if mode != MANUAL:
         man_value = mv  # In/Out: outside MANUAL the manual value follows the output
     out = mv
     mode_prev = mode
     return (
         mv, err, limits_active, man_value, p, i_term, d_term,
-        out, i, d, w_prev, e_prev, lo, hi, mode_prev, cold, reinit, reinit_d,
-        k_prev, ti_prev, td_prev, n_prev, b_prev, c_prev, rev_prev,
+        out, i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev,
+        sp_f, pv_f, sp_w, ll_x, ll_out, suppressed, ramp_out, lo, hi, mode_prev,
+        cold, reinit, reinit_d, k_prev, ti_prev, td_prev, n_prev, b_prev,
+        c_prev, rev_prev, vel_prev, scale_prev, pv_lo_prev, pv_hi_prev,
     )  # fmt: skip
 
 
@@ -275,10 +583,19 @@ def pid_cycle(
 
 ADRC_RESULTS = (
     "mv", "error_id", "awout", "u_raw", "u_man", "x4_out",
-    "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "started", "track", "sat", "lo", "hi",
-    "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
+    "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "started", "track", "sat", "ab_sat",
+    "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
+    "exact_prev",
 )  # fmt: skip
 """Names of the values :func:`adrc_cycle` returns: outputs, then the new state."""
+
+EULER_LIMIT_1 = EULER_LIMIT[1]
+EULER_LIMIT_2 = EULER_LIMIT[2]
+EULER_LIMIT_3 = EULER_LIMIT[3]
+EULER_LIMIT_4 = EULER_LIMIT[4]
+ONE_THIRD = 1.0 / 3.0
+ELEVEN_SIXTHS = 11.0 / 6.0
+WARN_DISCRETISATION = int(ErrorCode.WARN_DISCRETISATION)
 
 
 def bandwidth_gains(
@@ -301,12 +618,201 @@ def bandwidth_gains(
             wc2 * omega_c, 3.0 * wc2, 3.0 * omega_c)  # fmt: skip
 
 
+def pole_distance(omega: float, h: float) -> tuple[float, float]:
+    """``(d, q) = (1 - exp(-omega h), d/h)``: distance of the pole ``exp(-omega h)`` from 1.
+
+    As :func:`.adrc._scaled_gain` computes them with ``expm1`` (which a PLC
+    lacks): for ``a = omega h < 0.1`` by the Taylor series of ``(1 - exp(-a))/a``
+    to ``a^8`` (relative error below 3e-14), so that ``d/h`` stays accurate
+    for a tiny ``a``; above by ``1 - EXP(-a)``.
+    """
+    a = omega * h
+    if a < 0.1:
+        r = 1.0 - a / 2.0 * (1.0 - a / 3.0 * (1.0 - a / 4.0 * (1.0 - a / 5.0 * (
+            1.0 - a / 6.0 * (1.0 - a / 7.0 * (1.0 - a / 8.0 * (1.0 - a / 9.0)))))))  # fmt: skip
+        return a * r, omega * r
+    d = 1.0 - math.exp(-a)
+    return d, omega * (d / a)
+
+
+def exact_coefficients(
+    n: int, b0: float, omega_c: float, omega_o: float, h: float
+) -> tuple[
+    float, float, float, float, float, float, float, float, float, float, float, float, float,
+    float, float, float,
+]:  # fmt: skip
+    """The ZOH current observer and controller gains of ``discretisation="exact"``, written out.
+
+    ``(f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2)``
+    as :func:`.adrc._exact_coefficients` computes them from its constant
+    vectors (Ackermann, all observer poles at ``exp(-omega_o h)``, all
+    controller poles at ``exp(-omega_c h)``; Herbst 2013 via Nowak et al.
+    2018): polynomials in ``d = 1 - exp(-omega h)`` and ``q = d/h``, spelled
+    out for n = 1, 2, 3 (a PLC has no matrices); the tests check both agree.
+    """
+    d, q = pole_distance(omega_o, h)
+    dc, qc = pole_distance(omega_c, h)
+    hh = h * h
+    f01, f02, f03, f12, f13, f23 = 0.0, 0.0, h, 0.0, 0.0, 0.0
+    g0, g1, g2 = b0 * h, 0.0, 0.0
+    c0, c1, c2, c3 = 2.0 * d - d * d, 0.0, 0.0, q * d
+    kp, kd1, kd2 = qc, 0.0, 0.0
+    if n == 2:
+        f01 = h
+        f03 = hh / 2.0
+        f13 = h
+        g0 = b0 * hh / 2.0
+        g1 = b0 * h
+        c0 = 3.0 * d - 3.0 * (d * d) + d * d * d
+        c1 = 3.0 * q * d - 1.5 * q * (d * d)
+        c3 = q * q * d
+        kp = qc * qc
+        kd1 = 2.0 * qc - 0.5 * qc * dc
+    elif n == 3:
+        d2 = d * d
+        q2 = q * q
+        qc2 = qc * qc
+        f01 = h
+        f02 = hh / 2.0
+        f03 = hh * h / 6.0
+        f12 = h
+        f13 = hh / 2.0
+        f23 = h
+        g0 = b0 * (hh * h) / 6.0
+        g1 = b0 * hh / 2.0
+        g2 = b0 * h
+        c0 = 4.0 * d - 6.0 * d2 + 4.0 * (d2 * d) - d2 * d2
+        c1 = 6.0 * q * d - 6.0 * q * d2 + ELEVEN_SIXTHS * q * (d2 * d)
+        c2 = 4.0 * q2 * d - 2.0 * q2 * d2
+        c3 = q2 * q * d
+        kp = qc2 * qc
+        kd1 = 3.0 * qc2 - qc2 * dc
+        kd2 = 3.0 * qc - 1.5 * qc * dc + ONE_THIRD * qc * (dc * dc)
+    return f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2
+
+
+def discretisation_ok(n: int, omega_c: float, omega_o: float, ts: float, exact: bool) -> bool:
+    """:func:`.adrc.discretisation_trusted` with its table spelled out (False: 16#8301)."""
+    if exact:
+        return omega_o * ts <= EXACT_LIMIT and omega_c * ts <= EXACT_LIMIT
+    lim_o = EULER_LIMIT_4
+    lim_c = EULER_LIMIT_3
+    if n == 1:
+        lim_o = EULER_LIMIT_2
+        lim_c = EULER_LIMIT_1
+    elif n == 2:
+        lim_o = EULER_LIMIT_3
+        lim_c = EULER_LIMIT_2
+    return omega_o * ts <= lim_o and omega_c * ts <= lim_c
+
+
+def adrc_general_step(
+    r_in: float,
+    y: float,
+    manual: bool,
+    target: float,
+    tracking: bool,
+    sat: int,
+    awin: bool,
+    exact: bool,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_prev: float,
+    ref: float,
+    ab_sat: int,
+    ab_wait: float,
+    prm: tuple[float, ...],
+    ecoef: tuple[float, ...],
+    ab: tuple[float, ...],
+) -> tuple[float, float, float, float, float, float, float, bool, int, int, float]:
+    """One valid-measurement cycle of the ADRC in every option (:meth:`ADRC.compute_output`).
+
+    What :func:`.adrc.adrc_step` does not cover: the exact (ZOH) current
+    observer :func:`.adrc.eso_exact` (``exact``, coefficients ``ecoef`` from
+    :func:`exact_coefficients`), the cascade input ``awin`` and the
+    anti-backoff action (12a)/(12b) of Nowak et al. 2018, section 4.3 by
+    :func:`.adrc.anti_backoff_states` (``ab = (on, y_sat, y_sat_lo,
+    tau_wait)``), with the same functions in the block's order.  The ESO has
+    been started on ``y`` by the caller; ``tracking`` re-solves x4 by (11).
+    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next,
+    ab_sat, ab_wait)``.
+    """
+    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
+     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
+    f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3 = ecoef
+    ab_on, y_sat, y_sat_lo, tau_wait = ab
+    # in manual with a reference filter the reference follows y (ADRC.compute_output)
+    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * r_in
+    if exact:
+        z0, z1, z2, z3 = eso_exact(yh, x2, x3, x4, u_prev, y, 1.0, f01, f02, f03, f12, f13,
+                                   f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
+    else:
+        z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
+                                   p1, p2, k1, k2, k3)  # fmt: skip
+    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+    if tracking:
+        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
+        return target, target, yh, x2, x3, x4, ref, False, 0, ab_sat, ab_wait
+    du = s_u * (z3 - x4)
+    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
+        yh = z0
+        x2 = z1
+        x3 = z2
+        x4 = z3
+        u_raw = u_free
+    else:
+        if exact:
+            yh, x2, x3, x4 = eso_exact(yh, x2, x3, x4, u_prev, y, 0.0, f01, f02, f03, f12,
+                                       f13, f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
+        else:
+            yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
+                                       p1, p2, k1, k2, k3)  # fmt: skip
+        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+    end_wait = False
+    if ab_on != 0.0:
+        now = 0
+        if y >= y_sat:
+            now = 1
+        elif y <= y_sat_lo:
+            now = -1
+        if now != 0 and ab_sat == 0:
+            # Y has just reached the sensor saturation: (12a)/(12b)
+            ysat = y_sat_lo
+            if now > 0:
+                ysat = y_sat
+            yh, x2, x3, x4 = anti_backoff_states(ysat, ref, u_prev, l1, l2, l3, l4, b0, kp,
+                                                 kd1, kd2, p1, p2, k1, k2, k3)  # fmt: skip
+            u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+            ab_wait = 0.0
+        elif now == 0 and ab_sat != 0:
+            ab_wait = tau_wait  # Y has left the saturation
+        ab_sat = now
+        if ab_wait > 0.0:
+            # hold u for tau_wait while the ESO converges (section 4.3)
+            u_raw = clamp(u_prev, lo, hi)
+            ab_wait = max(ab_wait - ts, 0.0)
+            if ab_wait < 1e-9 * ts:
+                ab_wait = 0.0
+                end_wait = True  # leave the wait bumplessly, x4 by (11)
+    sat_next = 0
+    if u_raw > hi:
+        sat_next = 1
+    elif u_raw < lo:
+        sat_next = -1
+    return (clamp(u_raw, lo, hi), u_raw, yh, x2, x3, x4, ref, end_wait, sat_next, ab_sat,
+            ab_wait)  # fmt: skip
+
+
 def adrc_cycle(
     sp: float,
     y: float,
     y_ok: bool,
     manual: bool,
     u_man: float,
+    awin: bool,
+    u_real: float,
     order: int,
     b0: float,
     omega_c: float,
@@ -317,6 +823,12 @@ def adrc_cycle(
     t_ref: float,
     u_sf: float,
     aw_rule: int,
+    exact: bool,
+    u_real_on: bool,
+    anti_backoff: bool,
+    y_sat: float,
+    y_sat_lo: float,
+    tau_wait: float,
     out: float,
     yh: float,
     x2: float,
@@ -327,6 +839,8 @@ def adrc_cycle(
     started: bool,
     track: bool,
     sat: int,
+    ab_sat: int,
+    ab_wait: float,
     lo: float,
     hi: float,
     tuned: bool,
@@ -335,11 +849,18 @@ def adrc_cycle(
     wc_prev: float,
     wo_prev: float,
     ts_prev: float,
+    exact_prev: bool,
 ) -> tuple[Any, ...]:
-    """One cycle of the Euler ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
+    """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
-    ``aw_rule`` 0 off, 1 freeze, 2 directional (section 4.1).  Returns
-    :data:`ADRC_RESULTS`.
+    ``aw_rule`` 0 off, 1 freeze, 2 directional (section 4.1); ``exact`` the
+    ZOH current observer instead of the Euler ESO (4a); ``u_real_on``: the
+    measured actuator value ``u_real`` drives the ESO (section 5; a NaN falls
+    back to u, 16#8101); ``anti_backoff`` (12a)/(12b) with ``y_sat``,
+    ``y_sat_lo`` and ``tau_wait`` (0: 3.5/omega_o).  The status
+    ``WARN_DISCRETISATION`` (16#8301) when omega ts leaves the trusted range;
+    a law that overflows REAL holds the output and restarts the ESO
+    (16#8103), as the block's output guard does.  Returns :data:`ADRC_RESULTS`.
     """
     lim_err = NO_ERROR
     if u_min <= u_max:
@@ -347,12 +868,14 @@ def adrc_cycle(
         hi = u_max
     else:
         lim_err = BAD_LIMITS
+    out = clamp(out, lo, hi)  # new limits contain the last output (ADRC.set_limits)
     if tuned and (
         order != order_prev
         or b0 != b0_prev
         or omega_c != wc_prev
         or omega_o != wo_prev
         or ts != ts_prev
+        or exact != exact_prev
     ):
         track = True  # bumpless retuning: x4 re-solved by (11) in this cycle
         if order < 3:
@@ -365,16 +888,34 @@ def adrc_cycle(
     wc_prev = omega_c
     wo_prev = omega_o
     ts_prev = ts
-    # coefficients of this cycle (ADRC._coefficients, Euler)
+    exact_prev = exact
+    # coefficients of this cycle (ADRC._coefficients)
     p1, p2, k1, k2, k3 = adrc_switches(order)
     l1, l2, l3, l4, kp, kd1, kd2 = bandwidth_gains(order, omega_c, omega_o)
     s_x3 = ts * k3
     s_x2 = ts * (p2 * s_x3 + k2)
     s_yh = ts * (p1 * s_x2 + k1)
+    if exact:
+        (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1,
+         kd2) = exact_coefficients(order, b0, omega_c, omega_o, ts)  # fmt: skip
+        s_x3 = 0.0  # the current observer does not pass x4_i on
+        s_x2 = 0.0
+        s_yh = 0.0
+    else:
+        f01, f02, f03, f12, f13, f23 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        g0, g1, g2, c0, c1, c2, c3 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     s_u = -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0
     a_ref = pt1_coefficient(t_ref, ts, "exact")
     prm = (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3, s_u,
            lo, hi, float(aw_rule), a_ref)  # fmt: skip
+    ecoef = (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3)
+    tau = tau_wait
+    if tau_wait <= 0.0:
+        tau = 3.5 / omega_o
+    ab_on = 0.0
+    if anti_backoff:
+        ab_on = 1.0
+    ab = (ab_on, y_sat, y_sat_lo, tau)
     # process data
     err = NO_ERROR
     y_valid = y_ok and is_real(y)
@@ -391,6 +932,7 @@ def adrc_cycle(
     u_target = u_prev
     if man_ok:
         u_target = u_man
+    overflow = False
     if not y_valid:
         # measurement invalid: safe value (manual value in MAN), ESO frozen
         mv = clamp(u_sf, lo, hi)
@@ -405,22 +947,66 @@ def adrc_cycle(
             r_in = ref
             if not started:
                 r_in = y
-        mv, u_raw, yh, x2, x3, x4, ref, track, sat = adrc_step(
-            r_in, y, manual, u_target, started, track or not sp_valid, sat,
-            yh, x2, x3, x4, u_prev, ref, prm,
-        )  # fmt: skip
-        track = track or not sp_valid
+        ref_old = ref
+        tgt = u_prev
+        if manual:
+            tgt = u_target
+        if exact or anti_backoff or awin:
+            if not started:
+                # first valid measurement: start the ESO at rest on it
+                yh = y
+                x2 = 0.0
+                x3 = 0.0
+                x4 = -b0 * u_prev
+                ref = y
+            mv, u_raw, yh, x2, x3, x4, ref, track, sat, ab_sat, ab_wait = adrc_general_step(
+                r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, sat,
+                awin, exact, yh, x2, x3, x4, u_prev, ref, ab_sat, ab_wait, prm, ecoef, ab,
+            )  # fmt: skip
+        else:
+            mv, u_raw, yh, x2, x3, x4, ref, track, sat = adrc_step(
+                r_in, y, manual, u_target, started, track or not sp_valid, sat,
+                yh, x2, x3, x4, u_prev, ref, prm,
+            )  # fmt: skip
+        track = track or manual or not sp_valid
         started = True
+        if not is_real(u_raw):
+            # the law overflowed REAL: hold the output, restart the ESO at rest on the
+            # next valid PV with x4 by (11) (Block._contain and ADRC._resume)
+            overflow = True
+            mv = out
+            u_raw = out
+            yh = 0.0
+            x2 = 0.0
+            x3 = 0.0
+            x4 = 0.0
+            ref = 0.0
+            if is_real(ref_old):
+                ref = ref_old
+            started = False
+            track = True
+            sat = 0
+            ab_sat = 0
+            ab_wait = 0.0
     if err == NO_ERROR:
         err = lim_err
+    if err == NO_ERROR and not discretisation_ok(order, omega_c, omega_o, ts, exact):
+        err = WARN_DISCRETISATION
+    if overflow:
+        err = BAD_RESULT
     u_prev = mv
+    if u_real_on:
+        if is_real(u_real):
+            u_prev = u_real  # the measured actuator value drives the ESO (section 5)
+        elif err in (NO_ERROR, WARN_DISCRETISATION):
+            err = BAD_INPUT
     if not manual:
-        u_man = mv  # In/Out: outside MAN the manual value follows the output
+        u_man = u_prev  # In/Out: outside MAN the manual value follows the applied u
     out = mv
     return (
         mv, err, sat != 0, u_raw, u_man, x4,
-        out, yh, x2, x3, x4, u_prev, ref, started, track, sat, lo, hi,
-        tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev,
+        out, yh, x2, x3, x4, u_prev, ref, started, track, sat, ab_sat, ab_wait, lo, hi,
+        tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev,
     )  # fmt: skip
 
 
@@ -543,7 +1129,8 @@ def limit_real(x: float) -> np.float32:
 # Interface values from a block's configuration (shared by the export)
 # ---------------------------------------------------------------------------
 
-_PID_AW = {"clamping": 0, "back_calc_model": 1}
+_PID_AW = {"clamping": 0, "back_calc_model": 1, "back_calc_real": 2}
+_BUMPLESS = ("integrator", "track_setpoint", "suppress_p_action")
 _METHODS = ("forward", "backward", "tustin")
 _ADRC_AW = {"off": 0, "freeze": 1, "directional": 2, False: 0, True: 2}
 
@@ -551,6 +1138,7 @@ _ADRC_AW = {"off": 0, "freeze": 1, "directional": 2, False: 0, True: 2}
 def pid_inputs(config: Any) -> dict[str, Any]:
     """The tuning/mode inputs of :func:`pid_cycle` for a PIDConfig (floats as Python floats)."""
     k, ti, td = config.isa()
+    rng = config.pv_range if config.pv_range is not None else (0.0, 100.0)
     return {
         "k": float(k), "ti": float(ti), "td": float(td), "n": float(config.n),
         "b": float(config.b), "c": float(config.c), "ts": float(config.ts),
@@ -560,6 +1148,14 @@ def pid_inputs(config: Any) -> dict[str, Any]:
         "i_method": _METHODS.index(config.integral_method),
         "d_method": _METHODS.index(config.derivative_method),
         "aw": _PID_AW[config.anti_windup],
+        "velocity": config.algorithm == "velocity",
+        "scale_pv": config.pv_range is not None,
+        "pv_lo": float(rng[0]), "pv_hi": float(rng[1]),
+        "sp_filter": float(config.sp_filter), "pv_filter": float(config.pv_filter),
+        "sp_rate": float(config.sp_rate), "out_rate": float(config.out_rate),
+        "ff_k": float(config.ff_k), "ff_t_lead": float(config.ff_t_lead),
+        "ff_t_lag": float(config.ff_t_lag),
+        "bumpless": _BUMPLESS.index(config.bumpless), "dev_tol": float(config.dev_tol),
         "reset_value": float(config.reset_value),
         "safe_value": float(config.safe_value) if config.safe_value is not None else 0.0,
         "use_safe": config.safe_value is not None,
@@ -569,11 +1165,16 @@ def pid_inputs(config: Any) -> dict[str, Any]:
 def pid_state(config: Any) -> dict[str, Any]:
     """The state of :func:`pid_cycle` after a reset (PID.reset)."""
     lo, hi = float(config.u_min), float(config.u_max)
+    u0 = clamp(float(config.reset_value), lo, hi)
     return {
-        "out": clamp(float(config.reset_value), lo, hi), "i": float(config.reset_value),
-        "d": 0.0, "w_prev": 0.0, "e_prev": 0.0, "lo": lo, "hi": hi, "mode_prev": NO_MODE,
+        "out": u0, "i": float(config.reset_value),
+        "d": 0.0, "w_prev": 0.0, "e_prev": 0.0, "x": u0, "bias": float(config.reset_value),
+        "p_prev": 0.0, "d_prev": 0.0, "ff_prev": 0.0, "sp_f": 0.0, "pv_f": 0.0, "sp_w": 0.0,
+        "ll_x": 0.0, "ll_out": 0.0, "suppressed": False, "ramp_out": u0,
+        "lo": lo, "hi": hi, "mode_prev": NO_MODE,
         "cold": True, "reinit": False, "reinit_d": False, "k_prev": 0.0, "ti_prev": 0.0,
         "td_prev": 0.0, "n_prev": 0.0, "b_prev": 0.0, "c_prev": 0.0, "rev_prev": False,
+        "vel_prev": False, "scale_prev": False, "pv_lo_prev": 0.0, "pv_hi_prev": 0.0,
     }  # fmt: skip
 
 
@@ -584,7 +1185,10 @@ def adrc_inputs(config: Any) -> dict[str, Any]:
         "omega_o": float(config.omega_o), "ts": float(config.ts),
         "u_min": float(config.u_min), "u_max": float(config.u_max),
         "t_ref": float(config.t_ref), "u_sf": float(config.u_sf),
-        "aw_rule": _ADRC_AW[config.anti_windup],
+        "aw_rule": _ADRC_AW[config.anti_windup], "exact": config.discretisation == "exact",
+        "u_real_on": bool(config.u_real_on), "anti_backoff": bool(config.anti_backoff),
+        "y_sat": float(config.y_sat), "y_sat_lo": float(config.y_sat_lo),
+        "tau_wait": float(config.tau_wait),
     }  # fmt: skip
 
 
@@ -594,8 +1198,9 @@ def adrc_state(config: Any) -> dict[str, Any]:
     u0 = clamp(float(config.u0), lo, hi)
     return {
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ref": 0.0,
-        "started": False, "track": False, "sat": 0, "lo": lo, "hi": hi, "tuned": False,
-        "order_prev": 0, "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0,
+        "started": False, "track": False, "sat": 0, "ab_sat": 0, "ab_wait": 0.0, "lo": lo,
+        "hi": hi, "tuned": False, "order_prev": 0, "b0_prev": 0.0, "wc_prev": 0.0,
+        "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
     }  # fmt: skip
 
 
@@ -642,14 +1247,18 @@ def _lane(
     return res
 
 
-def pid_float32(pid: Any, sp: float, pv: float, ff: float, pv_ok: bool, dt: float | None) -> float:
+def pid_float32(
+    pid: Any, sp: float, pv: float, ff: float, pv_ok: bool, dt: float | None, dv: float = 0.0
+) -> float:
     """The cycle of a PID with ``precision="float32"``: :func:`pid_cycle` in REAL."""
     prm = pid_inputs(pid.config)
     if dt is not None:
         prm["ts"] = float(dt)
     res = _lane(pid, pid_cycle, PID_RESULTS, {
-        "sp": sp, "pv": pv, "ff": ff, "pv_ok": bool(pv_ok), "manual": bool(pid.manual),
-        "man_value": pid.manual_value, "rst": bool(pid.reset_active)}, prm, pid_state)  # fmt: skip
+        "sp": sp, "pv": pv, "ff": ff, "dv": dv, "pv_ok": bool(pv_ok), "manual": bool(pid.manual),
+        "man_value": pid.manual_value, "rst": bool(pid.reset_active), "track": bool(pid.track),
+        "track_value": pid.track_value, "hold": bool(pid.hold), "awin": bool(pid.awin),
+        "actuator_pos": pid.actuator_pos}, prm, pid_state)  # fmt: skip
     pid.out = float(res["mv"])
     pid.error_id = ErrorCode(res["error_id"])
     pid.limits_active = bool(res["limits_active"])
@@ -658,7 +1267,9 @@ def pid_float32(pid: Any, sp: float, pv: float, ff: float, pv_ok: bool, dt: floa
     return pid.out
 
 
-def adrc_float32(adrc: Any, sp: float, y: float, y_ok: bool, dt: float | None) -> float:
+def adrc_float32(
+    adrc: Any, sp: float, y: float, y_ok: bool, dt: float | None, u_real: float | None = None
+) -> float:
     """The cycle of an ADRC with ``precision="float32"``: :func:`adrc_cycle` in REAL."""
     prm = adrc_inputs(adrc.config)
     prm["u_min"], prm["u_max"] = adrc.u_min, adrc.u_max  # as written by set_limits
@@ -666,7 +1277,8 @@ def adrc_float32(adrc: Any, sp: float, y: float, y_ok: bool, dt: float | None) -
         prm["ts"] = float(dt)
     res = _lane(adrc, adrc_cycle, ADRC_RESULTS, {
         "sp": sp, "y": y, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
-        "u_man": adrc.u_man}, prm, adrc_state)  # fmt: skip
+        "u_man": adrc.u_man, "awin": bool(adrc.awin),
+        "u_real": math.nan if u_real is None else u_real}, prm, adrc_state)  # fmt: skip
     adrc.out = float(res["mv"])
     adrc.error_id = ErrorCode(res["error_id"])
     adrc.awout = bool(res["awout"])

@@ -14,7 +14,14 @@ from typing import Any
 
 from .base import ErrorCode, ParameterError, require_choice
 
-__all__ = ["CYCLES", "PRECISIONS", "check_precision", "float32_cycle", "unsupported"]
+__all__ = [
+    "CYCLES",
+    "PRECISIONS",
+    "check_precision",
+    "float32_cycle",
+    "plc_unsupported",
+    "unsupported",
+]
 
 CYCLES: dict[str, Callable[..., float]] = {}
 """Block kind -> its ``precision="float32"`` cycle; filled by :mod:`.plc_cycle` when the
@@ -57,10 +64,25 @@ def unsupported(config: Any, kind: str) -> list[str]:
     return bad
 
 
+def plc_unsupported(config: Any, kind: str) -> list[str]:
+    """Options of a block configuration the PLC cycle (and so the export) does not cover.
+
+    A subset of :func:`unsupported`: the PLC cycle of :mod:`.plc_cycle` has
+    the PID's velocity algorithm, PV scaling, filters, ramps, lead-lag
+    feed-forward, every bumpless and anti-windup method, and the ADRC's exact
+    discretisation, ``u_real`` and anti-backoff, which the compiled kernels
+    lack; not the PID's adaptive dead band (a moving average over up
+    to 10**5 samples, an array a PLC block would have to hold).
+    """
+    if kind == "pid":
+        return ["deadband"] if config.deadband != 0.0 else []
+    return []
+
+
 def check_precision(config: Any, kind: str) -> None:
     """Refuse an unknown precision, or ``"float32"`` with options its cycle does not cover."""
     require_choice("precision", config.precision, PRECISIONS)
-    bad = unsupported(config, kind) if config.precision == "float32" else []
+    bad = plc_unsupported(config, kind) if config.precision == "float32" else []
     if bad:
         raise ParameterError(
             ErrorCode.BAD_PARAMETER,

@@ -64,6 +64,8 @@ __all__ = [
     "clamp",
     "deadband",
     "pt1_coefficient",
+    "pt1_step",
+    "rate_limit_step",
     "scale",
 ]
 
@@ -117,6 +119,27 @@ def pt1_coefficient(t: float, h: float, method: str) -> float:
     if method == "exact":
         return math.exp(-h / t)
     return t / (t + h)
+
+
+def pt1_step(a: float, y: float, k: float, u: float) -> float:
+    """One sample of the PT1, ``y[k] = a y[k-1] + (1 - a) K u[k]`` (pole ``a`` from
+    :func:`pt1_coefficient`); ``a = 0`` passes ``K u`` through."""
+    return a * y + (1.0 - a) * k * u
+
+
+def rate_limit_step(u: float, y: float, up: float, down: float, h: float) -> tuple[float, bool]:
+    """One sample of the linear ramp: ``(y[k], limiting)``.
+
+    ``y[k] = y[k-1] + clamp(u - y[k-1], -down h, up h)`` (controltheplant 2024,
+    ``RateLimiter``); a rate of 0 is no limit in that direction.  ``limiting``
+    is true when the ramp, not the input, set the output.
+    """
+    step = u - y
+    if up > 0.0 and step > up * h:
+        return y + up * h, True
+    if down > 0.0 and step < -(down * h):
+        return y - down * h, True
+    return u, False
 
 
 # ---------------------------------------------------------------------------
@@ -201,8 +224,7 @@ class PT1(Block):
         if h != self._h:
             self._h = h
             self._a = pt1_coefficient(self._t, h, self._method)
-        a = self._a
-        self.out = a * self.out + (1.0 - a) * self._k * u
+        self.out = pt1_step(self._a, self.out, self._k, u)
         return self.out
 
 
@@ -253,10 +275,7 @@ class RateLimiter(Block):
     _config: RateLimiterConfig
 
     def _apply_config(self, old: BlockConfig | None) -> None:
-        c = self._config
-        self._up = float(c.rate_up) if c.rate_up > 0 else math.inf
-        self._down = float(c.rate_down) if c.rate_down > 0 else math.inf
-        self._ts = float(c.ts)
+        self._ts = float(self._config.ts)
 
     def _reset_state(self) -> None:
         self.out = float(self._config.y0)
@@ -277,17 +296,8 @@ class RateLimiter(Block):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
-        step = u - self.out
-        up, down = self._up * h, self._down * h
-        if step > up:
-            self.out += up
-            self.limiting = True
-        elif step < -down:
-            self.out -= down
-            self.limiting = True
-        else:
-            self.out = u
-            self.limiting = False
+        c = self._config
+        self.out, self.limiting = rate_limit_step(u, self.out, c.rate_up, c.rate_down, h)
         return self.out
 
 

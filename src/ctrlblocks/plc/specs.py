@@ -17,7 +17,7 @@ from typing import Any
 
 from ..blocks import ADRC, PID, LeadLag
 from ..blocks import plc_cycle as pc
-from ..blocks.precision import unsupported
+from ..blocks.precision import plc_unsupported
 
 __all__ = ["BlockSpec", "UnsupportedBlock", "spec_for"]
 
@@ -63,6 +63,16 @@ _PID_PROCESS = [
     Var("manual", "MANUAL", "manual mode: MV := MAN_VALUE (limited), bumpless back to AUTO"),
     Var("man_value", "MAN_VALUE", "manual value [%]; outside MANUAL it follows MV (In/Out)"),
     Var("rst", "RST", "reset: MV := RESET_VALUE (limited), integrator set to match"),
+    Var("dv", "DV", "input of the lead-lag feed-forward path (FF_K <> 0)"),
+    Var("track", "TRACK", "tracking mode: MV := TRACK_VALUE (limited), bumpless back"),
+    Var("track_value", "TRACK_VALUE", "output in TRACK [%]"),
+    Var("hold", "HOLD", "hold mode: MV stays, bumpless back"),
+    Var("awin", "AWIN", "freeze the integrator (anti-windup from a secondary in cascade)"),
+    Var(
+        "actuator_pos",
+        "ACTUATOR_POS",
+        "measured actuator position [%] for ANTI_WINDUP = 2 (write it every cycle)",
+    ),
 ]
 _PID_TUNING = [
     Var("k", "K", "gain K [%/%] (ISA form, Åström 1987 (2.1))"),
@@ -80,7 +90,28 @@ _PID_TUNING = [
     Var(
         "d_method", "D_METHOD", "derivative discretisation: 0 forward, 1 backward, 2 Tustin (2.13)"
     ),
-    Var("aw", "ANTI_WINDUP", "0 clamping (conditional integration), 1 back-calculation"),
+    Var(
+        "aw",
+        "ANTI_WINDUP",
+        "0 clamping (conditional integration), 1 back-calculation (model), 2 on ACTUATOR_POS",
+    ),
+    Var("velocity", "VELOCITY", "TRUE: velocity (incremental) algorithm, Åström 1987 Fig. 2.5"),
+    Var("scale_pv", "SCALE_PV", "TRUE: SP and PV scaled from PV_LO..PV_HI to 0..100 %"),
+    Var("pv_lo", "PV_LO", "PV range low [eng. units] (SCALE_PV)"),
+    Var("pv_hi", "PV_HI", "PV range high [eng. units] (SCALE_PV)"),
+    Var("sp_filter", "SP_FILTER", "SP filter time constant [s] (PT1, exp(-TS/T)); 0 = off"),
+    Var("pv_filter", "PV_FILTER", "PV filter time constant [s] (PT1, exp(-TS/T)); 0 = off"),
+    Var("sp_rate", "SP_RATE", "setpoint ramp [%/s]; 0 = off"),
+    Var("out_rate", "OUT_RATE", "output ramp [%/s], in every mode but RST; 0 = off"),
+    Var("ff_k", "FF_K", "lead-lag feed-forward gain on DV; 0 = off (Bonde et al. 2021)"),
+    Var("ff_t_lead", "FF_T_LEAD", "feed-forward lead time constant [s]"),
+    Var("ff_t_lag", "FF_T_LAG", "feed-forward lag time constant [s] (> 0, Tustin)"),
+    Var(
+        "bumpless",
+        "BUMPLESS",
+        "to AUTO: 0 integrator, 1 track setpoint (SP ramp), 2 suppress P until |e| <= DEV_TOL",
+    ),
+    Var("dev_tol", "DEV_TOL", "deviation tolerance [%] of BUMPLESS = 2"),
     Var("reset_value", "RESET_VALUE", "output while RST [%]"),
     Var("safe_value", "SAFE_VALUE", "output while SP/PV/FF are bad, if USE_SAFE_VALUE [%]"),
     Var("use_safe", "USE_SAFE_VALUE", "TRUE: SAFE_VALUE on bad inputs; FALSE: hold MV"),
@@ -100,6 +131,13 @@ _PID_STATE_COMMENTS = {
     "hi": "high limit in force", "mode_prev": "mode of the last cycle (-1 none, 0 auto)",
     "cold": "first cycle after a (re)start", "reinit": "re-initialise the integrator",
     "reinit_d": "re-initialise the derivative histories",
+    "x": "output integrator of the velocity algorithm [%]",
+    "bias": "bias of the velocity algorithm without I (Åström 1987, Fig. 2.4)",
+    "p_prev": "P of the last cycle (velocity)", "d_prev": "D of the last cycle (velocity)",
+    "ff_prev": "FF of the last cycle (velocity)", "sp_f": "filtered SP", "pv_f": "filtered PV",
+    "sp_w": "working setpoint after the ramp", "ll_x": "DV of the last cycle",
+    "ll_out": "output of the lead-lag feed-forward", "suppressed": "P action suppressed",
+    "ramp_out": "output ramp's last value [%]",
 }  # fmt: skip
 
 _ADRC_PROCESS = [
@@ -107,7 +145,9 @@ _ADRC_PROCESS = [
     Var("y", "PV", "process value Y"),
     Var("y_ok", "PV_OK", "quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF"),
     Var("manual", "MANUAL", "MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)"),
-    Var("u_man", "MAN_VALUE", "manual value; outside MANUAL it follows MV (In/Out)"),
+    Var("u_man", "MAN_VALUE", "manual value; outside MANUAL it follows the applied u (In/Out)"),
+    Var("awin", "AWIN", "freeze x4 (anti-windup from a secondary in cascade, section 5)"),
+    Var("u_real", "U_REAL", "measured actuator value u_real (U_REAL_ON; NaN: u, 16#8101)"),
 ]
 _ADRC_TUNING = [
     Var("order", "ORDER", "ADRC order n = 1, 2, 3 (one body for all, section 3.2)"),
@@ -120,6 +160,12 @@ _ADRC_TUNING = [
     Var("t_ref", "T_REF", "time constant of the reference trajectory [s]; 0 = off"),
     Var("u_sf", "U_SF", "safe value while PV is invalid"),
     Var("aw_rule", "ANTI_WINDUP", "x4 anti-windup: 0 off, 1 freeze, 2 directional (section 4.1)"),
+    Var("exact", "EXACT", "TRUE: exact (ZOH) current observer, FALSE: Euler ESO (4a)"),
+    Var("u_real_on", "U_REAL_ON", "TRUE: U_REAL drives the ESO (section 5)"),
+    Var("anti_backoff", "ANTI_BACKOFF", "anti-backoff action (12a)/(12b) at a sensor limit (4.3)"),
+    Var("y_sat", "Y_SAT", "upper saturation of the sensor [units of Y] (ANTI_BACKOFF)"),
+    Var("y_sat_lo", "Y_SAT_LO", "lower saturation of the sensor [units of Y] (ANTI_BACKOFF)"),
+    Var("tau_wait", "TAU_WAIT", "hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O"),
 ]
 _ADRC_OUT = [
     Var("mv", "MV", "manipulated variable u (limited)"),
@@ -134,7 +180,8 @@ _ADRC_STATE_COMMENTS = {
     "u_prev": "applied u of the last cycle", "ref": "reference trajectory",
     "started": "the ESO has been started on a valid PV", "track": "re-solve x4 by (11)",
     "sat": "+1/-1: last u_raw above/below the limits", "lo": "low limit in force",
-    "hi": "high limit in force",
+    "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
+    "ab_wait": "anti-backoff hold time left [s]",
 }  # fmt: skip
 
 _LL_PROCESS = [
@@ -165,27 +212,30 @@ def spec_for(block: Any) -> BlockSpec:
     """The :class:`BlockSpec` of a configured PID, ADRC or LeadLag."""
     c = block.config
     if isinstance(block, PID):
-        bad = unsupported(c, "pid")
+        bad = plc_unsupported(c, "pid")
         if bad:
             raise UnsupportedBlock(f"the PLC export does not cover the PID options {bad}")
         state = pc.pid_state(c)
         process = {"sp": 0.0, "pv": 0.0, "ff": 0.0, "pv_ok": True, "manual": False,
-                   "man_value": state["out"], "rst": False}  # fmt: skip
+                   "man_value": state["out"], "rst": False, "dv": 0.0, "track": False,
+                   "track_value": 0.0, "hold": False, "awin": False,
+                   "actuator_pos": 0.0}  # fmt: skip
         outputs = {"mv": state["out"], "error_id": 0, "limits_active": False, "p": 0.0,
                    "i_term": state["i"], "d_term": 0.0}  # fmt: skip
         values = {**process, **pc.pid_inputs(c), **state, **outputs}
-        return BlockSpec("pid", "CB_PID", "PID (positional ISA form)", pc.pid_cycle,
+        return BlockSpec("pid", "CB_PID", "PID (ISA form, positional or velocity)", pc.pid_cycle,
                          pc.PID_RESULTS, _PID_PROCESS + _PID_TUNING, _PID_OUT,
                          _state(state, _PID_STATE_COMMENTS, set()), values, c)  # fmt: skip
     if isinstance(block, ADRC):
-        bad = unsupported(c, "adrc")
+        bad = plc_unsupported(c, "adrc")
         if bad:
             raise UnsupportedBlock(f"the PLC export does not cover the ADRC options {bad}")
         state = pc.adrc_state(c)
-        process = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": state["out"]}
+        process = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": state["out"],
+                   "awin": False, "u_real": 0.0}  # fmt: skip
         values = {**process, **pc.adrc_inputs(c), **state, "mv": state["out"], "error_id": 0,
                   "awout": False, "u_raw": state["out"], "x4_out": 0.0}  # fmt: skip
-        return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler ESO, orders 1..3)", pc.adrc_cycle,
+        return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler or exact ESO, orders 1..3)", pc.adrc_cycle,
                          pc.ADRC_RESULTS, _ADRC_PROCESS + _ADRC_TUNING, _ADRC_OUT,
                          _state(state, _ADRC_STATE_COMMENTS, set()), values, c)  # fmt: skip
     if isinstance(block, LeadLag):

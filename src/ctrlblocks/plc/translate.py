@@ -840,6 +840,13 @@ class _Translator:
         c = self.const_test(e)
         if c is not None:
             return ("TRUE" if c else "FALSE"), PREC_ATOM, BOOL
+        if len(e.ops) == 1 and isinstance(e.ops[0], ast.In):
+            # ``x in (A, B)`` with constants: ``(x = A) OR (x = B)``
+            if not isinstance(e.comparators[0], ast.Tuple):
+                raise self.err(e, "'in' needs a tuple of values")
+            alts = [ast.Compare(left=e.left, ops=[ast.Eq()], comparators=[v])
+                    for v in e.comparators[0].elts]  # fmt: skip
+            return " OR ".join(f"({self.compare(a)[0]})" for a in alts), PREC_OR, BOOL
         parts = []
         left = e.left
         for op, right in zip(e.ops, e.comparators, strict=True):

@@ -52,11 +52,14 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..blocks.base import ErrorCode, ParameterError
-from ..tuning.live import LiveTuner, TunerState
 from .loop import CommandError, ControlLoop
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..tuning.live import LiveTuner
     from .runtime import Runtime
+
+# ctrlblocks.tuning (scipy) is imported when a test starts, not with the runtime: its
+# import takes seconds, and a runtime that is never tuned should not start slower
 
 __all__ = ["METHODS", "LiveTuning", "LoopTuning"]
 
@@ -139,7 +142,12 @@ class LoopTuning:
             if why:
                 self.tuner.abort(why)
         y = meas.get("y", math.nan)
-        u = self.tuner.step(y if ok else math.nan)
+        try:
+            u = self.tuner.step(y if ok else math.nan)
+        except Exception as exc:  # a defect of the experiment never stops the loop
+            log.exception("loop %s: live test failed", lp.name)
+            self.tuner.abort(f"the test failed: {type(exc).__name__}: {exc}")
+            u = self.u0
         lp.side.set_manual(True, u)
         lp.side.compute(lp.sp, y, y_ok=ok, dt=dt)
         lp.side.update(u)
@@ -313,6 +321,8 @@ class LiveTuning:
                 f"the PV {lp.pv:g} is outside the bounds {opts['pv_min']:g}..{opts['pv_max']:g}",
                 ErrorCode.BAD_LIMITS,
             )
+        from ..tuning.live import LiveTuner
+
         reverse = bool(getattr(lp.block.config, "reverse", False))
         try:
             tuner = LiveTuner(
@@ -377,6 +387,8 @@ class LiveTuning:
 
     def ended(self, tu: LoopTuning) -> None:
         """Audit the end of a test: the result (margins computed off the cycle), or why not."""
+        from ..tuning.live import TunerState
+
         lp, state = tu.loop, tu.tuner.state
         if state is not TunerState.DONE:
             action = "tune-abort" if state is TunerState.ABORTED else "tune-result"

@@ -228,8 +228,11 @@ class LiveTuner:
             else:
                 assert self._exp is not None
                 self.result = _relay_result(self._exp)
-        except (RuntimeError, ValueError) as exc:
+        except (RuntimeError, ValueError) as exc:  # e.g. no steady limit cycle
             self._end(TunerState.FAILED, str(exc))
+            return
+        except Exception as exc:  # any other defect of the evaluation: FAILED, never a raise
+            self._end(TunerState.FAILED, f"{type(exc).__name__}: {exc}")
             return
         self.state = TunerState.DONE
 

@@ -75,6 +75,7 @@ import asyncio
 import concurrent.futures
 import contextlib
 import csv
+import importlib
 import io
 import json
 import logging
@@ -332,6 +333,10 @@ def create_app(
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if start_runtime:
             await runtime.start()
+        # the live tuning's libraries (scipy: seconds) load beside the cycles now, so that
+        # starting a test later does not stall the runtime's event loop while they import
+        threading.Thread(target=importlib.import_module, args=("ctrlblocks.tuning.live",),
+                         name="ctrlblocks-import", daemon=True).start()  # fmt: skip
         try:
             yield
         finally:
