@@ -77,6 +77,8 @@ def test_simulator_and_runtime_tables_are_derived_from_the_structures():
         "override": ("pv", "pv2"),
         "feedforward": ("pv", "dv"),
         "smith": ("pv",),
+        "split_range": ("pv",),
+        "ratio": ("pv", "wild"),
     }
     assert {n: s.event_target for n, s in STRUCTURES.items()} == {
         "single": "main",
@@ -84,9 +86,16 @@ def test_simulator_and_runtime_tables_are_derived_from_the_structures():
         "override": "blocks[0]",
         "feedforward": "main",
         "smith": "main",
+        "split_range": "main",
+        "ratio": "main",
+        "pulse_width": "main",
+        "three_step": "main",
+        "scheduled": "main",
         "open_loop": "main",
     }
-    assert [n for n, s in STRUCTURES.items() if s.series_plant] == ["cascade", "override"]
+    series = [n for n, s in STRUCTURES.items() if s.series_plant]
+    assert series == ["cascade", "override", "three_step"]
+    assert {n: s.actuators for n, s in STRUCTURES.items() if s.actuators != 1} == {"split_range": 2}
 
 
 def test_parse_controller_raises_the_given_error_class_not_a_scenario_error():

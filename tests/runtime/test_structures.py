@@ -216,6 +216,10 @@ def _table(spec, *, drop=("u_sf", "safe_value")) -> str:
     return block_table(spec.type, params)
 
 
+def _inline(table: dict) -> str:
+    return "{ " + ", ".join(f"{k} = {toml_value(v)}" for k, v in table.items()) + " }"
+
+
 def loop_tables(sc, *, pv="pv", pv2="pv2", dv="dv", conn="io", sp='"io:sp"') -> str:
     """A runtime loop with the scenario's first controller entry (same tables)."""
     ctrl = sc.controllers[0]
@@ -236,6 +240,16 @@ def loop_tables(sc, *, pv="pv", pv2="pv2", dv="dv", conn="io", sp='"io:sp"') -> 
     elif s == "feedforward":
         lines += [f"main = {_table(b['main'])}", f"feedforward = {_table(b['feedforward'])}"]
         lines += [f'pv = "{conn}:{pv}"', f'dv = "{conn}:{dv}"']
+    elif s == "split_range":
+        split = ctrl.options["split"]
+        table = {"split": split.split, "gap": split.gap, "a": list(split.a), "b": list(split.b)}
+        lines += [f"main = {_table(b['main'])}", f"split = {_inline(table)}"]
+        lines += [f'pv = "{conn}:{pv}"', f'mv2 = "{conn}:mv2"', f"u0 = {PlantProcess(sc).u0!r}"]
+    elif s == "ratio":
+        cfg = ctrl.options["ratio"]
+        table = {k: getattr(cfg, k) for k in ("r_min", "r_max", "bias", "rate")}
+        lines += [f"main = {_table(b['main'])}", f"ratio = {_inline(table)}"]
+        lines += [f'pv = "{conn}:{pv}"', f'wild = "{conn}:wild"']
     else:  # smith
         lines += [f"main = {_table(b['main'])}", f"model = {_table(b['model'])}"]
         lines += [f'pv = "{conn}:{pv}"', f"u0 = {PlantProcess(sc).u0!r}"]
@@ -248,10 +262,15 @@ def run_in_memory(sc, n: int, *, fault=None):
     process = PlantProcess(sc)
     bus = MemoryBus(process.values())
 
+    written: dict[str, float] = {}
+    mvs = {"mv", "mv2"} if sc.structure == "split_range" else {"mv"}
+
     def on_write(address: str, u: float) -> None:
-        if address == "mv":
-            process.step(u)
-            bus.values.update(process.values())
+        if address in mvs:  # the plant steps once all MVs of the cycle are written
+            written[address] = u
+            if set(written) == mvs:
+                process.step(written.pop("mv"), written.pop("mv2", None))
+                bus.values.update(process.values())
 
     bus.on_write = on_write
     text = '[connections.io]\nprotocol = "memory"\n' + loop_tables(sc)
@@ -402,7 +421,7 @@ CONN = '[connections.io]\nprotocol = "memory"\n'
         (("pv2 = ", "#"), "loops[0].pv2", "missing"),
         (("secondary = {", "secondary = { ts = 0.1,"), "loops[0].secondary.ts", "once"),
         (("kp = 2.0", "kp = -2.0"), "loops[0].secondary.kp", "> 0"),
-        (('structure = "cascade"', 'structure = "ratio"'), "loops[0].structure", "one of"),
+        (('structure = "cascade"', 'structure = "blend"'), "loops[0].structure", "one of"),
         (("aw_handshake = true", "aw_handshake = 1"), "loops[0].aw_handshake", "true or false"),
         (("aw_handshake = true", 'dv = "io:dv"'), "loops[0].dv", "does not read"),
     ],

@@ -42,13 +42,25 @@ Structures and what they read (``structure`` -> measurements):
 ``override``   ``y`` and/or ``y2``, as each block's ``measure`` says
 ``feedforward``  ``y``, ``dv`` (through the lead-lag into the PID's ``ff``)
 ``smith``      ``y`` (the controller sees ``y + y_model_fast - y_model``)
+``split_range``  ``y``; one controller, two actuators (:mod:`.split`)
+``ratio``      ``y`` (the controlled flow), ``w`` (the wild flow; the
+               setpoint input is the ratio, :mod:`.ratio`)
+``pulse_width``  ``y``; the controller output through a PWM (on/off MV)
+``three_step``  ``y``, ``y2`` (the valve position: end switches, feedback);
+               a step controller's OPEN/CLOSE commands are the MV
+``scheduled``  ``y``; the controller's parameters follow the setpoint
 ``open_loop``  none (the block is driven by the setpoint)
 =============  ==========================================================
 
-Quality flags (``y_ok``, ``y2_ok``, ``dv_ok``): a block is called with the
-flag of what it measures (cascade: primary ``y_ok``, secondary ``y2_ok``;
-override: every block ``y_ok and y2_ok``); a bad ``dv`` freezes the
-lead-lag (not called) and keeps its last output as ``ff``.
+Actuators: a structure writes one MV, except ``split_range``, which writes
+two (:attr:`Structure.actuators`; :meth:`ControllerSide.actuator_values`
+maps the controller output to them).
+
+Quality flags (``y_ok``, ``y2_ok``, ``dv_ok``, ``w_ok``): a block is called
+with the flag of what it measures (cascade: primary ``y_ok``, secondary
+``y2_ok``; override: every block ``y_ok and y2_ok``); a bad ``dv`` freezes
+the lead-lag (not called) and keeps its last output as ``ff``; a bad ``w``
+makes the ratio station hold the last good setpoint.
 """
 
 from __future__ import annotations
@@ -59,8 +71,14 @@ import inspect
 import math
 from typing import Any, ClassVar
 
+from ..blocks.base import ParameterError
 from ..blocks.protocols import Controller
+from ..blocks.pwm import PulseWidth
+from ..blocks.schedule import GainSchedule
+from ..blocks.stepper import StepController
+from .ratio import RatioConfig, RatioStation
 from .spec import BlockSpec, ControllerSpec, SpecReader, TuneHook, build
+from .split import SplitRange
 from .toml import KeyPathError
 
 __all__ = [
@@ -200,6 +218,12 @@ class Structure:
         The runtime runs it (a controller against process I/O).
     tuned_roles : tuple of str
         Roles whose table may hold a ``tune`` table (a bump test on the plant).
+    actuators : int
+        How many MVs the structure writes (``split_range``: 2).
+    setpoint_signal : str or None
+        The signal of :attr:`ControllerSide.values` that is the setpoint of
+        ``y`` when the structure's setpoint input is something else (the
+        ratio structure: ``sp_flow``); None: the setpoint input itself.
     closed_loop : bool
         The structure measures a plant and closes a loop around it (False:
         ``open_loop``, a block driven by the setpoint profile, no plant).
@@ -218,6 +242,8 @@ class Structure:
     series_plant: ClassVar[bool] = False
     runtime: ClassVar[bool] = True
     tuned_roles: ClassVar[tuple[str, ...]] = ("main",)
+    actuators: ClassVar[int] = 1
+    setpoint_signal: ClassVar[str | None] = None
     compiled_lane: ClassVar[bool] = False
     """The simulator's compiled lane has a loop for this structure (``ctrlblocks.sim.dispatch``)."""
     closed_loop: ClassVar[bool] = True
@@ -287,6 +313,10 @@ class Structure:
     def reset_models(self, side: ControllerSide) -> None:
         """Put the structure's own models (if any) in the steady state of ``side.u0``."""
 
+    def actuator_values(self, spec: ControllerSpec, u: float) -> tuple[float, ...]:
+        """The :attr:`actuators` MVs written for the controller output ``u`` (one: ``u``)."""
+        return (u,)
+
     def compiled_blockers(self, side: ControllerSide) -> list[str]:
         """Why the simulator's compiled lane cannot run ``side`` (empty: it can).
 
@@ -319,6 +349,8 @@ class _Measured:
     dv: float
     dv_ok: bool
     dt: float | None
+    w: float = math.nan
+    w_ok: bool = True
 
 
 class Single(Structure):
@@ -546,8 +578,319 @@ class Smith(Single):
         side.model_fast.reset(side.u0)
 
 
+class SplitRangeStructure(Structure):
+    """One controller, two actuators by a static split of its output (:mod:`.split`).
+
+    The entry has the controller table ``main`` and the split table ``split``
+    (``split``, ``gap``, ``a``, ``b`` of :class:`~.split.SplitRange`); the
+    split's combined range is the controller's limits ``u_min..u_max`` (its
+    anti-windup acts when both actuators are at their far ends).  The
+    controller output ``v`` is continuous and the MVs ``u_a = a(v)``,
+    ``u_b = b(v)`` are continuous functions of it: no bump when the active
+    actuator changes.  Signals: ``u_a``, ``u_b`` and their limit status
+    codes ``a_status``, ``b_status`` (0 active, 1 idle, 2 limit).
+    """
+
+    name = "split_range"
+    roles = ("main",)
+    options = ("split",)
+    actuators = 2
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", "split"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        block = r.build(main, ts, kind="block")
+        lo, hi = float(getattr(block, "u_min", math.nan)), float(getattr(block, "u_max", math.nan))
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise r.fail(
+                f"{key}.main.u_min",
+                "the split range needs the controller's finite limits u_min and u_max "
+                "(they are the two actuators' combined range)",
+            )
+        table = r.table(e, "split", f"{key}.split", False)
+        r.check_keys(table, {"split", "gap", "a", "b"}, f"{key}.split")
+        try:
+            split = SplitRange.from_table(table, lo, hi)
+        except ParameterError as exc:
+            raise r.fail(f"{key}.split.{exc.field}", exc.message) from None
+        except TypeError as exc:  # pragma: no cover - keys are checked above
+            raise r.fail(f"{key}.split", str(exc)) from None
+        return {"main": main}, {"split": split}
+
+    def compute(self, side, sp, m):
+        u = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
+        split: SplitRange = side.spec.options["split"]
+        a, b = split(u)
+        sa, sb = split.status(u)
+        return u, {"u_a": a, "u_b": b, "a_status": float(sa), "b_status": float(sb)}
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u)  # the controller tracks its own (continuous) output
+
+    def actuator_values(self, spec, u):
+        return spec.options["split"](u)
+
+
+class RatioStructure(Structure):
+    """Ratio control: the station's ``bias + r w`` is the flow loop's setpoint (:mod:`.ratio`).
+
+    The structure's setpoint input is the requested *ratio*; ``w`` is the
+    wild flow and ``y`` the controlled flow.  The entry has the flow
+    controller ``main`` and the station table ``ratio`` (``r_min``,
+    ``r_max``, ``bias``, ``rate`` of :class:`~.ratio.RatioConfig`).
+    Signals: ``sp_flow`` (the flow setpoint), ``ratio`` (the working ratio),
+    ``wild`` (the last good wild flow), ``wild_hold`` (1 while a bad wild
+    flow holds the setpoint) and ``ratio_limited`` (1 while the request is
+    outside the ratio limits).
+    """
+
+    name = "ratio"
+    roles = ("main",)
+    options = ("ratio",)
+    measurements = ("y", "w")
+    setpoint_signal = "sp_flow"
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", "ratio"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        table = r.table(e, "ratio", f"{key}.ratio", False)
+        r.check_keys(table, {"r_min", "r_max", "bias", "rate"}, f"{key}.ratio")
+        kw = {}
+        for name in ("r_min", "r_max", "bias", "rate"):
+            if name in table:
+                kw[name] = r.number(table, name, f"{key}.ratio.{name}")
+        try:
+            cfg = RatioConfig(**kw, ts=ts)
+        except ParameterError as exc:
+            raise r.fail(f"{key}.ratio.{exc.field}", exc.message) from None
+        return {"main": main}, {"ratio": cfg}
+
+    def setup(self, side):
+        super().setup(side)
+        side.aux = RatioStation(side.spec.options["ratio"])
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u, measured=measured)
+
+    def compute(self, side, sp, m):
+        st: RatioStation = side.aux
+        sp_flow = st(sp, m.w, m.w_ok, m.dt)
+        u = side.ctrls["main"].output(sp_flow, m.y, m.y_ok, 0.0, m.dt)
+        return u, {
+            "sp_flow": sp_flow,
+            "ratio": st.ratio,
+            "wild": st.wild,
+            "wild_hold": float(st.holding),
+            "ratio_limited": float(st.limited),
+        }
+
+
+
+class _OutputStage(Structure):
+    """A controller whose continuous output drives an output block that makes the MV.
+
+    The controller tracks its own output (the output block realises it on
+    average: a PWM duty, a motor's travel), so its anti-windup and modes are
+    unchanged.  Subclasses name the output block's table (:attr:`stage_key`)
+    and its class; without the table the controller output is the MV (the
+    continuous reference in the same scenario).
+    """
+
+    roles = ("main",)
+    runtime = False  # the runtime writes analogue MVs only (docs/structures.md)
+    stage_key: ClassVar[str]
+    stage_block: ClassVar[type]
+    stage_options: ClassVar[tuple[str, ...]] = ()
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", self.stage_key}, key)
+        main = r.role(e, "main", key, ts, tune)
+        opts: dict[str, Any] = {}
+        if self.stage_key in e:
+            tkey = f"{key}.{self.stage_key}"
+            table = r.table(e, self.stage_key, tkey, True)
+            opts = {k: table[k] for k in self.stage_options if k in table}
+            params = {k: v for k, v in table.items() if k not in self.stage_options}
+            spec = r.block_spec(
+                {"type": self.stage_block.__name__, **params},
+                tkey,
+                ts,
+                kind="block",
+                table_keys=self.stage_options,
+            )
+            opts[self.stage_key] = spec
+        return {"main": main}, opts
+
+    def setup(self, side):
+        super().setup(side)
+        spec = side.spec.options.get(self.stage_key)
+        side.aux = None if spec is None else side.make(spec, "block")
+
+    def controller_roles(self, side):
+        return ["main"]
+
+    def compute(self, side, sp, m):
+        v = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
+        side.pending = (v,)
+        if side.aux is None:
+            return v, {"v_ctrl": v}
+        return self.stage(side, v, m)
+
+    def stage(self, side: ControllerSide, v: float, m: _Measured) -> tuple[float, dict]:
+        """The output block's MV for the controller output ``v``, and its signals."""
+        raise NotImplementedError
+
+    def update(self, side, u, measured):
+        (v,) = side.pending
+        side.ctrls["main"].update(v)
+
+
+class PulseWidthStructure(_OutputStage):
+    """A controller and a pulse-width output (:class:`~ctrlblocks.PulseWidth`): an on/off MV.
+
+    ``[controllers.pwm]`` holds the PulseWidth parameters (``period``,
+    ``t_min_on``, ``t_min_off``, ``in_lo``, ``in_hi``); the MV is ``in_hi``
+    while the output is on and ``in_lo`` while it is off (a heater's full
+    power or none).  Signals: ``v_ctrl`` (the controller output), ``duty``.
+    """
+
+    name = "pulse_width"
+    options = ("pwm",)
+    stage_key = "pwm"
+    stage_block = PulseWidth
+
+    def stage(self, side, v, m):
+        pwm: PulseWidth = side.aux
+        on = pwm(v, m.dt)
+        c = pwm.config
+        return c.in_lo + on * (c.in_hi - c.in_lo), {"v_ctrl": v, "duty": pwm.duty}
+
+
+class ThreeStepStructure(_OutputStage):
+    """A controller and a three-point step controller (:class:`~ctrlblocks.StepController`).
+
+    The controller's output is the valve position it demands [%]; the step
+    controller turns it into OPEN (+1) / CLOSE (-1) motor commands, the MV.
+    The process is ``[inner_plant]`` = the motorised valve
+    (:class:`~ctrlblocks.plants.MotorValve`, ``y2`` = its position) in series
+    with ``[plant]``.  The valve's end switches are its position at 0 and at
+    the span; ``feedback = true`` in ``[controllers.stepper]`` also wires the
+    position as feedback.  Signals: ``demand``, ``position_est`` (the block's
+    estimate), ``est_error`` (``|estimate - position|``), ``pulses`` (pulses
+    started so far).
+    """
+
+    name = "three_step"
+    options = ("stepper",)
+    measurements = ("y", "y2")
+    series_plant = True
+    tuned_roles = ()
+    stage_key = "stepper"
+    stage_block = StepController
+    stage_options = ("feedback",)
+
+    def parse(self, r, e, key, ts, tune):
+        blocks, opts = super().parse(r, e, key, ts, tune)
+        fb = opts.get("feedback", False)
+        if not isinstance(fb, bool):
+            raise r.fail(f"{key}.stepper.feedback", f"must be true or false, got {fb!r}")
+        return blocks, opts
+
+    def stage(self, side, v, m):
+        sc: StepController = side.aux
+        span = sc.config.span
+        pos = m.y2
+        known = m.y2_ok and math.isfinite(pos)
+        cmd = sc(
+            v,
+            m.dt,
+            open_limit=known and pos >= span,
+            close_limit=known and pos <= 0.0,
+            feedback=pos if side.spec.options.get("feedback") and known else None,
+        )
+        est_error = abs(sc.position - pos) if known else math.nan
+        return cmd, {
+            "demand": v,
+            "position_est": sc.position,
+            "est_error": est_error,
+            "pulses": float(sc.pulses),
+        }
+
+
+class ScheduledStructure(Structure):
+    """Gain scheduling: the parameters follow the setpoint (:class:`~ctrlblocks.GainSchedule`).
+
+    ``[controllers.schedule]`` holds ``on = "sp"`` (the scheduling variable),
+    ``breakpoints`` and, per parameter, its values at the breakpoints
+    (``kp = [...]``, ``ti = [...]``).  Every sample the schedule retunes the
+    controller for the setpoint (through its ``configure``, bumplessly; only
+    when the parameters change) before it computes.  Scheduling on the
+    measurement is refused: it retunes every sample, and the PID holds its
+    output in the sample after each retune (its bumpless rule), so it would
+    not act.  Signals: ``w`` (the scheduling variable) and the scheduled
+    parameters.
+    """
+
+    name = "scheduled"
+    roles = ("main",)
+    options = ("schedule",)
+    runtime = False
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main", "schedule"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        skey = f"{key}.schedule"
+        table = dict(r.table(e, "schedule", skey, True))
+        on = table.pop("on", "sp")
+        if on != "sp":
+            raise r.fail(
+                f"{skey}.on",
+                f"must be 'sp', got {on!r}: a schedule on a measurement retunes every sample, "
+                "and the PID holds its output in each sample after a retune (its bumpless "
+                "rule), so it would not act (docs/structures.md)",
+            )
+        bps = table.pop("breakpoints", None)
+        if not isinstance(bps, list) or not table:
+            raise r.fail(skey, "needs breakpoints = [...] and at least one parameter = [...]")
+        try:
+            GainSchedule(r.build(main, ts, kind="block"), breakpoints=bps, **table)
+        except ParameterError as exc:
+            raise r.fail(f"{skey}.{exc.field}", exc.message) from None
+        except (TypeError, ValueError) as exc:
+            raise r.fail(skey, str(exc)) from None
+        return {"main": main}, {"schedule": {"on": on, "breakpoints": bps, **table}}
+
+    def setup(self, side):
+        super().setup(side)
+        sched = dict(side.spec.options["schedule"])
+        sched.pop("on")
+        side.aux = GainSchedule(side.blocks["main"], **sched)
+
+    def compute(self, side, sp, m):
+        gs: GainSchedule = side.aux
+        gs.schedule(sp)  # retune the controller for w = sp (a bad w keeps the parameters)
+        u = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
+        return u, {"w": gs.w, **gs.parameters}
+
+    def update(self, side, u, measured):
+        side.ctrls["main"].update(u, measured=measured)
+
+
 STRUCTURES: dict[str, Structure] = {
-    s.name: s for s in (Single(), Cascade(), Override(), FeedForward(), Smith(), OpenLoop())
+    s.name: s
+    for s in (
+        Single(),
+        Cascade(),
+        Override(),
+        FeedForward(),
+        Smith(),
+        SplitRangeStructure(),
+        RatioStructure(),
+        PulseWidthStructure(),
+        ThreeStepStructure(),
+        ScheduledStructure(),
+        OpenLoop(),
+    )
 }
 """Every loop structure, by name (one object each; the module docstring)."""
 
@@ -649,6 +992,7 @@ class ControllerSide:
         self.error = error
         self.u0 = u0
         self.blocks: dict[str, Any] = {}
+        self.aux: Any = None  # the structure's own object: ratio station, gain schedule, ...
         self.kind.setup(self)
         self.ctrls = {r: _Controller(self.blocks[r]) for r in self.kind.controller_roles(self)}
         self.mv_blocks = [self.blocks[r] for r in self.kind.mv_roles_of(self)]
@@ -682,6 +1026,14 @@ class ControllerSide:
         """Put the Smith predictor's models in the steady state of ``u0``."""
         self.kind.reset_models(self)
 
+    def actuator_values(self, u: float | None = None) -> tuple[float, ...]:
+        """The MVs to write for the controller output ``u`` (default the last computed).
+
+        One value for every structure but ``split_range``, which gives its
+        two actuators' values ``(a(u), b(u))`` (:mod:`.split`).
+        """
+        return self.kind.actuator_values(self.spec, self.u if u is None else u)
+
     # -- the two phases ------------------------------------------------------------
 
     def compute(
@@ -694,6 +1046,8 @@ class ControllerSide:
         y2_ok: bool = True,
         dv: float = 0.0,
         dv_ok: bool = True,
+        w: float = math.nan,
+        w_ok: bool = True,
         dt: float | None = None,
     ) -> float:
         """ComputeOutput and ShapeOutput: the MV of this sample (no block state committed).
@@ -702,9 +1056,10 @@ class ControllerSide:
         ----------
         sp : float
             The setpoint (of the primary in a cascade) [PV units].
-        y, y2, dv : float
-            The measurements the structure reads (:attr:`measurements`).
-        y_ok, y2_ok, dv_ok : bool
+        y, y2, dv, w : float
+            The measurements the structure reads (:attr:`measurements`;
+            ``w``: the ratio structure's wild flow).
+        y_ok, y2_ok, dv_ok, w_ok : bool
             Their quality flags (module docstring).
         dt : float, optional
             This sample's period [s] for the controllers (default ``ts``).
@@ -712,9 +1067,11 @@ class ControllerSide:
         Returns
         -------
         float
-            The MV ``u``; the structure's signals are in :attr:`values`.
+            The MV ``u`` (the controller output; a split range's two MVs are
+            :meth:`actuator_values`); the structure's signals are in :attr:`values`.
         """
-        u, vals = self.kind.compute(self, sp, _Measured(y, y_ok, y2, y2_ok, dv, dv_ok, dt))
+        m = _Measured(y, y_ok, y2, y2_ok, dv, dv_ok, dt, w, w_ok)
+        u, vals = self.kind.compute(self, sp, m)
         vals["v"] = u
         self.u = u
         self.values = vals

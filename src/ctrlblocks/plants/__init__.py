@@ -7,7 +7,9 @@ state space, exact ZOH, any input dead time) and the convenience models
 plants themselves (:mod:`.wrappers`): :class:`Actuator` (input load, rate and
 range limits), :class:`Sensor` (output load, :class:`Noise`, saturation),
 :func:`process` (both).  The pneumatic three-tank process of Nowak et al. 2018,
-section 6 (:mod:`.threetank`): :class:`ThreeTank`.  See docs/plants.md.
+section 6 (:mod:`.threetank`): :class:`ThreeTank`.  Two-input plants: the
+heat/cool thermal process :class:`HeatCool` (:mod:`.heatcool`, a split-range
+loop's process).  See docs/plants.md.
 
 Note: ``ctrlblocks.plants.PT1`` (a process model) is not the filter block
 ``ctrlblocks.PT1`` (``ctrlblocks.blocks.signals.PT1``).
@@ -15,6 +17,7 @@ Note: ``ctrlblocks.plants.PT1`` (a process model) is not the filter block
 
 from .base import Plant, steady_input
 from .deadtime import DeadTime
+from .heatcool import HeatCool
 from .linear import FOPDT, IT1, PT1, PT2, LinearPlant, PT2Osc, PTn, split_dead_time
 from .threetank import ThreeTank
 from .valve import MotorValve
@@ -27,6 +30,7 @@ __all__ = [
     "PT2",
     "Actuator",
     "DeadTime",
+    "HeatCool",
     "LinearPlant",
     "MotorValve",
     "Noise",

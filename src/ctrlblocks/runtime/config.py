@@ -75,7 +75,7 @@ STRUCTURES: dict[str, tuple[str, ...]] = {
 """Loop structures the runtime runs and the loop keys holding their blocks (as in a scenario);
 derived from :data:`ctrlblocks.loops.STRUCTURES`."""
 
-MEASUREMENTS = {"pv": "y", "pv2": "y2", "dv": "dv"}
+MEASUREMENTS = {"pv": "y", "pv2": "y2", "dv": "dv", "wild": "w"}
 """Loop measurement bindings -> the names of :class:`~ctrlblocks.loops.ControllerSide`."""
 
 READS: dict[str, tuple[str, ...]] = {
@@ -170,6 +170,9 @@ class LoopConfig:
     pv2: Binding | None = None
     dv: Binding | None = None
     u0: float = 0.0
+    # -- the split range's second MV and the ratio's wild flow (see _Parser.loop) --
+    mv2: Binding | None = None
+    wild: Binding | None = None
     # -- fault action (see _Parser.fault_action) --
     on_fault: str = "safe_value"
     hold_time: float = 0.0
@@ -181,7 +184,9 @@ class LoopConfig:
 
     def bindings(self) -> dict[str, Binding]:
         """The signal bindings by name (only those that are set)."""
-        names = ("pv", "pv2", "dv", "mv", "sp", "mode", "manual_value", "u_min", "u_max")
+        names = (
+            "pv", "pv2", "dv", "wild", "mv", "mv2", "sp", "mode", "manual_value", "u_min", "u_max"
+        )  # fmt: skip
         return {n: b for n in names if (b := getattr(self, n)) is not None}
 
     def spec(self) -> ControllerSpec:
@@ -361,11 +366,14 @@ class _Parser(TableReader):
         # an MV is written by one loop only
         seen: dict[str, str] = {}
         for lc in loops:
-            if lc.mv.is_io:
-                k = str(lc.mv)
-                if k in seen:
-                    raise self.fail(f"{lc.key}.mv", f"{k} is already written by loop {seen[k]!r}")
-                seen[k] = lc.name
+            for sig, b in (("mv", lc.mv), ("mv2", lc.mv2)):
+                if b is not None and b.is_io:
+                    k = str(b)
+                    if k in seen:
+                        raise self.fail(
+                            f"{lc.key}.{sig}", f"{k} is already written by loop {seen[k]!r}"
+                        )
+                    seen[k] = lc.name
         hist = self.historian(self.table(doc, "historian", "historian", required=False))
         web = _web(self, self.table(doc, "web", "web", required=False))
         retain = self.retain(self.table(doc, "retain", "retain", required=False), hist)
@@ -487,7 +495,9 @@ class _Parser(TableReader):
             "pv",
             "pv2",
             "dv",
+            "wild",
             "mv",
+            "mv2",
             "sp",
             "mode",
             "manual_value",
@@ -516,7 +526,7 @@ class _Parser(TableReader):
             if isinstance(blocks, list):
                 used = {b.get("measure", "y") for b in blocks if isinstance(b, dict)}
             needs = tuple(sig for sig, m in (("pv", "y"), ("pv2", "y2")) if m in used) or ("pv",)
-        for sig in ("pv", "pv2", "dv"):
+        for sig in ("pv", "pv2", "dv", "wild"):
             if sig in raw and sig not in needs:
                 raise self.fail(
                     f"{key}.{sig}",
@@ -527,6 +537,7 @@ class _Parser(TableReader):
                 raise self.fail(f"{key}.{sig}", 'missing (an I/O address "CONNECTION:ADDRESS")')
         meas = {sig: self.binding(raw[sig], f"{key}.{sig}", conns) for sig in needs}
         mv = self.binding(raw["mv"], f"{key}.mv", conns)
+        mv2 = self.second_mv(raw, key, structure, conns, mv)
         for sig, b in (*meas.items(), ("mv", mv)):
             if not b.is_io:
                 raise self.fail(f"{key}.{sig}", 'must be an I/O address "CONNECTION:ADDRESS"')
@@ -631,9 +642,44 @@ class _Parser(TableReader):
             pv2=meas.get("pv2"),
             dv=meas.get("dv"),
             u0=u0,
+            mv2=mv2,
+            wild=meas.get("wild"),
             **self.fault_action(raw, key),
             **_engineering(self, raw, key, sp, opt["manual_value"]),
         )
+
+    def second_mv(
+        self,
+        raw: Mapping[str, Any],
+        key: str,
+        structure: str,
+        conns: Mapping[str, ConnectionConfig],
+        mv: Binding,
+    ) -> Binding | None:
+        """``mv2``: actuator B of a split range, on the MV's connection (one batched write)."""
+        if _STRUCTURES[structure].actuators < 2:
+            if "mv2" in raw:
+                raise self.fail(
+                    f"{key}.mv2", f"the {structure} structure writes one MV (mv2: split_range)"
+                )
+            return None
+        if "mv2" not in raw:
+            raise self.fail(
+                f"{key}.mv2",
+                'missing: the split range\'s second actuator (an I/O address "CONNECTION:ADDRESS")',
+            )
+        mv2 = self.binding(raw["mv2"], f"{key}.mv2", conns)
+        if not mv2.is_io:
+            raise self.fail(f"{key}.mv2", 'must be an I/O address "CONNECTION:ADDRESS"')
+        if mv2.connection != mv.connection:
+            raise self.fail(
+                f"{key}.mv2",
+                f"must be on the connection of mv ({mv.connection!r}): both actuators are "
+                "written in one batched request",
+            )
+        if mv2.address == mv.address:
+            raise self.fail(f"{key}.mv2", f"is the address of mv ({mv}); give actuator B's own")
+        return mv2
 
     def mv_tables(
         self, raw: Mapping[str, Any], key: str, structure: str

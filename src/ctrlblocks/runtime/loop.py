@@ -19,6 +19,13 @@ Each cycle (called by the scheduler at an absolute deadline):
    then reported (``write_ok`` false, ``write_error``) and the next cycle
    writes again.
 
+Structures with more I/O: a ``split_range`` loop writes two MVs (``mv``:
+actuator A, ``mv2``: actuator B, both the split of the controller output
+:attr:`ControlLoop.mv`, :meth:`ControlLoop.writes`); a ``ratio`` loop reads
+the wild flow (``wild``): a bad wild flow does not make the loop's
+measurement bad -- the ratio station holds the last good flow setpoint
+(``signals.wild_hold``) and the flow controller goes on.
+
 A loop never raises out of its cycle; faults only change its status.
 """
 
@@ -133,7 +140,9 @@ class ControlLoop:
         self.bounds = LoopBounds(self)
         self._limits_in = (math.nan, math.nan)
         # signal -> binding of the inputs read each cycle
-        self._inputs = {n: b for n, b in config.bindings().items() if b.is_io and n != "mv"}
+        self._inputs = {
+            n: b for n, b in config.bindings().items() if b.is_io and n not in ("mv", "mv2")
+        }
         self.sp = float(config.sp.value) if not config.sp.is_io else math.nan
         mode = config.mode.value if not config.mode.is_io else "auto"
         self._set_mode(mode)
@@ -229,7 +238,9 @@ class ControlLoop:
                     r = inputs[sig]
                     meas[name] = r.value if r.ok else math.nan
                     self.measurements[sig] = r.value
-                    if not r.ok:
+                    if sig == "wild":  # the ratio station's own fault rule (module docstring)
+                        meas["w_ok"] = float(r.ok)
+                    elif not r.ok:
                         ok = False
                         reasons.append(r.reason if sig == "pv" else f"{sig}: {r.reason}")
             pv = inputs["pv"] if "pv" in inputs else inputs["pv2"]
@@ -256,6 +267,8 @@ class ControlLoop:
             y2_ok=ok,
             dv=meas.get("dv", 0.0),
             dv_ok=ok,
+            w=meas.get("w", math.nan),
+            w_ok=bool(meas.get("w_ok", 1.0)),
             dt=dt,
         )
         y = meas.get("y", math.nan)
@@ -296,6 +309,14 @@ class ControlLoop:
             self.alarms.append(msg)
         self.mv_alarm = msg
         return safe
+
+    def writes(self, u: float) -> list[tuple[str, float]]:
+        """The ``(address, value)`` items that write the MV ``u`` (one; a split range's two)."""
+        c = self.config
+        if c.mv2 is None:
+            return [(c.mv.address, u)]
+        a, b = self.side.actuator_values(u)
+        return [(c.mv.address, a), (c.mv2.address, b)]
 
     def written(self, err: str | None) -> None:
         """Record the outcome of this cycle's MV write (None: accepted; else the failure)."""
@@ -417,8 +438,13 @@ class ControlLoop:
         log.info("loop %s: retained state restored", self.name)
 
     def restart_from(self, reading: Reading | None) -> None:
-        """The MV read back from the device before the first cycle (bad or None: the retained)."""
-        if reading is not None and reading.ok:
+        """The MV read back from the device before the first cycle (bad or None: the retained).
+
+        A split-range loop restarts from its retained controller output: one
+        actuator's value does not give it back (in the gap every output maps
+        to the same values).
+        """
+        if reading is not None and reading.ok and self.config.mv2 is None:
             self._restart_mv = reading.value
 
     def _bumpless_restart(self, t: float, ok: bool, meas: Mapping[str, float], dt: float | None):

@@ -303,13 +303,15 @@ class Runtime:
             await conn.connect_now(timeout)
         pending = list(loops)
         errors: dict[str, str] = {}
-        for _ in range(2):  # the final write, retried once for the items that failed
-            res = await conn.write(
-                [(lp.config.mv.address, lp.stop_value) for lp in pending], timeout=timeout
-            )
+        for _ in range(2):  # the final write, retried once for the loops whose write failed
+            items = [(lp, item) for lp in pending for item in lp.writes(lp.stop_value)]
+            res = await conn.write([item for _, item in items], timeout=timeout)
+            outcome: dict[ControlLoop, str | None] = {}
+            for (lp, _), err in zip(items, res, strict=True):
+                outcome[lp] = outcome.get(lp) or err
             errors = {}
             again = []
-            for lp, err in zip(pending, res, strict=True):
+            for lp, err in outcome.items():
                 lp.mv = lp.stop_value
                 lp.written(err)
                 if err is not None:

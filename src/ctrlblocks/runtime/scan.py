@@ -9,9 +9,11 @@ sample time).  Each cycle:
    or as coalesced Modbus register ranges;
 2. **compute** -- every loop's :meth:`~ctrlblocks.runtime.loop.ControlLoop.compute`
    on that image (no I/O: a slow loop cannot delay another one's request);
-3. **outputs** -- one batched write per connection of every MV (and the
+3. **outputs** -- one batched write per connection of every MV (a split-range
+   loop's two, :meth:`~ctrlblocks.runtime.loop.ControlLoop.writes`, and the
    connection's heartbeat, :class:`Heartbeat`); failed items are retried at
-   once, as often as their loop's ``write_retries`` allow, in one request.
+   once, as often as their loop's ``write_retries`` allow, in one request;
+   a loop's write fails when one of its items does.
 
 Loops with another sample time have their own :class:`Scan` on their own
 deadlines; the connection serialises the requests and its timeout measures
@@ -130,11 +132,12 @@ class Scan:
             return
         hb = self.heartbeats.get(conn_name)
         batch: list[tuple[ControlLoop | None, str, float]] = [
-            (lp, lp.config.mv.address, u) for lp, u in items
+            (lp, a, v) for lp, u in items for a, v in lp.writes(u)
         ]
         if hb is not None:
             batch.append((None, hb.address, hb.next()))
         attempt = 0
+        outcome: dict[ControlLoop, str | None] = {}  # a loop's first failure, else None
         while batch:
             res = await conn.write([(a, v) for _, a, v in batch])
             attempt += 1
@@ -143,7 +146,9 @@ class Scan:
                 if lp is None:
                     hb.written(err, conn_name)  # type: ignore[union-attr]
                 elif err is None or attempt > lp.config.write_retries:
-                    lp.written(err)
+                    outcome[lp] = outcome.get(lp) or err
                 else:
                     again.append((lp, a, v))
             batch = again
+        for lp, err in outcome.items():
+            lp.written(err)

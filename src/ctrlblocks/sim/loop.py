@@ -42,6 +42,17 @@ Structures (``scenario.structure``)
     the input load (the measured disturbance) goes through a lead-lag block
     whose output is the controller's ``ff`` input, summed before the
     controller's limits so that limits and anti-windup act on it (Bonde et al. 2021).
+``split_range``
+    one controller, two actuators: the controller output ``u`` is split by a
+    static, continuous function into ``u_a`` and ``u_b``, the two inputs of
+    a two-input plant (``HeatCool``: cooler and heater); both are recorded
+    with their limit status (``ctrlblocks.loops.split``).
+``ratio``
+    the setpoint profile is the requested ratio; the ratio station's
+    ``bias + ratio * wild`` (the wild flow has its own profile,
+    ``initial.wild`` and ``wild`` events) is the flow loop's setpoint,
+    recorded as ``sp`` (the requested ratio as ``sp_in``, the working ratio
+    as ``ratio``, the wild flow as ``wild``; ``ctrlblocks.loops.ratio``).
 ``smith``
     Smith predictor (Nowak et al. 2018, section 3.1): the controller sees
     ``y + y_model_fast - y_model`` where ``y_model`` is a plant model with the
@@ -156,12 +167,13 @@ class _Simulation:
         events = [e for e in case.events if e.t < t_end - 0.5 * h or e.t == 0.0]
         self.events = tuple(events)
         # the process side: Sensor(Actuator(model)) or Sensor(model) behind Actuator(inner model)
-        self.proc = ProcessSide(sc, events)
+        self.proc = ProcessSide(sc, events, ctrl)
         # the controller side: the blocks wired for the structure (shared with the runtime)
         self.side = ControllerSide(
             sc.structure, ctrl, h, u0=self.proc.u0, file=sc.file, error=ScenarioError
         )
         self.blocks = self.side.blocks
+        self.sp_signal = self.side.kind.setpoint_signal
         self.rec: dict[str, list[float]] = {}
 
     # -- events ------------------------------------------------------------------
@@ -216,11 +228,16 @@ class _Simulation:
         load_in = proc.actuator.load
         series = proc.inner is not None  # cascade, override
         y2 = proc.inner.y if series else math.nan  # the inner plant's output (no sensor)
-        u = side.compute(sp, ym, y_ok=ok, y2=y2, dv=load_in)
-        proc.step(u)  # DA: the actuator shapes u (load, rate, range)
+        u = side.compute(
+            sp, ym, y_ok=ok, y2=y2, dv=load_in, w=proc.wild_value, w_ok=proc.wild_ok
+        )
+        proc.step(*side.actuator_values(u))  # DA: the actuator(s) shape the MV(s)
         side.update(u, measured=None if series else proc.actuator.u)
         extra = {"y2": y2, **side.values} if series else dict(side.values)
         v = extra.pop("v")
+        if self.sp_signal is not None:  # the setpoint of y is the structure's (ratio)
+            extra["sp_in"] = sp  # the setpoint input (ratio: the requested ratio)
+            sp = extra.pop(self.sp_signal)
         if record:
             u_act = proc.actuator.u
             self._record(sp=sp, y=y, ym=ym, u=u, v=v, u_act=u_act, load=load_in, **extra)
@@ -261,6 +278,7 @@ class _Simulation:
             t = k * h
             if k > 0:
                 proc.setpoint.advance(h)
+                proc.wild.advance(h)
             for ev in proc.due(t):
                 if not proc.apply(ev):
                     self._apply(ev)

@@ -12,6 +12,10 @@ events mode / manual value / limits, which it *publishes* for the runtime to
 read), publishes the measurement, and steps the plant by ``ts`` with the MV
 it receives.  :class:`ctrlblocks.runtime.PlantServer` serves it over OPC UA
 and Modbus TCP (``ctrlblocks plant-server``).
+
+A split range's second actuator is :attr:`PlantProcess.mv2` (held until the
+next :meth:`PlantProcess.step` that gives one) and a ratio loop's wild flow
+is ``values()["wild"]`` (NaN while a ``wild`` event flags it bad).
 """
 
 from __future__ import annotations
@@ -69,6 +73,9 @@ class PlantProcess:
         self.u_min = math.nan
         self.u_max = math.nan
         self.mv = self.u0
+        self.mv2 = self.side.u0s[1] if len(self.side.u0s) > 1 else math.nan
+        if len(self.side.u0s) > 1:
+            self.mv = self.side.u0s[0]
         self.k = 0
         self._apply_due()
 
@@ -131,7 +138,15 @@ class PlantProcess:
             "k": float(self.k),
             "pv2": self.pv2,
             "dv": self.dv,
+            "mv2": float(self.mv2),
+            "wild": self.wild,
         }
+
+    @property
+    def wild(self) -> float:
+        """The wild flow of the current sample (NaN while flagged bad or NaN)."""
+        side = self.side
+        return float(side.wild_value) if side.wild_ok else math.nan
 
     @property
     def pv2(self) -> float:
@@ -144,10 +159,14 @@ class PlantProcess:
         """The input load of the current sample (the measured disturbance)."""
         return float(self.side.actuator.load)
 
-    def step(self, u: float) -> None:
-        """Apply ``u`` for one sample; then go to the next sample (events, setpoint)."""
+    def step(self, u: float, u2: float | None = None) -> None:
+        """Apply ``u`` (and a split range's ``u2``) for one sample; then go to the next sample."""
         self.mv = u
-        self.side.step(u)  # series plants coupled exactly as in the simulator
+        if u2 is not None:
+            self.mv2 = u2
+        second = None if self.side.actuator2 is None else self.mv2
+        self.side.step(u, second)  # series plants coupled exactly as in the simulator
         self.k += 1
         self.side.setpoint.advance(self.ts)
+        self.side.wild.advance(self.ts)
         self._apply_due()

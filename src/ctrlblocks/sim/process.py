@@ -16,10 +16,23 @@ and ramps, loads, plant parameters, sensor faults).  Two callers share it:
 The controller-side events (``mode``, ``manual_value``, ``limits``, ``set``)
 are left to the caller: :meth:`ProcessSide.apply` returns False for them.
 
+Two more inputs of some structures:
+
+* a **second actuator** (``split_range``, two MVs): the plant has a second
+  input (:class:`~ctrlblocks.plants.HeatCool`'s heater); it is shaped by an
+  :class:`~ctrlblocks.plants.Actuator` of its own with the same ``[actuator]``
+  range and rate (the input load acts on the first actuator only), and
+  :meth:`ProcessSide.step` takes both MVs;
+* a **wild flow** (``ratio``): a measured signal the loop does not
+  manipulate, with its own profile (``initial.wild``, ``do = "wild"``
+  events: steps and ramps like the setpoint's, ``ok = false`` or
+  ``nan = true`` for a bad measurement), :attr:`ProcessSide.wild`.
+
 Sample ``k`` (time ``t_k = k ts``) of a caller::
 
     if k > 0:
         proc.setpoint.advance(ts)
+        proc.wild.advance(ts)
     for ev in proc.due(t_k):
         if not proc.apply(ev):
             ...  # a controller-side event
@@ -35,8 +48,10 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
-from ..loops.spec import build
+from ..loops.spec import ControllerSpec, build
+from ..loops.structures import STRUCTURES
 from ..plants import Actuator, Noise, Sensor, steady_input
+from ..plants.heatcool import SecondInput
 from .scenario import INITIAL_Y_PROBLEM, Event, Scenario, ScenarioError
 
 __all__ = [
@@ -49,7 +64,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-PROCESS_EVENTS = ("setpoint", "load", "plant", "sensor")
+PROCESS_EVENTS = ("setpoint", "load", "plant", "sensor", "wild")
 """Event kinds that act on the process side (the others act on a controller)."""
 
 
@@ -107,6 +122,10 @@ class ProcessSide:
         profile and the time line are kept.
     events : iterable of Event
         The time line to play (sorted by time), usually a case's events.
+    controller : ControllerSpec, optional
+        The controller entry whose MVs start the plant (a split range maps
+        ``initial.u``, the controller output, to its two actuators; default
+        the scenario's first entry).
 
     Attributes
     ----------
@@ -118,6 +137,8 @@ class ProcessSide:
         ``Actuator(inner model)`` of a cascade or override.
     actuator : Actuator or None
         The actuator wrapper (the input load and the applied MV ``u``).
+    actuator2 : Actuator or None
+        The second actuator of a two-MV structure (``split_range``).
     model, inner_model : object or None
         The bare process models (targets of parameter switches).
     setpoint : SetpointProfile
@@ -128,15 +149,27 @@ class ProcessSide:
         False while a ``sensor`` event flags the measurement invalid.
     u0 : float
         The initial MV (``initial.u``, or the MV whose steady state gives
-        ``initial.y``).
+        ``initial.y``); a split range's controller output.
+    u0s : tuple of float
+        The initial values of the actuators (``(u0,)``; a split range's two).
+    wild : SetpointProfile
+        The wild flow profile (``initial.wild``, ``wild`` events).
+    wild_ok : bool
+        False while a ``wild`` event flags the wild-flow measurement invalid.
     """
 
-    def __init__(self, scenario: Scenario, events: Iterable[Event] = ()) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        events: Iterable[Event] = (),
+        controller: ControllerSpec | None = None,
+    ) -> None:
         self.scenario = scenario
         self.ts = scenario.ts
         self.plant: Any = None
         self.inner: Any = None
         self.actuator: Any = None
+        self.actuator2: Any = None
         self.model: Any = None
         self.inner_model: Any = None
         if scenario.plant is not None:
@@ -149,12 +182,26 @@ class ProcessSide:
             self.actuator.load = ini["load"]
             if not math.isnan(ini["y"]):
                 self.u0 = self._u_for_y(ini["y"])
+        structure = STRUCTURES[scenario.structure]
+        if controller is None and scenario.controllers:
+            controller = scenario.controllers[0]
+        self.u0s: tuple[float, ...] = (self.u0,)
+        if structure.actuators > 1 and controller is not None:
+            self.u0s = tuple(structure.actuator_values(controller, self.u0))
         self.reset()
         sp0 = ini["sp"]
         if math.isnan(sp0):
             sp0 = self.plant.y_true if self.plant is not None else 0.0
         self.setpoint = SetpointProfile(sp0)
+        self.wild = SetpointProfile(ini.get("wild", 0.0))
+        self.wild_ok = True
+        self._wild_nan = False
         self.pending: list[Event] = list(events)
+
+    @property
+    def wild_value(self) -> float:
+        """The wild flow measured in the current sample (NaN during a ``nan`` event)."""
+        return math.nan if self._wild_nan else self.wild.value
 
     def _make(self, spec: Any) -> Any:
         return build(spec, self.ts, kind="plant", file=self.scenario.file, error=ScenarioError)
@@ -182,6 +229,15 @@ class ProcessSide:
         else:
             self.plant = Sensor(Actuator(self.model, **act), **sensor_args)
             self.actuator = self.plant.find(Actuator)
+        if STRUCTURES[sc.structure].actuators > 1:
+            if not hasattr(self.model, "set_second"):
+                raise ScenarioError(
+                    sc.file,
+                    "plant.type",
+                    f"the {sc.structure} structure writes two MVs; {sc.plant.type} has one "
+                    "input (use a two-input plant such as HeatCool)",
+                )
+            self.actuator2 = Actuator(SecondInput(self.model), **act)
 
     def _u_for_y(self, y0: float) -> float:
         """The MV whose steady state gives the output ``y0`` (``initial.y``)."""
@@ -191,8 +247,15 @@ class ProcessSide:
             raise ScenarioError(self.scenario.file, "initial.y", INITIAL_Y_PROBLEM)
         return u - self.actuator.load
 
-    def reset(self, u: float | None = None) -> None:
-        """Put the plant(s) in the steady state of the MV ``u`` (default :attr:`u0`)."""
+    def reset(self, u: float | None = None, u2: float | None = None) -> None:
+        """Put the plant(s) in the steady state of the MV ``u`` (default :attr:`u0`).
+
+        A two-MV structure's plant: the MVs ``u`` and ``u2`` of its two
+        actuators (default :attr:`u0s`).
+        """
+        if self.actuator2 is not None:
+            self.actuator2.reset(self.u0s[1] if u2 is None else u2)  # first: the held input
+            u = self.u0s[0] if u is None else u
         u = self.u0 if u is None else u
         if self.inner is not None:
             self.inner.reset(u)
@@ -200,13 +263,18 @@ class ProcessSide:
         elif self.plant is not None:
             self.plant.reset(u)
 
-    def step(self, u: float) -> None:
+    def step(self, u: float, u2: float | None = None) -> None:
         """Apply the MV ``u`` for one sample: the plant(s) advance by ``ts``.
+
+        ``u2`` is the second actuator's MV of a two-MV structure (held from
+        the sample before when None).
 
         Series plants (cascade, override) are coupled with a zero-order hold:
         the outer plant receives the inner plant's output ``y2`` (plus
         :attr:`inner_load`) of the start of the sample.
         """
+        if self.actuator2 is not None and u2 is not None:
+            self.actuator2.step(u2)
         if self.inner is not None:
             y2 = self.inner.y
             self.inner.step(u)
@@ -247,6 +315,13 @@ class ProcessSide:
         elif k == "plant":
             plant = self.inner_model if f.get("target", "plant") == "inner_plant" else self.model
             set_plant_parameter(plant, f["param"], f["value"])
+        elif k == "wild":
+            if "value" in f:
+                self.wild.step_to(f["value"], f.get("ramp"))
+            if "ok" in f:
+                self.wild_ok = f["ok"]
+            if "nan" in f:
+                self._wild_nan = f["nan"]
         else:  # sensor
             if "ok" in f:
                 self.sensor_ok = f["ok"]

@@ -188,13 +188,16 @@ def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
 def _signal_stat(
     result: ScenarioResult, controller: str, case: str, signal: str, stat: str, window: int | None
 ) -> float:
-    """``max``/``min``/``final``/``mean`` of a trace signal over the run or an event window."""
+    """``max``/``min``/``final``/``mean``/``max_step`` of a trace signal (run or event window)."""
     run = next(r for r in result.runs if r.controller == controller and r.case == case)
     x = run.signals[signal]
     t = run.signals["t"]
     if window is not None:
         w = windows_from_events(event_times(run.events), run.duration)[window]
-        x = x[window_index(t, run.ts, w.t0, w.t1)]
+        idx = window_index(t, run.ts, w.t0, w.t1)
+        if stat == "max_step" and len(idx) and idx[0] > 0:
+            idx = np.concatenate(([idx[0] - 1], idx))  # the step into the window counts
+        x = x[idx]
     if len(x) == 0:
         return math.nan
     if stat == "max":
@@ -203,6 +206,8 @@ def _signal_stat(
         return float(np.min(x))
     if stat == "final":
         return float(x[-1])
+    if stat == "max_step":
+        return float(np.max(np.abs(np.diff(x)))) if len(x) > 1 else 0.0
     return float(np.mean(x))
 
 

@@ -72,6 +72,7 @@ EVENT_KINDS: dict[str, dict[str, tuple[type, ...]]] = {
     "plant": {"param": (str,), "value": (float, str, bool), "target": (str,)},
     "sensor": {"ok": (bool,), "nan": (bool,)},
     "set": {"attr": (str,), "value": (float, bool, str), "target": (str,)},
+    "wild": {"value": (float,), "ramp": (float,), "ok": (bool,), "nan": (bool,)},
 }
 """Event kinds and their fields (see ``docs/simulator.md``)."""
 
@@ -84,14 +85,17 @@ _REQUIRED_EVENT_FIELDS: dict[str, tuple[str, ...]] = {
     "plant": ("param", "value"),
     "sensor": (),
     "set": ("attr", "value"),
+    "wild": (),
 }
 
 INITIAL_Y_PROBLEM = "needs a plant with a finite, non-zero static gain (give initial.u instead)"
 """Why ``initial.y`` is refused for an integrating (or zero-gain) plant."""
 
 _LOAD_POINTS = ("input", "output", "inner")
-SIGNAL_STATS = ("max", "min", "final", "mean")
-"""Statistics of a trace signal that a claim with ``signal = "..."`` can check."""
+SIGNAL_STATS = ("max", "min", "final", "mean", "max_step")
+"""Statistics of a trace signal that a claim with ``signal = "..."`` can check
+(``max_step``: the largest change from one sample to the next, ``max |x_k - x_(k-1)|``,
+the step into the window's first sample included)."""
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
 
 
@@ -300,6 +304,7 @@ class _Parser(SpecReader):
 
         controllers = self.controllers(doc, structure, ts, plant, initial)
         cases = self.cases(doc, duration)
+        self.structure_inputs(doc, structure, initial, cases)
         claims = self.claims(doc, controllers, cases)
         plot = self.table(doc, "plot", "plot", False)
         self.check_keys(
@@ -359,6 +364,27 @@ class _Parser(SpecReader):
             self.initial_y(plant, inner, initial["y"], ts)
         return sc
 
+    def structure_inputs(
+        self, doc: dict[str, Any], structure: str, initial: Mapping[str, Any], cases: list[Case]
+    ) -> None:
+        """The wild flow only for the ratio structure; no ``initial.y`` for two actuators."""
+        kind = _STRUCTURES[structure]
+        if "w" not in kind.measurements:
+            if "wild" in doc.get("initial", {}):
+                raise self.fail("initial.wild", f"only for the ratio structure, not {structure!r}")
+            for c in cases:
+                for ev in c.events:
+                    if ev.kind == "wild":
+                        raise self.fail(
+                            "events", f"a 'wild' event (t={ev.t:g}) needs the ratio structure"
+                        )
+        if kind.actuators > 1 and not math.isnan(initial["y"]):
+            raise self.fail(
+                "initial.y",
+                f"the {structure} structure starts from initial.u, the controller output "
+                "(its two actuators have no unique steady state for a temperature)",
+            )
+
     def initial_y(self, plant: BlockSpec, inner: BlockSpec | None, y0: float, ts: float) -> None:
         """``initial.y`` needs an MV whose steady state gives it: refused here, not in a run."""
         chain = [self.build(s, ts, kind="plant") for s in (inner, plant) if s]
@@ -398,7 +424,7 @@ class _Parser(SpecReader):
         return out
 
     def initial(self, d: dict[str, Any]) -> dict[str, Any]:
-        self.check_keys(d, {"u", "y", "sp", "load", "mode", "warmup"}, "initial")
+        self.check_keys(d, {"u", "y", "sp", "load", "mode", "warmup", "wild"}, "initial")
         if "u" in d and "y" in d:
             raise self.fail("initial.y", "give either initial.u or initial.y, not both")
         out = {
@@ -408,6 +434,7 @@ class _Parser(SpecReader):
             "load": self.number(d, "load", "initial.load", default=0.0),
             "warmup": self.number(d, "warmup", "initial.warmup", default=0.0),
             "mode": self.string(d, "mode", "initial.mode", default="auto"),
+            "wild": self.number(d, "wild", "initial.wild", default=0.0),
         }
         if out["mode"] not in ("auto", "manual"):
             raise self.fail("initial.mode", f"must be 'auto' or 'manual', got {out['mode']!r}")
@@ -734,6 +761,16 @@ def _default_label(kind: str, f: Mapping[str, Any]) -> str:
         return f"limits {f['u_min']:g}..{f['u_max']:g}"
     if kind == "plant":
         return f"{f['param']} = {f['value']}"
+    if kind == "wild":
+        parts = []
+        if "value" in f:
+            ramp = f" (ramp {f['ramp']:g}/s)" if "ramp" in f else ""
+            parts.append(f"wild -> {f['value']:g}{ramp}")
+        if f.get("nan"):
+            parts.append("wild NaN")
+        elif "ok" in f:
+            parts.append("wild ok" if f["ok"] else "wild fault")
+        return ", ".join(parts) or "wild"
     if kind == "sensor":
         if f.get("nan"):
             return "sensor NaN"
