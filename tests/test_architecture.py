@@ -188,3 +188,18 @@ def test_no_import_circles():
 def test_circle_finder_finds_a_circle_through_three_modules():
     graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
     assert circles(graph) == [{"a", "b", "c"}]
+
+
+def test_no_layer_above_loops_branches_on_a_structure_name() -> None:
+    # issue 17: a structure is described once, by its Structure object in
+    # loops/structures.py; the simulator and the runtime ask it, never compare names
+    import re
+
+    pat = re.compile(r"""structure\s*(==|!=|in)\s*[("']""")
+    hits = []
+    for sub in ("sim", "runtime", "web", "fast", "plc"):
+        for f in sorted((SRC / "ctrlblocks" / sub).rglob("*.py")):
+            for n, line in enumerate(f.read_text(encoding="utf-8").splitlines(), 1):
+                if pat.search(line):
+                    hits.append(f"{f.relative_to(SRC)}:{n}: {line.strip()}")
+    assert hits == []

@@ -231,6 +231,12 @@ class Structure:
         The main block alone closes the loop around the plant, so its
         stability margins on a linear plant model are the loop's (the
         simulator's report analyses them).
+    lone_block : bool
+        The structure is one block and nothing else: a runtime loop gives it as
+        its ``block`` table (not as a controller entry), and live tuning may
+        retune it.
+    array_roles : tuple of str
+        Roles that hold an ARRAY of block tables (``override``: ``blocks``).
     """
 
     name: ClassVar[str]
@@ -248,6 +254,17 @@ class Structure:
     """The simulator's compiled lane has a loop for this structure (``ctrlblocks.sim.dispatch``)."""
     closed_loop: ClassVar[bool] = True
     margins_on_plant: ClassVar[bool] = False
+    lone_block: ClassVar[bool] = False
+    array_roles: ClassVar[tuple[str, ...]] = ()
+
+    def runtime_tables(self) -> tuple[str, ...]:
+        """The keys of a runtime loop table that hold this structure's blocks and options."""
+        return ("block",) if self.lone_block else (*self.roles, *self.options)
+
+    def measurements_in(self, entry: Any) -> tuple[str, ...]:
+        """What a controller entry (a raw table) makes the structure read, before parsing
+        (an override: what its blocks' ``measure`` keys name, ``y`` by default)."""
+        return self.measurements
 
     # -- reading a controller entry -------------------------------------------------
 
@@ -360,6 +377,7 @@ class Single(Structure):
     roles = ("main",)
     compiled_lane = True
     margins_on_plant = True
+    lone_block = True
 
     def parse(self, r, e, key, ts, tune):
         table = {k: v for k, v in e.items() if k not in _ENTRY_KEYS}
@@ -383,6 +401,7 @@ class OpenLoop(Single):
     """A block driven by the setpoint profile (Åström 1987, Fig. 5.2: jump and rate)."""
 
     name = "open_loop"
+    lone_block = False
     compiled_lane = False
     measurements = ()
     runtime = False
@@ -451,9 +470,17 @@ class Override(Structure):
     options = ("selector",)
     measurements = ("y", "y2")
     mv_roles = ("blocks",)
+    array_roles = ("blocks",)
     event_target = "blocks[0]"
     series_plant = True
     tuned_roles = ()
+
+    def measurements_in(self, entry):
+        blocks = entry.get("blocks") if isinstance(entry, dict) else None
+        used = set()
+        if isinstance(blocks, list):
+            used = {b.get("measure", "y") for b in blocks if isinstance(b, dict)}
+        return tuple(m for m in ("y", "y2") if m in used) or ("y",)
 
     def parse(self, r, e, key, ts, tune):
         r.check_keys(e, {*_ENTRY_KEYS, "selector", "blocks"}, key)
@@ -513,6 +540,7 @@ class FeedForward(Single):
     """The measured disturbance through a lead-lag into the controller's ``ff`` (before limits)."""
 
     name = "feedforward"
+    lone_block = False
     compiled_lane = False
     roles = ("main", "feedforward")
     measurements = ("y", "dv")
@@ -542,6 +570,7 @@ class Smith(Single):
     """Smith predictor (Nowak et al. 2018, section 3.1): ``y + y_model_fast - y_model``."""
 
     name = "smith"
+    lone_block = False
     compiled_lane = False
     roles = ("main", "model")
     margins_on_plant = False

@@ -52,6 +52,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..blocks.base import ErrorCode, ParameterError
+from ..loops.structures import STRUCTURES
 from .loop import CommandError, ControlLoop
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -289,7 +290,7 @@ class LiveTuning:
             raise CommandError(
                 "tune", "the result of the last test waits for a decision: accept or reject it"
             )
-        if lp.config.structure != "single":
+        if not STRUCTURES[lp.config.structure].lone_block:
             raise CommandError(
                 "tune", f"live tuning needs a single loop, this one is {lp.config.structure!r}"
             )

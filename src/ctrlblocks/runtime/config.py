@@ -68,7 +68,7 @@ SECURITY_MODES = ("none", "Basic256Sha256_SignAndEncrypt")
 
 STRUCTURES: dict[str, tuple[str, ...]] = {
     # a single loop's block is its "block" table; the others' keys are a scenario's
-    name: ("block",) if name == "single" else (*s.roles, *s.options)
+    name: s.runtime_tables()
     for name, s in _STRUCTURES.items()
     if s.runtime
 }
@@ -519,13 +519,8 @@ class _Parser(TableReader):
         if not NAME_RE.match(name):
             raise self.fail(f"{key}.name", "loop names are letters, digits, _ . - only")
         ts = self.number(raw, "ts", f"{key}.ts", positive=True)
-        needs = READS[structure]
-        if structure == "override":
-            blocks = raw.get("blocks")
-            used = set()
-            if isinstance(blocks, list):
-                used = {b.get("measure", "y") for b in blocks if isinstance(b, dict)}
-            needs = tuple(sig for sig, m in (("pv", "y"), ("pv2", "y2")) if m in used) or ("pv",)
+        used = _STRUCTURES[structure].measurements_in(raw)
+        needs = tuple(sig for sig, m in MEASUREMENTS.items() if m in used)
         for sig in ("pv", "pv2", "dv", "wild"):
             if sig in raw and sig not in needs:
                 raise self.fail(
@@ -599,7 +594,7 @@ class _Parser(TableReader):
                 params["safe_value"] = safe if on_bad == "safe" else None
             patched[k] = params
         controller: ControllerSpec | None = None
-        if structure == "single":
+        if _STRUCTURES[structure].lone_block:
             params = dict(patched[f"{key}.block"])
             btype = params.pop("type")
         else:
@@ -685,23 +680,19 @@ class _Parser(TableReader):
         self, raw: Mapping[str, Any], key: str, structure: str
     ) -> list[tuple[str, dict[str, Any]]]:
         """``(key path, table)`` of the blocks whose output is (or is selected as) the MV."""
-        if structure == "single":
-            roles = [("block", raw.get("block"))]
-            example = '{ type = "PID", kp = 1.0 }'
-        elif structure == "cascade":
-            roles = [("secondary", raw.get("secondary"))]
-            example = 'a table such as { type = "PID", kp = 1.0 }'
-        elif structure == "override":
-            lst = raw.get("blocks")
+        st = _STRUCTURES[structure]
+        example = '{ type = "PID", kp = 1.0 }'
+        role = "block" if st.lone_block else st.mv_roles[0]
+        if role in st.array_roles:
+            lst = raw.get(role)
             if not isinstance(lst, list) or len(lst) < 2:
                 raise self.fail(
-                    f"{key}.blocks", "must be an array of at least two controller tables"
+                    f"{key}.{role}", "must be an array of at least two controller tables"
                 )
-            roles = [(f"blocks[{j}]", b) for j, b in enumerate(lst)]
+            roles = [(f"{role}[{j}]", b) for j, b in enumerate(lst)]
             example = '{ type = "PID", kp = 1.0, measure = "y" }'
         else:
-            roles = [("main", raw.get("main"))]
-            example = '{ type = "PID", kp = 1.0 }'
+            roles = [(role, raw.get(role))]
         out = []
         for role, t in roles:
             if not isinstance(t, dict):
@@ -723,10 +714,10 @@ class _Parser(TableReader):
         for k in STRUCTURES[structure]:
             if k in raw:
                 entry[k] = raw[k]
-        if structure == "override":
-            entry["blocks"] = [patched[f"{key}.blocks[{j}]"] for j in range(len(raw["blocks"]))]
+        role = _STRUCTURES[structure].mv_roles[0]  # the MV's blocks, as patched
+        if role in _STRUCTURES[structure].array_roles:
+            entry[role] = [patched[f"{key}.{role}[{j}]"] for j in range(len(raw[role]))]
         else:
-            role = "secondary" if structure == "cascade" else "main"
             entry[role] = patched[f"{key}.{role}"]
         for k, v in entry.items():
             if isinstance(v, dict) and "ts" in v:
