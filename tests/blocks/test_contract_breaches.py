@@ -480,3 +480,18 @@ def test_pid_fast_lane_and_two_phase_agree_when_the_integral_gain_underflows() -
         assert a.i == b.i
         assert a.snapshot() == b.snapshot()
     assert a.i == 5.0  # no integral action at all: the integrator keeps its reset value
+
+
+def test_pid_configure_refuses_a_series_tuning_whose_gain_overflows() -> None:
+    # Found by the long fuzz run (PID, seed 7501): series form, Td' = 0, and
+    # Ti' = 1e308 make K = K'(Ti'+Td')/Ti' overflow; the forward derivative's
+    # coefficients then divided by Tf = 0 and configure raised ZeroDivisionError.
+    p = PID(kp=55.5, ti=517.0, td=0.0, n=11.0, ts=0.17, form="series", derivative_method="forward")
+    p(1.0, 0.0)
+    before = (p.config, p.snapshot())
+    with pytest.raises(ctrlblocks.ParameterError) as exc:
+        p.configure(ti=1e308)
+    assert exc.value.code == ErrorCode.BAD_PID_COEFFS
+    assert (p.config, p.snapshot()) == before
+    with pytest.raises(ctrlblocks.ParameterError):
+        PID(kp=55.5, ti=1e308, td=0.0, n=11.0, ts=0.17, form="series", derivative_method="forward")

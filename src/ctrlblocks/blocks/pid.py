@@ -754,7 +754,10 @@ class PID(Block):
         tf = td / c.n
         tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else float(c.ts))
         ts = self._ts
-        ad, bd = derivative_coefficients(kd, tf, ts, self._dmeth)
+        try:
+            ad, bd = derivative_coefficients(kd, tf, ts, self._dmeth)
+        except ArithmeticError:  # a gain that overflowed (kd NaN, Tf 0): refused just below
+            ad = bd = math.nan
         require_coefficients(
             "kp/ti/td/n", ErrorCode.BAD_PID_COEFFS, k, ki, kd, tf, ad, bd, ki * ts, tt
         )
