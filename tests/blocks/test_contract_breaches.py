@@ -556,3 +556,29 @@ def test_gain_schedule_reset_puts_the_controller_at_the_initial_schedule() -> No
         w = math.nan if k == 0 else 0.0  # a bad scheduling variable keeps the tuning
         assert gs(60.0, 45.0, w=w) == twin(60.0, 45.0, w=w)
         assert gs.snapshot() == twin.snapshot()
+
+
+@pytest.mark.parametrize("td", [0.0, 0.5])
+@pytest.mark.parametrize("sp", [-1.7976931348623157e308, 1.7976931348623157e308])
+def test_pid_failed_cycle_commits_the_same_memory_on_both_paths(td, sp) -> None:
+    # Found by the campaign's state check (PID, seeds 8101 and 8104): a cycle whose law
+    # overflows (BAD_RESULT) committed this cycle's derivative memory and deviation
+    # (w, e, D) on the fast lane (pid_step commits before the guard runs), but the
+    # two-phase path's restart dropped them and kept the previous cycle's.
+    def make() -> PID:
+        return PID(kp=30.0, ti=560.0, td=td, n=10.0, ts=0.2, u_min=-INF, u_max=INF)
+
+    a, b = make(), make()
+    for k in range(5):
+        a(30.0, 10.0 * k)
+        _two_phase(b, 30.0, 10.0 * k)
+    assert a.snapshot() == b.snapshot()
+    held = a.out
+    a(sp, 45.0)  # K (sp - pv) overflows
+    _two_phase(b, sp, 45.0)
+    assert a.error_id == b.error_id == ErrorCode.BAD_RESULT
+    assert a.out == b.out == held  # the fallback: the last valid output
+    assert a.snapshot() == b.snapshot()
+    for _ in range(3):  # the recovery is the same on both paths too
+        assert a(30.0, 40.0) == _two_phase(b, 30.0, 40.0)
+        assert a.snapshot() == b.snapshot()

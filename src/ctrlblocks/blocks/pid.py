@@ -829,8 +829,14 @@ class PID(Block):
         The cycle counts as one with bad inputs: the next good cycle re-initialises
         the integrator (and the velocity form's output integrator) so that the
         output continues from ``held``; filters and ramps whose state overflowed
-        restart on the next sample.
+        restart on the next sample.  A failed two-phase cycle (the guard of
+        ``compute_output``) keeps the derivative's memory and the deviation it
+        computed (``w``, ``e``, D), as a failed fast-lane cycle, which committed
+        them before the guard ran (:func:`pid_step`).
         """
+        cycle = self._pending
+        if cycle is not None and cycle.kind == _LAW:
+            self._d, self._w_prev, self._e_prev = cycle.d, cycle.w, cycle.e
         for name in ("p", "i", "d", "ff", "e", "sp_w", "pv_f", "_d", "_w_prev", "_e_prev",
                      "_p_prev", "_d_prev", "_ff_prev"):  # fmt: skip
             if not _NINF < getattr(self, name) < _INF:
@@ -838,7 +844,6 @@ class PID(Block):
         self._i = self._x = self._bias = held
         self._db_hold = held
         self.deadband_active = False
-        cycle = self._pending
         subs = self._cycle_subs
         if cycle is not None:  # repair the states the pending cycle would commit
             committed = subs.take()
