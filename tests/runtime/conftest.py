@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import asyncio
 import math
+import sqlite3
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +73,31 @@ async def wait_for(pred, timeout: float = 10.0, step: float = 0.01) -> None:
         if loop.time() > t_end:
             raise AssertionError("condition not reached in time")
         await asyncio.sleep(step)
+
+
+def wait_for_samples(
+    db: Path, n: int, *, timeout: float = 60.0, keep: Any = None
+) -> list[dict[str, Any]]:
+    """Poll (real time) the historian ``db`` another process writes until it holds ``n`` samples.
+
+    ``keep``: count only the samples it is true for.  Returns them (fewer
+    after ``timeout`` s: the caller's assertion says so).
+    """
+    from ctrlblocks.runtime import SQLiteHistorian
+    from ctrlblocks.runtime.historian import HistoryError
+
+    t_end = time.monotonic() + timeout
+    rows: list[dict[str, Any]] = []
+    while time.monotonic() < t_end:
+        time.sleep(0.1)
+        try:
+            with SQLiteHistorian(db).reading() as h:
+                rows = [r for r in h.samples() if keep is None or keep(r)]
+        except (sqlite3.OperationalError, HistoryError):
+            continue  # no file or no tables yet
+        if len(rows) >= n:
+            break
+    return rows
 
 
 class ServerThread:
