@@ -36,11 +36,12 @@ connection of their own), and:
   rows, commits, its CPU seconds); a writer that had died is started once
   more for that, so a clean stop loses no row.
 
-The writer ignores SIGINT and SIGTERM (a Ctrl-C or a service stop reaches
-the whole process group): it ends when the runtime closes it, or when the
-pipe reaches its end because the runtime's process is gone -- then it
-commits what it has and exits (the run stays without a stop time, as
-after any crash).
+The writer runs at a lower priority (nice + 5: when the two compete for a
+core, the cycles go first and the queue waits) and ignores SIGINT and
+SIGTERM (a Ctrl-C or a service stop reaches the whole process group): it
+ends when the runtime closes it, or when the pipe reaches its end because
+the runtime's process is gone -- then it commits what it has and exits
+(the run stays without a stop time, as after any crash).
 
 Protocol (private to the two processes; the pipe runtime -> writer carries
 frames ``kind (1 byte) | payload length (uint32) | payload``):
@@ -495,6 +496,8 @@ def serve_writer() -> None:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    with contextlib.suppress(OSError):
+        os.nice(5)  # the cycles first: the queue waits, the control loops do not
     out = os.dup(1)
     os.dup2(2, 1)  # a stray print cannot corrupt the answers
 
