@@ -12,39 +12,28 @@ import time
 import pytest
 
 from ctrlblocks.runtime import (
-    FakeClock,
-    MemoryAdapter,
     MemoryBus,
     PostgresHistorian,
-    Runtime,
     SQLiteHistorian,
     export_history,
-    parse_config,
 )
 from ctrlblocks.runtime.config import HistorianConfig
 from ctrlblocks.runtime.historian import SAMPLE_COLUMNS
 from ctrlblocks.runtime.loop import Sample
 from ctrlblocks.runtime.writer import ProcessHistorian
 
-from .conftest import loop_toml
+from .conftest import loop_toml, make, run
 
 PG_DSN = os.environ.get("CTRLBLOCKS_TEST_PG_DSN", "")
 
 
 def run_runtime(historian, t_end: float, bus: MemoryBus) -> int:
     """Run two loops for ``t_end`` s of virtual time; return the number of cycles per loop."""
-    cfg = parse_config(
-        '[connections.io]\nprotocol = "memory"\n'
-        + loop_toml(name="a", ts=0.1)
-        + loop_toml(name="b", ts=0.1, pv="pv2", mv="mv2")
-        + '[historian]\nbackend = "none"\n'
-    )
-    clock = FakeClock()
-    rt = Runtime(cfg, clock=clock, adapters={"io": MemoryAdapter(bus)}, historian=historian)
+    loops = loop_toml(name="a", ts=0.1) + loop_toml(name="b", ts=0.1, pv="pv2", mv="mv2")
+    rt, clock, _ = make(loops, {"io": bus}, historian=historian)
 
     async def main():
-        await rt.start()
-        await clock.run_until(t_end)
+        await run(rt, clock, t_end)
         await rt.stop()
 
     asyncio.run(main())
@@ -68,9 +57,9 @@ def check_two_runs(make_historian):
     assert (n1, n2) == (21, 11)
     assert len(rows) == 2 * (n1 + n2)  # N cycles in, N rows out, both loops
     assert runs == [(1, 1), (2, 1)]
-    for run, n in ((1, n1), (2, n2)):
+    for run_id, n in ((1, n1), (2, n2)):
         for loop in ("a", "b"):
-            cycles = [r["cycle"] for r in rows if r["run_id"] == run and r["loop"] == loop]
+            cycles = [r["cycle"] for r in rows if r["run_id"] == run_id and r["loop"] == loop]
             assert cycles == list(range(n))
     a = [r for r in rows if r["loop"] == "a"]
     b = [r for r in rows if r["loop"] == "b"]
