@@ -12,10 +12,14 @@ Usage (from the repository root, with the ``runtime`` extra)::
     python benchmarks/runtime_scale.py --stalls --flush after-cycle  # flush in the idle time
     python benchmarks/runtime_scale.py --json out.json --plot periods.png
 
-``--stalls`` lists every cycle period above 1.5 ``ts`` with the historian
-flushes that ran during it (start, duration, rows) and prints how many
-stalls overlapped a flush; with ``--historian none`` there is no flush, so
-the two runs side by side tell whether the historian causes the stalls.
+``--stalls`` lists every cycle period above 1.5 ``ts`` with the CPU time
+the event loop's thread and the whole process used during it (sampled
+every 10 ms by a thread) and, with ``--writer thread``, the historian
+flushes that ran during it; each stall is put down to the main thread (its
+own work), another thread of the process (the GIL was elsewhere) or the
+machine (neither ran: other processes had the cores), a split that holds on
+a loaded machine too.  ``--historian none`` runs the same without a
+historian.
 
 Cases (targets of issue 14, each at ``ts`` = 100 ms):
 
@@ -43,6 +47,7 @@ import json
 import multiprocessing as mp
 import os
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -56,8 +61,7 @@ from ctrlblocks.runtime import (
     SQLiteHistorian,
     parse_config,
 )
-from ctrlblocks.runtime.historian import open_historian
-from ctrlblocks.runtime.writer import ProcessHistorian
+from ctrlblocks.runtime.writer import ProcessHistorian, open_historian
 
 BLOCK = '{ type = "PID", kp = 1.0, ti = 1.0, u_min = -10.0, u_max = 10.0 }'
 
@@ -155,6 +159,7 @@ async def run_runtime(
     rt.flush_log = FlushLog(rt.historian) if threaded else None
     pauses = GcPauses()
     gc.callbacks.append(pauses)
+    rt.cpu_probe = CpuProbe()
     cpu0, t0 = time.process_time(), time.monotonic()
     next_report = t0 + 10.0
     while time.monotonic() - t0 < duration:
@@ -165,9 +170,45 @@ async def run_runtime(
             next_report += 10.0
     cpu, wall = time.process_time() - cpu0, time.monotonic() - t0
     gc.callbacks.remove(pauses)
+    rt.cpu_probe.stop()
     await rt.stop()
     rt.gc_pauses = pauses  # type: ignore[attr-defined]
     return samples, cpu, wall, rt
+
+
+class CpuProbe:
+    """A thread sampling, every 10 ms, the CPU time of the main thread and of the process.
+
+    Tells, for a stall, whether the event loop's thread was busy (the cycles'
+    own work, a collection), another thread of the process ran (the GIL was
+    elsewhere), or neither (the operating system ran other processes).
+    """
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[float, float, float]] = []  # monotonic, main CPU, process CPU
+        self._clock = time.pthread_getcpuclockid(threading.main_thread().ident)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="cpu-probe", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(0.01):
+            self.rows.append(
+                (time.monotonic(), time.clock_gettime(self._clock), time.process_time())
+            )
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def between(self, a: float, b: float) -> tuple[float, float]:
+        """(main-thread CPU, process CPU) [s] used between monotonic times ``a`` and ``b``."""
+        if len(self.rows) < 2:
+            return 0.0, 0.0
+        r = np.array(self.rows)
+        main = np.interp([a, b], r[:, 0], r[:, 1])
+        proc = np.interp([a, b], r[:, 0], r[:, 2])
+        return float(main[1] - main[0]), float(proc[1] - proc[0])
 
 
 class GcPauses:
@@ -194,28 +235,51 @@ class GcPauses:
         }
 
 
-def stall_report(samples: dict[str, list], flushes: list, ts: float) -> dict:
-    """Cycle periods above 1.5 ts (from the first loop's samples) and the flushes during them."""
+def stall_report(samples: dict[str, list], flushes: list, ts: float, probe: CpuProbe) -> dict:
+    """Cycle periods above 1.5 ts (from the first loop's samples): CPU and flushes during them.
+
+    Each stall is put down to the main thread (its CPU time covered most of
+    the period: the cycles' own work or a collection), another thread of
+    the process (the process used much more CPU than the main thread: the
+    GIL was elsewhere, e.g. a flush thread), or the machine (neither ran:
+    the operating system gave the core to other processes).
+    """
     rows = next(iter(samples.values()), [])
     t = np.array([r[0] for r in rows])  # the runtime's clock: time.monotonic
     t0 = t[0] if len(t) else 0.0
     stalls = []
+    causes = {"main thread": 0, "another thread": 0, "the machine": 0}
     for k in np.nonzero(np.diff(t) > 1.5 * ts)[0]:
         a, b = t[k], t[k + 1]
         during = [f for f in flushes if f[0] < b and f[0] + f[1] > a - ts]
-        stalls.append((a - t0, b - a, during))
+        main, proc = probe.between(a, b)
+        d = b - a
+        cause = (
+            "main thread" if main > 0.6 * d
+            else "another thread" if proc - main > 0.3 * d
+            else "the machine"
+        )  # fmt: skip
+        causes[cause] += 1
+        stalls.append((a - t0, d, during, main, proc, cause))
     durs = np.array([f[1] for f in flushes]) if flushes else np.array([0.0])
-    for a, d, during in stalls:
+    for a, d, during, main, proc, cause in stalls:
         what = ", ".join(f"flush at {f[0] - t0 - a:+.3f} s, {1e3 * f[1]:.0f} ms, {f[2]} rows"
                          for f in during) or "no flush"  # fmt: skip
-        print(f"     stall at {a:7.2f} s: period {1e3 * d:.0f} ms; {what}", flush=True)
+        print(
+            f"     stall at {a:7.2f} s: period {1e3 * d:.0f} ms; CPU of the main thread "
+            f"{1e3 * main:.0f} ms, of the process {1e3 * proc:.0f} ms ({cause}); {what}",
+            flush=True,
+        )
     hit = sum(1 for s in stalls if s[2])
     print(
-        f"     {len(stalls)} stalls, {hit} next to a flush; {len(flushes)} flushes, "
-        f"duration p50/max {1e3 * np.percentile(durs, 50):.1f}/{1e3 * durs.max():.1f} ms",
+        f"     {len(stalls)} stalls, {hit} next to a flush; by cause: "
+        + ", ".join(f"{k} {v}" for k, v in causes.items())
+        + f"; {len(flushes)} flushes, duration p50/max "
+        f"{1e3 * np.percentile(durs, 50):.1f}/{1e3 * durs.max():.1f} ms",
         flush=True,
     )
     return {"stalls": len(stalls), "stalls_next_to_flush": hit, "flushes": len(flushes),
+            "stall_causes": causes,
             "flush_p50_ms": round(1e3 * float(np.percentile(durs, 50)), 2),
             "flush_max_ms": round(1e3 * float(durs.max()), 2)}  # fmt: skip
 
@@ -327,7 +391,8 @@ def measure(case: str, n: int, a: argparse.Namespace, gc_freeze: bool = True) ->
     out["load_average_start"] = load0
     out["load_average"] = [round(x, 2) for x in os.getloadavg()]
     if a.stalls:
-        out.update(stall_report(samples, rt.flush_log.calls if rt.flush_log else [], ts))
+        flushes = rt.flush_log.calls if rt.flush_log else []
+        out.update(stall_report(samples, flushes, ts, rt.cpu_probe))
     met = verdicts(out)
     out["meets_targets"] = all(m for _, _, m in met)
     print(

@@ -46,7 +46,6 @@ __all__ = [
     "SQLiteHistorian",
     "audit_row",
     "export_history",
-    "open_historian",
 ]
 
 log = logging.getLogger(__name__)
@@ -220,12 +219,21 @@ class Historian:
             with SQLiteHistorian("history.sqlite").reading() as h:
                 rows = h.samples("level")
         """
-        with self._db_lock:
-            self._conn = self._connect_for_reading()
+        self.open_reading()
         try:
             yield self
         finally:
-            with self._db_lock:
+            self.close_connection()
+
+    def open_reading(self) -> None:
+        """Open the database to read it only (:meth:`reading` without the ``with``)."""
+        with self._db_lock:
+            self._conn = self._connect_for_reading()
+
+    def close_connection(self) -> None:
+        """Close the connection as it is: no flush, the run keeps no stop time (a crash's end)."""
+        with self._db_lock:
+            if self._conn is not None:
                 self._conn.close()
                 self._conn = None
 
@@ -442,29 +450,6 @@ class PostgresHistorian(Historian):
                 "the PostgreSQL historian needs psycopg: pip install 'ctrlblocks[runtime]'"
             ) from exc
         return psycopg.connect(self.dsn, connect_timeout=10)
-
-
-def open_historian(config: Any, *, name: str = "ctrlblocks", process: bool = True) -> Any:
-    """The opened historian of a ``[historian]`` configuration (None: ``backend = "none"``).
-
-    ``process`` (default): a :class:`~ctrlblocks.runtime.writer.ProcessHistorian`
-    (the database is written by a process of its own, so the writes never
-    hold up the cycles); False: a :class:`Historian` in this process (its
-    flushes run in a thread of the runtime's process).
-    """
-    if config.backend == "none":
-        return None
-    h: Historian
-    if process:
-        from .writer import ProcessHistorian
-
-        h = ProcessHistorian(config, name=name)
-    elif config.backend == "postgresql":
-        h = PostgresHistorian(config.dsn, name=name, retention_days=config.retention_days)
-    else:
-        h = SQLiteHistorian(config.path, name=name, retention_days=config.retention_days)
-    h.open()
-    return h
 
 
 class HistoryError(ValueError):

@@ -57,12 +57,12 @@ from .adapters import make_adapter
 from .autotune import LiveTuning
 from .clock import Clock, MonotonicClock
 from .config import RuntimeConfig, require_packages
-from .historian import Historian, open_historian
+from .historian import Historian
 from .io import Adapter, Connection
 from .loop import CommandError, ControlLoop, Sample
 from .retain import RetainStore, encode_state
 from .scan import Heartbeat, Scan
-from .writer import ProcessHistorian
+from .writer import ProcessHistorian, open_historian
 
 __all__ = ["Runtime"]
 

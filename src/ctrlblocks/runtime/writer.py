@@ -84,7 +84,7 @@ from .historian import Historian, HistoryError, PostgresHistorian, SQLiteHistori
 if TYPE_CHECKING:
     from .loop import Sample
 
-__all__ = ["RECORD", "ProcessHistorian", "serve_writer"]
+__all__ = ["RECORD", "ProcessHistorian", "open_historian", "serve_writer"]
 
 log = logging.getLogger(__name__)
 
@@ -95,6 +95,10 @@ write_ok, overrun (72 bytes, little-endian)."""
 _HEAD = struct.Struct("<cI")  # frame kind, payload length
 _CODE = struct.Struct("<I")
 _TOKEN = struct.Struct("<Q")
+
+
+def _frame(kind: bytes, payload: bytes) -> bytes:
+    return _HEAD.pack(kind, len(payload)) + payload
 
 
 def _settings(config: Any, name: str) -> dict[str, Any]:
@@ -210,8 +214,8 @@ class ProcessHistorian(Historian):
             fcntl.fcntl(self._fd, fcntl.F_SETPIPE_SZ, 1 << 20)
         self._sent = 0  # a frame the dead writer got in part goes again whole
         init = {"settings": self.settings, "run_id": self.run_id or None}  # a restart goes on
-        first = [self._frame(b"I", json.dumps(init).encode())]
-        first += [self._frame(b"N", _CODE.pack(c) + n.encode()) for n, c in self._codes.items()]
+        first = [_frame(b"I", json.dumps(init).encode())]
+        first += [_frame(b"N", _CODE.pack(c) + n.encode()) for n, c in self._codes.items()]
         self._frames.extendleft(reversed(first))
         self._queued += sum(map(len, first))
 
@@ -284,17 +288,13 @@ class ProcessHistorian(Historian):
 
     # -- the queue -----------------------------------------------------------------------
 
-    @staticmethod
-    def _frame(kind: bytes, payload: bytes) -> bytes:
-        return _HEAD.pack(kind, len(payload)) + payload
-
     def _push(self, kind: bytes, payload: bytes) -> None:
         """Close the frame of records being built, then queue one frame (lock held)."""
         if self._recs:
-            self._queue(self._frame(b"S", bytes(self._recs)))
+            self._queue(_frame(b"S", bytes(self._recs)))
             self._recs.clear()
         if kind:
-            self._queue(self._frame(kind, payload))
+            self._queue(_frame(kind, payload))
 
     def _queue(self, frame: bytes) -> None:
         self._frames.append(frame)
@@ -466,7 +466,7 @@ class ProcessHistorian(Historian):
 
     def _close_reader(self) -> None:
         if self._reader is not None:
-            self._reader._conn.close()
+            self._reader.close_connection()
             self._reader = None
 
     def query(self, sql: str, params: Any = ()) -> list[tuple[Any, ...]]:
@@ -479,9 +479,30 @@ class ProcessHistorian(Historian):
             self.flush()
         if self._reader is None:
             r = _database(self.settings)
-            r._conn = r._connect_for_reading()
+            r.open_reading()
             self._reader = r
         return self._reader.query(sql, params)
+
+
+def open_historian(config: Any, *, name: str = "ctrlblocks", process: bool = True) -> Any:
+    """The opened historian of a ``[historian]`` configuration (None: ``backend = "none"``).
+
+    ``process`` (default): a :class:`ProcessHistorian`
+    (the database is written by a process of its own, so the writes never
+    hold up the cycles); False: a :class:`Historian` in this process (its
+    flushes run in a thread of the runtime's process).
+    """
+    if config.backend == "none":
+        return None
+    h: Historian
+    if process:
+        h = ProcessHistorian(config, name=name)
+    elif config.backend == "postgresql":
+        h = PostgresHistorian(config.dsn, name=name, retention_days=config.retention_days)
+    else:
+        h = SQLiteHistorian(config.path, name=name, retention_days=config.retention_days)
+    h.open()
+    return h
 
 
 # -- the writer process ---------------------------------------------------------------------
@@ -502,7 +523,7 @@ def serve_writer() -> None:
     os.dup2(2, 1)  # a stray print cannot corrupt the answers
 
     def answer(kind: bytes, body: Any) -> None:
-        frame = ProcessHistorian._frame(kind, json.dumps(body).encode())
+        frame = _frame(kind, json.dumps(body).encode())
         with contextlib.suppress(OSError):
             while frame:
                 frame = frame[os.write(out, frame) :]
@@ -518,7 +539,7 @@ def serve_writer() -> None:
             if not chunk:  # the runtime's process is gone: keep what came, end
                 if w is not None:
                     w.commit()
-                    w.db._conn.close()
+                    w.db.close_connection()
                 return
             buf += chunk
             if w is None:
