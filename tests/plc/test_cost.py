@@ -12,11 +12,11 @@ pytest.importorskip("blark")
 
 # (block, FB, inputs) -> documented (arithmetic, comparison, standard function, call) counts
 CASES = [
-    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (50, 67, 6, 20)),
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (50, 68, 6, 20)),
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, algorithm="velocity"), "CB_PID",
-     {"SP": 50.0, "PV": 40.0}, (57, 64, 8, 21)),
+     {"SP": 50.0, "PV": 40.0}, (57, 65, 8, 21)),
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, sp_filter=1.0, pv_filter=1.0, sp_rate=5.0,
-                 out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (61, 82, 10, 25)),
+                 out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (61, 83, 10, 25)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
      {"SP": 1.0, "PV": 0.5}, (68, 36, 9, 16)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",

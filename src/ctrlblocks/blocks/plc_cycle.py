@@ -66,6 +66,7 @@ from .pid import (
     integral_weights,
     pid_step,
     ramp_blocks,
+    retune_states,
     tracking_gain,
 )
 from .precision import CYCLES
@@ -387,7 +388,7 @@ def pid_cycle(
         scale_prev = scale_pv
         pv_lo_prev = pv_lo
         pv_hi_prev = pv_hi
-    if (
+    retuned = (
         k != k_prev
         or ti != ti_prev
         or td != td_prev
@@ -395,11 +396,51 @@ def pid_cycle(
         or b != b_prev
         or c != c_prev
         or reverse != rev_prev
-        or velocity != vel_prev
+    )
+    if (
+        velocity != vel_prev
         or scale_pv != scale_prev
         or (scale_pv and (pv_lo != pv_lo_prev or pv_hi != pv_hi_prev))
+        or (retuned and (mode_prev != AUTO or reinit))
     ):
-        reinit = True  # a change of the law is bumpless: re-initialise the integrator
+        # a change of the units or the algorithm (or a retune outside a running auto
+        # cycle) is bumpless too: the next good cycle re-initialises the integrator
+        reinit = True
+        retuned = False
+    if retuned:
+        # bumpless retuning at the instant of the change (PID._carry_over): the new law
+        # gives the last output on the last cycle's signals, and acts from this cycle on
+        sgn_old = 1.0
+        if rev_prev:
+            sgn_old = -1.0
+        p_old = 0.0
+        if not suppressed:
+            p_old = k_prev * sgn_old * (b_prev * sp_w - pv_f)
+        ki_old = 0.0
+        if ti_prev > 0.0:
+            ki_old = k_prev / ti_prev
+        sgn_new = 1.0
+        if reverse:
+            sgn_new = -1.0
+        ki_new = 0.0
+        if ti > 0.0:
+            ki_new = k / ti
+        i_r, bias_r, p_r, d_r, w_r, e_r = retune_states(
+            sp_w, pv_f, p_old, d, i, bias, x, ff_prev, k, sgn_new, b, c, k * td, ki_new,
+            ki_old, velocity, suppressed,
+        )  # fmt: skip
+        if is_real(i_r) and is_real(bias_r) and is_real(p_r) and is_real(w_r) and is_real(e_r):
+            d = d_r
+            w_prev = w_r
+            e_prev = e_r
+            if velocity:
+                bias = bias_r
+                p_prev = p_r
+                d_prev = d_r
+            else:
+                i = i_r
+        else:
+            reinit = True  # the shift overflows REAL: hold one cycle instead
     k_prev = k
     ti_prev = ti
     td_prev = td

@@ -847,17 +847,20 @@ class ThreeStepStructure(_OutputStage):
 
 
 class ScheduledStructure(Structure):
-    """Gain scheduling: the parameters follow the setpoint (:class:`~ctrlblocks.GainSchedule`).
+    """Gain scheduling: the parameters follow the setpoint or the measurement (GainSchedule).
 
-    ``[controllers.schedule]`` holds ``on = "sp"`` (the scheduling variable),
-    ``breakpoints`` and, per parameter, its values at the breakpoints
-    (``kp = [...]``, ``ti = [...]``).  Every sample the schedule retunes the
-    controller for the setpoint (through its ``configure``, bumplessly; only
-    when the parameters change) before it computes.  Scheduling on the
-    measurement is refused: it retunes every sample, and the PID holds its
-    output in the sample after each retune (its bumpless rule), so it would
-    not act.  Signals: ``w`` (the scheduling variable) and the scheduled
-    parameters.
+    ``[controllers.schedule]`` holds ``on`` (the scheduling variable: ``"sp"``,
+    the setpoint, or ``"y"``, the measurement), ``breakpoints`` and, per
+    parameter, its values at the breakpoints (``kp = [...]``, ``ti = [...]``).
+    Every sample the schedule retunes the controller for ``w`` (through its
+    ``configure``, bumplessly; only when the parameters change) before it
+    computes.  The PID's retune keeps the output continuous at the change and
+    runs the new law from the same sample (``pid.retune_states``), so a
+    schedule on the measurement, which retunes every sample, acts as the
+    interpolated law.  The ADRC re-solves its x4 by (11) of Nowak et al. 2018
+    at a retune, which holds its output for that sample: scheduled on the
+    measurement it would hold every sample, so ``on = "y"`` is refused for
+    it.  Signals: ``w`` (the scheduling variable) and the scheduled parameters.
     """
 
     name = "scheduled"
@@ -871,12 +874,14 @@ class ScheduledStructure(Structure):
         skey = f"{key}.schedule"
         table = dict(r.table(e, "schedule", skey, True))
         on = table.pop("on", "sp")
-        if on != "sp":
+        if on not in ("sp", "y"):
+            raise r.fail(f"{skey}.on", f"must be 'sp' or 'y', got {on!r}")
+        if on == "y" and main.type != "PID":
             raise r.fail(
                 f"{skey}.on",
-                f"must be 'sp', got {on!r}: a schedule on a measurement retunes every sample, "
-                "and the PID holds its output in each sample after a retune (its bumpless "
-                "rule), so it would not act (docs/structures.md)",
+                f"on = 'y' needs a PID, got {main.type!r}: the ADRC holds its output in the "
+                "sample of a retune (x4 re-solved by (11) of Nowak et al. 2018), and a "
+                "schedule on the measurement retunes every sample (docs/structures.md)",
             )
         bps = table.pop("breakpoints", None)
         if not isinstance(bps, list) or not table:
@@ -897,7 +902,9 @@ class ScheduledStructure(Structure):
 
     def compute(self, side, sp, m):
         gs: GainSchedule = side.aux
-        gs.schedule(sp)  # retune the controller for w = sp (a bad w keeps the parameters)
+        # retune the controller for w = sp or y (a bad w keeps the parameters in force)
+        on_y = side.spec.options["schedule"]["on"] == "y"
+        gs.schedule((m.y if m.y_ok else math.nan) if on_y else sp)
         u = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
         return u, {"w": gs.w, **gs.parameters}
 
