@@ -5,7 +5,8 @@ controller with the setpoint, the lower axes the manipulated variable
 (Nowak et al. 2018, Figs. 5-7: "The upper diagram shows the controlled variable and the
 lower – manipulating variable"; Åström's (1987) Simnon plots likewise).  One colour
 per controller; dotted vertical lines mark the events, each labelled (the
-event's ``label``) at the top of the upper axes.  ``[plot]`` in the
+event's ``label``) in a strip above the upper axes, where no label hides a trace or
+another label.  ``[plot]`` in the
 scenario chooses the signals (``upper``, ``lower``) and the axis labels.
 
 matplotlib is used with the non-interactive Agg backend, so plotting works
@@ -27,7 +28,7 @@ import numpy as np
 from .names import plot_names
 from .runner import ScenarioResult
 
-__all__ = ["decimate", "plot_result"]
+__all__ = ["decimate", "label_rows", "plot_result"]
 
 PLOT_POINTS = 1500
 """Points drawn per line at most (the figures are 750 pixels wide at 100 dpi)."""
@@ -111,19 +112,21 @@ def plot_result(result: ScenarioResult, out_dir: Path, *, dpi: int = 100) -> lis
                 if ev.t > 0:
                     ax.axvline(ev.t, color="0.6", linestyle=":", linewidth=0.8)
             ax.legend(fontsize=7, loc="best")
-        _label_events(ax_list[0], runs[0].events)
         if "ylim_upper" in cfg:
             ax_list[0].set_ylim(*cfg["ylim_upper"])
         if "ylim_lower" in cfg and len(ax_list) > 1:
             ax_list[1].set_ylim(*cfg["ylim_lower"])
         ax_list[-1].set_xlabel("t [s]")
         ax_list[-1].set_xlim(0.0, runs[0].duration)
+        label_rows_used = _label_events(ax_list[0], runs[0].events)
         title = cfg.get("title", sc.title)
         if len(sc.cases) > 1:
             title += f" — {case.name}"
         if result.quick:
             title += " (quick)"
-        ax_list[0].set_title(f"{title}\n{sc.source}", fontsize=9)
+        ax_list[0].set_title(
+            f"{title}\n{sc.source}", fontsize=9, pad=6.0 + label_rows_used * _ROW_PT
+        )
         fig.tight_layout()
         path = out_dir / f"{names_png[case.name]}.png"
         fig.savefig(path, dpi=dpi)
@@ -132,31 +135,72 @@ def plot_result(result: ScenarioResult, out_dir: Path, *, dpi: int = 100) -> lis
     return files
 
 
-def _label_events(ax: Any, events: Any) -> None:
-    """Write each event's label along its line, just inside the top of ``ax``.
+EVENT_FONT = 6.0
+"""Font size of the event labels [pt]."""
+_ROW_PT = 8.0
+"""Height of one row of event labels above the axes [pt]."""
 
+
+def label_rows(x0: list[float], widths: list[float], gap: float = 0.01) -> list[int]:
+    """The row of each label in a strip above the axes, so that none overlaps another.
+
+    ``x0`` are the labels' left edges and ``widths`` their widths, both as
+    fractions of the axes' width, in any order.  A label goes into the lowest
+    row whose last label ends (plus ``gap``) before it starts: the greedy
+    interval-partitioning rule, which uses as few rows as the labels' largest
+    pile-up needs.
+    """
+    rows = [0] * len(x0)
+    ends: list[float] = []
+    for i in sorted(range(len(x0)), key=lambda k: x0[k]):
+        free = [r for r, end in enumerate(ends) if end + gap <= x0[i]]
+        if free:
+            r = free[0]
+        else:
+            r = len(ends)
+            ends.append(-math.inf)
+        ends[r] = x0[i] + widths[i]
+        rows[i] = r
+    return rows
+
+
+def _label_events(ax: Any, events: Any) -> int:
+    """Write each event's label in a strip above ``ax``, starting at its line.
+
+    Labels sit outside the plotting area, so they never hide a trace; labels
+    that would run into each other go into further rows (:func:`label_rows`).
     Events at the same time share one label (joined with "; "); events at
-    t = 0 are initial conditions and get none.
+    t = 0 are initial conditions and get none.  Returns the number of rows.
     """
     at: dict[float, list[str]] = {}
     for ev in events:
         if ev.t > 0 and ev.label:
             at.setdefault(ev.t, []).append(ev.label)
-    for t_ev, labels in at.items():
+    if not at:
+        return 0
+    fig = ax.figure
+    x_lo, x_hi = ax.get_xlim()
+    width_pt = ax.get_position().width * fig.get_figwidth() * 72.0
+    texts = {t_ev: "; ".join(labels) for t_ev, labels in at.items()}
+    times = sorted(texts)
+    x0 = [(t_ev - x_lo) / (x_hi - x_lo) for t_ev in times]
+    # Width of a label: about 0.55 em per character of the sans-serif font.
+    widths = [(len(texts[t_ev]) * 0.55 * EVENT_FONT + 4.0) / width_pt for t_ev in times]
+    rows = label_rows(x0, widths)
+    for t_ev, row in zip(times, rows, strict=True):
         ax.annotate(
-            "; ".join(labels),
+            texts[t_ev],
             xy=(t_ev, 1.0),
             xycoords=("data", "axes fraction"),
-            xytext=(2, -3),
+            xytext=(1.5, 2.0 + row * _ROW_PT),
             textcoords="offset points",
-            rotation=90,
-            va="top",
+            va="bottom",
             ha="left",
-            fontsize=6,
+            fontsize=EVENT_FONT,
             color="0.3",
-            bbox={"boxstyle": "square,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.7},
-            annotation_clip=True,
+            annotation_clip=False,
         )
+    return max(rows) + 1
 
 
 def _default_label(names: list[str]) -> str:
