@@ -678,18 +678,23 @@ class _Parser(TableReader):
                 f"{key}.mv2",
                 'missing: the split range\'s second actuator (an I/O address "CONNECTION:ADDRESS")',
             )
-        mv2 = self.binding(raw["mv2"], f"{key}.mv2", conns)
-        if not mv2.is_io:
-            raise self.fail(f"{key}.mv2", 'must be an I/O address "CONNECTION:ADDRESS"')
-        if mv2.connection != mv.connection:
-            raise self.fail(
-                f"{key}.mv2",
-                f"must be on the connection of mv ({mv.connection!r}): both actuators are "
-                "written in one batched request",
-            )
+        mv2 = self.written_with_mv(
+            raw["mv2"], f"{key}.mv2", conns, mv, "both actuators are written in one batched request"
+        )
         if mv2.address == mv.address:
             raise self.fail(f"{key}.mv2", f"is the address of mv ({mv}); give actuator B's own")
         return mv2
+
+    def written_with_mv(
+        self, raw: Any, key: str, conns: Mapping[str, ConnectionConfig], mv: Binding, why: str
+    ) -> Binding:
+        """An output address written with the MV: I/O, on the MV's connection (``why``)."""
+        b = self.binding(raw, key, conns)
+        if not b.is_io:
+            raise self.fail(key, 'must be an I/O address "CONNECTION:ADDRESS"')
+        if b.connection != mv.connection:
+            raise self.fail(key, f"must be on the connection of mv ({mv.connection!r}): {why}")
+        return b
 
     def output_tags(
         self,
@@ -704,15 +709,8 @@ class _Parser(TableReader):
         for tag in tags:
             if tag not in raw:
                 continue
-            b = self.binding(raw[tag], f"{key}.{tag}", conns)
-            if not b.is_io:
-                raise self.fail(f"{key}.{tag}", 'must be an I/O address "CONNECTION:ADDRESS"')
-            if b.connection != mv.connection:
-                raise self.fail(
-                    f"{key}.{tag}",
-                    f"must be on the connection of mv ({mv.connection!r}): the outputs are "
-                    "written with the MV in one batched request",
-                )
+            why = "the outputs are written with the MV in one batched request"
+            b = self.written_with_mv(raw[tag], f"{key}.{tag}", conns, mv, why)
             taken = [n for n, o in (("mv", mv), *out.items()) if o.address == b.address]
             if taken:
                 raise self.fail(f"{key}.{tag}", f"is the address of {taken[0]} ({b})")
