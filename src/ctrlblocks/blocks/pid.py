@@ -714,6 +714,17 @@ class PID(Block):
     config: PIDConfig
     _config: PIDConfig
     _law_in_force: tuple[Any, ...]
+    # state read by the retune (_carry_over) before _reset_state assigns it
+    _cold: bool
+    _reinit: bool
+    _mode_prev: int
+    deadband_active: bool
+    p_suppressed: bool
+    _i: float
+    _d: float
+    _x: float
+    _bias: float
+    _ff_prev: float
     _state_fields = (
         "out",
         "p",

@@ -48,7 +48,7 @@ Structures and what they read (``structure`` -> measurements):
 ``pulse_width``  ``y``; the controller output through a PWM (on/off MV)
 ``three_step``  ``y``, ``y2`` (the valve position: end switches, feedback);
                a step controller's OPEN/CLOSE commands are the MV
-``scheduled``  ``y``; the controller's parameters follow the setpoint
+``scheduled``  ``y``; the controller's parameters follow the setpoint or ``y``
 ``open_loop``  none (the block is driven by the setpoint)
 =============  ==========================================================
 
