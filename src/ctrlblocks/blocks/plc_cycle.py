@@ -376,19 +376,9 @@ def pid_cycle(
     else:
         lim_err = BAD_LIMITS
     out = clamp(out, lo, hi)  # new limits contain the last output (Block.configure)
-    if cold:
-        k_prev = k
-        ti_prev = ti
-        td_prev = td
-        n_prev = n
-        b_prev = b
-        c_prev = c
-        rev_prev = reverse
-        vel_prev = velocity
-        scale_prev = scale_pv
-        pv_lo_prev = pv_lo
-        pv_hi_prev = pv_hi
-    retuned = (
+    # a change of the law is bumpless (not on the first cycle, which starts from the
+    # output anyway)
+    retuned = not cold and (
         k != k_prev
         or ti != ti_prev
         or td != td_prev
@@ -397,7 +387,7 @@ def pid_cycle(
         or c != c_prev
         or reverse != rev_prev
     )
-    if (
+    if not cold and (
         velocity != vel_prev
         or scale_pv != scale_prev
         or (scale_pv and (pv_lo != pv_lo_prev or pv_hi != pv_hi_prev))

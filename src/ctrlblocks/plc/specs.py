@@ -55,75 +55,86 @@ class BlockSpec:
         return {v.py: v.st for v in (*self.inputs, *self.outputs, *self.state)}
 
 
-_PID_PROCESS = [
-    Var("sp", "SP", "setpoint [eng. units]"),
-    Var("pv", "PV", "process value [eng. units]"),
-    Var("ff", "FF", "feed-forward / offset added before the limits [%]"),
-    Var("pv_ok", "PV_OK", "quality of PV; FALSE = invalid measurement (16#8102)"),
-    Var("manual", "MANUAL", "manual mode: MV := MAN_VALUE (limited), bumpless back to AUTO"),
-    Var("man_value", "MAN_VALUE", "manual value [%]; outside MANUAL it follows MV (In/Out)"),
-    Var("rst", "RST", "reset: MV := RESET_VALUE (limited), integrator set to match"),
-    Var("dv", "DV", "input of the lead-lag feed-forward path (FF_K <> 0)"),
-    Var("track", "TRACK", "tracking mode: MV := TRACK_VALUE (limited), bumpless back"),
-    Var("track_value", "TRACK_VALUE", "output in TRACK [%]"),
-    Var("hold", "HOLD", "hold mode: MV stays, bumpless back"),
-    Var("awin", "AWIN", "freeze the integrator (anti-windup from a secondary in cascade)"),
-    Var(
-        "actuator_pos",
-        "ACTUATOR_POS",
-        "measured actuator position [%] for ANTI_WINDUP = 2 (write it every cycle)",
-    ),
-]
-_PID_TUNING = [
-    Var("k", "K", "gain K [%/%] (ISA form, Åström 1987 (2.1))"),
-    Var("ti", "TI", "integral time Ti [s]; 0 = no integral action"),
-    Var("td", "TD", "derivative time Td [s]; 0 = no derivative action"),
-    Var("n", "N", "derivative filter Tf = Td/N"),
-    Var("b", "B", "setpoint weight of P (Åström 1987 (2.2))"),
-    Var("c", "C", "setpoint weight of D (0 = derivative on PV)"),
-    Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
-    Var("u_min", "U_MIN", "output low limit [%]"),
-    Var("u_max", "U_MAX", "output high limit [%]"),
-    Var("tt", "TT", "tracking time constant Tt [s]; 0 = Ti/5 (ts without I)"),
-    Var("reverse", "REVERSE", "reverse action"),
-    Var("i_method", "I_METHOD", "integral discretisation: 0 forward (2.8), 1 backward, 2 Tustin"),
-    Var(
-        "d_method", "D_METHOD", "derivative discretisation: 0 forward, 1 backward, 2 Tustin (2.13)"
-    ),
-    Var(
-        "aw",
-        "ANTI_WINDUP",
-        "0 clamping (conditional integration), 1 back-calculation (model), 2 on ACTUATOR_POS",
-    ),
-    Var("velocity", "VELOCITY", "TRUE: velocity (incremental) algorithm, Åström 1987 Fig. 2.5"),
-    Var("scale_pv", "SCALE_PV", "TRUE: SP and PV scaled from PV_LO..PV_HI to 0..100 %"),
-    Var("pv_lo", "PV_LO", "PV range low [eng. units] (SCALE_PV)"),
-    Var("pv_hi", "PV_HI", "PV range high [eng. units] (SCALE_PV)"),
-    Var("sp_filter", "SP_FILTER", "SP filter time constant [s] (PT1, exp(-TS/T)); 0 = off"),
-    Var("pv_filter", "PV_FILTER", "PV filter time constant [s] (PT1, exp(-TS/T)); 0 = off"),
-    Var("sp_rate", "SP_RATE", "setpoint ramp [%/s]; 0 = off"),
-    Var("out_rate", "OUT_RATE", "output ramp [%/s], in every mode but RST; 0 = off"),
-    Var("ff_k", "FF_K", "lead-lag feed-forward gain on DV; 0 = off (Bonde et al. 2021)"),
-    Var("ff_t_lead", "FF_T_LEAD", "feed-forward lead time constant [s]"),
-    Var("ff_t_lag", "FF_T_LAG", "feed-forward lag time constant [s] (> 0, Tustin)"),
-    Var(
-        "bumpless",
-        "BUMPLESS",
-        "to AUTO: 0 integrator, 1 track setpoint (SP ramp), 2 suppress P until |e| <= DEV_TOL",
-    ),
-    Var("dev_tol", "DEV_TOL", "deviation tolerance [%] of BUMPLESS = 2"),
-    Var("reset_value", "RESET_VALUE", "output while RST [%]"),
-    Var("safe_value", "SAFE_VALUE", "output while SP/PV/FF are bad, if USE_SAFE_VALUE [%]"),
-    Var("use_safe", "USE_SAFE_VALUE", "TRUE: SAFE_VALUE on bad inputs; FALSE: hold MV"),
-]
-_PID_OUT = [
-    Var("mv", "MV", "manipulated variable [%] (limited)"),
-    Var("error_id", "ERROR_ID", "status code (ctrlblocks ErrorCode, 16#8xxx; 0 = no error)"),
-    Var("limits_active", "LIMITS_ACTIVE", "the output is at a limit (= AWOUT for a cascade)"),
-    Var("p", "P", "proportional term of this cycle [%]"),
-    Var("i_term", "I_TERM", "integral term of this cycle [%]"),
-    Var("d_term", "D_TERM", "derivative term of this cycle [%]"),
-]
+_COMMON = {
+    "ts": "sample time [s]: the cycle time of the calling task (or the measured one)",
+    "error_id": "status code (ctrlblocks ErrorCode, 16#8xxx; 0 = no error)",
+}
+"""Comments of the variables every block has."""
+
+
+def _table(text: str) -> list[Var]:
+    """Interface variables from a table: ``python_name PLC_NAME comment`` a line.
+
+    An indented line continues the comment of the line above; a row without a
+    comment takes the common one (:data:`_COMMON`).
+    """
+    rows: list[list[str]] = []
+    for line in text.strip("\n").splitlines():
+        if line.startswith(" "):
+            rows[-1][2] += " " + line.strip()
+            continue
+        py, st, *comment = line.split(maxsplit=2)
+        rows.append([py, st, comment[0] if comment else _COMMON[py]])
+    return [Var(*row) for row in rows]
+
+
+_PID_PROCESS = _table("""
+sp           SP           setpoint [eng. units]
+pv           PV           process value [eng. units]
+ff           FF           feed-forward / offset added before the limits [%]
+pv_ok        PV_OK        quality of PV; FALSE = invalid measurement (16#8102)
+manual       MANUAL       manual mode: MV := MAN_VALUE (limited), bumpless back to AUTO
+man_value    MAN_VALUE    manual value [%]; outside MANUAL it follows MV (In/Out)
+rst          RST          reset: MV := RESET_VALUE (limited), integrator set to match
+dv           DV           input of the lead-lag feed-forward path (FF_K <> 0)
+track        TRACK        tracking mode: MV := TRACK_VALUE (limited), bumpless back
+track_value  TRACK_VALUE  output in TRACK [%]
+hold         HOLD         hold mode: MV stays, bumpless back
+awin         AWIN         freeze the integrator (anti-windup from a secondary in cascade)
+actuator_pos ACTUATOR_POS measured actuator position [%] for ANTI_WINDUP = 2 (write it every cycle)
+""")
+_PID_TUNING = _table("""
+k           K              gain K [%/%] (ISA form, Åström 1987 (2.1))
+ti          TI             integral time Ti [s]; 0 = no integral action
+td          TD             derivative time Td [s]; 0 = no derivative action
+n           N              derivative filter Tf = Td/N
+b           B              setpoint weight of P (Åström 1987 (2.2))
+c           C              setpoint weight of D (0 = derivative on PV)
+ts          TS
+u_min       U_MIN          output low limit [%]
+u_max       U_MAX          output high limit [%]
+tt          TT             tracking time constant Tt [s]; 0 = Ti/5 (ts without I)
+reverse     REVERSE        reverse action
+i_method    I_METHOD       integral discretisation: 0 forward (2.8), 1 backward, 2 Tustin
+d_method    D_METHOD       derivative discretisation: 0 forward, 1 backward, 2 Tustin (2.13)
+aw          ANTI_WINDUP    0 clamping (conditional integration), 1 back-calculation (model),
+                           2 on ACTUATOR_POS
+velocity    VELOCITY       TRUE: velocity (incremental) algorithm, Åström 1987 Fig. 2.5
+scale_pv    SCALE_PV       TRUE: SP and PV scaled from PV_LO..PV_HI to 0..100 %
+pv_lo       PV_LO          PV range low [eng. units] (SCALE_PV)
+pv_hi       PV_HI          PV range high [eng. units] (SCALE_PV)
+sp_filter   SP_FILTER      SP filter time constant [s] (PT1, exp(-TS/T)); 0 = off
+pv_filter   PV_FILTER      PV filter time constant [s] (PT1, exp(-TS/T)); 0 = off
+sp_rate     SP_RATE        setpoint ramp [%/s]; 0 = off
+out_rate    OUT_RATE       output ramp [%/s], in every mode but RST; 0 = off
+ff_k        FF_K           lead-lag feed-forward gain on DV; 0 = off (Bonde et al. 2021)
+ff_t_lead   FF_T_LEAD      feed-forward lead time constant [s]
+ff_t_lag    FF_T_LAG       feed-forward lag time constant [s] (> 0, Tustin)
+bumpless    BUMPLESS       to AUTO: 0 integrator, 1 track setpoint (SP ramp),
+                           2 suppress P until |e| <= DEV_TOL
+dev_tol     DEV_TOL        deviation tolerance [%] of BUMPLESS = 2
+reset_value RESET_VALUE    output while RST [%]
+safe_value  SAFE_VALUE     output while SP/PV/FF are bad, if USE_SAFE_VALUE [%]
+use_safe    USE_SAFE_VALUE TRUE: SAFE_VALUE on bad inputs; FALSE: hold MV
+""")
+_PID_OUT = _table("""
+mv            MV            manipulated variable [%] (limited)
+error_id      ERROR_ID
+limits_active LIMITS_ACTIVE the output is at a limit (= AWOUT for a cascade)
+p             P             proportional term of this cycle [%]
+i_term        I_TERM        integral term of this cycle [%]
+d_term        D_TERM        derivative term of this cycle [%]
+""")
 _PID_STATE_COMMENTS = {
     "out": "output of the last cycle [%]", "i": "integrator for the next cycle [%]",
     "d": "derivative state D[k-1]", "w_prev": "c r - y of the last cycle",
@@ -140,40 +151,40 @@ _PID_STATE_COMMENTS = {
     "ramp_out": "output ramp's last value [%]",
 }  # fmt: skip
 
-_ADRC_PROCESS = [
-    Var("sp", "SP", "setpoint Y_sp [units of Y]"),
-    Var("y", "PV", "process value Y"),
-    Var("y_ok", "PV_OK", "quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF"),
-    Var("manual", "MANUAL", "MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)"),
-    Var("u_man", "MAN_VALUE", "manual value; outside MANUAL it follows the applied u (In/Out)"),
-    Var("awin", "AWIN", "freeze x4 (anti-windup from a secondary in cascade, section 5)"),
-    Var("u_real", "U_REAL", "measured actuator value u_real (U_REAL_ON; NaN: u, 16#8101)"),
-]
-_ADRC_TUNING = [
-    Var("order", "ORDER", "ADRC order n = 1, 2, 3 (one body for all, section 3.2)"),
-    Var("b0", "B0", "scaling parameter b0 > 0"),
-    Var("omega_c", "OMEGA_C", "controller bandwidth [rad/s]"),
-    Var("omega_o", "OMEGA_O", "observer bandwidth [rad/s]"),
-    Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
-    Var("u_min", "U_MIN", "lower limit of MV"),
-    Var("u_max", "U_MAX", "upper limit of MV"),
-    Var("t_ref", "T_REF", "time constant of the reference trajectory [s]; 0 = off"),
-    Var("u_sf", "U_SF", "safe value while PV is invalid"),
-    Var("aw_rule", "ANTI_WINDUP", "x4 anti-windup: 0 off, 1 freeze, 2 directional (section 4.1)"),
-    Var("exact", "EXACT", "TRUE: exact (ZOH) current observer, FALSE: Euler ESO (4a)"),
-    Var("u_real_on", "U_REAL_ON", "TRUE: U_REAL drives the ESO (section 5)"),
-    Var("anti_backoff", "ANTI_BACKOFF", "anti-backoff action (12a)/(12b) at a sensor limit (4.3)"),
-    Var("y_sat", "Y_SAT", "upper saturation of the sensor [units of Y] (ANTI_BACKOFF)"),
-    Var("y_sat_lo", "Y_SAT_LO", "lower saturation of the sensor [units of Y] (ANTI_BACKOFF)"),
-    Var("tau_wait", "TAU_WAIT", "hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O"),
-]
-_ADRC_OUT = [
-    Var("mv", "MV", "manipulated variable u (limited)"),
-    Var("error_id", "ERROR_ID", "status code (ctrlblocks ErrorCode, 16#8xxx; 0 = no error)"),
-    Var("awout", "AWOUT", "u_raw beyond a limit (for a primary controller in cascade)"),
-    Var("u_raw", "U_RAW", "u of the control law (4b) before the limits"),
-    Var("x4_out", "DISTURBANCE", "x4: estimate of the total disturbance h"),
-]
+_ADRC_PROCESS = _table("""
+sp     SP        setpoint Y_sp [units of Y]
+y      PV        process value Y
+y_ok   PV_OK     quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF
+manual MANUAL    MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)
+u_man  MAN_VALUE manual value; outside MANUAL it follows the applied u (In/Out)
+awin   AWIN      freeze x4 (anti-windup from a secondary in cascade, section 5)
+u_real U_REAL    measured actuator value u_real (U_REAL_ON; NaN: u, 16#8101)
+""")
+_ADRC_TUNING = _table("""
+order        ORDER        ADRC order n = 1, 2, 3 (one body for all, section 3.2)
+b0           B0           scaling parameter b0 > 0
+omega_c      OMEGA_C      controller bandwidth [rad/s]
+omega_o      OMEGA_O      observer bandwidth [rad/s]
+ts           TS
+u_min        U_MIN        lower limit of MV
+u_max        U_MAX        upper limit of MV
+t_ref        T_REF        time constant of the reference trajectory [s]; 0 = off
+u_sf         U_SF         safe value while PV is invalid
+aw_rule      ANTI_WINDUP  x4 anti-windup: 0 off, 1 freeze, 2 directional (section 4.1)
+exact        EXACT        TRUE: exact (ZOH) current observer, FALSE: Euler ESO (4a)
+u_real_on    U_REAL_ON    TRUE: U_REAL drives the ESO (section 5)
+anti_backoff ANTI_BACKOFF anti-backoff action (12a)/(12b) at a sensor limit (4.3)
+y_sat        Y_SAT        upper saturation of the sensor [units of Y] (ANTI_BACKOFF)
+y_sat_lo     Y_SAT_LO     lower saturation of the sensor [units of Y] (ANTI_BACKOFF)
+tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
+""")
+_ADRC_OUT = _table("""
+mv       MV          manipulated variable u (limited)
+error_id ERROR_ID
+awout    AWOUT       u_raw beyond a limit (for a primary controller in cascade)
+u_raw    U_RAW       u of the control law (4b) before the limits
+x4_out   DISTURBANCE x4: estimate of the total disturbance h
+""")
 _ADRC_STATE_COMMENTS = {
     "out": "u of the last cycle", "yh": "ESO state Y_hat", "x2": "ESO state x2",
     "x3": "ESO state x3", "x4": "ESO state x4 (total disturbance)",
@@ -184,23 +195,23 @@ _ADRC_STATE_COMMENTS = {
     "ab_wait": "anti-backoff hold time left [s]",
 }  # fmt: skip
 
-_LL_PROCESS = [
-    Var("x", "IN", "input (setpoint or measured disturbance)"),
-    Var("enable", "ENABLE", "FALSE: OUT := 0, the input follows IN (Bonde et al. 2021, Fig. 10)"),
-]
-_LL_TUNING = [
-    Var("k", "K", "gain K"),
-    Var("t_lead", "T_LEAD", "lead time constant Tt [s] (numerator)"),
-    Var("t_lag", "T_LAG", "lag time constant Tn [s] (denominator)"),
-    Var("ts", "TS", "sample time [s]: the cycle time of the calling task (or the measured one)"),
-    Var("tustin", "TUSTIN", "TRUE Tustin (Bonde et al. 2021, Fig. 10), FALSE backward Euler"),
-    Var("out_min", "OUT_MIN", "output low limit"),
-    Var("out_max", "OUT_MAX", "output high limit"),
-]
-_LL_OUT = [
-    Var("out", "OUT", "output K (1 + Tt s)/(1 + Tn s), limited"),
-    Var("error_id", "ERROR_ID", "status code (ctrlblocks ErrorCode, 16#8xxx; 0 = no error)"),
-]
+_LL_PROCESS = _table("""
+x      IN     input (setpoint or measured disturbance)
+enable ENABLE FALSE: OUT := 0, the input follows IN (Bonde et al. 2021, Fig. 10)
+""")
+_LL_TUNING = _table("""
+k       K       gain K
+t_lead  T_LEAD  lead time constant Tt [s] (numerator)
+t_lag   T_LAG   lag time constant Tn [s] (denominator)
+ts      TS
+tustin  TUSTIN  TRUE Tustin (Bonde et al. 2021, Fig. 10), FALSE backward Euler
+out_min OUT_MIN output low limit
+out_max OUT_MAX output high limit
+""")
+_LL_OUT = _table("""
+out      OUT      output K (1 + Tt s)/(1 + Tn s), limited
+error_id ERROR_ID
+""")
 
 
 def _state(values: dict[str, Any], comments: dict[str, str], skip: set[str]) -> list[Var]:
