@@ -142,8 +142,9 @@ def plant_server(
     """Serve the plant of SCENARIO over OPC UA and Modbus TCP until SIGINT/SIGTERM.
 
     Variables: pv, mv (written by the controller), sp, mode, manual_value,
-    u_min, u_max, k, pv2 (inner plant output), dv (input load) -- OPC UA
-    ns=2;s=NAME, Modbus holding registers 0, 2, 4, ... (FLOAT32).  See
+    u_min, u_max, k, pv2 (inner plant output), dv (input load), mv2 (a split
+    range's actuator B, written), wild (a ratio loop's wild flow) -- OPC UA
+    ns=2;s=NAME, Modbus holding registers 0, 2, 4, ..., 22 (FLOAT32).  See
     docs/runtime.md.
     """
     from ..sim import ScenarioError, load_scenario
