@@ -70,6 +70,7 @@ import logging
 import os
 import select
 import signal
+import site
 import struct
 import subprocess
 import sys
@@ -193,9 +194,11 @@ class ProcessHistorian(Historian):
 
     def _start_writer(self) -> None:
         """Start a writer process (lock held); the queue starts with its settings and names."""
-        src = str(Path(__file__).resolve().parents[2])  # the folder that holds ctrlblocks
         env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+        src = str(Path(__file__).resolve().parents[2])  # the folder that holds ctrlblocks
+        if src not in {str(Path(p).resolve()) for p in site.getsitepackages()}:
+            # a source tree (tests, a checkout on sys.path): the writer imports the same code
+            env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
         proc = subprocess.Popen(
             [sys.executable, "-m", "ctrlblocks.runtime.writer"],
             stdin=subprocess.PIPE,
