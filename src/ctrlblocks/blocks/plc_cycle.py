@@ -39,7 +39,7 @@ import functools
 import math
 import types
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -111,6 +111,82 @@ def finite_or_zero(x: float) -> float:
     if is_real(x):
         return x
     return 0.0
+
+
+# ---------------------------------------------------------------------------
+# Small blocks with memory (each its own FUNCTION_BLOCK in the export)
+# ---------------------------------------------------------------------------
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def plc_block(short: str, results: tuple[str, ...], hidden: tuple[str, ...] = ()) -> Callable[
+    [_F], _F
+]:  # fmt: skip
+    """Mark a function as a small block with memory, exported as FUNCTION_BLOCK ``CB_<short>``.
+
+    The function is pure: its parameters are the inputs and the memory, it
+    returns ``results`` (named in order); a result named like a parameter is
+    that memory's new value.  The caller passes its memory in and takes it back
+    (``y = pt1_filter(u, t, h, preset, y)``); in the PLC an instance of the FB,
+    declared in the caller's VAR, holds it, and the caller reads it as the
+    instance's output (``hidden`` memories are no outputs).  Only the call
+    writes that memory, so the two stay the same value (the translator checks).
+    """
+
+    def mark(fn: _F) -> _F:
+        fn.plc_block = (short, results, hidden)  # type: ignore[attr-defined]
+        return fn
+
+    return mark
+
+
+@plc_block("PT1", ("y",))
+def pt1_filter(u: float, t: float, h: float, preset: bool, y: float) -> float:
+    """First-order filter, exact pole ``exp(-h/t)`` (t = 0: off); ``preset`` starts at ``u``.
+
+    :func:`.signals.pt1_coefficient` and :func:`.signals.pt1_step` (the PID's SP
+    and PV filters, :class:`~ctrlblocks.PT1`).  A memory that is not a finite
+    REAL (after the PID's law overflowed) restarts from 0, as the block resets
+    a filter whose output is not finite.
+    """
+    y = finite_or_zero(y)
+    if preset:
+        y = u
+    return pt1_step(pt1_coefficient(t, h, "exact"), y, 1.0, u)
+
+
+@plc_block("RAMP", ("y", "limiting"))
+def ramp_filter(u: float, rate: float, h: float, preset: bool, y: float) -> tuple[float, bool]:
+    """Linear ramp ``rate`` [units/s] both ways (0 = off); ``preset`` sets the output to ``u``.
+
+    :func:`.signals.rate_limit_step` (the PID's setpoint ramp,
+    :class:`~ctrlblocks.RateLimiter`); a memory that is not a finite REAL
+    restarts from 0.  Returns ``(y, limiting)``.
+    """
+    y = finite_or_zero(y)
+    if preset:
+        y = u
+    y, limiting = rate_limit_step(u, y, rate, rate, h)
+    return y, limiting
+
+
+@plc_block("LEADLAG_FF", ("y", "x_prev"), hidden=("x_prev",))
+def leadlag_filter(
+    u: float, k: float, t_lead: float, t_lag: float, h: float, y: float, x_prev: float
+) -> tuple[float, float]:
+    """``k (1 + t_lead s)/(1 + t_lag s)`` by Tustin, unlimited (Bonde et al. 2021, Fig. 10).
+
+    :func:`.leadlag.leadlag_coefficients` and :func:`.leadlag.leadlag_step`:
+    the PID's feed-forward path.  A memory that is not a finite REAL restarts
+    at rest.  Returns ``(y, x_prev)``.
+    """
+    if not is_real(y):
+        y = 0.0
+        x_prev = 0.0
+    b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, h, True)
+    y = leadlag_step(u, x_prev, y, b0, b1, a1, -REAL_MAX, REAL_MAX)
+    return y, u
 
 
 # ---------------------------------------------------------------------------
@@ -486,22 +562,16 @@ def pid_cycle(
         if scale_pv:
             x_sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
             x_pv = scale(pv, pv_lo, pv_hi, 0.0, 100.0)
-        if cold:
-            sp_f = x_sp
-            pv_f = x_pv
-        sp_f = pt1_step(pt1_coefficient(sp_filter, ts, "exact"), sp_f, 1.0, x_sp)
-        pv_f = pt1_step(pt1_coefficient(pv_filter, ts, "exact"), pv_f, 1.0, x_pv)
-        if bumpless == BUMPLESS_TRACK_SP and mode != AUTO:
-            sp_w = pv_f  # in a non-auto mode the working setpoint follows the PV
-        else:
-            if cold:
-                sp_w = sp_f
-            sp_w, _sp_ramping = rate_limit_step(sp_f, sp_w, sp_rate, sp_rate, ts)
+        sp_f = pt1_filter(x_sp, sp_filter, ts, cold, sp_f)
+        pv_f = pt1_filter(x_pv, pv_filter, ts, cold, pv_f)
+        ramp_in = sp_f
+        follow = bumpless == BUMPLESS_TRACK_SP and mode != AUTO
+        if follow:
+            ramp_in = pv_f  # in a non-auto mode the working setpoint follows the PV
+        sp_w, _sp_ramping = ramp_filter(ramp_in, sp_rate, ts, cold or follow, sp_w)
         ff_tot = ff
         if ff_k != 0.0:
-            l0, l1, la = leadlag_coefficients(ff_k, ff_t_lead, ff_t_lag, ts, True)
-            ll_out = leadlag_step(dv, ll_x, ll_out, l0, l1, la, -REAL_MAX, REAL_MAX)
-            ll_x = dv
+            ll_out, ll_x = leadlag_filter(dv, ff_k, ff_t_lead, ff_t_lag, ts, ll_out, ll_x)
             ff_tot = ff + ll_out
         from_mode = mode == AUTO and mode_prev != NO_MODE and mode_prev != AUTO
         transfer = from_mode or (mode == AUTO and reinit)
@@ -542,10 +612,7 @@ def pid_cycle(
             d, w_prev, e_prev = finite_or_zero(d_old), finite_or_zero(w_old), finite_or_zero(e_old)
             p_prev, d_prev = finite_or_zero(pp_old), finite_or_zero(dp_old)
             ff_prev, suppressed = finite_or_zero(fp_old), supp_old
-            sp_f, pv_f, sp_w = finite_or_zero(sp_f), finite_or_zero(pv_f), finite_or_zero(sp_w)
-            if not is_real(ll_out):
-                ll_out = 0.0
-                ll_x = 0.0
+            # (a filter, ramp or feed-forward memory that overflowed restarts in its block)
             p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d_term)
             limits_active = False
             reinit = True

@@ -42,7 +42,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Pou", "Program", "TranslationError", "pou_ref", "real_literal", "var"]
+__all__ = ["FbPou", "Pou", "Program", "TranslationError", "pou_ref", "real_literal", "var"]
 
 REAL, BOOL, DINT = "REAL", "BOOL", "DINT"
 _ANN = {"float": REAL, "bool": BOOL, "int": DINT}
@@ -108,6 +108,40 @@ class Pou:
 
 
 @dataclass
+class FbPou:
+    """One translated small block (a :func:`plc_block` function) as a FUNCTION_BLOCK.
+
+    ``inputs`` are its parameters but the state, ``outputs`` its results (a
+    result that is a state parameter is the memory itself, readable by the
+    caller), ``state`` the hidden memory, ``instances`` the FBs it holds.
+    """
+
+    name: str
+    doc: str
+    inputs: list[tuple[str, str]]
+    outputs: list[tuple[str, str]]
+    state: list[tuple[str, str]]
+    instances: dict[str, str]
+    temps: dict[str, str]
+    body: list[str]
+    source: str
+
+
+@dataclass
+class _FbSig:
+    """What a caller needs to know about a small block's FUNCTION_BLOCK."""
+
+    pou: str
+    short: str
+    params: list[str]  # python parameter names in order
+    state: set[str]  # the parameters that are the instance's memory
+    results: tuple[str, ...]
+    hidden: set[str]  # state the caller cannot read (VAR, not VAR_OUTPUT)
+    st: dict[str, str]  # python name -> ST name of every parameter and result
+    types: dict[str, str]  # ST name -> type
+
+
+@dataclass
 class _Sig:
     """What a caller needs to know about a translated function."""
 
@@ -128,7 +162,36 @@ class Program:
     def __init__(self, prefix: str = "CB_") -> None:
         self.prefix = prefix
         self.pous: dict[str, Pou] = {}
+        self.fbs: dict[str, FbPou] = {}
         self._sigs: dict[tuple[Any, ...], _Sig] = {}
+        self._fb_sigs: dict[Any, _FbSig] = {}
+
+    def fb_type(self, fn: Callable[..., Any]) -> _FbSig:
+        """Translate a small block ``fn`` (marked by :func:`plc_block`) as a FUNCTION_BLOCK."""
+        if fn in self._fb_sigs:
+            return self._fb_sigs[fn]
+        short, results, hidden = fn.plc_block  # type: ignore[attr-defined]
+        node = _source(fn)[0]
+        params = [a.arg for a in node.args.args]
+        names = {n: _st_name(n.upper()) for n in (*params, *results)}
+        tr = _Translator(self, fn, {}, fb=(results, names))
+        body, fbvars, temps, instances = tr.translate_fb()
+        state = {p for p in params if p in results}
+        pou = FbPou(
+            name=self.prefix + short,
+            doc=tr._doc(),
+            inputs=[(names[p], fbvars[names[p]]) for p in params if p not in state],
+            outputs=[(names[r], fbvars[names[r]]) for r in results if r not in hidden],
+            state=[(names[r], fbvars[names[r]]) for r in results if r in hidden],
+            instances=instances,
+            temps=temps,
+            body=body,
+            source=f"{fn.__module__}.{fn.__qualname__}",
+        )
+        self.fbs[pou.name] = pou
+        sig = _FbSig(pou.name, short, params, state, tuple(results), set(hidden), names, fbvars)
+        self._fb_sigs[fn] = sig
+        return sig
 
     def function(self, fn: Callable[..., Any], consts: dict[str, Any] | None = None) -> _Sig:
         """Translate ``fn`` (specialised for constant arguments ``consts``) as a FUNCTION."""
@@ -141,12 +204,14 @@ class Program:
 
     def fb_body(
         self, fn: Callable[..., Any], results: tuple[str, ...], names: dict[str, str]
-    ) -> tuple[list[str], dict[str, str], dict[str, str]]:
+    ) -> tuple[list[str], dict[str, str], dict[str, str], dict[str, str]]:
         """Translate ``fn`` as the body of a FUNCTION_BLOCK.
 
         ``names`` maps every parameter and result of ``fn`` to its FB variable
         name; ``results`` names the values of the final ``return``.  Returns
-        ``(body lines, {FB var: type}, {temp: type})``.
+        ``(body lines, {FB var: type}, {temp: type}, {instance: FB type})``;
+        a parameter that is the memory of a small block's instance is not an
+        FB variable (the instance holds it).
         """
         tr = _Translator(self, fn, {}, fb=(results, names))
         return tr.translate_fb()
@@ -214,6 +279,69 @@ class _Translator:
         self.ret_name = ""
         self.outputs: list[tuple[str, str]] = []
         self.ret_type: str | None = None
+        # small blocks' instances: python name of a memory -> (instance, output or None)
+        self.owned: dict[str, tuple[str, str | None]] = {}
+        self.instances: dict[str, str] = {}  # instance -> FB type
+        self.fb_calls: dict[int, tuple[str, _FbSig, dict[str, str]]] = {}
+
+    def scan_instances(self) -> None:
+        """Find the calls of small blocks: one instance per set of memories passed."""
+        by_state: dict[tuple[str, ...], str] = {}
+        for st in ast.walk(self.node):
+            if not (isinstance(st, ast.Assign) and isinstance(st.value, ast.Call)):
+                continue
+            c = st.value
+            fn = self.resolve(c.func)
+            if not hasattr(fn, "plc_block"):
+                continue
+            if self.fb is None:
+                raise self.err(st, "a FUNCTION cannot hold a FUNCTION_BLOCK instance")
+            assert fn is not None
+            sig = self.prog.fb_type(fn)
+            if len(c.args) != len(sig.params) or c.keywords:
+                raise self.err(c, f"{sig.pou} takes {len(sig.params)} positional arguments")
+            state_args: dict[str, str] = {}
+            for p, a in zip(sig.params, c.args, strict=True):
+                if p in sig.state:
+                    if not isinstance(a, ast.Name):
+                        raise self.err(c, f"the memory {p!r} of {sig.pou} must be a name")
+                    state_args[p] = a.id
+            key = tuple(state_args.values())
+            if key not in by_state:
+                inst = f"{sig.short}_{key[0]}" if key else sig.short
+                while inst.lower() in {i.lower() for i in self.instances}:
+                    inst += "_"
+                by_state[key] = inst
+                self.instances[inst] = sig.pou
+            inst = by_state[key]
+            for p, x in state_args.items():
+                if x in self.owned and self.owned[x][0] != inst:
+                    raise self.err(c, f"{x!r} is the memory of two instances")
+                self.owned[x] = (inst, None if p in sig.hidden else sig.st[p])
+            self.fb_calls[id(c)] = (inst, sig, state_args)
+
+    def fb_call(self, target: ast.expr, c: ast.Call, s: ast.stmt) -> None:
+        """``y, x = block(u, ..., y, x)``: call the instance, read its outputs."""
+        inst, sig, state_args = self.fb_calls[id(c)]
+        if isinstance(target, ast.Tuple):
+            targets = [e.id if isinstance(e, ast.Name) else "" for e in target.elts]
+        else:
+            targets = [target.id if isinstance(target, ast.Name) else ""]
+        if len(targets) != len(sig.results) or "" in targets:
+            raise self.err(s, f"{sig.pou} gives {len(sig.results)} values to names")
+        args = zip(sig.params, c.args, strict=True)
+        params = [f"{sig.st[p]} := {self.coerce(a, sig.types[sig.st[p]])}"
+                  for p, a in args if p not in sig.state]  # fmt: skip
+        self.emit_call(var(inst), params)
+        for r, t in zip(sig.results, targets, strict=True):
+            if r in sig.state:
+                if t != state_args[r]:
+                    raise self.err(s, f"the memory {r!r} of {sig.pou} must go back to {t!r}")
+                continue
+            typ = sig.types[sig.st[r]]
+            st = self.declare(t, self.types.get(t, typ), s)
+            self.emit(f"{var(st)} := {var(inst)}.{sig.st[r]};")
+            self.bump(t)
 
     # -- errors and comments ---------------------------------------------------
 
@@ -280,6 +408,7 @@ class _Translator:
         if self.consts:
             name += "_" + "_".join(str(v).upper() for v in self.consts.values())
         self.ret_name = name
+        self.scan_instances()
         body = self._body_statements()
         params = self._params()
         assigned = {
@@ -413,19 +542,26 @@ class _Translator:
         for rname in results:
             if rname not in self.st:
                 self.st[rname] = names[rname]
+        self.scan_instances()
+        for x in self.owned:
+            fbvars.pop(self.st.get(x, ""), None)  # the instance holds it
         body = self._body_statements()
         final = body[-1]
-        if not (isinstance(final, ast.Return) and isinstance(final.value, ast.Tuple)):
-            raise self.err(final, "the cycle function must end with 'return <tuple>'")
+        if not isinstance(final, ast.Return) or final.value is None:
+            raise self.err(final, "the cycle function must end with 'return <values>'")
         self.block(body[:-1], top=False)
         self.emit_comments(final)
-        elts = final.value.elts
+        elts = final.value.elts if isinstance(final.value, ast.Tuple) else [final.value]
         if len(elts) != len(results):
             raise self.err(final, f"returns {len(elts)} values, the results name {len(results)}")
         # result variables named like locals are the same ST variables
         pending: list[tuple[str, str, str]] = []
         for rname, e in zip(results, elts, strict=True):
             st = names[rname]
+            if rname in self.owned:
+                if not (isinstance(e, ast.Name) and e.id == rname):
+                    raise self.err(final, f"{rname!r} is the memory of an instance")
+                continue
             text, _, typ = self.expr(e)
             if rname not in dict(params):
                 fbvars[st] = self.types.get(rname, typ)
@@ -442,7 +578,7 @@ class _Translator:
         for k in list(temps):
             if k.lower() in {v.lower() for v in fbvars}:
                 del temps[k]
-        return self.lines, fbvars, temps
+        return self.lines, fbvars, temps, self.instances
 
     # -- statements ----------------------------------------------------------------------
 
@@ -528,6 +664,13 @@ class _Translator:
             self.emit("RETURN;")
 
     def assign(self, target: ast.expr, value: ast.expr, s: ast.stmt) -> None:
+        if isinstance(value, ast.Call) and id(value) in self.fb_calls:
+            self.fb_call(target, value, s)
+            return
+        for t in target.elts if isinstance(target, ast.Tuple) else [target]:
+            if isinstance(t, ast.Name) and t.id in self.owned:
+                raise self.err(s, f"{t.id!r} is the memory of {self.owned[t.id][0]}: "
+                                  "only the instance's call writes it")  # fmt: skip
         if isinstance(target, ast.Name):
             if isinstance(value, ast.Tuple):
                 self.bind_tuple(target.id, value, s)
@@ -700,6 +843,9 @@ class _Translator:
         self.emit_call(pou_ref(sig.pou), args + outs)
 
     def emit_call(self, name: str, params: list[str]) -> None:
+        if not params:
+            self.emit(f"{name}();")
+            return
         self.emit(f"{name}(")
         for j, p in enumerate(params):
             self.emit("    " + p + ("," if j < len(params) - 1 else ");"))
@@ -754,6 +900,11 @@ class _Translator:
             if isinstance(v, float):
                 return real_literal(v), PREC_ATOM if v >= 0 else PREC_UNARY, REAL
             raise self.err(e, f"constant {v!r} has no ST type here")
+        if isinstance(e, ast.Name) and e.id in self.owned:
+            inst, out = self.owned[e.id]
+            if out is None:
+                raise self.err(e, f"{e.id!r} is hidden in the instance {inst}")
+            return f"{var(inst)}.{out}", PREC_ATOM, self.types[e.id]
         if isinstance(e, ast.Name):
             if e.id in self.tuples:
                 raise self.err(e, f"tuple {e.id!r} used as a value")
