@@ -23,6 +23,7 @@ from ctrlblocks.blocks import plc_cycle as pc
 
 from .traces import (
     ADRC_OPTIONS,
+    DB_OPTIONS,
     PID_MODES,
     PID_OPTIONS,
     REAL_SPIKE,
@@ -41,7 +42,8 @@ FB_TO_PY = {
     "pid": {"SP": "sp", "PV": "pv", "FF": "ff", "PV_OK": "pv_ok", "MANUAL": "manual",
             "MAN_VALUE": "man_value", "RST": "rst", "K": "k", "TI": "ti", "U_MIN": "u_min",
             "U_MAX": "u_max", "DV": "dv", "TRACK": "track", "TRACK_VALUE": "track_value",
-            "HOLD": "hold", "AWIN": "awin", "ACTUATOR_POS": "actuator_pos"},
+            "HOLD": "hold", "AWIN": "awin", "ACTUATOR_POS": "actuator_pos", "T_STAB": "t_stab",
+            "TS": "ts"},
     "adrc": {"SP": "sp", "PV": "y", "PV_OK": "y_ok", "MANUAL": "manual", "MAN_VALUE": "u_man",
              "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max",
              "AWIN": "awin", "U_REAL": "u_real"},
@@ -88,6 +90,7 @@ def _run64(kind, block, trace):
             ("pid", functools.partial(pid_trace, 600, 20 + j, modes=True, **cfg))
             for j, cfg in enumerate(PID_OPTIONS)
         ),
+        *(("pid", functools.partial(pid_trace, 1000, 60, **cfg)) for cfg in DB_OPTIONS),
         ("adrc", lambda: adrc_trace(1000, seed=9)),
         ("adrc", lambda: adrc_trace(400, seed=10, order=3, b0=0.01, omega_c=0.3, omega_o=1.2)),
         *(
@@ -112,6 +115,9 @@ def test_cycle_in_float64_is_the_block(kind, make):
                 block.configure(kp=inp["K"], ti=inp["TI"])
             if "U_MIN" in inp:
                 block.configure(u_min=inp["U_MIN"], u_max=inp["U_MAX"])
+            for name in ("T_STAB", "TS"):
+                if name in inp:
+                    block.configure(**{name.lower(): inp[name]})
             u = block(inp["SP"], inp["PV"], ff=inp["FF"], pv_ok=inp["PV_OK"], dv=inp.get("DV", 0.0))
             ref.append((u, int(block.error_id)))
         elif kind == "adrc":
@@ -267,7 +273,7 @@ def test_velocity_form_needs_precision_only_where_the_increments_are_added():
 @pytest.mark.parametrize(
     ("cls", "kw", "field"),
     [
-        (PID, {"deadband": 1.0}, "deadband"),
+        (PID, {"deadband": 1.0, "t_stab": 20000.0}, "t_stab"),  # a 2e5-sample ARRAY
     ],
 )
 def test_float32_is_refused_where_the_plc_cycle_does_not_cover_the_options(cls, kw, field):

@@ -235,8 +235,8 @@ def test_translator_refuses_writing_an_instances_memory_outside_its_call():
 
 
 def test_export_refuses_what_it_does_not_cover():
-    with pytest.raises(plc.UnsupportedBlock, match="deadband"):
-        plc.export(PID(deadband=0.5, ti=1.0))
+    with pytest.raises(plc.UnsupportedBlock, match="t_stab"):
+        plc.export(PID(deadband=0.5, ti=1.0, t_stab=20000.0))  # a 2e5-sample ARRAY
     with pytest.raises(plc.UnsupportedBlock, match="MovingAverage"):
         plc.export(MovingAverage(n=3))
     with pytest.raises(ValueError, match="unknown PLC target"):
@@ -245,13 +245,13 @@ def test_export_refuses_what_it_does_not_cover():
 
 def _with_a_loop(x: float) -> float:
     y = 0.0
-    for _ in range(3):
-        y = y + x
+    while y < x:
+        y = y + 1.0
     return y
 
 
 def test_translator_names_function_and_line_of_an_unsupported_construct():
-    with pytest.raises(TranslationError, match=r"_with_a_loop, line \d+: statement For"):
+    with pytest.raises(TranslationError, match=r"_with_a_loop, line \d+: statement While"):
         Program().function(_with_a_loop)
 
 

@@ -29,8 +29,21 @@ from datetime import datetime, timezone
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
 
+import numpy as np
+
 from .specs import BlockSpec, spec_for
-from .translate import BOOL, DINT, REAL, FbPou, Pou, Program, TranslationError, real_literal, var
+from .translate import (
+    BOOL,
+    DINT,
+    REAL,
+    FbPou,
+    Pou,
+    Program,
+    TranslationError,
+    array_info,
+    real_literal,
+    var,
+)
 
 __all__ = ["TARGETS", "Exported", "build", "export", "export_files"]
 
@@ -65,6 +78,8 @@ class Exported:
 
 
 def _zero(value: Any) -> bool:
+    if isinstance(value, list | tuple | np.ndarray):
+        return all(_zero(v) for v in value)
     return value is False or (not isinstance(value, bool) and value == 0)
 
 
@@ -98,7 +113,8 @@ def build(block: Any) -> Exported:
     spec = spec_for(block)
     prog = Program()
     names = spec.names()
-    body, fbvars, temps, instances = prog.fb_body(spec.cycle, spec.results, names)
+    sizes = {k: len(v) for k, v in spec.values.items() if isinstance(v, list | np.ndarray)}
+    body, fbvars, temps, instances = prog.fb_body(spec.cycle, spec.results, names, sizes)
     body = [*body, f"{var('ERROR')} := {var('ERROR_ID')} <> 0;"]
     for v in spec.state:
         if v.st not in fbvars and not _zero(spec.values[v.py]):
@@ -163,6 +179,9 @@ def _comment(text: str) -> str:
 def _typ(t: str, target: str) -> str:
     if target != "tia":
         return t
+    arr = array_info(t)
+    if arr is not None:
+        return f"Array[0..{arr[0] - 1}] of {_TIA_TYPES[arr[1]]}"
     return _TIA_TYPES.get(t, f'"{t}"')  # an FB type (multi-instance) is a quoted block name
 
 
@@ -278,7 +297,14 @@ def _xvars(tag: str, items: list[tuple[str, str, str, str]]) -> list[str]:
     out = [f"          <{tag}>"]
     for name, typ, init, comment in items:
         out.append(f"            <variable name={quoteattr(name)}>")
-        kind = f"<{typ} />" if typ in (REAL, BOOL, DINT) else f"<derived name={quoteattr(typ)} />"
+        arr = array_info(typ)
+        if arr is not None:
+            kind = (f'<array><dimension lower="0" upper="{arr[0] - 1}" />'
+                    f"<baseType><{arr[1]} /></baseType></array>")  # fmt: skip
+        elif typ in (REAL, BOOL, DINT):
+            kind = f"<{typ} />"
+        else:
+            kind = f"<derived name={quoteattr(typ)} />"
         out.append(f"              <type>{kind}</type>")
         if init:
             out.append(f"              <initialValue><simpleValue value={quoteattr(init)} />"

@@ -35,6 +35,7 @@ from __future__ import annotations
 import ast
 import inspect
 import io
+import re
 import textwrap
 import tokenize
 import types
@@ -42,10 +43,33 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["FbPou", "Pou", "Program", "TranslationError", "pou_ref", "real_literal", "var"]
+__all__ = [
+    "FbPou",
+    "Pou",
+    "Program",
+    "TranslationError",
+    "array_info",
+    "array_type",
+    "pou_ref",
+    "real_literal",
+    "var",
+]
 
 REAL, BOOL, DINT = "REAL", "BOOL", "DINT"
 _ANN = {"float": REAL, "bool": BOOL, "int": DINT}
+_ELEM = {"list[float]": REAL, "list[int]": DINT, "list[bool]": BOOL}
+_ARRAY = re.compile(r"ARRAY\[0\.\.(\d+)\] OF (REAL|DINT|BOOL)")
+
+
+def array_type(n: int, elem: str) -> str:
+    """The ST type of a Python list of ``n`` values: ``ARRAY[0..n-1] OF elem``."""
+    return f"ARRAY[0..{n - 1}] OF {elem}"
+
+
+def array_info(typ: str) -> tuple[int, str] | None:
+    """``(length, element type)`` of an array type, None for a scalar or an FB type."""
+    m = _ARRAY.fullmatch(typ)
+    return (int(m.group(1)) + 1, m.group(2)) if m else None
 # identifiers that are keywords (or standard names) in at least one of the dialects
 _RESERVED = {
     "ref", "to", "by", "do", "of", "if", "or", "and", "xor", "not", "mod", "at", "on",
@@ -164,17 +188,24 @@ class Program:
         self.pous: dict[str, Pou] = {}
         self.fbs: dict[str, FbPou] = {}
         self._sigs: dict[tuple[Any, ...], _Sig] = {}
-        self._fb_sigs: dict[Any, _FbSig] = {}
+        self._fb_sigs: dict[tuple[Any, ...], _FbSig] = {}
 
-    def fb_type(self, fn: Callable[..., Any]) -> _FbSig:
-        """Translate a small block ``fn`` (marked by :func:`plc_block`) as a FUNCTION_BLOCK."""
-        if fn in self._fb_sigs:
-            return self._fb_sigs[fn]
+    def fb_type(self, fn: Callable[..., Any], sizes: dict[str, int] | None = None) -> _FbSig:
+        """Translate a small block ``fn`` (marked by :func:`plc_block`) as a FUNCTION_BLOCK.
+
+        ``sizes``: the length of each list parameter (its ARRAY's bounds).
+        """
+        sizes = sizes or {}
+        key = (fn, tuple(sorted(sizes.items())))
+        if key in self._fb_sigs:
+            return self._fb_sigs[key]
         short, results, hidden = fn.plc_block  # type: ignore[attr-defined]
+        if any(k[0] is fn for k in self._fb_sigs):
+            short += "_" + "_".join(str(n) for n in sizes.values())  # another array size
         node = _source(fn)[0]
         params = [a.arg for a in node.args.args]
         names = {n: _st_name(n.upper()) for n in (*params, *results)}
-        tr = _Translator(self, fn, {}, fb=(results, names))
+        tr = _Translator(self, fn, {}, fb=(results, names), sizes=sizes)
         body, fbvars, temps, instances = tr.translate_fb()
         state = {p for p in params if p in results}
         pou = FbPou(
@@ -190,7 +221,7 @@ class Program:
         )
         self.fbs[pou.name] = pou
         sig = _FbSig(pou.name, short, params, state, tuple(results), set(hidden), names, fbvars)
-        self._fb_sigs[fn] = sig
+        self._fb_sigs[key] = sig
         return sig
 
     def function(self, fn: Callable[..., Any], consts: dict[str, Any] | None = None) -> _Sig:
@@ -203,7 +234,11 @@ class Program:
         return self._sigs[key]
 
     def fb_body(
-        self, fn: Callable[..., Any], results: tuple[str, ...], names: dict[str, str]
+        self,
+        fn: Callable[..., Any],
+        results: tuple[str, ...],
+        names: dict[str, str],
+        sizes: dict[str, int] | None = None,
     ) -> tuple[list[str], dict[str, str], dict[str, str], dict[str, str]]:
         """Translate ``fn`` as the body of a FUNCTION_BLOCK.
 
@@ -211,9 +246,10 @@ class Program:
         name; ``results`` names the values of the final ``return``.  Returns
         ``(body lines, {FB var: type}, {temp: type}, {instance: FB type})``;
         a parameter that is the memory of a small block's instance is not an
-        FB variable (the instance holds it).
+        FB variable (the instance holds it).  ``sizes``: the length of each
+        list parameter.
         """
-        tr = _Translator(self, fn, {}, fb=(results, names))
+        tr = _Translator(self, fn, {}, fb=(results, names), sizes=sizes)
         return tr.translate_fb()
 
     def ordered(self) -> list[Pou]:
@@ -259,7 +295,9 @@ class _Translator:
         fn: Callable[..., Any],
         consts: dict[str, Any],
         fb: tuple[tuple[str, ...], dict[str, str]] | None,
+        sizes: dict[str, int] | None = None,
     ) -> None:
+        self.sizes = sizes or {}
         self.prog = prog
         self.fn = fn
         self.consts = dict(consts)
@@ -297,15 +335,20 @@ class _Translator:
             if self.fb is None:
                 raise self.err(st, "a FUNCTION cannot hold a FUNCTION_BLOCK instance")
             assert fn is not None
-            sig = self.prog.fb_type(fn)
-            if len(c.args) != len(sig.params) or c.keywords:
-                raise self.err(c, f"{sig.pou} takes {len(sig.params)} positional arguments")
+            params = [a.arg for a in _source(fn)[0].args.args]
+            if len(c.args) != len(params) or c.keywords:
+                raise self.err(c, f"{fn.__name__} takes {len(params)} positional arguments")
             state_args: dict[str, str] = {}
-            for p, a in zip(sig.params, c.args, strict=True):
-                if p in sig.state:
+            sizes: dict[str, int] = {}
+            for p, a in zip(params, c.args, strict=True):
+                if p in fn.plc_block[1]:
                     if not isinstance(a, ast.Name):
-                        raise self.err(c, f"the memory {p!r} of {sig.pou} must be a name")
+                        raise self.err(c, f"the memory {p!r} of {fn.__name__} must be a name")
                     state_args[p] = a.id
+                    info = array_info(self.types.get(a.id, ""))
+                    if info is not None:
+                        sizes[p] = info[0]
+            sig = self.prog.fb_type(fn, sizes)
             key = tuple(state_args.values())
             if key not in by_state:
                 inst = f"{sig.short}_{key[0]}" if key else sig.short
@@ -400,7 +443,9 @@ class _Translator:
 
     def _doc(self) -> str:
         doc = ast.get_docstring(self.node) or ""
-        return doc.strip().split("\n\n")[0].replace("\n", " ")
+        doc = doc.strip().split("\n\n")[0].replace("\n", " ")
+        doc = re.sub(r":\w+:`[~.]?(?:[\w.]*\.)?(\w+)`", r"\1", doc)  # :class:`~a.B` -> B
+        return doc.replace("``", "")
 
     def translate_function(self) -> _Sig:
         fn = self.fn
@@ -532,9 +577,14 @@ class _Translator:
         results, names = self.fb
         params = self._params()
         fbvars: dict[str, str] = {}
+        anns = {a.arg: ast.unparse(a.annotation) if a.annotation else ""
+                for a in self.node.args.args}  # fmt: skip
         for pname, ptype in params:
+            if ptype is None and anns[pname] in _ELEM and pname in self.sizes:
+                ptype = array_type(self.sizes[pname], _ELEM[anns[pname]])
             if ptype is None:
-                raise self.err(self.node, f"FB parameter {pname!r} needs a scalar annotation")
+                raise self.err(self.node, f"FB parameter {pname!r} needs a scalar annotation "
+                                          "(or list[...] with its size)")  # fmt: skip
             st = names[pname]
             self.st[pname] = st
             self.types[pname] = ptype
@@ -603,8 +653,37 @@ class _Translator:
             self.if_stmt(s, last)
         elif isinstance(s, ast.Return):
             self.return_stmt(s, last)
+        elif isinstance(s, ast.For):
+            self.for_stmt(s)
         else:
             raise self.err(s, f"statement {type(s).__name__} is not translated")
+
+    def for_stmt(self, s: ast.For) -> None:
+        """``for j in range(a[, b]):`` -> ``FOR j := a TO b - 1 DO`` (the bounds are DINT)."""
+        it = s.iter
+        if not (
+            isinstance(s.target, ast.Name)
+            and isinstance(it, ast.Call)
+            and isinstance(it.func, ast.Name)
+            and it.func.id == "range"
+            and 1 <= len(it.args) <= 2
+            and not s.orelse
+        ):
+            raise self.err(s, "only 'for name in range(a[, b])' loops are translated")
+        lo = self.coerce(it.args[0], DINT) if len(it.args) == 2 else "0"
+        hi = it.args[-1]
+        if isinstance(hi, ast.Constant):
+            top = str(int(hi.value) - 1)
+        else:
+            top = f"{self.wrap(self.expr(hi), PREC_ADD + 1)} - 1"
+            if self.expr(hi)[2] != DINT:
+                raise self.err(s, "range() of a non-DINT")
+        j = self.declare(s.target.id, DINT, s)
+        self.emit(f"FOR {var(j)} := {lo} TO {top} DO")
+        self.indent += 1
+        self.block(s.body, top=False)
+        self.indent -= 1
+        self.emit("END_FOR;")
 
     def const_test(self, e: ast.expr) -> bool | None:
         try:
@@ -666,6 +745,10 @@ class _Translator:
     def assign(self, target: ast.expr, value: ast.expr, s: ast.stmt) -> None:
         if isinstance(value, ast.Call) and id(value) in self.fb_calls:
             self.fb_call(target, value, s)
+            return
+        if isinstance(target, ast.Subscript):
+            text, elem = self.element(target)
+            self.emit(f"{text} := {self.coerce(value, elem)};")
             return
         for t in target.elts if isinstance(target, ast.Tuple) else [target]:
             if isinstance(t, ast.Name) and t.id in self.owned:
@@ -852,6 +935,15 @@ class _Translator:
 
     # -- expressions: (text, precedence, type) -------------------------------------------
 
+    def element(self, e: ast.Subscript) -> tuple[str, str]:
+        """``a[i]`` of an array of this POU: ``(ST text, element type)``."""
+        if not isinstance(e.value, ast.Name) or e.value.id in self.owned:
+            raise self.err(e, "a subscript of something other than this block's array")
+        info = array_info(self.types.get(e.value.id, ""))
+        if info is None:
+            raise self.err(e, f"{e.value.id!r} is not an array")
+        return f"{var(self.st[e.value.id])}[{self.coerce(e.slice, DINT)}]", info[1]
+
     def fold(self, e: ast.expr) -> Any:
         """Evaluate a constant expression (string constants, module constants)."""
         if isinstance(e, ast.Constant):
@@ -900,6 +992,9 @@ class _Translator:
             if isinstance(v, float):
                 return real_literal(v), PREC_ATOM if v >= 0 else PREC_UNARY, REAL
             raise self.err(e, f"constant {v!r} has no ST type here")
+        if isinstance(e, ast.Subscript):
+            text, elem = self.element(e)
+            return text, PREC_ATOM, elem
         if isinstance(e, ast.Name) and e.id in self.owned:
             inst, out = self.owned[e.id]
             if out is None:
@@ -958,6 +1053,13 @@ class _Translator:
         ):
             left = self.expr(e.left)
             return f"{self.wrap(left, PREC_MUL)} MOD 2", PREC_MUL, DINT
+        if isinstance(e.op, ast.Mod):
+            # DINT only; the kernels keep both operands >= 0, where % and MOD agree
+            left, right = self.expr(e.left), self.expr(e.right)
+            if left[2] != DINT or right[2] != DINT:
+                raise self.err(e, "% needs integers")
+            text = f"{self.wrap(left, PREC_MUL)} MOD {self.wrap(right, PREC_MUL + 1)}"
+            return text, PREC_MUL, DINT
         ops = {ast.Add: ("+", PREC_ADD), ast.Sub: ("-", PREC_ADD), ast.Mult: ("*", PREC_MUL),
                ast.Div: ("/", PREC_MUL)}  # fmt: skip
         if isinstance(e.op, ast.Pow):
@@ -1037,6 +1139,12 @@ class _Translator:
             )
         if name == "float":
             return self.coerce(c.args[0], REAL), PREC_ATOM, REAL
+        if name == "len":
+            a = c.args[0]
+            info = array_info(self.types.get(a.id, "")) if isinstance(a, ast.Name) else None
+            if info is None:
+                raise self.err(c, "len() of something other than an array")
+            return str(info[0]), PREC_ATOM, DINT  # the bounds are fixed at export
         if name == "int":
             a = self.expr(c.args[0])
             if a[2] == DINT:
