@@ -37,9 +37,10 @@ BLOCKS = {
                                anti_windup="back_calc_real"),
     "adrc_options": lambda: ADRC(order=2, b0=0.05, discretisation="exact", u_real_on=True,
                                  anti_backoff=True, y_sat=90.0, y_sat_lo=-1.0),
+    "pid_deadband": lambda: PID(kp=2.0, ti=3.0, deadband=0.5, t_stab=1.0, sp_filter=1.0),
 }  # fmt: skip
 FB = {"pid": "CB_PID", "adrc1": "CB_ADRC", "adrc3": "CB_ADRC", "leadlag": "CB_LEADLAG",
-      "pid_options": "CB_PID", "adrc_options": "CB_ADRC"}  # fmt: skip
+      "pid_options": "CB_PID", "adrc_options": "CB_ADRC", "pid_deadband": "CB_PID"}  # fmt: skip
 
 
 def _bodies(st: str) -> dict[str, list[str]]:
@@ -141,7 +142,7 @@ def test_plcopen_xml_binds_to_the_tc6_schema_and_carries_the_st_bodies(name):
 _SCL_KEYWORDS = {
     "if", "then", "elsif", "else", "end_if", "and", "or", "not", "xor", "mod", "true",
     "false", "return", "abs", "exp", "ln", "sqrt", "trunc", "dint_to_real", "sel", "min",
-    "max", "expt", "region", "end_region",
+    "max", "expt", "region", "end_region", "for", "to", "do", "end_for",
 }  # fmt: skip
 
 
@@ -202,6 +203,11 @@ def test_small_blocks_with_memory_are_fbs_instantiated_inside_the_pid():
     assert "#PT1_sp_f(" in plc.export(block, "tia") and "#PT1_pv_f.Y" in plc.export(block, "tia")
     xml = plc.export(block, "plcopen")
     assert '<derived name="CB_PT1" />' in xml and 'pouType="functionBlock"' in xml
+    db = PID(kp=2.0, ti=3.0, deadband=0.5, t_stab=1.5, ts=0.1)
+    assert "BUF : ARRAY[0..14] OF REAL;" in plc.export(db, "codesys")  # round(1.5/0.1) values
+    assert "BUF : Array[0..14] of Real;" in plc.export(db, "tia")
+    assert '<array><dimension lower="0" upper="14" /><baseType><REAL /></baseType></array>' in (
+        plc.export(db, "plcopen"))  # fmt: skip
     # the stateless helpers stay FUNCTIONs
     assert pous["CB_PT1_STEP"].startswith("FUNCTION CB_PT1_STEP : REAL")
 
