@@ -27,7 +27,9 @@ Sections (targets of issue 18):
   task (>= 1.7x when the second core is free);
 * ``simulator``: the Nowak et al. 2018, Fig. 7 scenario through
   ``run_scenario`` (which dispatches its runs to the compiled lane) vs
-  ``fast.closed_loop`` of the same six runs (<= 2x), and the forced Python path.
+  ``fast.closed_loop`` of the same six runs (<= 2x), and the forced Python path;
+* ``structures``: a cascade, an override, a feed-forward and a Smith-predictor
+  scenario through ``run_scenario`` on the compiled lane vs the Python path.
 """
 
 from __future__ import annotations
@@ -437,6 +439,131 @@ def bench_simulator(rounds: int) -> list[Row]:
     ]
 
 
+# the structures on the compiled lane: cascade and feed-forward as scenarios of their own
+# (no shipped scenario has them), override and Smith as shipped (astrom_fig39, nowak_smith)
+
+_STRUCTURE_HEAD = """
+[scenario]
+name = "{name}"
+title = "{name}"
+source = "benchmark"
+structure = "{name}"
+ts = 0.1
+duration = 600.0
+seed = 3
+[sensor]
+noise = 0.01
+[initial]
+y = 0.5
+warmup = 2.0
+[[events]]
+t = 2.0
+do = "setpoint"
+value = 1.5
+[[events]]
+t = 200.0
+do = "load"
+value = -0.2
+[[events]]
+t = 400.0
+do = "setpoint"
+value = 1.0
+"""
+
+CASCADE_BENCH = _STRUCTURE_HEAD.format(name="cascade") + """
+[inner_plant]
+type = "PT1"
+k = 1.0
+t = 1.5
+[plant]
+type = "FOPDT"
+k = 1.5
+t = 8.0
+dead_time = 1.0
+[actuator]
+u_min = 0.0
+u_max = 1.2
+[[controllers]]
+name = "PID / PID"
+[controllers.primary]
+type = "PID"
+kp = 1.5
+ti = 8.0
+u_min = -1.0
+u_max = 3.0
+[controllers.secondary]
+type = "PID"
+kp = 2.0
+ti = 1.0
+u_min = 0.0
+u_max = 1.2
+"""
+
+FEEDFORWARD_BENCH = _STRUCTURE_HEAD.format(name="feedforward") + """
+[plant]
+type = "PTn"
+k = 2.0
+t = [3.0, 1.0]
+dead_time = 0.5
+[[controllers]]
+name = "PID + lead-lag"
+[controllers.main]
+type = "PID"
+kp = 0.8
+ti = 4.0
+td = 0.5
+u_min = -2.0
+u_max = 2.0
+[controllers.feedforward]
+type = "LeadLag"
+k = -1.0
+t_lead = 2.0
+t_lag = 1.0
+"""
+
+
+def bench_structures(rounds: int) -> list[Row]:
+    """Each structure's scenario through ``run_scenario``: the compiled lane vs the Python path."""
+    from ctrlblocks.sim import parse_scenario, run_scenario
+    from ctrlblocks.sim.report import load_shipped
+
+    fig39, smith = load_shipped(["astrom_fig39", "nowak_smith"])
+    scenarios = {
+        "cascade (PID / PID, PT1 into FOPDT)": parse_scenario(CASCADE_BENCH),
+        "override (astrom_fig39: two PIDs, min selector)": fig39,
+        "feed-forward (PID + lead-lag, PT2 with dead time)": parse_scenario(FEEDFORWARD_BENCH),
+        "Smith predictor (nowak_smith: two ADRCs)": smith,
+    }
+
+    def timed(sc: object, engine: str) -> Callable[[], float]:
+        def run() -> float:
+            t0 = time.perf_counter()
+            run_scenario(sc, engine=engine)
+            return time.perf_counter() - t0
+
+        return run
+
+    sides = {}
+    for name, sc in scenarios.items():
+        sides[f"{name}/auto"] = timed(sc, "auto")
+        sides[f"{name}/python"] = timed(sc, "python")
+        sides[f"{name}/auto"]()  # compile or load the lane, import everything
+    n_py = max(1, rounds // 3)
+    res = interleaved({k: v for k, v in sides.items() if k.endswith("/auto")}, rounds)
+    res |= interleaved({k: v for k, v in sides.items() if k.endswith("/python")}, n_py)
+    rows = []
+    for name, sc in scenarios.items():
+        samples = sum(round(c.duration / sc.ts) for c in sc.cases) * len(sc.controllers)
+        auto, py = med(res[f"{name}/auto"]), med(res[f"{name}/python"])
+        rows.append(row(
+            f"{name}: `run_scenario`, compiled lane / Python path", f"{auto / py:.3f} "
+            f"({1e3 * auto:.1f} ms / {1e3 * py:.0f} ms; {py / auto:.0f}x faster)", "", None,
+            f"{samples:,} samples: {1e9 * auto / samples:.0f} ns / {1e9 * py / samples:.0f} ns "
+            f"per sample incl. metrics; medians of {rounds} / {n_py} rounds; {load()}",
+        ))  # fmt: skip
+    return rows
+
+
 SECTIONS = {
     "startup": bench_startup,
     "cache": bench_cache,
@@ -444,6 +571,7 @@ SECTIONS = {
     "bank": bench_bank,
     "sweep": bench_sweep,
     "simulator": bench_simulator,
+    "structures": bench_structures,
 }
 
 
@@ -461,7 +589,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, help="rounds of every section (default: per section)")
     ap.add_argument("--markdown", type=Path, help="also write the table to this file")
     args = ap.parse_args(argv)
-    rounds = {"startup": 9, "cache": 5, "reproduce": 3, "bank": 3, "sweep": 5, "simulator": 15}
+    rounds = {"startup": 9, "cache": 5, "reproduce": 3, "bank": 3, "sweep": 5, "simulator": 15,
+              "structures": 9}
     rows: list[Row] = []
     for name in args.only.split(","):
         n = rounds[name] if not args.quick else max(1, rounds[name] // 3)

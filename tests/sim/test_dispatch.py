@@ -191,33 +191,37 @@ def test_three_tank_scenarios_on_the_lane_equal_the_python_path(caplog):
         _assert_same(auto, run_scenario(sc, duration=200.0, engine="python"))
 
 
-SMITH = """
+OPEN_LOOP = """
 [scenario]
-name = "smith"
-title = "smith"
+name = "open"
+title = "open"
 source = "test"
-structure = "smith"
+structure = "open_loop"
 ts = 0.1
 duration = 5.0
-[plant]
-type = "FOPDT"
-k = 1.0
-t = 5.0
-dead_time = 2.0
 [[controllers]]
-name = "S"
-main = { type = "PID", kp = 1.0, ti = 5.0 }
-model = { type = "FOPDT", k = 1.0, t = 5.0, dead_time = 2.0 }
+name = "J"
+type = "JumpAndRate"
+jlow = -0.5
+jhigh = 1.0
+rlow = -0.5
+rhigh = 1.0
+[[events]]
+t = 1.0
+do = "setpoint"
+value = 2.0
 """
 
 
 def test_a_run_the_lane_cannot_do_takes_the_python_path_and_logs_why(caplog):
-    sc = parse_scenario(SMITH)
+    sc = parse_scenario(OPEN_LOOP)
     with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
         auto = run_scenario(sc)
-    assert "smith / S / main: Python path (structure 'smith' has no compiled loop)" in caplog.text
+    assert "open / J / main: Python path (structure 'open_loop' has no compiled loop)" in (
+        caplog.text
+    )
     _assert_same(auto, run_scenario(sc, engine="python"))
-    with pytest.raises(CompiledLaneError, match="structure 'smith' has no compiled loop"):
+    with pytest.raises(CompiledLaneError, match="structure 'open_loop' has no compiled loop"):
         run_scenario(sc, engine="compiled")
 
 
@@ -272,7 +276,7 @@ def test_a_non_finite_measurement_falls_back_to_the_python_path(caplog):
 
 
 def test_unknown_engine_is_refused():
-    sc = parse_scenario(SMITH)
+    sc = parse_scenario(OPEN_LOOP)
     with pytest.raises(ValueError, match="engine must be one of auto, compiled, python"):
         run_scenario(sc, engine="numba")
 
@@ -291,7 +295,7 @@ def test_noise_samples_are_the_values_of_repeated_sample_calls(kind, t_corr, fir
     assert b.sample() == a.sample() and math.isfinite(b.sample())  # the state continues
 
 
-def test_cli_engine_python_and_auto_write_the_same_metrics_and_compiled_refuses_smith(tmp_path):
+def test_cli_engine_python_and_auto_write_the_same_metrics_and_compiled_refuses_open_loop(tmp_path):
     from click.testing import CliRunner
 
     from ctrlblocks.cli import main
@@ -305,10 +309,10 @@ def test_cli_engine_python_and_auto_write_the_same_metrics_and_compiled_refuses_
         assert res.exit_code == 0, res.output
         out[engine] = json.loads((d / "nowak_fig6" / "metrics.json").read_text())
     assert out["python"] == out["auto"]
-    smith = tmp_path / "smith.toml"
-    smith.write_text(SMITH, encoding="utf-8")
-    res = CliRunner().invoke(main, ["run", str(smith), "--out", str(tmp_path / "s"),
+    other = tmp_path / "open.toml"
+    other.write_text(OPEN_LOOP, encoding="utf-8")
+    res = CliRunner().invoke(main, ["run", str(other), "--out", str(tmp_path / "s"),
                                     "--engine", "compiled"])  # fmt: skip
     assert res.exit_code == 1
-    assert "the compiled lane cannot run this: structure 'smith'" in res.output
+    assert "the compiled lane cannot run this: structure 'open_loop'" in res.output
     assert "Traceback" not in res.output

@@ -1,23 +1,54 @@
-"""The simulator's single loop on the compiled lane: a PID or ADRC, actuator, plant, sensor.
+"""The simulator's loops on the compiled lane: controllers, actuator, plant(s), sensor.
 
-:func:`single_loop` runs what :func:`ctrlblocks.sim.simulate` does for the
-``single`` structure, sample for sample and in the same order of floating
-point operations, over arrays: the controller's warm-up in manual (the plant
-held in its steady state), then ``n`` recorded samples in Åström's
-computational order (Åström 1987, section 6, Listing 6.3)::
+:func:`lane_loop` runs what :func:`ctrlblocks.sim.simulate` does for one of
+the structures it has a *wiring* for (:data:`WIRINGS`), sample for sample and
+in the same order of floating point operations, over arrays: the
+controllers' warm-up in manual (the plant held in its steady state), then
+``n`` recorded samples in Åström's computational order (Åström 1987,
+section 6, Listing 6.3)::
 
     y[k]  = plant.y + load_out[k]                       (Sensor.y_true)
     ym[k] = clamp(y[k] + noise[k], y_min, y_max)        (Sensor.y)
-    u[k]  = controller(sp[k], ym[k])                    (compute_output + update_state)
+    u[k]  = controllers(sp[k], ym[k], y2[k], ...)        (ComputeOutput, ShapeOutput)
+            every controller commits with its applied value (UpdateState)
     u_act[k] = clamp(clamp(u[k] + load_in[k], u_act[k-1] -+ rate ts), u_min, u_max)
     plant.step(u_act[k])                                (Actuator, then the model)
 
-The controller is the blocks' own fast lane (:func:`~ctrlblocks.fast.kernels.pid_step`,
-:func:`~ctrlblocks.fast.kernels.adrc_step`), the plant the kernels of
+The wirings (``ctrlblocks.loops.structures``, ``Structure.compiled_lane``):
+
+``single``
+    one PID or ADRC.
+``feedforward``
+    the input load (the measured disturbance) through a lead-lag
+    (:func:`~ctrlblocks.blocks.leadlag.leadlag_step`, Bonde et al. 2021,
+    Fig. 10) into the PID's ``ff``.
+``smith``
+    the controller sees ``ym + y_model_fast - y_model`` (Nowak et al. 2018,
+    section 3.1); both models advance with the controller output.
+``cascade``
+    the primary's output is the secondary's setpoint; the secondary (on
+    ``y2``, the inner plant's output) writes the MV; its ``awout`` freezes
+    the primary's integrator in the next sample (``awin``, Åström 1987,
+    section 3 "Cascade Control").
+``override``
+    two controllers (each on ``y`` or ``y2``, on ``sp`` or a fixed setpoint);
+    a min or max selector picks the MV and both track it (Åström 1987,
+    Figs. 3.8/3.9).
+
+Series plants (cascade, override) are coupled with a zero-order hold as in
+``ProcessSide.step``: the outer plant receives the inner plant's output of
+the start of the sample plus the load between them.
+
+The controllers are the blocks' own kernels (:func:`~ctrlblocks.fast.kernels.pid_step`,
+:func:`~ctrlblocks.fast.kernels.adrc_step`), the plants the kernels of
 :mod:`.loops` (a linear plant of order <= 3 with any dead time, or the
-three-tank process).  The caller (``ctrlblocks.sim.dispatch``) turns the
-scenario's events into the per-sample arrays and draws the noise with the
-scenario's own generator, so the traces equal the Python path's.
+three-tank process).  A controller whose applied value is not its own
+output (an override's tracking) commits with :func:`_commit`: the
+integrator tracks the applied value as ``PID.update_state`` does (Åström
+1987, Fig. 3.6), the ADRC's ESO takes it as its input (``ADRC.update_state``).
+The caller (``ctrlblocks.sim.dispatch``) turns the scenario's events into
+the per-sample arrays and draws the noise with the scenario's own
+generator, so the traces equal the Python path's.
 
 A sample whose measurement or controller output is not finite is where the
 two paths could part (quality flags, held commands): the loop stops there
@@ -27,16 +58,160 @@ and returns its index, and the caller runs the Python path instead.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from ..blocks.leadlag import leadlag_coefficients, leadlag_step
 from ..blocks.signals import clamp
 from ._jit import HAVE_NUMBA, jit, jitable, python_function
 from .kernels import UnsupportedConfig, adrc_step, pid_step
 from .loops import _controller_arrays, _plant_arrays, _plant_step
 
-__all__ = ["LaneResult", "plant_blocker", "single_loop"]
+__all__ = ["WIRINGS", "LaneResult", "lane_loop", "plant_blocker"]
+
+WIRINGS = ("single", "feedforward", "smith", "cascade", "override")
+"""The structures' wirings :func:`lane_loop` runs (index = the kernel's code)."""
+
+_FF, _SMITH, _CASCADE, _OVERRIDE = 1, 2, 3, 4
+_PID, _ADRC = 0, 1
+_N_PID, _N_ADRC, _N_STATE = 13, 22, 10
+
+jitable(leadlag_step)
+
+
+# ---------------------------------------------------------------------------
+# rows of arrays as tuples (numba keeps tuples in registers, arrays in memory)
+# ---------------------------------------------------------------------------
+
+
+@jitable
+def _row10(a, j):
+    return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
+            a[j, 8], a[j, 9])  # fmt: skip
+
+
+@jitable
+def _row13(a, j):
+    return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
+            a[j, 8], a[j, 9], a[j, 10], a[j, 11], a[j, 12])  # fmt: skip
+
+
+@jitable
+def _row18(a, j):
+    return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
+            a[j, 8], a[j, 9], a[j, 10], a[j, 11], a[j, 12], a[j, 13], a[j, 14],
+            a[j, 15], a[j, 16], a[j, 17])  # fmt: skip
+
+
+@jitable
+def _row22(a, j):
+    return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
+            a[j, 8], a[j, 9], a[j, 10], a[j, 11], a[j, 12], a[j, 13], a[j, 14],
+            a[j, 15], a[j, 16], a[j, 17], a[j, 18], a[j, 19], a[j, 20], a[j, 21])  # fmt: skip
+
+
+@jitable
+def _with_um(s, um):
+    """The controller state ``s`` with the manual value ``um``."""
+    return (s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], um)
+
+
+# ---------------------------------------------------------------------------
+# one controller: ComputeOutput, then UpdateState with the applied value
+# ---------------------------------------------------------------------------
+
+
+@jitable
+def _compute(kind, p, a, s, sp, y, ff, man, awin):
+    """ComputeOutput of one controller in state ``s``; returns ``(out, awout, pending)``.
+
+    PID state ``s = (i, d, w_prev, e_prev, out, cold, was_manual, -, -, u_man)``;
+    ``awin`` freezes the integrator as ``PID.compute_output`` does (it then
+    takes the branch of ``K h/Ti = 0``).  ADRC state ``s = (yh, x2, x3, x4,
+    u_prev, ref, started, track, sat, u_man)``.
+    """
+    if kind == _PID:
+        if awin:
+            p = (p[0], p[1], p[2], p[3], p[4], p[5], 0.0, p[7], p[8], p[9], p[10],
+                 p[11], p[12])  # fmt: skip
+        out, v_raw, pt, i_k, _in, dn, w, e = pid_step(
+            sp, y, ff, man, s[9], s[5] != 0.0, (not man) and s[6] != 0.0,
+            s[0], s[1], s[2], s[3], s[4], p,
+        )  # fmt: skip
+        awout = v_raw > p[10] or v_raw < p[9]  # limits_active (PID._finish)
+        return out, awout, (out, v_raw, pt, i_k, dn, w, e, ff)
+    u, _ur, yh, x2, x3, x4, ref, track, sat = adrc_step(
+        sp, y, man, s[9], s[6] != 0.0, s[7] != 0.0, int(s[8]), s[0], s[1], s[2], s[3],
+        s[4], s[5], a,
+    )  # fmt: skip
+    return u, sat != 0, (u, yh, x2, x3, x4, ref, 1.0 if track else 0.0, sat * 1.0)
+
+
+@jitable
+def _commit(kind, p, s, pend, man, applied):
+    """UpdateState of one controller with ``applied`` (its own output or the selected MV).
+
+    PID (``PID.update_state``): in auto the integrator tracks ``applied``
+    (Åström 1987, Fig. 3.6: ``h/(Tt + h) (applied - out)`` with clamping,
+    ``(applied - v)`` with back-calculation), in manual it is set so that
+    ``P + I + D + FF = applied``; ADRC (``ADRC.update_state``): ``applied``
+    is the ESO's input of the next sample.  In auto the manual value follows
+    ``applied`` (In/Out).  A non-finite ``applied`` counts as the output.
+    """
+    out = pend[0]
+    u = applied if math.isfinite(applied) else out
+    um = s[9] if man else u
+    if kind == _PID:
+        v_raw, pt, i_k, dn, w, e, ff = pend[1], pend[2], pend[3], pend[4], pend[5], pend[6], pend[7]
+        if man:
+            i = u - pt - dn - ff
+        elif p[6] != 0.0:
+            i = i_k + p[12] * (u - (out if p[11] == 0.0 else v_raw))
+        else:
+            i = i_k
+        return (i, dn, w, e, out, 0.0, 1.0 if man else 0.0, 0.0, 0.0, um)
+    return (pend[1], pend[2], pend[3], pend[4], u, pend[5], 1.0, pend[6], pend[7], um)
+
+
+@jitable
+def _control(wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
+             sp, yc, y2, ff, m0, m1, awin):  # fmt: skip
+    """One sample of the controller side: ``(u, sig_a, sig_b, ok, s0, s1, awin)``.
+
+    ``sig_a``/``sig_b`` are the wiring's signals (cascade: the secondary's
+    setpoint; override: both outputs); ``ok`` is False when an output is
+    not finite (the states are then not to be used).
+    """
+    if wiring == _CASCADE:
+        v1, _aw, pd0 = _compute(kinds[0], p0, a0, s0, sp, yc, 0.0, m0, awin)
+        u, aw1, pd1 = _compute(kinds[1], p1, a1, s1, v1, y2, 0.0, m1, False)
+        ok = math.isfinite(v1) and math.isfinite(u)
+        s1 = _commit(kinds[1], p1, s1, pd1, m1, u)
+        if hs:
+            awin = aw1
+        s0 = _commit(kinds[0], p0, s0, pd0, m0, v1)
+        return u, v1, 0.0, ok, s0, s1, awin
+    if wiring == _OVERRIDE:
+        r0 = sp if math.isnan(sp_fix[0]) else sp_fix[0]
+        r1 = sp if math.isnan(sp_fix[1]) else sp_fix[1]
+        v1, _a0, pd0 = _compute(kinds[0], p0, a0, s0, r0, y2 if on_y2[0] else yc, 0.0, m0, False)
+        v2, _a1, pd1 = _compute(kinds[1], p1, a1, s1, r1, y2 if on_y2[1] else yc, 0.0, m1, False)
+        ok = math.isfinite(v1) and math.isfinite(v2)
+        # max(v1, v2) or min(v1, v2): the first of equal values, as Python's
+        u = (v2 if v2 > v1 else v1) if sel_max else (v2 if v2 < v1 else v1)
+        s0 = _commit(kinds[0], p0, s0, pd0, m0, u)
+        s1 = _commit(kinds[1], p1, s1, pd1, m1, u)
+        return u, v1, v2, ok, s0, s1, awin
+    u, _aw, pd0 = _compute(kinds[0], p0, a0, s0, sp, yc, ff, m0, False)
+    s0 = _commit(kinds[0], p0, s0, pd0, m0, u)
+    return u, 0.0, 0.0, math.isfinite(u), s0, s1, awin
+
+
+# ---------------------------------------------------------------------------
+# the process
+# ---------------------------------------------------------------------------
 
 
 @jitable
@@ -48,108 +223,124 @@ def _actuate(u, load, u_prev, du, lo, hi):
     return clamp(v, lo, hi)
 
 
+@jitable
+def _plant(pk, pp, ps, pos, buf, j):
+    """Plant ``j`` of the arrays: ``(fixed, state)`` for :func:`_advance`."""
+    fixed = (pk[j], int(ps[j, 3]), buf.shape[0], _row18(pp, j), pp[j, 6], int(pp[j, 7]),
+             pp[j, 8], pp[j, 9])  # fmt: skip
+    return fixed, (ps[j, 0], ps[j, 1], ps[j, 2], ps[j, 4], ps[j, 5], pos[j])
+
+
+@jitable
+def _advance(fixed, st, buf, u, g5):
+    """One sample of a plant (``_plant_step``) from ``u``; ``g5``: the three-tank's outlet."""
+    kind, dsamp, nbuf, lti, hsub, nsub, lo, hi = fixed
+    x0, x1, x2, py, u_hold, pos = _plant_step(
+        kind, st[0], st[1], st[2], st[3], u, buf, st[5], dsamp, nbuf, lti,
+        (lti[0], lti[1], lti[2], lti[3], lti[4], g5), hsub, nsub, lo, hi,
+    )  # fmt: skip
+    return (x0, x1, x2, u_hold, py, pos)
+
+
 @jit
-def _pid_lane(prm, cs, um, nw, sp_w, y_w, kind, pp, ps, buf, pos, act,
-              sp, ld_in, ld_out, man_a, um_a, g3o_a, noise, y_o, ym_o, u_o, ua_o):  # fmt: skip
-    """PID + process; returns the first sample that is not finite, or -1."""
-    i, d, w_prev, e_prev, out = cs[0], cs[1], cs[2], cs[3], cs[4]
-    cold = cs[5] != 0.0
-    was_manual = cs[6] != 0.0
-    for _ in range(nw):  # warm-up: manual at um, plant held in steady state
-        out, _vr, _p, _ish, i, d, w_prev, e_prev = pid_step(
-            sp_w, y_w, 0.0, True, um, cold, False, i, d, w_prev, e_prev, out, prm
-        )
-        cold = False
-        was_manual = True
-    x0, x1, x2, u_hold, py = ps[0], ps[1], ps[2], ps[4], ps[5]
-    dsamp = int(ps[3])
-    nbuf = buf.shape[0]
-    lti = (pp[0], pp[1], pp[2], pp[3], pp[4], pp[5], pp[6], pp[7], pp[8], pp[9],
-           pp[10], pp[11], pp[12], pp[13], pp[14], pp[15], pp[16], pp[17])  # fmt: skip
-    hsub, nsub, lo, hi = pp[6], int(pp[7]), pp[8], pp[9]
-    a_lo, a_hi, du, ua, y_lo, y_hi = act[0], act[1], act[2], act[3], act[4], act[5]
-    for k in range(y_o.shape[0]):
-        y = py + ld_out[k]
-        ym = clamp(y + noise[k], y_lo, y_hi)
-        if not math.isfinite(ym):
-            return k
-        m = man_a[k] != 0.0
-        if not math.isnan(um_a[k]):
-            um = um_a[k]
-        transfer = (not m) and was_manual
-        out, _vr, _p, _ish, i, d, w_prev, e_prev = pid_step(
-            sp[k], ym, 0.0, m, um, cold, transfer, i, d, w_prev, e_prev, out, prm
-        )
-        if not math.isfinite(out):
-            return k
-        cold = False
-        was_manual = m
-        if not m:
-            um = out  # manual_value is In/Out: in auto it follows the output
-        ua = _actuate(out, ld_in[k], ua, du, a_lo, a_hi)
-        y_o[k] = y
-        ym_o[k] = ym
-        u_o[k] = out
-        ua_o[k] = ua
-        x0, x1, x2, py, u_hold, pos = _plant_step(
-            kind, x0, x1, x2, u_hold, ua, buf, pos, dsamp, nbuf, lti,
-            (pp[0], pp[1], pp[2], pp[3], pp[4], g3o_a[k]), hsub, nsub, lo, hi,
+def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, ffp,
+          act, sig, noise, out):  # fmt: skip
+    """The loop of :func:`lane_loop`; returns the first sample that is not finite, or -1.
+
+    ``cfg = (wiring, selector max, on_y2[0], on_y2[1], sp_fix[0], sp_fix[1],
+    handshake, warm-up samples, sp, y, y2, dv of the warm-up, mv[0], mv[1])``;
+    plants: 0 the measured one, 1 the inner one (series), 2 and 3 the Smith
+    predictor's models (with and without the dead time); ``ffp = (b0, b1, a1,
+    lo, hi, x_prev, out)`` of the lead-lag; ``sig`` rows: sp, load_in,
+    load_out, manual[0], manual[1], u_man (NaN: unchanged), outlet g3o, load
+    between the plants; ``out`` rows: y, ym, u, u_act, y2, sig_a, sig_b.
+    """
+    wiring = int(cfg[0])
+    sel_max = cfg[1] != 0.0
+    on_y2 = (cfg[2] != 0.0, cfg[3] != 0.0)
+    sp_fix = (cfg[4], cfg[5])
+    hs = cfg[6] != 0.0
+    mv0, mv1 = cfg[12] != 0.0, cfg[13] != 0.0
+    p0, p1 = _row13(pprm, 0), _row13(pprm, 1)
+    a0, a1 = _row22(aprm, 0), _row22(aprm, 1)
+    s0, s1 = _row10(cst, 0), _row10(cst, 1)
+    awin = False
+    series = wiring >= _CASCADE  # cascade, override: the inner plant
+    smith = wiring == _SMITH
+    fx0, st0 = _plant(pk, pp, ps, pos, buf0, 0)
+    fx1, st1 = _plant(pk, pp, ps, pos, buf1, 1)
+    fx2, st2 = _plant(pk, pp, ps, pos, buf2, 2)
+    fx3, st3 = _plant(pk, pp, ps, pos, buf3, 3)
+    ff, x_prev = ffp[6], ffp[5]
+    y_smith = st3[4] - st2[4] if smith else 0.0
+    # warm-up: every controller in manual, the plant held in its steady state
+    sp_w, y_w, y2_w, dv_w = cfg[8], cfg[9], cfg[10], cfg[11]
+    yc_w = y_w + st3[4] - st2[4] if smith else y_w
+    for _ in range(int(cfg[7])):
+        if wiring == _FF:
+            ff = leadlag_step(dv_w, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
+            x_prev = dv_w
+        _u, _a, _b, _ok, s0, s1, awin = _control(
+            wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
+            sp_w, yc_w, y2_w, ff, True, True, awin,
         )  # fmt: skip
-    return -1
-
-
-@jit
-def _adrc_lane(prm, cs, um, nw, sp_w, y_w, kind, pp, ps, buf, pos, act,
-               sp, ld_in, ld_out, man_a, um_a, g3o_a, noise, y_o, ym_o, u_o, ua_o):  # fmt: skip
-    """ADRC + process; returns the first sample that is not finite, or -1."""
-    yh, e2, e3, e4, u_prev, ref = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
-    started = cs[6] != 0.0
-    track = cs[7] != 0.0
-    sat = int(cs[8])
-    for _ in range(nw):  # warm-up: manual at um, plant held in steady state
-        u, _ur, yh, e2, e3, e4, ref, track, sat = adrc_step(
-            sp_w, y_w, True, um, started, track, sat, yh, e2, e3, e4, u_prev, ref, prm
-        )
-        started = True
-        u_prev = u
-    x0, x1, x2, u_hold, py = ps[0], ps[1], ps[2], ps[4], ps[5]
-    dsamp = int(ps[3])
-    nbuf = buf.shape[0]
-    lti = (pp[0], pp[1], pp[2], pp[3], pp[4], pp[5], pp[6], pp[7], pp[8], pp[9],
-           pp[10], pp[11], pp[12], pp[13], pp[14], pp[15], pp[16], pp[17])  # fmt: skip
-    hsub, nsub, lo, hi = pp[6], int(pp[7]), pp[8], pp[9]
     a_lo, a_hi, du, ua, y_lo, y_hi = act[0], act[1], act[2], act[3], act[4], act[5]
-    for k in range(y_o.shape[0]):
-        y = py + ld_out[k]
+    sp_a, ld_in, ld_out, man0, man1 = sig[0], sig[1], sig[2], sig[3], sig[4]
+    um_a, g3o, ld_mid = sig[5], sig[6], sig[7]
+    for k in range(out.shape[1]):
+        y = st0[4] + ld_out[k]
         ym = clamp(y + noise[k], y_lo, y_hi)
         if not math.isfinite(ym):
             return k
-        m = man_a[k] != 0.0
-        if not math.isnan(um_a[k]):
-            um = um_a[k]
-        u, _ur, yh, e2, e3, e4, ref, track, sat = adrc_step(
-            sp[k], ym, m, um, started, track, sat, yh, e2, e3, e4, u_prev, ref, prm
-        )
-        if not math.isfinite(u):
+        if not math.isnan(um_a[k]):  # a manual-value event acts on the MV blocks
+            if mv0:
+                s0 = _with_um(s0, um_a[k])
+            if mv1:
+                s1 = _with_um(s1, um_a[k])
+        yc = ym
+        if smith:
+            y_smith = ym + st3[4] - st2[4]
+            yc = y_smith
+        if wiring == _FF:
+            ff = leadlag_step(ld_in[k], x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
+            x_prev = ld_in[k]
+        u, sa, sb, ok, s0, s1, awin = _control(
+            wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
+            sp_a[k], yc, st1[4], ff, man0[k] != 0.0, man1[k] != 0.0, awin,
+        )  # fmt: skip
+        if not ok:
             return k
-        started = True
-        u_prev = u
-        if not m:
-            um = u  # u_man is In/Out: in auto it follows the output
         ua = _actuate(u, ld_in[k], ua, du, a_lo, a_hi)
-        y_o[k] = y
-        ym_o[k] = ym
-        u_o[k] = u
-        ua_o[k] = ua
-        x0, x1, x2, py, u_hold, pos = _plant_step(
-            kind, x0, x1, x2, u_hold, ua, buf, pos, dsamp, nbuf, lti,
-            (pp[0], pp[1], pp[2], pp[3], pp[4], g3o_a[k]), hsub, nsub, lo, hi,
-        )  # fmt: skip
+        out[0, k] = y
+        out[1, k] = ym
+        out[2, k] = u
+        out[3, k] = ua
+        if series:
+            out[4, k] = st1[4]
+            out[5, k] = sa
+            out[6, k] = sb
+            y2 = st1[4]
+            st1 = _advance(fx1, st1, buf1, ua, fx1[3][5])
+            st0 = _advance(fx0, st0, buf0, y2 + ld_mid[k], g3o[k])
+        else:
+            if wiring == _FF:
+                out[5, k] = ff
+            elif smith:
+                out[5, k] = y_smith
+            st0 = _advance(fx0, st0, buf0, ua, g3o[k])
+        if smith:
+            st2 = _advance(fx2, st2, buf2, u, fx2[3][5])
+            st3 = _advance(fx3, st3, buf3, u, fx3[3][5])
     return -1
+
+
+# ---------------------------------------------------------------------------
+# the public function
+# ---------------------------------------------------------------------------
 
 
 def plant_blocker(model: Any) -> str | None:
-    """Why :func:`single_loop` cannot run the process model ``model`` (None: it can)."""
+    """Why :func:`lane_loop` cannot run the process model ``model`` (None: it can)."""
     try:
         _plant_arrays(model)
     except UnsupportedConfig as exc:
@@ -158,57 +349,100 @@ def plant_blocker(model: Any) -> str | None:
 
 
 class LaneResult:
-    """Traces of :func:`single_loop` (arrays of ``n`` samples), or where it stopped."""
+    """Traces of :func:`lane_loop` (arrays of ``n`` samples), or where it stopped."""
 
-    __slots__ = ("compiled", "stopped", "u", "u_act", "y", "ym")
+    __slots__ = ("compiled", "sig_a", "sig_b", "stopped", "u", "u_act", "y", "y2", "ym")
 
-    def __init__(self, y: np.ndarray, ym: np.ndarray, u: np.ndarray, u_act: np.ndarray,
-                 stopped: int, compiled: bool) -> None:  # fmt: skip
-        self.y, self.ym, self.u, self.u_act = y, ym, u, u_act
+    def __init__(self, traces: np.ndarray, stopped: int, compiled: bool) -> None:
+        self.y, self.ym, self.u, self.u_act, self.y2, self.sig_a, self.sig_b = traces
         self.stopped = stopped
         """The first sample that was not finite (the traces stop there), or -1."""
         self.compiled = compiled
 
 
-def single_loop(
-    controller: Any,
+def _slot(block: Any, u_man: float) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """``(kind, PID parameters, ADRC parameters, state)`` of one controller."""
+    _loop, prm, cs = _controller_arrays(block)
+    pid = np.zeros(_N_PID)
+    adrc = np.zeros(_N_ADRC)
+    st = np.zeros(_N_STATE)
+    st[: cs.shape[0]] = cs
+    st[9] = u_man
+    if len(prm) == _N_PID:
+        pid[:] = prm
+        return _PID, pid, adrc, st
+    adrc[:] = prm
+    return _ADRC, pid, adrc, st
+
+
+def lane_loop(
+    wiring: str,
+    controllers: Sequence[Any],
     model: Any,
     *,
+    u_man: Sequence[float],
+    mv: Sequence[bool],
     warmup: int,
     sp_warmup: float,
     y_warmup: float,
-    u_man: float,
     actuator: tuple[float, float, float, float],
     sensor: tuple[float, float],
-    signals: dict[str, np.ndarray],
+    signals: dict[str, Any],
     noise: np.ndarray,
+    inner_model: Any = None,
+    models: Sequence[Any] = (),
+    lead_lag: Any = None,
+    on_y2: Sequence[bool] = (False, False),
+    sp_fixed: Sequence[float] = (math.nan, math.nan),
+    selector_max: bool = False,
+    handshake: bool = True,
+    y2_warmup: float = math.nan,
+    dv_warmup: float = 0.0,
     compiled: bool = True,
 ) -> LaneResult:
-    """Run the warm-up and ``n`` samples of one single loop (module docstring).
+    """Run the warm-up and ``n`` samples of one loop structure (module docstring).
 
     Parameters
     ----------
-    controller : PID or ADRC
-        The block in its state before the warm-up (not advanced).
+    wiring : str
+        One of :data:`WIRINGS`.
+    controllers : sequence of PID or ADRC
+        One block (two for ``cascade``: primary, secondary; ``override``: the
+        two blocks), each in its state before the warm-up (not advanced).
     model : LinearPlant (order <= 3) or ThreeTank
-        The bare process model in its initial state (not advanced).
+        The measured process model in its initial state (not advanced).
+    u_man : sequence
+        Per controller: its manual value (the warm-up runs every controller
+        in manual at it; its mode of every sample is ``signals["manual"]``).
+    mv : sequence of bool
+        Per controller: mode and manual-value events act on it (the MV blocks).
     warmup : int
-        Samples of the warm-up: manual at ``u_man``, setpoint ``sp_warmup``,
-        measurement ``y_warmup`` (the plant stays in its steady state).
-    u_man : float
-        The manual value at the end of the warm-up (the mode of every sample is
-        ``signals["manual"]``).
+        Samples of the warm-up: setpoint ``sp_warmup``, measurements
+        ``y_warmup``, ``y2_warmup`` and ``dv_warmup`` (the plant stays in its
+        steady state).
     actuator : tuple
         ``(u_min, u_max, rate * ts, u)``: range, largest step per sample and
         the input applied before the first sample.
     sensor : tuple
         ``(y_min, y_max)``, the measuring range.
-    signals : dict of arrays
-        Per sample: ``sp``, ``load_in``, ``load_out``, ``manual`` (0/1),
-        ``u_man`` (NaN: unchanged), ``g3o`` (three-tank outlet coefficient;
-        anything for a linear plant).
+    signals : dict
+        Per sample: ``sp``, ``load_in``, ``load_out``, ``u_man`` (NaN:
+        unchanged), ``g3o`` (three-tank outlet coefficient; anything for a
+        linear plant), ``load_mid`` (between series plants; optional), and
+        ``manual``: a sequence of one 0/1 array per controller.
     noise : array
         The measurement noise of every sample.
+    inner_model : plant, optional
+        The inner plant (``u -> y2``) of ``cascade`` and ``override``.
+    models : pair of plants, optional
+        The Smith predictor's models, with and without the dead time.
+    lead_lag : LeadLag, optional
+        The feed-forward block (``feedforward``).
+    on_y2, sp_fixed, selector_max : optional
+        ``override``: per block whether it measures ``y2`` and its own
+        setpoint (NaN: ``sp``); a max selector instead of min.
+    handshake : bool
+        ``cascade``: the secondary's ``awout`` goes to the primary's ``awin``.
     compiled : bool
         False runs the same loop interpreted (tests of the lane itself).
 
@@ -217,17 +451,40 @@ def single_loop(
     UnsupportedConfig
         For a controller or a plant the kernels do not cover.
     """
-    loop, prm, cs = _controller_arrays(controller)
-    kind, pp, ps, buf, pos = _plant_arrays(model)
-    lane = _pid_lane if loop.__name__ == "_pid_loop" else _adrc_lane
-    if not (compiled and HAVE_NUMBA):
-        lane = python_function(lane)
+    code = WIRINGS.index(wiring)
+    slots = [_slot(b, float(um)) for b, um in zip(controllers, u_man, strict=True)]
+    if len(slots) == 1:
+        slots.append(slots[0])
+    kinds = np.array([s[0] for s in slots], dtype=np.int64)
+    pprm, aprm, cst = (np.array([s[i] for s in slots]) for i in (1, 2, 3))
+    plants = [model, inner_model or model, *(models or (model, model))]
+    arrays = [_plant_arrays(p) for p in plants]
+    pk = np.array([a[0] for a in arrays], dtype=np.int64)
+    pp = np.array([a[1] for a in arrays])
+    ps = np.array([a[2] for a in arrays])
+    pos = np.array([a[4] for a in arrays], dtype=np.int64)
+    ffp = np.zeros(7)
+    if lead_lag is not None:  # its coefficients at ts (LeadLag._set_h), limits and memory
+        c, snap = lead_lag.config, lead_lag.snapshot()
+        b0, b1, a1 = leadlag_coefficients(float(c.k), float(c.t_lead), float(c.t_lag),
+                                          float(c.ts), c.method == "tustin")  # fmt: skip
+        ffp[:] = (b0, b1, a1, *lead_lag.output_limits(), snap["_x_prev"], lead_lag.out)
     n = signals["sp"].shape[0]
-    out = [np.empty(n) for _ in range(4)]
+    man = list(signals["manual"])
+    cfg = np.array([
+        code, selector_max, on_y2[0], on_y2[1], sp_fixed[0], sp_fixed[1], handshake,
+        warmup, sp_warmup, y_warmup, y2_warmup, dv_warmup, mv[0], mv[-1] if len(mv) > 1 else 0,
+    ], dtype=float)  # fmt: skip
+    sig = np.stack([
+        signals["sp"], signals["load_in"], signals["load_out"], man[0], man[-1],
+        signals["u_man"], signals["g3o"], signals.get("load_mid", np.zeros(n)),
+    ])  # fmt: skip
+    traces = np.zeros((7, n))
+    traces[5:] = math.nan
     act = np.array([*actuator, *sensor], dtype=float)
+    lane = _lane if compiled and HAVE_NUMBA else python_function(_lane)
     stopped = lane(
-        prm, cs, float(u_man), int(warmup), float(sp_warmup), float(y_warmup),
-        kind, pp, ps, buf.copy(), pos, act, signals["sp"], signals["load_in"],
-        signals["load_out"], signals["manual"], signals["u_man"], signals["g3o"], noise, *out,
+        cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, *(a[3].copy() for a in arrays), ffp,
+        act, sig, noise, traces,
     )  # fmt: skip
-    return LaneResult(*out, stopped=int(stopped), compiled=compiled and HAVE_NUMBA)
+    return LaneResult(traces, stopped=int(stopped), compiled=compiled and HAVE_NUMBA)

@@ -72,6 +72,8 @@ import math
 from typing import Any, ClassVar
 
 from ..blocks.base import ParameterError
+from ..blocks.leadlag import LeadLag
+from ..blocks.pid import PID
 from ..blocks.protocols import Controller
 from ..blocks.pwm import PulseWidth
 from ..blocks.schedule import GainSchedule
@@ -250,8 +252,9 @@ class Structure:
     tuned_roles: ClassVar[tuple[str, ...]] = ("main",)
     actuators: ClassVar[int] = 1
     setpoint_signal: ClassVar[str | None] = None
-    compiled_lane: ClassVar[bool] = False
-    """The simulator's compiled lane has a loop for this structure (``ctrlblocks.sim.dispatch``)."""
+    compiled_lane: ClassVar[str | None] = None
+    """The wiring of the simulator's compiled lane for this structure
+    (``ctrlblocks.fast.simlane.WIRINGS``, run by ``ctrlblocks.sim.dispatch``); None: none."""
     closed_loop: ClassVar[bool] = True
     margins_on_plant: ClassVar[bool] = False
     lone_block: ClassVar[bool] = False
@@ -345,7 +348,7 @@ class Structure:
         if not self.compiled_lane:
             return [f"structure {self.name!r} has no compiled loop"]
         bad = []
-        for role in self.controller_roles(side):
+        for role in self.lane_roles(side):
             block = side.blocks[role]
             check = getattr(block, "fast_path_blockers", None)
             if check is None:
@@ -353,6 +356,20 @@ class Structure:
             else:
                 bad += [f"{role}: {why}" for why in check(manual_ok=True)]
         return bad
+
+
+    def lane_roles(self, side: ControllerSide) -> list[str]:
+        """The roles of the compiled lane's controllers, in its wiring's order."""
+        return self.controller_roles(side)
+
+    def lane_options(self, side: ControllerSide) -> dict[str, Any]:
+        """The wiring's inputs of the compiled lane besides the controllers
+        (keyword arguments of ``ctrlblocks.fast.simlane.lane_loop``)."""
+        return {}
+
+    def lane_signals(self, side: ControllerSide) -> tuple[str, ...]:
+        """The names of the lane's signals ``sig_a``, ``sig_b`` (:attr:`ControllerSide.values`)."""
+        return ()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -375,7 +392,7 @@ class Single(Structure):
 
     name = "single"
     roles = ("main",)
-    compiled_lane = True
+    compiled_lane = "single"
     margins_on_plant = True
     lone_block = True
 
@@ -402,7 +419,7 @@ class OpenLoop(Single):
 
     name = "open_loop"
     lone_block = False
-    compiled_lane = False
+    compiled_lane = None
     measurements = ()
     runtime = False
     tuned_roles = ()
@@ -434,6 +451,20 @@ class Cascade(Structure):
     event_target = "primary"
     series_plant = True
     tuned_roles = ()
+    compiled_lane = "cascade"
+
+    def compiled_blockers(self, side):
+        bad = super().compiled_blockers(side)
+        if self.lane_options(side)["handshake"] and not isinstance(side.blocks["primary"], PID):
+            bad.append("primary: the AW handshake input awin of a non-PID primary is not in "
+                       "its kernel (aw_handshake = false runs compiled)")  # fmt: skip
+        return bad
+
+    def lane_signals(self, side):
+        return ("sp2",)
+
+    def lane_options(self, side):
+        return {"handshake": side.aw_handshake and hasattr(side.blocks["primary"], "awin")}
 
     def parse(self, r, e, key, ts, tune):
         r.check_keys(e, {*_ENTRY_KEYS, *self.roles, *self.options}, key)
@@ -474,6 +505,23 @@ class Override(Structure):
     event_target = "blocks[0]"
     series_plant = True
     tuned_roles = ()
+    compiled_lane = "override"
+
+    def compiled_blockers(self, side):
+        bad = super().compiled_blockers(side)
+        if len(side.override) != 2:
+            bad.append(f"{len(side.override)} blocks (the compiled lane selects between two)")
+        return bad
+
+    def lane_signals(self, side):
+        return ("v1", "v2")
+
+    def lane_options(self, side):
+        return {
+            "on_y2": [on_y2 for _, on_y2, _ in side.override],
+            "sp_fixed": [math.nan if sp is None else sp for _, _, sp in side.override],
+            "selector_max": side.selector == "max",
+        }
 
     def measurements_in(self, entry):
         blocks = entry.get("blocks") if isinstance(entry, dict) else None
@@ -541,7 +589,7 @@ class FeedForward(Single):
 
     name = "feedforward"
     lone_block = False
-    compiled_lane = False
+    compiled_lane = "feedforward"
     roles = ("main", "feedforward")
     measurements = ("y", "dv")
     margins_on_plant = False
@@ -559,6 +607,21 @@ class FeedForward(Single):
             )
         return blocks, opts
 
+    def compiled_blockers(self, side):
+        bad = super().compiled_blockers(side)
+        ll = side.blocks["feedforward"]
+        if not isinstance(ll, LeadLag):
+            bad.append(f"feedforward: {type(ll).__name__} has no compiled kernel (LeadLag has)")
+        elif ll.config.precision != "float64":
+            bad.append(f"feedforward: precision {ll.config.precision!r}")
+        return bad
+
+    def lane_signals(self, side):
+        return ("ff",)
+
+    def lane_options(self, side):
+        return {"lead_lag": side.blocks["feedforward"]}
+
     def compute(self, side, sp, m):
         if m.dv_ok and math.isfinite(m.dv):
             side.ff = float(side.blocks["feedforward"](m.dv))
@@ -571,7 +634,7 @@ class Smith(Single):
 
     name = "smith"
     lone_block = False
-    compiled_lane = False
+    compiled_lane = "smith"
     roles = ("main", "model")
     margins_on_plant = False
     step = Structure.step
@@ -601,6 +664,12 @@ class Smith(Single):
         side.ctrls["main"].update(u, measured=measured)
         side.model.step(u)
         side.model_fast.step(u)
+
+    def lane_signals(self, side):
+        return ("y_pred",)
+
+    def lane_options(self, side):
+        return {"models": (side.model, side.model_fast)}
 
     def reset_models(self, side):
         side.model.reset(side.u0)

@@ -6,26 +6,31 @@
     the reference: the block and plant objects, sample by sample
     (:mod:`ctrlblocks.sim.loop`);
 ``"compiled"``
-    the compiled lane (:func:`ctrlblocks.fast.simlane.single_loop`, numba),
+    the compiled lane (:func:`ctrlblocks.fast.simlane.lane_loop`, numba),
     refused with :class:`CompiledLaneError` (naming the reason) for a run it
     cannot do;
 ``"auto"`` (default of :func:`~ctrlblocks.sim.run_scenario` and the CLI)
     the compiled lane for every run it can do, else the Python path, with the
     reason logged at DEBUG level (logger ``ctrlblocks.sim.dispatch``).
 
-The compiled lane runs the ``single`` structure (the structure decides:
-:meth:`~ctrlblocks.loops.structures.Structure.compiled_blockers`) with a
-PID or ADRC whose configuration its kernels cover (the blocks decide:
-``fast_path_blockers``), a linear plant of order <= 3 (any dead time) or the
-three-tank process, inside the scenario's actuator (range, rate, input
-load) and sensor (range, noise, output load), with setpoint steps and ramps,
-input and output loads, the three-tank's outlet switch, mode and manual-value
-events, and the warm-up.  Everything else -- the other structures, limits
-and ``set`` events, sensor faults, other plant switches, numba not installed
--- runs the Python path.
+The compiled lane runs the structures that have a wiring for it
+(:attr:`~ctrlblocks.loops.structures.Structure.compiled_lane`: ``single``,
+``cascade``, ``override`` with two blocks, ``feedforward`` with a lead-lag,
+``smith``; the structure decides:
+:meth:`~ctrlblocks.loops.structures.Structure.compiled_blockers`) with
+PIDs or ADRCs whose configuration its kernels cover (the blocks decide:
+``fast_path_blockers``), linear plants of order <= 3 (any dead time) or the
+three-tank process (also as a cascade's inner plant or a Smith predictor's
+model), inside the scenario's actuator (range, rate, input load) and sensor
+(range, noise, output load), with setpoint steps and ramps, input, output
+and inner loads, the three-tank's outlet switch, mode and manual-value
+events, and the warm-up.  Everything else -- the other structures, an ADRC
+primary with the AW handshake, limits and ``set`` events, sensor faults,
+other plant switches, numba not installed -- runs the Python path.
 
 The lane's traces equal the Python path's (same operations in the same
-order; tests/sim/test_dispatch.py compares both for every supported case, and
+order; tests/sim/test_dispatch.py and test_dispatch_structures.py compare
+both for every supported case, and
 the stored trace hashes, recorded with the Python path, hold with ``auto``).
 The measurement noise is drawn by the scenario's own generator, in the
 Python path's order (:meth:`ctrlblocks.plants.Noise.samples`).
@@ -123,9 +128,11 @@ def compiled_blockers(sim: _Simulation) -> list[str]:
     from ..fast.simlane import plant_blocker
 
     proc = sim.proc
-    why = plant_blocker(proc.model)
-    if why is not None:
-        bad.append(why)
+    opts = sim.side.kind.lane_options(sim.side)
+    for model in (proc.model, proc.inner_model, *opts.get("models", ())):
+        why = None if model is None else plant_blocker(model)
+        if why is not None:
+            bad.append(why)
     if proc.plant.fault is not None:
         bad.append("a sensor fault is set")
     if not math.isfinite(proc.plant.y_true):
@@ -140,7 +147,8 @@ def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
         return None
     if k == "load":
         at = f.get("at", "input")
-        return None if at in ("input", "output") else f"{where}: load at {at!r}"
+        ok = at in ("input", "output") or sim.proc.inner is not None  # else ignored (warning)
+        return None if ok else f"{where}: load at {at!r}"
     if k == "plant":
         outlet = f.get("target", "plant") == "plant" and f["param"] == "outlet"
         if outlet and hasattr(sim.proc.model, "discrete_model"):  # the three-tank's valve
@@ -167,45 +175,60 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
     ``cache`` keeps the per-sample arrays of a case (events, noise) for the
     scenario's other controllers: the process side is the same for all.
     """
-    from ..fast.simlane import single_loop
+    from ..fast.simlane import lane_loop
 
-    sc, proc, h, n = sim.sc, sim.proc, sim.ts, sim.n
-    block = sim.side.main
+    sc, proc, h, n, side = sim.sc, sim.proc, sim.ts, sim.n, sim.side
+    kind = side.kind
+    blocks = [side.blocks[r] for r in kind.lane_roles(side)]
+    mv = [any(b is m for m in side.mv_blocks) for b in blocks]
     ini = sc.initial
+    inner = proc.inner
+    y2_w = math.nan if inner is None else inner.y
     if ini["warmup"] > 0 or ini["mode"] == "manual":  # _Simulation._warmup
         nw = round(ini["warmup"] / h)
-        u_man, manual0 = proc.u0, ini["mode"] == "manual"
+        kind.hold_for_warmup(side, proc.u0, y2_w)
+        manual0 = [ini["mode"] == "manual"] * len(blocks)
     else:
-        nw, u_man, manual0 = 0, float(block.manual_value), bool(block.manual)
+        nw, manual0 = 0, [bool(b.manual) for b in blocks]
     sensor, act = proc.plant, proc.actuator
     key = (sim.case.name, n, nw)
     if key not in cache:
         cache[key] = _signals(sim, n) | {"noise": _noise(sensor, nw, n)}
     sig = dict(cache[key])
-    sig["manual"] = _piecewise([(0, float(manual0)), *sig["manual_changes"]], n)
-    res = single_loop(
-        block, proc.model, warmup=nw, sp_warmup=sig["sp_warmup"],
-        y_warmup=proc.plant.y_true, u_man=u_man,
-        actuator=(act.u_min, act.u_max, act.rate * act.ts, act.u),
+    sig["manual"] = [
+        _piecewise([(0, float(m0)), *(sig["manual_changes"] if is_mv else ())], n)
+        for m0, is_mv in zip(manual0, mv, strict=True)
+    ]
+    res = lane_loop(
+        kind.compiled_lane, blocks, proc.model, inner_model=proc.inner_model,
+        u_man=[float(b.manual_value) for b in blocks], mv=mv, warmup=nw,
+        sp_warmup=sig["sp_warmup"], y_warmup=proc.plant.y_true, y2_warmup=y2_w,
+        dv_warmup=act.load, actuator=(act.u_min, act.u_max, act.rate * act.ts, act.u),
         sensor=(sensor.y_min, sensor.y_max), signals=sig, noise=sig["noise"],
+        **kind.lane_options(side),
     )  # fmt: skip
     if res.stopped >= 0:
         return None
+    signals = {
+        "sp": sig["sp"].copy(),
+        "y": res.y,
+        "ym": res.ym,
+        "u": res.u,
+        "v": res.u.copy(),
+        "u_act": res.u_act,
+        "load": sig["load_in"].copy(),
+    }
+    names = kind.lane_signals(side)
+    if inner is not None:
+        signals["y2"] = res.y2
+    signals |= dict(zip(names, (res.sig_a, res.sig_b)[: len(names)], strict=True))
+    signals["t"] = np.arange(n) * h
     return Run(
         scenario=sc.name,
         controller=sim.ctrl_spec.name,
         case=sim.case.name,
         ts=h,
-        signals={
-            "sp": sig["sp"].copy(),
-            "y": res.y,
-            "ym": res.ym,
-            "u": res.u,
-            "v": res.u.copy(),
-            "u_act": res.u_act,
-            "load": sig["load_in"].copy(),
-            "t": np.arange(n) * h,
-        },
+        signals=signals,
         events=sim.events,
         duration=n * h,
     )
@@ -256,6 +279,7 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
         "load_in": [(0, proc.actuator.load)],
         "load_out": [(0, proc.plant.load)],
         "g3o": [(0, g3o)],
+        "load_mid": [(0, proc.inner_load)],
     }
     manual: list[tuple[int, float]] = []
     u_man = np.full(n, math.nan)
@@ -267,7 +291,8 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
         by_k.setdefault(k, []).append(ev)
         f = ev.fields
         if ev.kind == "load":
-            key = "load_in" if f.get("at", "input") == "input" else "load_out"
+            at = f.get("at", "input")
+            key = "load_in" if at == "input" else "load_out" if at == "output" else "load_mid"
             changes[key].append((k, f["value"]))
         elif ev.kind == "plant":
             changes["g3o"].append((k, tank.outlet_g[f["value"]]))  # type: ignore[union-attr]

@@ -43,7 +43,10 @@ def shipped_scenarios() -> list[Path]:
 
 def load_shipped(names: Sequence[str] = ()) -> list[Scenario]:
     """Load the shipped scenarios (all, or those whose name is in ``names``)."""
-    scenarios = [load_scenario(p) for p in shipped_scenarios()]
+    files = shipped_scenarios()
+    if names and {p.stem for p in files} >= set(names):  # a file is named after its scenario
+        files = [p for p in files if p.stem in names]
+    scenarios = [load_scenario(p) for p in files]
     if names:
         known = {s.name for s in scenarios}
         missing = [n for n in names if n not in known]

@@ -1,0 +1,219 @@
+"""The cascade, override, feed-forward and Smith structures on the compiled lane.
+
+Each structure runs with ``engine="auto"`` (which must take the lane: no
+"Python path" line in the DEBUG log) and ``engine="python"`` (the
+reference); every signal must agree to 1e-12, and the metrics must be the
+same.  The scenarios exercise what the wiring adds: the cascade's AW
+handshake with the secondary at its limit (and without it), an ADRC
+secondary, loads between the plants; the override's min and max selectors
+with tracking (Åström 1987, Fig. 3.9), fixed setpoints and blocks on ``y``
+and ``y2``; the feed-forward lead-lag during the warm-up and after input
+loads; the Smith predictor with an exact and a wrong model (Nowak et al.
+2018, section 3.1).  Mode and manual-value events, noise and the warm-up
+act on every structure.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from ctrlblocks.fast._jit import HAVE_NUMBA
+from ctrlblocks.sim import parse_scenario, run_scenario
+from ctrlblocks.sim.dispatch import CompiledLaneError, simulate
+from ctrlblocks.sim.report import load_shipped
+
+pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled lane needs numba")
+
+HEAD = """
+[scenario]
+name = "lane"
+title = "lane"
+source = "test"
+structure = "{structure}"
+ts = 0.1
+duration = {duration}
+seed = 3
+[sensor]
+noise = 0.01
+[initial]
+{initial}
+"""
+
+def _toml(value) -> str:
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def _table(name: str, **keys) -> str:
+    """A TOML table ``[name]`` with ``keys``."""
+    return f"[{name}]\n" + "".join(f"{k} = {_toml(v)}\n" for k, v in keys.items())
+
+
+def _events(sp1: float, load: float, um: float, sp2: float, *more: dict) -> str:
+    """Setpoint steps and a ramp, an input load, manual with a new manual value, auto."""
+    evs = [dict(t=2.0, do="setpoint", value=sp1), dict(t=20.0, do="load", value=load),
+           dict(t=35.0, do="mode", mode="manual"), dict(t=38.0, do="manual_value", value=um),
+           dict(t=42.0, do="mode", mode="auto"),
+           dict(t=50.0, do="setpoint", value=sp2, ramp=0.05), *more]  # fmt: skip
+    return "".join(_table("[events]", **ev) for ev in evs)
+
+
+def _pid(kp: float, ti: float, lo: float, hi: float, aw: str = "clamping", **extra) -> str:
+    more = "".join(f"{k} = {v}\n" for k, v in extra.items())
+    return (f'type = "PID"\nkp = {kp}\nti = {ti}\nu_min = {lo}\nu_max = {hi}\n'
+            f'anti_windup = "{aw}"\n{more}')  # fmt: skip
+
+
+def _same(text, caplog, duration: float | None = None):
+    """Run ``text`` (or a scenario) on both engines; the lane ran every run and equals Python."""
+    sc = parse_scenario(text) if isinstance(text, str) else text
+    with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
+        caplog.clear()
+        auto = run_scenario(sc, duration=duration)
+    assert "Python path" not in caplog.text, caplog.text
+    ref = run_scenario(sc, duration=duration, engine="python")
+    assert [(r.controller, r.case) for r in auto.runs] == [(r.controller, r.case) for r in ref.runs]
+    for ra, rb in zip(auto.runs, ref.runs, strict=True):
+        assert list(ra.signals) == list(rb.signals)
+        for name, x in ra.signals.items():
+            np.testing.assert_allclose(x, rb.signals[name], rtol=0.0, atol=1e-12, err_msg=name)
+    assert auto.metrics == ref.metrics and auto.claims == ref.claims
+    return auto
+
+
+# -- cascade -------------------------------------------------------------------------
+
+CASCADE = (
+    HEAD.format(structure="cascade", duration=70.0, initial="y = 0.5\nwarmup = 2.0")
+    + _table("inner_plant", type="PT1", k=1.0, t=1.5)
+    + _table("plant", type="FOPDT", k=1.5, t=8.0, dead_time=1.0)
+    + _table("actuator", u_min=0.0, u_max=1.2, rate=2.0)
+    + _events(1.6, -0.2, 0.4, 1.0, dict(t=28.0, do="load", at="inner", value=0.1))
+)
+
+
+def _cascade(name: str, primary: str, secondary: str, extra: str = "") -> str:
+    return (f'[[controllers]]\nname = "{name}"\n{extra}[controllers.primary]\n{primary}'
+            f"[controllers.secondary]\n{secondary}")  # fmt: skip
+
+
+def test_cascade_on_the_lane_equals_the_python_path(caplog):
+    sec = _pid(2.0, 1.0, 0.0, 1.2)
+    adrc = ('type = "ADRC"\norder = 1\nb0 = 0.7\nomega_c = 1.0\nomega_o = 5.0\n'
+            "u_min = 0.0\nu_max = 1.2\n")  # fmt: skip
+    text = CASCADE + "\n".join([
+        _cascade("handshake", _pid(1.5, 8.0, -1.0, 3.0), sec),
+        _cascade("no handshake", _pid(1.5, 8.0, -1.0, 3.0, "back_calc_model"), sec,
+                 "aw_handshake = false\n"),
+        _cascade("ADRC secondary", _pid(1.2, 6.0, -1.0, 3.0), adrc),
+    ])  # fmt: skip
+    res = _same(text, caplog)
+    sig = {r.controller: r.signals for r in res.runs}
+    # the secondary reached its limit (the handshake's case) and the events acted
+    assert sig["handshake"]["u"].max() == pytest.approx(1.2)
+    t = sig["handshake"]["t"]
+    assert sig["handshake"]["u"][np.searchsorted(t, 40.0)] == 0.4
+    # the handshake changed the primary's course
+    assert not np.array_equal(sig["handshake"]["sp2"], sig["no handshake"]["sp2"])
+
+
+def test_cascade_with_an_adrc_primary_and_the_handshake_is_refused_by_name(caplog):
+    adrc = 'type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.3\nomega_o = 1.5\n'
+    sc = parse_scenario(CASCADE + _cascade("A", adrc, _pid(2.0, 1.0, 0.0, 1.2)))
+    with pytest.raises(CompiledLaneError, match="awin of a non-PID primary"):
+        simulate(sc, "A", engine="compiled", duration=5.0)
+    sc = parse_scenario(CASCADE + _cascade("A", adrc, _pid(2.0, 1.0, 0.0, 1.2),
+                                           "aw_handshake = false\n"))  # fmt: skip
+    simulate(sc, "A", engine="compiled", duration=5.0)
+
+
+# -- override -----------------------------------------------------------------------
+
+
+def test_override_of_astrom_fig39_on_the_lane_equals_the_python_path(caplog):
+    _same(load_shipped(["astrom_fig39"])[0], caplog)
+
+
+OVERRIDE = (
+    HEAD.format(structure="override", duration=70.0, initial="y = 0.3\nwarmup = 1.0")
+    + _table("inner_plant", type="PT1", k=1.0, t=1.0)
+    + _table("plant", type="PT2", k=2.0, t1=4.0, t2=1.0)
+    + _table("actuator", u_min=-0.5, u_max=1.0)
+    + _events(1.5, 0.2, 0.2, 0.5)
+)
+
+
+@pytest.mark.parametrize("selector", ["min", "max"])
+def test_override_on_the_lane_equals_the_python_path(selector, caplog):
+    limit = 0.45 if selector == "min" else 0.1
+    text = OVERRIDE + f"""
+[[controllers]]
+name = "{selector}"
+selector = "{selector}"
+[[controllers.blocks]]
+measure = "y"
+{_pid(1.0, 3.0, -0.5, 1.0, "back_calc_model", b=0.5)}
+[[controllers.blocks]]
+measure = "y2"
+sp = {limit}
+{_pid(6.0, 0.5, -0.5, 1.0)}
+"""
+    res = _same(text, caplog)
+    v1, v2, u = (res.runs[0].signals[k] for k in ("v1", "v2", "u"))
+    # both blocks were selected at some time
+    pick = np.minimum(v1, v2) if selector == "min" else np.maximum(v1, v2)
+    auto = np.isclose(u, pick)
+    assert np.any(auto & (v1 != v2) & (u == v1)) and np.any(auto & (v1 != v2) & (u == v2))
+
+
+def test_override_with_three_blocks_takes_the_python_path_and_says_why(caplog):
+    block = f"[[controllers.blocks]]\n{_pid(1.0, 3.0, -0.5, 1.0)}"
+    text = OVERRIDE + '[[controllers]]\nname = "three"\n' + block * 3
+    sc = parse_scenario(text)
+    with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
+        simulate(sc, "three", duration=2.0)
+    assert "3 blocks (the compiled lane selects between two)" in caplog.text
+
+
+# -- feed-forward -------------------------------------------------------------------
+
+FEEDFORWARD = (
+    HEAD.format(structure="feedforward", duration=70.0, initial="y = 1.0\nload = 0.3\nwarmup = 3.0")
+    + _table("plant", type="PTn", k=2.0, t=[3.0, 1.0], dead_time=0.5)
+    + _table("actuator", u_min=-2.0, u_max=2.0)
+    + _events(1.5, -0.4, 0.1, 0.8, dict(t=30.0, do="load", value=0.5))
+)
+
+
+def test_feedforward_on_the_lane_equals_the_python_path(caplog):
+    text = FEEDFORWARD
+    for name, k, lead, lag, method in [("tustin", -1.0, 2.0, 1.0, "tustin"),
+                                       ("euler", -0.8, 0.5, 2.0, "euler"),
+                                       ("static", -0.5, 0.0, 0.0, "euler")]:  # fmt: skip
+        text += (f'[[controllers]]\nname = "{name}"\n[controllers.main]\n'
+                 f'{_pid(0.8, 4.0, -2.0, 2.0, td=0.5)}'
+                 f'[controllers.feedforward]\ntype = "LeadLag"\nk = {k}\nt_lead = {lead}\n'
+                 f't_lag = {lag}\nmethod = "{method}"\n')  # fmt: skip
+    res = _same(text, caplog)
+    ff = res.runs[0].signals["ff"]
+    assert ff[0] != 0.0 and len(np.unique(ff)) > 10  # the lead-lag acted from the warm-up on
+
+
+# -- Smith predictor -------------------------------------------------------------------
+
+
+def test_smith_predictor_on_the_lane_equals_the_python_path(caplog):
+    _same(load_shipped(["nowak_smith"])[0], caplog)  # ADRC n = 1, exact and wrong model
+    text = (HEAD.format(structure="smith", duration=70.0, initial="y = 0.2\nwarmup = 2.0")
+            + _table("plant", type="FOPDT", k=1.0, t=5.0, dead_time=3.0)
+            + _events(1.0, 0.2, 0.5, 0.4)
+            + '[[controllers]]\nname = "PI"\n[controllers.main]\n' + _pid(1.0, 5.0, -5.0, 5.0)
+            + _table("controllers.model", type="FOPDT", k=0.9, t=6.0, dead_time=3.0))  # fmt: skip
+    res = _same(text, caplog)
+    assert not np.array_equal(res.runs[0].signals["y_pred"], res.runs[0].signals["ym"])
