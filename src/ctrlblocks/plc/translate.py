@@ -210,7 +210,7 @@ class Program:
         state = {p for p in params if p in results}
         pou = FbPou(
             name=self.prefix + short,
-            doc=tr._doc(),
+            doc=tr.doc(),
             inputs=[(names[p], fbvars[names[p]]) for p in params if p not in state],
             outputs=[(names[r], fbvars[names[r]]) for r in results if r not in hidden],
             state=[(names[r], fbvars[names[r]]) for r in results if r in hidden],
@@ -441,7 +441,7 @@ class _Translator:
             body = body[1:]
         return body
 
-    def _doc(self) -> str:
+    def doc(self) -> str:
         doc = ast.get_docstring(self.node) or ""
         doc = doc.strip().split("\n\n")[0].replace("\n", " ")
         doc = re.sub(r":\w+:`[~.]?(?:[\w.]*\.)?(\w+)`", r"\1", doc)  # :class:`~a.B` -> B
@@ -521,7 +521,7 @@ class _Translator:
         self.block(body, top=True)
         pou = Pou(
             name=name,
-            doc=self._doc(),
+            doc=self.doc(),
             inputs=inputs,
             outputs=self.outputs,
             locals={k: v for k, v in self.locals.items() if k not in dict(self.outputs)},
