@@ -65,7 +65,7 @@ import numpy as np
 
 from ..blocks.leadlag import leadlag_coefficients, leadlag_step
 from ..blocks.signals import clamp
-from ._jit import HAVE_NUMBA, jit, jitable, python_function
+from ._jit import HAVE_NUMBA, jitable, native, python_function
 from .kernels import UnsupportedConfig, adrc_step, pid_step
 from .loops import _controller_arrays, _plant_arrays, _plant_step
 
@@ -182,31 +182,32 @@ def _control(wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
 
     ``sig_a``/``sig_b`` are the wiring's signals (cascade: the secondary's
     setpoint; override: both outputs); ``ok`` is False when an output is
-    not finite (the states are then not to be used).
+    not finite (the states are then not to be used).  Each controller is
+    computed and committed at one place (the compiled code inlines each
+    kernel twice, not once per wiring).
     """
-    if wiring == _CASCADE:
-        v1, _aw, pd0 = _compute(kinds[0], p0, a0, s0, sp, yc, 0.0, m0, awin)
-        u, aw1, pd1 = _compute(kinds[1], p1, a1, s1, v1, y2, 0.0, m1, False)
-        ok = math.isfinite(v1) and math.isfinite(u)
+    cascade = wiring == _CASCADE
+    override = wiring == _OVERRIDE
+    r0 = sp_fix[0] if override and not math.isnan(sp_fix[0]) else sp
+    v1, aw1, pd0 = _compute(kinds[0], p0, a0, s0, r0, y2 if override and on_y2[0] else yc,
+                            ff, m0, awin)  # fmt: skip
+    u, v2, pd1 = v1, 0.0, pd0
+    if cascade or override:
+        r1 = v1 if cascade else (sp if math.isnan(sp_fix[1]) else sp_fix[1])
+        v2, aw1, pd1 = _compute(kinds[1], p1, a1, s1, r1, y2 if cascade or on_y2[1] else yc,
+                                0.0, m1, False)  # fmt: skip
+        # cascade: the secondary's output; override: max(v1, v2) or min(v1, v2), the
+        # first of equal values as Python's
+        pick = (v2 if v2 > v1 else v1) if sel_max else (v2 if v2 < v1 else v1)
+        u = v2 if cascade else pick
         s1 = _commit(kinds[1], p1, s1, pd1, m1, u)
-        if hs:
-            awin = aw1
-        s0 = _commit(kinds[0], p0, s0, pd0, m0, v1)
+        if cascade and hs:
+            awin = aw1  # the secondary's awout, read by the primary in the next sample
+    ok = math.isfinite(v1) and math.isfinite(v2)
+    s0 = _commit(kinds[0], p0, s0, pd0, m0, v1 if cascade else u)
+    if cascade:
         return u, v1, 0.0, ok, s0, s1, awin
-    if wiring == _OVERRIDE:
-        r0 = sp if math.isnan(sp_fix[0]) else sp_fix[0]
-        r1 = sp if math.isnan(sp_fix[1]) else sp_fix[1]
-        v1, _a0, pd0 = _compute(kinds[0], p0, a0, s0, r0, y2 if on_y2[0] else yc, 0.0, m0, False)
-        v2, _a1, pd1 = _compute(kinds[1], p1, a1, s1, r1, y2 if on_y2[1] else yc, 0.0, m1, False)
-        ok = math.isfinite(v1) and math.isfinite(v2)
-        # max(v1, v2) or min(v1, v2): the first of equal values, as Python's
-        u = (v2 if v2 > v1 else v1) if sel_max else (v2 if v2 < v1 else v1)
-        s0 = _commit(kinds[0], p0, s0, pd0, m0, u)
-        s1 = _commit(kinds[1], p1, s1, pd1, m1, u)
-        return u, v1, v2, ok, s0, s1, awin
-    u, _aw, pd0 = _compute(kinds[0], p0, a0, s0, sp, yc, ff, m0, False)
-    s0 = _commit(kinds[0], p0, s0, pd0, m0, u)
-    return u, 0.0, 0.0, math.isfinite(u), s0, s1, awin
+    return u, v1, v2, ok, s0, s1, awin
 
 
 # ---------------------------------------------------------------------------
@@ -242,7 +243,13 @@ def _advance(fixed, st, buf, u, g5):
     return (x0, x1, x2, u_hold, py, pos)
 
 
-@jit
+_A1, _A2, _I1 = "f8[::1]", "f8[:, ::1]", "i8[::1]"
+_LANE = (f"i8({_A1}, {_I1}, {_A2}, {_A2}, {_A2}, {_I1}, {_A2}, {_A2}, {_I1}, {_A1}, {_A1}, {_A1}, "
+         f"{_A1}, {_A1}, {_A1}, {_A2}, {_A1}, {_A2})")  # fmt: skip
+"""The signature of :func:`_lane` (its native module)."""
+
+
+@native(_LANE)
 def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, ffp,
           act, sig, noise, out):  # fmt: skip
     """The loop of :func:`lane_loop`; returns the first sample that is not finite, or -1.
@@ -272,42 +279,39 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     fx2, st2 = _plant(pk, pp, ps, pos, buf2, 2)
     fx3, st3 = _plant(pk, pp, ps, pos, buf3, 3)
     ff, x_prev = ffp[6], ffp[5]
-    y_smith = st3[4] - st2[4] if smith else 0.0
-    # warm-up: every controller in manual, the plant held in its steady state
-    sp_w, y_w, y2_w, dv_w = cfg[8], cfg[9], cfg[10], cfg[11]
-    yc_w = y_w + st3[4] - st2[4] if smith else y_w
-    for _ in range(int(cfg[7])):
-        if wiring == _FF:
-            ff = leadlag_step(dv_w, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
-            x_prev = dv_w
-        _u, _a, _b, _ok, s0, s1, awin = _control(
-            wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
-            sp_w, yc_w, y2_w, ff, True, True, awin,
-        )  # fmt: skip
     a_lo, a_hi, du, ua, y_lo, y_hi = act[0], act[1], act[2], act[3], act[4], act[5]
     sp_a, ld_in, ld_out, man0, man1 = sig[0], sig[1], sig[2], sig[3], sig[4]
     um_a, g3o, ld_mid = sig[5], sig[6], sig[7]
-    for k in range(out.shape[1]):
-        y = st0[4] + ld_out[k]
-        ym = clamp(y + noise[k], y_lo, y_hi)
-        if not math.isfinite(ym):
-            return k
-        if not math.isnan(um_a[k]):  # a manual-value event acts on the MV blocks
-            if mv0:
-                s0 = _with_um(s0, um_a[k])
-            if mv1:
-                s1 = _with_um(s1, um_a[k])
-        yc = ym
+    nw = int(cfg[7])
+    # the warm-up (k < 0): every controller in manual, the plant held in its steady state
+    # and measured without noise; then the n recorded samples
+    for k in range(-nw, out.shape[1]):
+        if k < 0:
+            sp, y, dv, m0, m1, yc = cfg[8], cfg[9], cfg[11], True, True, cfg[9]
+            y2 = cfg[10]
+        else:
+            sp, dv, m0, m1, y2 = sp_a[k], ld_in[k], man0[k] != 0.0, man1[k] != 0.0, st1[4]
+            y = st0[4] + ld_out[k]
+            yc = clamp(y + noise[k], y_lo, y_hi)
+            if not math.isfinite(yc):
+                return k
+            if not math.isnan(um_a[k]):  # a manual-value event acts on the MV blocks
+                if mv0:
+                    s0 = _with_um(s0, um_a[k])
+                if mv1:
+                    s1 = _with_um(s1, um_a[k])
+        ym = yc
         if smith:
-            y_smith = ym + st3[4] - st2[4]
-            yc = y_smith
+            yc = yc + st3[4] - st2[4]  # ym + y_model_fast - y_model
         if wiring == _FF:
-            ff = leadlag_step(ld_in[k], x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
-            x_prev = ld_in[k]
+            ff = leadlag_step(dv, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
+            x_prev = dv
         u, sa, sb, ok, s0, s1, awin = _control(
             wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
-            sp_a[k], yc, st1[4], ff, man0[k] != 0.0, man1[k] != 0.0, awin,
+            sp, yc, y2, ff, m0, m1, awin,
         )  # fmt: skip
+        if k < 0:
+            continue
         if not ok:
             return k
         ua = _actuate(u, ld_in[k], ua, du, a_lo, a_hi)
@@ -316,17 +320,16 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
         out[2, k] = u
         out[3, k] = ua
         if series:
-            out[4, k] = st1[4]
+            out[4, k] = y2
             out[5, k] = sa
             out[6, k] = sb
-            y2 = st1[4]
             st1 = _advance(fx1, st1, buf1, ua, fx1[3][5])
             st0 = _advance(fx0, st0, buf0, y2 + ld_mid[k], g3o[k])
         else:
             if wiring == _FF:
                 out[5, k] = ff
             elif smith:
-                out[5, k] = y_smith
+                out[5, k] = yc
             st0 = _advance(fx0, st0, buf0, ua, g3o[k])
         if smith:
             st2 = _advance(fx2, st2, buf2, u, fx2[3][5])
