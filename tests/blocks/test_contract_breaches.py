@@ -495,3 +495,64 @@ def test_pid_configure_refuses_a_series_tuning_whose_gain_overflows() -> None:
     assert (p.config, p.snapshot()) == before
     with pytest.raises(ctrlblocks.ParameterError):
         PID(kp=55.5, ti=1e308, td=0.0, n=11.0, ts=0.17, form="series", derivative_method="forward")
+
+
+# --- per-call and two-phase STATES (the campaign's state check) -------------------------
+
+
+def _two_phase(block, sp: float, y: float, **kw) -> float:
+    v = block.compute_output(sp, y, **kw)
+    block.update_state(v)
+    return v
+
+
+@pytest.mark.parametrize("dt", [None, 0.1])  # None: the fast lane (adrc_step); 0.1: no lane
+def test_adrc_failed_cycle_commits_the_same_reference_on_both_paths(dt) -> None:
+    # Found by the campaign's state check (ADRC, seed 99, action 527): a cycle whose law
+    # overflows (BAD_RESULT, the guard restarts the ESO) committed this cycle's reference
+    # filter state on the fast lane, but the two-phase path's restart dropped it and kept
+    # the previous one while y_ref reported the new one.
+    def make() -> ADRC:
+        return ADRC(order=1, b0=1.0, omega_c=1.0, omega_o=5.0, ts=0.1, t_ref=1.0,
+                    u_min=-10.0, u_max=10.0)  # fmt: skip
+
+    a, b = make(), make()
+    for _ in range(5):
+        a(1.0, 0.0, dt=dt)
+        _two_phase(b, 1.0, 0.0, dt=dt)
+    a(5.0, 1e308, dt=dt)  # the ESO overflows: BAD_RESULT
+    _two_phase(b, 5.0, 1e308, dt=dt)
+    assert a.error_id == b.error_id == ErrorCode.BAD_RESULT
+    # the exact PT1 of Nowak et al. 2018, section 5, one more step from 1 - exp(-0.5)
+    a_ref = math.exp(-0.1 / 1.0)
+    expected = a_ref * (1.0 - math.exp(-0.5)) + (1.0 - a_ref) * 5.0
+    assert a.y_ref == pytest.approx(expected, rel=1e-12)
+    assert a._ref == b._ref == b.y_ref == pytest.approx(expected, rel=1e-12)
+    assert a.snapshot() == b.snapshot()
+
+
+def test_gain_schedule_reset_puts_the_controller_at_the_initial_schedule() -> None:
+    # Found by the campaign's state check (GainSchedule, seed 99, action 16,789): reset()
+    # set the scheduling variable back to the first breakpoint but left the PID tuned
+    # for the old one, so a later restore(snapshot()) -- which retunes for the restored
+    # variable -- changed kp under the restored state, and P and I differed from a block
+    # that was not restored while the output sat at the limit.
+    gs = ctrlblocks.GainSchedule(
+        PID(kp=1.0, ti=10.0, ts=0.1, u_min=0.0, u_max=100.0), breakpoints=(0.0, 100.0),
+        kp=(1.0, 3.0),
+    )  # fmt: skip
+    gs(50.0, 45.0, w=100.0)
+    assert gs.controller.config.kp == 3.0
+    gs.reset()
+    assert gs.w == 0.0
+    assert gs.controller.config.kp == gs.parameters["kp"] == 1.0
+    twin = ctrlblocks.GainSchedule(
+        PID(kp=1.0, ti=10.0, ts=0.1, u_min=0.0, u_max=100.0), breakpoints=(0.0, 100.0),
+        kp=(1.0, 3.0),
+    )  # fmt: skip
+    assert twin.controller.config.kp == 1.0  # construction: the same initial schedule
+    gs.restore(gs.snapshot())
+    for k in range(5):
+        w = math.nan if k == 0 else 0.0  # a bad scheduling variable keeps the tuning
+        assert gs(60.0, 45.0, w=w) == twin(60.0, 45.0, w=w)
+        assert gs.snapshot() == twin.snapshot()

@@ -12,9 +12,11 @@ random generator).
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import io
 import math
 import random
+import threading
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -29,6 +31,7 @@ from hypothesis.stateful import (
 
 import ctrlblocks
 from ctrlblocks.blocks import fuzz
+from ctrlblocks.blocks.base import live_snapshots
 from ctrlblocks.blocks.fuzz import BAD_PARAMS, BLOCKS, HOSTILE, HOSTILE_DT, Driver
 
 VALUES = st.one_of(
@@ -185,3 +188,50 @@ def test_the_time_budget_stops_the_campaign_with_its_counts() -> None:
 def test_the_command_line_runs_a_short_campaign(capsys) -> None:
     assert fuzz.main(["--steps", "50", "--block", "DeadBand", "--every", "0"]) == 0
     assert "DeadBand=50" in capsys.readouterr().out
+
+
+TWO_PHASE = sorted(n for n, spec in BLOCKS.items() if spec.two_phase)
+
+
+def test_every_block_with_both_paths_is_driven_on_both() -> None:
+    # a block whose compute_output takes __call__'s arguments has the two-phase form
+    # (ManualStation's compute_output() is only its present output: one path)
+    def same_args(cls) -> bool:
+        call = inspect.signature(cls.__call__).parameters
+        comp = inspect.signature(getattr(cls, "compute_output", lambda self: None)).parameters
+        return list(comp)[1:3] == list(call)[1:3] and len(comp) > 2
+
+    expected = {n for n, spec in BLOCKS.items() if same_args(spec.cls)}
+    assert set(TWO_PHASE) == expected == {"ADRC", "GainSchedule", "PID"}
+
+
+@pytest.mark.parametrize("name", TWO_PHASE)
+def test_a_state_divergence_the_outputs_hide_is_a_breach(name: str) -> None:
+    r = random.Random(3)
+    driver = None
+    while driver is None or driver.twin is None:
+        try:
+            driver = Driver(BLOCKS[name], BLOCKS[name].config(r))
+        except ctrlblocks.ParameterError:
+            continue
+    for _ in range(3):
+        driver.act_step([30.0, None, 0.0, 0.0, 50.0], None, [True, False, False])
+    ctl = driver._ctl(driver.twin)
+    field = next(f for f in reversed(ctl._state_fields) if isinstance(getattr(ctl, f), float))
+    setattr(ctl, field, getattr(ctl, field) + 1.0)  # a state that is not the output
+    with pytest.raises(fuzz.Breach, match="states differ"):
+        driver._compare_twin("a tampered twin")
+
+
+def test_live_snapshots_read_the_state_in_place_in_this_thread_only() -> None:
+    ma = ctrlblocks.MovingAverage(n=4)
+    ma(1.0)
+    assert ma.snapshot()["_buf"] is not ma._buf  # a copy, to keep and restore
+    seen = []
+    with live_snapshots():
+        assert ma.snapshot()["_buf"] is ma._buf
+        thread = threading.Thread(target=lambda: seen.append(ma.snapshot()["_buf"] is ma._buf))
+        thread.start()
+        thread.join(timeout=30)
+    assert seen == [False]
+    assert ma.snapshot()["_buf"] is not ma._buf

@@ -933,7 +933,9 @@ class ADRC(Block):
         self._sat = self._ab_sat = 0
         self._ab_wait = 0.0
         if self._pending is not None:
-            self._pending = (0.0, 0.0, 0.0, 0.0, self._ref, False, True, 0, 0, 0.0)
+            # a two-phase cycle in progress: commit this cycle's reference (y_ref, made
+            # finite above), as the per-call cycle, which committed it before the guard
+            self._pending = (0.0, 0.0, 0.0, 0.0, self.y_ref, False, True, 0, 0, 0.0)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped."""

@@ -55,12 +55,13 @@ the same way:
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import copy
 import dataclasses
 import functools
 import math
 import numbers
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from enum import IntEnum
 from typing import Any, ClassVar
 
@@ -395,6 +396,31 @@ def _numeric_fields(cls: type) -> tuple[tuple[str, str], ...]:
 _NINF, _INF = -math.inf, math.inf
 
 
+_SNAPSHOT_COPIES: contextvars.ContextVar[bool] = contextvars.ContextVar(
+    "snapshot_copies", default=True
+)
+
+
+def _itself(x: Any) -> Any:
+    return x
+
+
+@contextlib.contextmanager
+def live_snapshots() -> Iterator[None]:
+    """Inside this context (in this thread), ``snapshot()`` does not copy the state.
+
+    The snapshot then holds the block's own state objects (a moving average's
+    buffer, ...): it is for comparing two blocks' states at once, cheaply (the
+    fuzz campaign compares the per-call and two-phase paths' states after every
+    action), and must be neither kept nor restored.
+    """
+    token = _SNAPSHOT_COPIES.set(False)
+    try:
+        yield
+    finally:
+        _SNAPSHOT_COPIES.reset(token)
+
+
 def _guard(step: Callable[..., Any]) -> Callable[..., Any]:
     """Wrap a block's step so that no non-finite or out-of-limit ``out`` leaves it.
 
@@ -520,7 +546,8 @@ class Block:
 
     def snapshot(self) -> dict[str, Any]:
         """A copy of the block's state; :meth:`restore` puts it back."""
-        snap = {name: copy.deepcopy(getattr(self, name)) for name in self._state_fields}
+        cp = copy.deepcopy if _SNAPSHOT_COPIES.get() else _itself
+        snap = {name: cp(getattr(self, name)) for name in self._state_fields}
         snap["error_id"] = self.error_id
         return snap
 

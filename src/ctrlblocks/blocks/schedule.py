@@ -12,6 +12,11 @@ values and retunes bumplessly (the PID keeps its output by moving its
 integrator, the ADRC keeps its output through (11) of Nowak et al. 2018) --
 before the controller computes its output.
 
+The controller is always tuned for the schedule's present ``w``: a new
+schedule and ``reset()`` start at the first breakpoint ``w_0`` with the
+controller configured for it, and ``restore(snapshot())`` puts back ``w``,
+retunes for it, then puts back the controller's state.
+
 Equations
 ---------
 For breakpoints ``w_0 < w_1 < ... < w_m`` and values ``p_0 .. p_m`` of one
@@ -153,6 +158,8 @@ class GainSchedule(Block):
     def _reset_state(self) -> None:
         self.w = float(self._config.breakpoints[0])  # type: ignore[attr-defined]
         self._bad_w = False
+        # the controller is always tuned for ``w`` (restore() relies on it): also at the start
+        self._retune()
 
     def reset(self) -> None:
         """Reset the schedule and the controller."""
