@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from ..blocks import pid as _pid
-from ._jit import HAVE_NUMBA, jit, jit_parallel, jitable, numba_prange, python_function
+from ._jit import HAVE_NUMBA, jit, jit_parallel, jitable, prange, python_function
 from .kernels import (
     UnsupportedConfig,
     adrc_params,
@@ -214,9 +214,6 @@ def _run(prm, pp, st, x, sp, n_steps, iae, h):
         _run_four(prm, pp, st, x, sp, n_steps, j, iae, h)
     for j in range(n4, n_loops):
         _run_one(prm, pp, st, x, sp, n_steps, j, iae, h)
-
-
-prange = numba_prange()  # the global numba reads when it compiles _run_parallel
 
 
 @jit_parallel

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..plants import threetank as _tt
-from ._jit import HAVE_NUMBA, jitable, native, python_function
+from ._jit import HAVE_NUMBA, jit, jitable, python_function
 from .kernels import (
     UnsupportedConfig,
     adrc_params,
@@ -166,16 +166,9 @@ def _apply_event(kind, v, sp, load, ff, man, um, g3o):
     return sp, load, ff, man, um, g3o
 
 
-_A1, _I1 = "f8[::1]", "i8[::1]"
-_LOOP = f"f8({_A1}, {_A1}, i8, {_A1}, {_A1}, {_A1}, i8, {_I1}, {_I1}, {_A1}, {_A1}, {_A1}, {_A1})"
-"""The signature of the two closed loops (their native modules)."""
-
-
-@native(_LOOP)
-def _pid_loop(prm_a, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_out, u_out):
-    """PID + plant; ``cs = (i, d, w_prev, e_prev, out, cold, was_manual)``; returns the last u."""
-    prm = (prm_a[0], prm_a[1], prm_a[2], prm_a[3], prm_a[4], prm_a[5], prm_a[6], prm_a[7],
-           prm_a[8], prm_a[9], prm_a[10], prm_a[11], prm_a[12])  # fmt: skip
+@jit
+def _pid_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_out, u_out):
+    """PID + plant; ``cs = (i, d, w_prev, e_prev, out, cold, was_manual)``."""
     i, d, w_prev, e_prev, out = cs[0], cs[1], cs[2], cs[3], cs[4]
     cold = cs[5] != 0.0
     was_manual = cs[6] != 0.0
@@ -211,15 +204,12 @@ def _pid_loop(prm_a, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y
             kind, x0, x1, x2, u_hold, out + load, buf, pos, dsamp, nbuf, lti,
             (pp[0], pp[1], pp[2], pp[3], pp[4], g3o), hsub, nsub, lo, hi,
         )  # fmt: skip
-    return out
+    return i, d, w_prev, e_prev, out
 
 
-@native(_LOOP)
-def _adrc_loop(prm_a, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_out, u_out):
-    """ADRC + plant; ``cs = (yh, x2, x3, x4, u_prev, ref, started, track, sat)``; the last u."""
-    prm = (prm_a[0], prm_a[1], prm_a[2], prm_a[3], prm_a[4], prm_a[5], prm_a[6], prm_a[7],
-           prm_a[8], prm_a[9], prm_a[10], prm_a[11], prm_a[12], prm_a[13], prm_a[14],
-           prm_a[15], prm_a[16], prm_a[17], prm_a[18], prm_a[19], prm_a[20], prm_a[21])  # fmt: skip
+@jit
+def _adrc_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_out, u_out):
+    """ADRC + plant; ``cs = (yh, x2, x3, x4, u_prev, ref, started, track, sat)``."""
     yh, e2, e3, e4, u_prev, ref = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
     started = cs[6] != 0.0
     track = cs[7] != 0.0
@@ -255,7 +245,7 @@ def _adrc_loop(prm_a, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, 
             kind, x0, x1, x2, u_hold, u + load, buf, pos, dsamp, nbuf, lti,
             (pp[0], pp[1], pp[2], pp[3], pp[4], g3o), hsub, nsub, lo, hi,
         )  # fmt: skip
-    return u_prev
+    return yh, e2, e3, e4, u_prev
 
 
 # ---------------------------------------------------------------------------
@@ -402,8 +392,7 @@ def closed_loop(
     compiled = HAVE_NUMBA and engine == "auto"
     if not compiled:
         loop = python_function(loop)
-    loop(np.array(prm, dtype=float), cs, kind, pp, ps, buf.copy(), pos, ev_k, ev_kind, ev_val,
-         nz, y_out, u_out)  # fmt: skip
+    loop(prm, cs, kind, pp, ps, buf.copy(), pos, ev_k, ev_kind, ev_val, nz, y_out, u_out)
     return LoopResult(y_out, u_out, compiled, "compiled" if compiled else "python")
 
 

@@ -65,7 +65,7 @@ import numpy as np
 
 from ..blocks.leadlag import leadlag_coefficients, leadlag_step
 from ..blocks.signals import clamp
-from ._jit import HAVE_NUMBA, jitable, native, python_function
+from ._jit import HAVE_NUMBA, jit, jitable, python_function
 from .kernels import UnsupportedConfig, adrc_step, pid_step
 from .loops import _controller_arrays, _plant_arrays, _plant_step
 
@@ -243,13 +243,7 @@ def _advance(fixed, st, buf, u, g5):
     return (x0, x1, x2, u_hold, py, pos)
 
 
-_A1, _A2, _I1 = "f8[::1]", "f8[:, ::1]", "i8[::1]"
-_LANE = (f"i8({_A1}, {_I1}, {_A2}, {_A2}, {_A2}, {_I1}, {_A2}, {_A2}, {_I1}, {_A1}, {_A1}, {_A1}, "
-         f"{_A1}, {_A1}, {_A1}, {_A2}, {_A1}, {_A2})")  # fmt: skip
-"""The signature of :func:`_lane` (its native module)."""
-
-
-@native(_LANE)
+@jit
 def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, ffp,
           act, sig, noise, out):  # fmt: skip
     """The loop of :func:`lane_loop`; returns the first sample that is not finite, or -1.
@@ -334,6 +328,72 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
         if smith:
             st2 = _advance(fx2, st2, buf2, u, fx2[3][5])
             st3 = _advance(fx3, st3, buf3, u, fx3[3][5])
+    return -1
+
+
+@jitable
+def _sense(st, sig, noise, k, act, um):
+    """``(y, ym, manual, u_man)`` of sample ``k``: ``Sensor.y_true``, the measurement
+    ``Sensor.y``, the mode and the manual value (changed by a manual-value event)."""
+    y = st[4] + sig[2, k]
+    um = um if math.isnan(sig[5, k]) else sig[5, k]
+    return y, clamp(y + noise[k], act[4], act[5]), sig[3, k] != 0.0, um
+
+
+@jitable
+def _drive(fx, st, buf, out, k, y, ym, u, ld_in, ua, act, g5):
+    """Record sample ``k``, shape ``u`` by the actuator and step the plant; ``(ua, st)``."""
+    ua = _actuate(u, ld_in, ua, act[2], act[0], act[1])
+    out[0, k] = y
+    out[1, k] = ym
+    out[2, k] = u
+    out[3, k] = ua
+    return ua, _advance(fx, st, buf, ua, g5)
+
+
+@jit
+def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, out):
+    """The ``single`` wiring: one PID (parameters ``p``, ``a`` None) or ADRC (``a``, ``p`` None).
+
+    The loop of the structures of :func:`_lane` without their branches and
+    states: most runs are single loops.  numba compiles one version for each
+    controller (the types of ``p`` and ``a`` differ) and prunes the other's
+    branch, so each runs as lean as a loop written for it alone.
+    """
+    fx, st = _plant(pk, pp, ps, pos, buf, 0)
+    # PID: i, d, w_prev, e_prev, cold, was_manual; ADRC: yh, x2, x3, x4, ref, started,
+    # track, sat; both: the last output u
+    c0, c1, c2, c3, u, c5 = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
+    on, track, sat = cs[6] != 0.0, cs[7] != 0.0, int(cs[8])
+    cold = c5 != 0.0
+    ua = act[3]
+    for k in range(-nw, out.shape[1]):  # k < 0: the warm-up, manual at um, plant held
+        if k < 0:
+            sp, y, ym, m = sp_w, y_w, y_w, True
+        else:
+            sp = sig[0, k]
+            y, ym, m, um = _sense(st, sig, noise, k, act, um)
+            if not math.isfinite(ym):
+                return k
+        # numba prunes the branch whose parameters are None (checked on a None-typed value)
+        if p is not None:
+            u, _vr, _p, _ish, c0, c1, c2, c3 = pid_step(
+                sp, ym, 0.0, m, um, cold, (not m) and on, c0, c1, c2, c3, u, p
+            )
+            cold = False
+            on = m  # the mode of the last cycle (bumpless return to auto)
+        if a is not None:
+            u, _ur, c0, c1, c2, c3, c5, track, sat = adrc_step(
+                sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, a
+            )
+            on = True  # started
+        if k < 0:
+            continue
+        if not math.isfinite(u):
+            return k
+        if not m:
+            um = u  # the manual value is In/Out: in auto it follows the output
+        ua, st = _drive(fx, st, buf, out, k, y, ym, u, sig[1, k], ua, act, sig[6, k])
     return -1
 
 
@@ -460,7 +520,7 @@ def lane_loop(
         slots.append(slots[0])
     kinds = np.array([s[0] for s in slots], dtype=np.int64)
     pprm, aprm, cst = (np.array([s[i] for s in slots]) for i in (1, 2, 3))
-    plants = [model, inner_model or model, *(models or (model, model))]
+    plants = [model] if code == 0 else [model, inner_model or model, *(models or (model, model))]
     arrays = [_plant_arrays(p) for p in plants]
     pk = np.array([a[0] for a in arrays], dtype=np.int64)
     pp = np.array([a[1] for a in arrays])
@@ -485,9 +545,17 @@ def lane_loop(
     traces = np.zeros((7, n))
     traces[5:] = math.nan
     act = np.array([*actuator, *sensor], dtype=float)
-    lane = _lane if compiled and HAVE_NUMBA else python_function(_lane)
-    stopped = lane(
-        cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, *(a[3].copy() for a in arrays), ffp,
-        act, sig, noise, traces,
-    )  # fmt: skip
-    return LaneResult(traces, stopped=int(stopped), compiled=compiled and HAVE_NUMBA)
+    run = compiled and HAVE_NUMBA
+    bufs = [a[3].copy() for a in arrays]
+    if code == 0:  # the single loop (the most common runs) has its own, leaner kernel
+        pid = kinds[0] == _PID
+        stopped = (_single if run else python_function(_single))(
+            tuple(pprm[0].tolist()) if pid else None, None if pid else tuple(aprm[0].tolist()),
+            cst[0], float(u_man[0]), int(warmup), float(sp_warmup), float(y_warmup), pk, pp, ps,
+            pos, bufs[0], act, sig, noise, traces,
+        )  # fmt: skip
+    else:
+        stopped = (_lane if run else python_function(_lane))(
+            cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, *bufs, ffp, act, sig, noise, traces
+        )
+    return LaneResult(traces, stopped=int(stopped), compiled=run)
