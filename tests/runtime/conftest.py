@@ -8,11 +8,22 @@ from __future__ import annotations
 
 import asyncio
 import math
+import sqlite3
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+
+from ctrlblocks.runtime import (
+    FakeClock,
+    MemoryAdapter,
+    MemoryBus,
+    Runtime,
+    SQLiteHistorian,
+    parse_config,
+)
 
 DATA = Path(__file__).parent / "data"
 
@@ -63,6 +74,65 @@ safe_value = {safe_value}
 """
 
 
+class FirstOrder:
+    """A test plant on the bus: y[k+1] = a y[k] + (1 - a) u[k], stepped on each MV write."""
+
+    def __init__(self, bus: MemoryBus, a: float = 0.9, pv: str = "pv", mv: str = "mv") -> None:
+        self.bus, self.a, self.pv = bus, a, pv
+        bus.values[pv] = 0.0
+        bus.values[mv] = 0.0
+        self.mv = mv
+
+    def __call__(self, address: str, u: float) -> None:
+        if address == self.mv:
+            y = self.bus.values[self.pv]
+            if math.isfinite(y):
+                self.bus.values[self.pv] = self.a * y + (1.0 - self.a) * u
+
+
+def make(
+    loops: str,
+    buses: dict[str, MemoryBus],
+    tmp_path: Path | None = None,
+    historian: Any = False,
+    retain: Any = "config",
+) -> tuple[Runtime, FakeClock, list[Any]]:
+    """A runtime of ``loops`` on in-memory connections (name -> bus) on a fake clock.
+
+    ``historian``: True for an SQLite historian in ``tmp_path``, or an open
+    historian; ``retain``: as :class:`Runtime` takes it.  Returns the
+    runtime, its clock and the list every sample is appended to.
+    """
+    conns = "".join(f'[connections.{n}]\nprotocol = "memory"\n' for n in buses)
+    cfg = parse_config(conns + loops + '\n[historian]\nbackend = "none"\n')
+    clock = FakeClock()
+    hist = historian or None
+    if historian is True:
+        hist = SQLiteHistorian(tmp_path / "h.sqlite")
+        hist.open()
+    samples = []
+    rt = Runtime(
+        cfg,
+        clock=clock,
+        adapters={n: MemoryAdapter(b) for n, b in buses.items()},
+        historian=hist,
+        on_sample=samples.append,
+        retain=retain,
+    )
+    return rt, clock, samples
+
+
+async def run(rt: Runtime, clock: FakeClock, t_end: float) -> None:
+    """Start ``rt`` and run its fake clock to ``t_end`` [s]."""
+    await rt.start()
+    await clock.run_until(t_end)
+
+
+def bounded(coro: Any, timeout: float = 60.0) -> Any:
+    """``asyncio.run`` with a per-test timeout (no test hangs the suite)."""
+    return asyncio.run(asyncio.wait_for(coro, timeout))
+
+
 async def wait_for(pred, timeout: float = 10.0, step: float = 0.01) -> None:
     """Wait (real time) until ``pred()`` is true; fail after ``timeout`` s."""
     loop = asyncio.get_running_loop()
@@ -71,6 +141,31 @@ async def wait_for(pred, timeout: float = 10.0, step: float = 0.01) -> None:
         if loop.time() > t_end:
             raise AssertionError("condition not reached in time")
         await asyncio.sleep(step)
+
+
+def wait_for_samples(
+    db: Path, n: int, *, timeout: float = 60.0, keep: Any = None
+) -> list[dict[str, Any]]:
+    """Poll (real time) the historian ``db`` another process writes until it holds ``n`` samples.
+
+    ``keep``: count only the samples it is true for.  Returns them (fewer
+    after ``timeout`` s: the caller's assertion says so).
+    """
+    from ctrlblocks.runtime import SQLiteHistorian
+    from ctrlblocks.runtime.historian import HistoryError
+
+    t_end = time.monotonic() + timeout
+    rows: list[dict[str, Any]] = []
+    while time.monotonic() < t_end:
+        time.sleep(0.1)
+        try:
+            with SQLiteHistorian(db).reading() as h:
+                rows = [r for r in h.samples() if keep is None or keep(r)]
+        except (sqlite3.OperationalError, HistoryError):
+            continue  # no file or no tables yet
+        if len(rows) >= n:
+            break
+    return rows
 
 
 class ServerThread:

@@ -5,10 +5,8 @@ from __future__ import annotations
 import os
 import signal
 import socket
-import sqlite3
 import subprocess
 import sys
-import time
 
 import pytest
 from click.testing import CliRunner
@@ -16,9 +14,8 @@ from click.testing import CliRunner
 from ctrlblocks.cli import main
 from ctrlblocks.runtime import SQLiteHistorian
 from ctrlblocks.runtime.cli import serve as runtime_serve
-from ctrlblocks.runtime.historian import HistoryError
 
-from .conftest import DATA
+from .conftest import DATA, wait_for_samples
 
 pytestmark = pytest.mark.loopback
 
@@ -90,19 +87,7 @@ def test_plant_server_and_serve_run_a_loop_and_stop_on_sigterm(tmp_path):
             [sys.executable, "-c", "from ctrlblocks.runtime.cli import serve; serve()", str(cfg)],
             stdout=serve_log, stderr=subprocess.STDOUT, text=True, env=env,
         )  # fmt: skip
-        t_end = time.monotonic() + 60.0
-        rows = []
-        while time.monotonic() < t_end:
-            time.sleep(0.2)
-            if db.exists():
-                try:
-                    with SQLiteHistorian(db).reading() as h:
-                        rows = [r for r in h.samples() if r["pv_ok"]]
-                except (sqlite3.OperationalError, HistoryError):
-                    # the runtime creates the file before its tables: not ready yet
-                    continue
-                if len(rows) >= 20:
-                    break
+        rows = wait_for_samples(db, 20, keep=lambda r: r["pv_ok"])
         assert len(rows) >= 20, (tmp_path / "serve.log").read_text()[-2000:]
         serve.send_signal(signal.SIGTERM)
         assert serve.wait(15) == 0

@@ -8,7 +8,6 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 
 import pytest
 from click.testing import CliRunner
@@ -17,7 +16,7 @@ from ctrlblocks.cli import main
 from ctrlblocks.runtime import SQLiteHistorian, parse_config
 from ctrlblocks.runtime.loop import Sample
 
-from .conftest import DATA, loop_toml
+from .conftest import DATA, loop_toml, wait_for_samples
 
 
 def cli(*args: str):
@@ -157,10 +156,9 @@ def test_the_readme_sequence_serve_then_history_works_from_another_directory(tmp
     )
     try:
         first = p.stdout.readline()  # printed at start
-        t_end = time.monotonic() + 30.0  # the database exists once the runtime runs
-        while not (run / "ctrlblocks-history.sqlite").exists() and time.monotonic() < t_end:
-            time.sleep(0.05)
-        time.sleep(0.5)
+        # stop once a sample is committed (not after a fixed sleep: on a loaded machine the
+        # first cycle can come later than any sleep, and then the history is empty)
+        assert wait_for_samples(run / "ctrlblocks-history.sqlite", 1, timeout=120.0)
     finally:
         p.send_signal(signal.SIGTERM)
         _rest, _ = p.communicate(timeout=30)

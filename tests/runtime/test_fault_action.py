@@ -6,9 +6,8 @@ import pytest
 
 from ctrlblocks.runtime import MemoryBus, RuntimeConfigError, parse_config
 
-from .conftest import loop_toml
-from .test_io_image import bounded
-from .test_runtime_memory import ADRC_BLOCK, FirstOrder, make, run
+from .conftest import FirstOrder, bounded, loop_toml, make, run
+from .test_runtime_memory import ADRC_BLOCK
 
 HOLD = 'on_fault = "hold"\nhold_time = 0.3'
 

@@ -12,37 +12,28 @@ import time
 import pytest
 
 from ctrlblocks.runtime import (
-    FakeClock,
-    MemoryAdapter,
     MemoryBus,
     PostgresHistorian,
-    Runtime,
     SQLiteHistorian,
     export_history,
-    parse_config,
 )
+from ctrlblocks.runtime.config import HistorianConfig
 from ctrlblocks.runtime.historian import SAMPLE_COLUMNS
 from ctrlblocks.runtime.loop import Sample
+from ctrlblocks.runtime.writer import ProcessHistorian
 
-from .conftest import loop_toml
+from .conftest import loop_toml, make, run
 
 PG_DSN = os.environ.get("CTRLBLOCKS_TEST_PG_DSN", "")
 
 
 def run_runtime(historian, t_end: float, bus: MemoryBus) -> int:
     """Run two loops for ``t_end`` s of virtual time; return the number of cycles per loop."""
-    cfg = parse_config(
-        '[connections.io]\nprotocol = "memory"\n'
-        + loop_toml(name="a", ts=0.1)
-        + loop_toml(name="b", ts=0.1, pv="pv2", mv="mv2")
-        + '[historian]\nbackend = "none"\n'
-    )
-    clock = FakeClock()
-    rt = Runtime(cfg, clock=clock, adapters={"io": MemoryAdapter(bus)}, historian=historian)
+    loops = loop_toml(name="a", ts=0.1) + loop_toml(name="b", ts=0.1, pv="pv2", mv="mv2")
+    rt, clock, _ = make(loops, {"io": bus}, historian=historian)
 
     async def main():
-        await rt.start()
-        await clock.run_until(t_end)
+        await run(rt, clock, t_end)
         await rt.stop()
 
     asyncio.run(main())
@@ -66,9 +57,9 @@ def check_two_runs(make_historian):
     assert (n1, n2) == (21, 11)
     assert len(rows) == 2 * (n1 + n2)  # N cycles in, N rows out, both loops
     assert runs == [(1, 1), (2, 1)]
-    for run, n in ((1, n1), (2, n2)):
+    for run_id, n in ((1, n1), (2, n2)):
         for loop in ("a", "b"):
-            cycles = [r["cycle"] for r in rows if r["run_id"] == run and r["loop"] == loop]
+            cycles = [r["cycle"] for r in rows if r["run_id"] == run_id and r["loop"] == loop]
             assert cycles == list(range(n))
     a = [r for r in rows if r["loop"] == "a"]
     b = [r for r in rows if r["loop"] == "b"]
@@ -78,9 +69,21 @@ def check_two_runs(make_historian):
     return rows
 
 
-def test_sqlite_keeps_every_sample_across_a_restart(tmp_path):
+@pytest.fixture(params=["in-process", "writer-process"])
+def sqlite_historian(request):
+    """A factory of SQLite historians: written in this process, or by the writer process."""
+
+    def make(path, retention_days: float = 0.0):
+        if request.param == "in-process":
+            return SQLiteHistorian(path, retention_days=retention_days)
+        return ProcessHistorian(HistorianConfig(path=str(path), retention_days=retention_days))
+
+    return make
+
+
+def test_sqlite_keeps_every_sample_across_a_restart(tmp_path, sqlite_historian):
     path = tmp_path / "h.sqlite"
-    check_two_runs(lambda: SQLiteHistorian(path))
+    check_two_runs(lambda: sqlite_historian(path))
     with sqlite3.connect(path) as c:
         assert c.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
 
@@ -98,15 +101,15 @@ def test_flush_writes_the_buffer_in_one_batch(tmp_path):
     h.close()
 
 
-def test_retention_deletes_old_samples_at_open(tmp_path):
+def test_retention_deletes_old_samples_at_open(tmp_path, sqlite_historian):
     path = tmp_path / "h.sqlite"
-    h = SQLiteHistorian(path, retention_days=1.0)
+    h = sqlite_historian(path, retention_days=1.0)
     h.open()
     now = time.time()
     for k, age_days in enumerate((3.0, 1.5, 0.5, 0.0)):
         h.record(Sample("x", k, now - age_days * 86400.0, 0, 0.1, 1, 1, 1, "auto", 0, 1, 1, 0))
     h.close()
-    h2 = SQLiteHistorian(path, retention_days=1.0)
+    h2 = sqlite_historian(path, retention_days=1.0)
     h2.open()
     assert [r["cycle"] for r in h2.samples()] == [2, 3]
     h2.close()
@@ -135,13 +138,17 @@ def test_export_to_csv_and_parquet(tmp_path):
     reason="no PostgreSQL server: set CTRLBLOCKS_TEST_PG_DSN "
     "(.ci/run starts one with tests/runtime/ci_postgres.sh)",
 )
-def test_postgresql_keeps_every_sample_across_a_restart():
+@pytest.mark.parametrize("writer", ["in-process", "writer-process"])
+def test_postgresql_keeps_every_sample_across_a_restart(writer):
     import psycopg
 
     with psycopg.connect(PG_DSN) as c:
         for t in ("samples", "runs", "audit"):
             c.execute(f"DROP TABLE IF EXISTS {t}")
-    rows = check_two_runs(lambda: PostgresHistorian(PG_DSN))
+    pg = HistorianConfig(backend="postgresql", dsn=PG_DSN)
+    rows = check_two_runs(
+        lambda: PostgresHistorian(PG_DSN) if writer == "in-process" else ProcessHistorian(pg)
+    )
     assert rows[0]["run_id"] == 1
     h = PostgresHistorian(PG_DSN)
     h.open()
@@ -151,8 +158,8 @@ def test_postgresql_keeps_every_sample_across_a_restart():
     h.close()
 
 
-def test_samples_of_a_loop_in_a_time_window_ordered_by_wall_time(tmp_path):
-    h = SQLiteHistorian(tmp_path / "h.sqlite")
+def test_samples_of_a_loop_in_a_time_window_ordered_by_wall_time(tmp_path, sqlite_historian):
+    h = sqlite_historian(tmp_path / "h.sqlite")
     h.open()
     # loop x at t_wall 100, 101, ..., 109; loop y at the same times; one row written out of order
     for k in (3, 0, 1, 2, 4, 5, 6, 7, 8, 9):
@@ -171,8 +178,8 @@ def test_samples_of_a_loop_in_a_time_window_ordered_by_wall_time(tmp_path):
     h.close()
 
 
-def test_audit_rows_of_a_loop_and_the_newest_few(tmp_path):
-    h = SQLiteHistorian(tmp_path / "h.sqlite")
+def test_audit_rows_of_a_loop_and_the_newest_few(tmp_path, sqlite_historian):
+    h = sqlite_historian(tmp_path / "h.sqlite")
     h.open()
     for i in range(5):
         h.audit("alice", "a" if i % 2 == 0 else "b", f"sp{i}", None, {"sp": i}, True)

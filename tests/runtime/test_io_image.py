@@ -21,13 +21,7 @@ from ctrlblocks.runtime import (
     parse_config,
 )
 
-from .conftest import loop_toml
-from .test_runtime_memory import FirstOrder, make, run
-
-
-def bounded(coro, timeout: float = 60.0):
-    """``asyncio.run`` with a per-test timeout (no test hangs the suite)."""
-    return asyncio.run(asyncio.wait_for(coro, timeout))
+from .conftest import FirstOrder, bounded, loop_toml, make, run
 
 
 def many_loops(

@@ -17,8 +17,7 @@ from ctrlblocks.runtime import (
 )
 from ctrlblocks.tuning import relay_autotune, step_pretune
 
-from .conftest import loop_toml, wait_for
-from .test_io_image import bounded
+from .conftest import bounded, loop_toml, wait_for
 
 U0 = 2.0  # the operating point: supply pressure 2 bar, p3 = 1.368 bar
 CONN = '[connections.io]\nprotocol = "memory"\n'

@@ -9,27 +9,15 @@ import sqlite3
 from ctrlblocks.runtime import FakeClock, MemoryAdapter, MemoryBus, Runtime, parse_config
 from ctrlblocks.runtime.retain import SCHEMA_VERSION, RetainStore
 
-from .conftest import loop_toml
-from .test_io_image import bounded
-from .test_runtime_memory import FirstOrder
+from .conftest import FirstOrder, bounded, loop_toml, make
 
 CONN = '[connections.io]\nprotocol = "memory"\n[historian]\nbackend = "none"\n'
 
 
 def runtime(bus: MemoryBus, retain_path, kp: float = 1.0, extra: str = ""):
     block = f'{{ type = "PID", kp = {kp}, ti = 1.0, u_min = -10.0, u_max = 10.0 }}'
-    cfg = parse_config(CONN + loop_toml(ts=0.1, block=block, extra=extra))
-    clock = FakeClock()
-    samples = []
-    rt = Runtime(
-        cfg,
-        clock=clock,
-        adapters={"io": MemoryAdapter(bus)},
-        historian=None,
-        on_sample=samples.append,
-        retain=RetainStore(retain_path),
-    )
-    return rt, clock, samples
+    loops = loop_toml(ts=0.1, block=block, extra=extra)
+    return make(loops, {"io": bus}, retain=RetainStore(retain_path))
 
 
 def first_life(bus, path):

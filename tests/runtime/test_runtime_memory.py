@@ -11,60 +11,18 @@ from ctrlblocks.blocks import ADRC, PID
 from ctrlblocks.blocks.base import ErrorCode
 from ctrlblocks.runtime import (
     CommandError,
-    FakeClock,
     MemoryAdapter,
     MemoryBus,
-    Runtime,
     SQLiteHistorian,
     parse_config,
 )
 
-from .conftest import loop_toml
+from .conftest import FirstOrder, loop_toml, make, run
 
 ADRC_BLOCK = (
     '{ type = "ADRC", order = 1, b0 = 1.0, omega_c = 2.0, omega_o = 8.0, '
     "u_min = -5.0, u_max = 5.0 }"
 )
-
-
-class FirstOrder:
-    """A test plant on the bus: y[k+1] = a y[k] + (1 - a) u[k], stepped on each MV write."""
-
-    def __init__(self, bus: MemoryBus, a: float = 0.9, pv: str = "pv", mv: str = "mv") -> None:
-        self.bus, self.a, self.pv = bus, a, pv
-        bus.values[pv] = 0.0
-        bus.values[mv] = 0.0
-        self.mv = mv
-
-    def __call__(self, address: str, u: float) -> None:
-        if address == self.mv:
-            y = self.bus.values[self.pv]
-            if math.isfinite(y):
-                self.bus.values[self.pv] = self.a * y + (1.0 - self.a) * u
-
-
-def make(loops: str, buses: dict[str, MemoryBus], tmp_path=None, historian: bool = False):
-    conns = "".join(f'[connections.{n}]\nprotocol = "memory"\n' for n in buses)
-    cfg = parse_config(conns + loops + '\n[historian]\nbackend = "none"\n')
-    clock = FakeClock()
-    hist = None
-    if historian:
-        hist = SQLiteHistorian(tmp_path / "h.sqlite")
-        hist.open()
-    samples = []
-    rt = Runtime(
-        cfg,
-        clock=clock,
-        adapters={n: MemoryAdapter(b) for n, b in buses.items()},
-        historian=hist,
-        on_sample=samples.append,
-    )
-    return rt, clock, samples
-
-
-async def run(rt, clock, t_end):
-    await rt.start()
-    await clock.run_until(t_end)
 
 
 def test_cycles_run_on_absolute_deadlines():

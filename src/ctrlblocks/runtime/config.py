@@ -205,7 +205,7 @@ class HistorianConfig:
     path: str = "ctrlblocks-history.sqlite"
     dsn: str = dataclasses.field(default="", repr=False)  # may hold a password
     flush_interval: float = 1.0
-    batch: int = 1000
+    batch: int = 10_000
     retention_days: float = 0.0
 
 
@@ -749,7 +749,7 @@ class _Parser(TableReader):
         if backend == "postgresql" and not dsn:
             raise self.fail("historian.dsn", "missing: the postgresql backend needs a dsn")
         flush = self.number(h, "flush_interval", "historian.flush_interval", 1.0, positive=True)
-        batch = self.integer(h, "batch", "historian.batch", 1000, 1)
+        batch = self.integer(h, "batch", "historian.batch", 10_000, 1)
         keep = self.number(h, "retention_days", "historian.retention_days", 0.0)
         if keep < 0 or not math.isfinite(keep):
             raise self.fail("historian.retention_days", "must be >= 0 (0 = keep everything)")

@@ -4,7 +4,7 @@ Schema (the same in both databases; ``docs/runtime.md`` explains each column)::
 
     runs    (run_id, started, stopped, name)
     samples (run_id, loop, cycle, t_wall, t, dt, sp, pv, mv, mode,
-             error_id, pv_ok, write_ok, overrun)      key (run_id, loop, cycle)
+             error_id, pv_ok, write_ok, overrun)      key (run_id, cycle, loop)
     audit   (id, t_wall, who, loop, action, old, new, ok, message)
 
 * SQLite (default, embedded): WAL journal, ``synchronous=NORMAL``; rows are
@@ -32,9 +32,10 @@ import threading
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from .loop import Sample
+if TYPE_CHECKING:
+    from .loop import Sample
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -43,8 +44,8 @@ __all__ = [
     "HistoryError",
     "PostgresHistorian",
     "SQLiteHistorian",
+    "audit_row",
     "export_history",
-    "open_historian",
 ]
 
 log = logging.getLogger(__name__)
@@ -69,6 +70,11 @@ SAMPLE_COLUMNS = (
 
 AUDIT_COLUMNS = ("id", "t_wall", "who", "loop", "action", "old", "new", "ok", "message")
 
+_AUDIT_INSERT = (
+    "INSERT INTO audit (t_wall, who, loop, action, old, new, ok, message) "
+    "VALUES (?, ?, ?, ?, ?, ?, ?, ?)"
+)
+
 _SQLITE_SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
     run_id INTEGER PRIMARY KEY, started REAL NOT NULL, stopped REAL, name TEXT);
@@ -76,7 +82,7 @@ CREATE TABLE IF NOT EXISTS samples (
     run_id INTEGER NOT NULL, loop TEXT NOT NULL, cycle INTEGER NOT NULL,
     t_wall REAL NOT NULL, t REAL, dt REAL, sp REAL, pv REAL, mv REAL, mode TEXT,
     error_id INTEGER, pv_ok INTEGER, write_ok INTEGER, overrun INTEGER,
-    PRIMARY KEY (run_id, loop, cycle));
+    PRIMARY KEY (run_id, cycle, loop));
 CREATE INDEX IF NOT EXISTS samples_loop_time ON samples (loop, t_wall);
 CREATE TABLE IF NOT EXISTS audit (
     id INTEGER PRIMARY KEY AUTOINCREMENT, t_wall REAL NOT NULL, who TEXT, loop TEXT,
@@ -92,12 +98,20 @@ CREATE TABLE IF NOT EXISTS samples (
     t_wall DOUBLE PRECISION NOT NULL, t DOUBLE PRECISION, dt DOUBLE PRECISION,
     sp DOUBLE PRECISION, pv DOUBLE PRECISION, mv DOUBLE PRECISION, mode TEXT,
     error_id BIGINT, pv_ok SMALLINT, write_ok SMALLINT, overrun SMALLINT,
-    PRIMARY KEY (run_id, loop, cycle));
+    PRIMARY KEY (run_id, cycle, loop));
 CREATE INDEX IF NOT EXISTS samples_loop_time ON samples (loop, t_wall);
 CREATE TABLE IF NOT EXISTS audit (
     id BIGSERIAL PRIMARY KEY, t_wall DOUBLE PRECISION NOT NULL, who TEXT, loop TEXT,
     action TEXT, old TEXT, new TEXT, ok SMALLINT, message TEXT);
 """
+
+
+def audit_row(
+    who: str, loop: str, action: str, old: Any, new: Any, ok: bool, message: str = ""
+) -> tuple[Any, ...]:
+    """The ``audit`` table's row (without ``id``): now, ``old``/``new`` as JSON."""
+    old_j, new_j = json.dumps(old, default=str), json.dumps(new, default=str)
+    return (time.time(), who, loop, action, old_j, new_j, int(ok), message)
 
 
 def _row(run_id: int, s: Sample) -> tuple[Any, ...]:
@@ -129,6 +143,7 @@ class Historian:
 
     placeholder = "?"
     schema = _SQLITE_SCHEMA
+    skip_duplicates = ("INSERT OR IGNORE INTO", "")  # the insert that skips stored keys
 
     def __init__(self, *, name: str = "ctrlblocks", retention_days: float = 0.0) -> None:
         self.name = name
@@ -158,18 +173,25 @@ class Historian:
 
     # -- life cycle -----------------------------------------------------------------
 
-    def open(self) -> None:
-        """Create the tables if needed, start a new run, apply the retention."""
+    def open(self, run_id: int | None = None) -> None:
+        """Create the tables if needed, start a new run, apply the retention.
+
+        ``run_id``: go on with that run instead (a restarted writer process,
+        :mod:`ctrlblocks.runtime.writer`).
+        """
         with self._db_lock:
             self._conn = self._connect()
             self._executescript(self.schema)
             cur = self._conn.cursor()
-            cur.execute("SELECT COALESCE(MAX(run_id), 0) FROM runs")
-            self.run_id = int(cur.fetchone()[0]) + 1
-            cur.execute(
-                self._sql("INSERT INTO runs (run_id, started, name) VALUES (?, ?, ?)"),
-                (self.run_id, time.time(), self.name),
-            )
+            if run_id is not None:
+                self.run_id = int(run_id)
+            else:
+                cur.execute("SELECT COALESCE(MAX(run_id), 0) FROM runs")
+                self.run_id = int(cur.fetchone()[0]) + 1
+                cur.execute(
+                    self._sql("INSERT INTO runs (run_id, started, name) VALUES (?, ?, ?)"),
+                    (self.run_id, time.time(), self.name),
+                )
             self._conn.commit()
         self.apply_retention()
 
@@ -197,12 +219,21 @@ class Historian:
             with SQLiteHistorian("history.sqlite").reading() as h:
                 rows = h.samples("level")
         """
-        with self._db_lock:
-            self._conn = self._connect_for_reading()
+        self.open_reading()
         try:
             yield self
         finally:
-            with self._db_lock:
+            self.close_connection()
+
+    def open_reading(self) -> None:
+        """Open the database to read it only (:meth:`reading` without the ``with``)."""
+        with self._db_lock:
+            self._conn = self._connect_for_reading()
+
+    def close_connection(self) -> None:
+        """Close the connection as it is: no flush, the run keeps no stop time (a crash's end)."""
+        with self._db_lock:
+            if self._conn is not None:
                 self._conn.close()
                 self._conn = None
 
@@ -228,21 +259,45 @@ class Historian:
             rows, self._buf = self._buf, []
         if not rows:
             return 0
-        cols = ", ".join(SAMPLE_COLUMNS)
-        marks = ", ".join([self.placeholder] * len(SAMPLE_COLUMNS))
         try:
-            with self._db_lock:
-                cur = self._conn.cursor()
-                cur.executemany(f"INSERT INTO samples ({cols}) VALUES ({marks})", rows)
-                self._conn.commit()
+            self.insert(rows)
         except Exception:
             with self._buf_lock:  # keep them for the next try
                 self._buf[:0] = rows
             raise
+        return len(rows)
+
+    def insert(
+        self,
+        rows: Sequence[tuple[Any, ...]],
+        audits: Sequence[tuple[Any, ...]] = (),
+        *,
+        skip_duplicates: bool = False,
+    ) -> None:
+        """Insert sample rows (:data:`SAMPLE_COLUMNS`) and audit rows (:func:`audit_row`).
+
+        One transaction (rolled back on an error); applies the retention once
+        an hour.  ``skip_duplicates``: a sample whose key is already stored
+        is left out instead of failing the transaction.
+        """
+        cols = ", ".join(SAMPLE_COLUMNS)
+        marks = ", ".join([self.placeholder] * len(SAMPLE_COLUMNS))
+        head, tail = self.skip_duplicates if skip_duplicates else ("INSERT INTO", "")
+        with self._db_lock:
+            cur = self._conn.cursor()
+            try:
+                if rows:
+                    cur.executemany(f"{head} samples ({cols}) VALUES ({marks}){tail}", rows)
+                if audits:
+                    cur.executemany(self._sql(_AUDIT_INSERT), audits)
+                self._conn.commit()
+            except Exception:
+                with contextlib.suppress(Exception):
+                    self._conn.rollback()
+                raise
         self.rows_written += len(rows)
         if self.retention_days > 0 and time.time() - self._last_retention > 3600.0:
             self.apply_retention()
-        return len(rows)
 
     def audit(
         self,
@@ -254,25 +309,14 @@ class Historian:
         ok: bool,
         message: str = "",
     ) -> None:
-        """Write one audit row at once (who changed what, when, and whether it was accepted)."""
+        """Write one audit row (who changed what, when, and whether it was accepted)."""
+        self._write_audit(audit_row(who, loop, action, old, new, ok, message))
+
+    def _write_audit(self, row: tuple[Any, ...]) -> None:
+        """Insert one :func:`audit_row` at once (the writer process queues it instead)."""
         with self._db_lock:
             cur = self._conn.cursor()
-            cur.execute(
-                self._sql(
-                    "INSERT INTO audit (t_wall, who, loop, action, old, new, ok, message) "
-                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?)"
-                ),
-                (
-                    time.time(),
-                    who,
-                    loop,
-                    action,
-                    json.dumps(old, default=str),
-                    json.dumps(new, default=str),
-                    int(ok),
-                    message,
-                ),
-            )
+            cur.execute(self._sql(_AUDIT_INSERT), row)
             self._conn.commit()
 
     def apply_retention(self) -> None:
@@ -363,6 +407,9 @@ class SQLiteHistorian(Historian):
         conn = sqlite3.connect(self.path, check_same_thread=False, timeout=10.0)
         conn.execute("PRAGMA journal_mode=WAL")
         conn.execute("PRAGMA synchronous=NORMAL")
+        # 32 MiB of page cache: the index (loop, t_wall) gets one insert point per loop,
+        # and with the default 2 MiB 1,000 loops missed the cache on every row
+        conn.execute("PRAGMA cache_size=-32768")
         return conn
 
     def _connect_for_reading(self) -> Any:
@@ -389,6 +436,7 @@ class PostgresHistorian(Historian):
 
     placeholder = "%s"
     schema = _PG_SCHEMA
+    skip_duplicates = ("INSERT INTO", " ON CONFLICT DO NOTHING")
 
     def __init__(self, dsn: str, **kw: Any) -> None:
         super().__init__(**kw)
@@ -402,19 +450,6 @@ class PostgresHistorian(Historian):
                 "the PostgreSQL historian needs psycopg: pip install 'ctrlblocks[runtime]'"
             ) from exc
         return psycopg.connect(self.dsn, connect_timeout=10)
-
-
-def open_historian(config: Any, *, name: str = "ctrlblocks") -> Historian | None:
-    """The opened historian of a ``[historian]`` configuration (None: ``backend = "none"``)."""
-    if config.backend == "none":
-        return None
-    h: Historian
-    if config.backend == "postgresql":
-        h = PostgresHistorian(config.dsn, name=name, retention_days=config.retention_days)
-    else:
-        h = SQLiteHistorian(config.path, name=name, retention_days=config.retention_days)
-    h.open()
-    return h
 
 
 class HistoryError(ValueError):

@@ -25,7 +25,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["SCHEMA_VERSION", "RetainStore"]
+__all__ = ["SCHEMA_VERSION", "RetainStore", "encode_state"]
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +51,11 @@ def _plain(x: Any) -> Any:
         return str(x)
 
 
+def encode_state(state: Mapping[str, Any]) -> str:
+    """One loop's retained state as the retain file stores it (JSON text)."""
+    return json.dumps(_plain(dict(state)))
+
+
 class RetainStore:
     """The retain file (SQLite): :meth:`save` all loops at once, :meth:`load` them back."""
 
@@ -65,9 +70,15 @@ class RetainStore:
         )
         return conn
 
-    def save(self, states: Mapping[str, Mapping[str, Any]]) -> None:
-        """Write every loop's state in one transaction (replacing the previous set)."""
-        rows = [(n, time.time(), json.dumps(_plain(dict(s)))) for n, s in states.items()]
+    def save(self, states: Mapping[str, Mapping[str, Any] | str]) -> None:
+        """Write every loop's state in one transaction (replacing the previous set).
+
+        A state is a mapping, or already text from :func:`encode_state`.
+        """
+        rows = [
+            (n, time.time(), s if isinstance(s, str) else encode_state(s))
+            for n, s in states.items()
+        ]
         conn = self._connect()
         try:
             with conn:  # one transaction: all or nothing
