@@ -60,11 +60,16 @@ def configure_logging(verbose: int) -> None:
 def run_until_stopped(runtime: Any) -> None:
     """Run ``runtime`` on a new event loop until SIGINT/SIGTERM, then stop it gracefully."""
 
+    from .historian import HistoryError
+
     async def main() -> None:
         _install_stop(asyncio.get_running_loop(), runtime.request_stop)
         await runtime.run()
 
-    asyncio.run(main())
+    try:
+        asyncio.run(main())
+    except HistoryError as exc:  # e.g. a historian file in a folder that does not exist
+        raise click.ClickException(str(exc)) from None
 
 
 @click.command()
