@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import gc
 import json
 import multiprocessing as mp
@@ -74,8 +75,15 @@ def loops_toml(n: int, ts: float, pv, mv) -> str:
     )
 
 
-def serve_pairs(n: int, protocol: str, port_queue, stop_event) -> None:
-    """The plant server process: ``n`` pairs on OPC UA or Modbus until ``stop_event``."""
+def serve_pairs(n: int, protocol: str, port_queue, stop_event, freeze: bool = False) -> None:
+    """The plant server process: ``n`` pairs on OPC UA or Modbus until ``stop_event``.
+
+    ``freeze``: ``gc.freeze()`` after the start, as the runtime does (the
+    device simulator's own collections then do not delay its answers).
+    Puts the server's collections (count, longest CPU ms) on the queue at
+    the end.
+    """
+    pauses = GcPauses()
 
     async def main():
         server = PairServer(
@@ -84,12 +92,19 @@ def serve_pairs(n: int, protocol: str, port_queue, stop_event) -> None:
             modbus_port=0 if protocol == "modbus" else None,
         )
         await server.start()
+        if freeze:
+            from ctrlblocks.runtime.runtime import freeze_garbage_collector
+
+            freeze_garbage_collector()
+        gc.callbacks.append(pauses)
         port_queue.put(server.opcua_url if protocol == "opcua" else server.modbus_port)
         while not stop_event.is_set():
             await asyncio.sleep(0.1)
+        gc.callbacks.remove(pauses)
         await server.stop()
 
     asyncio.run(main())
+    port_queue.put(pauses.summary())
 
 
 def config_text(
@@ -320,7 +335,9 @@ def measure(case: str, n: int, a: argparse.Namespace, gc_freeze: bool = True) ->
     if case in ("opcua", "modbus"):
         ctx = mp.get_context("spawn")
         q, stop = ctx.Queue(), ctx.Event()
-        proc = ctx.Process(target=serve_pairs, args=(n, case, q, stop), daemon=True)
+        proc = ctx.Process(
+            target=serve_pairs, args=(n, case, q, stop, a.server_gc_freeze), daemon=True
+        )
         proc.start()
         where = q.get(timeout=120)
     try:
@@ -336,8 +353,11 @@ def measure(case: str, n: int, a: argparse.Namespace, gc_freeze: bool = True) ->
                 with SQLiteHistorian(db).reading() as h:
                     stored = h.query("SELECT COUNT(*) FROM samples")[0][0]
     finally:
+        server_gc = {}
         if proc is not None:
             stop.set()
+            with contextlib.suppress(Exception):
+                server_gc = q.get(timeout=30)
             proc.join(30)
     expected = wall / ts
     periods, faults, counts = [], 0, []
@@ -382,6 +402,7 @@ def measure(case: str, n: int, a: argparse.Namespace, gc_freeze: bool = True) ->
         "connection_reconnects": rt.connections["io"].reconnects,
         "read_requests": rt.connections["io"].adapter.requests.get("read", 0),
         **rt.gc_pauses.summary(),
+        "server_gc": server_gc,
     }
     out["_periods"] = p
     out["historian"] = a.historian
@@ -410,12 +431,15 @@ def measure(case: str, n: int, a: argparse.Namespace, gc_freeze: bool = True) ->
         flush=True,
     )
     g = out["gc_gen2"]
+    sg = server_gc.get("gc_gen2", {})
     print(
         f"     full GC: {g['collections']} collections, longest {g['max_ms']} ms CPU; "
-        f"gen 0: {out['gc_gen0']['collections']} collections; load average at the end "
-        f"{out['load_average']}",
+        f"gen 0: {out['gc_gen0']['collections']} collections"
+        + (f"; the plant server's: {sg['collections']} full, longest {sg['max_ms']} ms CPU"
+           if sg else "")
+        + f"; load average at the end {out['load_average']}",
         flush=True,
-    )
+    )  # fmt: skip
     for name, text, m in met:
         print(f"     {'PASS' if m else 'FAIL'}  {name}: {text}", flush=True)
     return out
@@ -496,6 +520,11 @@ def main() -> None:
     ap.add_argument(
         "--stalls", action="store_true",
         help="list the cycles longer than 1.5 ts with the historian flushes next to them",
+    )  # fmt: skip
+    ap.add_argument(
+        "--server-gc-freeze", action=argparse.BooleanOptionalAction, default=True,
+        help="gc.freeze in the plant server process after its start (default on: the "
+        "simulated device's own collections would delay its answers)",
     )  # fmt: skip
     ap.add_argument("--json", default=None, help="write the results here")
     ap.add_argument("--plot", default=None, help="PNG of the period distributions")

@@ -35,10 +35,11 @@ def test_every_retune_is_bumpless() -> None:
         gs(50.0, 45.0, w=0.0)
     before = gs.out
     # a big jump of the scheduling variable: kp 1 -> 4 with an error of 5 would jump
-    # the output by 15; the PID's bumpless retune keeps it, then integrates on
-    assert gs(50.0, 45.0, w=100.0) == pytest.approx(before, abs=1e-9)
+    # the output by 15; the PID's bumpless retune moves the integrator instead, and the
+    # new law acts in the same sample: one integral increment K h/Ti e = 4*0.1/20*5 = 0.1
+    assert gs(50.0, 45.0, w=100.0) == pytest.approx(before + 0.1, abs=1e-9)
     assert gs.controller.config.kp == 4.0
-    assert gs(50.0, 45.0, w=100.0) == pytest.approx(before + 0.1 * 5.0 * 4.0 / 20.0, abs=1e-9)
+    assert gs(50.0, 45.0, w=100.0) == pytest.approx(before + 0.2, abs=1e-9)
 
 
 def test_adrc_parameters_can_be_scheduled() -> None:

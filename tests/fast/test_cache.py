@@ -104,3 +104,26 @@ def test_default_cache_is_in_the_user_cache_folder_not_in_the_package(tmp_path: 
     folder = Path(got["dir"])
     assert folder.parent == tmp_path / "xdg" / "ctrlblocks" / "numba"
     assert PACKAGE not in folder.parents
+
+
+THREE_TANK = """
+import json, sys
+import numpy as np
+from ctrlblocks import PID
+from ctrlblocks.plants import ThreeTank
+from ctrlblocks.fast import closed_loop
+res = closed_loop(PID(kp=2.0, ti=20.0, ts=0.1, u_min=0.0, u_max=1.0), ThreeTank(ts=0.1),
+                  np.full(50, 0.1))
+before = "scipy.linalg" in sys.modules
+import scipy.linalg
+print(json.dumps({"before": before, "path": res.path,
+                  "expm": float(scipy.linalg.expm(np.zeros((1, 1)))[0, 0])}))
+"""
+
+
+@needs_numba
+def test_a_compiled_call_does_not_import_scipy_linalg_for_numbas_blas_probe(tmp_path: Path):
+    # numba's array functions probe for BLAS by importing scipy.linalg (seconds on a loaded
+    # machine); the kernels need none: a three-tank loop runs without it, and it imports after
+    got = _run(THREE_TANK, CTRLBLOCKS_NUMBA_CACHE=str(tmp_path / "cache"))
+    assert got == {"before": False, "path": "compiled", "expm": 1.0}

@@ -79,6 +79,9 @@ def test_simulator_and_runtime_tables_are_derived_from_the_structures():
         "smith": ("pv",),
         "split_range": ("pv",),
         "ratio": ("pv", "wild"),
+        "pulse_width": ("pv",),
+        "three_step": ("pv", "pv2"),  # pv2 (the valve position) may stay unbound
+        "scheduled": ("pv",),
     }
     assert {n: s.event_target for n, s in STRUCTURES.items()} == {
         "single": "main",

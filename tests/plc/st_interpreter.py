@@ -8,7 +8,12 @@ GPL) and executes the transformed tree with PLC semantics:
   mixing REAL and DINT without a conversion is an error (as for an IEC
   compiler);
 * a FUNCTION_BLOCK instance keeps its VAR / VAR_INPUT / VAR_OUTPUT between
-  calls; inputs the caller does not pass keep their last value;
+  calls; inputs the caller does not pass keep their last value; an FB may
+  hold instances of other FBs (declared in its VAR), call them and read
+  their outputs (``inst.OUT``; reading an instance's VAR from outside is an
+  error, as in CODESYS);
+* ``ARRAY[lo..hi] OF REAL|DINT|BOOL`` variables with DINT subscripts (an
+  index outside the bounds is an error) and ``FOR i := a TO b DO``;
 * VAR_TEMP and the locals and outputs of a FUNCTION are *poisoned* at every
   call (None), so reading a variable before it is written in this call
   fails -- the translated code must never rely on a leftover value;
@@ -46,12 +51,40 @@ def _f32(x: Any) -> np.float32:
         return np.float32(x)
 
 
-def _type_of(init: Any) -> str:
+def _type_of(init: Any) -> Any:
+    """REAL, DINT, BOOL; ``("ARRAY", lo, hi, element type)``; or the name of an FB type."""
     spec = getattr(init, "spec", init)
-    t = str(getattr(spec, "type", spec)).upper()
-    if t not in (REAL, DINT, BOOL):
-        raise STError(f"type {t} not supported by the test interpreter")
-    return t
+    if isinstance(spec, tf.ArraySpecification):
+        if len(spec.subranges) != 1:
+            raise STError("only one-dimensional arrays")
+        sub = spec.subranges[0]
+        elem = str(spec.type.type_name).upper()
+        if elem not in (REAL, DINT, BOOL):
+            raise STError(f"ARRAY OF {elem} not supported by the test interpreter")
+        return ("ARRAY", int(str(sub.start.value)), int(str(sub.stop.value)), elem)
+    tok = getattr(spec, "type", spec)
+    t = str(tok).upper()
+    if t in (REAL, DINT, BOOL):
+        return t
+    if getattr(tok, "type", "") == "IDENTIFIER":
+        return t  # a FUNCTION_BLOCK type, resolved when an instance is made
+    raise STError(f"type {t} not supported by the test interpreter")
+
+
+class Array:
+    """An ARRAY[lo..hi] OF a scalar type: subscripts checked against the bounds."""
+
+    def __init__(self, lo: int, hi: int, typ: str) -> None:
+        self.lo, self.hi, self.typ = lo, hi, typ
+        zero = {REAL: np.float32(0.0), DINT: 0, BOOL: False}[typ]
+        self.items = [zero] * (hi - lo + 1)
+
+    def index(self, i: Any, what: str) -> int:
+        if type(i) is not int:
+            raise STError(f"subscript of {what} is {type(i).__name__}, not DINT")
+        if not self.lo <= i <= self.hi:
+            raise STError(f"subscript {i} of {what} outside {self.lo}..{self.hi}")
+        return i - self.lo
 
 
 def split_pous(source: str) -> list[str]:
@@ -154,23 +187,42 @@ class Instance:
         self.temps = [n for n, (sec, _t, _i) in pou.vars.items()
                       if sec == "TemporaryVariableDeclarations"]  # fmt: skip
         for name, (section, typ, init) in pou.vars.items():
-            if section != "TemporaryVariableDeclarations":
+            if isinstance(typ, tuple):
+                self.frame[name] = Array(typ[1], typ[2], typ[3])
+            elif typ not in (REAL, DINT, BOOL):
+                if section != "VariableDeclarations":
+                    raise STError(f"{pou.name}.{name}: an instance outside VAR")
+                self.frame[name] = pou.interp.instance(typ)
+            elif section != "TemporaryVariableDeclarations":
                 text = pou.inits.get(name)
                 self.frame[name] = (
                     literal(typ, text) if text is not None else pou.interp.initial(typ, init)
                 )
 
     def __call__(self, **inputs: Any) -> None:
-        pou = self.pou
         for name, value in inputs.items():
-            key = name.lower()
-            if key not in pou.vars or pou.vars[key][0] != "InputDeclarations":
-                raise STError(f"{pou.name} has no input {name}")
-            self.frame[key] = convert(pou.vars[key][1], value, name)
+            self.set_input(name, value)
+        self.run()
+
+    def set_input(self, name: str, value: Any) -> None:
+        key = name.lower()
+        pou = self.pou
+        if key not in pou.vars or pou.vars[key][0] != "InputDeclarations":
+            raise STError(f"{pou.name} has no input {name}")
+        self.frame[key] = convert(pou.vars[key][1], value, name)
+
+    def run(self) -> None:
         for name in self.temps:
             self.frame[name] = None
         with np.errstate(all="ignore"):
-            pou.run(self.frame)
+            self.pou.run(self.frame)
+
+    def output(self, name: str) -> Any:
+        """An output read by the caller (``inst.NAME``); VAR and VAR_INPUT are not readable."""
+        key = name.lower()
+        if key not in self.pou.vars or self.pou.vars[key][0] != "OutputDeclarations":
+            raise STError(f"{self.pou.name}.{name} is not an output")
+        return self.frame[key]
 
     def __getitem__(self, name: str) -> Any:
         return self.frame[name.lower()]
@@ -337,7 +389,7 @@ class Interpreter:
     def compile_stmt(self, s: Any, pou: Pou) -> Callable[[dict[str, Any]], None]:
         if isinstance(s, tf.AssignmentStatement):
             expr = self.compile_expr(s.expression, pou)
-            stores = [self.compile_store(str(t.name), pou) for t in s.variables]
+            stores = [self.compile_target(t, pou) for t in s.variables]
 
             def assign(frame: dict[str, Any]) -> None:
                 v = expr(frame)
@@ -371,7 +423,53 @@ class Interpreter:
                 raise _Return
 
             return ret
+        if isinstance(s, tf.ForStatement):
+            if s.step is not None:
+                raise STError("FOR with BY")
+            ctl = str(s.control.name).lower()
+            if pou.vars.get(ctl, (None, None))[1] != DINT:
+                raise STError(f"{pou.name}: FOR variable {ctl} is not a DINT")
+            start, stop = self.compile_expr(s.from_, pou), self.compile_expr(s.to, pou)
+            body = self.compile_block(s.statements.statements, pou)
+
+            def for_(frame: dict[str, Any]) -> None:
+                a, b = start(frame), stop(frame)
+                if type(a) is not int or type(b) is not int:
+                    raise STError("FOR bounds must be DINT")
+                i = a
+                while i <= b:
+                    frame[ctl] = i
+                    body(frame)
+                    if frame[ctl] != i:
+                        raise STError(f"the body of FOR writes {ctl}")
+                    i += 1
+                frame[ctl] = i
+
+            return for_
         raise STError(f"statement {type(s).__name__} not supported")
+
+    def compile_target(self, t: Any, pou: Pou) -> Callable[[dict[str, Any], Any], None]:
+        """A store into a variable or an array element ``a[i]``."""
+        if not isinstance(t, tf.MultiElementVariable):
+            return self.compile_store(str(t.name), pou)
+        key, index = self._subscript(t, pou)
+        what = f"{pou.name}.{key}"
+
+        def store(frame: dict[str, Any], v: Any) -> None:
+            arr = frame[key]
+            arr.items[arr.index(index(frame), what)] = convert(arr.typ, v, what)
+
+        return store
+
+    def _subscript(self, e: Any, pou: Pou) -> tuple[str, Callable[[dict[str, Any]], Any]]:
+        key = str(e.name.name).lower()
+        typ = pou.vars.get(key, (None, None))[1]
+        if not isinstance(typ, tuple) or len(e.elements) != 1:
+            raise STError(f"{pou.name}: {key} is not a one-dimensional array")
+        sub = e.elements[0]
+        if not isinstance(sub, tf.SubscriptList) or len(sub.subscripts) != 1:
+            raise STError(f"{pou.name}: {key} needs one subscript")
+        return key, self.compile_expr(sub.subscripts[0], pou)
 
     def compile_store(self, name: str, pou: Pou) -> Callable[[dict[str, Any], Any], None]:
         key = name.lower()
@@ -401,6 +499,23 @@ class Interpreter:
                 return v
 
             return load
+        if isinstance(e, tf.MultiElementVariable):
+            assert pou is not None
+            elem = e.elements[0] if len(e.elements) == 1 else None
+            if isinstance(elem, tf.FieldSelector):
+                key = str(e.name.name).lower()
+                if pou.vars.get(key, (None, REAL))[1] in (REAL, DINT, BOOL):
+                    raise STError(f"{pou.name}: {key} is not an FB instance")
+                field = str(elem.field.name)
+                return lambda frame: frame[key].output(field)
+            key, index = self._subscript(e, pou)
+            what = f"{pou.name}.{key}"
+
+            def item(frame: dict[str, Any]) -> Any:
+                arr = frame[key]
+                return arr.items[arr.index(index(frame), what)]
+
+            return item
         if isinstance(e, tf.Real | tf.HexInteger | tf.Integer | tf.Boolean):
             if isinstance(e, tf.Real):
                 c: Any = _f32(float(str(e.value)))
@@ -449,11 +564,36 @@ class Interpreter:
             return self.compile_call(e, pou, statement=False)
         raise STError(f"expression {type(e).__name__} not supported")
 
+    def compile_instance_call(
+        self, name: str, params: list[Any], pou: Pou
+    ) -> Callable[[dict[str, Any]], Any]:
+        """``inst(IN := x, ...)``: set the inputs, run the instance (its memory stays)."""
+        if pou.vars[name][1] in (REAL, DINT, BOOL) or isinstance(pou.vars[name][1], tuple):
+            raise STError(f"{pou.name}: {name} is not an FB instance")
+        ins = []
+        for p in params:
+            if not isinstance(p, tf.InputParameterAssignment) or p.name is None:
+                raise STError(f"call of {name}: only IN := value parameters")
+            ins.append((str(p.name.name), self.compile_expr(p.value, pou)))
+        count = self.count
+
+        def call(frame: dict[str, Any]) -> None:
+            inst = frame[name]
+            for pname, fn in ins:
+                inst.set_input(pname, fn(frame))
+            if count:
+                self.counts["FB call"] = self.counts.get("FB call", 0) + 1
+            inst.run()
+
+        return call
+
     def compile_call(
         self, e: Any, pou: Pou | None, statement: bool
     ) -> Callable[[dict[str, Any]], Any]:
         name = str(e.name.name).lower()
         params = e.parameters
+        if pou is not None and name in pou.vars:
+            return self.compile_instance_call(name, params, pou)
         if name not in self.pous:
             if name not in _STD:
                 raise STError(f"unknown function {name.upper()}")

@@ -52,8 +52,8 @@ def test_export_tcpou_writes_one_file_per_pou(tmp_path):
 def test_export_mistakes_are_messages_not_tracebacks(tmp_path):
     r = _run("export", "pid", "--set", "kq=1")
     assert r.exit_code == 2 and "no parameter(s) kq" in r.output
-    r = _run("export", "pid", "--set", "deadband=0.5", "--set", "ti=1")
-    assert r.exit_code == 1 and "does not cover the PID options ['deadband']" in r.output
+    r = _run("export", "pid", "--set", "deadband=0.5", "--set", "ti=1", "--set", "t_stab=20000")
+    assert r.exit_code == 1 and "does not cover the PID options ['t_stab']" in r.output
     r = _run("export", "pid", "--set", "kp=-1")
     assert r.exit_code == 1 and "kp" in r.output
     r = _run("export", "pid", "--set", "novalue")

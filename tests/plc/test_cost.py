@@ -10,20 +10,24 @@ from .st_interpreter import Interpreter
 
 pytest.importorskip("blark")
 
-# (block, FB, inputs) -> documented (arithmetic, comparison, standard function, call) counts
+# (block, FB, inputs) -> documented (arithmetic, comparison, standard function, FUNCTION call,
+# FB instance call) counts
 CASES = [
-    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (50, 67, 6, 20)),
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (52, 77, 10, 26, 3)),
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, algorithm="velocity"), "CB_PID",
-     {"SP": 50.0, "PV": 40.0}, (57, 64, 8, 21)),
+     {"SP": 50.0, "PV": 40.0}, (59, 74, 12, 27, 3)),
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, sp_filter=1.0, pv_filter=1.0, sp_rate=5.0,
-                 out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (61, 82, 10, 25)),
+                 out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (63, 92, 14, 31, 3)),
+    # the error inside the dead band, the detector counting, the average still following MV
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0, deadband=1.0, t_stab=2.0), "CB_PID",
+     {"SP": 50.0, "PV": 50.5}, (69, 85, 18, 28, 5)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (68, 36, 9, 16)),
+     {"SP": 1.0, "PV": 0.5}, (68, 36, 9, 16, 0)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (76, 38, 10, 16)),
+     {"SP": 1.0, "PV": 0.5}, (76, 38, 10, 16, 0)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, discretisation="exact"), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (140, 41, 11, 19)),
-    (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 5, 1, 4)),
+     {"SP": 1.0, "PV": 0.5}, (140, 41, 11, 19, 0)),
+    (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 5, 1, 4, 0)),
 ]  # fmt: skip
 
 
@@ -35,5 +39,5 @@ def test_operations_per_auto_call_are_the_documented_ones(make, fb_name, inputs,
         fb(**inputs)
     it.counts.clear()
     fb(**inputs)
-    kinds = ("arithmetic", "comparison", "standard function", "function call")
+    kinds = ("arithmetic", "comparison", "standard function", "function call", "FB call")
     assert tuple(it.counts.get(k, 0) for k in kinds) == documented

@@ -17,12 +17,13 @@ import math
 import numpy as np
 import pytest
 
-from ctrlblocks import ADRC, PID, LeadLag, ParameterError
+from ctrlblocks import ADRC, PID, LeadLag, MovingAverage, ParameterError, SteadyStateDetector
 from ctrlblocks.blocks import adrc as adrc_mod
 from ctrlblocks.blocks import plc_cycle as pc
 
 from .traces import (
     ADRC_OPTIONS,
+    DB_OPTIONS,
     PID_MODES,
     PID_OPTIONS,
     REAL_SPIKE,
@@ -41,7 +42,8 @@ FB_TO_PY = {
     "pid": {"SP": "sp", "PV": "pv", "FF": "ff", "PV_OK": "pv_ok", "MANUAL": "manual",
             "MAN_VALUE": "man_value", "RST": "rst", "K": "k", "TI": "ti", "U_MIN": "u_min",
             "U_MAX": "u_max", "DV": "dv", "TRACK": "track", "TRACK_VALUE": "track_value",
-            "HOLD": "hold", "AWIN": "awin", "ACTUATOR_POS": "actuator_pos"},
+            "HOLD": "hold", "AWIN": "awin", "ACTUATOR_POS": "actuator_pos", "T_STAB": "t_stab",
+            "TS": "ts"},
     "adrc": {"SP": "sp", "PV": "y", "PV_OK": "y_ok", "MANUAL": "manual", "MAN_VALUE": "u_man",
              "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max",
              "AWIN": "awin", "U_REAL": "u_real"},
@@ -88,6 +90,7 @@ def _run64(kind, block, trace):
             ("pid", functools.partial(pid_trace, 600, 20 + j, modes=True, **cfg))
             for j, cfg in enumerate(PID_OPTIONS)
         ),
+        *(("pid", functools.partial(pid_trace, 1000, 60, **cfg)) for cfg in DB_OPTIONS),
         ("adrc", lambda: adrc_trace(1000, seed=9)),
         ("adrc", lambda: adrc_trace(400, seed=10, order=3, b0=0.01, omega_c=0.3, omega_o=1.2)),
         *(
@@ -112,6 +115,9 @@ def test_cycle_in_float64_is_the_block(kind, make):
                 block.configure(kp=inp["K"], ti=inp["TI"])
             if "U_MIN" in inp:
                 block.configure(u_min=inp["U_MIN"], u_max=inp["U_MAX"])
+            for name in ("T_STAB", "TS"):
+                if name in inp:
+                    block.configure(**{name.lower(): inp[name]})
             u = block(inp["SP"], inp["PV"], ff=inp["FF"], pv_ok=inp["PV_OK"], dv=inp.get("DV", 0.0))
             ref.append((u, int(block.error_id)))
         elif kind == "adrc":
@@ -267,7 +273,7 @@ def test_velocity_form_needs_precision_only_where_the_increments_are_added():
 @pytest.mark.parametrize(
     ("cls", "kw", "field"),
     [
-        (PID, {"deadband": 1.0}, "deadband"),
+        (PID, {"deadband": 1.0, "t_stab": 20000.0}, "t_stab"),  # a 2e5-sample ARRAY
     ],
 )
 def test_float32_is_refused_where_the_plc_cycle_does_not_cover_the_options(cls, kw, field):
@@ -317,3 +323,50 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
                else {**ADRC_PROCESS, "sp": 1.0})  # fmt: skip
     getattr(pc, f"{kind}_cycle")(**process, **inputs, **state)
     assert tuple(seen[0]) == pytest.approx(tuple(block.kernel_params()), rel=1e-15, abs=1e-300)
+
+
+def test_moving_average_kernel_is_the_moving_average_block_with_window_changes():
+    """plc_cycle.moving_average (a ring in a fixed array, running sum re-summed once per
+    window) against MovingAverage (exact window sum) over 3000 samples with the window
+    changed to shorter and longer lengths (the newest values kept, as the block keeps
+    them): the same means to 1e-12, in float64."""
+    rng = np.random.default_rng(70)
+    cap = 40
+    state = {"mean": 0.0, "buf": [0.0] * cap, "idx": 0, "count": 0, "since": 0, "total": 0.0,
+             "n_prev": 0}  # fmt: skip
+    ma = MovingAverage(n=25)
+    n = 25
+    for k in range(3000):
+        if k in (400, 900, 1500, 2200):
+            n = {400: 7, 900: 40, 1500: 1, 2200: 13}[k]
+            ma.configure(n=n)
+        u = 50.0 + 10.0 * math.sin(k / 50.0) + rng.standard_normal()
+        ref = ma(u)
+        res = pc.moving_average(u, n, state["mean"], state["buf"], state["idx"], state["count"],
+                                state["since"], state["total"], state["n_prev"])  # fmt: skip
+        state = dict(zip(("mean", "buf", "idx", "count", "since", "total", "n_prev"), res,
+                         strict=True))  # fmt: skip
+        assert abs(state["mean"] - ref) <= 1e-12 * 60.0, (k, state["mean"], ref)
+
+
+def test_steady_detector_kernel_is_the_steady_state_detector_block():
+    """plc_cycle.steady_detector against SteadyStateDetector over a signal that settles,
+    jumps and settles again, with restarts (the block's reset)."""
+    rng = np.random.default_rng(71)
+    det = SteadyStateDetector(tolerance=0.5, t_stab=1.0, ts=0.1)
+    anchor, elapsed, started = 0.0, 0.0, False
+    seen = 0
+    for k in range(600):
+        u = (0.0 if k < 200 else 5.0) + (0.3 if k % 97 == 0 else 0.05) * rng.standard_normal()
+        restart = k % 150 == 149
+        if restart:
+            det.reset()
+            ref = False
+        else:
+            ref = det(u)
+        steady, anchor, elapsed, started = pc.steady_detector(
+            u, 0.5, 1.0, 0.1, restart, anchor, elapsed, started
+        )
+        assert steady == ref, k
+        seen += steady
+    assert 100 < seen < 550  # it was steady, and not always

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from ctrlblocks import ADRC, PID, LeadLag, MovingAverage, plc
+from ctrlblocks.blocks import plc_cycle as pc
 from ctrlblocks.plc.translate import Program, TranslationError
 
 from .st_interpreter import Interpreter, parse, split_pous
@@ -36,9 +37,10 @@ BLOCKS = {
                                anti_windup="back_calc_real"),
     "adrc_options": lambda: ADRC(order=2, b0=0.05, discretisation="exact", u_real_on=True,
                                  anti_backoff=True, y_sat=90.0, y_sat_lo=-1.0),
+    "pid_deadband": lambda: PID(kp=2.0, ti=3.0, deadband=0.5, t_stab=1.0, sp_filter=1.0),
 }  # fmt: skip
 FB = {"pid": "CB_PID", "adrc1": "CB_ADRC", "adrc3": "CB_ADRC", "leadlag": "CB_LEADLAG",
-      "pid_options": "CB_PID", "adrc_options": "CB_ADRC"}  # fmt: skip
+      "pid_options": "CB_PID", "adrc_options": "CB_ADRC", "pid_deadband": "CB_PID"}  # fmt: skip
 
 
 def _bodies(st: str) -> dict[str, list[str]]:
@@ -140,7 +142,7 @@ def test_plcopen_xml_binds_to_the_tc6_schema_and_carries_the_st_bodies(name):
 _SCL_KEYWORDS = {
     "if", "then", "elsif", "else", "end_if", "and", "or", "not", "xor", "mod", "true",
     "false", "return", "abs", "exp", "ln", "sqrt", "trunc", "dint_to_real", "sel", "min",
-    "max", "expt", "region", "end_region",
+    "max", "expt", "region", "end_region", "for", "to", "do", "end_for",
 }  # fmt: skip
 
 
@@ -160,7 +162,7 @@ def test_tia_scl_follows_the_dialect_rules(name):
         lines = chunk.splitlines()
         assert re.match(r'FUNCTION(_BLOCK)? "CB_\w+"', lines[0]), lines[0]
         assert lines[1] == "{ S7_Optimized_Access := 'TRUE' }" and lines[2] == "VERSION : 0.1"
-        declared = {m.group(1).lower() for m in re.finditer(r"^\s+(\w+) : \w+", chunk, re.M)}
+        declared = {m.group(1).lower() for m in re.finditer(r'^\s+(\w+) : "?\w+', chunk, re.M)}
         begin = lines.index("BEGIN")
         for ln in lines[begin + 1 : -1]:
             if ln.strip().startswith("REGION "):
@@ -182,9 +184,65 @@ def test_tia_scl_follows_the_dialect_rules(name):
         assert body == ref, pou
 
 
+def test_small_blocks_with_memory_are_fbs_instantiated_inside_the_pid():
+    """The SP/PV filters, the setpoint ramp and the feed-forward lead-lag are FUNCTION_BLOCKs
+    of their own, held as instances in CB_PID's VAR (a multi-instance in TIA), and their
+    memory is not a variable of CB_PID."""
+    block = PID(kp=2.0, ti=3.0, sp_filter=1.0, sp_rate=2.0, ff_k=1.0, ff_t_lag=2.0)
+    st = plc.export(block, "codesys")
+    pous = {c.split()[1]: c for c in split_pous(st) if c.startswith("FUNCTION")}
+    assert [c.split()[0] for n, c in pous.items() if n in ("CB_PT1", "CB_RAMP", "CB_LEADLAG_FF")
+            ] == ["FUNCTION_BLOCK"] * 3  # fmt: skip
+    pid = pous["CB_PID"]
+    for decl in ("PT1_sp_f : CB_PT1;", "PT1_pv_f : CB_PT1;", "RAMP_sp_w : CB_RAMP;",
+                 "LEADLAG_FF_ll_out : CB_LEADLAG_FF;"):  # fmt: skip
+        assert decl in pid
+    assert not re.search(r"^\s+(sp_f|pv_f|sp_w|ll_x|ll_out) :", pid, re.M)
+    assert "PT1_pv_f.Y" in pid and "PT1_sp_f(" in pid
+    assert "PT1_sp_f : \"CB_PT1\";" in plc.export(block, "tia")
+    assert "#PT1_sp_f(" in plc.export(block, "tia") and "#PT1_pv_f.Y" in plc.export(block, "tia")
+    xml = plc.export(block, "plcopen")
+    assert '<derived name="CB_PT1" />' in xml and 'pouType="functionBlock"' in xml
+    db = PID(kp=2.0, ti=3.0, deadband=0.5, t_stab=1.5, ts=0.1)
+    assert "BUF : ARRAY[0..14] OF REAL;" in plc.export(db, "codesys")  # round(1.5/0.1) values
+    assert "BUF : Array[0..14] of Real;" in plc.export(db, "tia")
+    assert '<array><dimension lower="0" upper="14" /><baseType><REAL /></baseType></array>' in (
+        plc.export(db, "plcopen"))  # fmt: skip
+    # the stateless helpers stay FUNCTIONs
+    assert pous["CB_PT1_STEP"].startswith("FUNCTION CB_PT1_STEP : REAL")
+
+
+def test_an_instance_runs_with_its_own_memory_in_the_interpreter():
+    """Two CB_PT1 instances (SP and PV filter) keep separate memories across calls."""
+    it = Interpreter(plc.export(PID(kp=1.0, ti=5.0, sp_filter=2.0, pv_filter=0.5), "codesys"))
+    fb = it.instance("CB_PID")
+    fb(SP=10.0, PV=0.0)
+    fb(SP=20.0, PV=4.0)
+    a_sp, a_pv = np.float32(np.exp(np.float32(-0.1) / np.float32(2.0))), np.float32(
+        np.exp(np.float32(-0.1) / np.float32(0.5)))  # fmt: skip
+    sp_f = a_sp * np.float32(10.0) + (np.float32(1.0) - a_sp) * np.float32(1.0) * np.float32(20.0)
+    pv_f = a_pv * np.float32(0.0) + (np.float32(1.0) - a_pv) * np.float32(1.0) * np.float32(4.0)
+    assert fb["PT1_sp_f"].output("Y") == sp_f and fb["PT1_pv_f"].output("Y") == pv_f
+    with pytest.raises(Exception, match="not an output"):
+        fb["PT1_sp_f"].output("U")
+
+
+def _writes_a_memory(u: float, y: float, z: float) -> tuple[float, float, float]:
+    y = pc.pt1_filter(u, 1.0, 0.1, False, y)
+    y = 0.0
+    return y, y, z
+
+
+def test_translator_refuses_writing_an_instances_memory_outside_its_call():
+    with pytest.raises(TranslationError, match="only the instance's call writes it"):
+        Program().fb_body(_writes_a_memory, ("u", "y", "z"), {"u": "U", "y": "Y", "z": "Z"})
+    with pytest.raises(TranslationError, match="FUNCTION cannot hold"):
+        Program().function(pc.pid_cycle)
+
+
 def test_export_refuses_what_it_does_not_cover():
-    with pytest.raises(plc.UnsupportedBlock, match="deadband"):
-        plc.export(PID(deadband=0.5, ti=1.0))
+    with pytest.raises(plc.UnsupportedBlock, match="t_stab"):
+        plc.export(PID(deadband=0.5, ti=1.0, t_stab=20000.0))  # a 2e5-sample ARRAY
     with pytest.raises(plc.UnsupportedBlock, match="MovingAverage"):
         plc.export(MovingAverage(n=3))
     with pytest.raises(ValueError, match="unknown PLC target"):
@@ -193,13 +251,13 @@ def test_export_refuses_what_it_does_not_cover():
 
 def _with_a_loop(x: float) -> float:
     y = 0.0
-    for _ in range(3):
-        y = y + x
+    while y < x:
+        y = y + 1.0
     return y
 
 
 def test_translator_names_function_and_line_of_an_unsupported_construct():
-    with pytest.raises(TranslationError, match=r"_with_a_loop, line \d+: statement For"):
+    with pytest.raises(TranslationError, match=r"_with_a_loop, line \d+: statement While"):
         Program().function(_with_a_loop)
 
 

@@ -42,6 +42,10 @@ def ulps(a: float, b: float) -> int:
     return abs(ix - iy)
 
 
+DB_RETUNES = ((0.52, "T_STAB", 0.5), (0.75, "TS", 0.2), (0.88, "TS", 0.1), (0.9, "T_STAB", 0.9))
+"""(fraction of the trace, FB input, value): windows 5, 2 (0.5/0.2 = 2.5, a tie: to even),
+5 and 9 samples, all within the array the export sized from the starting configuration."""
+
 PID_MODES = {"MANUAL": "manual", "MAN_VALUE": "manual_value", "RST": "reset_active",
              "TRACK": "track", "TRACK_VALUE": "track_value", "HOLD": "hold", "AWIN": "awin",
              "ACTUATOR_POS": "actuator_pos"}  # fmt: skip
@@ -64,8 +68,20 @@ PID_OPTIONS = [
 feed-forward, PV scaling, every anti-windup and bumpless method."""
 
 
+DB_OPTIONS = [
+    {"deadband": 1.0, "t_stab": 1.0},
+    {"deadband": -0.8, "t_stab": 2.0, "algorithm": "velocity", "out_rate": 20.0, "td": 0.0},
+    {"deadband": 1.5, "t_stab": 1.5, "sp_filter": 0.5, "bumpless": "suppress_p_action",
+     "dev_tol": 2.0},
+]  # fmt: skip
+"""PID options with the adaptive dead band (a negative width acts as its absolute value)."""
+
+
 def pid_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[PID, Trace]:
     """A closed-loop day of a float32 PID on ``y' = (2 u/100 - y)/5`` (y in % of range).
+
+    With a ``deadband``, the stabilisation time and the sample time are retuned
+    mid-run (a shorter window, a window that rounds a tie to even, and back).
 
     ``modes`` adds TRACK, HOLD and AWIN stretches, a DV signal (for the lead-lag
     feed-forward), a measured actuator position lagging the output, and two PV
@@ -119,6 +135,11 @@ def pid_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[PI
         if k == int(0.7 * n):
             pid.configure(u_min=10.0, u_max=60.0)  # new limits at run time
             inp["U_MIN"], inp["U_MAX"] = 10.0, 60.0
+        if "deadband" in config:
+            for at, name, value in DB_RETUNES:
+                if k == int(at * n):
+                    pid.configure(**{name.lower(): value})
+                    inp[name] = value
         pv_ok = not (0.6 * n <= k < 0.62 * n)
         pv = y + 0.3 * rng.standard_normal()
         if int(0.5 * n) <= k < int(0.5 * n) + 3:
@@ -234,10 +255,16 @@ def leadlag_trace(n: int, seed: int, **config: Any) -> tuple[LeadLag, Trace]:
     return LeadLag(**cfg), tr
 
 
-def replay(fb: Any, trace: Trace, mv: str, flag: str | None) -> list[tuple[float, int, bool]]:
-    """Call the interpreted FB instance with the trace's inputs; its (MV, ERROR_ID, flag)."""
+def replay(
+    fb: Any, trace: Trace, mv: str, flag: str | None, each: Any = None
+) -> list[tuple[float, int, bool]]:
+    """Call the interpreted FB instance with the trace's inputs; its (MV, ERROR_ID, flag).
+
+    ``each()`` is called after every sample (to look at the FB's state)."""
     out = []
     for inp in trace.inputs:
         fb(**inp)
+        if each is not None:
+            each()
         out.append((float(fb[mv]), int(fb["ERROR_ID"]), bool(fb[flag]) if flag else False))
     return out

@@ -49,6 +49,19 @@ def test_history_of_a_missing_file_is_an_error_and_creates_nothing(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
+def test_serve_with_a_historian_that_cannot_be_opened_says_which_file_and_why(tmp_path):
+    cfg = tmp_path / "loops.toml"
+    where = tmp_path / "no such folder" / "h.sqlite"
+    cfg.write_text(
+        '[connections.io]\nprotocol = "memory"\n'
+        + loop_toml(ts=0.1)
+        + f'[historian]\npath = "{where}"\n[retain]\nenabled = false\n'
+    )
+    r = cli("serve", str(cfg), "--no-web")
+    assert r.exit_code == 1 and "Traceback" not in r.output
+    assert f"historian: {where}: OperationalError: unable to open database file" in r.output
+
+
 def test_history_to_an_unknown_format_is_an_error(tmp_path):
     db = tmp_path / "h.sqlite"
     history_db(db)

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import sqlite3
+
+import pytest
 
 from ctrlblocks.runtime import FakeClock, MemoryAdapter, MemoryBus, Runtime, parse_config
 from ctrlblocks.runtime.retain import SCHEMA_VERSION, RetainStore
 
-from .conftest import FirstOrder, bounded, loop_toml, make
+from .conftest import FirstOrder, bounded, loop_toml, make, wait_for
 
 CONN = '[connections.io]\nprotocol = "memory"\n[historian]\nbackend = "none"\n'
 
@@ -103,6 +104,15 @@ def test_a_tuning_changed_in_the_file_wins_over_the_retained_one_with_a_log_line
     )
 
 
+def saved_names(path) -> list[str]:
+    """The loops in the retain file (none while it is not there or not written yet)."""
+    try:
+        with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as c:
+            return [r[0] for r in c.execute("SELECT name FROM loops ORDER BY name")]
+    except sqlite3.OperationalError:
+        return []
+
+
 def test_the_state_is_saved_every_interval_atomically_with_a_schema_version(tmp_path):
     bus = MemoryBus()
     bus.on_write = FirstOrder(bus)
@@ -121,7 +131,7 @@ def test_the_state_is_saved_every_interval_atomically_with_a_schema_version(tmp_
         await clock.run_until(0.5)
         saved_early = path.exists()
         await clock.run_until(1.2)
-        await asyncio.sleep(0.2)  # the save runs in a thread
+        await wait_for(lambda: saved_names(path) == ["loop"], timeout=30.0)  # a thread saves
         with sqlite3.connect(path) as c:
             rows = c.execute("SELECT name FROM loops").fetchall()
             version = c.execute("SELECT value FROM meta").fetchall()
@@ -143,3 +153,32 @@ def test_a_retain_file_of_another_schema_version_is_a_cold_start(tmp_path, caplo
     with caplog.at_level(logging.WARNING, logger="ctrlblocks.runtime"):
         assert RetainStore(path).load() == {}
     assert "schema version 99, not 1: cold start" in caplog.text
+
+
+def test_the_periodic_save_takes_ten_loops_per_step_spread_over_the_interval(tmp_path):
+    """25 loops, interval 1 s: 10 loops at 1/3 s, 10 at 2/3 s, 5 at 1 s, then one save of all."""
+    bus = MemoryBus()
+    path = tmp_path / "retain.sqlite"
+    loops = "".join(
+        loop_toml(name=f"l{i:02d}", ts=0.1, pv=f"pv{i}", mv=f"mv{i}") for i in range(25)
+    )
+    rt, clock, _ = make(loops + "[retain]\ninterval = 1.0\n", {"io": bus}, retain=RetainStore(path))
+    taken: list[tuple[float, str]] = []
+    for lp in rt.loops.values():
+        lp.retained = (  # type: ignore[method-assign]
+            lambda lp=lp, f=lp.retained: taken.append((clock.now(), lp.name)) or f()
+        )
+
+    async def main():
+        await rt.start()
+        await clock.run_until(1.05)
+        await wait_for(lambda: len(saved_names(path)) == 25, timeout=30.0)  # a thread saves
+        rt.request_stop()
+        await rt.stop()
+
+    bounded(main())
+    first_round = [t for t, _ in taken if t < 1.05]
+    steps = sorted({round(t, 6) for t in first_round})
+    assert steps == pytest.approx([1 / 3, 2 / 3, 1.0], abs=1e-6)
+    assert [sum(1 for t in first_round if round(t, 6) == s) for s in steps] == [10, 10, 5]
+    assert sorted(n for t, n in taken if t < 1.05) == sorted(rt.loops)  # each loop once

@@ -316,3 +316,9 @@ def test_cli_engine_python_and_auto_write_the_same_metrics_and_compiled_refuses_
     assert res.exit_code == 1
     assert "the compiled lane cannot run this: structure 'open_loop'" in res.output
     assert "Traceback" not in res.output
+
+
+def test_the_cli_offers_the_engines_of_the_dispatcher():
+    from ctrlblocks.sim import cli, dispatch
+
+    assert cli.ENGINES == dispatch.ENGINES

@@ -80,8 +80,8 @@ u_max = 100.0
     [
         ("pulse_width", "[controllers.pwm]\nperiod = 0.1\n", "pwm.period", "must be >= ts"),
         ("pulse_width", "[controllers.pwm]\nperiodd = 4.0\n", "pwm.periodd", "unknown key"),
-        ("scheduled", '[controllers.schedule]\non = "y"\nbreakpoints = [0.0]\nkp = [1.0]\n',
-         "schedule.on", "retunes every sample"),
+        ("scheduled", '[controllers.schedule]\non = "u"\nbreakpoints = [0.0]\nkp = [1.0]\n',
+         "schedule.on", "must be 'sp' or 'y'"),
         ("scheduled", "[controllers.schedule]\nbreakpoints = [0.0, 1.0]\nkp = [1.0, -1.0]\n",
          "schedule.table at breakpoint 1.0: kp", "> 0"),
         ("scheduled", "[controllers.schedule]\nkp = [1.0]\n", "schedule", "needs breakpoints"),
@@ -91,6 +91,30 @@ def test_output_stage_and_schedule_errors_name_the_key(structure, table, key, pr
     with pytest.raises(ScenarioError) as e:
         parse_scenario(HEAD.format(structure=structure, extra="") + table)
     assert e.value.key == f"controllers[0].{key}" and problem in e.value.problem, str(e.value)
+
+
+def test_a_schedule_on_the_measurement_needs_a_pid():
+    adrc = HEAD.format(structure="scheduled", extra="").replace(
+        'type = "PID"\nkp = 1.0\nti = 5.0', 'type = "ADRC"\norder = 1\nb0 = 0.2'
+    )
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(adrc + '[controllers.schedule]\non = "y"\nbreakpoints = [0.0]\nb0 = [0.2]\n')
+    assert e.value.key == "controllers[0].schedule.on" and "needs a PID" in e.value.problem
+
+
+def test_a_schedule_on_the_measurement_retunes_every_sample_and_keeps_acting():
+    sc, s = _run("gain_schedule_three_tank", "scheduled on the measurement")
+    sched = sc.controllers[3].options["schedule"]
+    assert sched["on"] == "y"
+    np.testing.assert_array_equal(s["w"], s["y"])  # w is the measurement of the sample
+    u = s["u"]
+    inside = (u[1:] > 0.0) & (u[1:] < 5.0) & (u[:-1] > 0.0) & (u[:-1] < 5.0)
+    k = np.flatnonzero((np.diff(s["kp"]) != 0.0) & inside)  # retuned, MV off the limits
+    assert k.size > 100  # retuned in most samples of the transients
+    assert np.all(np.diff(u)[k] != 0.0)  # and the MV moves on in every one (no freeze)
+    t = s["t"]
+    j = int(np.argmin(np.abs(t - 240.0)))
+    assert s["kp"][j] == interpolate(tuple(sched["breakpoints"]), tuple(sched["kp"]), s["y"][j])
 
 
 def test_three_step_needs_the_valve_as_inner_plant_and_a_bool_feedback():

@@ -30,7 +30,7 @@ VERDICTS: dict[str, list[bool]] = {
     # estimated b0: n = 2 is better than the final value in IAE; n = 1 oscillates
     "nowak_table2_b0": [True, False, False, True, True, True],
     "nowak_smith": [True, True, True],
-    "gain_schedule_three_tank": [True, True, True],
+    "gain_schedule_three_tank": [True, True, True, True, True],
     "pulse_width_heater": [True, True, True, True],
     "ratio_blend": [True, True, True, True, True],
     "split_range_heat_cool": [True, True, True, True, True],

@@ -102,6 +102,7 @@ __all__ = [
     "PIDKernelParams",
     "PIDKernelState",
     "pid_step",
+    "retune_states",
 ]
 
 log = logging.getLogger(__name__)
@@ -228,6 +229,69 @@ def tracking_gain(h: float, tt: float) -> float:
     Åström 1987, Fig. 3.6 and the Simnon module ``pid`` (``dI = ... + (v - u)/Tt``).
     """
     return h / (tt + h)
+
+
+def retune_states(
+    sp_w: float,
+    pv_f: float,
+    p_old: float,
+    d_old: float,
+    i: float,
+    bias: float,
+    x: float,
+    ff_prev: float,
+    k: float,
+    sgn: float,
+    b: float,
+    c: float,
+    kd: float,
+    ki: float,
+    ki_old: float,
+    velocity: bool,
+    suppressed: bool,
+) -> tuple[float, float, float, float, float, float]:
+    """Bumpless parameter change: the states that keep the output when the law is retuned.
+
+    Åström & Hägglund 2006 (implementation, "bumpless parameter changes"): a
+    change of the parameters changes the output of the P (and D) terms for
+    the same signals; the integrator takes the difference, ``I_new = I_old +
+    K_old (b_old r - y) - K_new (b_new r - y)``, so that the output at the
+    instant of the change is what it was -- the principle of Åström 1987,
+    Fig. 4.4 (the integrator set so that the output continues), applied to a
+    parameter change instead of a mode change.  It is evaluated on the last
+    cycle's working setpoint ``sp_w`` and filtered PV ``pv_f`` [%], so the
+    next cycle runs the new law in full (its P kick to a setpoint step, its
+    integral increment): the output is continuous at the change, not held.
+
+    ``p_old``, ``d_old``: the P term (as used, 0 while suppressed) and D term
+    of the last cycle; the D term is kept as the derivative filter's state
+    (the new filter continues from it) unless the new law has no derivative
+    (``kd = K Td = 0``), then it is 0 and its last value goes to the integrator
+    too.  The velocity algorithm keeps its output integrator ``x``; its
+    increments start from the new P and D (so no increment is a bump); without
+    integral action its reset-feedback bias takes the shift (or, when the
+    integral action was just removed, the value that makes the feedback's
+    target the present output ``x``).  ``k``, ``sgn``, ``b``, ``c``, ``kd``,
+    ``ki`` are the new law's, ``ki_old = K/Ti`` the old one's (0: no integral).
+
+    Returns ``(i, bias, p_new, d_new, w_prev, e_prev)``: the integrator, the
+    bias, the P and D terms of the new law on the last cycle's signals (the
+    velocity form's ``p_prev``/``d_prev`` and the D state), and the
+    derivative's and integral's histories ``w = sgn (c r - y)``,
+    ``e = sgn (r - y)`` in the new law's weights and sign.
+    """
+    p_new = 0.0
+    if not suppressed:
+        p_new = k * sgn * (b * sp_w - pv_f)
+    d_new = d_old
+    if kd == 0.0:
+        d_new = 0.0
+    shift = (p_old - p_new) + (d_old - d_new)
+    bias_new = bias
+    if velocity and ki == 0.0:
+        # the integral action was just removed: the reset feedback's target is the output
+        bias_new = bias + shift if ki_old == 0.0 else x - p_new - d_new - ff_prev
+    return i + shift, bias_new, p_new, d_new, sgn * (c * sp_w - pv_f), sgn * (sp_w - pv_f)
 
 
 def pid_step(
@@ -650,6 +714,17 @@ class PID(Block):
     config: PIDConfig
     _config: PIDConfig
     _law_in_force: tuple[Any, ...]
+    # state read by the retune (_carry_over) before _reset_state assigns it
+    _cold: bool
+    _reinit: bool
+    _mode_prev: int
+    deadband_active: bool
+    p_suppressed: bool
+    _i: float
+    _d: float
+    _x: float
+    _bias: float
+    _ff_prev: float
     _state_fields = (
         "out",
         "p",
@@ -733,14 +808,56 @@ class PID(Block):
         self._sync("_ma", MovingAverage, n=window)
         if old is None:  # the sub-blocks are made once; configure re-parameterises them
             self._cycle_subs = _SubStates(tuple(self._subs[name] for name in _SUB_COMPUTE))
-        self._relaw(old is not None)
+        self._relaw(old)  # type: ignore[arg-type]
 
-    def _relaw(self, bumpless: bool) -> None:
-        """Note the law in force; a change of it (``bumpless``) re-initialises the integrator."""
+    def _relaw(self, old: PIDConfig | None) -> None:
+        """Note the law in force; a change of it from ``old`` is bumpless (:meth:`_carry_over`)."""
         law = _law(self._config)
-        if bumpless and law != self._law_in_force:
+        if old is not None and law != self._law_in_force and not self._carry_over(old):
             self._reinit = True  # the next cycle continues from the output, without a bump
         self._law_in_force = law
+
+    def _carry_over(self, old: PIDConfig) -> bool:
+        """Bumpless retuning at the instant of the change (:func:`retune_states`).
+
+        In auto, with a committed last cycle, the integrator (velocity form:
+        the increments' starting point and the bias) is moved so that the new
+        law gives the last output on the last cycle's signals; the next cycle
+        then runs the new law in full.  Returns False where that is not
+        possible -- the last cycle was not in auto, a two-phase cycle is
+        pending, a re-initialisation is pending anyway, the adaptive dead band
+        holds the output, or the scaling or the algorithm changed (the
+        signals of the last cycle are in other units) -- and the caller
+        re-initialises instead: the next cycle continues from the output.
+        """
+        if self._cold:
+            return True  # no history: the next cycle starts afresh
+        c = self._config
+        if (
+            self._mode_prev != Mode.AUTO
+            or self._reinit
+            or self._pending is not None
+            or self.deadband_active
+            or old.pv_range != c.pv_range
+            or old.algorithm != c.algorithm
+        ):
+            return False
+        k_old, ti_old, _td_old = old.isa()
+        ki_old = k_old / ti_old if ti_old > 0.0 else 0.0
+        states = retune_states(
+            self.sp_w, self.pv_f, self.p, self._d, self._i, self._bias, self._x, self._ff_prev,
+            self._k, self._sgn, float(c.b), float(c.c), self._kd, self._ki, ki_old,
+            self._velocity, self.p_suppressed,
+        )  # fmt: skip
+        if not all(_NINF < v < _INF for v in states):
+            return False  # a gain so large that the shift overflows: hold one cycle instead
+        i, bias, p_new, d_new, self._w_prev, self._e_prev = states
+        self._d = d_new
+        if self._velocity:
+            self._bias, self._p_prev, self._d_prev = bias, p_new, d_new
+        else:
+            self._i = i
+        return True
 
     def _set_tuning(self, c: PIDConfig) -> None:
         """The law's gains from the tuning fields of ``c``, at the sample time ``ts``.
@@ -812,7 +929,7 @@ class PID(Block):
             self._config = old
             raise
         self._sync_subs()
-        self._relaw(True)
+        self._relaw(old)
 
     def output_limits(self) -> tuple[float, float]:
         """``(u_min, u_max)`` in force."""

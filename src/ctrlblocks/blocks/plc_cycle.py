@@ -39,7 +39,7 @@ import functools
 import math
 import types
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -66,10 +66,11 @@ from .pid import (
     integral_weights,
     pid_step,
     ramp_blocks,
+    retune_states,
     tracking_gain,
 )
 from .precision import CYCLES
-from .signals import clamp, pt1_coefficient, pt1_step, rate_limit_step, scale
+from .signals import clamp, deadband, pt1_coefficient, pt1_step, rate_limit_step, scale
 
 __all__ = [
     "ADRC_RESULTS",
@@ -114,6 +115,185 @@ def finite_or_zero(x: float) -> float:
 
 
 # ---------------------------------------------------------------------------
+# Small blocks with memory (each its own FUNCTION_BLOCK in the export)
+# ---------------------------------------------------------------------------
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def plc_block(short: str, results: tuple[str, ...], hidden: tuple[str, ...] = ()) -> Callable[
+    [_F], _F
+]:  # fmt: skip
+    """Mark a function as a small block with memory, exported as FUNCTION_BLOCK ``CB_<short>``.
+
+    The function is pure: its parameters are the inputs and the memory, it
+    returns ``results`` (named in order); a result named like a parameter is
+    that memory's new value.  The caller passes its memory in and takes it back
+    (``y = pt1_filter(u, t, h, preset, y)``); in the PLC an instance of the FB,
+    declared in the caller's VAR, holds it, and the caller reads it as the
+    instance's output (``hidden`` memories are no outputs).  Only the call
+    writes that memory, so the two stay the same value (the translator checks).
+    """
+
+    def mark(fn: _F) -> _F:
+        fn.plc_block = (short, results, hidden)  # type: ignore[attr-defined]
+        return fn
+
+    return mark
+
+
+@plc_block("PT1", ("y",))
+def pt1_filter(u: float, t: float, h: float, preset: bool, y: float) -> float:
+    """First-order filter, exact pole ``exp(-h/t)`` (t = 0: off); ``preset`` starts at ``u``.
+
+    :func:`.signals.pt1_coefficient` and :func:`.signals.pt1_step` (the PID's SP
+    and PV filters, :class:`~ctrlblocks.PT1`).  A memory that is not a finite
+    REAL (after the PID's law overflowed) restarts from 0, as the block resets
+    a filter whose output is not finite.
+    """
+    y = finite_or_zero(y)
+    if preset:
+        y = u
+    return pt1_step(pt1_coefficient(t, h, "exact"), y, 1.0, u)
+
+
+@plc_block("RAMP", ("y", "limiting"))
+def ramp_filter(u: float, rate: float, h: float, preset: bool, y: float) -> tuple[float, bool]:
+    """Linear ramp ``rate`` [units/s] both ways (0 = off); ``preset`` sets the output to ``u``.
+
+    :func:`.signals.rate_limit_step` (the PID's setpoint ramp,
+    :class:`~ctrlblocks.RateLimiter`); a memory that is not a finite REAL
+    restarts from 0.  Returns ``(y, limiting)``.
+    """
+    y = finite_or_zero(y)
+    if preset:
+        y = u
+    y, limiting = rate_limit_step(u, y, rate, rate, h)
+    return y, limiting
+
+
+@plc_block("LEADLAG_FF", ("y", "x_prev"), hidden=("x_prev",))
+def leadlag_filter(
+    u: float, k: float, t_lead: float, t_lag: float, h: float, y: float, x_prev: float
+) -> tuple[float, float]:
+    """``k (1 + t_lead s)/(1 + t_lag s)`` by Tustin, unlimited (Bonde et al. 2021, Fig. 10).
+
+    :func:`.leadlag.leadlag_coefficients` and :func:`.leadlag.leadlag_step`:
+    the PID's feed-forward path.  A memory that is not a finite REAL restarts
+    at rest.  Returns ``(y, x_prev)``.
+    """
+    if not is_real(y):
+        y = 0.0
+        x_prev = 0.0
+    b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, h, True)
+    y = leadlag_step(u, x_prev, y, b0, b1, a1, -REAL_MAX, REAL_MAX)
+    return y, u
+
+
+@plc_block(
+    "STEADY", ("steady", "anchor", "elapsed", "started"), hidden=("anchor", "elapsed", "started")
+)
+def steady_detector(
+    u: float,
+    tolerance: float,
+    t_stab: float,
+    h: float,
+    restart: bool,
+    anchor: float,
+    elapsed: float,
+    started: bool,
+) -> tuple[bool, float, float, bool]:
+    """Has ``u`` stayed within ``tolerance`` of its anchor for ``t_stab`` [s]? ``restart`` resets.
+
+    :class:`~ctrlblocks.SteadyStateDetector` (controltheplant 2024,
+    ``FindSteadyState``): a larger variation moves the anchor to ``u`` and
+    restarts the time; a small slack makes ``t_stab = k h`` steady after
+    exactly k samples.  Returns ``(steady, anchor, elapsed, started)``.
+    """
+    steady = False
+    if restart:
+        started = False
+        elapsed = 0.0
+    else:
+        if not started or abs(u - anchor) > tolerance:
+            anchor = u
+            elapsed = 0.0
+            started = True
+        else:
+            elapsed = elapsed + h
+        steady = elapsed >= t_stab - 1e-9 * h
+    return steady, anchor, elapsed, started
+
+
+@plc_block(
+    "MOVAVG",
+    ("mean", "buf", "idx", "count", "since", "total", "n_prev"),
+    hidden=("buf", "idx", "count", "since", "total", "n_prev"),
+)
+def moving_average(
+    u: float,
+    n: int,
+    mean: float,
+    buf: list[float],
+    idx: int,
+    count: int,
+    since: int,
+    total: float,
+    n_prev: int,
+) -> tuple[float, list[float], int, int, int, float, int]:
+    """Mean of the last ``n`` inputs, ``1 <= n <= len(buf)`` (:class:`~ctrlblocks.MovingAverage`).
+
+    controltheplant 2024, ``MovingAverage``: until ``n`` values have arrived,
+    the mean of those received.  ``buf`` is a ring of ``len(buf)`` values (in
+    the PLC an ARRAY sized at export), ``idx`` the next place to write,
+    ``count`` the values in the window; the running sum ``total`` gains the
+    new value and loses the one leaving the window, and is summed afresh once
+    per window (a FOR loop over the window) so that rounding cannot drift.  A
+    new ``n`` keeps the newest ``min(count, n)`` values, as the block does on
+    reconfiguration.  Returns ``(mean, buf, idx, count, since, total, n_prev)``.
+    """
+    cap = len(buf)
+    if n != n_prev:
+        # a new window keeps the newest min(count, n) values; summed afresh below
+        count = min(count, n)
+        since = n
+        n_prev = n
+    leaving = 0.0
+    if count >= n:
+        leaving = buf[(idx + cap - n) % cap]
+    total = total + (u - leaving)
+    buf[idx] = u
+    idx = (idx + 1) % cap
+    if count < n:
+        count = count + 1
+    since = since + 1
+    if since >= n:
+        total = 0.0
+        for j in range(count):
+            total = total + buf[(idx + cap - count + j) % cap]
+        since = 0
+    mean = total / float(count)
+    return mean, buf, idx, count, since, total, n_prev
+
+
+def deadband_window(t_stab: float, ts: float, cap: int, window: int) -> tuple[int, bool]:
+    """The moving-average window ``round(t_stab/ts)`` (half to even, >= 1) and whether it is valid.
+
+    As :class:`~ctrlblocks.PID` sizes its average (``max(1, round(t_stab/ts))``);
+    a ``t_stab <= 0``, a non-finite ratio or a window beyond the ``cap``
+    values the PLC's ARRAY holds is not valid: ``window`` (the one in force)
+    is returned with False.
+    """
+    r = t_stab / ts
+    if not (t_stab > 0.0 and r > 0.0 and r < float(cap) + 0.5):
+        return window, False
+    n = int(r + 0.5)
+    if float(n) - r == 0.5 and n % 2 == 1:
+        n = n - 1  # a tie rounds to even, as Python's round()
+    return max(1, n), True
+
+
+# ---------------------------------------------------------------------------
 # PID
 # ---------------------------------------------------------------------------
 
@@ -123,6 +303,8 @@ PID_RESULTS = (
     "sp_f", "pv_f", "sp_w", "ll_x", "ll_out", "suppressed", "ramp_out", "lo", "hi", "mode_prev",
     "cold", "reinit", "reinit_d", "k_prev", "ti_prev", "td_prev", "n_prev", "b_prev",
     "c_prev", "rev_prev", "vel_prev", "scale_prev", "pv_lo_prev", "pv_hi_prev",
+    "db_active", "db_hold", "db_win", "db_t", "db_mean", "db_buf", "ma_idx", "ma_count",
+    "ma_since", "ma_total", "ma_n", "st_anchor", "st_elapsed", "st_started",
 )  # fmt: skip
 """Names of the values :func:`pid_cycle` returns: outputs, then the new state."""
 
@@ -132,6 +314,9 @@ CLAMPING = 0
 BACK_CALC_REAL = 2
 BUMPLESS_TRACK_SP = 1
 BUMPLESS_SUPPRESS_P = 2
+BAD_STAB_TIME = int(ErrorCode.BAD_STAB_TIME)
+DB_TOLERANCE = 0.5
+"""Tolerance of the dead band's steady-state detector (fed with 0: only its time counts)."""
 
 
 def pid_general_step(
@@ -318,6 +503,8 @@ def pid_cycle(
     reset_value: float,
     safe_value: float,
     use_safe: bool,
+    db_width: float,
+    t_stab: float,
     out: float,
     i: float,
     d: float,
@@ -352,14 +539,35 @@ def pid_cycle(
     scale_prev: bool,
     pv_lo_prev: float,
     pv_hi_prev: float,
+    db_active: bool,
+    db_hold: float,
+    db_win: int,
+    db_t: float,
+    db_mean: float,
+    db_buf: list[float],
+    ma_idx: int,
+    ma_count: int,
+    ma_since: int,
+    ma_total: float,
+    ma_n: int,
+    st_anchor: float,
+    st_elapsed: float,
+    st_started: bool,
 ) -> tuple[Any, ...]:
-    """One cycle of the ISA PID (:class:`~ctrlblocks.PID`, every option but the dead band).
+    """One cycle of the ISA PID (:class:`~ctrlblocks.PID`, every option).
 
     Tunings ``k, ti, td`` are the ISA ``(K, Ti, Td)``; ``tt = 0`` takes the
     block's default ``Ti/5`` (``ts`` without integral action); ``i_method`` /
     ``d_method`` 0 forward, 1 backward, 2 Tustin; ``aw`` 0 clamping,
     1 back-calculation (actuator model), 2 back-calculation on ``actuator_pos``;
     ``bumpless`` 0 integrator, 1 track setpoint, 2 suppress P action.
+    The adaptive dead band (controltheplant 2024, section 2.3.10; ``db_width``
+    > 0, a negative width acts as its absolute value) holds the output at the
+    mean of the applied output over the last ``t_stab/ts`` samples once the
+    error has stayed inside the band for ``t_stab`` (:func:`steady_detector`,
+    :func:`moving_average`) and releases it bumplessly when the error leaves;
+    a ``t_stab`` whose window exceeds the array (``db_buf``) is refused with
+    ``BAD_STAB_TIME`` and the window in force stays.
     The input stage -- PV scaling to 0..100 %, the SP and PV filters (PT1,
     exact pole), the setpoint ramp, the lead-lag feed-forward on ``dv``
     (Bonde et al. 2021 version 4, Tustin) -- runs here; the law in
@@ -375,9 +583,9 @@ def pid_cycle(
     else:
         lim_err = BAD_LIMITS
     out = clamp(out, lo, hi)  # new limits contain the last output (Block.configure)
-    # a change of the law is bumpless: re-initialise the integrator (not on the first
-    # cycle, which starts from the output anyway)
-    if not cold and (
+    # a change of the law is bumpless (not on the first cycle, which starts from the
+    # output anyway)
+    retuned = not cold and (
         k != k_prev
         or ti != ti_prev
         or td != td_prev
@@ -385,11 +593,52 @@ def pid_cycle(
         or b != b_prev
         or c != c_prev
         or reverse != rev_prev
-        or velocity != vel_prev
+    )
+    if not cold and (
+        velocity != vel_prev
         or scale_pv != scale_prev
         or (scale_pv and (pv_lo != pv_lo_prev or pv_hi != pv_hi_prev))
+        or (retuned and (mode_prev != AUTO or reinit or db_active))
     ):
+        # a change of the units or the algorithm (or a retune outside a running auto
+        # cycle, or while the dead band holds) is bumpless too: the next good cycle
+        # re-initialises the integrator
         reinit = True
+        retuned = False
+    if retuned:
+        # bumpless retuning at the instant of the change (PID._carry_over): the new law
+        # gives the last output on the last cycle's signals, and acts from this cycle on
+        sgn_old = 1.0
+        if rev_prev:
+            sgn_old = -1.0
+        p_old = 0.0
+        if not suppressed:
+            p_old = k_prev * sgn_old * (b_prev * sp_w - pv_f)
+        ki_old = 0.0
+        if ti_prev > 0.0:
+            ki_old = k_prev / ti_prev
+        sgn_new = 1.0
+        if reverse:
+            sgn_new = -1.0
+        ki_new = 0.0
+        if ti > 0.0:
+            ki_new = k / ti
+        i_r, bias_r, p_r, d_r, w_r, e_r = retune_states(
+            sp_w, pv_f, p_old, d, i, bias, x, ff_prev, k, sgn_new, b, c, k * td, ki_new,
+            ki_old, velocity, suppressed,
+        )  # fmt: skip
+        if is_real(i_r) and is_real(bias_r) and is_real(p_r) and is_real(w_r) and is_real(e_r):
+            d = d_r
+            w_prev = w_r
+            e_prev = e_r
+            if velocity:
+                bias = bias_r
+                p_prev = p_r
+                d_prev = d_r
+            else:
+                i = i_r
+        else:
+            reinit = True  # the shift overflows REAL: hold one cycle instead
     k_prev = k
     ti_prev = ti
     td_prev = td
@@ -401,6 +650,12 @@ def pid_cycle(
     scale_prev = scale_pv
     pv_lo_prev = pv_lo
     pv_hi_prev = pv_hi
+    db = abs(db_width)
+    db_ok = True
+    if db > 0.0:
+        db_win, db_ok = deadband_window(t_stab, ts, len(db_buf), db_win)
+        if db_ok:
+            db_t = t_stab
     mode = AUTO
     if rst:
         mode = RESET
@@ -479,6 +734,11 @@ def pid_cycle(
         limits_active = limits_active or target > hi or target < lo
         reinit = True
         reinit_d = True
+        if db_active:  # leave the dead band: the recovery continues from the output
+            db_active = False
+            _st, st_anchor, st_elapsed, st_started = steady_detector(
+                0.0, DB_TOLERANCE, db_t, ts, True, st_anchor, st_elapsed, st_started
+            )
     else:
         # input stage: scaling, filters, setpoint ramp, lead-lag feed-forward
         x_sp = sp
@@ -486,22 +746,16 @@ def pid_cycle(
         if scale_pv:
             x_sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
             x_pv = scale(pv, pv_lo, pv_hi, 0.0, 100.0)
-        if cold:
-            sp_f = x_sp
-            pv_f = x_pv
-        sp_f = pt1_step(pt1_coefficient(sp_filter, ts, "exact"), sp_f, 1.0, x_sp)
-        pv_f = pt1_step(pt1_coefficient(pv_filter, ts, "exact"), pv_f, 1.0, x_pv)
-        if bumpless == BUMPLESS_TRACK_SP and mode != AUTO:
-            sp_w = pv_f  # in a non-auto mode the working setpoint follows the PV
-        else:
-            if cold:
-                sp_w = sp_f
-            sp_w, _sp_ramping = rate_limit_step(sp_f, sp_w, sp_rate, sp_rate, ts)
+        sp_f = pt1_filter(x_sp, sp_filter, ts, cold, sp_f)
+        pv_f = pt1_filter(x_pv, pv_filter, ts, cold, pv_f)
+        ramp_in = sp_f
+        follow = bumpless == BUMPLESS_TRACK_SP and mode != AUTO
+        if follow:
+            ramp_in = pv_f  # in a non-auto mode the working setpoint follows the PV
+        sp_w, _sp_ramping = ramp_filter(ramp_in, sp_rate, ts, cold or follow, sp_w)
         ff_tot = ff
         if ff_k != 0.0:
-            l0, l1, la = leadlag_coefficients(ff_k, ff_t_lead, ff_t_lag, ts, True)
-            ll_out = leadlag_step(dv, ll_x, ll_out, l0, l1, la, -REAL_MAX, REAL_MAX)
-            ll_x = dv
+            ll_out, ll_x = leadlag_filter(dv, ff_k, ff_t_lead, ff_t_lag, ts, ll_out, ll_x)
             ff_tot = ff + ll_out
         from_mode = mode == AUTO and mode_prev != NO_MODE and mode_prev != AUTO
         transfer = from_mode or (mode == AUTO and reinit)
@@ -510,17 +764,27 @@ def pid_cycle(
         pp_old, dp_old, fp_old = p_prev, d_prev, ff_prev
         if from_mode and bumpless == BUMPLESS_SUPPRESS_P:
             suppressed = True
+        # the adaptive dead band: hold at the average while the error stays inside
+        e_now = sgn * (sp_w - pv_f)
+        db_held = False
+        if mode == AUTO and db > 0.0 and db_active:
+            if deadband(e_now, db) == 0.0:
+                db_held = True
+                target = db_hold
+            else:
+                transfer = True  # dead band released: continue without a bump
+        held = mode != AUTO or db_held
         if velocity or out_rate > 0.0 or awin or aw == BACK_CALC_REAL or suppressed:
             (mv, ramp_out, v_raw, limits_active, p, i_term, i, d, w_prev, e_prev, x, bias, p_prev,
              ff_prev, d_prev, suppressed) = pid_general_step(
-                sp_w, pv_f, ff_tot, mode != AUTO, target, cold, cold or reinit_d, transfer,
+                sp_w, pv_f, ff_tot, held, target, cold, cold or reinit_d, transfer,
                 suppressed, dev_tol, awin, velocity, ki, actuator_pos, ramp_y, out_rate, ts,
                 i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out, prm,
             )  # fmt: skip
             limits_active = limits_active or v_raw > hi or v_raw < lo
         else:
             mv, v_raw, p, i_term, i, d, w_prev, e_prev = pid_step(
-                sp_w, pv_f, ff_tot, mode != AUTO, target, cold or reinit_d, transfer,
+                sp_w, pv_f, ff_tot, held, target, cold or reinit_d, transfer,
                 i, d, w_prev, e_prev, out, prm,
             )  # fmt: skip
             limits_active = v_raw > hi or v_raw < lo
@@ -530,6 +794,22 @@ def pid_cycle(
             cold = False
             reinit = False
             reinit_d = False
+            if db > 0.0:
+                # the dead band's detector counts the time inside the band in AUTO; the
+                # average follows the applied output until the band holds it
+                inside = mode == AUTO and deadband(e_now, db) == 0.0
+                steady, st_anchor, st_elapsed, st_started = steady_detector(
+                    0.0, DB_TOLERANCE, db_t, ts, not inside, st_anchor, st_elapsed, st_started
+                )
+                if not inside:
+                    db_active = False
+                if not (inside and db_active):
+                    db_mean, db_buf, ma_idx, ma_count, ma_since, ma_total, ma_n = moving_average(
+                        mv, db_win, db_mean, db_buf, ma_idx, ma_count, ma_since, ma_total, ma_n
+                    )
+                    if inside and steady:
+                        db_active = True
+                        db_hold = db_mean
         else:
             # the law overflowed REAL: hold the output (or the safe value) and restart
             # bumplessly from it on the next good cycle (Block._contain, PID._resume)
@@ -542,16 +822,17 @@ def pid_cycle(
             d, w_prev, e_prev = finite_or_zero(d_old), finite_or_zero(w_old), finite_or_zero(e_old)
             p_prev, d_prev = finite_or_zero(pp_old), finite_or_zero(dp_old)
             ff_prev, suppressed = finite_or_zero(fp_old), supp_old
-            sp_f, pv_f, sp_w = finite_or_zero(sp_f), finite_or_zero(pv_f), finite_or_zero(sp_w)
-            if not is_real(ll_out):
-                ll_out = 0.0
-                ll_x = 0.0
+            # (a filter, ramp or feed-forward memory that overflowed restarts in its block)
             p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d_term)
             limits_active = False
             reinit = True
             reinit_d = True
+            db_hold = mv
+            db_active = False
     if err == NO_ERROR:
         err = lim_err
+    if err == NO_ERROR and db > 0.0 and not db_ok:
+        err = BAD_STAB_TIME
     if overflow:
         err = BAD_RESULT
     if mode != MANUAL:
@@ -564,6 +845,8 @@ def pid_cycle(
         sp_f, pv_f, sp_w, ll_x, ll_out, suppressed, ramp_out, lo, hi, mode_prev,
         cold, reinit, reinit_d, k_prev, ti_prev, td_prev, n_prev, b_prev,
         c_prev, rev_prev, vel_prev, scale_prev, pv_lo_prev, pv_hi_prev,
+        db_active, db_hold, db_win, db_t, db_mean, db_buf, ma_idx, ma_count,
+        ma_since, ma_total, ma_n, st_anchor, st_elapsed, st_started,
     )  # fmt: skip
 
 
@@ -1149,13 +1432,19 @@ def pid_inputs(config: Any) -> dict[str, Any]:
         "reset_value": float(config.reset_value),
         "safe_value": float(config.safe_value) if config.safe_value is not None else 0.0,
         "use_safe": config.safe_value is not None,
+        "db_width": float(config.deadband), "t_stab": float(config.t_stab),
     }  # fmt: skip
 
 
 def pid_state(config: Any) -> dict[str, Any]:
-    """The state of :func:`pid_cycle` after a reset (PID.reset)."""
+    """The state of :func:`pid_cycle` after a reset (PID.reset).
+
+    The dead band's array holds the configured window ``round(t_stab/ts)``: the
+    longest the PLC can retune to (:func:`deadband_window`).
+    """
     lo, hi = float(config.u_min), float(config.u_max)
     u0 = clamp(float(config.reset_value), lo, hi)
+    window = max(1, round(config.t_stab / config.ts))
     return {
         "out": u0, "i": float(config.reset_value),
         "d": 0.0, "w_prev": 0.0, "e_prev": 0.0, "x": u0, "bias": float(config.reset_value),
@@ -1165,6 +1454,9 @@ def pid_state(config: Any) -> dict[str, Any]:
         "cold": True, "reinit": False, "reinit_d": False, "k_prev": 0.0, "ti_prev": 0.0,
         "td_prev": 0.0, "n_prev": 0.0, "b_prev": 0.0, "c_prev": 0.0, "rev_prev": False,
         "vel_prev": False, "scale_prev": False, "pv_lo_prev": 0.0, "pv_hi_prev": 0.0,
+        "db_active": False, "db_hold": u0, "db_win": window, "db_t": float(config.t_stab),
+        "db_mean": 0.0, "db_buf": [0.0] * window, "ma_idx": 0, "ma_count": 0, "ma_since": 0,
+        "ma_total": 0.0, "ma_n": 0, "st_anchor": 0.0, "st_elapsed": 0.0, "st_started": False,
     }  # fmt: skip
 
 

@@ -16,6 +16,7 @@ from .base import ErrorCode, ParameterError, require_choice
 
 __all__ = [
     "CYCLES",
+    "PLC_MAX_WINDOW",
     "PRECISIONS",
     "check_precision",
     "float32_cycle",
@@ -35,6 +36,10 @@ def float32_cycle(kind: str) -> Callable[..., float]:
 
 
 PRECISIONS = ("float64", "float32")
+
+PLC_MAX_WINDOW = 100_000
+"""Longest dead-band window ``t_stab/ts`` [samples] of the PLC cycle: its ARRAY of REAL
+(400 kB at this length) is declared in the function block."""
 
 
 def unsupported(config: Any, kind: str) -> list[str]:
@@ -69,13 +74,14 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
 
     A subset of :func:`unsupported`: the PLC cycle of :mod:`.plc_cycle` has
     the PID's velocity algorithm, PV scaling, filters, ramps, lead-lag
-    feed-forward, every bumpless and anti-windup method, and the ADRC's exact
-    discretisation, ``u_real`` and anti-backoff, which the compiled kernels
-    lack; not the PID's adaptive dead band (a moving average over up
-    to 10**5 samples, an array a PLC block would have to hold).
+    feed-forward, adaptive dead band, every bumpless and anti-windup method,
+    and the ADRC's exact discretisation, ``u_real`` and anti-backoff, which
+    the compiled kernels lack.  Not covered: a dead-band window
+    ``t_stab/ts`` beyond :data:`PLC_MAX_WINDOW` samples (the ARRAY the
+    function block holds).
     """
-    if kind == "pid":
-        return ["deadband"] if config.deadband != 0.0 else []
+    if kind == "pid" and round(config.t_stab / config.ts) > PLC_MAX_WINDOW:
+        return ["t_stab"]
     return []
 
 

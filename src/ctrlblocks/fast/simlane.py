@@ -182,31 +182,32 @@ def _control(wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
 
     ``sig_a``/``sig_b`` are the wiring's signals (cascade: the secondary's
     setpoint; override: both outputs); ``ok`` is False when an output is
-    not finite (the states are then not to be used).
+    not finite (the states are then not to be used).  Each controller is
+    computed and committed at one place (the compiled code inlines each
+    kernel twice, not once per wiring).
     """
-    if wiring == _CASCADE:
-        v1, _aw, pd0 = _compute(kinds[0], p0, a0, s0, sp, yc, 0.0, m0, awin)
-        u, aw1, pd1 = _compute(kinds[1], p1, a1, s1, v1, y2, 0.0, m1, False)
-        ok = math.isfinite(v1) and math.isfinite(u)
+    cascade = wiring == _CASCADE
+    override = wiring == _OVERRIDE
+    r0 = sp_fix[0] if override and not math.isnan(sp_fix[0]) else sp
+    v1, aw1, pd0 = _compute(kinds[0], p0, a0, s0, r0, y2 if override and on_y2[0] else yc,
+                            ff, m0, awin)  # fmt: skip
+    u, v2, pd1 = v1, 0.0, pd0
+    if cascade or override:
+        r1 = v1 if cascade else (sp if math.isnan(sp_fix[1]) else sp_fix[1])
+        v2, aw1, pd1 = _compute(kinds[1], p1, a1, s1, r1, y2 if cascade or on_y2[1] else yc,
+                                0.0, m1, False)  # fmt: skip
+        # cascade: the secondary's output; override: max(v1, v2) or min(v1, v2), the
+        # first of equal values as Python's
+        pick = (v2 if v2 > v1 else v1) if sel_max else (v2 if v2 < v1 else v1)
+        u = v2 if cascade else pick
         s1 = _commit(kinds[1], p1, s1, pd1, m1, u)
-        if hs:
-            awin = aw1
-        s0 = _commit(kinds[0], p0, s0, pd0, m0, v1)
+        if cascade and hs:
+            awin = aw1  # the secondary's awout, read by the primary in the next sample
+    ok = math.isfinite(v1) and math.isfinite(v2)
+    s0 = _commit(kinds[0], p0, s0, pd0, m0, v1 if cascade else u)
+    if cascade:
         return u, v1, 0.0, ok, s0, s1, awin
-    if wiring == _OVERRIDE:
-        r0 = sp if math.isnan(sp_fix[0]) else sp_fix[0]
-        r1 = sp if math.isnan(sp_fix[1]) else sp_fix[1]
-        v1, _a0, pd0 = _compute(kinds[0], p0, a0, s0, r0, y2 if on_y2[0] else yc, 0.0, m0, False)
-        v2, _a1, pd1 = _compute(kinds[1], p1, a1, s1, r1, y2 if on_y2[1] else yc, 0.0, m1, False)
-        ok = math.isfinite(v1) and math.isfinite(v2)
-        # max(v1, v2) or min(v1, v2): the first of equal values, as Python's
-        u = (v2 if v2 > v1 else v1) if sel_max else (v2 if v2 < v1 else v1)
-        s0 = _commit(kinds[0], p0, s0, pd0, m0, u)
-        s1 = _commit(kinds[1], p1, s1, pd1, m1, u)
-        return u, v1, v2, ok, s0, s1, awin
-    u, _aw, pd0 = _compute(kinds[0], p0, a0, s0, sp, yc, ff, m0, False)
-    s0 = _commit(kinds[0], p0, s0, pd0, m0, u)
-    return u, 0.0, 0.0, math.isfinite(u), s0, s1, awin
+    return u, v1, v2, ok, s0, s1, awin
 
 
 # ---------------------------------------------------------------------------
@@ -272,42 +273,39 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     fx2, st2 = _plant(pk, pp, ps, pos, buf2, 2)
     fx3, st3 = _plant(pk, pp, ps, pos, buf3, 3)
     ff, x_prev = ffp[6], ffp[5]
-    y_smith = st3[4] - st2[4] if smith else 0.0
-    # warm-up: every controller in manual, the plant held in its steady state
-    sp_w, y_w, y2_w, dv_w = cfg[8], cfg[9], cfg[10], cfg[11]
-    yc_w = y_w + st3[4] - st2[4] if smith else y_w
-    for _ in range(int(cfg[7])):
-        if wiring == _FF:
-            ff = leadlag_step(dv_w, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
-            x_prev = dv_w
-        _u, _a, _b, _ok, s0, s1, awin = _control(
-            wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
-            sp_w, yc_w, y2_w, ff, True, True, awin,
-        )  # fmt: skip
     a_lo, a_hi, du, ua, y_lo, y_hi = act[0], act[1], act[2], act[3], act[4], act[5]
     sp_a, ld_in, ld_out, man0, man1 = sig[0], sig[1], sig[2], sig[3], sig[4]
     um_a, g3o, ld_mid = sig[5], sig[6], sig[7]
-    for k in range(out.shape[1]):
-        y = st0[4] + ld_out[k]
-        ym = clamp(y + noise[k], y_lo, y_hi)
-        if not math.isfinite(ym):
-            return k
-        if not math.isnan(um_a[k]):  # a manual-value event acts on the MV blocks
-            if mv0:
-                s0 = _with_um(s0, um_a[k])
-            if mv1:
-                s1 = _with_um(s1, um_a[k])
-        yc = ym
+    nw = int(cfg[7])
+    # the warm-up (k < 0): every controller in manual, the plant held in its steady state
+    # and measured without noise; then the n recorded samples
+    for k in range(-nw, out.shape[1]):
+        if k < 0:
+            sp, y, dv, m0, m1, yc = cfg[8], cfg[9], cfg[11], True, True, cfg[9]
+            y2 = cfg[10]
+        else:
+            sp, dv, m0, m1, y2 = sp_a[k], ld_in[k], man0[k] != 0.0, man1[k] != 0.0, st1[4]
+            y = st0[4] + ld_out[k]
+            yc = clamp(y + noise[k], y_lo, y_hi)
+            if not math.isfinite(yc):
+                return k
+            if not math.isnan(um_a[k]):  # a manual-value event acts on the MV blocks
+                if mv0:
+                    s0 = _with_um(s0, um_a[k])
+                if mv1:
+                    s1 = _with_um(s1, um_a[k])
+        ym = yc
         if smith:
-            y_smith = ym + st3[4] - st2[4]
-            yc = y_smith
+            yc = yc + st3[4] - st2[4]  # ym + y_model_fast - y_model
         if wiring == _FF:
-            ff = leadlag_step(ld_in[k], x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
-            x_prev = ld_in[k]
+            ff = leadlag_step(dv, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
+            x_prev = dv
         u, sa, sb, ok, s0, s1, awin = _control(
             wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
-            sp_a[k], yc, st1[4], ff, man0[k] != 0.0, man1[k] != 0.0, awin,
+            sp, yc, y2, ff, m0, m1, awin,
         )  # fmt: skip
+        if k < 0:
+            continue
         if not ok:
             return k
         ua = _actuate(u, ld_in[k], ua, du, a_lo, a_hi)
@@ -316,21 +314,86 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
         out[2, k] = u
         out[3, k] = ua
         if series:
-            out[4, k] = st1[4]
+            out[4, k] = y2
             out[5, k] = sa
             out[6, k] = sb
-            y2 = st1[4]
             st1 = _advance(fx1, st1, buf1, ua, fx1[3][5])
             st0 = _advance(fx0, st0, buf0, y2 + ld_mid[k], g3o[k])
         else:
             if wiring == _FF:
                 out[5, k] = ff
             elif smith:
-                out[5, k] = y_smith
+                out[5, k] = yc
             st0 = _advance(fx0, st0, buf0, ua, g3o[k])
         if smith:
             st2 = _advance(fx2, st2, buf2, u, fx2[3][5])
             st3 = _advance(fx3, st3, buf3, u, fx3[3][5])
+    return -1
+
+
+@jitable
+def _sense(st, sig, noise, k, act, um):
+    """``(y, ym, manual, u_man)`` of sample ``k``: ``Sensor.y_true``, the measurement
+    ``Sensor.y``, the mode and the manual value (changed by a manual-value event)."""
+    y = st[4] + sig[2, k]
+    um = um if math.isnan(sig[5, k]) else sig[5, k]
+    return y, clamp(y + noise[k], act[4], act[5]), sig[3, k] != 0.0, um
+
+
+@jitable
+def _drive(fx, st, buf, out, k, y, ym, u, ld_in, ua, act, g5):
+    """Record sample ``k``, shape ``u`` by the actuator and step the plant; ``(ua, st)``."""
+    ua = _actuate(u, ld_in, ua, act[2], act[0], act[1])
+    out[0, k] = y
+    out[1, k] = ym
+    out[2, k] = u
+    out[3, k] = ua
+    return ua, _advance(fx, st, buf, ua, g5)
+
+
+@jit
+def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, out):
+    """The ``single`` wiring: one PID (parameters ``p``, ``a`` None) or ADRC (``a``, ``p`` None).
+
+    The loop of the structures of :func:`_lane` without their branches and
+    states: most runs are single loops.  numba compiles one version for each
+    controller (the types of ``p`` and ``a`` differ) and prunes the other's
+    branch, so each runs as lean as a loop written for it alone.
+    """
+    fx, st = _plant(pk, pp, ps, pos, buf, 0)
+    # PID: i, d, w_prev, e_prev, cold, was_manual; ADRC: yh, x2, x3, x4, ref, started,
+    # track, sat; both: the last output u
+    c0, c1, c2, c3, u, c5 = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
+    on, track, sat = cs[6] != 0.0, cs[7] != 0.0, int(cs[8])
+    cold = c5 != 0.0
+    ua = act[3]
+    for k in range(-nw, out.shape[1]):  # k < 0: the warm-up, manual at um, plant held
+        if k < 0:
+            sp, y, ym, m = sp_w, y_w, y_w, True
+        else:
+            sp = sig[0, k]
+            y, ym, m, um = _sense(st, sig, noise, k, act, um)
+            if not math.isfinite(ym):
+                return k
+        # numba prunes the branch whose parameters are None (checked on a None-typed value)
+        if p is not None:
+            u, _vr, _p, _ish, c0, c1, c2, c3 = pid_step(
+                sp, ym, 0.0, m, um, cold, (not m) and on, c0, c1, c2, c3, u, p
+            )
+            cold = False
+            on = m  # the mode of the last cycle (bumpless return to auto)
+        if a is not None:
+            u, _ur, c0, c1, c2, c3, c5, track, sat = adrc_step(
+                sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, a
+            )
+            on = True  # started
+        if k < 0:
+            continue
+        if not math.isfinite(u):
+            return k
+        if not m:
+            um = u  # the manual value is In/Out: in auto it follows the output
+        ua, st = _drive(fx, st, buf, out, k, y, ym, u, sig[1, k], ua, act, sig[6, k])
     return -1
 
 
@@ -457,7 +520,7 @@ def lane_loop(
         slots.append(slots[0])
     kinds = np.array([s[0] for s in slots], dtype=np.int64)
     pprm, aprm, cst = (np.array([s[i] for s in slots]) for i in (1, 2, 3))
-    plants = [model, inner_model or model, *(models or (model, model))]
+    plants = [model] if code == 0 else [model, inner_model or model, *(models or (model, model))]
     arrays = [_plant_arrays(p) for p in plants]
     pk = np.array([a[0] for a in arrays], dtype=np.int64)
     pp = np.array([a[1] for a in arrays])
@@ -482,9 +545,17 @@ def lane_loop(
     traces = np.zeros((7, n))
     traces[5:] = math.nan
     act = np.array([*actuator, *sensor], dtype=float)
-    lane = _lane if compiled and HAVE_NUMBA else python_function(_lane)
-    stopped = lane(
-        cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, *(a[3].copy() for a in arrays), ffp,
-        act, sig, noise, traces,
-    )  # fmt: skip
-    return LaneResult(traces, stopped=int(stopped), compiled=compiled and HAVE_NUMBA)
+    run = compiled and HAVE_NUMBA
+    bufs = [a[3].copy() for a in arrays]
+    if code == 0:  # the single loop (the most common runs) has its own, leaner kernel
+        pid = kinds[0] == _PID
+        stopped = (_single if run else python_function(_single))(
+            tuple(pprm[0].tolist()) if pid else None, None if pid else tuple(aprm[0].tolist()),
+            cst[0], float(u_man[0]), int(warmup), float(sp_warmup), float(y_warmup), pk, pp, ps,
+            pos, bufs[0], act, sig, noise, traces,
+        )  # fmt: skip
+    else:
+        stopped = (_lane if run else python_function(_lane))(
+            cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, *bufs, ffp, act, sig, noise, traces
+        )
+    return LaneResult(traces, stopped=int(stopped), compiled=run)

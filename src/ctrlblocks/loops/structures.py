@@ -48,7 +48,7 @@ Structures and what they read (``structure`` -> measurements):
 ``pulse_width``  ``y``; the controller output through a PWM (on/off MV)
 ``three_step``  ``y``, ``y2`` (the valve position: end switches, feedback);
                a step controller's OPEN/CLOSE commands are the MV
-``scheduled``  ``y``; the controller's parameters follow the setpoint
+``scheduled``  ``y``; the controller's parameters follow the setpoint or ``y``
 ``open_loop``  none (the block is driven by the setpoint)
 =============  ==========================================================
 
@@ -239,6 +239,17 @@ class Structure:
         retune it.
     array_roles : tuple of str
         Roles that hold an ARRAY of block tables (``override``: ``blocks``).
+    optional_measurements : tuple of str
+        Measurements of :attr:`measurements` a runtime loop may leave unbound
+        (``three_step``: ``y2``, the valve position; without it the step
+        controller runs on its own position estimate).
+    output_tags : tuple of str
+        Optional output tags a runtime loop may bind besides its MV, written
+        with it (``three_step``: the ``open`` and ``close`` bits,
+        :meth:`output_values`).
+    scheduled : bool
+        The structure sets some of the controller's parameters itself every
+        sample (:meth:`scheduled_parameters`).
     """
 
     name: ClassVar[str]
@@ -259,6 +270,8 @@ class Structure:
     margins_on_plant: ClassVar[bool] = False
     lone_block: ClassVar[bool] = False
     array_roles: ClassVar[tuple[str, ...]] = ()
+    optional_measurements: ClassVar[tuple[str, ...]] = ()
+    output_tags: ClassVar[tuple[str, ...]] = ()
 
     def runtime_tables(self) -> tuple[str, ...]:
         """The keys of a runtime loop table that hold this structure's blocks and options."""
@@ -336,6 +349,24 @@ class Structure:
     def actuator_values(self, spec: ControllerSpec, u: float) -> tuple[float, ...]:
         """The :attr:`actuators` MVs written for the controller output ``u`` (one: ``u``)."""
         return (u,)
+
+    def output_values(self, spec: ControllerSpec, u: float) -> dict[str, float]:
+        """The values of the :attr:`output_tags` for the MV ``u`` (none by default)."""
+        return {}
+
+    def off_mv(self, spec: ControllerSpec) -> float | None:
+        """The MV that switches the output stage off, or None (no stage).
+
+        A structure whose MV is an output block's (a pulse-width output, a
+        step controller's motor commands) has a fixed off state; a runtime
+        loop writes it on stop and in place of a non-finite MV, not the
+        controller's safe value (which is a controller output).
+        """
+        return None
+
+    def scheduled_parameters(self, spec: ControllerSpec) -> tuple[str, ...]:
+        """The controller parameters the structure sets itself every sample (none)."""
+        return ()
 
     def compiled_blockers(self, side: ControllerSide) -> list[str]:
         """Why the simulator's compiled lane cannot run ``side`` (empty: it can).
@@ -795,7 +826,6 @@ class _OutputStage(Structure):
     """
 
     roles = ("main",)
-    runtime = False  # the runtime writes analogue MVs only (docs/structures.md)
     stage_key: ClassVar[str]
     stage_block: ClassVar[type]
     stage_options: ClassVar[tuple[str, ...]] = ()
@@ -838,6 +868,15 @@ class _OutputStage(Structure):
         """The output block's MV for the controller output ``v``, and its signals."""
         raise NotImplementedError
 
+    def off_mv(self, spec):
+        if self.stage_key not in spec.options:
+            return None  # no output block: the controller output is the MV
+        return self.stage_off(spec.options[self.stage_key])
+
+    def stage_off(self, stage: BlockSpec) -> float:
+        """The MV of the output block's off state (stop, a non-finite MV)."""
+        raise NotImplementedError
+
     def update(self, side, u, measured):
         (v,) = side.pending
         side.ctrls["main"].update(v)
@@ -863,6 +902,9 @@ class PulseWidthStructure(_OutputStage):
         c = pwm.config
         return c.in_lo + on * (c.in_hi - c.in_lo), {"v_ctrl": v, "duty": pwm.duty}
 
+    def stage_off(self, stage):
+        return float(stage.params.get("in_lo", PulseWidth.Config.in_lo))  # the output off
+
 
 class ThreeStepStructure(_OutputStage):
     """A controller and a three-point step controller (:class:`~ctrlblocks.StepController`).
@@ -881,6 +923,8 @@ class ThreeStepStructure(_OutputStage):
     name = "three_step"
     options = ("stepper",)
     measurements = ("y", "y2")
+    optional_measurements = ("y2",)
+    output_tags = ("open", "close")
     series_plant = True
     tuned_roles = ()
     stage_key = "stepper"
@@ -907,32 +951,41 @@ class ThreeStepStructure(_OutputStage):
             feedback=pos if side.spec.options.get("feedback") and known else None,
         )
         est_error = abs(sc.position - pos) if known else math.nan
-        return cmd, {
+        return float(cmd), {
             "demand": v,
             "position_est": sc.position,
             "est_error": est_error,
             "pulses": float(sc.pulses),
         }
 
+    def stage_off(self, stage):
+        return 0.0  # the motor stopped: the valve stays where it is
+
+    def output_values(self, spec, u):
+        # a three-point actuator's two relays: OPEN and CLOSE, never both
+        return {"open": 1.0 if u > 0.0 else 0.0, "close": 1.0 if u < 0.0 else 0.0}
+
 
 class ScheduledStructure(Structure):
-    """Gain scheduling: the parameters follow the setpoint (:class:`~ctrlblocks.GainSchedule`).
+    """Gain scheduling: the parameters follow the setpoint or the measurement (GainSchedule).
 
-    ``[controllers.schedule]`` holds ``on = "sp"`` (the scheduling variable),
-    ``breakpoints`` and, per parameter, its values at the breakpoints
-    (``kp = [...]``, ``ti = [...]``).  Every sample the schedule retunes the
-    controller for the setpoint (through its ``configure``, bumplessly; only
-    when the parameters change) before it computes.  Scheduling on the
-    measurement is refused: it retunes every sample, and the PID holds its
-    output in the sample after each retune (its bumpless rule), so it would
-    not act.  Signals: ``w`` (the scheduling variable) and the scheduled
-    parameters.
+    ``[controllers.schedule]`` holds ``on`` (the scheduling variable: ``"sp"``,
+    the setpoint, or ``"y"``, the measurement), ``breakpoints`` and, per
+    parameter, its values at the breakpoints (``kp = [...]``, ``ti = [...]``).
+    Every sample the schedule retunes the controller for ``w`` (through its
+    ``configure``, bumplessly; only when the parameters change) before it
+    computes.  The PID's retune keeps the output continuous at the change and
+    runs the new law from the same sample (``pid.retune_states``), so a
+    schedule on the measurement, which retunes every sample, acts as the
+    interpolated law.  The ADRC re-solves its x4 by (11) of Nowak et al. 2018
+    at a retune, which holds its output for that sample: scheduled on the
+    measurement it would hold every sample, so ``on = "y"`` is refused for
+    it.  Signals: ``w`` (the scheduling variable) and the scheduled parameters.
     """
 
     name = "scheduled"
     roles = ("main",)
     options = ("schedule",)
-    runtime = False
 
     def parse(self, r, e, key, ts, tune):
         r.check_keys(e, {*_ENTRY_KEYS, "main", "schedule"}, key)
@@ -940,12 +993,14 @@ class ScheduledStructure(Structure):
         skey = f"{key}.schedule"
         table = dict(r.table(e, "schedule", skey, True))
         on = table.pop("on", "sp")
-        if on != "sp":
+        if on not in ("sp", "y"):
+            raise r.fail(f"{skey}.on", f"must be 'sp' or 'y', got {on!r}")
+        if on == "y" and main.type != "PID":
             raise r.fail(
                 f"{skey}.on",
-                f"must be 'sp', got {on!r}: a schedule on a measurement retunes every sample, "
-                "and the PID holds its output in each sample after a retune (its bumpless "
-                "rule), so it would not act (docs/structures.md)",
+                f"on = 'y' needs a PID, got {main.type!r}: the ADRC holds its output in the "
+                "sample of a retune (x4 re-solved by (11) of Nowak et al. 2018), and a "
+                "schedule on the measurement retunes every sample (docs/structures.md)",
             )
         bps = table.pop("breakpoints", None)
         if not isinstance(bps, list) or not table:
@@ -958,6 +1013,9 @@ class ScheduledStructure(Structure):
             raise r.fail(skey, str(exc)) from None
         return {"main": main}, {"schedule": {"on": on, "breakpoints": bps, **table}}
 
+    def scheduled_parameters(self, spec):
+        return tuple(k for k in spec.options["schedule"] if k not in ("on", "breakpoints"))
+
     def setup(self, side):
         super().setup(side)
         sched = dict(side.spec.options["schedule"])
@@ -966,7 +1024,9 @@ class ScheduledStructure(Structure):
 
     def compute(self, side, sp, m):
         gs: GainSchedule = side.aux
-        gs.schedule(sp)  # retune the controller for w = sp (a bad w keeps the parameters)
+        # retune the controller for w = sp or y (a bad w keeps the parameters in force)
+        on_y = side.spec.options["schedule"]["on"] == "y"
+        gs.schedule((m.y if m.y_ok else math.nan) if on_y else sp)
         u = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
         return u, {"w": gs.w, **gs.parameters}
 

@@ -29,8 +29,21 @@ from datetime import datetime, timezone
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
 
+import numpy as np
+
 from .specs import BlockSpec, spec_for
-from .translate import BOOL, DINT, REAL, Pou, Program, real_literal, var
+from .translate import (
+    BOOL,
+    DINT,
+    REAL,
+    FbPou,
+    Pou,
+    Program,
+    TranslationError,
+    array_info,
+    real_literal,
+    var,
+)
 
 __all__ = ["TARGETS", "Exported", "build", "export", "export_files"]
 
@@ -54,12 +67,31 @@ class FbDecl:
 
 @dataclass
 class Exported:
-    """One block translated: its functions (callees first), its FB and the header text."""
+    """One block translated: its functions (callees first), the small blocks' FBs it holds
+    (callees first), its FB and the header text."""
 
     spec: BlockSpec
     functions: list[Pou]
+    blocks: list[FbDecl]
     fb: FbDecl
     header: list[str]
+
+
+def _zero(value: Any) -> bool:
+    if isinstance(value, list | tuple | np.ndarray):
+        return all(_zero(v) for v in value)
+    return value is False or (not isinstance(value, bool) and value == 0)
+
+
+def _small_block(p: FbPou) -> FbDecl:
+    """A small block's FUNCTION_BLOCK: its memory starts at 0 / FALSE (the IEC default)."""
+
+    def plain(items: list[tuple[str, str]]) -> list[tuple[str, str, str, str]]:
+        return [(n, t, "", "") for n, t in items]
+
+    inst = [(n, t, "", "instance") for n, t in p.instances.items()]
+    return FbDecl(p.name, f"{p.doc} [{p.source}]", plain(p.inputs), plain(p.outputs),
+                  plain(p.state) + inst, p.temps, p.body)  # fmt: skip
 
 
 def _init(typ: str, value: Any) -> str:
@@ -81,12 +113,21 @@ def build(block: Any) -> Exported:
     spec = spec_for(block)
     prog = Program()
     names = spec.names()
-    body, fbvars, temps = prog.fb_body(spec.cycle, spec.results, names)
+    sizes = {k: len(v) for k, v in spec.values.items() if isinstance(v, list | np.ndarray)}
+    body, fbvars, temps, instances = prog.fb_body(spec.cycle, spec.results, names, sizes)
     body = [*body, f"{var('ERROR')} := {var('ERROR_ID')} <> 0;"]
+    for v in spec.state:
+        if v.st not in fbvars and not _zero(spec.values[v.py]):
+            # a memory held by a small block's instance starts at the instance's 0
+            raise TranslationError(f"{v.py} = {spec.values[v.py]!r} at the start, its "
+                                   "instance starts at 0")  # fmt: skip
 
     def section(vs: list[Any]) -> list[tuple[str, str, str, str]]:
         return [(v.st, fbvars[v.st], _init(fbvars[v.st], spec.values[v.py]), v.comment)
-                for v in vs]  # fmt: skip
+                for v in vs if v.st in fbvars]  # fmt: skip
+
+    sub = {p.name: p for p in prog.fbs.values()}
+    held = [(n, t, "", f"instance: {sub[t].doc}") for n, t in instances.items()]
 
     outputs = section(spec.outputs)
     outputs.append(("ERROR", BOOL, "FALSE", "ERROR_ID <> 0"))
@@ -95,7 +136,7 @@ def build(block: Any) -> Exported:
         title=spec.title,
         inputs=section(spec.inputs),
         outputs=outputs,
-        state=section(spec.state),
+        state=section(spec.state) + held,
         temps=temps,
         body=body,
     )
@@ -108,7 +149,8 @@ def build(block: Any) -> Exported:
         'REAL arithmetic: equals the block with precision="float32" (see docs/plc.md).',
         "Call once per cycle; TS is the cycle time [s] of the calling task.",
     ]
-    return Exported(spec, prog.ordered(), fb, header)
+    blocks = [_small_block(p) for p in prog.fbs.values()]
+    return Exported(spec, prog.ordered(), blocks, fb, header)
 
 
 # ---------------------------------------------------------------------------
@@ -135,7 +177,12 @@ def _comment(text: str) -> str:
 
 
 def _typ(t: str, target: str) -> str:
-    return _TIA_TYPES[t] if target == "tia" else t
+    if target != "tia":
+        return t
+    arr = array_info(t)
+    if arr is not None:
+        return f"Array[0..{arr[0] - 1}] of {_TIA_TYPES[arr[1]]}"
+    return _TIA_TYPES.get(t, f'"{t}"')  # an FB type (multi-instance) is a quoted block name
 
 
 def _vars(kind: str, items: list[tuple[str, str, str, str]], target: str, ind: str) -> list[str]:
@@ -174,8 +221,7 @@ def _function_text(p: Pou, target: str) -> list[str]:
     return lines
 
 
-def _fb_text(ex: Exported, target: str) -> list[str]:
-    fb = ex.fb
+def _fb_text(fb: FbDecl, target: str) -> list[str]:
     tia = target == "tia"
     name = f'"{fb.name}"' if tia else fb.name
     lines = [f"FUNCTION_BLOCK {name}"]
@@ -204,7 +250,10 @@ def _text(ex: Exported, target: str) -> str:
     for p in ex.functions:
         lines += _function_text(p, target)
         lines.append("")
-    lines += _fb_text(ex, target)
+    for b in ex.blocks:
+        lines += _fb_text(b, target)
+        lines.append("")
+    lines += _fb_text(ex.fb, target)
     return "\n".join(lines) + "\n"
 
 
@@ -248,7 +297,15 @@ def _xvars(tag: str, items: list[tuple[str, str, str, str]]) -> list[str]:
     out = [f"          <{tag}>"]
     for name, typ, init, comment in items:
         out.append(f"            <variable name={quoteattr(name)}>")
-        out.append(f"              <type><{typ} /></type>")
+        arr = array_info(typ)
+        if arr is not None:
+            kind = (f'<array><dimension lower="0" upper="{arr[0] - 1}" />'
+                    f"<baseType><{arr[1]} /></baseType></array>")  # fmt: skip
+        elif typ in (REAL, BOOL, DINT):
+            kind = f"<{typ} />"
+        else:
+            kind = f"<derived name={quoteattr(typ)} />"
+        out.append(f"              <type>{kind}</type>")
         if init:
             out.append(f"              <initialValue><simpleValue value={quoteattr(init)} />"
                        "</initialValue>")  # fmt: skip
@@ -306,11 +363,11 @@ def _plcopen(ex: Exported) -> str:
                     ("localVars", [(n, t, "", "") for n, t in p.locals.items()])]  # fmt: skip
         lines += _xpou(p.name, "function", p.ret_type or BOOL, sections,
                        _render_refs(p.body, "plcopen"), f"{p.doc} [{p.source}]")  # fmt: skip
-    fb = ex.fb
-    sections = [("inputVars", fb.inputs), ("outputVars", fb.outputs), ("localVars", fb.state),
-                ("tempVars", [(n, t, "", "") for n, t in fb.temps.items()])]  # fmt: skip
-    lines += _xpou(fb.name, "functionBlock", None, sections, _render_refs(fb.body, "plcopen"),
-                   " ".join(ex.header))  # fmt: skip
+    for fb, doc in [*((b, b.title) for b in ex.blocks), (ex.fb, " ".join(ex.header))]:
+        sections = [("inputVars", fb.inputs), ("outputVars", fb.outputs), ("localVars", fb.state),
+                    ("tempVars", [(n, t, "", "") for n, t in fb.temps.items()])]  # fmt: skip
+        lines += _xpou(fb.name, "functionBlock", None, sections,
+                       _render_refs(fb.body, "plcopen"), doc)  # fmt: skip
     lines += ["    </pous>", "  </types>", "  <instances>", "    <configurations />",
               "  </instances>", "</project>", ""]  # fmt: skip
     return "\n".join(lines)
@@ -361,6 +418,8 @@ def export_files(block: Any, target: str = "codesys") -> dict[str, str]:
     head = [_comment(h) for h in ex.header]
     for p in ex.functions:
         files[f"{p.name}.TcPOU"] = _tcpou(p.name, _function_text(p, "twincat"))
-    fb_lines = _fb_text(ex, "twincat")
+    for b in ex.blocks:
+        files[f"{b.name}.TcPOU"] = _tcpou(b.name, _fb_text(b, "twincat"))
+    fb_lines = _fb_text(ex.fb, "twincat")
     files[f"{ex.fb.name}.TcPOU"] = _tcpou(ex.fb.name, [fb_lines[0], *head, *fb_lines[1:]])
     return files

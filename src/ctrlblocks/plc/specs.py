@@ -126,6 +126,10 @@ dev_tol     DEV_TOL        deviation tolerance [%] of BUMPLESS = 2
 reset_value RESET_VALUE    output while RST [%]
 safe_value  SAFE_VALUE     output while SP/PV/FF are bad, if USE_SAFE_VALUE [%]
 use_safe    USE_SAFE_VALUE TRUE: SAFE_VALUE on bad inputs; FALSE: hold MV
+db_width    DEADBAND       adaptive dead band half-width [%] (controltheplant 2024, 2.3.10); 0 = off
+t_stab      T_STAB         stabilisation time [s] of the dead band: the error inside the band
+                           for T_STAB holds MV at its mean over T_STAB/TS samples (<= the
+                           exported array; a longer one: 16#8209, the window in force stays)
 """)
 _PID_OUT = _table("""
 mv            MV            manipulated variable [%] (limited)
@@ -149,6 +153,8 @@ _PID_STATE_COMMENTS = {
     "sp_w": "working setpoint after the ramp", "ll_x": "DV of the last cycle",
     "ll_out": "output of the lead-lag feed-forward", "suppressed": "P action suppressed",
     "ramp_out": "output ramp's last value [%]",
+    "db_active": "the dead band holds the output", "db_hold": "output held by the dead band [%]",
+    "db_win": "moving-average window in force [samples]", "db_t": "T_STAB in force [s]",
 }  # fmt: skip
 
 _ADRC_PROCESS = _table("""

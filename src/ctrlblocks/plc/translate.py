@@ -35,6 +35,7 @@ from __future__ import annotations
 import ast
 import inspect
 import io
+import re
 import textwrap
 import tokenize
 import types
@@ -42,10 +43,33 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Pou", "Program", "TranslationError", "pou_ref", "real_literal", "var"]
+__all__ = [
+    "FbPou",
+    "Pou",
+    "Program",
+    "TranslationError",
+    "array_info",
+    "array_type",
+    "pou_ref",
+    "real_literal",
+    "var",
+]
 
 REAL, BOOL, DINT = "REAL", "BOOL", "DINT"
 _ANN = {"float": REAL, "bool": BOOL, "int": DINT}
+_ELEM = {"list[float]": REAL, "list[int]": DINT, "list[bool]": BOOL}
+_ARRAY = re.compile(r"ARRAY\[0\.\.(\d+)\] OF (REAL|DINT|BOOL)")
+
+
+def array_type(n: int, elem: str) -> str:
+    """The ST type of a Python list of ``n`` values: ``ARRAY[0..n-1] OF elem``."""
+    return f"ARRAY[0..{n - 1}] OF {elem}"
+
+
+def array_info(typ: str) -> tuple[int, str] | None:
+    """``(length, element type)`` of an array type, None for a scalar or an FB type."""
+    m = _ARRAY.fullmatch(typ)
+    return (int(m.group(1)) + 1, m.group(2)) if m else None
 # identifiers that are keywords (or standard names) in at least one of the dialects
 _RESERVED = {
     "ref", "to", "by", "do", "of", "if", "or", "and", "xor", "not", "mod", "at", "on",
@@ -108,6 +132,40 @@ class Pou:
 
 
 @dataclass
+class FbPou:
+    """One translated small block (a :func:`plc_block` function) as a FUNCTION_BLOCK.
+
+    ``inputs`` are its parameters but the state, ``outputs`` its results (a
+    result that is a state parameter is the memory itself, readable by the
+    caller), ``state`` the hidden memory, ``instances`` the FBs it holds.
+    """
+
+    name: str
+    doc: str
+    inputs: list[tuple[str, str]]
+    outputs: list[tuple[str, str]]
+    state: list[tuple[str, str]]
+    instances: dict[str, str]
+    temps: dict[str, str]
+    body: list[str]
+    source: str
+
+
+@dataclass
+class _FbSig:
+    """What a caller needs to know about a small block's FUNCTION_BLOCK."""
+
+    pou: str
+    short: str
+    params: list[str]  # python parameter names in order
+    state: set[str]  # the parameters that are the instance's memory
+    results: tuple[str, ...]
+    hidden: set[str]  # state the caller cannot read (VAR, not VAR_OUTPUT)
+    st: dict[str, str]  # python name -> ST name of every parameter and result
+    types: dict[str, str]  # ST name -> type
+
+
+@dataclass
 class _Sig:
     """What a caller needs to know about a translated function."""
 
@@ -128,7 +186,43 @@ class Program:
     def __init__(self, prefix: str = "CB_") -> None:
         self.prefix = prefix
         self.pous: dict[str, Pou] = {}
+        self.fbs: dict[str, FbPou] = {}
         self._sigs: dict[tuple[Any, ...], _Sig] = {}
+        self._fb_sigs: dict[tuple[Any, ...], _FbSig] = {}
+
+    def fb_type(self, fn: Callable[..., Any], sizes: dict[str, int] | None = None) -> _FbSig:
+        """Translate a small block ``fn`` (marked by :func:`plc_block`) as a FUNCTION_BLOCK.
+
+        ``sizes``: the length of each list parameter (its ARRAY's bounds).
+        """
+        sizes = sizes or {}
+        key = (fn, tuple(sorted(sizes.items())))
+        if key in self._fb_sigs:
+            return self._fb_sigs[key]
+        short, results, hidden = fn.plc_block  # type: ignore[attr-defined]
+        if any(k[0] is fn for k in self._fb_sigs):
+            short += "_" + "_".join(str(n) for n in sizes.values())  # another array size
+        node = _source(fn)[0]
+        params = [a.arg for a in node.args.args]
+        names = {n: _st_name(n.upper()) for n in (*params, *results)}
+        tr = _Translator(self, fn, {}, fb=(results, names), sizes=sizes)
+        body, fbvars, temps, instances = tr.translate_fb()
+        state = {p for p in params if p in results}
+        pou = FbPou(
+            name=self.prefix + short,
+            doc=tr.doc(),
+            inputs=[(names[p], fbvars[names[p]]) for p in params if p not in state],
+            outputs=[(names[r], fbvars[names[r]]) for r in results if r not in hidden],
+            state=[(names[r], fbvars[names[r]]) for r in results if r in hidden],
+            instances=instances,
+            temps=temps,
+            body=body,
+            source=f"{fn.__module__}.{fn.__qualname__}",
+        )
+        self.fbs[pou.name] = pou
+        sig = _FbSig(pou.name, short, params, state, tuple(results), set(hidden), names, fbvars)
+        self._fb_sigs[key] = sig
+        return sig
 
     def function(self, fn: Callable[..., Any], consts: dict[str, Any] | None = None) -> _Sig:
         """Translate ``fn`` (specialised for constant arguments ``consts``) as a FUNCTION."""
@@ -140,15 +234,22 @@ class Program:
         return self._sigs[key]
 
     def fb_body(
-        self, fn: Callable[..., Any], results: tuple[str, ...], names: dict[str, str]
-    ) -> tuple[list[str], dict[str, str], dict[str, str]]:
+        self,
+        fn: Callable[..., Any],
+        results: tuple[str, ...],
+        names: dict[str, str],
+        sizes: dict[str, int] | None = None,
+    ) -> tuple[list[str], dict[str, str], dict[str, str], dict[str, str]]:
         """Translate ``fn`` as the body of a FUNCTION_BLOCK.
 
         ``names`` maps every parameter and result of ``fn`` to its FB variable
         name; ``results`` names the values of the final ``return``.  Returns
-        ``(body lines, {FB var: type}, {temp: type})``.
+        ``(body lines, {FB var: type}, {temp: type}, {instance: FB type})``;
+        a parameter that is the memory of a small block's instance is not an
+        FB variable (the instance holds it).  ``sizes``: the length of each
+        list parameter.
         """
-        tr = _Translator(self, fn, {}, fb=(results, names))
+        tr = _Translator(self, fn, {}, fb=(results, names), sizes=sizes)
         return tr.translate_fb()
 
     def ordered(self) -> list[Pou]:
@@ -194,7 +295,9 @@ class _Translator:
         fn: Callable[..., Any],
         consts: dict[str, Any],
         fb: tuple[tuple[str, ...], dict[str, str]] | None,
+        sizes: dict[str, int] | None = None,
     ) -> None:
+        self.sizes = sizes or {}
         self.prog = prog
         self.fn = fn
         self.consts = dict(consts)
@@ -214,6 +317,74 @@ class _Translator:
         self.ret_name = ""
         self.outputs: list[tuple[str, str]] = []
         self.ret_type: str | None = None
+        # small blocks' instances: python name of a memory -> (instance, output or None)
+        self.owned: dict[str, tuple[str, str | None]] = {}
+        self.instances: dict[str, str] = {}  # instance -> FB type
+        self.fb_calls: dict[int, tuple[str, _FbSig, dict[str, str]]] = {}
+
+    def scan_instances(self) -> None:
+        """Find the calls of small blocks: one instance per set of memories passed."""
+        by_state: dict[tuple[str, ...], str] = {}
+        for st in ast.walk(self.node):
+            if not (isinstance(st, ast.Assign) and isinstance(st.value, ast.Call)):
+                continue
+            c = st.value
+            fn = self.resolve(c.func)
+            if not hasattr(fn, "plc_block"):
+                continue
+            if self.fb is None:
+                raise self.err(st, "a FUNCTION cannot hold a FUNCTION_BLOCK instance")
+            assert fn is not None
+            params = [a.arg for a in _source(fn)[0].args.args]
+            if len(c.args) != len(params) or c.keywords:
+                raise self.err(c, f"{fn.__name__} takes {len(params)} positional arguments")
+            state_args: dict[str, str] = {}
+            sizes: dict[str, int] = {}
+            for p, a in zip(params, c.args, strict=True):
+                if p in fn.plc_block[1]:
+                    if not isinstance(a, ast.Name):
+                        raise self.err(c, f"the memory {p!r} of {fn.__name__} must be a name")
+                    state_args[p] = a.id
+                    info = array_info(self.types.get(a.id, ""))
+                    if info is not None:
+                        sizes[p] = info[0]
+            sig = self.prog.fb_type(fn, sizes)
+            key = tuple(state_args.values())
+            if key not in by_state:
+                inst = f"{sig.short}_{key[0]}" if key else sig.short
+                while inst.lower() in {i.lower() for i in self.instances}:
+                    inst += "_"
+                by_state[key] = inst
+                self.instances[inst] = sig.pou
+            inst = by_state[key]
+            for p, x in state_args.items():
+                if x in self.owned and self.owned[x][0] != inst:
+                    raise self.err(c, f"{x!r} is the memory of two instances")
+                self.owned[x] = (inst, None if p in sig.hidden else sig.st[p])
+            self.fb_calls[id(c)] = (inst, sig, state_args)
+
+    def fb_call(self, target: ast.expr, c: ast.Call, s: ast.stmt) -> None:
+        """``y, x = block(u, ..., y, x)``: call the instance, read its outputs."""
+        inst, sig, state_args = self.fb_calls[id(c)]
+        if isinstance(target, ast.Tuple):
+            targets = [e.id if isinstance(e, ast.Name) else "" for e in target.elts]
+        else:
+            targets = [target.id if isinstance(target, ast.Name) else ""]
+        if len(targets) != len(sig.results) or "" in targets:
+            raise self.err(s, f"{sig.pou} gives {len(sig.results)} values to names")
+        args = zip(sig.params, c.args, strict=True)
+        params = [f"{sig.st[p]} := {self.coerce(a, sig.types[sig.st[p]])}"
+                  for p, a in args if p not in sig.state]  # fmt: skip
+        self.emit_call(var(inst), params)
+        for r, t in zip(sig.results, targets, strict=True):
+            if r in sig.state:
+                if t != state_args[r]:
+                    raise self.err(s, f"the memory {r!r} of {sig.pou} must go back to {t!r}")
+                continue
+            typ = sig.types[sig.st[r]]
+            st = self.declare(t, self.types.get(t, typ), s)
+            self.emit(f"{var(st)} := {var(inst)}.{sig.st[r]};")
+            self.bump(t)
 
     # -- errors and comments ---------------------------------------------------
 
@@ -270,9 +441,11 @@ class _Translator:
             body = body[1:]
         return body
 
-    def _doc(self) -> str:
+    def doc(self) -> str:
         doc = ast.get_docstring(self.node) or ""
-        return doc.strip().split("\n\n")[0].replace("\n", " ")
+        doc = doc.strip().split("\n\n")[0].replace("\n", " ")
+        doc = re.sub(r":\w+:`[~.]?(?:[\w.]*\.)?(\w+)`", r"\1", doc)  # :class:`~a.B` -> B
+        return doc.replace("``", "")
 
     def translate_function(self) -> _Sig:
         fn = self.fn
@@ -280,6 +453,7 @@ class _Translator:
         if self.consts:
             name += "_" + "_".join(str(v).upper() for v in self.consts.values())
         self.ret_name = name
+        self.scan_instances()
         body = self._body_statements()
         params = self._params()
         assigned = {
@@ -347,7 +521,7 @@ class _Translator:
         self.block(body, top=True)
         pou = Pou(
             name=name,
-            doc=self._doc(),
+            doc=self.doc(),
             inputs=inputs,
             outputs=self.outputs,
             locals={k: v for k, v in self.locals.items() if k not in dict(self.outputs)},
@@ -403,9 +577,14 @@ class _Translator:
         results, names = self.fb
         params = self._params()
         fbvars: dict[str, str] = {}
+        anns = {a.arg: ast.unparse(a.annotation) if a.annotation else ""
+                for a in self.node.args.args}  # fmt: skip
         for pname, ptype in params:
+            if ptype is None and anns[pname] in _ELEM and pname in self.sizes:
+                ptype = array_type(self.sizes[pname], _ELEM[anns[pname]])
             if ptype is None:
-                raise self.err(self.node, f"FB parameter {pname!r} needs a scalar annotation")
+                raise self.err(self.node, f"FB parameter {pname!r} needs a scalar annotation "
+                                          "(or list[...] with its size)")  # fmt: skip
             st = names[pname]
             self.st[pname] = st
             self.types[pname] = ptype
@@ -413,19 +592,26 @@ class _Translator:
         for rname in results:
             if rname not in self.st:
                 self.st[rname] = names[rname]
+        self.scan_instances()
+        for x in self.owned:
+            fbvars.pop(self.st.get(x, ""), None)  # the instance holds it
         body = self._body_statements()
         final = body[-1]
-        if not (isinstance(final, ast.Return) and isinstance(final.value, ast.Tuple)):
-            raise self.err(final, "the cycle function must end with 'return <tuple>'")
+        if not isinstance(final, ast.Return) or final.value is None:
+            raise self.err(final, "the cycle function must end with 'return <values>'")
         self.block(body[:-1], top=False)
         self.emit_comments(final)
-        elts = final.value.elts
+        elts = final.value.elts if isinstance(final.value, ast.Tuple) else [final.value]
         if len(elts) != len(results):
             raise self.err(final, f"returns {len(elts)} values, the results name {len(results)}")
         # result variables named like locals are the same ST variables
         pending: list[tuple[str, str, str]] = []
         for rname, e in zip(results, elts, strict=True):
             st = names[rname]
+            if rname in self.owned:
+                if not (isinstance(e, ast.Name) and e.id == rname):
+                    raise self.err(final, f"{rname!r} is the memory of an instance")
+                continue
             text, _, typ = self.expr(e)
             if rname not in dict(params):
                 fbvars[st] = self.types.get(rname, typ)
@@ -442,7 +628,7 @@ class _Translator:
         for k in list(temps):
             if k.lower() in {v.lower() for v in fbvars}:
                 del temps[k]
-        return self.lines, fbvars, temps
+        return self.lines, fbvars, temps, self.instances
 
     # -- statements ----------------------------------------------------------------------
 
@@ -467,8 +653,37 @@ class _Translator:
             self.if_stmt(s, last)
         elif isinstance(s, ast.Return):
             self.return_stmt(s, last)
+        elif isinstance(s, ast.For):
+            self.for_stmt(s)
         else:
             raise self.err(s, f"statement {type(s).__name__} is not translated")
+
+    def for_stmt(self, s: ast.For) -> None:
+        """``for j in range(a[, b]):`` -> ``FOR j := a TO b - 1 DO`` (the bounds are DINT)."""
+        it = s.iter
+        if not (
+            isinstance(s.target, ast.Name)
+            and isinstance(it, ast.Call)
+            and isinstance(it.func, ast.Name)
+            and it.func.id == "range"
+            and 1 <= len(it.args) <= 2
+            and not s.orelse
+        ):
+            raise self.err(s, "only 'for name in range(a[, b])' loops are translated")
+        lo = self.coerce(it.args[0], DINT) if len(it.args) == 2 else "0"
+        hi = it.args[-1]
+        if isinstance(hi, ast.Constant):
+            top = str(int(hi.value) - 1)
+        else:
+            top = f"{self.wrap(self.expr(hi), PREC_ADD + 1)} - 1"
+            if self.expr(hi)[2] != DINT:
+                raise self.err(s, "range() of a non-DINT")
+        j = self.declare(s.target.id, DINT, s)
+        self.emit(f"FOR {var(j)} := {lo} TO {top} DO")
+        self.indent += 1
+        self.block(s.body, top=False)
+        self.indent -= 1
+        self.emit("END_FOR;")
 
     def const_test(self, e: ast.expr) -> bool | None:
         try:
@@ -528,6 +743,17 @@ class _Translator:
             self.emit("RETURN;")
 
     def assign(self, target: ast.expr, value: ast.expr, s: ast.stmt) -> None:
+        if isinstance(value, ast.Call) and id(value) in self.fb_calls:
+            self.fb_call(target, value, s)
+            return
+        if isinstance(target, ast.Subscript):
+            text, elem = self.element(target)
+            self.emit(f"{text} := {self.coerce(value, elem)};")
+            return
+        for t in target.elts if isinstance(target, ast.Tuple) else [target]:
+            if isinstance(t, ast.Name) and t.id in self.owned:
+                raise self.err(s, f"{t.id!r} is the memory of {self.owned[t.id][0]}: "
+                                  "only the instance's call writes it")  # fmt: skip
         if isinstance(target, ast.Name):
             if isinstance(value, ast.Tuple):
                 self.bind_tuple(target.id, value, s)
@@ -700,11 +926,23 @@ class _Translator:
         self.emit_call(pou_ref(sig.pou), args + outs)
 
     def emit_call(self, name: str, params: list[str]) -> None:
+        if not params:
+            self.emit(f"{name}();")
+            return
         self.emit(f"{name}(")
         for j, p in enumerate(params):
             self.emit("    " + p + ("," if j < len(params) - 1 else ");"))
 
     # -- expressions: (text, precedence, type) -------------------------------------------
+
+    def element(self, e: ast.Subscript) -> tuple[str, str]:
+        """``a[i]`` of an array of this POU: ``(ST text, element type)``."""
+        if not isinstance(e.value, ast.Name) or e.value.id in self.owned:
+            raise self.err(e, "a subscript of something other than this block's array")
+        info = array_info(self.types.get(e.value.id, ""))
+        if info is None:
+            raise self.err(e, f"{e.value.id!r} is not an array")
+        return f"{var(self.st[e.value.id])}[{self.coerce(e.slice, DINT)}]", info[1]
 
     def fold(self, e: ast.expr) -> Any:
         """Evaluate a constant expression (string constants, module constants)."""
@@ -754,6 +992,14 @@ class _Translator:
             if isinstance(v, float):
                 return real_literal(v), PREC_ATOM if v >= 0 else PREC_UNARY, REAL
             raise self.err(e, f"constant {v!r} has no ST type here")
+        if isinstance(e, ast.Subscript):
+            text, elem = self.element(e)
+            return text, PREC_ATOM, elem
+        if isinstance(e, ast.Name) and e.id in self.owned:
+            inst, out = self.owned[e.id]
+            if out is None:
+                raise self.err(e, f"{e.id!r} is hidden in the instance {inst}")
+            return f"{var(inst)}.{out}", PREC_ATOM, self.types[e.id]
         if isinstance(e, ast.Name):
             if e.id in self.tuples:
                 raise self.err(e, f"tuple {e.id!r} used as a value")
@@ -807,6 +1053,13 @@ class _Translator:
         ):
             left = self.expr(e.left)
             return f"{self.wrap(left, PREC_MUL)} MOD 2", PREC_MUL, DINT
+        if isinstance(e.op, ast.Mod):
+            # DINT only; the kernels keep both operands >= 0, where % and MOD agree
+            left, right = self.expr(e.left), self.expr(e.right)
+            if left[2] != DINT or right[2] != DINT:
+                raise self.err(e, "% needs integers")
+            text = f"{self.wrap(left, PREC_MUL)} MOD {self.wrap(right, PREC_MUL + 1)}"
+            return text, PREC_MUL, DINT
         ops = {ast.Add: ("+", PREC_ADD), ast.Sub: ("-", PREC_ADD), ast.Mult: ("*", PREC_MUL),
                ast.Div: ("/", PREC_MUL)}  # fmt: skip
         if isinstance(e.op, ast.Pow):
@@ -886,6 +1139,12 @@ class _Translator:
             )
         if name == "float":
             return self.coerce(c.args[0], REAL), PREC_ATOM, REAL
+        if name == "len":
+            a = c.args[0]
+            info = array_info(self.types.get(a.id, "")) if isinstance(a, ast.Name) else None
+            if info is None:
+                raise self.err(c, "len() of something other than an array")
+            return str(info[0]), PREC_ATOM, DINT  # the bounds are fixed at export
         if name == "int":
             a = self.expr(c.args[0])
             if a[2] == DINT:

@@ -60,11 +60,16 @@ def configure_logging(verbose: int) -> None:
 def run_until_stopped(runtime: Any) -> None:
     """Run ``runtime`` on a new event loop until SIGINT/SIGTERM, then stop it gracefully."""
 
+    from .historian import HistoryError
+
     async def main() -> None:
         _install_stop(asyncio.get_running_loop(), runtime.request_stop)
         await runtime.run()
 
-    asyncio.run(main())
+    try:
+        asyncio.run(main())
+    except HistoryError as exc:  # e.g. a historian file in a folder that does not exist
+        raise click.ClickException(str(exc)) from None
 
 
 @click.command()
@@ -142,8 +147,9 @@ def plant_server(
     """Serve the plant of SCENARIO over OPC UA and Modbus TCP until SIGINT/SIGTERM.
 
     Variables: pv, mv (written by the controller), sp, mode, manual_value,
-    u_min, u_max, k, pv2 (inner plant output), dv (input load) -- OPC UA
-    ns=2;s=NAME, Modbus holding registers 0, 2, 4, ... (FLOAT32).  See
+    u_min, u_max, k, pv2 (inner plant output), dv (input load), mv2 (a split
+    range's actuator B, written), wild (a ratio loop's wild flow) -- OPC UA
+    ns=2;s=NAME, Modbus holding registers 0, 2, 4, ..., 22 (FLOAT32).  See
     docs/runtime.md.
     """
     from ..sim import ScenarioError, load_scenario

@@ -173,6 +173,8 @@ class LoopConfig:
     # -- the split range's second MV and the ratio's wild flow (see _Parser.loop) --
     mv2: Binding | None = None
     wild: Binding | None = None
+    # -- a structure's optional output tags written with the MV (three_step: open, close) --
+    outputs: Mapping[str, Binding] = dataclasses.field(default_factory=dict)
     # -- fault action (see _Parser.fault_action) --
     on_fault: str = "safe_value"
     hold_time: float = 0.0
@@ -187,7 +189,8 @@ class LoopConfig:
         names = (
             "pv", "pv2", "dv", "wild", "mv", "mv2", "sp", "mode", "manual_value", "u_min", "u_max"
         )  # fmt: skip
-        return {n: b for n in names if (b := getattr(self, n)) is not None}
+        out = {n: b for n in names if (b := getattr(self, n)) is not None}
+        return {**out, **self.outputs}
 
     def spec(self) -> ControllerSpec:
         """The loop's controller entry (a single loop: its ``block`` as role ``main``)."""
@@ -366,7 +369,7 @@ class _Parser(TableReader):
         # an MV is written by one loop only
         seen: dict[str, str] = {}
         for lc in loops:
-            for sig, b in (("mv", lc.mv), ("mv2", lc.mv2)):
+            for sig, b in (("mv", lc.mv), ("mv2", lc.mv2), *lc.outputs.items()):
                 if b is not None and b.is_io:
                     k = str(b)
                     if k in seen:
@@ -513,13 +516,15 @@ class _Parser(TableReader):
             *_FAULT_LOOP_KEYS,
             *ENGINEERING_KEYS,
             *STRUCTURES[structure],
+            *_STRUCTURES[structure].output_tags,
         }
         self.check_keys(raw, allowed, key)
         name = self.string(raw, "name", f"{key}.name")
         if not NAME_RE.match(name):
             raise self.fail(f"{key}.name", "loop names are letters, digits, _ . - only")
         ts = self.number(raw, "ts", f"{key}.ts", positive=True)
-        used = _STRUCTURES[structure].measurements_in(raw)
+        st = _STRUCTURES[structure]
+        used = st.measurements_in(raw)
         needs = tuple(sig for sig, m in MEASUREMENTS.items() if m in used)
         for sig in ("pv", "pv2", "dv", "wild"):
             if sig in raw and sig not in needs:
@@ -527,12 +532,15 @@ class _Parser(TableReader):
                     f"{key}.{sig}",
                     f"the {structure} structure does not read {sig} (reads: {', '.join(needs)})",
                 )
+        optional = {s for s, m in MEASUREMENTS.items() if m in st.optional_measurements}
+        needs = tuple(s for s in needs if s not in optional or s in raw)
         for sig in (*needs, "mv"):
             if sig not in raw:
                 raise self.fail(f"{key}.{sig}", 'missing (an I/O address "CONNECTION:ADDRESS")')
         meas = {sig: self.binding(raw[sig], f"{key}.{sig}", conns) for sig in needs}
         mv = self.binding(raw["mv"], f"{key}.mv", conns)
         mv2 = self.second_mv(raw, key, structure, conns, mv)
+        outputs = self.output_tags(raw, key, st.output_tags, conns, mv)
         for sig, b in (*meas.items(), ("mv", mv)):
             if not b.is_io:
                 raise self.fail(f"{key}.{sig}", 'must be an I/O address "CONNECTION:ADDRESS"')
@@ -599,6 +607,12 @@ class _Parser(TableReader):
             btype = params.pop("type")
         else:
             controller = self.structure_entry(raw, key, structure, ts, name, patched)
+            if stop is not None and st.off_mv(controller) is not None:
+                raise self.fail(
+                    f"{key}.stop_value",
+                    f"a {structure} loop stops its output stage at its off state "
+                    f"(MV {st.off_mv(controller)!r}); there is no stop value to give",
+                )
             main_key = mv_tables[0][0]
             btype = patched[main_key]["type"]
             params = {n: v for n, v in patched[main_key].items() if n != "type"}
@@ -639,6 +653,7 @@ class _Parser(TableReader):
             u0=u0,
             mv2=mv2,
             wild=meas.get("wild"),
+            outputs=outputs,
             **self.fault_action(raw, key),
             **_engineering(self, raw, key, sp, opt["manual_value"]),
         )
@@ -663,18 +678,44 @@ class _Parser(TableReader):
                 f"{key}.mv2",
                 'missing: the split range\'s second actuator (an I/O address "CONNECTION:ADDRESS")',
             )
-        mv2 = self.binding(raw["mv2"], f"{key}.mv2", conns)
-        if not mv2.is_io:
-            raise self.fail(f"{key}.mv2", 'must be an I/O address "CONNECTION:ADDRESS"')
-        if mv2.connection != mv.connection:
-            raise self.fail(
-                f"{key}.mv2",
-                f"must be on the connection of mv ({mv.connection!r}): both actuators are "
-                "written in one batched request",
-            )
+        mv2 = self.written_with_mv(
+            raw["mv2"], f"{key}.mv2", conns, mv, "both actuators are written in one batched request"
+        )
         if mv2.address == mv.address:
             raise self.fail(f"{key}.mv2", f"is the address of mv ({mv}); give actuator B's own")
         return mv2
+
+    def written_with_mv(
+        self, raw: Any, key: str, conns: Mapping[str, ConnectionConfig], mv: Binding, why: str
+    ) -> Binding:
+        """An output address written with the MV: I/O, on the MV's connection (``why``)."""
+        b = self.binding(raw, key, conns)
+        if not b.is_io:
+            raise self.fail(key, 'must be an I/O address "CONNECTION:ADDRESS"')
+        if b.connection != mv.connection:
+            raise self.fail(key, f"must be on the connection of mv ({mv.connection!r}): {why}")
+        return b
+
+    def output_tags(
+        self,
+        raw: Mapping[str, Any],
+        key: str,
+        tags: tuple[str, ...],
+        conns: Mapping[str, ConnectionConfig],
+        mv: Binding,
+    ) -> dict[str, Binding]:
+        """The structure's optional output tags (``open``, ``close``), on the MV's connection."""
+        out: dict[str, Binding] = {}
+        for tag in tags:
+            if tag not in raw:
+                continue
+            why = "the outputs are written with the MV in one batched request"
+            b = self.written_with_mv(raw[tag], f"{key}.{tag}", conns, mv, why)
+            taken = [n for n, o in (("mv", mv), *out.items()) if o.address == b.address]
+            if taken:
+                raise self.fail(f"{key}.{tag}", f"is the address of {taken[0]} ({b})")
+            out[tag] = b
+        return out
 
     def mv_tables(
         self, raw: Mapping[str, Any], key: str, structure: str

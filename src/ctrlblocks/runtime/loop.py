@@ -140,9 +140,10 @@ class ControlLoop:
         self.bounds = LoopBounds(self)
         self._limits_in = (math.nan, math.nan)
         # signal -> binding of the inputs read each cycle
-        self._inputs = {
-            n: b for n, b in config.bindings().items() if b.is_io and n not in ("mv", "mv2")
-        }
+        written = {"mv", "mv2", *config.outputs}
+        self._inputs = {n: b for n, b in config.bindings().items() if b.is_io and n not in written}
+        # an output stage (PWM, step controller) has a fixed off state (Structure.off_mv)
+        self._off_mv = self.side.kind.off_mv(self.side.spec)
         self.sp = float(config.sp.value) if not config.sp.is_io else math.nan
         mode = config.mode.value if not config.mode.is_io else "auto"
         self._set_mode(mode)
@@ -302,7 +303,7 @@ class ControlLoop:
         if isinstance(u, (int, float)) and math.isfinite(u):
             self.mv_alarm = ""
             return float(u)
-        safe = self.config.safe_value
+        safe = self.config.safe_value if self._off_mv is None else self._off_mv
         msg = f"the block gave a non-finite MV ({u!r}): the safe value {safe!r} is written"
         if self.mv_alarm != msg:  # once per episode
             log.error("loop %s: %s", self.name, msg)
@@ -311,12 +312,21 @@ class ControlLoop:
         return safe
 
     def writes(self, u: float) -> list[tuple[str, float]]:
-        """The ``(address, value)`` items that write the MV ``u`` (one; a split range's two)."""
+        """The ``(address, value)`` items that write the MV ``u`` (one; a split range's two).
+
+        The structure's bound output tags go with it (a step controller's
+        ``open``/``close`` bits, ``Structure.output_values``).
+        """
         c = self.config
         if c.mv2 is None:
-            return [(c.mv.address, u)]
-        a, b = self.side.actuator_values(u)
-        return [(c.mv.address, a), (c.mv2.address, b)]
+            items = [(c.mv.address, u)]
+        else:
+            a, b = self.side.actuator_values(u)
+            items = [(c.mv.address, a), (c.mv2.address, b)]
+        if c.outputs:
+            values = self.side.kind.output_values(self.side.spec, u)
+            items += [(b.address, values[tag]) for tag, b in c.outputs.items()]
+        return items
 
     def written(self, err: str | None) -> None:
         """Record the outcome of this cycle's MV write (None: accepted; else the failure)."""
@@ -350,8 +360,13 @@ class ControlLoop:
 
     @property
     def stop_value(self) -> float:
-        """The MV written on a graceful stop (``stop_value``, else ``safe_value``)."""
+        """The MV written on a graceful stop (``stop_value``, else ``safe_value``).
+
+        An output stage (pulse width, step controller) stops at its off state.
+        """
         c = self.config
+        if self._off_mv is not None:
+            return self._off_mv
         return c.stop_value if c.stop_value is not None else c.safe_value
 
     # -- retentive state (ctrlblocks.runtime.retain) ----------------------------------
@@ -434,7 +449,9 @@ class ControlLoop:
             self._set_manual_value(mv)
         if st.get("mode") in MODES and not self.is_bound("mode"):
             self._set_mode(st["mode"], preset=False)
-        self._restart_mv = finite_or_none(st.get("mv"))
+        # the bumpless restart sets the controller's output; an output stage's MV (on/off,
+        # motor commands) is not one: the restored snapshot continues the controller
+        self._restart_mv = finite_or_none(st.get("mv")) if self._off_mv is None else None
         log.info("loop %s: retained state restored", self.name)
 
     def restart_from(self, reading: Reading | None) -> None:
@@ -444,8 +461,10 @@ class ControlLoop:
         actuator's value does not give it back (in the gap every output maps
         to the same values).
         """
-        if reading is not None and reading.ok and self.config.mv2 is None:
-            self._restart_mv = reading.value
+        # an output stage's MV (on/off, motor commands) is not the controller's output either
+        ok = reading is not None and reading.ok
+        if ok and self.config.mv2 is None and self._off_mv is None:
+            self._restart_mv = reading.value  # type: ignore[union-attr]
 
     def _bumpless_restart(self, t: float, ok: bool, meas: Mapping[str, float], dt: float | None):
         """The first cycle after a restart: output the read-back MV, the blocks track it."""
@@ -554,9 +573,14 @@ class ControlLoop:
         if tunings is not None:
             if not isinstance(tunings, Mapping) or not tunings:
                 raise CommandError("tunings", "must be a non-empty table of block parameters")
+            scheduled = self.side.kind.scheduled_parameters(self.side.spec)
             for k in tunings:
                 if k in _LOOP_LEVEL:
                     raise CommandError(f"tunings.{k}", "is not a tuning (use its own command)")
+                if k in scheduled:
+                    raise CommandError(
+                        f"tunings.{k}", "is set by the loop's gain schedule every cycle"
+                    )
             cfg = self.block.config
             try:
                 before = {k: getattr(cfg, k) for k in tunings}

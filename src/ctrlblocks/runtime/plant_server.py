@@ -26,13 +26,22 @@ pv2       16        the inner plant's output ``y2`` (cascade,        read
                     override; NaN without an inner plant)
 dv        18        the input load, the measured disturbance of a    read
                     feed-forward structure
+mv2       20        a split range's second actuator (actuator B;     read/write
+                    writable only when the process has one, NaN
+                    otherwise)
+wild      22        a ratio loop's wild flow (NaN while a ``wild``   read
+                    event flags it bad or NaN)
 ========  ========  ==============================================  =========
 
 ``sync = "write"`` (lock-step, for tests and hardware-in-the-loop checks):
 each write of ``mv`` steps the plant once, so a runtime that reads PV,
 computes and writes MV once per cycle sees exactly the sample sequence of
-:func:`ctrlblocks.sim.simulate`.  ``sync = "clock"``: the plant steps every
-``ts`` of wall-clock time with the last MV written.
+:func:`ctrlblocks.sim.simulate`.  A process with a second actuator (a split
+range) steps once *both* ``mv`` and ``mv2`` have been written since the last
+step, in either order (the runtime writes them in one batch per cycle, but
+Modbus sends them as two requests in register order, OPC UA as one request).
+``sync = "clock"``: the plant steps every ``ts`` of wall-clock time with the
+last MVs written.
 
 Not served: the simulator's ``initial.warmup`` (the plant starts in its steady
 state; the runtime's blocks start from their own initial state) and events of
@@ -63,7 +72,9 @@ __all__ = ["MODBUS_REGISTERS", "SIGNALS", "PairServer", "PlantServer"]
 
 log = logging.getLogger(__name__)
 
-SIGNALS = ("pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max", "k", "pv2", "dv")
+SIGNALS = (
+    "pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max", "k", "pv2", "dv", "mv2", "wild",
+)  # fmt: skip
 """Variables of the plant server, in register order."""
 
 MODBUS_REGISTERS = {name: 2 * i for i, name in enumerate(SIGNALS)}
@@ -172,6 +183,10 @@ class PlantServer:
         self.reject_mv = False
         self.stale = False
         self.mv_writes = 0
+        # the MVs a lock-step sample waits for (a split range's process has two)
+        two = bool(getattr(process, "second_actuator", False))
+        self._mvs = frozenset(("mv", "mv2") if two else ("mv",))
+        self._written: dict[str, float] = {}
         self._opcua: Any = None
         self._killed_opcua: Any = None
         self._modbus: Any = None
@@ -239,16 +254,25 @@ class PlantServer:
             await asyncio.sleep(max(0.0, t0 + k * self.process.ts - loop.time()))
             self.process.step(self.process.mv)
 
-    def _mv_written(self, u: float) -> None:
+    def _mv_written(self, u: float, name: str = "mv") -> None:
+        """A write of ``mv`` (or ``mv2``): the lock-step sample steps once all MVs are in."""
         self.mv_writes += 1
-        if self.sync == "write":
-            self.process.step(u)
-        else:
-            self.process.mv = u
+        if name == "mv2":
+            self.process.mv2 = u  # held: PlantProcess.step applies the last one written
+        if self.sync != "write":
+            if name == "mv":
+                self.process.mv = u
+            return
+        self._written[name] = u
+        if self._mvs.issubset(self._written):
+            self.process.step(self._written["mv"])
+            self._written.clear()
 
     def _values(self) -> dict[str, float]:
         """The served values of the current sample (with the ``force_nan`` fault)."""
         v = self.process.values()
+        for name in ("mv2", "wild", "pv2", "dv"):  # a process without them serves NaN
+            v.setdefault(name, math.nan)
         if self.force_nan:
             v["pv"] = math.nan
         return v
@@ -288,9 +312,9 @@ class PlantServer:
             vt = ua.VariantType.Float if name in self.float_signals else ua.VariantType.Double
             nodeid = ua.NodeId(name, idx)
             var = await obj.add_variable(nodeid, name, ua.Variant(self._values()[name], vt))
-            if name == "mv":
+            if name in self._mvs:
                 await var.set_writable(True)
-                server.set_attribute_value_setter(nodeid, self._opcua_mv_setter)
+                server.set_attribute_value_setter(nodeid, self._opcua_mv_setter(name))
             else:
                 server.set_attribute_value_callback(nodeid, self._opcua_reader(name, vt))
         await server.start()
@@ -314,13 +338,16 @@ class PlantServer:
 
         return read
 
-    def _opcua_mv_setter(self, node: Any, attr: Any, value: Any) -> None:
-        node.attributes[attr].value = value
-        try:
-            u = float(value.Value.Value)
-        except (TypeError, ValueError, AttributeError):
-            return
-        self._mv_written(u)
+    def _opcua_mv_setter(self, name: str) -> Any:
+        def write(node: Any, attr: Any, value: Any) -> None:
+            node.attributes[attr].value = value
+            try:
+                u = float(value.Value.Value)
+            except (TypeError, ValueError, AttributeError):
+                return
+            self._mv_written(u, name)
+
+        return write
 
     async def set_mv_writable(self, writable: bool) -> None:
         """Make the OPC UA ``mv`` variable writable or not (a rejected write for tests)."""
@@ -354,20 +381,23 @@ class PlantServer:
 
         if self.delay > 0.0:
             await asyncio.sleep(self.delay)
-        mv_reg = MODBUS_REGISTERS["mv"]
+        written = None
         if set_values:
             lo, hi = address, address + len(set_values)
-            if lo != mv_reg or hi != mv_reg + 2:
-                return ExcCodes.ILLEGAL_ADDRESS  # only the MV (both registers) is writable
+            written = next(
+                (n for n in self._mvs if lo == MODBUS_REGISTERS[n] and hi == lo + 2), None
+            )
+            if written is None:
+                return ExcCodes.ILLEGAL_ADDRESS  # only an MV (both registers) is writable
             if self.reject_mv:
                 return ExcCodes.ILLEGAL_VALUE
             u = registers_to_float32([int(v) for v in set_values], self.word_order)
-            self._mv_written(u)
+            self._mv_written(u, written)
         values = self._values()
         if not self.process.sensor_ok:
             values["pv"] = math.nan
         for name, reg in MODBUS_REGISTERS.items():
-            if name == "mv" and set_values:
+            if name == written:
                 continue  # written by this request
             v = values[name]
             i = reg - start_address

@@ -70,6 +70,7 @@ import logging
 import os
 import select
 import signal
+import site
 import struct
 import subprocess
 import sys
@@ -93,6 +94,10 @@ RECORD = struct.Struct("<IIqddddddiBBBx")
 write_ok, overrun (72 bytes, little-endian)."""
 
 _HEAD = struct.Struct("<cI")  # frame kind, payload length
+_WRITER_MAIN = (  # nice + 5 before the imports: the cycles first, also while it starts
+    "import os\ntry:\n    os.nice(5)\nexcept OSError:\n    pass\n"
+    "from ctrlblocks.runtime.writer import serve_writer\nserve_writer()\n"
+)
 _CODE = struct.Struct("<I")
 _TOKEN = struct.Struct("<Q")
 
@@ -193,11 +198,13 @@ class ProcessHistorian(Historian):
 
     def _start_writer(self) -> None:
         """Start a writer process (lock held); the queue starts with its settings and names."""
-        src = str(Path(__file__).resolve().parents[2])  # the folder that holds ctrlblocks
         env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+        src = str(Path(__file__).resolve().parents[2])  # the folder that holds ctrlblocks
+        if src not in {str(Path(p).resolve()) for p in site.getsitepackages()}:
+            # a source tree (tests, a checkout on sys.path): the writer imports the same code
+            env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
         proc = subprocess.Popen(
-            [sys.executable, "-m", "ctrlblocks.runtime.writer"],
+            [sys.executable, "-c", _WRITER_MAIN],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             env=env,
@@ -509,7 +516,7 @@ def open_historian(config: Any, *, name: str = "ctrlblocks", process: bool = Tru
 
 
 def serve_writer() -> None:
-    """The writer process's main (``python -m ctrlblocks.runtime.writer``; the runtime starts it).
+    """The writer process's main (the runtime starts it in a Python process of its own).
 
     Reads frames from stdin (the first one: settings and run), answers on
     stdout; open the database, then write what comes until a close or the
@@ -517,8 +524,6 @@ def serve_writer() -> None:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    with contextlib.suppress(OSError):
-        os.nice(5)  # the cycles first: the queue waits, the control loops do not
     out = os.dup(1)
     os.dup2(2, 1)  # a stray print cannot corrupt the answers
 

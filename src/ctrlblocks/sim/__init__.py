@@ -19,15 +19,33 @@ The main entry points:
 See ``docs/simulator.md`` for the scenario format.
 """
 
-from ..loops.structures import ControllerSide
-from .loop import Run, simulate
-from .metrics import METRIC_NAMES, compute_metrics
-from .plant_process import PlantProcess
-from .process import ProcessSide, SetpointProfile
-from .report import load_shipped, shipped_scenarios
-from .results import write_result
-from .runner import ClaimResult, ScenarioResult, metric_table, run_scenario
-from .scenario import Scenario, ScenarioError, load_scenario, parse_scenario
+from typing import TYPE_CHECKING
+
+from .._lazy import lazy_exports
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..loops.structures import ControllerSide
+    from .loop import Run, simulate
+    from .metrics import METRIC_NAMES, compute_metrics
+    from .plant_process import PlantProcess
+    from .process import ProcessSide, SetpointProfile
+    from .report import load_shipped, shipped_scenarios
+    from .results import write_result
+    from .runner import ClaimResult, ScenarioResult, metric_table, run_scenario
+    from .scenario import Scenario, ScenarioError, load_scenario, parse_scenario
+
+# imported on first use (PEP 562): ``ctrlblocks run --help`` imports none of them
+_WHERE = {
+    "..loops.structures": ("ControllerSide",),
+    ".loop": ("Run", "simulate"),
+    ".metrics": ("METRIC_NAMES", "compute_metrics"),
+    ".plant_process": ("PlantProcess",),
+    ".process": ("ProcessSide", "SetpointProfile"),
+    ".report": ("load_shipped", "shipped_scenarios"),
+    ".results": ("write_result",),
+    ".runner": ("ClaimResult", "ScenarioResult", "metric_table", "run_scenario"),
+    ".scenario": ("Scenario", "ScenarioError", "load_scenario", "parse_scenario"),
+}
 
 __all__ = [
     "METRIC_NAMES",
@@ -50,3 +68,5 @@ __all__ = [
     "simulate",
     "write_result",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)

@@ -10,15 +10,17 @@ import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import click
 
-from .dispatch import ENGINES, CompiledLaneError
-from .report import claims_holding, load_shipped, render_report
-from .results import write_result
-from .runner import ScenarioResult, metric_table, run_scenario
-from .scenario import Scenario, ScenarioError, load_scenario
+if TYPE_CHECKING:  # pragma: no cover
+    from .runner import ScenarioResult
+    from .scenario import Scenario
+
+# the simulator is imported by the commands, not by this module: ``--help`` stays cheap
+ENGINES = ("auto", "compiled", "python")
+"""``ctrlblocks.sim.dispatch.ENGINES`` (a test keeps them equal)."""
 
 _FORMAT = click.option(
     "--format",
@@ -152,6 +154,11 @@ def _echo_claims(result: ScenarioResult) -> None:
 @ENGINE
 def run(scenario_file: Path, out_dir: Path, quick: bool, fmt: str, engine: str) -> None:
     """Run SCENARIO_FILE (TOML): every controller in every case; write traces, metrics, plots."""
+    from .dispatch import CompiledLaneError
+    from .results import write_result
+    from .runner import metric_table, run_scenario
+    from .scenario import ScenarioError, load_scenario
+
     try:
         sc = load_scenario(scenario_file)
     except ScenarioError as exc:
@@ -207,6 +214,11 @@ def reproduce(
     engine: str,
 ) -> None:
     """Run the shipped scenarios (all, or NAMES) and write report.md with plots and metrics."""
+    from .dispatch import CompiledLaneError
+    from .report import claims_holding, load_shipped, render_report
+    from .runner import ScenarioResult
+    from .scenario import ScenarioError
+
     try:
         scenarios = load_shipped(names)
     except KeyError as exc:
@@ -295,6 +307,9 @@ def _run_and_write(
     sc: Scenario, out_dir: Path, quick: bool, fmt: str, plots: bool, engine: str = "auto"
 ) -> tuple[ScenarioResult, float]:
     """One scenario: run, write (traces, metrics, plots); the result and the seconds it took."""
+    from .results import write_result
+    from .runner import run_scenario
+
     t0 = time.perf_counter()
     result = run_scenario(sc, quick=quick, engine=engine)
     write_result(result, out_dir, fmt=fmt, plots=plots)

@@ -92,6 +92,11 @@ class PlantProcess:
         return self.case.duration
 
     @property
+    def second_actuator(self) -> bool:
+        """True when the process has a split range's second actuator (:attr:`mv2`)."""
+        return self.side.actuator2 is not None
+
+    @property
     def sensor_ok(self) -> bool:
         """False while a sensor event flags the measurement invalid."""
         return self.side.sensor_ok
