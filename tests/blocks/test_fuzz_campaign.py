@@ -235,3 +235,18 @@ def test_live_snapshots_read_the_state_in_place_in_this_thread_only() -> None:
         thread.join(timeout=30)
     assert seen == [False]
     assert ma.snapshot()["_buf"] is not ma._buf
+
+
+def test_states_holding_arrays_are_compared_element_by_element() -> None:
+    # The float32 PLC cycle keeps the dead band's window as an array: comparing it
+    # with `==` raised ValueError in the checker (the 10^7 PID run, seed 7601).
+    import numpy as np
+
+    from ctrlblocks.blocks.fuzz import _snap_equal
+
+    w = np.array([1.0, np.nan, 3.0], dtype=np.float32)
+    assert _snap_equal({"_plc_state": {"win": w}}, {"_plc_state": {"win": w.copy()}})
+    assert not _snap_equal({"win": w}, {"win": np.array([1.0, np.nan, 3.5], np.float32)})
+    assert not _snap_equal({"win": w}, {"win": w[:2]})
+    assert _snap_equal(np.array([1.0]), np.array([1.0 + 1e-13]), 1e-12)
+    assert not _snap_equal(np.array([1.0]), np.array([1.0 + 1e-11]), 1e-12)

@@ -381,11 +381,27 @@ def _snap_equal(a: Any, b: Any, tol: float = 0.0) -> bool:
         if type(a) is list and type(b) is list and _plain_equal(a, b):
             return True  # a moving average's buffer: compared at C speed
         return len(a) == len(b) and all(_snap_equal(x, y, tol) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return _arrays_equal(np.asarray(a), np.asarray(b), tol)
     if a != a and b != b:  # NaN, also a numpy NaN (the float32 cycle's state)
         return True
     if tol and type(a) is float and type(b) is float:
         return _same(a, b, tol)
     return bool(a == b)
+
+
+def _arrays_equal(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    """:func:`_snap_equal` for arrays (the float32 PLC cycle's dead-band window):
+    same shape, NaN equal to NaN, floats to ``tol`` (relative)."""
+    if a.shape != b.shape:
+        return False
+    if a.dtype.kind not in "fc" or b.dtype.kind not in "fc":
+        return bool(np.array_equal(a, b))
+    x, y = a.astype(np.float64), b.astype(np.float64)
+    both_nan = np.isnan(x) & np.isnan(y)
+    with np.errstate(invalid="ignore", over="ignore"):
+        close = (x == y) | (np.abs(x - y) <= tol * np.maximum(1.0, np.maximum(abs(x), abs(y))))
+    return bool(np.all(close | both_nan))
 
 
 def _plain_equal(a: Any, b: Any) -> bool:
