@@ -197,7 +197,9 @@ def test_small_blocks_with_memory_are_fbs_instantiated_inside_the_pid():
     for decl in ("PT1_sp_f : CB_PT1;", "PT1_pv_f : CB_PT1;", "RAMP_sp_w : CB_RAMP;",
                  "LEADLAG_FF_ll_out : CB_LEADLAG_FF;"):  # fmt: skip
         assert decl in pid
-    assert not re.search(r"^\s+(sp_f|pv_f|sp_w|ll_x|ll_out) :", pid, re.M)
+    # no declaration of their memory (`sp_w : REAL`); a call may pass it (`sp_w := RAMP_sp_w.Y`)
+    assert not re.search(r"^\s+(sp_f|pv_f|sp_w|ll_x|ll_out) :(?!=)", pid, re.M)
+    assert re.search(r"^\s+sp_w := RAMP_sp_w\.Y,", pid, re.M)
     assert "PT1_pv_f.Y" in pid and "PT1_sp_f(" in pid
     assert "PT1_sp_f : \"CB_PT1\";" in plc.export(block, "tia")
     assert "#PT1_sp_f(" in plc.export(block, "tia") and "#PT1_pv_f.Y" in plc.export(block, "tia")
