@@ -545,3 +545,66 @@ flush_interval = 0.2
     np.testing.assert_allclose(pv, ref["ym"][:n], rtol=0, atol=1e-4)
     np.testing.assert_allclose(mv, ref["u"][:n], rtol=0, atol=1e-3)
     assert np.ptp(mv) > 0.1  # the loop did move
+
+
+# -- the cascade opened by the operator (the secondary in MAN) ----------------------------
+
+
+def _cascade_man(man: int, auto: int, ts: float = 0.1) -> str:
+    """:func:`cascade` with the secondary in MAN from sample ``man`` to ``auto``."""
+    return cascade(ts) + f"""
+[[events]]
+t = {man * ts}
+do = "mode"
+mode = "manual"
+manual_value = 0.5
+
+[[events]]
+t = {auto * ts}
+do = "mode"
+mode = "auto"
+"""
+
+
+def _commanded(monkeypatch, commands: dict[int, dict]):
+    """``run_in_memory``'s fault hook giving operator commands before the cycles named."""
+    made: list[Runtime] = []
+
+    class Recording(Runtime):
+        def __init__(self, *a, **kw):
+            super().__init__(*a, **kw)
+            made.append(self)
+
+    monkeypatch.setitem(globals(), "Runtime", Recording)
+
+    def hook(k: int, bus: MemoryBus) -> None:  # k samples recorded: before cycle k
+        if k in commands:
+            made[-1].loops["loop"].command(**commands[k])
+
+    return hook
+
+
+def test_cascade_primary_tracks_pv2_while_the_secondary_is_in_manual(monkeypatch):
+    """The operator's MAN on the secondary: the primary tracks pv2 (no windup), as simulated.
+
+    Before the fix the primary integrated its error for the 12 s in MAN
+    (the setpoint step of the scenario is not reached with the MV at 0.5).
+    """
+    man, auto, n = 80, 200, 300
+    sc = parse_scenario(_cascade_man(man, auto))
+    hook = _commanded(monkeypatch, {man: {"mode": "manual", "manual_value": 0.5},
+                                    auto: {"mode": "auto"}})  # fmt: skip
+    rows, rt = run_in_memory(sc, n, fault=hook)
+    ref = simulate(sc, sc.controllers[0].name).signals
+    mv, pv2 = arrays(rows, "mv", "m_pv2")
+    np.testing.assert_array_equal(mv, ref["u"][:n])
+    np.testing.assert_array_equal(pv2, ref["y2"][:n])
+    assert np.all(mv[man:auto] == 0.5)
+    np.testing.assert_array_equal(ref["sp2"][man:auto], ref["y2"][man:auto])
+    assert abs(mv[auto] - mv[auto - 1]) < 1e-9  # bumpless back to AUTO
+    # in MAN the faceplate shows the primary in AUTO with its output = pv2
+    rows, rt = run_in_memory(sc, 150, fault=hook)
+    st = rt.state("loop")
+    assert st["blocks"]["primary"]["mode"] == "auto"
+    assert st["blocks"]["secondary"]["mode"] == "manual"
+    assert st["signals"]["sp2"] == st["measurements"]["pv2"]

@@ -123,6 +123,45 @@ def test_cascade_on_the_lane_equals_the_python_path(caplog):
     assert not np.array_equal(sig["handshake"]["sp2"], sig["no handshake"]["sp2"])
 
 
+# the secondary in MAN for 60 s while the primary's setpoint steps (a primary error)
+CASCADE_MAN = (
+    HEAD.format(structure="cascade", duration=120.0, initial="y = 0.5\nwarmup = 2.0")
+    + _table("inner_plant", type="PT1", k=1.0, t=1.5)
+    + _table("plant", type="FOPDT", k=1.5, t=8.0, dead_time=1.0)
+    + _table("actuator", u_min=0.0, u_max=1.2)
+    + "".join(_table("[events]", **ev) for ev in [
+        dict(t=10.0, do="mode", mode="manual", manual_value=0.5),
+        dict(t=20.0, do="setpoint", value=1.4), dict(t=40.0, do="load", at="inner", value=0.1),
+        dict(t=45.0, do="manual_value", value=0.6),
+        dict(t=70.0, do="mode", mode="auto")])
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("primary", ["PID", "ADRC"])
+def test_cascade_primary_tracks_y2_while_the_secondary_is_in_manual(primary, caplog):
+    """The cascade opened by the operator: no windup of the primary, bumpless back.
+
+    Before the fix the primary integrated its error of 60 s and the return to
+    AUTO (secondary bumpless, primary not) drove the secondary's setpoint
+    from its limit.  Now (both engines) the primary's output equals ``y2``
+    in every sample in MAN, and the first sample back in AUTO moves neither
+    the MV nor the secondary's setpoint.
+    """
+    prim = (_pid(1.5, 8.0, -1.0, 3.0) if primary == "PID" else
+            'type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.3\nomega_o = 1.5\n'
+            "u_min = -1.0\nu_max = 3.0\n")  # fmt: skip
+    text = CASCADE_MAN + _cascade("c", prim, _pid(2.0, 1.0, 0.0, 1.2), "aw_handshake = false\n")
+    sig = _same(text, caplog).runs[0].signals
+    t, u, sp2, y2, sp, ym = (sig[k] for k in ("t", "u", "sp2", "y2", "sp", "ym"))
+    man = (t >= 10.0 - 1e-9) & (t < 70.0 - 1e-9)
+    assert set(u[man]) == {0.5, 0.6} and np.all(sp2[man] == y2[man])
+    assert np.ptp(y2[man]) > 0.09  # y2 moved and the primary followed it
+    assert sp[man][-1] - ym[man][-1] > 0.3  # the primary's error was there all along
+    k = int(np.searchsorted(t, 70.0 - 1e-9))
+    assert abs(u[k] - u[k - 1]) < 1e-9 and abs(sp2[k] - sp2[k - 1]) < 1e-9
+    assert sp2[k + 20] > sp2[k] + 0.1  # then the primary acts on its error again
+
+
 def test_cascade_with_an_adrc_primary_and_the_handshake_is_refused_by_name(caplog):
     adrc = 'type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.3\nomega_o = 1.5\n'
     sc = parse_scenario(CASCADE + _cascade("A", adrc, _pid(2.0, 1.0, 0.0, 1.2)))

@@ -98,3 +98,76 @@ def test_parse_controller_names_the_key_path():
             file="rt.toml",
         )
     assert ei.value.key == "loops[2].secondary.kp"
+
+
+# -- the cascade while the secondary is not in AUTO ---------------------------------
+
+
+def pi(kp: float, ti: float, **extra) -> dict:
+    return {"type": "PID", "kp": kp, "ti": ti, "u_min": -100.0, "u_max": 100.0, **extra}
+
+
+ADRC_PRIMARY = {"type": "ADRC", "order": 1, "b0": 0.5, "omega_c": 1.0, "omega_o": 5.0,
+                "u_min": -100.0, "u_max": 100.0}  # fmt: skip
+
+
+@pytest.mark.parametrize("primary", [pi(2.0, 1.0), ADRC_PRIMARY], ids=["PID", "ADRC"])
+def test_cascade_primary_tracks_y2_while_the_secondary_is_in_manual(primary):
+    """Secondary in MAN with a primary error: the primary tracks y2, no windup, bumpless back."""
+    s = side("cascade", {"primary": primary, "secondary": pi(1.0, 2.0)})
+    prim, sec = s.blocks["primary"], s.blocks["secondary"]
+    for _ in range(20):  # in auto: y2 settles where the plant is held
+        s.step(1.0, 0.2, y2=0.3)
+    s.set_manual(True, 0.5)
+    assert sec.manual and not prim.manual
+    y2 = [0.3 + 0.01 * math.sin(0.1 * k) for k in range(2000)]
+    for k, y2k in enumerate(y2):  # 200 s with the primary's error 1.0 - 0.2 = 0.8
+        u = s.step(1.0, 0.2, y2=y2k)
+        assert u == 0.5
+        # the primary's output is the secondary's measurement: no windup
+        assert s.values["sp2"] == y2k, k
+    # the mode inputs are the user's again after every sample
+    assert prim.mode.name == "AUTO" and not getattr(prim, "track", False)
+    assert prim.manual_value == pytest.approx(y2[-1], abs=1e-15)  # In/Out follows the output
+    s.set_manual(False)
+    u = s.step(1.0, 0.2, y2=y2[-1])
+    assert abs(u - 0.5) < 1e-9  # the MV does not move in the first sample back in AUTO
+    assert abs(s.values["sp2"] - y2[-1]) < 1e-9  # the primary continues from y2
+    for _ in range(5):  # then the primary acts on its error again
+        s.step(1.0, 0.2, y2=y2[-1])
+    assert s.values["sp2"] > y2[-1] + 1e-3
+
+
+def test_cascade_primary_in_manual_by_the_user_keeps_its_manual_value():
+    s = side("cascade", {"primary": pi(2.0, 1.0), "secondary": pi(1.0, 2.0)})
+    prim = s.blocks["primary"]
+    s.step(1.0, 0.2, y2=0.3)
+    prim.manual, prim.manual_value = True, 0.7
+    s.set_manual(True, 0.5)
+    for _ in range(50):
+        s.step(1.0, 0.2, y2=0.3)
+        assert s.values["sp2"] == 0.7  # not overridden by the tracking
+    assert prim.manual and prim.manual_value == 0.7 and not prim.track
+    s.set_manual(False)  # the secondary back in AUTO: the primary stays in manual
+    s.step(1.0, 0.2, y2=0.3)
+    assert s.values["sp2"] == 0.7 and prim.manual
+
+
+def test_cascade_primary_holds_on_a_bad_y2_while_the_secondary_is_in_manual():
+    s = side("cascade", {"primary": pi(2.0, 1.0), "secondary": pi(1.0, 2.0)})
+    s.set_manual(True, 0.5)
+    s.step(1.0, 0.2, y2=0.3)
+    assert s.values["sp2"] == 0.3
+    for _ in range(20):
+        s.step(1.0, 0.2, y2=math.nan, y2_ok=False)
+        assert s.values["sp2"] == 0.3  # the last output held: no windup, no error
+    assert s.blocks["primary"].error_id == 0
+
+
+def test_cascade_the_secondary_in_manual_makes_the_primary_windup_free_in_a_runaway_case():
+    """200 s of a primary error of 0.8: the old wiring integrated the primary to its limit 100."""
+    s = side("cascade", {"primary": pi(2.0, 1.0), "secondary": pi(1.0, 2.0)})
+    s.set_manual(True, 0.5)
+    for _ in range(2000):
+        s.step(1.0, 0.2, y2=0.3)
+    assert abs(s.blocks["primary"].out - 0.3) < 1e-12

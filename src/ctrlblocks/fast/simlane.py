@@ -29,7 +29,8 @@ The wirings (``ctrlblocks.loops.structures``, ``Structure.compiled_lane``):
     the primary's output is the secondary's setpoint; the secondary (on
     ``y2``, the inner plant's output) writes the MV; its ``awout`` freezes
     the primary's integrator in the next sample (``awin``, Åström 1987,
-    section 3 "Cascade Control").
+    section 3 "Cascade Control"); while the secondary is in manual the
+    primary (in auto) tracks ``y2`` (``Cascade.follow_value``).
 ``override``
     two controllers (each on ``y`` or ``y2``, on ``sp`` or a fixed setpoint);
     a min or max selector picks the MV and both track it (Åström 1987,
@@ -150,7 +151,7 @@ def _compute(kind, p, a, s, sp, y, ff, man, awin):
 
 
 @jitable
-def _commit(kind, p, s, pend, man, applied):
+def _commit(kind, p, s, pend, man, applied, track):
     """UpdateState of one controller with ``applied`` (its own output or the selected MV).
 
     PID (``PID.update_state``): in auto the integrator tracks ``applied``
@@ -159,10 +160,14 @@ def _commit(kind, p, s, pend, man, applied):
     ``P + I + D + FF = applied``; ADRC (``ADRC.update_state``): ``applied``
     is the ESO's input of the next sample.  In auto the manual value follows
     ``applied`` (In/Out).  A non-finite ``applied`` counts as the output.
+    ``track``: the cycle was computed in manual (``man``) to track a value
+    the user did not set (the cascade's primary, :func:`_control`): held as
+    in manual, but the manual value follows ``applied`` as in the PID's
+    TRACK mode and the ADRC's auto.
     """
     out = pend[0]
     u = applied if math.isfinite(applied) else out
-    um = s[9] if man else u
+    um = s[9] if man and not track else u
     if kind == _PID:
         v_raw, pt, i_k, dn, w, e, ff = pend[1], pend[2], pend[3], pend[4], pend[5], pend[6], pend[7]
         if man:
@@ -189,8 +194,14 @@ def _control(wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
     cascade = wiring == _CASCADE
     override = wiring == _OVERRIDE
     r0 = sp_fix[0] if override and not math.isnan(sp_fix[0]) else sp
-    v1, aw1, pd0 = _compute(kinds[0], p0, a0, s0, r0, y2 if override and on_y2[0] else yc,
-                            ff, m0, awin)  # fmt: skip
+    # the cascade is open (the secondary in manual, the primary in auto): the primary
+    # tracks y2 (its last output if y2 is not finite), Cascade.follow_value
+    track = cascade and m1 and not m0
+    c0 = s0
+    if track:
+        c0 = _with_um(s0, y2 if math.isfinite(y2) else s0[4])
+    v1, aw1, pd0 = _compute(kinds[0], p0, a0, c0, r0, y2 if override and on_y2[0] else yc,
+                            ff, m0 or track, awin)  # fmt: skip
     u, v2, pd1 = v1, 0.0, pd0
     if cascade or override:
         r1 = v1 if cascade else (sp if math.isnan(sp_fix[1]) else sp_fix[1])
@@ -200,11 +211,11 @@ def _control(wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
         # first of equal values as Python's
         pick = (v2 if v2 > v1 else v1) if sel_max else (v2 if v2 < v1 else v1)
         u = v2 if cascade else pick
-        s1 = _commit(kinds[1], p1, s1, pd1, m1, u)
+        s1 = _commit(kinds[1], p1, s1, pd1, m1, u, False)
         if cascade and hs:
             awin = aw1  # the secondary's awout, read by the primary in the next sample
     ok = math.isfinite(v1) and math.isfinite(v2)
-    s0 = _commit(kinds[0], p0, s0, pd0, m0, v1 if cascade else u)
+    s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1 if cascade else u, track)
     if cascade:
         return u, v1, 0.0, ok, s0, s1, awin
     return u, v1, v2, ok, s0, s1, awin

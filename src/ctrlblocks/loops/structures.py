@@ -21,8 +21,9 @@ computational order (Åström 1987, section 6, Listing 6.3):
    feed-forward structure) -- *Adin*;
 2. :meth:`ControllerSide.compute` -- *ComputeOutput* of every block and
    *ShapeOutput* (the primary's output is the secondary's setpoint; the min
-   or max selector of an override) -- returns the MV; no block state is
-   committed;
+   or max selector of an override; while a cascade's secondary is not in
+   AUTO its primary tracks ``y2``, :meth:`Cascade.follow_value`) -- returns
+   the MV; no block state is committed;
 3. the caller writes the MV -- *Daout*;
 4. :meth:`ControllerSide.update` -- *UpdateState* of every block with the
    value actually applied (the secondary's ``awout`` goes to the primary's
@@ -71,7 +72,7 @@ import inspect
 import math
 from typing import Any, ClassVar
 
-from ..blocks.base import ParameterError
+from ..blocks.base import Mode, ParameterError
 from ..blocks.leadlag import LeadLag
 from ..blocks.pid import PID
 from ..blocks.protocols import Controller
@@ -175,6 +176,48 @@ def _has_ff(fn: Any) -> bool:
 def _takes_ff(cls: type) -> bool:
     """Whether ``compute_output`` of the two-phase blocks of ``cls`` takes ``ff`` (read once)."""
     return _has_ff(cls.compute_output)
+
+
+def _in_auto(block: Any) -> bool:
+    """Whether ``block`` runs its own law (``mode`` AUTO; without a mode: not ``manual``)."""
+    mode = getattr(block, "mode", None)
+    if mode is not None:
+        return mode == Mode.AUTO
+    return not getattr(block, "manual", False)
+
+
+def _follow(block: Any, value: float) -> tuple[str, Any, Any] | None:
+    """Make ``block`` output ``value`` in the next compute; what :func:`_restore` puts back.
+
+    A block with a track input (the PID: mode TRACK, ``track_value``, Åström
+    1987, Fig. 4.4: the integrator is set so that ``P + I + D + FF`` is the
+    output, and the first cycle back in AUTO continues from it) tracks;
+    one with only a manual mode (the ADRC) runs that cycle in manual at
+    ``value``, which solves x4 by (11) of Nowak et al. 2018 and re-solves it
+    in its first cycle back in AUTO.  The mode inputs are the user's: they
+    are put back right after the compute (the blocks commit the mode of the
+    computed cycle, so the manual value still follows the output, In/Out).
+    """
+    if hasattr(block, "track"):
+        saved = ("track", block.track, block.track_value)
+        block.track, block.track_value = True, value
+        return saved
+    if hasattr(block, "manual") and hasattr(block, "manual_value"):
+        saved = ("manual", block.manual, block.manual_value)
+        block.manual, block.manual_value = True, value
+        return saved
+    return None  # a block with neither runs its own law
+
+
+def _restore(block: Any, saved: tuple[str, Any, Any] | None) -> None:
+    """Put back the mode inputs :func:`_follow` changed."""
+    if saved is None:
+        return
+    name, on, value = saved
+    if name == "track":
+        block.track, block.track_value = on, value
+    else:
+        block.manual, block.manual_value = on, value
 
 
 def set_manual(block: Any, on: bool, value: float | None = None) -> None:
@@ -505,10 +548,40 @@ class Cascade(Structure):
         return {role: r.role(e, role, key, ts) for role in self.roles}, {"aw_handshake": hs}
 
     def compute(self, side, sp, m):
-        v1 = side.ctrls["primary"].output(sp, m.y, m.y_ok, dt=m.dt)
+        prim = side.blocks["primary"]
+        follow = self.follow_value(side, m)
+        if follow is None:
+            v1 = side.ctrls["primary"].output(sp, m.y, m.y_ok, dt=m.dt)
+        else:  # the cascade is open: the primary tracks (restored right after its compute)
+            saved = _follow(prim, follow)
+            try:
+                v1 = side.ctrls["primary"].output(sp, m.y, m.y_ok, dt=m.dt)
+            finally:
+                _restore(prim, saved)
         u = side.ctrls["secondary"].output(v1, m.y2, m.y2_ok, dt=m.dt)
         side.pending = (v1,)
         return u, {"sp2": v1}
+
+    def follow_value(self, side: ControllerSide, m: _Measured) -> float | None:
+        """What the primary tracks in this sample, or None: it runs in its own mode.
+
+        While the secondary is not in AUTO (the operator's manual acts on
+        it) the cascade is open: the primary's output would wind up against a
+        setpoint nobody follows.  It tracks the secondary's measurement ``y2``
+        instead, the setpoint that makes the secondary's error zero
+        (Åström 1987, section 3, "Cascade Control" and tracking; Åström &
+        Hägglund 2006, cascade control), so that closing the cascade again is
+        bumpless for both loops.  Only a primary in AUTO is made to track (a
+        primary the user put in manual keeps its manual value); a bad ``y2``
+        holds the primary's last output.
+        """
+        prim, sec = side.blocks["primary"], side.blocks["secondary"]
+        if _in_auto(sec) or not _in_auto(prim):
+            return None
+        if m.y2_ok and math.isfinite(m.y2):
+            return float(m.y2)
+        held = _num(getattr(prim, "out", math.nan))
+        return held if math.isfinite(held) else None
 
     def hold_for_warmup(self, side, u0, y2):
         # the primary's output is the secondary's setpoint: y2 in the steady state
