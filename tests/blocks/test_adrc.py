@@ -677,32 +677,113 @@ def test_reference_trajectory_starts_from_the_measurement_after_manual() -> None
     assert block.y_ref == pytest.approx(a * 0.7 + (1 - a) * 3.0, abs=1e-12)
 
 
-@pytest.mark.parametrize(
-    "change",
-    [
-        {"b0": 0.08},
-        {"omega_c": 0.5},
-        {"omega_o": 1.2},
-        {"order": 3, "b0": 0.025},
-        {"order": 1, "b0": 0.3, "omega_o": 0.9, "omega_c": 0.3},
-        {"discretisation": "exact"},
-    ],
-)
-def test_online_retuning_is_bumpless(change: dict) -> None:
+RETUNES = [
+    {"b0": 0.08},
+    {"omega_c": 0.5},
+    {"omega_o": 1.2},
+    {"order": 3, "b0": 0.025},
+    {"order": 1, "b0": 0.3, "omega_o": 0.9, "omega_c": 0.3},
+    {"discretisation": "exact"},
+]
+
+
+def law(block: ADRC) -> float:
+    """(4b) of the tuning in force on the block's committed states, written out."""
+    g, (yh, x2, x3, x4) = block.gains, block.x
+    return (g["kp"] * (block.y_ref - yh) - g["kd1"] * x2 - g["kd2"] * x3 - x4) / block.config.b0
+
+
+@pytest.mark.parametrize("change", RETUNES)
+def test_online_retuning_keeps_the_law_and_runs_the_new_one_from_the_same_sample(
+    change: dict,
+) -> None:
     block = make(2, u_min=0.0, u_max=5.0)
     plant = PTn(k=K10B, t=T10B, ts=TS)
     for _ in range(60):  # in the transient of a setpoint step
         u = block(2.0, plant.y)
         plant.step(u)
+    assert 0.0 < u < 5.0
+    y_hat, x2, _, _ = block.x
     block.configure(**change)
+    # at the instant of the change the new law gives the last output on the same states:
+    # only x4 moved (Åström & Hägglund 2006, bumpless parameter change; Nowak et al. 2018, (11))
+    assert law(block) == pytest.approx(u, rel=1e-12)
+    assert block.x[0] == y_hat
+    assert block.x[1] == (x2 if block.config.order >= 2 else 0.0)
+    if block.config.order < 3:
+        assert block.x[2] == 0.0
+    # ... and the next cycle is the new tuning's own cycle from those states, not a hold
+    twin = ADRC(block.config)
+    twin.load_kernel_state(block.kernel_state())
+    twin.out = twin.u_raw = u
     u_new = block(2.0, plant.y)
-    assert abs(u_new - u) < 1e-9
+    assert u_new == twin(2.0, plant.y)
+    assert u_new != u  # not held for a sample (the defect of the earlier retune)
     plant.step(u_new)
     for _ in range(3000):
         plant.step(block(2.0, plant.y))
     assert plant.y == pytest.approx(2.0, abs=1e-4)
-    if block.config.order < 3:
-        assert block.x[2] == 0.0
+
+
+def test_a_b0_retune_in_a_transient_moves_u_by_a_cycle_step_not_by_the_law_jump() -> None:
+    block = make(2, u_min=0.0, u_max=5.0)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    for _ in range(60):
+        u = block(2.0, plant.y)
+        plant.step(u)
+    naive = law(block) * 0.05 / 0.08  # the law of b0 = 0.08 on the unchanged states
+    assert abs(naive - u) > 1.0  # the bump a retune without the x4 shift would give
+    block.configure(b0=0.08)
+    assert abs(block(2.0, plant.y) - u) < 0.01  # measured: 0.0012
+
+
+@pytest.mark.parametrize("change", RETUNES)
+def test_online_retuning_at_rest_changes_nothing(change: dict) -> None:
+    block = make(2, u_min=0.0, u_max=5.0)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    for _ in range(4000):
+        u = block(2.0, plant.y)
+        plant.step(u)
+    block.configure(**change)
+    for _ in range(5):  # at rest the new law continues exactly from the old output
+        assert block(2.0, plant.y) == pytest.approx(u, abs=1e-9)
+
+
+def test_retune_x4_by_hand() -> None:
+    # order 1 (b0 = 1): u = kp (r - Y_hat) - x4; Y_hat = 0.2, x4 = -0.5, r = 1, kp = 1:
+    # u = 0.8 + 0.5 = 1.3.  Retuned to kp = 2: x4' = 2 * 0.8 - 1.3 = 0.3, and 2 * 0.8 - 0.3 = 1.3
+    from ctrlblocks.blocks.adrc import control_law, retune_x4
+
+    assert control_law(1.0, 0.2, 0.0, 0.0, -0.5, 1.0, 1.0, 0.0, 0.0) == pytest.approx(1.3)
+    x4 = retune_x4(1.0, 0.2, 0.0, 0.0, 1.3, 1.0, 2.0, 0.0, 0.0)
+    assert x4 == pytest.approx(0.3, abs=1e-15)
+    assert control_law(1.0, 0.2, 0.0, 0.0, x4, 1.0, 2.0, 0.0, 0.0) == pytest.approx(1.3)
+
+
+def test_a_retune_between_the_two_phases_applies_to_the_cycle_being_committed() -> None:
+    a, b = make(2, u_min=0.0, u_max=5.0), make(2, u_min=0.0, u_max=5.0)
+    for k in range(30):
+        a(2.0, 0.01 * k)
+        b(2.0, 0.01 * k)
+    v = a.compute_output(2.0, 0.3)
+    a.configure(omega_c=0.5)  # after compute_output, before update_state
+    a.update_state(v)
+    b(2.0, 0.3)
+    b.configure(omega_c=0.5)  # the same change after the whole cycle
+    assert a.x == pytest.approx(b.x, rel=1e-12)
+    assert a(2.0, 0.31) == pytest.approx(b(2.0, 0.31), rel=1e-12)
+
+
+def test_a_retune_in_manual_or_before_the_first_measurement_is_solved_by_11() -> None:
+    block = make(2)
+    block.configure(b0=0.1)  # not started: the first cycle starts the ESO at rest
+    assert block(1.0, 0.0) == 0.0
+    block.manual, block.u_man = True, 2.0
+    block(1.0, 0.0)
+    block.configure(omega_c=0.5)
+    assert block(1.0, 0.0) == 2.0  # MAN: x4 solved for u_man every cycle
+    block.manual = False
+    assert block(1.0, 0.0) == pytest.approx(2.0, abs=1e-9)  # bumpless MAN -> AUTO
 
 
 def test_limits_change_is_not_a_retune() -> None:

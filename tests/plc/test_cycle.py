@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import functools
+import inspect
 import math
 
 import numpy as np
@@ -313,7 +314,8 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     kernel = getattr(pc, f"{kind}_step")
 
     def spy(*args):
-        seen.append(args[-1])
+        bound = inspect.signature(kernel).bind(*args).arguments
+        seen.append(bound["prm"])
         return kernel(*args)
 
     monkeypatch.setattr(pc, f"{kind}_step", spy)

@@ -296,9 +296,9 @@ STEPPER = 'structure = "three_step"\nmain = { type = "PID", kp = 1.0 }\nstepper 
         ),
         (
             'structure = "scheduled"\nmain = { type = "ADRC", b0 = 1.0 }\n'
-            'schedule = { on = "y", breakpoints = [0.0], b0 = [1.0] }\n',
+            'schedule = { on = "w", breakpoints = [0.0], b0 = [1.0] }\n',
             "loops[0].schedule.on",
-            "needs a PID",
+            "must be 'sp' or 'y'",
         ),
     ],
 )  # fmt: skip

@@ -93,13 +93,22 @@ def test_output_stage_and_schedule_errors_name_the_key(structure, table, key, pr
     assert e.value.key == f"controllers[0].{key}" and problem in e.value.problem, str(e.value)
 
 
-def test_a_schedule_on_the_measurement_needs_a_pid():
+def test_an_adrc_scheduled_on_the_measurement_keeps_acting():
+    # refused before the ADRC's retune kept acting (it held its output for the sample of
+    # every retune, so a schedule on y, which retunes every sample, froze it)
     adrc = HEAD.format(structure="scheduled", extra="").replace(
-        'type = "PID"\nkp = 1.0\nti = 5.0', 'type = "ADRC"\norder = 1\nb0 = 0.2'
+        'type = "PID"\nkp = 1.0\nti = 5.0',
+        'type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.5\nomega_o = 1.2',
     )
-    with pytest.raises(ScenarioError) as e:
-        parse_scenario(adrc + '[controllers.schedule]\non = "y"\nbreakpoints = [0.0]\nb0 = [0.2]\n')
-    assert e.value.key == "controllers[0].schedule.on" and "needs a PID" in e.value.problem
+    sc = parse_scenario(
+        adrc + '[controllers.schedule]\non = "y"\nbreakpoints = [0.0, 2.0]\n'
+        'omega_c = [0.3, 0.6]\n[[events]]\nt = 1.0\ndo = "setpoint"\nvalue = 1.0\n'
+    )
+    s = simulate(sc, "c").signals
+    moving = slice(3, None)  # from the sample after the setpoint step on, y moves
+    assert np.all(np.diff(s["omega_c"][moving]) != 0.0)  # so it retunes every sample
+    assert np.all(np.diff(s["u"][moving]) != 0.0)  # and the MV moves on in every one
+    assert s["y"][-1] > 0.5  # towards the setpoint 1 (PT1 of 5 s, 9 s after the step)
 
 
 def test_a_schedule_on_the_measurement_retunes_every_sample_and_keeps_acting():

@@ -160,6 +160,7 @@ __all__ = [
     "eso_euler",
     "eso_exact",
     "euler_pole_polynomial",
+    "retune_x4",
 ]
 
 #: Largest ``a = omega ts`` for which every root of the Euler image ``P_m``
@@ -373,6 +374,32 @@ def solve_x4(
     return yh + s_yh * d, x2 + s_x2 * d, x3 + s_x3 * d, x4 + d
 
 
+def retune_x4(
+    r: float,
+    yh: float,
+    x2: float,
+    x3: float,
+    u_keep: float,
+    b0: float,
+    kp: float,
+    kd1: float,
+    kd2: float,
+) -> float:
+    """x4 for a retune: the new law (4b) gives ``u_keep`` on the last sample's states.
+
+    A bumpless parameter change (Åström & Hägglund 2006, "bumpless parameter
+    changes"; the principle of (11) of Nowak et al. 2018 applied at the instant
+    of the change): the committed ESO states ``Y_hat, x2, x3`` and the reference
+    ``r`` of the last sample stay, and the disturbance estimate takes the
+    difference of the old and the new law, so that the new law's value on
+    them, ``(kp (r - Y_hat) - kd1 x2 - kd2 x3 - x4) / b0``, is the old law's
+    ``u_keep``.  The next cycle then runs (4a)/(4b) of the new tuning in
+    full from these states: the output is continuous at the change, not held
+    for a sample (``b0, kp, kd1, kd2`` are the new law's).
+    """
+    return kp * (r - yh) - kd1 * x2 - kd2 * x3 - b0 * u_keep
+
+
 def anti_backoff_states(
     y_sat: float,
     r: float,
@@ -438,6 +465,7 @@ def adrc_step(
     u_prev: float,
     ref: float,
     prm: tuple[float, ...],
+    awin: bool = False,
 ) -> tuple[float, float, float, float, float, float, float, bool, int]:
     """One whole cycle of the Euler ADRC with ``applied = u``, from the functions above.
 
@@ -452,7 +480,9 @@ def adrc_step(
     measurement (the ESO then starts at rest on it); ``sat`` is +1/-1/0 when
     the previous raw output was above/below/inside the limits.  ``prm = (ts,
     b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3,
-    s_u, u_min, u_max, rule, a_ref)`` (``a_ref``: pole of the reference filter).
+    s_u, u_min, u_max, rule, a_ref)`` (``a_ref``: pole of the reference filter);
+    ``awin`` is the anti-windup input (a cascade's AW handshake, section 5:
+    x4 frozen this cycle).
 
     Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next)``.
     """
@@ -474,7 +504,7 @@ def adrc_step(
         yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
         return target, target, yh, x2, x3, x4, ref, manual, 0
     du = s_u * (z3 - x4)
-    if x4_update_allowed(int(rule), False, sat, du) == 1.0:
+    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
         yh, x2, x3, x4 = z0, z1, z2, z3
         u_raw = u_free
     else:
@@ -827,6 +857,7 @@ class ADRC(Block):
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
+        old_law = self._law if old is not None else (1.0, 0.0, 0.0, 0.0)
         self._prm: tuple[float, ...] | None = None
         self._lean = c.discretisation == "euler" and not c.u_real_on and not c.anti_backoff
         self._n = int(c.order)
@@ -848,12 +879,40 @@ class ADRC(Block):
             assert isinstance(old, ADRCConfig)
             tuning = ("order", "b0", "omega_c", "omega_o", "ts", "discretisation")
             if any(getattr(old, f) != getattr(c, f) for f in tuning):
-                # bumpless retuning: the next cycle re-solves x4 by (11)
-                self._track = True
-                if self._n < 3:
-                    self._x3 = 0.0
-                if self._n < 2:
-                    self._x2 = 0.0
+                self._retune(old_law)
+
+    def _retune(self, old_law: tuple[float, float, float, float]) -> None:
+        """Bumpless retuning at the instant of the change (:func:`retune_x4`).
+
+        The state the next cycle starts from (the committed one, or that of a
+        two-phase cycle computed but not yet committed) keeps its Y_hat, x2, x3
+        and reference; x4 takes the value that makes the new law (4b) give what
+        the old law gave on them.  When the order drops, the unused x2/x3 are
+        zeroed first.  Before the first measurement, in MAN and while x4 is to
+        be re-solved by (11) anyway (``_track``: after MAN, a bad measurement, a
+        failed cycle) the next cycle's (11) does it; so it does if the shift is
+        not finite (an overflowing law).
+        """
+        pend = self._pending
+        if pend is None:
+            yh, x2, x3, x4, ref = self._yh, self._x2, self._x3, self._x4, self._ref
+            started, track = self._started, self._track
+        else:
+            yh, x2, x3, x4, ref, started, track = pend[:7]
+        u_keep = control_law(ref, yh, x2, x3, x4, *old_law)
+        if self._n < 3:
+            x3 = 0.0
+        if self._n < 2:
+            x2 = 0.0
+        x4_new = retune_x4(ref, yh, x2, x3, u_keep, *self._law)
+        if not started or track or self.manual or not _NINF < x4_new < _INF:
+            track = True  # the next cycle re-solves x4 by (11)
+        else:
+            x4 = x4_new
+        if pend is None:
+            self._x2, self._x3, self._x4, self._track = x2, x3, x4, track
+        else:
+            self._pending = (yh, x2, x3, x4, ref, started, track, *pend[7:])
 
     def _coefficients(self, h: float) -> None:
         """Derive the per-cycle coefficients for the sample time ``h`` [s]."""

@@ -52,6 +52,7 @@ from .adrc import (
     control_law,
     eso_euler,
     eso_exact,
+    retune_x4,
     solve_x4,
     x4_update_allowed,
 )
@@ -964,6 +965,18 @@ def exact_coefficients(
     return f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2
 
 
+def law_gains(
+    n: int, b0: float, omega_c: float, omega_o: float, ts: float, exact: bool
+) -> tuple[float, float, float]:
+    """The control law's gains ``(kp, kd1, kd2)`` of (4b) for a tuning (Euler or exact)."""
+    if exact:
+        (_f01, _f02, _f03, _f12, _f13, _f23, _g0, _g1, _g2, _c0, _c1, _c2, _c3, kp, kd1,
+         kd2) = exact_coefficients(n, b0, omega_c, omega_o, ts)  # fmt: skip
+        return kp, kd1, kd2
+    _l1, _l2, _l3, _l4, kp, kd1, kd2 = bandwidth_gains(n, omega_c, omega_o)
+    return kp, kd1, kd2
+
+
 def discretisation_ok(n: int, omega_c: float, omega_o: float, ts: float, exact: bool) -> bool:
     """:func:`.adrc.discretisation_trusted` with its table spelled out (False: 16#8301)."""
     if exact:
@@ -1142,15 +1155,20 @@ def adrc_cycle(
     else:
         lim_err = BAD_LIMITS
     out = clamp(out, lo, hi)  # new limits contain the last output (ADRC.set_limits)
-    if tuned and (
+    retuned = tuned and (
         order != order_prev
         or b0 != b0_prev
         or omega_c != wc_prev
         or omega_o != wo_prev
         or ts != ts_prev
         or exact != exact_prev
-    ):
-        track = True  # bumpless retuning: x4 re-solved by (11) in this cycle
+    )
+    u_keep = 0.0
+    if retuned:
+        # bumpless retuning (ADRC._retune): the old law's value on the last states
+        kp_o, kd1_o, kd2_o = law_gains(order_prev, b0_prev, wc_prev, wo_prev, ts_prev,
+                                       exact_prev)  # fmt: skip
+        u_keep = control_law(ref, yh, x2, x3, x4, b0_prev, kp_o, kd1_o, kd2_o)
         if order < 3:
             x3 = 0.0
         if order < 2:
@@ -1178,6 +1196,13 @@ def adrc_cycle(
         f01, f02, f03, f12, f13, f23 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
         g0, g1, g2, c0, c1, c2, c3 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     s_u = -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0
+    if retuned:
+        # x4 so that the new law gives u_keep on them (retune_x4); (11) where it cannot
+        x4_new = retune_x4(ref, yh, x2, x3, u_keep, b0, kp, kd1, kd2)
+        if started and not track and not manual and is_real(x4_new):
+            x4 = x4_new
+        else:
+            track = True
     a_ref = pt1_coefficient(t_ref, ts, "exact")
     prm = (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3, s_u,
            lo, hi, float(aw_rule), a_ref)  # fmt: skip
@@ -1239,7 +1264,7 @@ def adrc_cycle(
         else:
             mv, u_raw, yh, x2, x3, x4, ref, track, sat = adrc_step(
                 r_in, y, manual, u_target, started, track or not sp_valid, sat,
-                yh, x2, x3, x4, u_prev, ref, prm,
+                yh, x2, x3, x4, u_prev, ref, prm, awin,
             )  # fmt: skip
         track = track or manual or not sp_valid
         started = True

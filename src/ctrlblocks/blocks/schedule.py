@@ -10,8 +10,9 @@ values outside the table, never extrapolating) and, when they changed,
 retunes the controller through its own ``configure`` -- which validates the
 values and retunes bumplessly (the PID moves its integrator so that its
 output is continuous at the change and runs the new law from that sample,
-``pid.retune_states``; the ADRC keeps its output through (11) of Nowak et
-al. 2018) -- before the controller computes its output.
+``pid.retune_states``; the ADRC moves its disturbance estimate x4 so that
+the new law (4b) of Nowak et al. 2018 gives the old law's value on the same
+states, ``adrc.retune_x4``) -- before the controller computes its output.
 
 The controller is always tuned for the schedule's present ``w``: a new
 schedule and ``reset()`` start at the first breakpoint ``w_0`` with the

@@ -1047,13 +1047,12 @@ class ScheduledStructure(Structure):
     parameter, its values at the breakpoints (``kp = [...]``, ``ti = [...]``).
     Every sample the schedule retunes the controller for ``w`` (through its
     ``configure``, bumplessly; only when the parameters change) before it
-    computes.  The PID's retune keeps the output continuous at the change and
-    runs the new law from the same sample (``pid.retune_states``), so a
+    computes.  The retune keeps the output continuous at the change and runs
+    the new law from the same sample (the PID's integrator by
+    ``pid.retune_states``, the ADRC's x4 by ``adrc.retune_x4``), so a
     schedule on the measurement, which retunes every sample, acts as the
-    interpolated law.  The ADRC re-solves its x4 by (11) of Nowak et al. 2018
-    at a retune, which holds its output for that sample: scheduled on the
-    measurement it would hold every sample, so ``on = "y"`` is refused for
-    it.  Signals: ``w`` (the scheduling variable) and the scheduled parameters.
+    interpolated law.  Signals: ``w`` (the scheduling variable) and the
+    scheduled parameters.
     """
 
     name = "scheduled"
@@ -1068,13 +1067,6 @@ class ScheduledStructure(Structure):
         on = table.pop("on", "sp")
         if on not in ("sp", "y"):
             raise r.fail(f"{skey}.on", f"must be 'sp' or 'y', got {on!r}")
-        if on == "y" and main.type != "PID":
-            raise r.fail(
-                f"{skey}.on",
-                f"on = 'y' needs a PID, got {main.type!r}: the ADRC holds its output in the "
-                "sample of a retune (x4 re-solved by (11) of Nowak et al. 2018), and a "
-                "schedule on the measurement retunes every sample (docs/structures.md)",
-            )
         bps = table.pop("breakpoints", None)
         if not isinstance(bps, list) or not table:
             raise r.fail(skey, "needs breakpoints = [...] and at least one parameter = [...]")
