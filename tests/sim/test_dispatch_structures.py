@@ -22,7 +22,7 @@ import pytest
 
 from ctrlblocks.fast._jit import HAVE_NUMBA
 from ctrlblocks.sim import parse_scenario, run_scenario
-from ctrlblocks.sim.dispatch import CompiledLaneError, simulate
+from ctrlblocks.sim.dispatch import simulate
 from ctrlblocks.sim.report import load_shipped
 
 pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled lane needs numba")
@@ -162,14 +162,22 @@ def test_cascade_primary_tracks_y2_while_the_secondary_is_in_manual(primary, cap
     assert sp2[k + 20] > sp2[k] + 0.1  # then the primary acts on its error again
 
 
-def test_cascade_with_an_adrc_primary_and_the_handshake_is_refused_by_name(caplog):
-    adrc = 'type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.3\nomega_o = 1.5\n'
-    sc = parse_scenario(CASCADE + _cascade("A", adrc, _pid(2.0, 1.0, 0.0, 1.2)))
-    with pytest.raises(CompiledLaneError, match="awin of a non-PID primary"):
-        simulate(sc, "A", engine="compiled", duration=5.0)
-    sc = parse_scenario(CASCADE + _cascade("A", adrc, _pid(2.0, 1.0, 0.0, 1.2),
-                                           "aw_handshake = false\n"))  # fmt: skip
-    simulate(sc, "A", engine="compiled", duration=5.0)
+def test_cascade_with_an_adrc_primary_and_the_handshake_on_the_lane_equals_python(caplog):
+    """The ADRC primary's awin (x4 frozen, Nowak et al. 2018, section 5) on the lane."""
+    adrc = ('type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.3\nomega_o = 1.5\n'
+            "u_min = -1.0\nu_max = 3.0\n")  # fmt: skip
+    sec, sec_adrc = _pid(2.0, 1.0, 0.0, 1.2), adrc.replace("b0 = 0.2", "b0 = 0.7")
+    text = CASCADE + "\n".join([
+        _cascade("handshake", adrc, sec),
+        _cascade("no handshake", adrc, sec, "aw_handshake = false\n"),
+        _cascade("ADRC / ADRC", adrc.replace("omega_c = 0.3", "omega_c = 0.4"),
+                 sec_adrc.replace("u_min = -1.0\nu_max = 3.0", "u_min = 0.0\nu_max = 1.2")),
+    ])  # fmt: skip
+    sig = {r.controller: r.signals for r in _same(text, caplog).runs}
+    assert sig["handshake"]["u"].max() == pytest.approx(1.2)  # the secondary at its limit
+    assert sig["ADRC / ADRC"]["u"].max() == pytest.approx(1.2)
+    # the handshake froze the primary's x4: another course than without it
+    assert np.max(np.abs(sig["handshake"]["sp2"] - sig["no handshake"]["sp2"])) > 0.05
 
 
 # -- override -----------------------------------------------------------------------

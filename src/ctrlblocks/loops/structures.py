@@ -74,7 +74,6 @@ from typing import Any, ClassVar
 
 from ..blocks.base import Mode, ParameterError
 from ..blocks.leadlag import LeadLag
-from ..blocks.pid import PID
 from ..blocks.protocols import Controller
 from ..blocks.pwm import PulseWidth
 from ..blocks.schedule import GainSchedule
@@ -526,13 +525,6 @@ class Cascade(Structure):
     series_plant = True
     tuned_roles = ()
     compiled_lane = "cascade"
-
-    def compiled_blockers(self, side):
-        bad = super().compiled_blockers(side)
-        if self.lane_options(side)["handshake"] and not isinstance(side.blocks["primary"], PID):
-            bad.append("primary: the AW handshake input awin of a non-PID primary is not in "
-                       "its kernel (aw_handshake = false runs compiled)")  # fmt: skip
-        return bad
 
     def lane_signals(self, side):
         return ("sp2",)

@@ -24,9 +24,9 @@ three-tank process (also as a cascade's inner plant or a Smith predictor's
 model), inside the scenario's actuator (range, rate, input load) and sensor
 (range, noise, output load), with setpoint steps and ramps, input, output
 and inner loads, the three-tank's outlet switch, mode and manual-value
-events, and the warm-up.  Everything else -- the other structures, an ADRC
-primary with the AW handshake, limits and ``set`` events, sensor faults,
-other plant switches, numba not installed -- runs the Python path.
+events, and the warm-up.  Everything else -- the other structures, limits
+and ``set`` events, sensor faults, other plant switches, numba not
+installed -- runs the Python path.
 
 The lane's traces equal the Python path's (same operations in the same
 order; tests/sim/test_dispatch.py and test_dispatch_structures.py compare
