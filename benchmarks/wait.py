@@ -28,8 +28,9 @@ Sections (targets of issue 18):
 * ``simulator``: the Nowak et al. 2018, Fig. 7 scenario through
   ``run_scenario`` (which dispatches its runs to the compiled lane) vs
   ``fast.closed_loop`` of the same six runs (<= 2x), and the forced Python path;
-* ``structures``: a cascade, an override, a feed-forward and a Smith-predictor
-  scenario through ``run_scenario`` on the compiled lane vs the Python path.
+* ``structures``: cascades (PID and ADRC primaries), overrides (two and three
+  blocks), a feed-forward and a Smith-predictor scenario through
+  ``run_scenario`` on the compiled lane vs the Python path.
 """
 
 from __future__ import annotations
@@ -522,6 +523,56 @@ t_lag = 1.0
 """
 
 
+# the cascade with an ADRC primary and the AW handshake (awin of the ADRC on the lane)
+CASCADE_ADRC_BENCH = CASCADE_BENCH.replace('name = "PID / PID"', 'name = "ADRC / PID"').replace(
+    'type = "PID"\nkp = 1.5\nti = 8.0\n',
+    'type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.3\nomega_o = 1.5\n',
+)
+
+# an override of three blocks (the lane's override kernel holds any number)
+OVERRIDE3_BENCH = _STRUCTURE_HEAD.format(name="override") + """
+[inner_plant]
+type = "PT1"
+k = 1.0
+t = 1.0
+[plant]
+type = "PT2"
+k = 2.0
+t1 = 4.0
+t2 = 1.0
+[actuator]
+u_min = -0.5
+u_max = 1.0
+[[controllers]]
+name = "three PIDs, min selector"
+selector = "min"
+[[controllers.blocks]]
+measure = "y"
+type = "PID"
+kp = 1.0
+ti = 3.0
+u_min = -0.5
+u_max = 1.0
+anti_windup = "back_calc_model"
+[[controllers.blocks]]
+measure = "y2"
+sp = 0.45
+type = "PID"
+kp = 6.0
+ti = 0.5
+u_min = -0.5
+u_max = 1.0
+[[controllers.blocks]]
+measure = "y"
+sp = 1.3
+type = "PID"
+kp = 2.0
+ti = 2.0
+u_min = -0.5
+u_max = 1.0
+"""
+
+
 def bench_structures(rounds: int) -> list[Row]:
     """Each structure's scenario through ``run_scenario``: the compiled lane vs the Python path."""
     from ctrlblocks.sim import parse_scenario, run_scenario
@@ -533,6 +584,8 @@ def bench_structures(rounds: int) -> list[Row]:
         "override (astrom_fig39: two PIDs, min selector)": fig39,
         "feed-forward (PID + lead-lag, PT2 with dead time)": parse_scenario(FEEDFORWARD_BENCH),
         "Smith predictor (nowak_smith: two ADRCs)": smith,
+        "cascade (ADRC / PID with the AW handshake)": parse_scenario(CASCADE_ADRC_BENCH),
+        "override of three blocks (three PIDs, min selector)": parse_scenario(OVERRIDE3_BENCH),
     }
 
     def timed(sc: object, engine: str) -> Callable[[], float]:

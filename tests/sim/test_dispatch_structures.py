@@ -22,7 +22,6 @@ import pytest
 
 from ctrlblocks.fast._jit import HAVE_NUMBA
 from ctrlblocks.sim import parse_scenario, run_scenario
-from ctrlblocks.sim.dispatch import simulate
 from ctrlblocks.sim.report import load_shipped
 
 pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled lane needs numba")
@@ -219,13 +218,26 @@ sp = {limit}
     assert np.any(auto & (v1 != v2) & (u == v1)) and np.any(auto & (v1 != v2) & (u == v2))
 
 
-def test_override_with_three_blocks_takes_the_python_path_and_says_why(caplog):
-    block = f"[[controllers.blocks]]\n{_pid(1.0, 3.0, -0.5, 1.0)}"
-    text = OVERRIDE + '[[controllers]]\nname = "three"\n' + block * 3
-    sc = parse_scenario(text)
-    with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
-        simulate(sc, "three", duration=2.0)
-    assert "3 blocks (the compiled lane selects between two)" in caplog.text
+@pytest.mark.parametrize(("selector", "n"), [("min", 3), ("max", 4)])
+def test_override_of_more_blocks_on_the_lane_equals_the_python_path(selector, n, caplog):
+    """Three and four blocks (the lane's override kernel holds any number), each selected."""
+    limits = [0.45, 0.2, 1.3] if selector == "min" else [0.35, 0.4, 0.9]
+    blocks = [("y", "sp", _pid(1.0, 3.0, -0.5, 1.0, "back_calc_model", b=0.5)),
+              ("y2", limits[0], _pid(6.0, 0.5, -0.5, 1.0)),
+              ("y", limits[2], _pid(2.0, 2.0, -0.5, 1.0)),
+              ("y2", limits[1], _pid(3.0, 1.0, -0.5, 1.0, "back_calc_model"))][:n]  # fmt: skip
+    text = OVERRIDE + f'[[controllers]]\nname = "{n}"\nselector = "{selector}"\n' + "".join(
+        f'[[controllers.blocks]]\nmeasure = "{m}"\nsp = {_toml(sp)}\n{pid}' for m, sp, pid in blocks
+    )
+    sig = _same(text, caplog).runs[0].signals
+    vs = np.array([sig[f"v{j + 1}"] for j in range(n)])
+    u = sig["u"]
+    pick = vs.min(axis=0) if selector == "min" else vs.max(axis=0)
+    auto = np.isclose(u, pick)
+    np.testing.assert_array_equal(u[auto], pick[auto])
+    chosen = {int(np.argmax(vs[:, k] == u[k])) for k in np.flatnonzero(auto)
+              if np.unique(vs[:, k]).size == n}  # fmt: skip
+    assert chosen == set(range(n))  # every block was selected at some time
 
 
 # -- feed-forward -------------------------------------------------------------------

@@ -88,6 +88,11 @@ jitable(leadlag_step)
 
 
 @jitable
+def _row8(a, j):
+    return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7])
+
+
+@jitable
 def _row10(a, j):
     return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
             a[j, 8], a[j, 9])  # fmt: skip
@@ -191,44 +196,30 @@ def _commit(kind, p, s, pend, man, applied, track):
 
 
 @jitable
-def _control(wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
-             sp, yc, y2, ff, m0, m1, awin):  # fmt: skip
-    """One sample of the controller side: ``(u, sig_a, sig_b, ok, s0, s1, awin)``.
+def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ff, m0, m1, awin):
+    """One sample of the controller side: ``(u, v1, ok, s0, s1, awin)``.
 
-    ``sig_a``/``sig_b`` are the wiring's signals (cascade: the secondary's
-    setpoint; override: both outputs); ``ok`` is False when an output is
-    not finite (the states are then not to be used).  Each controller is
-    computed and committed at one place (the compiled code inlines each
-    kernel twice, not once per wiring).
+    ``v1`` is the first controller's output (cascade: the secondary's
+    setpoint); ``ok`` is False when an output is not finite (the states are
+    then not to be used).  Each controller is computed and committed at one
+    place (the compiled code inlines each kernel once per controller).
     """
-    cascade = wiring == _CASCADE
-    override = wiring == _OVERRIDE
-    r0 = sp_fix[0] if override and not math.isnan(sp_fix[0]) else sp
     # the cascade is open (the secondary in manual, the primary in auto): the primary
     # tracks y2 (its last output if y2 is not finite), Cascade.follow_value
     track = cascade and m1 and not m0
     c0 = s0
     if track:
         c0 = _with_um(s0, y2 if math.isfinite(y2) else s0[4])
-    v1, aw1, pd0 = _compute(kinds[0], p0, a0, c0, r0, y2 if override and on_y2[0] else yc,
-                            ff, m0 or track, awin)  # fmt: skip
-    u, v2, pd1 = v1, 0.0, pd0
-    if cascade or override:
-        r1 = v1 if cascade else (sp if math.isnan(sp_fix[1]) else sp_fix[1])
-        v2, aw1, pd1 = _compute(kinds[1], p1, a1, s1, r1, y2 if cascade or on_y2[1] else yc,
-                                0.0, m1, False)  # fmt: skip
-        # cascade: the secondary's output; override: max(v1, v2) or min(v1, v2), the
-        # first of equal values as Python's
-        pick = (v2 if v2 > v1 else v1) if sel_max else (v2 if v2 < v1 else v1)
-        u = v2 if cascade else pick
+    v1, _aw0, pd0 = _compute(kinds[0], p0, a0, c0, sp, yc, ff, m0 or track, awin)
+    u, ok = v1, math.isfinite(v1)
+    if cascade:  # the secondary on y2, its setpoint the primary's output, writes the MV
+        u, aw1, pd1 = _compute(kinds[1], p1, a1, s1, v1, y2, 0.0, m1, False)
+        ok = ok and math.isfinite(u)
         s1 = _commit(kinds[1], p1, s1, pd1, m1, u, False)
-        if cascade and hs:
+        if hs:
             awin = aw1  # the secondary's awout, read by the primary in the next sample
-    ok = math.isfinite(v1) and math.isfinite(v2)
-    s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1 if cascade else u, track)
-    if cascade:
-        return u, v1, 0.0, ok, s0, s1, awin
-    return u, v1, v2, ok, s0, s1, awin
+    s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1, track)
+    return u, v1, ok, s0, s1, awin
 
 
 # ---------------------------------------------------------------------------
@@ -267,27 +258,24 @@ def _advance(fixed, st, buf, u, g5):
 @jit
 def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, ffp,
           act, sig, noise, out):  # fmt: skip
-    """The loop of :func:`lane_loop`; returns the first sample that is not finite, or -1.
+    """The loop of :func:`lane_loop` for the feed-forward, Smith and cascade wirings.
 
-    ``cfg = (wiring, selector max, on_y2[0], on_y2[1], sp_fix[0], sp_fix[1],
+    Returns the first sample that is not finite, or -1.  ``cfg = (wiring,
     handshake, warm-up samples, sp, y, y2, dv of the warm-up, mv[0], mv[1])``;
     plants: 0 the measured one, 1 the inner one (series), 2 and 3 the Smith
     predictor's models (with and without the dead time); ``ffp = (b0, b1, a1,
     lo, hi, x_prev, out)`` of the lead-lag; ``sig`` rows: sp, load_in,
     load_out, manual[0], manual[1], u_man (NaN: unchanged), outlet g3o, load
-    between the plants; ``out`` rows: y, ym, u, u_act, y2, sig_a, sig_b.
+    between the plants; ``out`` rows: y, ym, u, u_act, y2, the wiring's signal.
     """
     wiring = int(cfg[0])
-    sel_max = cfg[1] != 0.0
-    on_y2 = (cfg[2] != 0.0, cfg[3] != 0.0)
-    sp_fix = (cfg[4], cfg[5])
-    hs = cfg[6] != 0.0
-    mv0, mv1 = cfg[12] != 0.0, cfg[13] != 0.0
+    cascade = wiring == _CASCADE
+    hs = cfg[1] != 0.0
+    mv0, mv1 = cfg[7] != 0.0, cfg[8] != 0.0
     p0, p1 = _row13(pprm, 0), _row13(pprm, 1)
     a0, a1 = _row22(aprm, 0), _row22(aprm, 1)
     s0, s1 = _row10(cst, 0), _row10(cst, 1)
     awin = False
-    series = wiring >= _CASCADE  # cascade, override: the inner plant
     smith = wiring == _SMITH
     fx0, st0 = _plant(pk, pp, ps, pos, buf0, 0)
     fx1, st1 = _plant(pk, pp, ps, pos, buf1, 1)
@@ -297,13 +285,13 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     a_lo, a_hi, du, ua, y_lo, y_hi = act[0], act[1], act[2], act[3], act[4], act[5]
     sp_a, ld_in, ld_out, man0, man1 = sig[0], sig[1], sig[2], sig[3], sig[4]
     um_a, g3o, ld_mid = sig[5], sig[6], sig[7]
-    nw = int(cfg[7])
+    nw = int(cfg[2])
     # the warm-up (k < 0): every controller in manual, the plant held in its steady state
     # and measured without noise; then the n recorded samples
     for k in range(-nw, out.shape[1]):
         if k < 0:
-            sp, y, dv, m0, m1, yc = cfg[8], cfg[9], cfg[11], True, True, cfg[9]
-            y2 = cfg[10]
+            sp, y, dv, m0, m1, yc = cfg[3], cfg[4], cfg[6], True, True, cfg[4]
+            y2 = cfg[5]
         else:
             sp, dv, m0, m1, y2 = sp_a[k], ld_in[k], man0[k] != 0.0, man1[k] != 0.0, st1[4]
             y = st0[4] + ld_out[k]
@@ -321,10 +309,9 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
         if wiring == _FF:
             ff = leadlag_step(dv, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
             x_prev = dv
-        u, sa, sb, ok, s0, s1, awin = _control(
-            wiring, sel_max, on_y2, sp_fix, hs, kinds, p0, a0, s0, p1, a1, s1,
-            sp, yc, y2, ff, m0, m1, awin,
-        )  # fmt: skip
+        u, v1, ok, s0, s1, awin = _control(
+            cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ff, m0, m1, awin
+        )
         if k < 0:
             continue
         if not ok:
@@ -334,10 +321,9 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
         out[1, k] = ym
         out[2, k] = u
         out[3, k] = ua
-        if series:
+        if cascade:
             out[4, k] = y2
-            out[5, k] = sa
-            out[6, k] = sb
+            out[5, k] = v1
             st1 = _advance(fx1, st1, buf1, ua, fx1[3][5])
             st0 = _advance(fx0, st0, buf0, y2 + ld_mid[k], g3o[k])
         else:
@@ -418,6 +404,64 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
     return -1
 
 
+@jit
+def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_w, pk, pp, ps,
+              pos, buf0, buf1, act, sig, man, noise, out):  # fmt: skip
+    """The ``override`` wiring: any number of controllers, a min or max selector.
+
+    Every controller ``j`` (parameters and state: row ``j`` of ``pprm``,
+    ``aprm``, ``cst``; mode: ``man[j]``) computes on ``y`` or ``y2``
+    (``on_y2[j]``) with ``sp`` or its own setpoint (``sp_fix[j]``, NaN: ``sp``);
+    the selector picks the MV as Python's ``min``/``max`` (the first of equal
+    values) and every controller commits with it (Åström 1987, Figs.
+    3.8/3.9).  The process is the series of :func:`_lane` (plants 0 and 1);
+    ``out`` rows: y, ym, u, u_act, y2, then each controller's output.
+    """
+    nb = kinds.shape[0]
+    fx0, st0 = _plant(pk, pp, ps, pos, buf0, 0)
+    fx1, st1 = _plant(pk, pp, ps, pos, buf1, 1)
+    pend = np.empty((nb, 8))
+    v = np.empty(nb)
+    ua, um = act[3], math.nan
+    for k in range(-nw, out.shape[1]):  # k < 0: the warm-up, manual, plants held
+        if k < 0:
+            sp, y, ym, y2 = sp_w, y_w, y_w, y2_w
+        else:
+            sp, y2 = sig[0, k], st1[4]
+            y, ym, _m, um = _sense(st0, sig, noise, k, act, math.nan)
+            if not math.isfinite(ym):
+                return k
+        u, ok = math.nan, True
+        for j in range(nb):
+            if not math.isnan(um):  # a manual-value event acts on every block (the MV's)
+                cst[j, 9] = um
+            m = k < 0 or man[j, k] != 0.0
+            r = sp if math.isnan(sp_fix[j]) else sp_fix[j]
+            vj, _aw, pd = _compute(kinds[j], _row13(pprm, j), _row22(aprm, j), _row10(cst, j),
+                                   r, y2 if on_y2[j] else ym, 0.0, m, False)  # fmt: skip
+            for i in range(8):
+                pend[j, i] = pd[i]
+            v[j] = vj
+            ok = ok and math.isfinite(vj)
+            if j == 0 or (vj > u if sel_max else vj < u):
+                u = vj
+        for j in range(nb):
+            m = k < 0 or man[j, k] != 0.0
+            s = _commit(kinds[j], _row13(pprm, j), _row10(cst, j), _row8(pend, j), m, u, False)
+            for i in range(10):
+                cst[j, i] = s[i]
+        if k < 0:
+            continue
+        if not ok:
+            return k
+        ua, st1 = _drive(fx1, st1, buf1, out, k, y, ym, u, sig[1, k], ua, act, fx1[3][5])
+        st0 = _advance(fx0, st0, buf0, y2 + sig[7, k], sig[6, k])
+        out[4, k] = y2
+        for j in range(nb):
+            out[5 + j, k] = v[j]
+    return -1
+
+
 # ---------------------------------------------------------------------------
 # the public function
 # ---------------------------------------------------------------------------
@@ -435,10 +479,13 @@ def plant_blocker(model: Any) -> str | None:
 class LaneResult:
     """Traces of :func:`lane_loop` (arrays of ``n`` samples), or where it stopped."""
 
-    __slots__ = ("compiled", "sig_a", "sig_b", "stopped", "u", "u_act", "y", "y2", "ym")
+    __slots__ = ("compiled", "signals", "stopped", "u", "u_act", "y", "y2", "ym")
 
     def __init__(self, traces: np.ndarray, stopped: int, compiled: bool) -> None:
-        self.y, self.ym, self.u, self.u_act, self.y2, self.sig_a, self.sig_b = traces
+        self.y, self.ym, self.u, self.u_act, self.y2 = traces[:5]
+        self.signals = list(traces[5:])
+        """The wiring's signals (``Structure.lane_signals``): cascade ``sp2``,
+        override each block's output, feed-forward ``ff``, Smith ``y_pred``."""
         self.stopped = stopped
         """The first sample that was not finite (the traces stop there), or -1."""
         self.compiled = compiled
@@ -476,8 +523,8 @@ def lane_loop(
     inner_model: Any = None,
     models: Sequence[Any] = (),
     lead_lag: Any = None,
-    on_y2: Sequence[bool] = (False, False),
-    sp_fixed: Sequence[float] = (math.nan, math.nan),
+    on_y2: Sequence[bool] | None = None,
+    sp_fixed: Sequence[float] | None = None,
     selector_max: bool = False,
     handshake: bool = True,
     y2_warmup: float = math.nan,
@@ -491,8 +538,8 @@ def lane_loop(
     wiring : str
         One of :data:`WIRINGS`.
     controllers : sequence of PID or ADRC
-        One block (two for ``cascade``: primary, secondary; ``override``: the
-        two blocks), each in its state before the warm-up (not advanced).
+        One block (two for ``cascade``: primary, secondary; ``override``: its
+        blocks, two or more), each in its state before the warm-up (not advanced).
     model : LinearPlant (order <= 3) or ThreeTank
         The measured process model in its initial state (not advanced).
     u_man : sequence
@@ -524,7 +571,8 @@ def lane_loop(
         The feed-forward block (``feedforward``).
     on_y2, sp_fixed, selector_max : optional
         ``override``: per block whether it measures ``y2`` and its own
-        setpoint (NaN: ``sp``); a max selector instead of min.
+        setpoint (NaN: ``sp``; default: ``y`` and ``sp`` for every block); a
+        max selector instead of min.
     handshake : bool
         ``cascade``: the secondary's ``awout`` goes to the primary's ``awin``.
     compiled : bool
@@ -555,20 +603,30 @@ def lane_loop(
         ffp[:] = (b0, b1, a1, *lead_lag.output_limits(), snap["_x_prev"], lead_lag.out)
     n = signals["sp"].shape[0]
     man = list(signals["manual"])
+    nb = len(controllers)
     cfg = np.array([
-        code, selector_max, on_y2[0], on_y2[1], sp_fixed[0], sp_fixed[1], handshake,
-        warmup, sp_warmup, y_warmup, y2_warmup, dv_warmup, mv[0], mv[-1] if len(mv) > 1 else 0,
+        code, handshake, warmup, sp_warmup, y_warmup, y2_warmup, dv_warmup, mv[0],
+        mv[-1] if len(mv) > 1 else 0,
     ], dtype=float)  # fmt: skip
     sig = np.stack([
         signals["sp"], signals["load_in"], signals["load_out"], man[0], man[-1],
         signals["u_man"], signals["g3o"], signals.get("load_mid", np.zeros(n)),
     ])  # fmt: skip
-    traces = np.zeros((7, n))
+    traces = np.zeros((5 + (nb if code == _OVERRIDE else 1), n))
     traces[5:] = math.nan
     act = np.array([*actuator, *sensor], dtype=float)
     run = compiled and HAVE_NUMBA
     bufs = [a[3].copy() for a in arrays]
-    if code == 0:  # the single loop (the most common runs) has its own, leaner kernel
+    if code == _OVERRIDE:  # any number of blocks, their states in arrays
+        stopped = (_override if run else python_function(_override))(
+            kinds, pprm, aprm, cst,
+            np.array(on_y2 if on_y2 is not None else [False] * nb, dtype=np.bool_),
+            np.array(sp_fixed if sp_fixed is not None else [math.nan] * nb, dtype=float),
+            bool(selector_max), int(warmup), float(sp_warmup), float(y_warmup),
+            float(y2_warmup), pk, pp, ps, pos, bufs[0], bufs[1], act, sig,
+            np.array(man, dtype=float), noise, traces,
+        )  # fmt: skip
+    elif code == 0:  # the single loop (the most common runs) has its own, leaner kernel
         pid = kinds[0] == _PID
         stopped = (_single if run else python_function(_single))(
             tuple(pprm[0].tolist()) if pid else None, None if pid else tuple(aprm[0].tolist()),

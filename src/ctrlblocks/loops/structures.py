@@ -441,7 +441,7 @@ class Structure:
         return {}
 
     def lane_signals(self, side: ControllerSide) -> tuple[str, ...]:
-        """The names of the lane's signals ``sig_a``, ``sig_b`` (:attr:`ControllerSide.values`)."""
+        """The names of the lane's ``LaneResult.signals`` (:attr:`ControllerSide.values`)."""
         return ()
 
 
@@ -603,14 +603,8 @@ class Override(Structure):
     tuned_roles = ()
     compiled_lane = "override"
 
-    def compiled_blockers(self, side):
-        bad = super().compiled_blockers(side)
-        if len(side.override) != 2:
-            bad.append(f"{len(side.override)} blocks (the compiled lane selects between two)")
-        return bad
-
     def lane_signals(self, side):
-        return ("v1", "v2")
+        return tuple(f"v{i + 1}" for i in range(len(side.override)))
 
     def lane_options(self, side):
         return {

@@ -15,7 +15,7 @@
 
 The compiled lane runs the structures that have a wiring for it
 (:attr:`~ctrlblocks.loops.structures.Structure.compiled_lane`: ``single``,
-``cascade``, ``override`` with two blocks, ``feedforward`` with a lead-lag,
+``cascade``, ``override``, ``feedforward`` with a lead-lag,
 ``smith``; the structure decides:
 :meth:`~ctrlblocks.loops.structures.Structure.compiled_blockers`) with
 PIDs or ADRCs whose configuration its kernels cover (the blocks decide:
@@ -221,7 +221,7 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
     names = kind.lane_signals(side)
     if inner is not None:
         signals["y2"] = res.y2
-    signals |= dict(zip(names, (res.sig_a, res.sig_b)[: len(names)], strict=True))
+    signals |= dict(zip(names, res.signals[: len(names)], strict=True))
     signals["t"] = np.arange(n) * h
     return Run(
         scenario=sc.name,
