@@ -372,3 +372,30 @@ def test_steady_detector_kernel_is_the_steady_state_detector_block():
         assert steady == ref, k
         seen += steady
     assert 100 < seen < 550  # it was steady, and not always
+
+
+def test_float32_adrc_with_a_measured_cycle_time_every_cycle_keeps_controlling():
+    """A PLC that writes the measured cycle time to TS changes TS every cycle: a retune.
+
+    Before the ADRC's retune acted from the same cycle, each TS change held the MV for
+    the cycle and re-solved x4 by (11) in the next, so the REAL cycle (and the FB
+    exported from it) froze at its first output (4.9 here, for ever); the Euler law's
+    gains do not depend on TS, so the retune moves nothing and the loop runs as with
+    the float64 block.
+    """
+    from ctrlblocks.plants import PTn
+
+    runs = {}
+    for prec in ("float64", "float32"):
+        a = ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1, u_min=0.0, u_max=5.0,
+                 precision=prec)  # fmt: skip
+        plant = PTn(k=0.73, t=[7.3, 2.2, 1.4], ts=0.1)
+        outs = []
+        for k in range(600):
+            u = a(2.0, plant.y, dt=0.1 if k % 2 else 0.11)
+            plant.step(u)
+            outs.append(u)
+        runs[prec] = np.array(outs)
+    assert len(set(runs["float32"][:50])) == 50  # it moves every cycle
+    np.testing.assert_allclose(runs["float32"], runs["float64"], rtol=0, atol=1e-4)
+    assert runs["float32"][-1] == pytest.approx(2.0 / 0.73, abs=1e-4)  # offset-free
