@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import csv
+import importlib
 import math
 import sys
 
@@ -96,6 +97,18 @@ def test_dask_local_cluster_sweep_equals_the_serial_sweep():
     finally:
         ex.shutdown()
     _rows_equal(serial, on_dask)
+
+
+def test_the_scenario_text_is_read_once_and_never_changed_by_a_set():
+    sweep_mod = importlib.import_module("ctrlblocks.fast.sweep")  # the name is the function
+    text, file = read_scenario_text("nowak_fig7")
+    sweep_mod._document.cache_clear()
+    a = sweep_mod._scenario(text, file, {"controllers[2].kp": 5.0})
+    b = sweep_mod._scenario(text, file, {})  # a later set without that key
+    assert sweep_mod._document.cache_info().misses == 1  # one TOML read for both
+    assert a.controllers[2].blocks["main"].params["kp"] == 5.0
+    assert b.controllers[2].blocks["main"].params["kp"] == 6.31  # the file's, not 5.0
+    assert parse_scenario(text).controllers[2].blocks["main"].params["kp"] == 6.31
 
 
 def test_bad_value_is_refused_before_any_run():
