@@ -102,7 +102,11 @@ def test_errors_name_the_file_the_key_path_and_the_problem(tmp_path, change, key
     assert e.value.file == str(path)
     assert e.value.key == key
     assert words in e.value.problem
-    assert str(e.value).startswith(f"{path}: {key}: ")
+    assert str(e.value).startswith(f"{path}, line {e.value.line}: {key}: ")
+    # the line named writes the key (a missing key: the header of its table)
+    written = text.splitlines()[e.value.line - 1]
+    leaf = key.split("/")[0].rsplit(".", 1)[-1]
+    assert leaf in written if words != "missing" else written == "[[loops]]", written
 
 
 def test_an_mv_is_written_by_one_loop_only():

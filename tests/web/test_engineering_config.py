@@ -73,4 +73,8 @@ def test_bad_keys_are_refused_with_the_file_and_key_path(extra, tail, key, probl
     with pytest.raises(RuntimeConfigError) as exc:
         parse(extra, tail)
     assert exc.value.key == key and problem in exc.value.problem
-    assert str(exc.value).startswith(f"loops.toml: {key}: ")
+    assert str(exc.value).startswith(f"loops.toml, line {exc.value.line}: {key}: ")
+    # the line named is the one that writes the key (its first part inside the table)
+    written = (BASE + extra + tail).splitlines()[exc.value.line - 1]
+    first = key.split("].")[-1].split(".")[0] if "]" in key else key.split(".")[1]
+    assert written.startswith(f"{first} = "), (written, key)
