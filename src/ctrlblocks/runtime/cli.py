@@ -6,7 +6,7 @@ import asyncio
 import contextlib
 import logging
 import signal
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -60,15 +60,28 @@ def configure_logging(verbose: int) -> None:
 def run_until_stopped(runtime: Any) -> None:
     """Run ``runtime`` on a new event loop until SIGINT/SIGTERM, then stop it gracefully."""
 
-    from .historian import HistoryError
 
     async def main() -> None:
         _install_stop(asyncio.get_running_loop(), runtime.request_stop)
         await runtime.run()
 
-    try:
+    with start_errors():
         asyncio.run(main())
-    except HistoryError as exc:  # e.g. a historian file in a folder that does not exist
+
+
+@contextlib.contextmanager
+def start_errors() -> Iterator[None]:
+    """What refuses a runtime's start, as one line: the historian or the retain file.
+
+    E.g. a historian file in a folder that does not exist, a PostgreSQL server
+    that does not answer (never its DSN), a retain file that cannot be written.
+    """
+    from .config import RuntimeConfigError
+    from .historian import HistoryError
+
+    try:
+        yield
+    except (HistoryError, RuntimeConfigError) as exc:
         raise click.ClickException(str(exc)) from None
 
 

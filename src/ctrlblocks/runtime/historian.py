@@ -27,9 +27,11 @@ import importlib.util
 import json
 import logging
 import math
+import re
 import sqlite3
 import threading
 import time
+import urllib.parse
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -449,11 +451,49 @@ class PostgresHistorian(Historian):
             raise ImportError(
                 "the PostgreSQL historian needs psycopg: pip install 'ctrlblocks[runtime]'"
             ) from exc
-        return psycopg.connect(self.dsn, connect_timeout=10)
+        try:
+            return psycopg.connect(self.dsn, connect_timeout=10)
+        except psycopg.Error as exc:  # a DSN that does not parse, a server that does not answer
+            raise HistoryError(
+                f"PostgreSQL: {type(exc).__name__}: {hide_dsn_secrets(str(exc), self.dsn)}"
+            ) from None
+
+    def _connect_for_reading(self) -> Any:
+        """A database with the historian's tables only (none are created)."""
+        conn = self._connect()
+        if conn.execute("SELECT to_regclass('samples')").fetchone()[0] is None:
+            conn.close()
+            raise HistoryError("PostgreSQL: not a ctrlblocks historian database (no samples table)")
+        return conn
 
 
 class HistoryError(ValueError):
     """A historian database or an export request that cannot be served (the CLI's message)."""
+
+
+_DSN_PASSWORDS = (
+    re.compile(r"^[A-Za-z][A-Za-z0-9+.\-]*://[^:/@?#]*:([^@/?#]*)@"),  # postgresql://u:PASS@h
+    re.compile(r"password\s*=\s*('(?:[^'\\]|\\.)*'|[^\s&]+)"),  # password=PASS, ?password=
+)
+
+
+def hide_dsn_secrets(message: str, dsn: str) -> str:
+    """``message`` on one line, every password written in ``dsn`` replaced by ``***``.
+
+    The database driver quotes parts of a DSN it cannot parse; the URI form
+    (``postgresql://user:PASS@host/db``), the key-value form (``password=PASS``,
+    quoted or not) and a ``?password=`` query parameter are hidden, also
+    percent-decoded.
+    """
+    secrets = set()
+    for pattern in _DSN_PASSWORDS:
+        for m in pattern.finditer(dsn):
+            pw = m.group(1)
+            secrets |= {pw, pw.strip("'"), urllib.parse.unquote(pw)}
+    text = "; ".join(" ".join(line.split()) for line in message.splitlines() if line.strip())
+    for pw in sorted((s for s in secrets if s), key=len, reverse=True):
+        text = text.replace(pw, "***")
+    return text
 
 
 EXPORT_FORMATS = {".csv": "csv", ".parquet": "parquet"}
@@ -491,12 +531,13 @@ def export_history(
     if fmt == "parquet" and importlib.util.find_spec("pyarrow") is None:
         raise ImportError("Parquet export needs pyarrow: pip install pyarrow (or export to .csv)")
     h: Historian = PostgresHistorian(str(source)) if postgres else SQLiteHistorian(source)
+    where = "PostgreSQL" if postgres else source  # a DSN may hold a password: never shown
     with h.reading():
         rows = h.samples(loop)
         if loop and not rows:
             names = [r[0] for r in h.query("SELECT DISTINCT loop FROM samples ORDER BY loop")]
             raise HistoryError(
-                f"{source}: no samples of loop {loop!r}; loops: {', '.join(names) or 'none'}"
+                f"{where}: no samples of loop {loop!r}; loops: {', '.join(names) or 'none'}"
             )
     if fmt == "parquet":
         import pyarrow as pa

@@ -70,6 +70,22 @@ class RetainStore:
         )
         return conn
 
+    def check(self) -> None:
+        """Make sure the file can be written: create it (empty) when absent, take a write lock.
+
+        Raises ``sqlite3.OperationalError`` (a folder that does not exist, a
+        read-only file) or OSError; the runtime refuses to start then.
+        """
+        if not Path(self.path).is_file():
+            self.save({})
+            return
+        conn = self._connect()
+        try:
+            conn.execute("BEGIN IMMEDIATE")
+            conn.rollback()
+        finally:
+            conn.close()
+
     def save(self, states: Mapping[str, Mapping[str, Any] | str]) -> None:
         """Write every loop's state in one transaction (replacing the previous set).
 

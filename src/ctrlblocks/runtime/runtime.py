@@ -50,13 +50,14 @@ import contextlib
 import gc
 import logging
 import math
+import sqlite3
 from collections.abc import Callable, Mapping
 from typing import Any
 
 from .adapters import make_adapter
 from .autotune import LiveTuning
 from .clock import Clock, MonotonicClock
-from .config import RuntimeConfig, require_packages
+from .config import RuntimeConfig, RuntimeConfigError, require_packages
 from .historian import Historian
 from .io import Adapter, Connection
 from .loop import CommandError, ControlLoop, Sample
@@ -159,6 +160,8 @@ class Runtime:
             )
         else:
             self.historian = self._historian_arg  # type: ignore[assignment]
+        if self.retain is not None:
+            await self._check_retain()
         await asyncio.gather(*(c.start() for c in self.connections.values()))
         if self.retain is not None:
             await self._restore_retained()
@@ -227,6 +230,19 @@ class Runtime:
             await self.stop()
 
     # -- retentive state ---------------------------------------------------------------
+
+    async def _check_retain(self) -> None:
+        """Refuse to start when the retain file cannot be written (closing what is open)."""
+        assert self.retain is not None
+        try:
+            await asyncio.to_thread(self.retain.check)
+        except (OSError, sqlite3.OperationalError) as exc:
+            if self.historian is not None and self._historian_arg == "config":
+                await asyncio.to_thread(self.historian.close)
+            self.historian = None
+            raise RuntimeConfigError(
+                self.config.file, "retain.path", f"{self.retain.path}: cannot write it ({exc})"
+            ) from None
 
     async def _restore_retained(self) -> None:
         """Restore the retained loops and read their MVs back (one batched read per connection)."""

@@ -80,7 +80,13 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .historian import Historian, HistoryError, PostgresHistorian, SQLiteHistorian
+from .historian import (
+    Historian,
+    HistoryError,
+    PostgresHistorian,
+    SQLiteHistorian,
+    hide_dsn_secrets,
+)
 
 if TYPE_CHECKING:
     from .loop import Sample
@@ -558,7 +564,10 @@ def serve_writer() -> None:
                     db.open(run_id=init["run_id"])
                 except Exception as exc:
                     where = "PostgreSQL" if isinstance(db, PostgresHistorian) else db.path
-                    answer(b"O", {"error": f"{where}: {type(exc).__name__}: {exc}"})
+                    why = hide_dsn_secrets(str(exc), getattr(db, "dsn", ""))  # on one line
+                    if not isinstance(exc, HistoryError):  # (a HistoryError says where)
+                        why = f"{where}: {type(exc).__name__}: {why}"
+                    answer(b"O", {"error": why})
                     return
                 answer(b"O", {"run_id": db.run_id})
                 w = _Writer(db, init["settings"], answer)

@@ -294,9 +294,10 @@ def create_app(
     users : UserStore, optional
         The users; default none (nobody can log in).
     start_runtime : bool
-        Start the runtime when the application starts and stop it when the
-        application stops (on the server's event loop).  False when the
-        runtime is run by someone else.
+        Start the runtime when the application starts (unless it is running
+        already: ``ctrlblocks serve`` starts it first, to report a start
+        error on one line) and stop it when the application stops (on the
+        server's event loop).  False when the runtime is run by someone else.
     push_period : float
         WebSocket push period [s]; 0.1 s gives the required 10 Hz.
     trend_seconds : float
@@ -331,7 +332,7 @@ def create_app(
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        if start_runtime:
+        if start_runtime and not runtime.running:  # (the command line starts it first)
             await runtime.start()
         # the live tuning's libraries (scipy: seconds) load beside the cycles now, so that
         # starting a test later does not stall the runtime's event loop while they import

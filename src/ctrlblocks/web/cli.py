@@ -7,8 +7,11 @@ and opens the faceplate at http://127.0.0.1:8000.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
+import errno
 import os
+import socket
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -149,27 +152,88 @@ def serve(
             )
         except ImportError:
             raise _missing_web() from None
-        shown = f"[{host}]" if ":" in host else host
-        scheme = "https" if certfile else "http"
-        click.echo(f"faceplate: {scheme}://{shown}:{port}/   (Ctrl-C stops)")
-        if certfile is None and not is_loopback(host):
-            click.echo(
-                f"warning: {host} is reachable from the network and there is no TLS: "
-                "give --certfile/--keyfile or use a TLS reverse proxy (docs/faceplate.md)",
-                err=True,
-            )
-        if not users.names():
-            click.echo(
-                f"no operators in {users_file}: nobody can log in; "
-                "add one with: ctrlblocks operator add NAME --role operator"
-            )
-        # uvicorn stops gracefully on Ctrl-C / SIGTERM (lifespan: runtime.stop) and then
-        # re-raises the interrupt: that is a normal end here
-        with contextlib.suppress(KeyboardInterrupt):
-            server.run()
+        sock = _listen(server, host, port, certfile, keyfile)
+
+        def announce() -> None:
+            shown = f"[{host}]" if ":" in host else host
+            scheme = "https" if certfile else "http"
+            click.echo(f"faceplate: {scheme}://{shown}:{port}/   (Ctrl-C stops)")
+            if certfile is None and not is_loopback(host):
+                click.echo(
+                    f"warning: {host} is reachable from the network and there is no TLS: "
+                    "give --certfile/--keyfile or use a TLS reverse proxy (docs/faceplate.md)",
+                    err=True,
+                )
+            if not users.names():
+                click.echo(
+                    f"no operators in {users_file}: nobody can log in; "
+                    "add one with: ctrlblocks operator add NAME --role operator"
+                )
+
+        _serve_web(runtime, server, sock, announce)
     finally:
         if tmp is not None:
             tmp.cleanup()
+
+
+def _listen(
+    server: Any, host: str, port: int, certfile: str | None, keyfile: str | None
+) -> socket.socket:
+    """Load the TLS certificate and bind the port before any loop starts (errors: one line)."""
+    import ssl
+
+    from .server import bind_socket
+
+    try:
+        server.config.load()  # the application and, with --certfile, the certificate and key
+    except (ssl.SSLError, OSError) as exc:
+        if certfile is None:
+            raise
+        why = getattr(exc, "reason", None) or exc.strerror or exc  # (OpenSSL's own words)
+        raise click.ClickException(
+            f"--certfile {certfile} / --keyfile {keyfile}: not a TLS certificate and its "
+            f"private key in PEM, or they do not match ({why})"
+        ) from None
+    try:
+        return bind_socket(host, port)
+    except OSError as exc:
+        shown = f"[{host}]" if ":" in host else host
+        hint = (
+            "is another faceplate running there? choose another port with --port"
+            if exc.errno == errno.EADDRINUSE
+            else "check --host (an address of this machine) and --port"
+        )
+        raise click.ClickException(
+            f"cannot listen on {shown}:{port}: {exc.strerror or exc}; {hint}"
+        ) from None
+
+
+def _serve_web(runtime: Any, server: Any, sock: socket.socket, announce: Any) -> None:
+    """Start the runtime, then serve the page on ``sock`` until Ctrl-C/SIGTERM.
+
+    The runtime starts first, so a historian or retain file that cannot be
+    opened ends the command with one line (:func:`~ctrlblocks.runtime.cli.start_errors`)
+    before the page serves; the application's shutdown stops it (safe/stop
+    values, historian flushed).
+    """
+    from ..runtime.cli import start_errors
+
+    async def main() -> None:
+        await runtime.start()
+        announce()
+        try:
+            await server.serve(sockets=[sock])
+        finally:
+            if runtime.running:  # the server did not get to its shutdown
+                await runtime.stop()
+
+    try:
+        # uvicorn stops gracefully on Ctrl-C / SIGTERM (lifespan: runtime.stop) and then
+        # re-raises the interrupt: that is a normal end here
+        with start_errors(), contextlib.suppress(KeyboardInterrupt):
+            asyncio.run(main())
+    finally:
+        sock.close()
 
 
 @click.group()
