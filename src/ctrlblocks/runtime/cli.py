@@ -165,14 +165,30 @@ def plant_server(
     ns=2;s=NAME, Modbus holding registers 0, 2, 4, ..., 22 (FLOAT32).  See
     docs/runtime.md.
     """
-    from ..sim import ScenarioError, load_scenario
+    from ..sim import ScenarioError, parse_scenario
     from ..sim.plant_process import PlantProcess
+    from .config import read_text, with_line
     from .plant_server import PlantServer
 
     logging.basicConfig(level=logging.WARNING)
+    if not opcua_port and not modbus_port:
+        raise click.UsageError("nothing to serve: --opcua-port and --modbus-port are both 0")
     _require_server_packages(opcua_port, modbus_port)
+    text = ""
     try:
-        process = PlantProcess(load_scenario(scenario), case)
+        text = read_text(scenario, ScenarioError)  # unreadable, not UTF-8: file and line
+        sc = parse_scenario(text, file=str(scenario))
+    except ScenarioError as exc:  # with the line of its key path
+        raise click.ClickException(str(with_line(exc, text))) from None
+    except ValueError as exc:
+        raise click.ClickException(f"{scenario}: {exc}") from None
+    if case is not None and case not in [c.name for c in sc.cases]:
+        raise click.BadParameter(
+            f"{scenario} has no case {case!r}; its cases: {', '.join(c.name for c in sc.cases)}",
+            param_hint="--case",
+        )
+    try:
+        process = PlantProcess(sc, case)
     except (ScenarioError, ValueError, KeyError) as exc:
         raise click.ClickException(str(exc)) from None
     user_map = {}
@@ -204,6 +220,10 @@ def plant_server(
         _install_stop(asyncio.get_running_loop(), stop.set)
         try:
             await server.start()
+        except ValueError as exc:  # a --certificate/--private-key that does not load
+            with contextlib.suppress(Exception):
+                await server.stop()
+            raise click.ClickException(str(exc)) from None
         except OSError as exc:  # a busy port, an address not on this machine
             with contextlib.suppress(Exception):
                 await server.stop()
@@ -246,6 +266,10 @@ def history(database: str, out: Path, loop: str | None, postgres: bool) -> None:
     """Export the historian DATABASE (SQLite file) to OUT (.csv or .parquet)."""
     from .historian import HistoryError, export_history
 
+    if not postgres and not Path(database).exists() and ("://" in database or "=" in database):
+        raise click.ClickException(  # (not echoed: a DSN may hold a password)
+            "DATABASE looks like a PostgreSQL DSN, not a file: add --postgres"
+        )
     try:
         path = export_history(database, out, loop=loop, postgres=postgres)
     except (HistoryError, ImportError) as exc:

@@ -299,8 +299,16 @@ class PlantServer:
         server.set_endpoint(self.opcua_url)
         server.set_server_name("ctrlblocks plant server")
         if secured:
-            await server.load_certificate(str(self.certificate))
-            await server.load_private_key(str(self.private_key))
+            for what, path, load in (
+                ("certificate", self.certificate, server.load_certificate),
+                ("private key", self.private_key, server.load_private_key),
+            ):
+                try:
+                    await load(str(path))
+                except (ValueError, TypeError) as exc:  # not DER/PEM, or the wrong kind
+                    raise ValueError(
+                        f"{path}: not an OPC UA server {what} (DER or PEM): {exc}".split(". ")[0]
+                    ) from None
             server.set_security_policy([ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt])
             server.set_identity_tokens([ua.UserNameIdentityToken])
             server.set_certificate_validator(validator)

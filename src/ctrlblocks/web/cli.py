@@ -269,7 +269,7 @@ def operator_add(name: str, users_file: Path, password_env: str | None, role: st
             raise click.ClickException(f"environment variable {password_env} is not set")
     else:
         password = click.prompt("password", hide_input=True, confirmation_prompt=True)
-    store = _store(users_file)
+    store = _store(users_file, exists=False)
     try:
         store.add(name, password, role=role)
     except UserError as exc:
@@ -315,10 +315,15 @@ def operator_list(users_file: Path) -> None:
         click.echo(f"{n} {store.role(n)}" + (" disabled" if store.disabled(n) else ""))
 
 
-def _store(users_file: Path) -> Any:
-    """The users file, or a clear error when it cannot be read."""
+def _store(users_file: Path, *, exists: bool = True) -> Any:
+    """The users file, or a clear error when it cannot be read (or, ``exists``, is not there)."""
     from .auth import UserError, UserStore
 
+    if exists and not users_file.exists():
+        raise click.ClickException(
+            f"{users_file}: no such users file (--users or $CTRLBLOCKS_USERS); "
+            "'ctrlblocks operator add NAME' creates it"
+        )
     try:
         return UserStore(users_file)
     except (UserError, ValueError, OSError) as exc:

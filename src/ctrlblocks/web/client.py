@@ -50,7 +50,13 @@ class FaceplateClient:
         self.timeout = timeout
         handlers: list[Any] = [urllib.request.HTTPCookieProcessor(http.cookiejar.CookieJar())]
         if parts.scheme == "https":
-            ctx = ssl.create_default_context(cafile=cafile)
+            try:
+                ctx = ssl.create_default_context(cafile=cafile)
+            except (ssl.SSLError, OSError) as exc:  # not a PEM certificate
+                why = getattr(exc, "reason", None) or exc.strerror or exc
+                raise FaceplateError(
+                    0, f"{cafile}: not a certificate in PEM ({why})", "--cafile"
+                ) from None
             handlers.append(urllib.request.HTTPSHandler(context=ctx))
         self._opener = urllib.request.build_opener(*handlers)
 
