@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from ctrlblocks.sim.metrics import (
+    Window,
     compute_metrics,
     final_error,
     iae,
@@ -16,6 +17,7 @@ from ctrlblocks.sim.metrics import (
     max_rate,
     overshoot,
     rise_time,
+    run_metrics,
     settling_time,
     total_variation,
     windows_from_events,
@@ -134,3 +136,25 @@ def test_window_is_a_step_window_when_setpoint_changes_or_loop_is_far_from_it():
     m3 = compute_metrics(t, np.full(8, 1.5), y, np.zeros(8), H, t0=1.0)
     assert m3["overshoot"] == 0.0  # Δ = 1.5 - 1.00002, y never passes 1.5
     assert math.isnan(m3["rise_time"])  # 90 % of the step never reached
+
+
+def test_run_metrics_equals_compute_metrics_of_every_window_to_the_bit():
+    """The runner's one-pass metrics (run_metrics) are compute_metrics' numbers exactly."""
+    h = 0.1
+    t = np.arange(400) * h
+    rng = np.random.default_rng(5)
+    r = np.where(t < 10.0, 0.0, np.where(t < 25.0, 1.0, 0.4))
+    y = 1.0 - np.exp(-np.maximum(t - 10.0, 0.0) / 3.0) + 0.01 * rng.standard_normal(t.size)
+    y[t >= 25.0] -= 0.5
+    u = np.cumsum(rng.standard_normal(t.size))
+    windows = [Window("start", 0.0, 10.0), Window("SP", 10.0, 25.0), Window("SP", 25.0, 39.9),
+               Window("one", 39.9, 40.0), Window("empty", 50.0, 60.0)]  # fmt: skip
+    whole, per = run_metrics(t, r, y, u, h, windows, band=0.05)
+    assert whole == compute_metrics(t, r, y, u, h, band=0.05)
+    assert len(per) == len(windows)
+    for w, m in zip(windows, per, strict=True):
+        ref = compute_metrics(t, r, y, u, h, t0=w.t0, t1=w.t1, band=0.05)
+        assert list(m) == list(ref)
+        for k, v in ref.items():  # equal to the bit, NaN where NaN
+            assert (math.isnan(v) and math.isnan(m[k])) or m[k] == v, (w, k)
+    assert not math.isnan(per[1]["rise_time"]) and math.isnan(per[4]["iae"])

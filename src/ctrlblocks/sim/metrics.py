@@ -74,6 +74,7 @@ __all__ = [
     "max_rate",
     "overshoot",
     "rise_time",
+    "run_metrics",
     "settling_time",
     "total_variation",
     "window_index",
@@ -126,7 +127,7 @@ def overshoot(y: np.ndarray, r_end: float, step: float) -> float:
     if step == 0.0 or len(y) == 0:
         return math.nan
     s = 1.0 if step > 0 else -1.0
-    return float(max(0.0, float(np.max(s * (y - r_end)))) / abs(step))
+    return float(max(0.0, float(_max(s * (y - r_end)))) / abs(step))
 
 
 def rise_time(t: np.ndarray, y: np.ndarray, y0: float, step: float) -> float:
@@ -134,11 +135,12 @@ def rise_time(t: np.ndarray, y: np.ndarray, y0: float, step: float) -> float:
     if step == 0.0 or len(y) == 0:
         return math.nan
     covered = (y - y0) / step
-    i10 = np.flatnonzero(covered >= 0.1)
-    i90 = np.flatnonzero(covered >= 0.9)
-    if len(i10) == 0 or len(i90) == 0:
+    # the first sample of each (argmax of a boolean array: its first True, or 0 if none)
+    c10, c90 = covered >= 0.1, covered >= 0.9
+    i10, i90 = int(c10.argmax()), int(c90.argmax())
+    if not (c10[i10] and c90[i90]):
         return math.nan
-    return float(t[i90[0]] - t[i10[0]])
+    return float(t[i90] - t[i10])
 
 
 def settling_time(t: np.ndarray, y: np.ndarray, r_end: float, band: float) -> float:
@@ -148,7 +150,7 @@ def settling_time(t: np.ndarray, y: np.ndarray, r_end: float, band: float) -> fl
     """
     if len(y) == 0 or not math.isfinite(band):
         return math.nan
-    outside = np.flatnonzero(~(np.abs(y - r_end) <= band))
+    outside = (~(np.abs(y - r_end) <= band)).nonzero()[0]
     if len(outside) == 0:
         return 0.0
     last = outside[-1]
@@ -228,43 +230,88 @@ def compute_metrics(
     dict
         ``{name: value}`` for every name in :data:`METRIC_NAMES`.
     """
-    t, r, y, u = (np.asarray(a, dtype=float) for a in (t, r, y, u))
-    idx = window_index(t, h, t0, t1)
+    run = _Run(t, r, y, u)
+    idx = window_index(run.t, h, t0, t1)
     if len(idx) == 0:
         return dict.fromkeys(METRIC_NAMES, math.nan)
-    sl = slice(idx[0], idx[-1] + 1)
-    tw, rw, yw, uw = t[sl], r[sl], y[sl], u[sl]
-    e = rw - yw
-    r_end = float(rw[-1])
-    y0 = float(yw[0])
-    step = r_end - y0
-    sp_changed = idx[0] > 0 and abs(r_end - float(r[idx[0] - 1])) > 0.0
-    if not sp_changed and abs(step) <= step_tol * max(abs(r_end), abs(y0)):
-        step = 0.0
-    # the single metrics above, with |e| and |du| computed once (same operations, same bits)
-    ae = np.abs(e)
-    peak = float(_max(ae))
-    if step != 0.0:
-        band_abs = band * abs(step)
-    else:
-        scale_ = max(abs(r_end), peak)
-        band_abs = band * scale_ if scale_ > 0 else math.nan
-    jump = abs(float(u[idx[0]] - u[idx[0] - 1])) if idx[0] > 0 else 0.0
-    m = max(1, round(0.05 * len(e)))
-    du = np.abs(np.diff(uw)) if len(uw) >= 2 else None
-    return {
-        "iae": float(h * _sum(ae)),
-        "ise": ise(e, h),
-        "itae": float(h * _sum((tw - tw[0]) * ae)),
-        "overshoot": overshoot(yw, r_end, step),
-        "settling_time": settling_time(tw, yw, r_end, band_abs),
-        "rise_time": rise_time(tw, yw, y0, step),
-        "peak_error": peak,
-        "final_error": float(_sum(ae[-m:]) / m),  # np.mean
-        "tv_u": 0.0 if du is None else float(_sum(du)),
-        "max_rate_u": 0.0 if du is None else float(_max(du) / h),
-        "jump_u": jump,
-    }
+    return run.metrics(int(idx[0]), int(idx[-1]) + 1, h, band, step_tol)
+
+
+def run_metrics(
+    t: np.ndarray,
+    r: np.ndarray,
+    y: np.ndarray,
+    u: np.ndarray,
+    h: float,
+    windows: Sequence[Window] = (),
+    *,
+    band: float = 0.02,
+    step_tol: float = 0.01,
+) -> tuple[dict[str, float], list[dict[str, float]]]:
+    """:func:`compute_metrics` of a whole run and of each of its ``windows``, at once.
+
+    The same numbers as one :func:`compute_metrics` call per window (the
+    same operations on the same values), with what every window uses
+    computed once for the run: ``e``, ``|e|``, ``e**2``, ``|du|``.  ``t``
+    must increase (a run's time): a window's samples are then found by
+    bisection.  Returns ``(whole run, [window, ...])``.
+    """
+    run = _Run(t, r, y, u)
+    n = len(run.t)
+    nan = dict.fromkeys(METRIC_NAMES, math.nan)
+    whole = run.metrics(0, n, h, band, step_tol) if n else dict(nan)
+    out = []
+    for w in windows:
+        i0 = int(np.searchsorted(run.t, w.t0 - 0.5 * h, "left"))
+        i1 = int(np.searchsorted(run.t, w.t1 - 0.5 * h, "left"))
+        out.append(run.metrics(i0, i1, h, band, step_tol) if i1 > i0 else dict(nan))
+    return whole, out
+
+
+class _Run:
+    """The arrays of one run and what every window's metrics use, computed once."""
+
+    __slots__ = ("ae", "du", "e", "e2", "r", "t", "u", "y")
+
+    def __init__(self, t: np.ndarray, r: np.ndarray, y: np.ndarray, u: np.ndarray) -> None:
+        self.t, self.r, self.y, self.u = (np.asarray(a, dtype=float) for a in (t, r, y, u))
+        self.e = self.r - self.y
+        self.ae = np.abs(self.e)
+        self.e2 = self.e * self.e
+        self.du = np.abs(np.diff(self.u))
+
+    def metrics(self, i0: int, i1: int, h: float, band: float, step_tol: float) -> dict:
+        """Every metric of the samples ``i0 <= k < i1`` (not empty; module docstring)."""
+        r = self.r
+        tw, yw, ae = self.t[i0:i1], self.y[i0:i1], self.ae[i0:i1]
+        r_end = float(r[i1 - 1])
+        y0 = float(yw[0])
+        step = r_end - y0
+        sp_changed = i0 > 0 and abs(r_end - float(r[i0 - 1])) > 0.0
+        if not sp_changed and abs(step) <= step_tol * max(abs(r_end), abs(y0)):
+            step = 0.0
+        peak = float(_max(ae))
+        if step != 0.0:
+            band_abs = band * abs(step)
+        else:
+            scale_ = max(abs(r_end), peak)
+            band_abs = band * scale_ if scale_ > 0 else math.nan
+        jump = abs(float(self.u[i0] - self.u[i0 - 1])) if i0 > 0 else 0.0
+        m = max(1, round(0.05 * (i1 - i0)))
+        du = self.du[i0 : i1 - 1] if i1 - i0 >= 2 else None  # |u_k - u_{k-1}| in the window
+        return {
+            "iae": float(h * _sum(ae)),
+            "ise": float(h * _sum(self.e2[i0:i1])),  # ise(e, h)
+            "itae": float(h * _sum((tw - tw[0]) * ae)),
+            "overshoot": overshoot(yw, r_end, step),
+            "settling_time": settling_time(tw, yw, r_end, band_abs),
+            "rise_time": rise_time(tw, yw, y0, step),
+            "peak_error": peak,
+            "final_error": float(_sum(ae[-m:]) / m),  # np.mean
+            "tv_u": 0.0 if du is None else float(_sum(du)),
+            "max_rate_u": 0.0 if du is None else float(_max(du) / h),
+            "jump_u": jump,
+        }
 
 
 _sum = np.add.reduce  # np.sum of a 1-D float array, without the wrapper

@@ -16,7 +16,7 @@ import numpy as np
 
 from .dispatch import simulate
 from .loop import Run, event_times
-from .metrics import METRIC_NAMES, compute_metrics, window_index, windows_from_events
+from .metrics import METRIC_NAMES, run_metrics, window_index, windows_from_events
 from .scenario import Claim, Scenario
 
 __all__ = ["ClaimResult", "ScenarioResult", "check_claim", "run_scenario"]
@@ -102,24 +102,22 @@ def run_scenario(
             run = simulate(scenario, ctrl, case, duration=duration, engine=engine, cache=lane_cache)
             runs.append(run)
             s = run.signals
-            whole = compute_metrics(s["t"], s["sp"], s["y"], s["u"], run.ts, band=band)
+            # the whole run and every event window in one pass (metrics.run_metrics)
+            wins = []
+            if want_windows:
+                wins = windows_from_events(event_times(run.events), run.duration)
+            whole, per_window = run_metrics(s["t"], s["sp"], s["y"], s["u"], run.ts, wins,
+                                            band=band)  # fmt: skip
             row: dict[str, Any] = {
                 "scenario": scenario.name,
                 "controller": ctrl.name,
                 "case": case.name,
-                **{k: _json_num(v) for k, v in whole.items()},
+                **_json_metrics(whole),
             }
-            windows = []
-            if want_windows:
-                for w in windows_from_events(event_times(run.events), run.duration):
-                    m = compute_metrics(
-                        s["t"], s["sp"], s["y"], s["u"], run.ts, t0=w.t0, t1=w.t1, band=band
-                    )
-                    windows.append(
-                        {"label": w.label, "t0": w.t0, "t1": w.t1}
-                        | {k: _json_num(v) for k, v in m.items()}
-                    )
-            row["windows"] = windows
+            row["windows"] = [
+                {"label": w.label, "t0": w.t0, "t1": w.t1, **_json_metrics(m)}
+                for w, m in zip(wins, per_window, strict=True)
+            ]
             table.append(row)
             if progress is not None:
                 progress(f"{ctrl.name} / {case.name}")
@@ -128,8 +126,10 @@ def run_scenario(
     return result
 
 
-def _json_num(v: float) -> float | None:
-    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else float(v)
+def _json_metrics(m: dict[str, float]) -> dict[str, float | None]:
+    """A :func:`run_metrics` dict (all floats) for JSON: NaN and inf as None (``null``)."""
+    isfinite = math.isfinite
+    return {k: v if isfinite(v) else None for k, v in m.items()}
 
 
 def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
