@@ -183,3 +183,42 @@ def test_the_periodic_save_takes_ten_loops_per_step_spread_over_the_interval(tmp
     assert steps == pytest.approx([1 / 3, 2 / 3, 1.0], abs=1e-6)
     assert [sum(1 for t in first_round if round(t, 6) == s) for s in steps] == [10, 10, 5]
     assert sorted(n for t, n in taken if t < 1.05) == sorted(rt.loops)  # each loop once
+
+
+class _FailingStore(RetainStore):
+    """A retain file whose saves fail while ``failing`` is set (a full disk)."""
+
+    failing = False
+    saves = 0
+
+    def save(self, states):
+        type(self).saves += 1
+        if type(self).failing:
+            raise sqlite3.OperationalError("database or disk is full")
+        super().save(states)
+
+
+def test_a_failing_retain_save_logs_one_line_per_streak_and_its_recovery(tmp_path, caplog):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    store = _FailingStore(tmp_path / "retain.sqlite")
+    rt, _, _ = make(loop_toml(ts=0.1), {"io": bus}, retain=store)
+
+    async def main():
+        await rt.start()  # the start's write check still succeeds
+        _FailingStore.failing = True
+        for _ in range(5):  # five saves that fail
+            await rt.save_retained()
+        assert rt.retain_failures == 5
+        _FailingStore.failing = False
+        await rt.save_retained()
+        assert rt.retain_failures == 0
+        await rt.stop()
+
+    with caplog.at_level(logging.DEBUG, logger="ctrlblocks.runtime"):
+        bounded(main())
+    errors = [r for r in caplog.records if r.levelno >= logging.ERROR]
+    assert len(errors) == 1 and "save failed (database or disk is full)" in errors[0].getMessage()
+    assert errors[0].exc_info is None  # one line, no traceback
+    assert not any(r.exc_info for r in caplog.records)
+    assert sum("saved again after 5 failed saves" in r.getMessage() for r in caplog.records) == 1

@@ -120,6 +120,7 @@ class Runtime:
             rc = config.retain
             retain = RetainStore(rc.path) if rc.enabled else None
         self.retain: RetainStore | None = retain  # type: ignore[assignment]
+        self.retain_failures = 0  # consecutive failed saves of the retain file (0: it is saved)
         self.historian: Historian | None = None
         self.on_sample = on_sample
         self._stop = asyncio.Event()
@@ -275,8 +276,23 @@ class Runtime:
         assert self.retain is not None
         try:
             await asyncio.to_thread(self.retain.save, states)
-        except Exception:  # the loops go on; the next save retries
-            log.exception("retain file %s: save failed", self.retain.path)
+        except Exception as exc:  # the loops go on; the next save retries
+            # one line and one audit entry per streak of failures (a full disk fails every
+            # interval: a traceback each time would bury the log), one when it recovers
+            self.retain_failures += 1
+            if self.retain_failures == 1:
+                msg = f"retain file {self.retain.path}: save failed ({exc}); retrying every save"
+                log.error("%s", msg)
+                self._audit("runtime", "", "retain", None, None, False, msg)
+            else:
+                log.debug("retain file %s: save failed again (%s)", self.retain.path, exc)
+            return
+        if self.retain_failures:
+            msg = (f"retain file {self.retain.path}: saved again after "
+                   f"{self.retain_failures} failed saves")  # fmt: skip
+            log.warning("%s", msg)
+            self._audit("runtime", "", "retain", None, None, True, msg)
+            self.retain_failures = 0
 
     async def _retainer(self) -> None:
         """Save the retentive state every ``interval``, collected a few loops at a time.
