@@ -693,15 +693,22 @@ def law(block: ADRC) -> float:
     return (g["kp"] * (block.y_ref - yh) - g["kd1"] * x2 - g["kd2"] * x3 - x4) / block.config.b0
 
 
+def on_plant(steps: int) -> tuple[ADRC, PTn, float]:
+    """An n = 2 ADRC (Table 2, limits 0..5) run ``steps`` samples at sp = 2 on process (10b)."""
+    block = make(2, u_min=0.0, u_max=5.0)
+    plant = PTn(k=K10B, t=T10B, ts=TS)
+    u = block.out
+    for _ in range(steps):
+        u = block(2.0, plant.y)
+        plant.step(u)
+    return block, plant, u
+
+
 @pytest.mark.parametrize("change", RETUNES)
 def test_online_retuning_keeps_the_law_and_runs_the_new_one_from_the_same_sample(
     change: dict,
 ) -> None:
-    block = make(2, u_min=0.0, u_max=5.0)
-    plant = PTn(k=K10B, t=T10B, ts=TS)
-    for _ in range(60):  # in the transient of a setpoint step
-        u = block(2.0, plant.y)
-        plant.step(u)
+    block, plant, u = on_plant(60)  # in the transient of a setpoint step
     assert 0.0 < u < 5.0
     y_hat, x2, _, _ = block.x
     block.configure(**change)
@@ -726,11 +733,7 @@ def test_online_retuning_keeps_the_law_and_runs_the_new_one_from_the_same_sample
 
 
 def test_a_b0_retune_in_a_transient_moves_u_by_a_cycle_step_not_by_the_law_jump() -> None:
-    block = make(2, u_min=0.0, u_max=5.0)
-    plant = PTn(k=K10B, t=T10B, ts=TS)
-    for _ in range(60):
-        u = block(2.0, plant.y)
-        plant.step(u)
+    block, plant, u = on_plant(60)
     naive = law(block) * 0.05 / 0.08  # the law of b0 = 0.08 on the unchanged states
     assert abs(naive - u) > 1.0  # the bump a retune without the x4 shift would give
     block.configure(b0=0.08)
@@ -739,11 +742,7 @@ def test_a_b0_retune_in_a_transient_moves_u_by_a_cycle_step_not_by_the_law_jump(
 
 @pytest.mark.parametrize("change", RETUNES)
 def test_online_retuning_at_rest_changes_nothing(change: dict) -> None:
-    block = make(2, u_min=0.0, u_max=5.0)
-    plant = PTn(k=K10B, t=T10B, ts=TS)
-    for _ in range(4000):
-        u = block(2.0, plant.y)
-        plant.step(u)
+    block, plant, u = on_plant(4000)
     block.configure(**change)
     for _ in range(5):  # at rest the new law continues exactly from the old output
         assert block(2.0, plant.y) == pytest.approx(u, abs=1e-9)
@@ -936,11 +935,7 @@ def test_fig6_scenario_reverses_immediately_at_both_limits(aw: str) -> None:
 
 
 def test_auto_to_manual_holds_the_output_because_u_man_follows_it() -> None:
-    block = make(2, u_min=0.0, u_max=5.0)
-    plant = PTn(k=K10B, t=T10B, ts=TS)
-    for _ in range(50):
-        u = block(2.0, plant.y)
-        plant.step(u)
+    block, plant, u = on_plant(50)
     assert block.u_man == u == block.manual_value
     block.manual = True
     assert block(2.0, plant.y) == u
