@@ -6,7 +6,16 @@ import math
 
 import pytest
 
-from ctrlblocks.loops.toml import KeyPathError, TableReader, read_toml, type_name
+from ctrlblocks.loops.toml import (
+    KeyPathError,
+    TableReader,
+    key_line,
+    key_lines,
+    located,
+    read_text,
+    read_toml,
+    type_name,
+)
 from ctrlblocks.runtime import RuntimeConfigError
 from ctrlblocks.sim import ScenarioError
 
@@ -66,3 +75,71 @@ def test_a_reader_subclass_raises_its_own_error_class() -> None:
     with pytest.raises(KeyPathError) as e:
         TableReader("r.toml").number({}, "x", "t.x")
     assert type(e.value) is KeyPathError
+
+
+DOC = """\
+name = "x"
+notes = '''
+[loops]
+kp = 9
+'''
+[[loops]]
+name = "a"
+block.kp = 1.0
+[[loops]]
+name = "b"
+[loops.block]
+"kp" = 2.0
+[loops.block.limits]
+u_min = 0
+"""
+
+
+def test_key_lines_maps_keys_tables_and_array_entries_to_their_lines() -> None:
+    lines = key_lines(DOC)
+    assert lines == {
+        "name": 1,
+        "notes": 2,  # the multi-line string's lines are no keys
+        "loops[0]": 6,
+        "loops[0].name": 7,
+        "loops[0].block": 8,
+        "loops[0].block.kp": 8,
+        "loops[1]": 9,
+        "loops[1].name": 10,
+        "loops[1].block": 11,
+        "loops[1].block.kp": 12,
+        "loops[1].block.limits": 13,
+        "loops[1].block.limits.u_min": 14,
+    }
+    # a key not written: its nearest parent (the table, the array entry)
+    assert key_line(DOC, "loops[1].block.ti") == 11
+    assert key_line(DOC, "loops[1].block.u_min/u_max") == 11
+    assert key_line(DOC, "loops[0].pv") == 6
+    assert key_line(DOC, "historian.db") is None
+
+
+def test_located_gives_an_error_the_line_of_its_key_path_once() -> None:
+    with pytest.raises(RuntimeConfigError) as e, located(DOC):
+        raise RuntimeConfigError("c.toml", "loops[1].block.kp", "must be > 0")
+    assert type(e.value) is RuntimeConfigError and e.value.line == 12
+    assert str(e.value) == "c.toml, line 12: loops[1].block.kp: must be > 0"
+    # a line it has (a syntax error), no key path, or no text: left as it is
+    for text, err in [
+        (DOC, KeyPathError("c.toml", "name", "p", 3)),
+        (DOC, KeyPathError("c.toml", "", "p")),
+        (None, KeyPathError("c.toml", "name", "p")),
+    ]:
+        before = str(err)
+        with pytest.raises(KeyPathError) as e, located(text):
+            raise err
+        assert e.value is err and str(err) == before and err.line == (3 if err.line else None)
+
+
+def test_read_text_names_an_unreadable_or_non_utf8_file(tmp_path) -> None:
+    p = tmp_path / "c.toml"
+    with pytest.raises(RuntimeConfigError, match=r"c\.toml: cannot read the file \(No such"):
+        read_text(p, RuntimeConfigError)
+    p.write_bytes(b"a = 1\n\n# caf\xe9\n")
+    with pytest.raises(KeyPathError) as e:
+        read_text(p)
+    assert (e.value.line, e.value.problem) == (3, "not a UTF-8 text file (byte 0xe9)")

@@ -1,20 +1,29 @@
 """Reading TOML files with errors that name the file, the line and the key path.
 
 The scenario files of the simulator and the runtime's configuration files are
-read with the same helpers: :func:`read_toml` (a syntax error names the line),
-:class:`TableReader` (typed getters; a wrong value names its key path, e.g.
-``controllers[2].kp`` or ``loops[0].pv``) and :class:`KeyPathError`, the base
-of both files' errors (:class:`~ctrlblocks.sim.ScenarioError`,
+read with the same helpers: :func:`read_text` (an unreadable or non-UTF-8
+file), :func:`read_toml` (a syntax error names the line), :class:`TableReader`
+(typed getters; a wrong value names its key path, e.g. ``controllers[2].kp``
+or ``loops[0].pv``) and :class:`KeyPathError`, the base of both files' errors
+(:class:`~ctrlblocks.sim.ScenarioError`,
 :class:`~ctrlblocks.runtime.RuntimeConfigError`).
+
+A parser works on the parsed document, which knows no lines; a parser that
+has the text wraps its work in :func:`located`, which gives an error that
+passes the line of its key path in the text (:meth:`KeyPathError.locate`).
+The text is scanned (:func:`key_lines`) only then: a valid document -- every
+parameter set of a sweep -- pays nothing for it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import math
 import re
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
 from typing import Any
 
 if sys.version_info >= (3, 11):
@@ -26,6 +35,10 @@ __all__ = [
     "NAME_RE",
     "KeyPathError",
     "TableReader",
+    "key_line",
+    "key_lines",
+    "located",
+    "read_text",
     "read_toml",
     "type_name",
     "unknown_key_problem",
@@ -39,15 +52,62 @@ class KeyPathError(ValueError):
     """A TOML file (scenario, runtime configuration) is malformed.
 
     ``file``, ``key`` (key path, e.g. ``loops[0].pv``), ``problem`` and
-    ``line`` (or None) are attributes; the message reads
-    ``FILE[, line N]: KEY: PROBLEM``.
+    ``line`` (or None: a document built in Python, or no line known) are
+    attributes; the message reads ``FILE[, line N]: KEY: PROBLEM``.
     """
 
     def __init__(self, file: str, key: str, problem: str, line: int | None = None) -> None:
         self.file, self.key, self.problem, self.line = file, key, problem, line
-        where = file + (f", line {line}" if line else "")
-        msg = f"{where}: {key}: {problem}" if key else f"{where}: {problem}"
-        super().__init__(msg)
+        super().__init__(self._message())
+
+    def _message(self) -> str:
+        where = self.file + (f", line {self.line}" if self.line else "")
+        return f"{where}: {self.key}: {self.problem}" if self.key else f"{where}: {self.problem}"
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # rebuilt from the attributes (a process pool ships it back from a worker)
+        return type(self), (self.file, self.key, self.problem, self.line)
+
+    def locate(self, text: str) -> KeyPathError:
+        """Give this error the line of ``text`` that writes its key path (:func:`key_line`).
+
+        An error that has a line, or no key path, or whose key is not written
+        in ``text`` is left as it is.  Returns the error itself.
+        """
+        if self.line is None and self.key:
+            line = key_line(text, self.key)
+            if line is not None:
+                self.line = line
+                self.args = (self._message(),)
+        return self
+
+
+@contextlib.contextmanager
+def located(text: str | None) -> Iterator[None]:
+    """A :class:`KeyPathError` leaving the block gets the line of its key path in ``text``.
+
+    ``text`` is the TOML text the checked document was read from (None: a
+    document built in Python, no line).  The text is scanned only when an
+    error passes.
+    """
+    try:
+        yield
+    except KeyPathError as exc:
+        if text is not None:
+            exc.locate(text)
+        raise
+
+
+def read_text(path: Path, error: type[KeyPathError] = KeyPathError) -> str:
+    """The text of the TOML file ``path``; unreadable or not UTF-8: ``error`` naming it."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise error(str(path), "", f"cannot read the file ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:  # a binary file, or a text saved in another encoding
+        line = exc.object[: exc.start].count(b"\n") + 1
+        problem = f"not a UTF-8 text file (byte 0x{exc.object[exc.start]:02x})"
+        raise error(str(path), "", problem, line) from None
 
 
 def read_toml(text: str, file: str, error: type[KeyPathError] = KeyPathError) -> dict[str, Any]:
@@ -60,6 +120,62 @@ def read_toml(text: str, file: str, error: type[KeyPathError] = KeyPathError) ->
         line = int(m.group(1)) if m else None
         problem = re.sub(r"\s*\(at line \d+, column \d+\)", "", msg)
         raise error(file, "", f"TOML syntax error: {problem}", line) from None
+
+
+_BARE_OR_QUOTED = r"[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'"
+_TABLE_LINE = re.compile(r"^\s*(\[\[?)([^\]]*)\]\]?\s*(?:#.*)?$")
+_KEY_LINE = re.compile(rf"^\s*((?:{_BARE_OR_QUOTED})(?:\s*\.\s*(?:{_BARE_OR_QUOTED}))*)\s*=")
+
+
+def _key_parts(dotted: str) -> list[str]:
+    return [k.strip("\"'") for k in re.findall(_BARE_OR_QUOTED, dotted)]
+
+
+def key_lines(text: str) -> dict[str, int]:
+    """Key path (``loops[1].block.kp``, ``historian``) -> the line (1-based) that writes it.
+
+    A line scan of the TOML ``text`` (already parsed, so well formed):
+    table headers, ``[[array]]`` entries counted, dotted keys; lines inside
+    multi-line strings are skipped.  The first line wins.
+    """
+    lines: dict[str, int] = {}
+    arrays: dict[str, int] = {}  # array of tables (resolved path) -> entries so far
+    table, in_string = "", False
+    for n, raw in enumerate(text.splitlines(), 1):
+        if in_string:
+            in_string = (raw.count('"""') + raw.count("'''")) % 2 == 0
+            continue
+        if (raw.count('"""') + raw.count("'''")) % 2 == 1:
+            in_string = True
+        m = _TABLE_LINE.match(raw)
+        if m:
+            parts, path = _key_parts(m.group(2)), ""
+            for i, part in enumerate(parts):
+                path = f"{path}.{part}" if path else part
+                if m.group(1) == "[[" and i == len(parts) - 1:
+                    arrays[path] = arrays.get(path, 0) + 1
+                if path in arrays:
+                    path = f"{path}[{arrays[path] - 1}]"
+                lines.setdefault(path, n)
+            table = path
+            continue
+        m = _KEY_LINE.match(raw)
+        if m:
+            path = table
+            for part in _key_parts(m.group(1)):
+                path = f"{path}.{part}" if path else part
+                lines.setdefault(path, n)
+    return lines
+
+
+def key_line(text: str, key: str) -> int | None:
+    """The line of TOML ``text`` that writes ``key`` or, failing that, its nearest parent."""
+    lines = key_lines(text)
+    while key:
+        if key in lines:
+            return lines[key]
+        key = re.sub(r"(\.[^.\[\]]*|\[\d+\])$", "", key) if re.search(r"[.\[]", key) else ""
+    return None
 
 
 class TableReader:
