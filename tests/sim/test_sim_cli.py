@@ -83,7 +83,7 @@ def test_run_reports_a_malformed_file_with_its_key(tmp_path):
     bad.write_text('[scenario]\nname = "x"\ntitle = "t"\nts = 0.1\nduration = "ten"\n')
     res = CliRunner().invoke(main, ["run", str(bad)])
     assert res.exit_code != 0
-    assert "bad.toml: scenario.duration: must be a number, got a string 'ten'" in res.output
+    assert "bad.toml, line 5: scenario.duration: must be a number, got a string 'ten'" in res.output
 
 
 def test_trace_format_auto_is_parquet_with_pyarrow_else_csv(tmp_path):

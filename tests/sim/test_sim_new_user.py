@@ -79,7 +79,7 @@ def test_a_block_key_typo_says_what_was_meant_and_lists_the_valid_keys() -> None
 def test_a_plant_key_typo_says_what_was_meant() -> None:
     e = _err(SCENARIO.replace("t = 2.0", "tt = 2.0"))
     assert str(e) == (
-        "typo.toml: plant.tt: unknown key 'tt' (did you mean 't'?); "
+        "typo.toml, line 11: plant.tt: unknown key 'tt' (did you mean 't'?); "
         "valid keys: dead_time, k, t, ts, type"
     )
 

@@ -83,7 +83,8 @@ def test_unknown_block_type_lists_available_types():
 def test_parameter_refused_by_the_block_is_reported_with_its_key_path():
     e = _err(GOOD.replace("jhigh = 1.0", "jhigh = -1.0"))
     assert e.key == "controllers[0].jlow/jhigh"
-    assert str(e).startswith("bad.toml: controllers[0].jlow/jhigh: ")
+    # the line of its [[controllers]] entry (the key path names two keys)
+    assert str(e).startswith("bad.toml, line 9: controllers[0].jlow/jhigh: ")
     assert str(e).endswith("(error 16#8201 BAD_LIMITS)")
 
 

@@ -139,14 +139,15 @@ def _scenario(text: str, file: str, params: Mapping[str, Any]) -> Any:
 
     The text is read once per process (:func:`_document`; reading the TOML was
     about 60 % of a set's parsing, paid for every set in the parent's check and
-    again in the worker), each set works on a deep copy of it.
+    again in the worker), each set works on a deep copy of it.  The text is
+    scanned for the line of a key path only when a set is refused.
     """
     from ..sim.scenario import parse_scenario_doc
 
     doc = copy.deepcopy(_document(text, file))
     for k, v in params.items():
         apply_key(doc, k, v)
-    return parse_scenario_doc(doc, file=file)
+    return parse_scenario_doc(doc, file=file, text=text)  # an error: the line of its key
 
 
 def run_one(

@@ -6,8 +6,9 @@ time line, the claims to check and how to plot.  The format is described in
 ``ctrlblocks/scenarios/*.toml``.
 
 Every error in a file is reported as a :class:`ScenarioError` that names the
-file, the key path (``controllers[2].kp``, ``cases[0].events[3].t``) and what
-was expected, and the line for TOML syntax errors.  Blocks and plants are
+file, the line, the key path (``controllers[2].kp``, ``cases[0].events[3].t``)
+and what was expected; the line is looked up in the text only when an error
+is raised (:func:`ctrlblocks.loops.toml.located`).  Blocks and plants are
 built once while loading, so a parameter a block refuses (its
 :class:`~ctrlblocks.blocks.base.ParameterError`) is reported here, with its
 key path, and not in the middle of a run.
@@ -30,6 +31,8 @@ from ..loops.toml import (
     NAME_RE,
     KeyPathError,
     TableReader,
+    located,
+    read_text,
     read_toml,
     type_name,
     unknown_key_problem,
@@ -116,7 +119,8 @@ class ScenarioError(KeyPathError):
     problem : str
         What is wrong and what was expected.
     line : int or None
-        Line number when the TOML parser reports one.
+        The line that writes the key path (or its table's header, or its
+        array-of-tables entry); None for a document built in Python.
     """
 
 
@@ -199,21 +203,25 @@ class Scenario:
 def load_scenario(path: str | Path) -> Scenario:
     """Read and check the scenario file ``path``; raise :class:`ScenarioError` if malformed."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ScenarioError(str(p), "", f"cannot read the file ({exc.strerror})") from None
-    return parse_scenario(text, file=str(p))
+    return parse_scenario(read_text(p, ScenarioError), file=str(p))
 
 
 def parse_scenario(text: str, *, file: str = "<string>") -> Scenario:
-    """Parse scenario TOML ``text``; ``file`` names it in error messages."""
-    return parse_scenario_doc(read_toml(text, file, ScenarioError), file=file)
+    """Parse scenario TOML ``text``; ``file`` names it in error messages (with the line)."""
+    return parse_scenario_doc(read_toml(text, file, ScenarioError), file=file, text=text)
 
 
-def parse_scenario_doc(doc: dict[str, Any], *, file: str = "<string>") -> Scenario:
-    """Check an already parsed scenario document (a dict as from ``tomllib``)."""
-    return _Parser(file).scenario(doc)
+def parse_scenario_doc(
+    doc: dict[str, Any], *, file: str = "<string>", text: str | None = None
+) -> Scenario:
+    """Check an already parsed scenario document (a dict as from ``tomllib``).
+
+    ``text``: the TOML text ``doc`` was read from (and perhaps changed after,
+    as a sweep does); an error then names the line of its key path there,
+    looked up only when it is raised.  Without it errors have no line.
+    """
+    with located(text):
+        return _Parser(file).scenario(doc)
 
 
 def parse_controller(
