@@ -165,21 +165,18 @@ def plant_server(
     ns=2;s=NAME, Modbus holding registers 0, 2, 4, ..., 22 (FLOAT32).  See
     docs/runtime.md.
     """
-    from ..sim import ScenarioError, parse_scenario
+    from ..sim import ScenarioError, load_scenario
     from ..sim.plant_process import PlantProcess
-    from .config import read_text, with_line
     from .plant_server import PlantServer
 
     logging.basicConfig(level=logging.WARNING)
     if not opcua_port and not modbus_port:
         raise click.UsageError("nothing to serve: --opcua-port and --modbus-port are both 0")
     _require_server_packages(opcua_port, modbus_port)
-    text = ""
     try:
-        text = read_text(scenario, ScenarioError)  # unreadable, not UTF-8: file and line
-        sc = parse_scenario(text, file=str(scenario))
-    except ScenarioError as exc:  # with the line of its key path
-        raise click.ClickException(str(with_line(exc, text))) from None
+        sc = load_scenario(scenario)  # unreadable, not UTF-8, a bad key: file, line, key path
+    except ScenarioError as exc:
+        raise click.ClickException(str(exc)) from None
     except ValueError as exc:
         raise click.ClickException(f"{scenario}: {exc}") from None
     if case is not None and case not in [c.name for c in sc.cases]:

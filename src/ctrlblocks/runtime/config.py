@@ -40,7 +40,15 @@ from typing import Any
 from ..loops.spec import BlockSpec, ControllerSpec
 from ..loops.structures import STRUCTURES as _STRUCTURES
 from ..loops.structures import ControllerSide, parse_controller
-from ..loops.toml import NAME_RE, KeyPathError, TableReader, read_toml, type_name
+from ..loops.toml import (
+    NAME_RE,
+    KeyPathError,
+    TableReader,
+    located,
+    read_text,
+    read_toml,
+    type_name,
+)
 
 __all__ = [
     "PROTOCOLS",
@@ -88,8 +96,8 @@ READS: dict[str, tuple[str, ...]] = {
 class RuntimeConfigError(KeyPathError):
     """A runtime configuration file is malformed.
 
-    ``file``, ``key`` (key path, e.g. ``loops[0].pv``) and ``problem`` are
-    attributes; the message reads ``FILE: KEY: PROBLEM``.
+    ``file``, ``key`` (key path, e.g. ``loops[0].pv``), ``problem`` and
+    ``line`` are attributes; the message reads ``FILE, line N: KEY: PROBLEM``.
     """
 
 
@@ -256,18 +264,6 @@ def load_config(path: str | Path) -> RuntimeConfig:
     return parse_config(read_text(p, RuntimeConfigError), file=str(p), base=p.parent)
 
 
-def read_text(path: Path, error: type[KeyPathError] = RuntimeConfigError) -> str:
-    """The text of the TOML file ``path``; unreadable or not UTF-8: ``error`` naming it."""
-    try:
-        return path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise error(str(path), "", f"cannot read the file ({exc.strerror or exc})") from None
-    except UnicodeDecodeError as exc:  # a binary file, or a text saved in another encoding
-        line = exc.object[: exc.start].count(b"\n") + 1
-        problem = f"not a UTF-8 text file (byte 0x{exc.object[exc.start]:02x})"
-        raise error(str(path), "", problem, line) from None
-
-
 def parse_config(text: str, *, file: str = "<string>", base: Path | None = None) -> RuntimeConfig:
     """Parse runtime configuration TOML ``text``; relative paths are resolved against ``base``.
 
@@ -275,72 +271,8 @@ def parse_config(text: str, *, file: str = "<string>", base: Path | None = None)
     ``text``) and the key path.
     """
     doc = read_toml(text, file, RuntimeConfigError)
-    try:
+    with located(text):
         return _Parser(file, base or Path.cwd()).config(doc)
-    except RuntimeConfigError as exc:
-        raise with_line(exc, text) from None
-
-
-def with_line(exc: KeyPathError, text: str) -> KeyPathError:
-    """``exc`` with the line of ``text`` that holds its key path (``exc`` itself if none)."""
-    line = key_line(text, exc.key) if exc.line is None and exc.key else None
-    return exc if line is None else type(exc)(exc.file, exc.key, exc.problem, line)
-
-
-_BARE_OR_QUOTED = r"[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'"
-_TABLE_LINE = re.compile(r"^\s*(\[\[?)([^\]]*)\]\]?\s*(?:#.*)?$")
-_KEY_LINE = re.compile(rf"^\s*((?:{_BARE_OR_QUOTED})(?:\s*\.\s*(?:{_BARE_OR_QUOTED}))*)\s*=")
-
-
-def _key_parts(dotted: str) -> list[str]:
-    return [k.strip("\"'") for k in re.findall(_BARE_OR_QUOTED, dotted)]
-
-
-def key_lines(text: str) -> dict[str, int]:
-    """Key path (``loops[1].block.kp``, ``historian``) -> the line (1-based) that writes it.
-
-    A line scan of the TOML ``text`` (already parsed, so well formed):
-    table headers, ``[[array]]`` entries counted, dotted keys; lines inside
-    multi-line strings are skipped.  The first line wins.
-    """
-    lines: dict[str, int] = {}
-    arrays: dict[str, int] = {}  # array of tables (resolved path) -> entries so far
-    table, in_string = "", False
-    for n, raw in enumerate(text.splitlines(), 1):
-        if in_string:
-            in_string = (raw.count('"""') + raw.count("'''")) % 2 == 0
-            continue
-        if (raw.count('"""') + raw.count("'''")) % 2 == 1:
-            in_string = True
-        m = _TABLE_LINE.match(raw)
-        if m:
-            parts, path = _key_parts(m.group(2)), ""
-            for i, part in enumerate(parts):
-                path = f"{path}.{part}" if path else part
-                if m.group(1) == "[[" and i == len(parts) - 1:
-                    arrays[path] = arrays.get(path, 0) + 1
-                if path in arrays:
-                    path = f"{path}[{arrays[path] - 1}]"
-                lines.setdefault(path, n)
-            table = path
-            continue
-        m = _KEY_LINE.match(raw)
-        if m:
-            path = table
-            for part in _key_parts(m.group(1)):
-                path = f"{path}.{part}" if path else part
-                lines.setdefault(path, n)
-    return lines
-
-
-def key_line(text: str, key: str) -> int | None:
-    """The line of TOML ``text`` that writes ``key`` or, failing that, its nearest parent."""
-    lines = key_lines(text)
-    while key:
-        if key in lines:
-            return lines[key]
-        key = re.sub(r"(\.[^.\[\]]*|\[\d+\])$", "", key) if re.search(r"[.\[]", key) else ""
-    return None
 
 
 PROTOCOL_PACKAGES = {"opcua": "asyncua", "modbus": "pymodbus"}
