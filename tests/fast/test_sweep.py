@@ -144,6 +144,14 @@ def test_cli_sweep_rejects_a_malformed_vary():
     assert res.exit_code != 0 and "KEY=v1,v2" in res.output
 
 
+def test_cli_sweep_of_a_file_that_is_not_utf8_is_one_line(tmp_path):
+    bad = tmp_path / "bin.toml"
+    bad.write_bytes(b"x = 1\n\xff\xfe\n")
+    res = CliRunner().invoke(main, ["sweep", str(bad), "--vary", "ts=0.1", "--serial"])
+    assert res.exit_code == 1 and res.exc_info[0] is SystemExit, res.output  # no traceback
+    assert f"Error: {bad}, line 2: not a UTF-8 text file (byte 0xff)" in res.output
+
+
 class _RecordingPool(cf.ThreadPoolExecutor):
     """A thread pool that records how many parameter sets each task carries."""
 

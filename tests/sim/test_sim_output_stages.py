@@ -85,6 +85,9 @@ u_max = 100.0
         ("scheduled", "[controllers.schedule]\nbreakpoints = [0.0, 1.0]\nkp = [1.0, -1.0]\n",
          "schedule.table at breakpoint 1.0: kp", "> 0"),
         ("scheduled", "[controllers.schedule]\nkp = [1.0]\n", "schedule", "needs breakpoints"),
+        # not a parameter of the block: was a TypeError's text under schedule.table
+        ("scheduled", "[controllers.schedule]\nbreakpoints = [0.0]\nkq = [1.0]\n", "schedule.kq",
+         "unknown key 'kq'"),
     ],
 )  # fmt: skip
 def test_output_stage_and_schedule_errors_name_the_key(structure, table, key, problem):

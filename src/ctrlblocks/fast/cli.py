@@ -7,6 +7,7 @@ from typing import Any
 
 import click
 
+from ..loops.toml import KeyPathError
 from ..sim.cli import ENGINE, Progress, output_dir
 from ..sim.dispatch import CompiledLaneError
 from .sweep import SweepError, dask_executor, parameter_sets, sweep, write_rows
@@ -106,7 +107,7 @@ def sweep_command(
                 engine=engine,
                 progress=lambda done, _total: bar.step(done - bar.done) if done else None,
             )
-    except (SweepError, CompiledLaneError) as exc:
+    except (SweepError, CompiledLaneError, KeyPathError) as exc:  # KeyPathError: the file
         raise click.ClickException(str(exc)) from None
     finally:
         if executor not in (None, "serial"):

@@ -73,7 +73,10 @@ def read_scenario_text(scenario: str | Path) -> tuple[str, str]:
     """``(text, file)`` of a scenario file, or of a shipped scenario given by name."""
     p = Path(scenario)
     if p.is_file():
-        return p.read_text(encoding="utf-8"), str(p)
+        from ..loops.toml import read_text
+        from ..sim.scenario import ScenarioError
+
+        return read_text(p, ScenarioError), str(p)  # not UTF-8: file, line and byte
     name = p.name[:-5] if p.name.endswith(".toml") else p.name
     shipped = resources.files("ctrlblocks") / "scenarios" / f"{name}.toml"
     if shipped.is_file():

@@ -1061,8 +1061,11 @@ class ScheduledStructure(Structure):
         bps = table.pop("breakpoints", None)
         if not isinstance(bps, list) or not table:
             raise r.fail(skey, "needs breakpoints = [...] and at least one parameter = [...]")
+        block = r.build(main, ts, kind="block")
+        fields = {f.name for f in dataclasses.fields(block.config)} - {"precision"}
+        r.check_keys(table, fields | {"on", "breakpoints"}, skey)  # a parameter of the block
         try:
-            GainSchedule(r.build(main, ts, kind="block"), breakpoints=bps, **table)
+            GainSchedule(block, breakpoints=bps, **table)
         except ParameterError as exc:
             raise r.fail(f"{skey}.{exc.field}", exc.message) from None
         except (TypeError, ValueError) as exc:
