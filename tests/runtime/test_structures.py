@@ -566,8 +566,8 @@ mode = "auto"
 """
 
 
-def _commanded(monkeypatch, commands: dict[int, dict]):
-    """``run_in_memory``'s fault hook giving operator commands before the cycles named."""
+def _made(monkeypatch) -> list[Runtime]:
+    """The runtimes ``run_in_memory`` makes from now on (the hooks' way to the loop)."""
     made: list[Runtime] = []
 
     class Recording(Runtime):
@@ -576,6 +576,12 @@ def _commanded(monkeypatch, commands: dict[int, dict]):
             made.append(self)
 
     monkeypatch.setitem(globals(), "Runtime", Recording)
+    return made
+
+
+def _commanded(monkeypatch, commands: dict[int, dict]):
+    """``run_in_memory``'s fault hook giving operator commands before the cycles named."""
+    made = _made(monkeypatch)
 
     def hook(k: int, bus: MemoryBus) -> None:  # k samples recorded: before cycle k
         if k in commands:
@@ -608,3 +614,36 @@ def test_cascade_primary_tracks_pv2_while_the_secondary_is_in_manual(monkeypatch
     assert st["blocks"]["primary"]["mode"] == "auto"
     assert st["blocks"]["secondary"]["mode"] == "manual"
     assert st["signals"]["sp2"] == st["measurements"]["pv2"]
+
+
+def test_cascade_state_shows_what_the_primary_tracks(monkeypatch):
+    """The faceplate's ``tracking``: the primary follows pv2 in MAN, holds on a bad pv2.
+
+    The primary's own mode stays AUTO (the user's); ``tracking`` says that it
+    does not run its law: ``{"primary": "y2"}`` while the secondary is in
+    MAN, ``{"primary": "hold"}`` while pv2 is bad, ``{}`` when the cascade
+    is closed.
+    """
+    man, auto, start, stop, n = 40, 60, 100, 120, 140
+    sc = parse_scenario(cascade())
+    command = _commanded(monkeypatch, {man: {"mode": "manual", "manual_value": 0.5},
+                                       auto: {"mode": "auto"}})  # fmt: skip
+    made = _made(monkeypatch)
+    fault = _secondary_fault(start, stop)
+    seen: list[tuple[dict, float, str]] = []
+
+    def hook(k: int, bus: MemoryBus) -> None:
+        st = made[-1].loops["loop"].state()  # of cycle k - 1
+        seen.append((st["tracking"], st["signals"]["sp2"], st["blocks"]["primary"]["mode"]))
+        command(k, bus)
+        fault(k, bus)
+
+    run_in_memory(sc, n, fault=hook)
+    tracking, sp2, mode = zip(*seen, strict=True)
+    assert set(mode) == {"auto"}
+    assert tracking[:man] == ({},) * man
+    assert tracking[man:auto] == ({"primary": "y2"},) * (auto - man)
+    assert tracking[auto:start] == ({},) * (start - auto)
+    assert tracking[start:stop] == ({"primary": "hold"},) * (stop - start)
+    assert tracking[stop:] == ({},) * (n - stop)
+    assert set(sp2[start:stop]) == {sp2[start - 1]}  # held through the bad pv2

@@ -16,6 +16,7 @@ act on every structure.
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 import pytest
@@ -177,6 +178,45 @@ def test_cascade_with_an_adrc_primary_and_the_handshake_on_the_lane_equals_pytho
     assert sig["ADRC / ADRC"]["u"].max() == pytest.approx(1.2)
     # the handshake froze the primary's x4: another course than without it
     assert np.max(np.abs(sig["handshake"]["sp2"] - sig["no handshake"]["sp2"])) > 0.05
+
+
+@pytest.mark.parametrize("primary", ["PID", "ADRC"])
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "interpreted"])
+def test_lane_cascade_primary_holds_on_a_non_finite_y2_as_follow_value(primary, compiled):
+    """The lane's ``_control`` mirrors ``Cascade.follow_value`` on a bad ``y2``.
+
+    The scenario language has no fault of ``y2`` (the inner plant's output)
+    and a non-finite ``y2`` with the secondary in AUTO stops the lane (the
+    secondary's output is not finite, the Python path runs): the sample is
+    checked here against ``ControllerSide`` directly.  The primary holds its
+    last output (before: it computed its law on its error, 0.8 here).
+    """
+    from ctrlblocks.fast._jit import python_function
+    from ctrlblocks.fast.simlane import _control, _slot
+    from ctrlblocks.sim import ControllerSide
+    from ctrlblocks.sim.scenario import parse_controller
+
+    prim = ({"type": "PID", "kp": 2.0, "ti": 1.0, "u_min": -100.0, "u_max": 100.0}
+            if primary == "PID" else
+            {"type": "ADRC", "order": 1, "b0": 0.5, "omega_c": 1.0, "omega_o": 5.0,
+             "u_min": -100.0, "u_max": 100.0})  # fmt: skip
+    sec = {"type": "PID", "kp": 1.0, "ti": 2.0, "u_min": -100.0, "u_max": 100.0}
+    entry = {"name": "c", "primary": prim, "secondary": sec}
+    side = ControllerSide("cascade", parse_controller(entry, "cascade", 0.1, key="c"), 0.1)
+    for _ in range(20):
+        side.step(1.0, 0.2, y2=0.3)
+    pb, sb = side.blocks["primary"], side.blocks["secondary"]
+    (k0, p0, a0, s0), (k1, p1, a1, s1) = _slot(pb, pb.manual_value), _slot(sb, sb.manual_value)
+    fn = _control if compiled else python_function(_control)
+    kinds = np.array([k0, k1], dtype=np.int64)
+    row = lambda x: tuple(float(v) for v in x)  # noqa: E731 - the lane's tuples
+    for m1 in (False, True):  # the secondary in AUTO (the new case), in manual
+        u, v1, ok, *_ = fn(True, True, kinds, row(p0), row(a0), row(s0), row(p1), row(a1),
+                           row(s1), 1.0, 0.2, math.nan, 0.0, False, m1, False)  # fmt: skip
+        assert v1 == pb.out  # held, as the Python path
+        assert ok is (m1 is True) and (math.isfinite(u) is m1)
+    side.compute(1.0, 0.2, y2=math.nan)
+    assert abs(side.values["sp2"] - v1) < 1e-12 and side.tracking == {"primary": "hold"}
 
 
 # -- override -----------------------------------------------------------------------

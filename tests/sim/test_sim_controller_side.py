@@ -171,3 +171,58 @@ def test_cascade_the_secondary_in_manual_makes_the_primary_windup_free_in_a_runa
     for _ in range(2000):
         s.step(1.0, 0.2, y2=0.3)
     assert abs(s.blocks["primary"].out - 0.3) < 1e-12
+
+
+# -- the cascade while the secondary's measurement is bad -----------------------------
+
+
+@pytest.mark.parametrize("primary", [pi(2.0, 1.0), ADRC_PRIMARY], ids=["PID", "ADRC"])
+@pytest.mark.parametrize("safe", [0.1, None], ids=["safe value", "hold"])
+def test_cascade_primary_holds_while_y2_is_bad_with_the_secondary_in_auto(primary, safe):
+    """200 s of a bad y2 with a primary error of 0.8: the primary holds, no windup.
+
+    The secondary outputs its safe value (or holds, ``safe_value = None``): the
+    inner loop is open.  Before the fix the primary integrated its error for
+    the whole stretch (the PID to its limit 100) and the cascade came back
+    with the secondary's setpoint there.  Now the primary's output and
+    integrator stay put, and the first good sample moves neither the MV nor
+    the secondary's setpoint (< 1e-9).
+    """
+    s = side("cascade", {"primary": primary, "secondary": pi(1.0, 2.0, safe_value=safe)})
+    prim, sec = s.blocks["primary"], s.blocks["secondary"]
+    for _ in range(20):
+        s.step(1.0, 0.2, y2=0.3)
+    held, u_before = s.values["sp2"], s.values["v"]
+    u_bad, integrator = [], []
+    for k in range(2000):  # the primary's own measurement stays good: error 1.0 - 0.2
+        y2, ok = (math.nan, True) if k % 2 else (0.3, False)  # non-finite, or flagged
+        u_bad.append(s.step(1.0, 0.2, y2=y2, y2_ok=ok))
+        assert s.values["sp2"] == held, k  # the primary holds its last output
+        assert s.tracking == {"primary": "hold"}
+        integrator.append(getattr(prim, "_i", 0.0))  # the PID's I term
+    assert prim.out == held and not prim.manual  # held in AUTO (the user's mode)
+    assert max(integrator) - min(integrator) < 1e-12  # the integrator stayed put
+    assert sec.error_id != 0 and not sec.manual
+    assert set(u_bad) == ({0.1} if safe is not None else {u_before})
+    u = s.step(1.0, 0.2, y2=0.3)  # y2 good again
+    assert s.tracking == {}
+    assert abs(u - u_bad[-1]) < 1e-9  # the secondary continues from the MV it applied
+    assert abs(s.values["sp2"] - held) < 1e-9  # the primary from the output it held
+    for _ in range(5):  # then both act on their errors again
+        s.step(1.0, 0.2, y2=0.3)
+    assert s.values["sp2"] > held + 1e-3
+    assert abs(s.values["sp2"] - held) < 5.0  # no wound-up setpoint
+
+
+def test_cascade_tracking_status_names_what_the_primary_follows():
+    s = side("cascade", {"primary": pi(2.0, 1.0), "secondary": pi(1.0, 2.0)})
+    s.step(1.0, 0.2, y2=0.3)
+    assert s.tracking == {}
+    s.set_manual(True, 0.5)
+    s.step(1.0, 0.2, y2=0.3)
+    assert s.tracking == {"primary": "y2"}
+    s.step(1.0, 0.2, y2=0.3, y2_ok=False)
+    assert s.tracking == {"primary": "hold"}
+    s.blocks["primary"].manual = True  # the user's manual primary is not tracking
+    s.step(1.0, 0.2, y2=0.3)
+    assert s.tracking == {}

@@ -30,7 +30,8 @@ The wirings (``ctrlblocks.loops.structures``, ``Structure.compiled_lane``):
     ``y2``, the inner plant's output) writes the MV; its ``awout`` freezes
     the primary's integrator in the next sample (``awin``, Åström 1987,
     section 3 "Cascade Control"); while the secondary is in manual the
-    primary (in auto) tracks ``y2`` (``Cascade.follow_value``).
+    primary (in auto) tracks ``y2``, while ``y2`` is not finite it holds
+    its last output (``Cascade.follow_value``).
 ``override``
     two controllers (each on ``y`` or ``y2``, on ``sp`` or a fixed setpoint);
     a min or max selector picks the MV and both track it (Åström 1987,
@@ -204,12 +205,15 @@ def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ff, m0, m1,
     then not to be used).  Each controller is computed and committed at one
     place (the compiled code inlines each kernel once per controller).
     """
-    # the cascade is open (the secondary in manual, the primary in auto): the primary
-    # tracks y2 (its last output if y2 is not finite), Cascade.follow_value
-    track = cascade and m1 and not m0
+    # the inner loop is open (the secondary in manual, or y2 not finite) and the primary
+    # in auto: the primary tracks y2, or holds its last output while y2 is not finite
+    # (Cascade.follow_value; a non-finite y2 with the secondary in auto stops the lane
+    # below, the secondary's output is not finite, and the Python path runs the sample)
+    good2 = math.isfinite(y2)
+    track = cascade and not m0 and (m1 or not good2)
     c0 = s0
     if track:
-        c0 = _with_um(s0, y2 if math.isfinite(y2) else s0[4])
+        c0 = _with_um(s0, y2 if good2 else s0[4])
     v1, _aw0, pd0 = _compute(kinds[0], p0, a0, c0, sp, yc, ff, m0 or track, awin)
     u, ok = v1, math.isfinite(v1)
     if cascade:  # the secondary on y2, its setpoint the primary's output, writes the MV

@@ -21,8 +21,8 @@ computational order (Åström 1987, section 6, Listing 6.3):
    feed-forward structure) -- *Adin*;
 2. :meth:`ControllerSide.compute` -- *ComputeOutput* of every block and
    *ShapeOutput* (the primary's output is the secondary's setpoint; the min
-   or max selector of an override; while a cascade's secondary is not in
-   AUTO its primary tracks ``y2``, :meth:`Cascade.follow_value`) -- returns
+   or max selector of an override; while a cascade's inner loop is open
+   its primary tracks ``y2`` or holds, :meth:`Cascade.follow_value`) -- returns
    the MV; no block state is committed;
 3. the caller writes the MV -- *Daout*;
 4. :meth:`ControllerSide.update` -- *UpdateState* of every block with the
@@ -546,11 +546,13 @@ class Cascade(Structure):
 
     def compute(self, side, sp, m):
         prim = side.blocks["primary"]
-        follow = self.follow_value(side, m)
+        follow = self.follow(side, m)
         if follow is None:
+            side.tracking = {}
             v1 = side.ctrls["primary"].output(sp, m.y, m.y_ok, dt=m.dt)
         else:  # the cascade is open: the primary tracks (restored right after its compute)
-            saved = _follow(prim, follow)
+            side.tracking = {"primary": follow[0]}
+            saved = _follow(prim, follow[1])
             try:
                 v1 = side.ctrls["primary"].output(sp, m.y, m.y_ok, dt=m.dt)
             finally:
@@ -562,23 +564,38 @@ class Cascade(Structure):
     def follow_value(self, side: ControllerSide, m: _Measured) -> float | None:
         """What the primary tracks in this sample, or None: it runs in its own mode.
 
-        While the secondary is not in AUTO (the operator's manual acts on
-        it) the cascade is open: the primary's output would wind up against a
-        setpoint nobody follows.  It tracks the secondary's measurement ``y2``
-        instead, the setpoint that makes the secondary's error zero
-        (Åström 1987, section 3, "Cascade Control" and tracking; Åström &
-        Hägglund 2006, cascade control), so that closing the cascade again is
-        bumpless for both loops.  Only a primary in AUTO is made to track (a
-        primary the user put in manual keeps its manual value); a bad ``y2``
-        holds the primary's last output.
+        While the inner loop is open the primary's output is a setpoint
+        nobody follows, and a primary left in AUTO would integrate its error
+        (windup).  The inner loop is open
+
+        * while the secondary is not in AUTO (the operator's manual acts on
+          it): the primary tracks the secondary's measurement ``y2``, the
+          setpoint that makes the secondary's error zero (Åström 1987,
+          section 3, "Cascade Control" and tracking; Åström & Hägglund 2006,
+          cascade control), so that closing the cascade again is bumpless
+          for both loops;
+        * while ``y2`` is bad (quality flag false or not finite), whatever
+          the secondary's mode (in AUTO it outputs its safe value or holds):
+          the primary holds its last output, and the first good ``y2``
+          continues from it.
+
+        Only a primary in AUTO is made to track (a primary the user put in
+        manual keeps its manual value).  :meth:`follow` also names the case.
         """
-        prim, sec = side.blocks["primary"], side.blocks["secondary"]
-        if _in_auto(sec) or not _in_auto(prim):
+        follow = self.follow(side, m)
+        return None if follow is None else follow[1]
+
+    def follow(self, side: ControllerSide, m: _Measured) -> tuple[str, float] | None:
+        """:meth:`follow_value` with what it is: ``("y2", y2)``, ``("hold", last output)``."""
+        prim = side.blocks["primary"]
+        if not _in_auto(prim):
             return None
-        if m.y2_ok and math.isfinite(m.y2):
-            return float(m.y2)
-        held = _num(getattr(prim, "out", math.nan))
-        return held if math.isfinite(held) else None
+        if not (m.y2_ok and math.isfinite(m.y2)):
+            held = _num(getattr(prim, "out", math.nan))
+            return ("hold", held) if math.isfinite(held) else None
+        if _in_auto(side.blocks["secondary"]):
+            return None
+        return ("y2", float(m.y2))
 
     def hold_for_warmup(self, side, u0, y2):
         # the primary's output is the secondary's setpoint: y2 in the steady state
@@ -1189,6 +1206,12 @@ class ControllerSide:
         ``v`` (the MV), and ``sp2`` (the cascade's secondary setpoint),
         ``v1``, ``v2``, ... (override block outputs), ``ff`` (feed-forward),
         ``y_pred`` (the Smith predictor's feedback).
+    tracking : dict
+        Role -> what the block tracks in the last :meth:`compute` instead of
+        running its own law, for a faceplate: the cascade's primary while
+        the inner loop is open, ``"y2"`` (the secondary not in AUTO) or
+        ``"hold"`` (``y2`` bad: its last output, :meth:`Cascade.follow_value`).
+        Empty otherwise; the block's own mode stays the user's.
     """
 
     def __init__(
@@ -1219,6 +1242,7 @@ class ControllerSide:
         self.u = u0
         self.values: dict[str, float] = {}
         self.pending: tuple[float, ...] = ()
+        self.tracking: dict[str, str] = {}
 
     def make(self, spec: BlockSpec, kind: str) -> Any:
         """Build the block (or plant) ``spec`` with this side's sample time."""

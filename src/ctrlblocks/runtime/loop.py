@@ -520,6 +520,7 @@ class ControlLoop:
             "measurements": dict(self.measurements),
             "signals": dict(self.side.values),
             "blocks": self.side.inner_states(),
+            "tracking": dict(self.side.tracking),
             "period": {
                 "last": m.out,
                 "mean": m.mean,

@@ -292,7 +292,11 @@ function renderPlate() {
   $("v-pv").textContent = fmt(st.pv);
   $("v-mv").textContent = fmt(st.mv);
   const m = $("plate-mode");
-  m.textContent = st.mode === "manual" ? "MAN" : "AUTO";
+  // a cascade's primary that tracks y2 or holds (the inner loop open): its mode stays AUTO
+  const tracks = Object.entries(st.tracking || {})
+    .map(([role, what]) => what === "hold" ? `${role} holds` : `${role} tracks ${what}`);
+  m.textContent = (st.mode === "manual" ? "MAN" : "AUTO") +
+    (tracks.length ? ` (${tracks.join(", ")})` : "");
   m.className = "mode " + st.mode;
   $("plate-alarms").textContent = st.alarms.join("; ");
   $("block-type").textContent = st.block;
