@@ -45,8 +45,10 @@ from typing import Any
 
 import numpy as np
 
-from .loop import Run, _Simulation
+from ..loops.structures import STRUCTURES
+from .loop import Run, _Simulation, played_events
 from .loop import simulate as python_simulate
+from .process import ProcessSide
 from .scenario import Case, ControllerSpec, Event, Scenario
 
 __all__ = ["ENGINES", "CompiledLaneError", "compiled_blockers", "simulate"]
@@ -88,9 +90,11 @@ def simulate(
     elif isinstance(case, str):
         case = scenario.case(case)
     t_end = case.duration if duration is None else min(duration, case.duration)
-    sim = _Simulation(scenario, controller, case, t_end)
-    why = compiled_blockers(sim)
-    run = None if why else _run_lane(sim, {} if cache is None else cache)
+    cache = {} if cache is None else cache
+    proc = _shared_process(scenario, case, t_end, cache)
+    sim = _Simulation(scenario, controller, case, t_end, proc)
+    why = compiled_blockers(sim, cache)
+    run = None if why else _run_lane(sim, cache)
     if run is None and not why:
         why = ["a measurement or an output became non-finite (quality handling)"]
     if run is not None:
@@ -114,22 +118,57 @@ def _have_numba() -> bool:
     return HAVE_NUMBA
 
 
-def compiled_blockers(sim: _Simulation) -> list[str]:
+def _shared_process(sc: Scenario, case: Case, t_end: float, cache: dict[Any, Any]) -> Any:
+    """The :class:`ProcessSide` of ``case`` run to ``t_end``, one for all controllers.
+
+    The compiled lane only reads the process side of a run; what it changes
+    (the setpoint profile and the noise generator, by :func:`_signals` and
+    :func:`_noise`) it does once per case, and keeps the arrays in ``cache``
+    under the same case.  Building the plants, the sensor, the actuator and
+    the noise generator, and finding ``initial.y``'s steady input, is done
+    once per case instead of once per run.  The Python path builds its own.
+    None (each run builds one) for a structure with more than one actuator:
+    the controller entry maps the initial MV to them.
+    """
+    if STRUCTURES[sc.structure].actuators != 1:
+        return None
+    key = ("process", case.name, t_end)
+    if key not in cache:
+        cache[key] = ProcessSide(sc, played_events(case, t_end, sc.ts))
+    return cache[key]
+
+
+def compiled_blockers(sim: _Simulation, cache: dict[Any, Any] | None = None) -> list[str]:
     """Why the compiled lane cannot run ``sim`` (empty: it can).
 
     The structure (with its blocks) decides for the controller side; this
-    function for the process side, the events and the environment.
+    function for the process side, the events and the environment.  With
+    ``cache`` (:func:`simulate`'s) the process side's reasons are found once
+    per shared process side (:func:`_shared_process`).
     """
     bad = list(sim.side.kind.compiled_blockers(sim.side))
     if bad:
         return bad  # another structure: the process side does not matter
-    if not _have_numba():
-        bad.append("numba is not installed")
     from ..fast.simlane import plant_blocker
 
-    proc = sim.proc
     opts = sim.side.kind.lane_options(sim.side)
-    for model in (proc.model, proc.inner_model, *opts.get("models", ())):
+    bad += [why for m in opts.get("models", ()) if (why := plant_blocker(m)) is not None]
+    key = ("process blockers", id(sim.proc))
+    if cache is None or cache.get(key, (None,))[0] is not sim.proc:
+        found = _process_blockers(sim)
+        if cache is None:
+            return bad + found
+        cache[key] = (sim.proc, found)
+    return bad + cache[key][1]
+
+
+def _process_blockers(sim: _Simulation) -> list[str]:
+    """:func:`compiled_blockers` of the process side, the events and the environment."""
+    from ..fast.simlane import plant_blocker
+
+    bad = [] if _have_numba() else ["numba is not installed"]
+    proc = sim.proc
+    for model in (proc.model, proc.inner_model):
         why = None if model is None else plant_blocker(model)
         if why is not None:
             bad.append(why)

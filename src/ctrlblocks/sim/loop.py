@@ -158,16 +158,35 @@ def simulate(
     return sim.run()
 
 
+def played_events(case: Case, t_end: float, h: float) -> list[Event]:
+    """The events of ``case`` a run to ``t_end`` plays (those due before its end)."""
+    return [e for e in case.events if e.t < t_end - 0.5 * h or e.t == 0.0]
+
+
 class _Simulation:
-    def __init__(self, sc: Scenario, ctrl: ControllerSpec, case: Case, t_end: float) -> None:
+    """One run's process side and controller side.
+
+    ``proc``: a :class:`ProcessSide` of the same scenario, case and
+    ``t_end`` in its initial state (the compiled lane shares one between the
+    controllers of a case: it only reads it); default a new one.
+    """
+
+    def __init__(
+        self,
+        sc: Scenario,
+        ctrl: ControllerSpec,
+        case: Case,
+        t_end: float,
+        proc: ProcessSide | None = None,
+    ) -> None:
         self.sc, self.ctrl_spec, self.case = sc, ctrl, case
         self.ts = h = sc.ts
         self.n = math.floor(t_end / h + 1e-9)
         self.structure = sc.structure
-        events = [e for e in case.events if e.t < t_end - 0.5 * h or e.t == 0.0]
+        events = played_events(case, t_end, h)
         self.events = tuple(events)
         # the process side: Sensor(Actuator(model)) or Sensor(model) behind Actuator(inner model)
-        self.proc = ProcessSide(sc, events, ctrl)
+        self.proc = ProcessSide(sc, events, ctrl) if proc is None else proc
         # the controller side: the blocks wired for the structure (shared with the runtime)
         self.side = ControllerSide(
             sc.structure, ctrl, h, u0=self.proc.u0, file=sc.file, error=ScenarioError
