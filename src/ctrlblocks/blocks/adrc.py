@@ -823,6 +823,17 @@ class ADRC(Block):
     config: ADRCConfig
     _config: ADRCConfig
     _eso: Callable[..., tuple[float, float, float, float]]  # eso_euler or eso_exact
+    _eso_coef: tuple[float, ...]  # the arguments of _eso after (Y_hat, x2, x3, x4, u, y, w4)
+    _gains: tuple[float, float, float, float, float, float, float]  # l1..l4, kp, kd1, kd2
+    _law: tuple[float, float, float, float]  # (b0, kp, kd1, kd2) of (4b) in force
+    _sens: tuple[float, float, float, float]  # (s_yh, s_x2, s_x3, s_u) of solve_x4
+    _yh: float
+    _x2: float
+    _x3: float
+    _x4: float
+    _ref: float
+    _started: bool
+    _track: bool
     _state_fields = (
         "out",
         "u_man",
