@@ -7,7 +7,8 @@ Every sample ``k`` (time ``t_k = k ts``) runs Listing 6.3 of Åström 1987
    (setpoint steps and ramps, loads, mode switches, limits, plant parameter
    switches, sensor faults);
 2. *Adin*: read the measurement ``y`` of the plant (with an output load and
-   the sensor: saturation, noise, faults);
+   the sensor: saturation, noise, faults) and, behind an inner plant, ``y2``
+   (its faults: ``sensor`` events with ``target = "y2"``);
 3. *ComputeOutput*: each controller computes its output ``v`` with
    ``compute_output`` (no state is touched);
 4. *ShapeOutput*: the structure shapes the outputs (min/max selector, the
@@ -96,7 +97,8 @@ class Run:
     (measured), ``u`` (MV from the controllers), ``v`` (controller output
     before shaping), ``u_act`` (input applied to the process after load, rate
     and range of the actuator), ``load`` (input load); plus structure-specific
-    ones (``y2``, ``sp2``, ``v1``, ``v2``, ..., ``ff``, ``y_pred``).  The
+    ones (``y2``, the inner plant's output without its sensor faults, ``sp2``,
+    ``v1``, ``v2``, ..., ``ff``, ``y_pred``).  The
     open-loop structure records ``sp`` (input) and ``y = u = v`` (output).
     """
 
@@ -246,9 +248,11 @@ class _Simulation:
         ok = proc.sensor_ok and math.isfinite(ym)
         load_in = proc.actuator.load
         series = proc.inner is not None  # cascade, override
-        y2 = proc.inner.y if series else math.nan  # the inner plant's output (no sensor)
+        y2 = proc.inner.y if series else math.nan  # the inner plant's output (recorded)
+        y2m = proc.y2_measured if record else y2  # what the controllers see (y2 faults)
+        ok2 = proc.sensor2_ok and (math.isfinite(y2m) or not series)
         u = side.compute(
-            sp, ym, y_ok=ok, y2=y2, dv=load_in, w=proc.wild_value, w_ok=proc.wild_ok
+            sp, ym, y_ok=ok, y2=y2m, y2_ok=ok2, dv=load_in, w=proc.wild_value, w_ok=proc.wild_ok
         )
         proc.step(*side.actuator_values(u))  # DA: the actuator(s) shape the MV(s)
         side.update(u, measured=None if series else proc.actuator.u)

@@ -155,9 +155,10 @@ class PlantProcess:
 
     @property
     def pv2(self) -> float:
-        """The inner plant's output ``y2`` of the current sample (NaN without one)."""
-        inner = self.side.inner
-        return math.nan if inner is None else float(inner.y)
+        """The inner measurement ``y2`` of the current sample (NaN without an inner plant,
+        and while a ``sensor`` event on ``y2`` flags it bad or NaN)."""
+        side = self.side
+        return float(side.y2_measured) if side.sensor2_ok else math.nan
 
     @property
     def dv(self) -> float:

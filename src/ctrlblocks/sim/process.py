@@ -5,7 +5,8 @@ the plant (and the inner plant of a cascade or override) built with
 :func:`~ctrlblocks.loops.build` inside the plants' ``Actuator`` and
 ``Sensor`` wrappers (``[actuator]``, ``[sensor]``), its initial steady state
 (``[initial]``), the setpoint profile and the process events (setpoint steps
-and ramps, loads, plant parameters, sensor faults).  Two callers share it:
+and ramps, loads, plant parameters, sensor faults of ``y`` and of ``y2``).  Two
+callers share it:
 
 * :func:`ctrlblocks.sim.simulate` steps it in the closed loop with the
   scenario's controllers;
@@ -27,6 +28,12 @@ Two more inputs of some structures:
   manipulate, with its own profile (``initial.wild``, ``do = "wild"``
   events: steps and ramps like the setpoint's, ``ok = false`` or
   ``nan = true`` for a bad measurement), :attr:`ProcessSide.wild`.
+
+The inner measurement ``y2`` of a series process (cascade, override,
+three-step) is the inner plant's output; ``sensor`` events with
+``target = "y2"`` flag it bad (:attr:`ProcessSide.sensor2_ok`) or replace it
+by NaN (:attr:`ProcessSide.y2_measured`), as the others do for ``y``.  The
+plants are not affected: the outer plant still receives the true ``y2``.
 
 Sample ``k`` (time ``t_k = k ts``) of a caller::
 
@@ -147,6 +154,9 @@ class ProcessSide:
         Load between the inner and the outer plant.
     sensor_ok : bool
         False while a ``sensor`` event flags the measurement invalid.
+    sensor2_ok : bool
+        False while a ``sensor`` event with ``target = "y2"`` flags the inner
+        measurement invalid.
     u0 : float
         The initial MV (``initial.u``, or the MV whose steady state gives
         ``initial.y``); a split range's controller output.
@@ -177,6 +187,8 @@ class ProcessSide:
         ini = scenario.initial
         self.inner_load = 0.0
         self.sensor_ok = True
+        self.sensor2_ok = True
+        self._y2_nan = False
         self.u0 = ini["u"]
         if self.plant is not None:
             self.actuator.load = ini["load"]
@@ -202,6 +214,14 @@ class ProcessSide:
     def wild_value(self) -> float:
         """The wild flow measured in the current sample (NaN during a ``nan`` event)."""
         return math.nan if self._wild_nan else self.wild.value
+
+    @property
+    def y2_measured(self) -> float:
+        """The inner measurement ``y2``: the inner plant's output, NaN during a ``nan`` event
+        (NaN without an inner plant).  Its quality flag is :attr:`sensor2_ok`."""
+        if self.inner is None or self._y2_nan:
+            return math.nan
+        return self.inner.y
 
     def _make(self, spec: Any) -> Any:
         return build(spec, self.ts, kind="plant", file=self.scenario.file, error=ScenarioError)
@@ -322,7 +342,12 @@ class ProcessSide:
                 self.wild_ok = f["ok"]
             if "nan" in f:
                 self._wild_nan = f["nan"]
-        else:  # sensor
+        elif f.get("target", "y") == "y2":  # a sensor event on the inner measurement
+            if "ok" in f:
+                self.sensor2_ok = f["ok"]
+            if "nan" in f:
+                self._y2_nan = f["nan"]
+        else:  # a sensor event on y
             if "ok" in f:
                 self.sensor_ok = f["ok"]
             if "nan" in f:

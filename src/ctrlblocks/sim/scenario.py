@@ -42,6 +42,7 @@ from ..plants import steady_input
 __all__ = [
     "EVENT_KINDS",
     "NAME_RE",
+    "SENSOR_TARGETS",
     "STRUCTURES",
     "BlockSpec",
     "Case",
@@ -73,7 +74,7 @@ EVENT_KINDS: dict[str, dict[str, tuple[type, ...]]] = {
     "manual_value": {"value": (float,), "target": (str,)},
     "limits": {"u_min": (float,), "u_max": (float,), "target": (str,)},
     "plant": {"param": (str,), "value": (float, str, bool), "target": (str,)},
-    "sensor": {"ok": (bool,), "nan": (bool,)},
+    "sensor": {"ok": (bool,), "nan": (bool,), "target": (str,)},
     "set": {"attr": (str,), "value": (float, bool, str), "target": (str,)},
     "wild": {"value": (float,), "ramp": (float,), "ok": (bool,), "nan": (bool,)},
 }
@@ -95,6 +96,9 @@ INITIAL_Y_PROBLEM = "needs a plant with a finite, non-zero static gain (give ini
 """Why ``initial.y`` is refused for an integrating (or zero-gain) plant."""
 
 _LOAD_POINTS = ("input", "output", "inner")
+SENSOR_TARGETS = ("y", "y2")
+"""The measurements a ``sensor`` event acts on (``target``, default ``y``); ``y2`` only
+where a controller measures it (cascade, three-step, an override block on ``y2``)."""
 SIGNAL_STATS = ("max", "min", "final", "mean", "max_step")
 """Statistics of a trace signal that a claim with ``signal = "..."`` can check
 (``max_step``: the largest change from one sample to the next, ``max |x_k - x_(k-1)|``,
@@ -237,6 +241,8 @@ def parse_controller(
 
 class _Parser(SpecReader):
     error = ScenarioError
+    measured: tuple[str, ...] = ("y",)
+    """What the scenario's controllers measure (:meth:`sensor_target`), set before the cases."""
 
     # -- sections ----------------------------------------------------------------
 
@@ -311,6 +317,7 @@ class _Parser(SpecReader):
         initial = self.initial(self.table(doc, "initial", "initial", False))
 
         controllers = self.controllers(doc, structure, ts, plant, initial)
+        self.measured = self.measured_by(doc, structure)
         cases = self.cases(doc, duration)
         self.structure_inputs(doc, structure, initial, cases)
         claims = self.claims(doc, controllers, cases)
@@ -392,6 +399,25 @@ class _Parser(SpecReader):
                 f"the {structure} structure starts from initial.u, the controller output "
                 "(its two actuators have no unique steady state for a temperature)",
             )
+
+    def measured_by(self, doc: dict[str, Any], structure: str) -> tuple[str, ...]:
+        """The measurements the controllers of ``doc`` read (an override: its blocks')."""
+        kind = _STRUCTURES[structure]
+        used = {m for e in doc["controllers"] for m in kind.measurements_in(e)}
+        return tuple(m for m in kind.measurements if m in used)
+
+    def sensor_target(self, target: str, key: str) -> None:
+        """A ``sensor`` event's ``target``: ``y``, or ``y2`` where a controller measures it."""
+        valid = [m for m in SENSOR_TARGETS if m == "y" or m in self.measured]
+        if target == "y2" and target not in valid:
+            have = " and ".join(self.measured) or "nothing"
+            raise self.fail(
+                key,
+                "'y2' needs a controller that measures y2 (cascade, three_step, or an "
+                f'override block with measure = "y2"); the controllers here measure {have}',
+            )
+        if target not in valid:
+            raise self.fail(key, f"unknown target {target!r}; expected one of: {', '.join(valid)}")
 
     def initial_y(self, plant: BlockSpec, inner: BlockSpec | None, y0: float, ts: float) -> None:
         """``initial.y`` needs an MV whose steady state gives it: refused here, not in a run."""
@@ -647,6 +673,8 @@ class _Parser(SpecReader):
                 raise self.fail(
                     f"{ekey}.mode", f"must be 'auto' or 'manual', got {fields['mode']!r}"
                 )
+            if kind == "sensor":
+                self.sensor_target(fields.get("target", "y"), f"{ekey}.target")
             if kind == "setpoint" and "ramp" in fields and fields["ramp"] <= 0:
                 raise self.fail(f"{ekey}.ramp", "must be > 0 (a rate in units per second)")
             label = self.string(e, "label", f"{ekey}.label", default=_default_label(kind, fields))
@@ -780,7 +808,8 @@ def _default_label(kind: str, f: Mapping[str, Any]) -> str:
             parts.append("wild ok" if f["ok"] else "wild fault")
         return ", ".join(parts) or "wild"
     if kind == "sensor":
+        what = "y2 sensor" if f.get("target", "y") == "y2" else "sensor"
         if f.get("nan"):
-            return "sensor NaN"
-        return "sensor ok" if f.get("ok", True) else "sensor fault"
+            return f"{what} NaN"
+        return f"{what} ok" if f.get("ok", True) else f"{what} fault"
     return f"{f.get('attr')} = {f.get('value')}"
