@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 
 import numpy as np
 import pytest
@@ -43,6 +44,8 @@ noise = 0.01
 """
 
 def _toml(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
     if isinstance(value, str):
         return f'"{value}"'
     if isinstance(value, list):
@@ -181,26 +184,30 @@ def test_cascade_with_an_adrc_primary_and_the_handshake_on_the_lane_equals_pytho
 
 
 @pytest.mark.parametrize("primary", ["PID", "ADRC"])
+@pytest.mark.parametrize("secondary", ["PID", "PID safe", "ADRC"])
 @pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "interpreted"])
-def test_lane_cascade_primary_holds_on_a_non_finite_y2_as_follow_value(primary, compiled):
-    """The lane's ``_control`` mirrors ``Cascade.follow_value`` on a bad ``y2``.
+def test_lane_cascade_on_a_bad_y2_equals_the_controller_side(primary, secondary, compiled):
+    """The lane's ``_control`` on a bad ``y2`` equals ``ControllerSide.compute``.
 
-    The scenario language has no fault of ``y2`` (the inner plant's output)
-    and a non-finite ``y2`` with the secondary in AUTO stops the lane (the
-    secondary's output is not finite, the Python path runs): the sample is
-    checked here against ``ControllerSide`` directly.  The primary holds its
-    last output (before: it computed its law on its error, 0.8 here).
+    Flagged bad (finite) or NaN, the secondary in AUTO or in manual: the
+    primary holds its last output (``Cascade.follow_value``; before: it
+    computed its law on its error, 0.8 here) and the secondary runs its
+    bad-measurement cycle (``_bad``: hold, its ``safe_value``, the ADRC's
+    ``u_sf``; the manual value in manual).  Before, a NaN ``y2`` with the
+    secondary in AUTO gave a non-finite MV (the lane stopped) and a flagged
+    ``y2`` was not seen at all.
     """
     from ctrlblocks.fast._jit import python_function
-    from ctrlblocks.fast.simlane import _control, _slot
+    from ctrlblocks.fast.simlane import _control, _safe_value, _slot
     from ctrlblocks.sim import ControllerSide
     from ctrlblocks.sim.scenario import parse_controller
 
-    prim = ({"type": "PID", "kp": 2.0, "ti": 1.0, "u_min": -100.0, "u_max": 100.0}
-            if primary == "PID" else
-            {"type": "ADRC", "order": 1, "b0": 0.5, "omega_c": 1.0, "omega_o": 5.0,
-             "u_min": -100.0, "u_max": 100.0})  # fmt: skip
-    sec = {"type": "PID", "kp": 1.0, "ti": 2.0, "u_min": -100.0, "u_max": 100.0}
+    lim = {"u_min": -100.0, "u_max": 100.0}
+    adrc = {"type": "ADRC", "order": 1, "b0": 0.5, "omega_c": 1.0, "omega_o": 5.0, **lim}
+    prim = {"type": "PID", "kp": 2.0, "ti": 1.0, **lim} if primary == "PID" else adrc
+    sec = {"PID": {"type": "PID", "kp": 1.0, "ti": 2.0, **lim},
+           "PID safe": {"type": "PID", "kp": 1.0, "ti": 2.0, "safe_value": 7.0, **lim},
+           "ADRC": dict(adrc, u_sf=-3.0)}[secondary]  # fmt: skip
     entry = {"name": "c", "primary": prim, "secondary": sec}
     side = ControllerSide("cascade", parse_controller(entry, "cascade", 0.1, key="c"), 0.1)
     for _ in range(20):
@@ -210,13 +217,131 @@ def test_lane_cascade_primary_holds_on_a_non_finite_y2_as_follow_value(primary, 
     fn = _control if compiled else python_function(_control)
     kinds = np.array([k0, k1], dtype=np.int64)
     row = lambda x: tuple(float(v) for v in x)  # noqa: E731 - the lane's tuples
-    for m1 in (False, True):  # the secondary in AUTO (the new case), in manual
-        u, v1, ok, *_ = fn(True, True, kinds, row(p0), row(a0), row(s0), row(p1), row(a1),
-                           row(s1), 1.0, 0.2, math.nan, 0.0, False, m1, False)  # fmt: skip
-        assert v1 == pb.out  # held, as the Python path
-        assert ok is (m1 is True) and (math.isfinite(u) is m1)
-    side.compute(1.0, 0.2, y2=math.nan)
-    assert abs(side.values["sp2"] - v1) < 1e-12 and side.tracking == {"primary": "hold"}
+    safe = _safe_value(sb, k1)
+    # the MV in AUTO: the secondary's last output held, its safe value; in manual: its manual value
+    want = {False: {"PID": s1[4], "PID safe": 7.0, "ADRC": -3.0}[secondary], True: s1[9]}
+    for y2, ok2 in ((math.nan, True), (0.3, False)):
+        for m1 in (False, True):  # the secondary in AUTO, in manual
+            u, v1, ok, *_ = fn(True, True, kinds, row(p0), row(a0), row(s0), row(p1), row(a1),
+                               row(s1), 1.0, 0.2, y2, ok2, safe, 0.0, False, m1, False)  # fmt: skip
+            sb.manual = m1
+            u_ref = side.compute(1.0, 0.2, y2=y2, y2_ok=ok2)
+            assert ok is True and v1 == pb.out  # the primary held, as the Python path
+            assert side.tracking == {"primary": "hold"}
+            assert abs(side.values["sp2"] - v1) < 1e-12 and abs(u - u_ref) < 1e-12
+            assert u == want[m1]
+
+
+# y2 flagged bad for 20 s with a setpoint step in it (a primary error), then NaN for 20 s
+# with the secondary in manual for part of it and a load between the plants
+CASCADE_Y2 = (
+    HEAD.format(structure="cascade", duration=110.0, initial="y = 0.5\nwarmup = 2.0")
+    + _table("inner_plant", type="PT1", k=1.0, t=1.5)
+    + _table("plant", type="FOPDT", k=1.5, t=8.0, dead_time=1.0)
+    + _table("actuator", u_min=0.0, u_max=1.2, rate=2.0)
+    + "".join(_table("[events]", **ev) for ev in [
+        dict(t=5.0, do="setpoint", value=1.0),
+        dict(t=20.0, do="sensor", target="y2", ok=False),
+        dict(t=30.0, do="setpoint", value=1.4),
+        dict(t=40.0, do="sensor", target="y2", ok=True),
+        dict(t=60.0, do="sensor", target="y2", nan=True),
+        dict(t=64.0, do="mode", mode="manual", manual_value=0.6),
+        dict(t=70.0, do="load", at="inner", value=0.1),
+        dict(t=74.0, do="mode", mode="auto"),
+        dict(t=80.0, do="sensor", target="y2", nan=False)])
+)  # fmt: skip
+Y2_FAULTS = ((20.0, 40.0), (60.0, 80.0))
+_ADRC_P = ('type = "ADRC"\norder = 1\nb0 = 0.2\nomega_c = 0.3\nomega_o = 1.5\n'
+           "u_min = -1.0\nu_max = 3.0\n")  # fmt: skip
+_ADRC_S = ('type = "ADRC"\norder = 1\nb0 = 0.7\nomega_c = 1.0\nomega_o = 5.0\n'
+           "u_min = 0.0\nu_max = 1.2\nu_sf = 0.2\n")  # fmt: skip
+CASCADE_Y2_CONTROLLERS = "\n".join([
+    _cascade("PID / PID holds", _pid(1.5, 8.0, -1.0, 3.0), _pid(2.0, 1.0, 0.0, 1.2)),
+    _cascade("PID / PID safe value", _pid(1.5, 8.0, -1.0, 3.0),
+             _pid(2.0, 1.0, 0.0, 1.2, "back_calc_model", safe_value=0.3, td=0.2)),
+    _cascade("ADRC / PID", _ADRC_P, _pid(2.0, 1.0, 0.0, 1.2), "aw_handshake = false\n"),
+    _cascade("ADRC / ADRC", _ADRC_P, _ADRC_S),
+])  # fmt: skip
+
+
+def test_cascade_with_y2_faults_on_the_lane_equals_the_python_path(caplog):
+    """A flagged and a NaN ``y2`` in a scenario: the compiled lane runs them, equal to 1e-12.
+
+    ``_same`` checks that no run left the lane and every signal against the
+    Python path; ``engine="compiled"`` must not refuse any run either.
+    Before, the scenario language had no fault of ``y2``; and the lane
+    stopped at a NaN ``y2`` with the secondary in AUTO and did not see a
+    flagged one.
+    """
+    sc = parse_scenario(CASCADE_Y2 + CASCADE_Y2_CONTROLLERS)
+    res = _same(sc, caplog)
+    assert len(res.runs) == 4
+    comp = run_scenario(sc, engine="compiled")
+    for ra, rb in zip(res.runs, comp.runs, strict=True):
+        for name, x in ra.signals.items():
+            assert np.array_equal(x, rb.signals[name]), name
+    sig = {r.controller: r.signals for r in res.runs}
+    t = sig["PID / PID holds"]["t"]
+    first = (t >= 20.0 - 1e-9) & (t < 40.0 - 1e-9)
+    assert np.all(sig["PID / PID safe value"]["u"][first] == 0.3)  # its safe value
+    assert np.all(sig["ADRC / ADRC"]["u"][first] == 0.2)  # u_sf
+    # the secondary's manual value in manual during the NaN stretch
+    man = (t >= 64.0 - 1e-9) & (t < 74.0 - 1e-9)
+    assert all(np.all(s["u"][man] == 0.6) for s in sig.values())
+
+
+@pytest.mark.parametrize(
+    "name", ["PID / PID holds", "PID / PID safe value", "ADRC / PID", "ADRC / ADRC"]
+)
+def test_cascade_primary_holds_during_a_y2_fault_and_returns_bumplessly(name, caplog):
+    """The cascade's bad-``y2`` rule end to end (``Cascade.follow_value``), both engines.
+
+    During each stretch of a bad ``y2`` (flagged, then NaN) the primary's
+    output ``sp2`` is constant although its error is there (a setpoint step
+    in the first stretch); at the first good sample neither the MV nor
+    ``sp2`` moves by 1e-9; then the primary acts on its error again.
+    """
+    sc = parse_scenario(CASCADE_Y2 + CASCADE_Y2_CONTROLLERS)
+    for engine in ("auto", "python"):
+        run = next(r for r in run_scenario(sc, engine=engine).runs if r.controller == name)
+        t, u, sp2, sp, ym = (run.signals[k] for k in ("t", "u", "sp2", "sp", "ym"))
+        for t0, t1 in Y2_FAULTS:
+            bad = (t >= t0 - 1e-9) & (t < t1 - 1e-9)
+            assert np.ptp(sp2[bad]) == 0.0, (engine, t0)
+            k = int(np.searchsorted(t, t1 - 1e-9))  # the first good sample
+            assert abs(u[k] - u[k - 1]) < 1e-9 and abs(sp2[k] - sp2[k - 1]) < 1e-9, (engine, t0)
+        k = int(np.searchsorted(t, 40.0 - 1e-9))
+        assert sp[k - 1] - ym[k - 1] > 0.2  # the primary's error during the first stretch
+        assert sp2[k + 30] > sp2[k] + 0.05  # then it acts on it again
+
+
+def test_a_y2_fault_of_an_override_or_a_y_fault_is_refused_by_the_lane_with_the_reason(caplog):
+    """What the lane does not run it names (``compiled_blockers``) and the Python path runs."""
+    from ctrlblocks.sim.dispatch import CompiledLaneError
+
+    override = (
+        HEAD.format(structure="override", duration=30.0, initial="y = 0.5")
+        + _table("inner_plant", type="PT1", k=1.0, t=1.5)
+        + _table("plant", type="FOPDT", k=1.5, t=8.0, dead_time=1.0)
+        + _table("[events]", t=10.0, do="sensor", target="y2", nan=True)
+        + '[[controllers]]\nname = "o"\n[[controllers.blocks]]\n' + _pid(1.0, 5.0, 0.0, 2.0)
+        + '[[controllers.blocks]]\nmeasure = "y2"\n' + _pid(2.0, 1.0, 0.0, 2.0)
+    )  # fmt: skip
+    cascade_y = CASCADE_Y2.replace('target = "y2"\nok = false', "ok = false").replace(
+        'target = "y2"\nok = true', "ok = true"
+    ) + _cascade("c", _pid(1.5, 8.0, -1.0, 3.0), _pid(2.0, 1.0, 0.0, 1.2))
+    for text, why in ((override, "a fault of y2 is covered for the cascade only"),
+                      (cascade_y, "(sensor): not covered")):  # fmt: skip
+        sc = parse_scenario(text)
+        with pytest.raises(CompiledLaneError, match=re.escape(why)):
+            run_scenario(sc, engine="compiled")
+        with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
+            caplog.clear()
+            auto = run_scenario(sc)
+        assert "Python path" in caplog.text and why in caplog.text
+        ref = run_scenario(sc, engine="python")
+        for name, x in auto.runs[0].signals.items():
+            assert np.array_equal(x, ref.runs[0].signals[name], equal_nan=True), name
 
 
 # -- override -----------------------------------------------------------------------

@@ -30,8 +30,11 @@ The wirings (``ctrlblocks.loops.structures``, ``Structure.compiled_lane``):
     ``y2``, the inner plant's output) writes the MV; its ``awout`` freezes
     the primary's integrator in the next sample (``awin``, Åström 1987,
     section 3 "Cascade Control"); while the secondary is in manual the
-    primary (in auto) tracks ``y2``, while ``y2`` is not finite it holds
-    its last output (``Cascade.follow_value``).
+    primary (in auto) tracks ``y2``; while ``y2`` is bad (its quality flag
+    false or NaN: the scenario's ``sensor`` events on ``y2``) it holds its
+    last output (``Cascade.follow_value``) and the secondary runs its
+    bad-measurement cycle (:func:`_bad`: the safe value, or the last
+    output held; the manual value in manual), as the blocks do.
 ``override``
     two controllers (each on ``y`` or ``y2``, on ``sp`` or a fixed setpoint);
     a min or max selector picks the MV and both track it (Åström 1987,
@@ -52,9 +55,10 @@ The caller (``ctrlblocks.sim.dispatch``) turns the scenario's events into
 the per-sample arrays and draws the noise with the scenario's own
 generator, so the traces equal the Python path's.
 
-A sample whose measurement or controller output is not finite is where the
-two paths could part (quality flags, held commands): the loop stops there
-and returns its index, and the caller runs the Python path instead.
+A sample whose measurement ``y`` or controller output is not finite is where
+the two paths could part (quality flags, held commands): the loop stops
+there and returns its index, and the caller runs the Python path instead.
+The cascade's bad ``y2`` is the one quality case the lane runs itself.
 """
 
 from __future__ import annotations
@@ -197,19 +201,54 @@ def _commit(kind, p, s, pend, man, applied, track):
 
 
 @jitable
-def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ff, m0, m1, awin):
+def _bad(kind, p, a, s, man, safe):
+    """A cycle of one controller on a bad measurement, committed with its own output.
+
+    Returns ``(out, awout, state)``.  PID (``PID.compute_output``'s
+    bad-input branch, ``PID.update_state`` of that cycle): the output is the
+    manual value in manual, else ``safe`` (its ``safe_value``; NaN: hold the
+    last output), limited; the integrator and the histories stay, and the
+    first good cycle starts the histories afresh (``cold``) and continues
+    from this output (``transfer``: ``PID._reinit``); ``awout`` is the target
+    beyond a limit.  ADRC (``ADRC.compute_output``, ``y_ok`` false): the
+    manual value in manual, else ``safe`` (its ``u_sf``), limited; the ESO
+    frozen, x4 re-solved by (11) of Nowak et al. 2018 at the first good
+    cycle (``track``); not at a limit.  The manual value follows the output
+    in auto (In/Out).
+    """
+    if kind == _PID:
+        lo, hi = p[9], p[10]
+        if man:
+            target = s[9] if math.isfinite(s[9]) else s[4]
+        else:
+            target = s[4] if math.isnan(safe) else safe
+        out = clamp(target, lo, hi)
+        um = s[9] if man else out
+        return out, target > hi or target < lo, (s[0], s[1], s[2], s[3], out, 1.0, 1.0, 0.0,
+                                                 0.0, um)  # fmt: skip
+    lo, hi = a[18], a[19]
+    target = (s[9] if math.isfinite(s[9]) else s[4]) if man else safe
+    u = clamp(target, lo, hi)
+    um = s[9] if man else u
+    return u, False, (s[0], s[1], s[2], s[3], u, s[5], s[6], 1.0, 0.0, um)
+
+
+@jitable
+def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1, ff, m0, m1,
+             awin):  # fmt: skip
     """One sample of the controller side: ``(u, v1, ok, s0, s1, awin)``.
 
     ``v1`` is the first controller's output (cascade: the secondary's
     setpoint); ``ok`` is False when an output is not finite (the states are
-    then not to be used).  Each controller is computed and committed at one
-    place (the compiled code inlines each kernel once per controller).
+    then not to be used).  ``ok2``: the quality flag of ``y2`` (a cascade),
+    ``safe1`` the secondary's safe value (:func:`_bad`).  Each controller is
+    computed and committed at one place (the compiled code inlines each
+    kernel once per controller).
     """
-    # the inner loop is open (the secondary in manual, or y2 not finite) and the primary
-    # in auto: the primary tracks y2, or holds its last output while y2 is not finite
-    # (Cascade.follow_value; a non-finite y2 with the secondary in auto stops the lane
-    # below, the secondary's output is not finite, and the Python path runs the sample)
-    good2 = math.isfinite(y2)
+    # the inner loop is open (the secondary in manual, or y2 bad: flagged or not finite)
+    # and the primary in auto: the primary tracks y2, or holds its last output while y2
+    # is bad (Cascade.follow_value); the secondary then runs its bad-measurement cycle
+    good2 = ok2 and math.isfinite(y2)
     track = cascade and not m0 and (m1 or not good2)
     c0 = s0
     if track:
@@ -217,9 +256,12 @@ def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ff, m0, m1,
     v1, _aw0, pd0 = _compute(kinds[0], p0, a0, c0, sp, yc, ff, m0 or track, awin)
     u, ok = v1, math.isfinite(v1)
     if cascade:  # the secondary on y2, its setpoint the primary's output, writes the MV
-        u, aw1, pd1 = _compute(kinds[1], p1, a1, s1, v1, y2, 0.0, m1, False)
+        if good2:
+            u, aw1, pd1 = _compute(kinds[1], p1, a1, s1, v1, y2, 0.0, m1, False)
+            s1 = _commit(kinds[1], p1, s1, pd1, m1, u, False)
+        else:
+            u, aw1, s1 = _bad(kinds[1], p1, a1, s1, m1, safe1)
         ok = ok and math.isfinite(u)
-        s1 = _commit(kinds[1], p1, s1, pd1, m1, u, False)
         if hs:
             awin = aw1  # the secondary's awout, read by the primary in the next sample
     s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1, track)
@@ -265,12 +307,14 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     """The loop of :func:`lane_loop` for the feed-forward, Smith and cascade wirings.
 
     Returns the first sample that is not finite, or -1.  ``cfg = (wiring,
-    handshake, warm-up samples, sp, y, y2, dv of the warm-up, mv[0], mv[1])``;
+    handshake, warm-up samples, sp, y, y2, dv of the warm-up, mv[0], mv[1], the
+    secondary's safe value)``;
     plants: 0 the measured one, 1 the inner one (series), 2 and 3 the Smith
     predictor's models (with and without the dead time); ``ffp = (b0, b1, a1,
     lo, hi, x_prev, out)`` of the lead-lag; ``sig`` rows: sp, load_in,
     load_out, manual[0], manual[1], u_man (NaN: unchanged), outlet g3o, load
-    between the plants; ``out`` rows: y, ym, u, u_act, y2, the wiring's signal.
+    between the plants, the quality of ``y2`` (0: bad); ``out`` rows: y, ym, u,
+    u_act, y2 (the inner plant's output), the wiring's signal.
     """
     wiring = int(cfg[0])
     cascade = wiring == _CASCADE
@@ -288,16 +332,18 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     ff, x_prev = ffp[6], ffp[5]
     a_lo, a_hi, du, ua, y_lo, y_hi = act[0], act[1], act[2], act[3], act[4], act[5]
     sp_a, ld_in, ld_out, man0, man1 = sig[0], sig[1], sig[2], sig[3], sig[4]
-    um_a, g3o, ld_mid = sig[5], sig[6], sig[7]
+    um_a, g3o, ld_mid, ok2_a = sig[5], sig[6], sig[7], sig[8]
+    safe1 = cfg[9]
     nw = int(cfg[2])
     # the warm-up (k < 0): every controller in manual, the plant held in its steady state
     # and measured without noise; then the n recorded samples
     for k in range(-nw, out.shape[1]):
         if k < 0:
             sp, y, dv, m0, m1, yc = cfg[3], cfg[4], cfg[6], True, True, cfg[4]
-            y2 = cfg[5]
+            y2, ok2 = cfg[5], True
         else:
             sp, dv, m0, m1, y2 = sp_a[k], ld_in[k], man0[k] != 0.0, man1[k] != 0.0, st1[4]
+            ok2 = ok2_a[k] != 0.0
             y = st0[4] + ld_out[k]
             yc = clamp(y + noise[k], y_lo, y_hi)
             if not math.isfinite(yc):
@@ -314,7 +360,7 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
             ff = leadlag_step(dv, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
             x_prev = dv
         u, v1, ok, s0, s1, awin = _control(
-            cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ff, m0, m1, awin
+            cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1, ff, m0, m1, awin
         )
         if k < 0:
             continue
@@ -510,6 +556,13 @@ def _slot(block: Any, u_man: float) -> tuple[int, np.ndarray, np.ndarray, np.nda
     return _ADRC, pid, adrc, st
 
 
+def _safe_value(block: Any, kind: int) -> float:
+    """The output of ``block`` on a bad measurement in auto (:func:`_bad`): the PID's
+    ``safe_value`` (NaN for None: hold the last output), the ADRC's ``u_sf``."""
+    v = block.config.u_sf if kind == _ADRC else block.config.safe_value
+    return math.nan if v is None else float(v)
+
+
 def lane_loop(
     wiring: str,
     controllers: Sequence[Any],
@@ -563,8 +616,10 @@ def lane_loop(
     signals : dict
         Per sample: ``sp``, ``load_in``, ``load_out``, ``u_man`` (NaN:
         unchanged), ``g3o`` (three-tank outlet coefficient; anything for a
-        linear plant), ``load_mid`` (between series plants; optional), and
-        ``manual``: a sequence of one 0/1 array per controller.
+        linear plant), ``load_mid`` (between series plants; optional),
+        ``y2_ok`` (``cascade``: 0 while ``y2`` is bad, flagged or NaN;
+        optional, default good), and ``manual``: a sequence of one 0/1 array
+        per controller.
     noise : array
         The measurement noise of every sample.
     inner_model : plant, optional
@@ -610,11 +665,12 @@ def lane_loop(
     nb = len(controllers)
     cfg = np.array([
         code, handshake, warmup, sp_warmup, y_warmup, y2_warmup, dv_warmup, mv[0],
-        mv[-1] if len(mv) > 1 else 0,
+        mv[-1] if len(mv) > 1 else 0, _safe_value(controllers[-1], slots[-1][0]),
     ], dtype=float)  # fmt: skip
     sig = np.stack([
         signals["sp"], signals["load_in"], signals["load_out"], man[0], man[-1],
         signals["u_man"], signals["g3o"], signals.get("load_mid", np.zeros(n)),
+        signals.get("y2_ok", np.ones(n)),
     ])  # fmt: skip
     traces = np.zeros((5 + (nb if code == _OVERRIDE else 1), n))
     traces[5:] = math.nan

@@ -24,9 +24,11 @@ three-tank process (also as a cascade's inner plant or a Smith predictor's
 model), inside the scenario's actuator (range, rate, input load) and sensor
 (range, noise, output load), with setpoint steps and ramps, input, output
 and inner loads, the three-tank's outlet switch, mode and manual-value
-events, and the warm-up.  Everything else -- the other structures, limits
-and ``set`` events, sensor faults, other plant switches, numba not
-installed -- runs the Python path.
+events, a cascade's faults of ``y2`` (``sensor`` events with ``target =
+"y2"``: the primary holds, the secondary runs its bad-measurement cycle),
+and the warm-up.  Everything else -- the other structures, limits and
+``set`` events, faults of ``y`` (and of an override's ``y2``), other plant
+switches, numba not installed -- runs the Python path.
 
 The lane's traces equal the Python path's (same operations in the same
 order; tests/sim/test_dispatch.py and test_dispatch_structures.py compare
@@ -200,6 +202,10 @@ def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
         if v is not None and not math.isfinite(v):
             return f"{where}: non-finite manual value"
         return None
+    if k == "sensor" and f.get("target", "y") == "y2":
+        if sim.side.kind.compiled_lane == "cascade":
+            return None  # the lane's _control: the primary holds, the secondary's _bad cycle
+        return f"{where}: a fault of y2 is covered for the cascade only"
     return f"{where}: not covered"
 
 
@@ -321,6 +327,8 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
         "load_mid": [(0, proc.inner_load)],
     }
     manual: list[tuple[int, float]] = []
+    y2_flag: list[tuple[int, float]] = [(0, float(proc.sensor2_ok))]
+    y2_nan: list[tuple[int, float]] = [(0, 0.0)]
     u_man = np.full(n, math.nan)
     by_k: dict[int, list[Event]] = {}
     for ev in proc.pending:
@@ -341,8 +349,15 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
                 u_man[k] = f["manual_value"]
         elif ev.kind == "manual_value":
             u_man[k] = f["value"]
+        elif ev.kind == "sensor" and f.get("target", "y") == "y2":  # (on y: refused)
+            if "ok" in f:
+                y2_flag.append((k, float(f["ok"])))
+            if "nan" in f:
+                y2_nan.append((k, float(f["nan"])))
     out: dict[str, Any] = {"sp_warmup": proc.setpoint.value, "u_man": u_man}
     out |= {name: _piecewise(ch, n) for name, ch in changes.items()}
+    # ProcessSide.apply: the flag and the NaN are set apart; y2 is good when both say so
+    out["y2_ok"] = _piecewise(y2_flag, n) * (1.0 - _piecewise(y2_nan, n))
     out["manual_changes"] = manual
     out["sp"] = _setpoints(proc.setpoint, by_k, n, h)
     return out
