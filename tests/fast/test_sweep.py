@@ -116,6 +116,34 @@ def test_bad_value_is_refused_before_any_run():
         sweep("nowak_fig7", {"controllers[2].kp": [-1.0]}, executor="serial", duration=DURATION)
 
 
+def test_the_parent_checks_each_value_once_not_every_set():
+    sweep_mod = importlib.import_module("ctrlblocks.fast.sweep")
+    vary = {"controllers[2].kp": [5.0, 6.0, 7.0], "controllers[2].ti": [5.4, 6.0]}
+    sets = sweep_mod.parameter_sets(vary)
+    assert sweep_mod._probes(sets, vary) == [
+        {"controllers[2].kp": 5.0, "controllers[2].ti": 5.4},
+        {"controllers[2].kp": 6.0, "controllers[2].ti": 5.4},
+        {"controllers[2].kp": 7.0, "controllers[2].ti": 5.4},
+        {"controllers[2].kp": 5.0, "controllers[2].ti": 6.0},
+    ]  # 4 parses in the parent for 6 sets (48 x 5 x 2 = 480 sets: 53)
+
+
+@pytest.mark.parametrize("executor", ["serial", "pool"])
+def test_a_value_refused_only_in_combination_stops_the_sweep_with_its_set(executor):
+    # u_min = 3 and u_max = 2 are each fine with the file's other limit, not together
+    vary = {"controllers[2].u_min": [0.0, 3.0], "controllers[2].u_max": [5.0, 2.0]}
+    ex = cf.ProcessPoolExecutor(max_workers=2) if executor == "pool" else "serial"
+    try:
+        with pytest.raises(SweepError) as info:
+            sweep("nowak_fig7", vary, executor=ex, duration=DURATION)
+    finally:
+        if executor == "pool":
+            ex.shutdown()
+    msg = str(info.value)
+    assert msg.startswith("with controllers[2].u_min = 3.0, controllers[2].u_max = 2.0: ")
+    assert "low limit 3.0 is above high limit 2.0" in msg
+
+
 def test_rows_fall_back_to_csv_without_pyarrow(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyarrow", None)
     path = write_rows([{"a": 1.0, "b": None}, {"a": 2.0, "c": "x"}], tmp_path / "r.parquet")
