@@ -180,6 +180,27 @@ def test_the_plant_server_serves_a_bad_y2_as_nan() -> None:
     assert plant.sensor_ok  # pv (y) stays good
 
 
+def test_the_opcua_plant_server_gives_pv2_a_bad_status_during_a_y2_fault() -> None:
+    pytest.importorskip("asyncua")
+    from asyncua import ua
+
+    from ctrlblocks.runtime.plant_server import PlantServer
+
+    plant = PlantProcess(parse_scenario(CASCADE))
+    server = PlantServer(plant, opcua_port=None, modbus_port=None)
+    read_pv, read_pv2 = (server._opcua_reader(n, ua.VariantType.Double) for n in ("pv", "pv2"))
+    statuses = []
+    for _ in range(400):
+        statuses.append((read_pv(None, None).StatusCode.is_good(),
+                         read_pv2(None, None).StatusCode.is_good(), plant.sensor2_ok))  # fmt: skip
+        plant.step(0.7)
+    t = np.arange(400) * 0.1
+    flagged = (t >= 20.0 - 1e-9) & (t < 30.0 - 1e-9)  # (10..20 s: a NaN value, good status)
+    assert [s[1] for s in statuses] == list(~flagged)  # pv2: BadSensorFailure while flagged
+    assert all(s[0] for s in statuses)  # pv stays good
+    assert [s[2] for s in statuses] == list(~flagged)
+
+
 def test_the_python_path_records_the_true_y2_and_the_secondary_sees_the_fault() -> None:
     sc = parse_scenario(CASCADE)
     run = simulate(sc, "c")

@@ -23,7 +23,8 @@ u_min     10        MV limits (NaN until a limits event)             read
 u_max     12                                                         read
 k         14        sample counter                                   read
 pv2       16        the inner plant's output ``y2`` (cascade,        read
-                    override; NaN without an inner plant)
+                    override; NaN without an inner plant; as pv
+                    during a sensor event on y2)
 dv        18        the input load, the measured disturbance of a    read
                     feed-forward structure
 mv2       20        a split range's second actuator (actuator B;     read/write
@@ -336,7 +337,9 @@ class PlantServer:
             if name == "pv" and self.stale:
                 now -= _dt.timedelta(hours=1)
             value = ua.Variant(self._values()[name], vt)
-            if name == "pv" and not self.process.sensor_ok:
+            if (name == "pv" and not self.process.sensor_ok) or (
+                name == "pv2" and not self.process.sensor2_ok
+            ):
                 return ua.DataValue(
                     value,
                     StatusCode=ua.StatusCode(ua.StatusCodes.BadSensorFailure),

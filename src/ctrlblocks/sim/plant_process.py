@@ -101,6 +101,12 @@ class PlantProcess:
         """False while a sensor event flags the measurement invalid."""
         return self.side.sensor_ok
 
+    @property
+    def sensor2_ok(self) -> bool:
+        """False while a sensor event on ``y2`` flags the inner measurement invalid (a NaN
+        event makes :attr:`pv2` NaN with this flag True, as for ``y``)."""
+        return bool(self.side.sensor2_ok)
+
     def _apply_due(self) -> None:
         for ev in self.side.due(self.t):
             if not self.side.apply(ev):
