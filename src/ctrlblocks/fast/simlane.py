@@ -142,11 +142,8 @@ def _compute(kind, p, a, s, sp, y, ff, man, awin):
     ``awin`` freezes the integrator as ``PID.compute_output`` does (it then
     takes the branch of ``K h/Ti = 0``).  ADRC state ``s = (yh, x2, x3, x4,
     u_prev, ref, started, track, sat, u_man)``; ``awin`` freezes x4 as
-    ``ADRC.compute_output`` does (``x4_update_allowed`` returns 0 for it
-    whatever the rule, Nowak et al. 2018, section 5): the kernel runs with
-    the rule "freeze" and a saturation flag, the one case in which that
-    function also returns 0 (the rule and the flag feed nothing else of
-    ``adrc_step``).
+    ``ADRC.compute_output`` does (``adrc_step``'s own ``awin`` input,
+    Nowak et al. 2018, section 5).
     """
     if kind == _PID:
         if awin:
@@ -158,14 +155,9 @@ def _compute(kind, p, a, s, sp, y, ff, man, awin):
         )  # fmt: skip
         awout = v_raw > p[10] or v_raw < p[9]  # limits_active (PID._finish)
         return out, awout, (out, v_raw, pt, i_k, dn, w, e, ff)
-    sat_in = int(s[8])
-    if awin:  # x4 frozen whatever the rule (x4_update_allowed): the rule "freeze" at a limit
-        a = (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12],
-             a[13], a[14], a[15], a[16], a[17], a[18], a[19], 1.0, a[21])  # fmt: skip
-        sat_in = 1
     u, _ur, yh, x2, x3, x4, ref, track, sat = adrc_step(
-        sp, y, man, s[9], s[6] != 0.0, s[7] != 0.0, sat_in, s[0], s[1], s[2], s[3],
-        s[4], s[5], a,
+        sp, y, man, s[9], s[6] != 0.0, s[7] != 0.0, int(s[8]), s[0], s[1], s[2], s[3],
+        s[4], s[5], a, awin,
     )  # fmt: skip
     return u, sat != 0, (u, yh, x2, x3, x4, ref, 1.0 if track else 0.0, sat * 1.0)
 
