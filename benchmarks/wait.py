@@ -289,6 +289,14 @@ def bench_bank(rounds: int, n: int = 1_000_000) -> list[Row]:
 # ---------------------------------------------------------------------------
 
 
+def _warm_sweep() -> None:
+    """A worker's warm-up: one short run of the benchmark's scenario (imports, kernels loaded)."""
+    from ctrlblocks.fast.sweep import read_scenario_text, run_batch
+
+    text, file = read_scenario_text("nowak_fig7")
+    run_batch(text, file, [{}], duration=5.0)
+
+
 def bench_sweep(rounds: int) -> list[Row]:
     import concurrent.futures as cf
 
@@ -303,9 +311,14 @@ def bench_sweep(rounds: int) -> list[Row]:
     n_sets = 480
     duration = None  # the scenario's own duration
 
-    def pool_side(workers: int, batch: int | None) -> Callable[[], float]:
+    def pool_side(workers: int, batch: int | None, warm: bool = True) -> Callable[[], float]:
+        # warm: each worker has run one short set of the scenario before the clock starts (its
+        # imports done, the compiled kernels loaded from the disk cache: ~0.8 s per process,
+        # goal 2's cost, paid once per worker); cold: imports only, as a fresh pool a user makes
+        init = _warm_sweep if warm else _warm
+
         def run() -> float:
-            with cf.ProcessPoolExecutor(max_workers=workers, initializer=_warm) as ex:
+            with cf.ProcessPoolExecutor(max_workers=workers, initializer=init) as ex:
                 for f in [ex.submit(int) for _ in range(workers)]:
                     f.result()  # workers up before the clock starts
                 t0 = time.perf_counter()
@@ -329,6 +342,8 @@ def bench_sweep(rounds: int) -> list[Row]:
         "pool1": pool_side(1, None),
         "pool2": pool_side(2, None),
         "pool2-single": pool_side(2, 1),
+        "pool1-cold": pool_side(1, None, warm=False),
+        "pool2-cold": pool_side(2, None, warm=False),
         "probe1": probe(1),
         "probe2": probe(2),
     }
@@ -341,7 +356,7 @@ def bench_sweep(rounds: int) -> list[Row]:
             clients[w] = dask_executor(n_workers=w, threads_per_worker=1, processes=True,
                                        dashboard_address="127.0.0.1:0")  # fmt: skip
         for w in (1, 2):
-            clients[w].submit(_warm).result()
+            clients[w]._client.run(_warm_sweep)  # on every worker of the cluster
 
         def dask_side(w: int, batch: int | None) -> Callable[[], float]:
             def run() -> float:
@@ -374,10 +389,17 @@ def bench_sweep(rounds: int) -> list[Row]:
         gain = med(res[f"{kind}1"]) / med(res[f"{kind}2"])
         single = med(res[f"{kind}1"]) / med(res[f"{kind}2-single"])
         name = "process pool" if kind == "pool" else "Dask LocalCluster (processes)"
+        value = f"{gain:.2f}x (batched); {single:.2f}x with one set per task"
+        if kind == "pool":
+            cold = med(res["pool1-cold"]) / med(res["pool2-cold"])
+            value += f"; {cold:.2f}x batched on a fresh pool (workers not warmed)"
+        note = f"medians of {rounds} interleaved rounds; {seen}"
+        if gain < 1.7 and probe_gain < 1.7:  # the machine, not the sweep: say so
+            note += (f"; the 2nd core is not free (pure CPU work gains < 1.7x): the sweep "
+                     f"reached {gain / probe_gain:.0%} of what it gave")  # fmt: skip
         rows.append(row(f"sweep on {name}: 2 workers vs 1 ({n_sets} sets of ~{per_set * 1e3:.0f}"
-                        " ms)", f"{gain:.2f}x (batched); {single:.2f}x with one set per task",
-                        ">= 1.7x when the 2nd core is free", gain >= 1.7,
-                        f"medians of {rounds} interleaved rounds; {seen}"))  # fmt: skip
+                        " ms; workers warmed)", value, ">= 1.7x when the 2nd core is free",
+                        gain >= 1.7, note))  # fmt: skip
     return rows
 
 

@@ -216,7 +216,9 @@ def test_first_tasks_carry_one_set_and_the_rest_go_in_batches(monkeypatch):
     finally:
         pool.shutdown()
     _rows_equal(serial, rows)  # the order of the parameter sets, whatever finished first
-    assert pool.sizes == [1, 1, 4, 3]  # after the first: 7 left, ceil(7 / 2) per task
+    # after the first: batches of up to ceil(7 / 2) = 4, but never more than a quarter
+    # (2 workers, 2 tasks each) of the sets left: 7 -> 2, 5 -> 2, 3 -> 1, 2 -> 1, 1 -> 1
+    assert pool.sizes == [1, 1, 2, 2, 1, 1, 1]
     assert seen == sorted(seen) and seen[-1] == 9
 
 

@@ -282,8 +282,12 @@ def _run_sets(
 
     Without a given ``batch`` the first task per worker is one set; the time
     the first one took (measured in the worker) sizes the batches of the
-    rest (:func:`batch_size`).  At most two tasks per worker are in flight,
-    so the workers never wait for the next task.
+    rest (:func:`batch_size`), and towards the end a task never takes more
+    than ``1 / (2 workers)`` of the sets left (guided self-scheduling,
+    Polychronopoulos & Kuck 1987), so that the workers finish together
+    instead of one waiting for the other's last large batch.  At most two
+    tasks per worker are in flight, so the workers never wait for the next
+    task.
     """
     total = len(sets)
     rows: list[list[dict[str, Any]] | None] = [None] * total
@@ -308,6 +312,8 @@ def _run_sets(
 
     def submit(n: int) -> None:
         nonlocal nxt
+        if batch is None:  # guided: never more than an even share of what is left
+            n = max(1, min(n, math.ceil((total - nxt) / (2 * workers))))
         chunk = sets[nxt : nxt + n]
         fut = ex.submit(_timed_batch, text, file, chunk, quick, duration, engine)
         running[fut] = (nxt, len(chunk))
