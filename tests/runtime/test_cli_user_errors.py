@@ -352,6 +352,21 @@ def test_a_dsn_password_is_hidden_in_every_form():
         ("host=h password='two words' user=u", "two words"),
         ("host=h password=plain user=u", "plain"),
         ("postgresql://u@h/db?password=inquery&sslmode=disable", "inquery"),
+        # what the driver itself reads as the secret: an escaped quote inside a quoted
+        # value, a percent-encoded query value, the SSL key's password, spaces around "="
+        ("host=h password='it\\'s secret' user=u", "it's secret"),
+        ("postgresql://u@h/db?password=p%26q", "p&q"),
+        ("host=h sslpassword=keypass", "keypass"),
+        ("postgresql://h/db?sslpassword=k%20p", "k p"),
+        ("host=h password = spaced", "spaced"),
     ]:
         text = hide_dsn_secrets(f"bad {dsn}\nsecond line {pw}", dsn)
-        assert pw not in text and "\n" not in text and "second line ***" in text
+        assert pw not in text and "\n" not in text and "second line ***" in text, (dsn, text)
+
+
+def test_a_dsn_the_driver_cannot_parse_still_has_its_password_hidden():
+    from ctrlblocks.runtime.historian import hide_dsn_secrets
+
+    dsn = "host=h password='unterminated"  # the driver refuses it and may quote it back
+    text = hide_dsn_secrets(f"invalid dsn: {dsn}", dsn)
+    assert "unterminated" not in text

@@ -477,19 +477,31 @@ _DSN_PASSWORDS = (
 )
 
 
+_DSN_SECRET_KEYS = ("password", "sslpassword")
+"""The connection parameters that hold a secret (libpq: the password, the SSL key's password)."""
+
+
 def hide_dsn_secrets(message: str, dsn: str) -> str:
     """``message`` on one line, every password written in ``dsn`` replaced by ``***``.
 
-    The database driver quotes parts of a DSN it cannot parse; the URI form
-    (``postgresql://user:PASS@host/db``), the key-value form (``password=PASS``,
-    quoted or not) and a ``?password=`` query parameter are hidden, also
-    percent-decoded.
+    The secrets are what the database driver itself reads from ``dsn``
+    (``psycopg.conninfo.conninfo_to_dict``: every form libpq accepts, quoting,
+    escapes and percent-encoding undone), plus, for a DSN the driver refuses
+    and may quote back, the text after ``user:`` in a URI and after
+    ``password=`` / ``sslpassword=`` (quoted or not, also percent-decoded).
     """
     secrets = set()
     for pattern in _DSN_PASSWORDS:
         for m in pattern.finditer(dsn):
             pw = m.group(1)
             secrets |= {pw, pw.strip("'"), urllib.parse.unquote(pw)}
+    try:
+        from psycopg.conninfo import conninfo_to_dict
+
+        parsed = conninfo_to_dict(dsn)
+    except Exception:  # no driver, or a DSN it refuses: the patterns above
+        parsed = {}
+    secrets |= {str(parsed[k]) for k in _DSN_SECRET_KEYS if parsed.get(k)}
     text = "; ".join(" ".join(line.split()) for line in message.splitlines() if line.strip())
     for pw in sorted((s for s in secrets if s), key=len, reverse=True):
         text = text.replace(pw, "***")
