@@ -13,7 +13,7 @@ from ctrlblocks import cli
 
 HEAVY = ("scipy", "matplotlib", "numba", "pyarrow", "distributed", "asyncua", "fastapi")
 #: third-party packages no ``--help`` may import (each is the library of one command's work)
-HEAVY_ALL = (*HEAVY, "pymodbus", "psycopg", "uvicorn", "websockets", "httpx", "control", "dask")
+HEAVY_ALL = (*HEAVY, "pymodbus", "psycopg", "uvicorn", "websockets", "httpx", "httpx2", "control", "dask")
 
 PROBE = """
 import json, sys

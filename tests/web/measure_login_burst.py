@@ -42,7 +42,7 @@ def flow_period(runtime: Any) -> tuple[int, float]:
 
 async def burst(url: str, n: int) -> collections.Counter[int]:
     """Send ``n`` wrong logins at once; count the answers by status."""
-    import httpx
+    import httpx2 as httpx
 
     async with httpx.AsyncClient(base_url=url, timeout=120) as c:
         body = {"user": "operator1", "password": "not the password"}

@@ -66,7 +66,7 @@ def test_serve_demo_in_one_command_shows_the_faceplate_and_stops_on_sigint(tmp_p
     import sys
     import threading
 
-    import httpx
+    import httpx2 as httpx
 
     with socket.socket() as s:  # a free port on the loopback interface
         s.bind(("127.0.0.1", 0))
