@@ -13,7 +13,9 @@ from ctrlblocks import cli
 
 HEAVY = ("scipy", "matplotlib", "numba", "pyarrow", "distributed", "asyncua", "fastapi")
 #: third-party packages no ``--help`` may import (each is the library of one command's work)
-HEAVY_ALL = (*HEAVY, "pymodbus", "psycopg", "uvicorn", "websockets", "httpx", "httpx2", "control", "dask")
+HEAVY_ALL = (
+    *HEAVY, "pymodbus", "psycopg", "uvicorn", "websockets", "httpx", "httpx2", "control", "dask"
+)  # fmt: skip
 
 PROBE = """
 import json, sys

@@ -217,9 +217,15 @@ class TableReader:
         *,
         default: Any = ...,
         positive: bool = False,
-        allow_nan: bool = True,
+        allow_nan: bool = False,
     ) -> Any:
-        """``d[name]`` as a float (``default`` when absent; no default: required)."""
+        """``d[name]`` as a float (``default`` when absent; no default: required).
+
+        A NaN written in the file is refused unless ``allow_nan`` (no field of a
+        scenario or a runtime configuration means anything by it: a bad
+        measurement is ``nan = true`` of a ``sensor`` event); ``+-inf`` is
+        accepted (no limit, at once) unless ``positive``.
+        """
         if name not in d:
             if default is ...:
                 raise self.fail(key, "missing (a number is required)")

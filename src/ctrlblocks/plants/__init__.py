@@ -18,7 +18,17 @@ Note: ``ctrlblocks.plants.PT1`` (a process model) is not the filter block
 from .base import Plant, steady_input
 from .deadtime import DeadTime
 from .heatcool import HeatCool
-from .linear import FOPDT, IT1, PT1, PT2, LinearPlant, PT2Osc, PTn, split_dead_time
+from .linear import (
+    FOPDT,
+    IT1,
+    MAX_DEAD_SAMPLES,
+    PT1,
+    PT2,
+    LinearPlant,
+    PT2Osc,
+    PTn,
+    split_dead_time,
+)
 from .threetank import ThreeTank
 from .valve import MotorValve
 from .wrappers import Actuator, Noise, Sensor, process
@@ -26,6 +36,7 @@ from .wrappers import Actuator, Noise, Sensor, process
 __all__ = [
     "FOPDT",
     "IT1",
+    "MAX_DEAD_SAMPLES",
     "PT1",
     "PT2",
     "Actuator",

@@ -74,13 +74,16 @@ def steady_input(models: list[Any], y0: float) -> float | None:
 
     A single model with ``u_for_y`` (the three-tank process) inverts its own
     steady state; otherwise ``y0`` over the product of their ``dc_gain``.
-    None when that gain is not finite or zero (an integrating plant).
+    None when that gain is not finite or zero (an integrating plant), or when
+    no finite input gives ``y0`` (the inverse is NaN or infinite).
     """
     if len(models) == 1 and hasattr(models[0], "u_for_y"):
-        return float(models[0].u_for_y(y0))
+        u = float(models[0].u_for_y(y0))
+        return u if math.isfinite(u) else None
     gain = 1.0
     for m in models:
         gain *= float(getattr(m, "dc_gain", math.nan))
     if not math.isfinite(gain) or gain == 0.0:
         return None
-    return y0 / gain
+    u = y0 / gain
+    return u if math.isfinite(u) else None

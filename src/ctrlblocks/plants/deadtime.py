@@ -24,7 +24,7 @@ from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError, require_positive
 from .base import Plant
-from .linear import split_dead_time
+from .linear import require_dead_time, split_dead_time
 
 __all__ = ["DeadTime"]
 
@@ -57,6 +57,7 @@ class DeadTime(Plant):
     def __init__(self, dead_time: float, ts: float) -> None:
         self.ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
         self.dead_time = require_positive("dead_time", dead_time, ErrorCode.BAD_TIME_CONSTANT)
+        require_dead_time(self.dead_time, self.ts)  # a buffer that fits in memory
         d, eps = split_dead_time(self.dead_time, self.ts)
         self.n = d + (1 if eps > 0.0 else 0)
         if self.n < 1:  # pragma: no cover - dead_time > 0 guarantees n >= 1

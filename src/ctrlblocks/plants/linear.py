@@ -67,15 +67,39 @@ from .base import Plant
 __all__ = [
     "FOPDT",
     "IT1",
+    "MAX_DEAD_SAMPLES",
     "PT1",
     "PT2",
     "LinearPlant",
     "PT2Osc",
     "PTn",
+    "require_dead_time",
     "split_dead_time",
 ]
 
 _WHOLE_TOL = 1e-9  # relative tolerance for "tau is a whole number of samples"
+
+
+MAX_DEAD_SAMPLES = 1_000_000
+"""The longest dead time a plant holds, in samples (the buffer of its input history)."""
+
+
+def require_dead_time(value: Any, ts: float) -> float:
+    """``value`` as a dead time [s] >= 0 of at most :data:`MAX_DEAD_SAMPLES` samples of ``ts``.
+
+    Raises :class:`ParameterError` (``BAD_TIME_CONSTANT``) otherwise: a
+    finite dead time whose history would not fit in memory (``1e308`` s, or
+    a sample time of ``1e-320`` s) is refused when the plant is made, not
+    when its buffer is allocated.
+    """
+    dead_time = require_nonnegative("dead_time", value, ErrorCode.BAD_TIME_CONSTANT)
+    if not dead_time / ts <= MAX_DEAD_SAMPLES:
+        raise ParameterError(
+            ErrorCode.BAD_TIME_CONSTANT,
+            "dead_time",
+            f"{dead_time!r} s is more than {MAX_DEAD_SAMPLES:,} samples of ts = {ts!r} s",
+        )
+    return dead_time
 
 
 def split_dead_time(dead_time: float, ts: float) -> tuple[int, float]:
@@ -211,7 +235,7 @@ class LinearPlant(Plant):
         dead_time: float = 0.0,
     ) -> None:
         self.ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
-        self.dead_time = require_nonnegative("dead_time", dead_time, ErrorCode.BAD_TIME_CONSTANT)
+        self.dead_time = require_dead_time(dead_time, self.ts)
         a, b, c = self._continuous(num, den, A, B, C, D)
         self.a_c, self.b_c, self.c_c = a, b, c
         self._discretise()
@@ -394,7 +418,7 @@ class LinearPlant(Plant):
         the model unchanged.
         """
         if name == "dead_time":
-            new = require_nonnegative("dead_time", value, ErrorCode.BAD_TIME_CONSTANT)
+            new = require_dead_time(value, self.ts)
             hist = self._history()
             self.dead_time = new
             self._discretise()

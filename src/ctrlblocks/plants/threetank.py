@@ -356,10 +356,18 @@ class ThreeTank(Plant):
         )
 
     def u_for_y(self, y0: float) -> float:
-        """Supply pressure [bar gauge] whose steady state has ``p3 = y0`` (inverse of (T3))."""
+        """Supply pressure [bar gauge] whose steady state has ``p3 = y0`` (inverse of (T3)).
+
+        NaN when no supply pressure gives ``y0`` (a ``y0`` so far below the
+        atmosphere that the squared supply pressure would be negative, or so
+        large that it overflows); never raises.
+        """
         ra, rb, rc, ro = self._r_chain()
         a2 = P_ATM * P_ATM
-        ps2 = a2 + ((y0 + P_ATM) ** 2 - a2) * (ra + rb + rc + ro) / ro
+        p3 = y0 + P_ATM
+        ps2 = a2 + (p3 * p3 - a2) * (ra + rb + rc + ro) / ro
+        if not (0.0 <= ps2 < math.inf):
+            return math.nan
         return math.sqrt(ps2) - P_ATM
 
     def derivatives(self, p: Any, u: float) -> np.ndarray:

@@ -41,6 +41,7 @@ from ..plants import steady_input
 
 __all__ = [
     "EVENT_KINDS",
+    "MAX_SAMPLES",
     "NAME_RE",
     "SENSOR_TARGETS",
     "STRUCTURES",
@@ -65,6 +66,10 @@ __all__ = [
 STRUCTURES: dict[str, tuple[str, ...]] = {name: s.roles for name, s in _STRUCTURES.items()}
 """The loop structures and the blocks each controller entry needs (from
 :data:`ctrlblocks.loops.STRUCTURES`)."""
+
+MAX_SAMPLES = 10_000_000
+"""The most samples a run (its duration or warm-up over ``ts``) may have: 10^7 samples
+keep a run's traces in a few hundred MB."""
 
 EVENT_KINDS: dict[str, dict[str, tuple[type, ...]]] = {
     # kind -> {field: accepted types}; "t" and "label" are common to all
@@ -316,9 +321,14 @@ class _Parser(SpecReader):
         actuator = self.actuator(self.table(doc, "actuator", "actuator", False))
         initial = self.initial(self.table(doc, "initial", "initial", False))
 
+        self.samples(duration, ts, "scenario.duration")
+        self.samples(initial["warmup"], ts, "initial.warmup")
         controllers = self.controllers(doc, structure, ts, plant, initial)
         self.measured = self.measured_by(doc, structure)
         cases = self.cases(doc, duration)
+        for i, case in enumerate(cases):
+            if case.duration != duration:
+                self.samples(case.duration, ts, f"cases[{i}].duration")
         self.structure_inputs(doc, structure, initial, cases)
         claims = self.claims(doc, controllers, cases)
         plot = self.table(doc, "plot", "plot", False)
@@ -475,6 +485,20 @@ class _Parser(SpecReader):
         if out["warmup"] < 0:
             raise self.fail("initial.warmup", "must be >= 0")
         return out
+
+    def samples(self, seconds: float, ts: float, key: str) -> None:
+        """Refuse a time span of more than :data:`MAX_SAMPLES` samples of ``ts`` (or infinite).
+
+        A finite but absurd duration or warm-up (``1e308`` s, or ``ts = 1e-320``)
+        would otherwise reach the simulator as an overflow or an allocation of
+        many gigabytes.
+        """
+        n = seconds / ts
+        if not n <= MAX_SAMPLES:
+            raise self.fail(
+                key,
+                f"{seconds!r} s is more than {MAX_SAMPLES:,} samples of scenario.ts = {ts!r} s",
+            )
 
     # -- blocks and plants -------------------------------------------------------
 
@@ -752,9 +776,12 @@ class _Parser(SpecReader):
                     if not (
                         isinstance(v, list)
                         and len(v) == 2
-                        and all(isinstance(x, (int, float)) for x in v)
+                        and all(
+                            isinstance(x, (int, float)) and not isinstance(x, bool) and x == x
+                            for x in v
+                        )
                     ):
-                        raise self.fail(f"{key}.between", "must be [low, high]")
+                        raise self.fail(f"{key}.between", "must be [low, high] (numbers)")
                 else:
                     self.number(c, kind, f"{key}.{kind}")
                 if kind == "approx":
@@ -762,7 +789,7 @@ class _Parser(SpecReader):
             for r in refs:
                 if r not in names:
                     raise self.fail(key, f"names controller {r!r}, which is not in [[controllers]]")
-            case = c.get("case")
+            case = self.string(c, "case", f"{key}.case", default=None)
             if case is not None and case not in case_names:
                 raise self.fail(f"{key}.case", f"unknown case {case!r}")
             if case is None and len(cases) > 1:
