@@ -230,7 +230,8 @@ def test_a_run_the_lane_cannot_do_takes_the_python_path_and_logs_why(caplog):
     [
         ('do = "setpoint"\nvalue = 50.0', None),
         ('do = "limits"\nu_min = 0.0\nu_max = 50.0', "(limits): not covered"),
-        ('do = "sensor"\nok = false', "(sensor): not covered"),
+        ('do = "sensor"\nok = false', None),
+        ('do = "set"\nattr = "kp"\nvalue = 2.0', "(set): not covered"),
         ('do = "plant"\nparam = "k"\nvalue = 2.0', "plant parameter 'k' switched"),
     ],
 )

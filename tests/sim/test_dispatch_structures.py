@@ -223,7 +223,8 @@ def test_lane_cascade_on_a_bad_y2_equals_the_controller_side(primary, secondary,
     for y2, ok2 in ((math.nan, True), (0.3, False)):
         for m1 in (False, True):  # the secondary in AUTO, in manual
             u, v1, ok, *_ = fn(True, True, kinds, row(p0), row(a0), row(s0), row(p1), row(a1),
-                               row(s1), 1.0, 0.2, y2, ok2, safe, 0.0, False, m1, False)  # fmt: skip
+                               row(s1), 1.0, 0.2, y2, ok2, safe, 0.0, False, m1, False, True,
+                               math.nan)  # fmt: skip
             sb.manual = m1
             u_ref = side.compute(1.0, 0.2, y2=y2, y2_ok=ok2)
             assert ok is True and v1 == pb.out  # the primary held, as the Python path
@@ -315,10 +316,9 @@ def test_cascade_primary_holds_during_a_y2_fault_and_returns_bumplessly(name, ca
         assert sp2[k + 30] > sp2[k] + 0.05  # then it acts on it again
 
 
-def test_a_y2_fault_of_an_override_or_a_y_fault_is_refused_by_the_lane_with_the_reason(caplog):
-    """What the lane does not run it names (``compiled_blockers``) and the Python path runs."""
-    from ctrlblocks.sim.dispatch import CompiledLaneError
-
+def test_a_y2_fault_of_an_override_and_a_y_fault_of_a_cascade_run_on_the_lane(caplog):
+    """Both were refused by the lane (``compiled_blockers``: "a fault of y2 is covered for
+    the cascade only", "(sensor): not covered"); now they run on it, equal to Python."""
     override = (
         HEAD.format(structure="override", duration=30.0, initial="y = 0.5")
         + _table("inner_plant", type="PT1", k=1.0, t=1.5)
@@ -330,18 +330,29 @@ def test_a_y2_fault_of_an_override_or_a_y_fault_is_refused_by_the_lane_with_the_
     cascade_y = CASCADE_Y2.replace('target = "y2"\nok = false', "ok = false").replace(
         'target = "y2"\nok = true', "ok = true"
     ) + _cascade("c", _pid(1.5, 8.0, -1.0, 3.0), _pid(2.0, 1.0, 0.0, 1.2))
-    for text, why in ((override, "a fault of y2 is covered for the cascade only"),
-                      (cascade_y, "(sensor): not covered")):  # fmt: skip
+    for text in (override, cascade_y):
         sc = parse_scenario(text)
-        with pytest.raises(CompiledLaneError, match=re.escape(why)):
-            run_scenario(sc, engine="compiled")
-        with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
-            caplog.clear()
-            auto = run_scenario(sc)
-        assert "Python path" in caplog.text and why in caplog.text
-        ref = run_scenario(sc, engine="python")
-        for name, x in auto.runs[0].signals.items():
-            assert np.array_equal(x, ref.runs[0].signals[name], equal_nan=True), name
+        run_scenario(sc, engine="compiled")  # not refused
+        _same(sc, caplog)
+
+
+def test_an_event_the_lane_does_not_cover_is_refused_with_the_reason(caplog):
+    """What the lane does not run it names (``compiled_blockers``) and the Python path runs."""
+    from ctrlblocks.sim.dispatch import CompiledLaneError
+
+    text = CASCADE_Y2.replace('do = "setpoint"\nvalue = 1.4', 'do = "set"\nattr = "kp"\nvalue = 1.0')
+    text += _cascade("c", _pid(1.5, 8.0, -1.0, 3.0), _pid(2.0, 1.0, 0.0, 1.2))
+    sc = parse_scenario(text)
+    why = "event at t=30 (set): not covered"
+    with pytest.raises(CompiledLaneError, match=re.escape(why)):
+        run_scenario(sc, engine="compiled")
+    with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
+        caplog.clear()
+        auto = run_scenario(sc)
+    assert "Python path" in caplog.text and why in caplog.text
+    ref = run_scenario(sc, engine="python")
+    for name, x in auto.runs[0].signals.items():
+        assert np.array_equal(x, ref.runs[0].signals[name], equal_nan=True), name
 
 
 # -- override -----------------------------------------------------------------------

@@ -193,49 +193,69 @@ def _commit(kind, p, s, pend, man, applied, track):
 
 
 @jitable
-def _bad(kind, p, a, s, man, safe):
-    """A cycle of one controller on a bad measurement, committed with its own output.
+def _bad_pid(p, s, man, safe, applied, track):
+    """:func:`_bad` of a PID (parameters ``p``)."""
+    lo, hi = p[9], p[10]
+    if man:
+        target = s[9] if math.isfinite(s[9]) else s[4]
+    else:
+        target = s[4] if math.isnan(safe) else safe
+    out = clamp(target, lo, hi)
+    u = applied if math.isfinite(applied) else out
+    um = s[9] if man and not track else u
+    return out, target > hi or target < lo, (s[0], s[1], s[2], s[3], out, 1.0, 1.0, 0.0, 0.0,
+                                             um)  # fmt: skip
 
-    Returns ``(out, awout, state)``.  PID (``PID.compute_output``'s
-    bad-input branch, ``PID.update_state`` of that cycle): the output is the
-    manual value in manual, else ``safe`` (its ``safe_value``; NaN: hold the
-    last output), limited; the integrator and the histories stay, and the
-    first good cycle starts the histories afresh (``cold``) and continues
-    from this output (``transfer``: ``PID._reinit``); ``awout`` is the target
-    beyond a limit.  ADRC (``ADRC.compute_output``, ``y_ok`` false): the
-    manual value in manual, else ``safe`` (its ``u_sf``), limited; the ESO
-    frozen, x4 re-solved by (11) of Nowak et al. 2018 at the first good
-    cycle (``track``); not at a limit.  The manual value follows the output
-    in auto (In/Out).
-    """
-    if kind == _PID:
-        lo, hi = p[9], p[10]
-        if man:
-            target = s[9] if math.isfinite(s[9]) else s[4]
-        else:
-            target = s[4] if math.isnan(safe) else safe
-        out = clamp(target, lo, hi)
-        um = s[9] if man else out
-        return out, target > hi or target < lo, (s[0], s[1], s[2], s[3], out, 1.0, 1.0, 0.0,
-                                                 0.0, um)  # fmt: skip
+
+@jitable
+def _bad_adrc(a, s, man, safe, applied, track):
+    """:func:`_bad` of an ADRC (parameters ``a``)."""
     lo, hi = a[18], a[19]
     target = (s[9] if math.isfinite(s[9]) else s[4]) if man else safe
     u = clamp(target, lo, hi)
-    um = s[9] if man else u
-    return u, False, (s[0], s[1], s[2], s[3], u, s[5], s[6], 1.0, 0.0, um)
+    ua = applied if math.isfinite(applied) else u
+    um = s[9] if man and not track else ua
+    return u, False, (s[0], s[1], s[2], s[3], ua, s[5], s[6], 1.0, 0.0, um)
+
+
+@jitable
+def _bad(kind, p, a, s, man, safe, applied, track):
+    """A cycle of one controller on a bad measurement, committed with ``applied``.
+
+    Returns ``(out, awout, state)``.  PID (``PID.compute_output``'s
+    bad-input branch, ``PID.update_state`` of that cycle): the output is the
+    manual value in manual (the track value while ``track``), else ``safe``
+    (its ``safe_value``; NaN: hold the last output), limited; the integrator
+    and the histories stay, and the first good cycle starts the histories
+    afresh (``cold``) and continues from this output (``transfer``:
+    ``PID._reinit``); ``awout`` is the target beyond a limit.  ADRC
+    (``ADRC.compute_output``, ``y_ok`` false): the manual value in manual,
+    else ``safe`` (its ``u_sf``), limited; the ESO frozen, x4 re-solved by
+    (11) of Nowak et al. 2018 at the first good cycle (``track``); not at a
+    limit; ``applied`` is the ESO's input of the next sample.  The manual
+    value follows ``applied`` (NaN: the block's own output) in auto and while
+    ``track`` (In/Out, as :func:`_commit`).
+    """
+    if kind == _PID:
+        return _bad_pid(p, s, man, safe, applied, track)
+    return _bad_adrc(a, s, man, safe, applied, track)
 
 
 @jitable
 def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1, ff, m0, m1,
-             awin):  # fmt: skip
+             awin, ok0, safe0):  # fmt: skip
     """One sample of the controller side: ``(u, v1, ok, s0, s1, awin)``.
 
     ``v1`` is the first controller's output (cascade: the secondary's
     setpoint); ``ok`` is False when an output is not finite (the states are
     then not to be used).  ``ok2``: the quality flag of ``y2`` (a cascade),
-    ``safe1`` the secondary's safe value (:func:`_bad`).  Each controller is
-    computed and committed at one place (the compiled code inlines each
-    kernel once per controller).
+    ``safe1`` the secondary's safe value (:func:`_bad`); ``ok0``: the
+    quality flag of ``y`` (False: flagged bad or NaN, the scenario's
+    ``sensor`` events), ``safe0`` the first controller's safe value: on a
+    bad ``y`` it runs its bad-measurement cycle (:func:`_bad`), as the
+    blocks do with ``pv_ok`` false.  Each controller is computed and
+    committed at one place (the compiled code inlines each kernel once per
+    controller).
     """
     # the inner loop is open (the secondary in manual, or y2 bad: flagged or not finite)
     # and the primary in auto: the primary tracks y2, or holds its last output while y2
@@ -245,18 +265,26 @@ def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1,
     c0 = s0
     if track:
         c0 = _with_um(s0, y2 if good2 else s0[4])
-    v1, _aw0, pd0 = _compute(kinds[0], p0, a0, c0, sp, yc, ff, m0 or track, awin)
+    if ok0:
+        v1, _aw0, pd0 = _compute(kinds[0], p0, a0, c0, sp, yc, ff, m0 or track, awin)
+        b0 = s0
+    else:  # committed with its own output (v1 is what the structure applies of it)
+        v1, _aw0, b0 = _bad(kinds[0], p0, a0, c0, m0 or track, safe0, math.nan, track)
+        pd0 = (v1, v1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     u, ok = v1, math.isfinite(v1)
     if cascade:  # the secondary on y2, its setpoint the primary's output, writes the MV
         if good2:
             u, aw1, pd1 = _compute(kinds[1], p1, a1, s1, v1, y2, 0.0, m1, False)
             s1 = _commit(kinds[1], p1, s1, pd1, m1, u, False)
         else:
-            u, aw1, s1 = _bad(kinds[1], p1, a1, s1, m1, safe1)
+            u, aw1, s1 = _bad(kinds[1], p1, a1, s1, m1, safe1, math.nan, False)
         ok = ok and math.isfinite(u)
         if hs:
             awin = aw1  # the secondary's awout, read by the primary in the next sample
-    s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1, track)
+    if ok0:
+        s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1, track)
+    else:
+        s0 = b0
     return u, v1, ok, s0, s1, awin
 
 
@@ -300,12 +328,13 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
 
     Returns the first sample that is not finite, or -1.  ``cfg = (wiring,
     handshake, warm-up samples, sp, y, y2, dv of the warm-up, mv[0], mv[1], the
-    secondary's safe value)``;
+    secondary's safe value, the first controller's safe value)``;
     plants: 0 the measured one, 1 the inner one (series), 2 and 3 the Smith
     predictor's models (with and without the dead time); ``ffp = (b0, b1, a1,
     lo, hi, x_prev, out)`` of the lead-lag; ``sig`` rows: sp, load_in,
     load_out, manual[0], manual[1], u_man (NaN: unchanged), outlet g3o, load
-    between the plants, the quality of ``y2`` (0: bad); ``out`` rows: y, ym, u,
+    between the plants, the quality of ``y2`` (0: bad), the quality of ``y`` (0: bad,
+    flagged or NaN), ``y`` replaced by NaN (1); ``out`` rows: y, ym, u,
     u_act, y2 (the inner plant's output), the wiring's signal.
     """
     wiring = int(cfg[0])
@@ -324,22 +353,24 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     ff, x_prev = ffp[6], ffp[5]
     a_lo, a_hi, du, ua, y_lo, y_hi = act[0], act[1], act[2], act[3], act[4], act[5]
     sp_a, ld_in, ld_out, man0, man1 = sig[0], sig[1], sig[2], sig[3], sig[4]
-    um_a, g3o, ld_mid, ok2_a = sig[5], sig[6], sig[7], sig[8]
-    safe1 = cfg[9]
+    um_a, g3o, ld_mid, ok2_a, ok_a, nan_a = sig[5], sig[6], sig[7], sig[8], sig[9], sig[10]
+    safe1, safe0 = cfg[9], cfg[10]
     nw = int(cfg[2])
     # the warm-up (k < 0): every controller in manual, the plant held in its steady state
     # and measured without noise; then the n recorded samples
     for k in range(-nw, out.shape[1]):
         if k < 0:
             sp, y, dv, m0, m1, yc = cfg[3], cfg[4], cfg[6], True, True, cfg[4]
-            y2, ok2 = cfg[5], True
+            y2, ok2, ok0 = cfg[5], True, True
         else:
             sp, dv, m0, m1, y2 = sp_a[k], ld_in[k], man0[k] != 0.0, man1[k] != 0.0, st1[4]
-            ok2 = ok2_a[k] != 0.0
+            ok2, ok0 = ok2_a[k] != 0.0, ok_a[k] != 0.0
             y = st0[4] + ld_out[k]
             yc = clamp(y + noise[k], y_lo, y_hi)
             if not math.isfinite(yc):
                 return k
+            if nan_a[k] != 0.0:  # a sensor fault: the measurement is NaN (Sensor.fault)
+                yc = math.nan
             if not math.isnan(um_a[k]):  # a manual-value event acts on the MV blocks
                 if mv0:
                     s0 = _with_um(s0, um_a[k])
@@ -352,7 +383,8 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
             ff = leadlag_step(dv, x_prev, ff, ffp[0], ffp[1], ffp[2], ffp[3], ffp[4])
             x_prev = dv
         u, v1, ok, s0, s1, awin = _control(
-            cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1, ff, m0, m1, awin
+            cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1, ff, m0, m1, awin,
+            ok0, safe0,
         )
         if k < 0:
             continue
@@ -401,13 +433,16 @@ def _drive(fx, st, buf, out, k, y, ym, u, ld_in, ua, act, g5):
 
 
 @jit
-def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, out):
+def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, out, safe):
     """The ``single`` wiring: one PID (parameters ``p``, ``a`` None) or ADRC (``a``, ``p`` None).
 
     The loop of the structures of :func:`_lane` without their branches and
     states: most runs are single loops.  numba compiles one version for each
     controller (the types of ``p`` and ``a`` differ) and prunes the other's
-    branch, so each runs as lean as a loop written for it alone.
+    branch, so each runs as lean as a loop written for it alone.  While ``y``
+    is bad (``sig`` rows 9 and 10, the scenario's ``sensor`` events) the
+    controller runs its bad-measurement cycle (:func:`_bad`, ``safe``: its
+    safe value).
     """
     fx, st = _plant(pk, pp, ps, pos, buf, 0)
     # PID: i, d, w_prev, e_prev, cold, was_manual; ADRC: yh, x2, x3, x4, ref, started,
@@ -424,18 +459,31 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
             y, ym, m, um = _sense(st, sig, noise, k, act, um)
             if not math.isfinite(ym):
                 return k
+            good = sig[9, k] != 0.0
+            if sig[10, k] != 0.0:  # a sensor fault: the measurement is NaN (Sensor.fault)
+                ym = math.nan
         # numba prunes the branch whose parameters are None (checked on a None-typed value)
         if p is not None:
-            u, _vr, _p, _ish, c0, c1, c2, c3 = pid_step(
-                sp, ym, 0.0, m, um, cold, (not m) and on, c0, c1, c2, c3, u, p
-            )
-            cold = False
-            on = m  # the mode of the last cycle (bumpless return to auto)
+            if k < 0 or good:
+                u, _vr, _p, _ish, c0, c1, c2, c3 = pid_step(
+                    sp, ym, 0.0, m, um, cold, (not m) and on, c0, c1, c2, c3, u, p
+                )
+                cold = False
+                on = m  # the mode of the last cycle (bumpless return to auto)
+            else:  # the integrator and histories stay; the next good cycle re-initialises
+                u, _aw, _s = _bad_pid(p, (c0, c1, c2, c3, u, 1.0, 1.0, 0.0, 0.0, um), m, safe,
+                                      math.nan, False)  # fmt: skip
+                cold = on = True
         if a is not None:
-            u, _ur, c0, c1, c2, c3, c5, track, sat = adrc_step(
-                sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, a
-            )
-            on = True  # started
+            if k < 0 or good:
+                u, _ur, c0, c1, c2, c3, c5, track, sat = adrc_step(
+                    sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, a
+                )
+                on = True  # started
+            else:  # the ESO frozen; x4 re-solved at the next good cycle
+                u, _aw, _s = _bad_adrc(a, (c0, c1, c2, c3, u, c5, 1.0, 0.0, 0.0, um), m, safe,
+                                       math.nan, False)  # fmt: skip
+                track, sat = True, 0
         if k < 0:
             continue
         if not math.isfinite(u):
@@ -448,7 +496,7 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
 
 @jit
 def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_w, pk, pp, ps,
-              pos, buf0, buf1, act, sig, man, noise, out):  # fmt: skip
+              pos, buf0, buf1, act, sig, man, noise, out, safe):  # fmt: skip
     """The ``override`` wiring: any number of controllers, a min or max selector.
 
     Every controller ``j`` (parameters and state: row ``j`` of ``pprm``,
@@ -456,8 +504,13 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
     (``on_y2[j]``) with ``sp`` or its own setpoint (``sp_fix[j]``, NaN: ``sp``);
     the selector picks the MV as Python's ``min``/``max`` (the first of equal
     values) and every controller commits with it (Åström 1987, Figs.
-    3.8/3.9).  The process is the series of :func:`_lane` (plants 0 and 1);
-    ``out`` rows: y, ym, u, u_act, y2, then each controller's output.
+    3.8/3.9).  While ``y`` or ``y2`` is bad (``sig`` rows 8 to 10, the
+    scenario's ``sensor`` events) every controller runs its bad-measurement
+    cycle (:func:`_bad`, ``safe[j]``: its safe value), as
+    ``Override.compute`` calls each block with ``y_ok and y2_ok``, and
+    commits with the selected MV.  The process is the series of
+    :func:`_lane` (plants 0 and 1); ``out`` rows: y, ym, u, u_act, y2, then
+    each controller's output.
     """
     nb = kinds.shape[0]
     fx0, st0 = _plant(pk, pp, ps, pos, buf0, 0)
@@ -467,29 +520,42 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
     ua, um = act[3], math.nan
     for k in range(-nw, out.shape[1]):  # k < 0: the warm-up, manual, plants held
         if k < 0:
-            sp, y, ym, y2 = sp_w, y_w, y_w, y2_w
+            sp, y, ym, y2, good = sp_w, y_w, y_w, y2_w, True
         else:
             sp, y2 = sig[0, k], st1[4]
             y, ym, _m, um = _sense(st0, sig, noise, k, act, math.nan)
             if not math.isfinite(ym):
                 return k
+            good = sig[8, k] != 0.0 and sig[9, k] != 0.0  # y_ok and y2_ok (Override.compute)
+            if sig[10, k] != 0.0:  # a sensor fault: the measurement is NaN (Sensor.fault)
+                ym = math.nan
         u, ok = math.nan, True
         for j in range(nb):
             if not math.isnan(um):  # a manual-value event acts on every block (the MV's)
                 cst[j, 9] = um
             m = k < 0 or man[j, k] != 0.0
             r = sp if math.isnan(sp_fix[j]) else sp_fix[j]
-            vj, _aw, pd = _compute(kinds[j], _row13(pprm, j), _row22(aprm, j), _row10(cst, j),
-                                   r, y2 if on_y2[j] else ym, 0.0, m, False)  # fmt: skip
-            for i in range(8):
-                pend[j, i] = pd[i]
+            if good:
+                vj, _aw, pd = _compute(kinds[j], _row13(pprm, j), _row22(aprm, j),
+                                       _row10(cst, j), r, y2 if on_y2[j] else ym, 0.0, m,
+                                       False)  # fmt: skip
+                for i in range(8):
+                    pend[j, i] = pd[i]
+            else:  # committed below with the selected MV
+                vj, _aw, _s = _bad(kinds[j], _row13(pprm, j), _row22(aprm, j), _row10(cst, j),
+                                   m, safe[j], math.nan, False)  # fmt: skip
             v[j] = vj
             ok = ok and math.isfinite(vj)
             if j == 0 or (vj > u if sel_max else vj < u):
                 u = vj
         for j in range(nb):
             m = k < 0 or man[j, k] != 0.0
-            s = _commit(kinds[j], _row13(pprm, j), _row10(cst, j), _row8(pend, j), m, u, False)
+            if good:
+                s = _commit(kinds[j], _row13(pprm, j), _row10(cst, j), _row8(pend, j), m, u,
+                            False)  # fmt: skip
+            else:
+                _v, _aw, s = _bad(kinds[j], _row13(pprm, j), _row22(aprm, j), _row10(cst, j), m,
+                                  safe[j], u, False)  # fmt: skip
             for i in range(10):
                 cst[j, i] = s[i]
         if k < 0:
@@ -609,9 +675,12 @@ def lane_loop(
         Per sample: ``sp``, ``load_in``, ``load_out``, ``u_man`` (NaN:
         unchanged), ``g3o`` (three-tank outlet coefficient; anything for a
         linear plant), ``load_mid`` (between series plants; optional),
-        ``y2_ok`` (``cascade``: 0 while ``y2`` is bad, flagged or NaN;
-        optional, default good), and ``manual``: a sequence of one 0/1 array
-        per controller.
+        ``y2_ok`` (``cascade``, ``override``: 0 while ``y2`` is bad, flagged
+        or NaN; optional, default good), ``y_ok`` (0 while ``y`` is bad,
+        flagged or NaN; optional, default good), ``y_nan`` (1 while the
+        measurement ``ym`` is NaN, a ``sensor`` event's ``nan``; optional,
+        default 0), and ``manual``: a sequence of one 0/1 array per
+        controller.
     noise : array
         The measurement noise of every sample.
     inner_model : plant, optional
@@ -658,11 +727,14 @@ def lane_loop(
     cfg = np.array([
         code, handshake, warmup, sp_warmup, y_warmup, y2_warmup, dv_warmup, mv[0],
         mv[-1] if len(mv) > 1 else 0, _safe_value(controllers[-1], slots[-1][0]),
+        _safe_value(controllers[0], slots[0][0]),
     ], dtype=float)  # fmt: skip
+    safe = np.array([_safe_value(b, sl[0]) for b, sl in zip(controllers, slots)])
     sig = np.stack([
         signals["sp"], signals["load_in"], signals["load_out"], man[0], man[-1],
         signals["u_man"], signals["g3o"], signals.get("load_mid", np.zeros(n)),
-        signals.get("y2_ok", np.ones(n)),
+        signals.get("y2_ok", np.ones(n)), signals.get("y_ok", np.ones(n)),
+        signals.get("y_nan", np.zeros(n)),
     ])  # fmt: skip
     traces = np.zeros((5 + (nb if code == _OVERRIDE else 1), n))
     traces[5:] = math.nan
@@ -676,14 +748,14 @@ def lane_loop(
             np.array(sp_fixed if sp_fixed is not None else [math.nan] * nb, dtype=float),
             bool(selector_max), int(warmup), float(sp_warmup), float(y_warmup),
             float(y2_warmup), pk, pp, ps, pos, bufs[0], bufs[1], act, sig,
-            np.array(man, dtype=float), noise, traces,
+            np.array(man, dtype=float), noise, traces, safe,
         )  # fmt: skip
     elif code == 0:  # the single loop (the most common runs) has its own, leaner kernel
         pid = kinds[0] == _PID
         stopped = (_single if run else python_function(_single))(
             tuple(pprm[0].tolist()) if pid else None, None if pid else tuple(aprm[0].tolist()),
             cst[0], float(u_man[0]), int(warmup), float(sp_warmup), float(y_warmup), pk, pp, ps,
-            pos, bufs[0], act, sig, noise, traces,
+            pos, bufs[0], act, sig, noise, traces, float(safe[0]),
         )  # fmt: skip
     else:
         stopped = (_lane if run else python_function(_lane))(

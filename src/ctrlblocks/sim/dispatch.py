@@ -202,10 +202,12 @@ def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
         if v is not None and not math.isfinite(v):
             return f"{where}: non-finite manual value"
         return None
-    if k == "sensor" and f.get("target", "y") == "y2":
-        if sim.side.kind.compiled_lane == "cascade":
-            return None  # the lane's _control: the primary holds, the secondary's _bad cycle
-        return f"{where}: a fault of y2 is covered for the cascade only"
+    if k == "sensor":
+        # y: the controllers on y run their bad cycle (simlane._bad; an override: every
+        # block, Override.compute); y2 (measured by a cascade or an override only, the
+        # scenario checks): the cascade's primary holds and its secondary runs its bad
+        # cycle, every override block runs its bad cycle
+        return None
     return f"{where}: not covered"
 
 
@@ -329,6 +331,8 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
     manual: list[tuple[int, float]] = []
     y2_flag: list[tuple[int, float]] = [(0, float(proc.sensor2_ok))]
     y2_nan: list[tuple[int, float]] = [(0, 0.0)]
+    y_flag: list[tuple[int, float]] = [(0, float(proc.sensor_ok))]
+    y_nan: list[tuple[int, float]] = [(0, 0.0)]
     u_man = np.full(n, math.nan)
     by_k: dict[int, list[Event]] = {}
     for ev in proc.pending:
@@ -349,15 +353,19 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
                 u_man[k] = f["manual_value"]
         elif ev.kind == "manual_value":
             u_man[k] = f["value"]
-        elif ev.kind == "sensor" and f.get("target", "y") == "y2":  # (on y: refused)
+        elif ev.kind == "sensor":
+            flag, nan = (y2_flag, y2_nan) if f.get("target", "y") == "y2" else (y_flag, y_nan)
             if "ok" in f:
-                y2_flag.append((k, float(f["ok"])))
+                flag.append((k, float(f["ok"])))
             if "nan" in f:
-                y2_nan.append((k, float(f["nan"])))
+                nan.append((k, float(f["nan"])))
     out: dict[str, Any] = {"sp_warmup": proc.setpoint.value, "u_man": u_man}
     out |= {name: _piecewise(ch, n) for name, ch in changes.items()}
     # ProcessSide.apply: the flag and the NaN are set apart; y2 is good when both say so
     out["y2_ok"] = _piecewise(y2_flag, n) * (1.0 - _piecewise(y2_nan, n))
+    # y: the same (loop._sample: ok = sensor_ok and ym finite); the NaN is also recorded (ym)
+    out["y_nan"] = _piecewise(y_nan, n)
+    out["y_ok"] = _piecewise(y_flag, n) * (1.0 - out["y_nan"])
     out["manual_changes"] = manual
     out["sp"] = _setpoints(proc.setpoint, by_k, n, h)
     return out
