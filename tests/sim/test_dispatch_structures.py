@@ -340,7 +340,8 @@ def test_an_event_the_lane_does_not_cover_is_refused_with_the_reason(caplog):
     """What the lane does not run it names (``compiled_blockers``) and the Python path runs."""
     from ctrlblocks.sim.dispatch import CompiledLaneError
 
-    text = CASCADE_Y2.replace('do = "setpoint"\nvalue = 1.4', 'do = "set"\nattr = "kp"\nvalue = 1.0')
+    text = CASCADE_Y2.replace('do = "setpoint"\nvalue = 1.4',
+                              'do = "set"\nattr = "kp"\nvalue = 1.0')  # fmt: skip
     text += _cascade("c", _pid(1.5, 8.0, -1.0, 3.0), _pid(2.0, 1.0, 0.0, 1.2))
     sc = parse_scenario(text)
     why = "event at t=30 (set): not covered"

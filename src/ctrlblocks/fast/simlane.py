@@ -196,10 +196,9 @@ def _commit(kind, p, s, pend, man, applied, track):
 def _bad_pid(p, s, man, safe, applied, track):
     """:func:`_bad` of a PID (parameters ``p``)."""
     lo, hi = p[9], p[10]
-    if man:
-        target = s[9] if math.isfinite(s[9]) else s[4]
-    else:
-        target = s[4] if math.isnan(safe) else safe
+    # in manual the manual (or track) value, a non-finite one holding; in auto safe_value
+    held = s[4] if math.isnan(safe) else safe
+    target = (s[9] if math.isfinite(s[9]) else s[4]) if man else held
     out = clamp(target, lo, hi)
     u = applied if math.isfinite(applied) else out
     um = s[9] if man and not track else u
@@ -281,10 +280,7 @@ def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1,
         ok = ok and math.isfinite(u)
         if hs:
             awin = aw1  # the secondary's awout, read by the primary in the next sample
-    if ok0:
-        s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1, track)
-    else:
-        s0 = b0
+    s0 = _commit(kinds[0], p0, s0, pd0, m0 or track, v1, track) if ok0 else b0
     return u, v1, ok, s0, s1, awin
 
 
@@ -385,7 +381,7 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
         u, v1, ok, s0, s1, awin = _control(
             cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1, ff, m0, m1, awin,
             ok0, safe0,
-        )
+        )  # fmt: skip
         if k < 0:
             continue
         if not ok:
@@ -729,7 +725,7 @@ def lane_loop(
         mv[-1] if len(mv) > 1 else 0, _safe_value(controllers[-1], slots[-1][0]),
         _safe_value(controllers[0], slots[0][0]),
     ], dtype=float)  # fmt: skip
-    safe = np.array([_safe_value(b, sl[0]) for b, sl in zip(controllers, slots)])
+    safe = np.array([_safe_value(b, sl[0]) for b, sl in zip(controllers, slots[:nb], strict=True)])
     sig = np.stack([
         signals["sp"], signals["load_in"], signals["load_out"], man[0], man[-1],
         signals["u_man"], signals["g3o"], signals.get("load_mid", np.zeros(n)),
