@@ -229,7 +229,7 @@ def test_a_run_the_lane_cannot_do_takes_the_python_path_and_logs_why(caplog):
     ("change", "reason"),
     [
         ('do = "setpoint"\nvalue = 50.0', None),
-        ('do = "limits"\nu_min = 0.0\nu_max = 50.0', "(limits): not covered"),
+        ('do = "limits"\nu_min = 0.0\nu_max = 50.0', None),
         ('do = "sensor"\nok = false', None),
         ('do = "set"\nattr = "kp"\nvalue = 2.0', "(set): not covered"),
         ('do = "plant"\nparam = "k"\nvalue = 2.0', "plant parameter 'k' switched"),

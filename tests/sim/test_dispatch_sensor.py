@@ -142,8 +142,12 @@ def _adrc(b0: float, wc: float, wo: float, lo: float, hi: float, order: int = 1,
             f"u_min = {lo}\nu_max = {hi}\n{more}")  # fmt: skip
 
 
-def _same(text: str, caplog):
-    """Both engines on every run: the lane ran each, equal to Python; returns the runs."""
+def _same(text: str, caplog, nan_spans: dict | None = None):
+    """Both engines on every run: the lane ran each, equal to Python; returns the runs.
+
+    ``ym`` must be NaN exactly in the spans ``nan_spans`` (default :data:`NAN`) of each case.
+    """
+    nan_spans = NAN if nan_spans is None else nan_spans
     sc = parse_scenario(text)
     with caplog.at_level(logging.DEBUG, logger="ctrlblocks.sim.dispatch"):
         caplog.clear()
@@ -162,7 +166,7 @@ def _same(text: str, caplog):
     assert auto.metrics == ref.metrics and auto.claims == ref.claims
     for r in auto.runs:  # the faults acted: ym NaN exactly in the NaN spans, y never
         t, ym = r.signals["t"], r.signals["ym"]
-        assert np.array_equal(np.isnan(ym), _mask(t, NAN[r.case])), (r.controller, r.case)
+        assert np.array_equal(np.isnan(ym), _mask(t, nan_spans[r.case])), (r.controller, r.case)
         assert np.all(np.isfinite(r.signals["y"]))
     return {(r.controller, r.case): r.signals for r in auto.runs}
 

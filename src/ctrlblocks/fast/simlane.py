@@ -129,6 +129,35 @@ def _with_um(s, um):
     return (s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], um)
 
 
+@jitable
+def _pid_limits(p, lo, hi):
+    """The PID parameters ``p`` (:func:`pid_step`'s) with the limits ``lo``, ``hi``."""
+    return (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], lo, hi, p[11], p[12])
+
+
+@jitable
+def _adrc_limits(a, lo, hi):
+    """The ADRC parameters ``a`` (:func:`adrc_step`'s) with the limits ``lo``, ``hi``."""
+    return (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12],
+            a[13], a[14], a[15], a[16], a[17], lo, hi, a[20], a[21])  # fmt: skip
+
+
+@jitable
+def _set_limits(kind, p, a, s, lo, hi):
+    """``set_limits(lo, hi)`` of one controller: ``(p, a, s)`` with the limits in force.
+
+    ``lo``, ``hi`` are the limits in force after the event (a refused pair:
+    the old ones, found by the caller with the block's own ``set_limits``).
+    The PID's output is limited at once (``Block._relimit``: its next cycle
+    holds or continues from it); the ADRC's input of the ESO, the last
+    applied value, stays (``ADRC.set_limits`` limits ``out`` only, which
+    the ESO does not read).
+    """
+    if kind == _PID:
+        s = (s[0], s[1], s[2], s[3], clamp(s[4], lo, hi), s[5], s[6], s[7], s[8], s[9])
+    return _pid_limits(p, lo, hi), _adrc_limits(a, lo, hi), s
+
+
 # ---------------------------------------------------------------------------
 # one controller: ComputeOutput, then UpdateState with the applied value
 # ---------------------------------------------------------------------------
@@ -319,7 +348,7 @@ def _advance(fixed, st, buf, u, g5):
 
 @jit
 def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, ffp,
-          act, sig, noise, out):  # fmt: skip
+          act, sig, noise, out, lim):  # fmt: skip
     """The loop of :func:`lane_loop` for the feed-forward, Smith and cascade wirings.
 
     Returns the first sample that is not finite, or -1.  ``cfg = (wiring,
@@ -330,7 +359,9 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     lo, hi, x_prev, out)`` of the lead-lag; ``sig`` rows: sp, load_in,
     load_out, manual[0], manual[1], u_man (NaN: unchanged), outlet g3o, load
     between the plants, the quality of ``y2`` (0: bad), the quality of ``y`` (0: bad,
-    flagged or NaN), ``y`` replaced by NaN (1); ``out`` rows: y, ym, u,
+    flagged or NaN), ``y`` replaced by NaN (1), a ``limits`` event (1: the
+    limits in force ``lim[j, 0 or 1, k]`` of controller ``j`` are set);
+    ``out`` rows: y, ym, u,
     u_act, y2 (the inner plant's output), the wiring's signal.
     """
     wiring = int(cfg[0])
@@ -372,6 +403,9 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
                     s0 = _with_um(s0, um_a[k])
                 if mv1:
                     s1 = _with_um(s1, um_a[k])
+            if sig[11, k] != 0.0:  # a limits event: the limits in force from this sample on
+                p0, a0, s0 = _set_limits(kinds[0], p0, a0, s0, lim[0, 0, k], lim[0, 1, k])
+                p1, a1, s1 = _set_limits(kinds[1], p1, a1, s1, lim[1, 0, k], lim[1, 1, k])
         ym = yc
         if smith:
             yc = yc + st3[4] - st2[4]  # ym + y_model_fast - y_model
@@ -429,7 +463,8 @@ def _drive(fx, st, buf, out, k, y, ym, u, ld_in, ua, act, g5):
 
 
 @jit
-def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, out, safe):
+def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, out, safe,
+            lim):  # fmt: skip
     """The ``single`` wiring: one PID (parameters ``p``, ``a`` None) or ADRC (``a``, ``p`` None).
 
     The loop of the structures of :func:`_lane` without their branches and
@@ -438,7 +473,8 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
     branch, so each runs as lean as a loop written for it alone.  While ``y``
     is bad (``sig`` rows 9 and 10, the scenario's ``sensor`` events) the
     controller runs its bad-measurement cycle (:func:`_bad`, ``safe``: its
-    safe value).
+    safe value); from a ``limits`` event on (``sig`` row 11) the limits in
+    force are ``lim[0, :, k]`` (:func:`_set_limits`).
     """
     fx, st = _plant(pk, pp, ps, pos, buf, 0)
     # PID: i, d, w_prev, e_prev, cold, was_manual; ADRC: yh, x2, x3, x4, ref, started,
@@ -447,6 +483,7 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
     on, track, sat = cs[6] != 0.0, cs[7] != 0.0, int(cs[8])
     cold = c5 != 0.0
     ua = act[3]
+    pl, al = p, a  # the parameters with the limits in force (p and a stay for the pruning)
     for k in range(-nw, out.shape[1]):  # k < 0: the warm-up, manual at um, plant held
         if k < 0:
             sp, y, ym, m = sp_w, y_w, y_w, True
@@ -458,26 +495,32 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
             good = sig[9, k] != 0.0
             if sig[10, k] != 0.0:  # a sensor fault: the measurement is NaN (Sensor.fault)
                 ym = math.nan
+            if sig[11, k] != 0.0:  # a limits event (_set_limits)
+                if p is not None:
+                    pl = _pid_limits(pl, lim[0, 0, k], lim[0, 1, k])
+                    u = clamp(u, lim[0, 0, k], lim[0, 1, k])
+                if a is not None:
+                    al = _adrc_limits(al, lim[0, 0, k], lim[0, 1, k])
         # numba prunes the branch whose parameters are None (checked on a None-typed value)
         if p is not None:
             if k < 0 or good:
                 u, _vr, _p, _ish, c0, c1, c2, c3 = pid_step(
-                    sp, ym, 0.0, m, um, cold, (not m) and on, c0, c1, c2, c3, u, p
+                    sp, ym, 0.0, m, um, cold, (not m) and on, c0, c1, c2, c3, u, pl
                 )
                 cold = False
                 on = m  # the mode of the last cycle (bumpless return to auto)
             else:  # the integrator and histories stay; the next good cycle re-initialises
-                u, _aw, _s = _bad_pid(p, (c0, c1, c2, c3, u, 1.0, 1.0, 0.0, 0.0, um), m, safe,
+                u, _aw, _s = _bad_pid(pl, (c0, c1, c2, c3, u, 1.0, 1.0, 0.0, 0.0, um), m, safe,
                                       math.nan, False)  # fmt: skip
                 cold = on = True
         if a is not None:
             if k < 0 or good:
                 u, _ur, c0, c1, c2, c3, c5, track, sat = adrc_step(
-                    sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, a
+                    sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, al
                 )
                 on = True  # started
             else:  # the ESO frozen; x4 re-solved at the next good cycle
-                u, _aw, _s = _bad_adrc(a, (c0, c1, c2, c3, u, c5, 1.0, 0.0, 0.0, um), m, safe,
+                u, _aw, _s = _bad_adrc(al, (c0, c1, c2, c3, u, c5, 1.0, 0.0, 0.0, um), m, safe,
                                        math.nan, False)  # fmt: skip
                 track, sat = True, 0
         if k < 0:
@@ -492,7 +535,7 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
 
 @jit
 def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_w, pk, pp, ps,
-              pos, buf0, buf1, act, sig, man, noise, out, safe):  # fmt: skip
+              pos, buf0, buf1, act, sig, man, noise, out, safe, lim):  # fmt: skip
     """The ``override`` wiring: any number of controllers, a min or max selector.
 
     Every controller ``j`` (parameters and state: row ``j`` of ``pprm``,
@@ -504,7 +547,8 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
     scenario's ``sensor`` events) every controller runs its bad-measurement
     cycle (:func:`_bad`, ``safe[j]``: its safe value), as
     ``Override.compute`` calls each block with ``y_ok and y2_ok``, and
-    commits with the selected MV.  The process is the series of
+    commits with the selected MV.  A ``limits`` event (``sig`` row 11) sets
+    the limits in force ``lim[j, :, k]`` (:func:`_set_limits`).  The process is the series of
     :func:`_lane` (plants 0 and 1); ``out`` rows: y, ym, u, u_act, y2, then
     each controller's output.
     """
@@ -525,6 +569,12 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
             good = sig[8, k] != 0.0 and sig[9, k] != 0.0  # y_ok and y2_ok (Override.compute)
             if sig[10, k] != 0.0:  # a sensor fault: the measurement is NaN (Sensor.fault)
                 ym = math.nan
+            if sig[11, k] != 0.0:  # a limits event (_set_limits)
+                for j in range(nb):
+                    lo, hi = lim[j, 0, k], lim[j, 1, k]
+                    pprm[j, 9], pprm[j, 10], aprm[j, 18], aprm[j, 19] = lo, hi, lo, hi
+                    if kinds[j] == _PID:
+                        cst[j, 4] = clamp(cst[j, 4], lo, hi)
         u, ok = math.nan, True
         for j in range(nb):
             if not math.isnan(um):  # a manual-value event acts on every block (the MV's)
@@ -675,8 +725,10 @@ def lane_loop(
         or NaN; optional, default good), ``y_ok`` (0 while ``y`` is bad,
         flagged or NaN; optional, default good), ``y_nan`` (1 while the
         measurement ``ym`` is NaN, a ``sensor`` event's ``nan``; optional,
-        default 0), and ``manual``: a sequence of one 0/1 array per
-        controller.
+        default 0), ``limits_event`` (1 where a ``limits`` event is due;
+        optional) with ``limits``, an array ``(controller, lo/hi, sample)``
+        of the limits in force (optional: those of the blocks throughout),
+        and ``manual``: a sequence of one 0/1 array per controller.
     noise : array
         The measurement noise of every sample.
     inner_model : plant, optional
@@ -730,8 +782,16 @@ def lane_loop(
         signals["sp"], signals["load_in"], signals["load_out"], man[0], man[-1],
         signals["u_man"], signals["g3o"], signals.get("load_mid", np.zeros(n)),
         signals.get("y2_ok", np.ones(n)), signals.get("y_ok", np.ones(n)),
-        signals.get("y_nan", np.zeros(n)),
+        signals.get("y_nan", np.zeros(n)), signals.get("limits_event", np.zeros(n)),
     ])  # fmt: skip
+    # the limits in force of every controller and sample (a single controller's twice)
+    lim = np.empty((len(slots), 2, n))
+    given = signals.get("limits")
+    for j, (kind, pid, adrc, _st) in enumerate(slots):
+        if given is not None:
+            lim[j] = given[min(j, nb - 1)]
+        else:
+            lim[j, 0], lim[j, 1] = (pid[9], pid[10]) if kind == _PID else (adrc[18], adrc[19])
     traces = np.zeros((5 + (nb if code == _OVERRIDE else 1), n))
     traces[5:] = math.nan
     act = np.array([*actuator, *sensor], dtype=float)
@@ -744,17 +804,17 @@ def lane_loop(
             np.array(sp_fixed if sp_fixed is not None else [math.nan] * nb, dtype=float),
             bool(selector_max), int(warmup), float(sp_warmup), float(y_warmup),
             float(y2_warmup), pk, pp, ps, pos, bufs[0], bufs[1], act, sig,
-            np.array(man, dtype=float), noise, traces, safe,
+            np.array(man, dtype=float), noise, traces, safe, lim,
         )  # fmt: skip
     elif code == 0:  # the single loop (the most common runs) has its own, leaner kernel
         pid = kinds[0] == _PID
         stopped = (_single if run else python_function(_single))(
             tuple(pprm[0].tolist()) if pid else None, None if pid else tuple(aprm[0].tolist()),
             cst[0], float(u_man[0]), int(warmup), float(sp_warmup), float(y_warmup), pk, pp, ps,
-            pos, bufs[0], act, sig, noise, traces, float(safe[0]),
+            pos, bufs[0], act, sig, noise, traces, float(safe[0]), lim,
         )  # fmt: skip
     else:
         stopped = (_lane if run else python_function(_lane))(
-            cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, *bufs, ffp, act, sig, noise, traces
+            cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, *bufs, ffp, act, sig, noise, traces, lim
         )
     return LaneResult(traces, stopped=int(stopped), compiled=run)

@@ -41,6 +41,7 @@ Python path's order (:meth:`ctrlblocks.plants.Noise.samples`).
 from __future__ import annotations
 
 import bisect
+import copy
 import logging
 import math
 from typing import Any
@@ -202,6 +203,12 @@ def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
         if v is not None and not math.isfinite(v):
             return f"{where}: non-finite manual value"
         return None
+    if k == "limits":
+        # set_limits of the MV blocks or the named one, mirrored per sample (_limits)
+        role = f.get("target")
+        if role is None or role in sim.side.kind.lane_roles(sim.side):
+            return None
+        return f"{where}: names {role!r}, not a controller of the lane"
     if k == "sensor":
         # y: the controllers on y run their bad cycle (simlane._bad; an override: every
         # block, Override.compute); y2 (measured by a cascade or an override only, the
@@ -246,6 +253,10 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
         _piecewise([(0, float(m0)), *(sig["manual_changes"] if is_mv else ())], n)
         for m0, is_mv in zip(manual0, mv, strict=True)
     ]
+    if sig["limits_changes"]:
+        sig["limits"], sig["limits_event"] = _limits(
+            blocks, kind.lane_roles(side), mv, sig["limits_changes"], n
+        )
     res = lane_loop(
         kind.compiled_lane, blocks, proc.model, inner_model=proc.inner_model,
         u_man=[float(b.manual_value) for b in blocks], mv=mv, warmup=nw,
@@ -279,6 +290,34 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
         events=sim.events,
         duration=n * h,
     )
+
+
+def _limits(
+    blocks: list[Any], roles: list[str], mv: list[bool], events: list[tuple[int, Any]], n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The limits in force of every lane controller and sample, and where an event is due.
+
+    ``limits`` events (``_Simulation._apply``: ``set_limits`` of the MV
+    blocks, or of the one named by ``target``) are played on copies of the
+    blocks, so that the blocks themselves decide what a pair does: a valid
+    pair is in force from its sample on, a refused one (reversed, NaN:
+    ``BAD_LIMITS``) leaves the old limits.  Returns ``(limits, flags)``:
+    ``limits[j, 0 or 1, k]`` and ``flags[k] = 1`` where an event is due.
+    """
+    copies = [copy.deepcopy(b) for b in blocks]
+    changes = [[(0, *b.output_limits())] for b in copies]
+    flags = np.zeros(n)
+    for k, f in events:
+        flags[k] = 1.0
+        for j, b in enumerate(copies):
+            if (roles[j] == f["target"]) if "target" in f else mv[j]:
+                b.set_limits(f["u_min"], f["u_max"])
+                changes[j].append((k, *b.output_limits()))
+    lim = np.array([
+        [_piecewise([(k, v[0]) for k, *v in ch], n), _piecewise([(k, v[1]) for k, *v in ch], n)]
+        for ch in changes
+    ])  # fmt: skip
+    return lim, flags
 
 
 def _noise(sensor: Any, nw: int, n: int) -> np.ndarray:
@@ -329,6 +368,7 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
         "load_mid": [(0, proc.inner_load)],
     }
     manual: list[tuple[int, float]] = []
+    limits: list[tuple[int, dict[str, Any]]] = []
     y2_flag: list[tuple[int, float]] = [(0, float(proc.sensor2_ok))]
     y2_nan: list[tuple[int, float]] = [(0, 0.0)]
     y_flag: list[tuple[int, float]] = [(0, float(proc.sensor_ok))]
@@ -353,6 +393,8 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
                 u_man[k] = f["manual_value"]
         elif ev.kind == "manual_value":
             u_man[k] = f["value"]
+        elif ev.kind == "limits":
+            limits.append((k, f))
         elif ev.kind == "sensor":
             flag, nan = (y2_flag, y2_nan) if f.get("target", "y") == "y2" else (y_flag, y_nan)
             if "ok" in f:
@@ -367,6 +409,7 @@ def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
     out["y_nan"] = _piecewise(y_nan, n)
     out["y_ok"] = _piecewise(y_flag, n) * (1.0 - out["y_nan"])
     out["manual_changes"] = manual
+    out["limits_changes"] = limits
     out["sp"] = _setpoints(proc.setpoint, by_k, n, h)
     return out
 
