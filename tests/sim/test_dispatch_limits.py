@@ -14,6 +14,8 @@ them again, change them in manual and during a fault of ``y``, from
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -179,3 +181,21 @@ def test_feedforward_and_smith_with_limits_events_on_the_lane_equal_python(caplo
     sig = _same(smith, caplog, NO_NAN)
     for name in ("PI", "ADRC"):
         _within(sig[name, "steps"], [(10.0, 40.0, -5.0, 0.5)])
+
+
+def test_limits_of_something_not_a_lane_controller_are_refused_with_the_reason():
+    """A ``limits`` event naming the feed-forward lead-lag stays on the Python path."""
+    from ctrlblocks.sim import parse_scenario, run_scenario
+    from ctrlblocks.sim.dispatch import CompiledLaneError
+
+    text = FEEDFORWARD + _case(
+        "c", dict(t=5.0, do="limits", target="feedforward", u_min=-0.1, u_max=0.1), duration=10.0
+    )
+    text += (
+        '[[controllers]]\nname = "ff"\n[controllers.main]\n'
+        f"{_pid(0.8, 4.0, -2.0, 2.0)}"
+        '[controllers.feedforward]\ntype = "LeadLag"\nk = -1.0\nt_lead = 2.0\nt_lag = 1.0\n'
+    )
+    why = "event at t=5 (limits): names 'feedforward', not a controller of the lane"
+    with pytest.raises(CompiledLaneError, match=re.escape(why)):
+        run_scenario(parse_scenario(text), engine="compiled")

@@ -55,10 +55,16 @@ The caller (``ctrlblocks.sim.dispatch``) turns the scenario's events into
 the per-sample arrays and draws the noise with the scenario's own
 generator, so the traces equal the Python path's.
 
-A sample whose measurement ``y`` or controller output is not finite is where
-the two paths could part (quality flags, held commands): the loop stops
-there and returns its index, and the caller runs the Python path instead.
-The cascade's bad ``y2`` is the one quality case the lane runs itself.
+The scenario's faults of the measurements (``sensor`` events) arrive as
+quality flags per sample: while ``y`` is bad (flagged, or NaN: ``ym`` is
+then recorded NaN) every controller on it runs its bad-measurement cycle
+(:func:`_bad`, the blocks' rule with ``pv_ok`` false), an override's blocks
+all of them while ``y`` or ``y2`` is bad; the cascade's bad ``y2`` makes
+the primary hold.  ``limits`` events arrive as the limits in force of every
+controller and sample (:func:`_set_limits`).  A sample whose true
+measurement or controller output is not finite is where the two paths
+could part (the blocks' output guard): the loop stops there and returns its
+index, and the caller runs the Python path instead.
 """
 
 from __future__ import annotations

@@ -24,15 +24,28 @@ three-tank process (also as a cascade's inner plant or a Smith predictor's
 model), inside the scenario's actuator (range, rate, input load) and sensor
 (range, noise, output load), with setpoint steps and ramps, input, output
 and inner loads, the three-tank's outlet switch, mode and manual-value
-events, a cascade's faults of ``y2`` (``sensor`` events with ``target =
-"y2"``: the primary holds, the secondary runs its bad-measurement cycle),
-and the warm-up.  Everything else -- the other structures, limits and
-``set`` events, faults of ``y`` (and of an override's ``y2``), other plant
-switches, numba not installed -- runs the Python path.
+events, ``limits`` events (``set_limits`` of the MV blocks or of the
+controller named by ``target``: the limits in force of every sample are
+found by the blocks' own ``set_limits`` on copies, so a refused pair keeps
+the old ones; the PID's output is limited at once), the faults of the
+measurements (``sensor`` events, ``ok`` and ``nan``, also together and
+overlapping): of ``y`` (every controller on ``y`` -- the single loop's,
+the cascade's primary, the feed-forward and Smith structures' -- runs its
+bad-measurement cycle, as with ``pv_ok`` false, and recovers bumplessly;
+``ym`` is recorded NaN during a ``nan`` fault, ``y`` is the true value),
+of a cascade's ``y2`` (the primary holds, the secondary runs its
+bad-measurement cycle), and of an override's ``y`` or ``y2`` (every block
+runs its bad-measurement cycle, as ``Override.compute`` passes ``y_ok and
+y2_ok`` to all, and commits with the selected MV), and the warm-up.
+Everything else -- the other structures, ``set`` events, a ``limits``
+event naming something other than a controller of the lane (the
+feed-forward lead-lag, a plant), other plant switches, numba not
+installed -- runs the Python path.
 
 The lane's traces equal the Python path's (same operations in the same
-order; tests/sim/test_dispatch.py and test_dispatch_structures.py compare
-both for every supported case, and
+order; tests/sim/test_dispatch.py, test_dispatch_structures.py,
+test_dispatch_sensor.py and test_dispatch_limits.py compare both for every
+supported case, and
 the stored trace hashes, recorded with the Python path, hold with ``auto``).
 The measurement noise is drawn by the scenario's own generator, in the
 Python path's order (:meth:`ctrlblocks.plants.Noise.samples`).
