@@ -14,8 +14,6 @@ them again, change them in manual and during a fault of ``y``, from
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 import pytest
 
@@ -184,9 +182,13 @@ def test_feedforward_and_smith_with_limits_events_on_the_lane_equal_python(caplo
 
 
 def test_limits_of_something_not_a_lane_controller_are_refused_with_the_reason():
-    """A ``limits`` event naming the feed-forward lead-lag stays on the Python path."""
-    from ctrlblocks.sim import parse_scenario, run_scenario
-    from ctrlblocks.sim.dispatch import CompiledLaneError
+    """A ``limits`` event naming the feed-forward lead-lag: refused where it is written.
+
+    (The Python path used to stop in the run with an AttributeError; the lane
+    refused it too.  The scenario parser now refuses it at the event's line.)
+    """
+    from ctrlblocks.sim import parse_scenario
+    from ctrlblocks.sim.scenario import ScenarioError
 
     text = FEEDFORWARD + _case(
         "c", dict(t=5.0, do="limits", target="feedforward", u_min=-0.1, u_max=0.1), duration=10.0
@@ -196,6 +198,8 @@ def test_limits_of_something_not_a_lane_controller_are_refused_with_the_reason()
         f"{_pid(0.8, 4.0, -2.0, 2.0)}"
         '[controllers.feedforward]\ntype = "LeadLag"\nk = -1.0\nt_lead = 2.0\nt_lag = 1.0\n'
     )
-    why = "event at t=5 (limits): names 'feedforward', not a controller of the lane"
-    with pytest.raises(CompiledLaneError, match=re.escape(why)):
-        run_scenario(parse_scenario(text), engine="compiled")
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, file="ff.toml")
+    exc = info.value
+    assert exc.key.endswith("events[0].target") and exc.line is not None
+    assert "the LeadLag of controller 'ff' has no output limits" in str(exc)

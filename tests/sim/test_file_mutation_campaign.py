@@ -228,3 +228,85 @@ def test_the_three_tank_inverse_is_nan_where_no_supply_pressure_gives_the_level(
     assert steady_input([tank], -1.0) is None
     u = tank.u_for_y(1.5)
     assert 1.5 < u < 5.0  # an ordinary level still has its supply pressure
+
+
+# ---------------------------------------------------------------------------
+# controller-side events are checked when the file is read, not in the run
+# ---------------------------------------------------------------------------
+
+_PI_ON_PT1 = """
+[scenario]
+name = "ev"
+title = "events on a PI"
+ts = 0.1
+duration = 10.0
+
+[plant]
+type = "PT1"
+k = 1.0
+t = 2.0
+
+[[controllers]]
+name = "PI"
+type = "PID"
+kp = 1.0
+ti = 2.0
+u_min = 0.0
+u_max = 10.0
+
+[[events]]
+t = 1.0
+do = "setpoint"
+value = 1.0
+"""
+
+
+def _toml(v: object) -> str:
+    return ("true" if v else "false") if isinstance(v, bool) else repr(v).replace("'", '"')
+
+
+def _event(**fields: object) -> str:
+    body = "".join(f"{k} = {_toml(v)}\n" for k, v in fields.items())
+    return _PI_ON_PT1 + "\n[[events]]\n" + body
+
+
+@pytest.mark.parametrize(
+    ("fields", "key", "says"),
+    [
+        (dict(t=2.0, do="set", attr="kpp", value=2.0), "events[1].attr",
+         "the PID of controller 'PI' has no parameter or input 'kpp'"),
+        (dict(t=2.0, do="set", attr="_i", value=2.0), "events[1].attr", "no parameter or input"),
+        (dict(t=2.0, do="set", attr="kp", value=-1.0), "events[1].value", "refuses it"),
+        (dict(t=2.0, do="set", attr="u_min", value=20.0), "events[1].value", "refuses it"),
+        (dict(t=2.0, do="limits", target="nope", u_min=0.0, u_max=1.0), "events[1].target",
+         "controller 'PI' has no block 'nope'; expected one of: main"),
+        (dict(t=2.0, do="mode", mode="manual", target="plant"), "events[1].target",
+         "a 'mode' event acts on a block, not plant"),
+    ],
+)  # fmt: skip
+def test_a_controller_event_the_run_could_not_apply_is_refused_at_its_line(fields, key, says):
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(_event(**fields), file="ev.toml")
+    exc = info.value
+    assert exc.key == key and exc.line is not None and says in exc.problem, str(exc)
+
+
+def test_set_events_are_checked_in_their_order():
+    """Raising u_min above the old u_max is fine after u_max was raised first (as in the run)."""
+    from ctrlblocks.sim.runner import run_scenario
+
+    text = _event(t=2.0, do="set", attr="u_max", value=30.0)
+    text += '\n[[events]]\nt = 3.0\ndo = "set"\nattr = "u_min"\nvalue = 20.0\n'
+    sc = parse_scenario(text, file="ev.toml")
+    result = run_scenario(sc, engine="python")
+    u = result.runs[0].signals["u"]
+    assert min(u[int(3.0 / 0.1) + 1 :]) >= 20.0 - 1e-9  # the new limits act
+    wrong_order = text.replace('t = 2.0\ndo = "set"', 't = 4.0\ndo = "set"')
+    assert wrong_order != text
+    with pytest.raises(ScenarioError, match="refuses it"):
+        parse_scenario(wrong_order, file="ev.toml")
+
+
+def test_a_valid_input_attribute_of_a_block_may_be_set():
+    sc = parse_scenario(_event(t=2.0, do="set", attr="hold", value=True), file="ev.toml")
+    assert sc.cases[0].events[-1].fields["attr"] == "hold"

@@ -67,6 +67,9 @@ STRUCTURES: dict[str, tuple[str, ...]] = {name: s.roles for name, s in _STRUCTUR
 """The loop structures and the blocks each controller entry needs (from
 :data:`ctrlblocks.loops.STRUCTURES`)."""
 
+_SIDE_EVENTS = ("set", "mode", "manual_value", "limits")
+"""The events that act on a controller entry's blocks (the others on the process)."""
+
 MAX_SAMPLES = 10_000_000
 """The most samples a run (its duration or warm-up over ``ts``) may have: 10^7 samples
 keep a run's traces in a few hundred MB."""
@@ -146,6 +149,8 @@ class Event:
     kind: str
     fields: Mapping[str, Any]
     label: str
+    key: str = dataclasses.field(default="", compare=False)
+    """Its key path in the file (``events[2]``, ``cases[1].events[0]``), for error messages."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -329,6 +334,7 @@ class _Parser(SpecReader):
         for i, case in enumerate(cases):
             if case.duration != duration:
                 self.samples(case.duration, ts, f"cases[{i}].duration")
+        self.controller_events(structure, ts, controllers, cases)
         self.structure_inputs(doc, structure, initial, cases)
         claims = self.claims(doc, controllers, cases)
         plot = self.table(doc, "plot", "plot", False)
@@ -702,8 +708,76 @@ class _Parser(SpecReader):
             if kind == "setpoint" and "ramp" in fields and fields["ramp"] <= 0:
                 raise self.fail(f"{ekey}.ramp", "must be > 0 (a rate in units per second)")
             label = self.string(e, "label", f"{ekey}.label", default=_default_label(kind, fields))
-            out.append(Event(t, kind, fields, label))
+            out.append(Event(t, kind, fields, label, ekey))
         return out
+
+    def controller_events(
+        self, structure: str, ts: float, controllers: list[ControllerSpec], cases: list[Case]
+    ) -> None:
+        """Refuse a controller-side event that the run could not apply.
+
+        ``set``, ``mode``, ``manual_value`` and ``limits`` act on the blocks of
+        every controller entry (the simulator's ``_apply``); each case's events
+        are played, in time order, on blocks built for the check: a target that
+        is not one of the entry's blocks, ``limits`` on a block without output
+        limits, a mode on a block without a manual mode, a ``set`` of a name
+        the block does not have or of a value its ``configure`` refuses -- each
+        is refused here, at the event's line, instead of stopping the run (or,
+        for a misspelt attribute, doing nothing at all).
+        """
+        if not any(e.kind in _SIDE_EVENTS for c in cases for e in c.events):
+            return
+        from ..loops.structures import ControllerSide
+
+        for spec in controllers:
+            for case in cases:
+                side = ControllerSide(structure, spec, ts, file=self.file, error=ScenarioError)
+                for ev in case.events:
+                    if ev.kind in _SIDE_EVENTS:
+                        self.controller_event(side, spec.name, ev)
+
+    def controller_event(self, side: Any, controller: str, ev: Event) -> None:
+        """:meth:`controller_events` for one event on one controller entry's ``side``."""
+        f, kind = ev.fields, ev.kind
+        name = f.get("target")
+        if name in ("plant", "inner_plant"):
+            if kind != "set":
+                raise self.fail(f"{ev.key}.target", f"a {kind!r} event acts on a block, not {name}")
+            return  # a plant attribute (plant events change plant parameters)
+        if name is not None and name not in side.blocks:
+            raise self.fail(
+                f"{ev.key}.target",
+                f"controller {controller!r} has no block {name!r}; "
+                f"expected one of: {', '.join(side.blocks)}",
+            )
+        if name is not None:
+            blocks = [side.blocks[name]]
+        elif kind == "set":
+            blocks = [side.blocks[side.event_target]]
+        else:
+            blocks = list(side.mv_blocks)
+        for b in blocks:
+            what = f"{type(b).__name__} of controller {controller!r}"
+            if kind == "limits" and not hasattr(b, "set_limits"):
+                raise self.fail(f"{ev.key}.target", f"the {what} has no output limits")
+            if kind in ("mode", "manual_value") and not hasattr(b, "manual"):
+                raise self.fail(f"{ev.key}.target", f"the {what} has no manual mode")
+            if kind == "limits":
+                b.set_limits(f["u_min"], f["u_max"])  # a refused pair is the block's status
+            elif kind == "set":
+                self.set_event(b, what, ev)
+
+    def set_event(self, block: Any, what: str, ev: Event) -> None:
+        """Apply a ``set`` event to ``block`` as the run will, refusing what would fail there."""
+        attr, value = ev.fields["attr"], ev.fields["value"]
+        cfg = getattr(block, "config", None)
+        if dataclasses.is_dataclass(cfg) and attr in {f.name for f in dataclasses.fields(cfg)}:
+            try:
+                block.configure(**{attr: value})
+            except (ValueError, TypeError) as exc:  # ParameterError is a ValueError
+                raise self.fail(f"{ev.key}.value", f"the {what} refuses it: {exc}") from None
+        elif attr.startswith("_") or not hasattr(block, attr):
+            raise self.fail(f"{ev.key}.attr", f"the {what} has no parameter or input {attr!r}")
 
     # -- claims -------------------------------------------------------------------
 
