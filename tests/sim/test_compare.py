@@ -309,3 +309,35 @@ def test_compare_on_a_three_tank_bump_test_with_corners_reports_the_spread(tmp_p
         assert lo <= m["model"]["iae_load"] * 1.5 and hi >= lo
     assert "Spread over the 8 uncertainty corners" in (tmp_path / "compare.md").read_text()
     _check_quotes(json.loads((tmp_path / "compare.json").read_text()))
+
+
+@pytest.mark.parametrize(
+    ("options", "says"),
+    [
+        (["--ts", "nan"], "ts: must be a finite number > 0 [s], got nan"),
+        (["--ts", "0"], "ts: must be a finite number > 0 [s]"),
+        (["--ts", "1e308"], "is longer than the identified process's lag and dead time"),
+        (["--ts", "1e-320"], "samples per run"),
+        (["--u-min", "nan"], "u_min: must be a finite number"),
+        (["--u-min", "5", "--u-max", "1"], "u_min = 5.0 must be below u_max = 1.0"),
+        # limits that leave out the operating point: the verdict once divided by zero MV travel
+        (["--u-min", "5", "--u-max", "6"], "do not contain the operating point"),
+    ],
+)  # fmt: skip
+def test_compare_refuses_options_no_comparison_can_use_in_one_line(tmp_path, options, says):
+    """Before: 'SVD did not converge', an error in the generated compare.toml, a traceback."""
+    csv = ROOT / "docs" / "examples" / "bump_k2.csv"
+    args = ["compare", str(csv), "--time", "time_s", "--u", "p_supply_bar", "--y", "p3_bar",
+            "--no-corners", "--out", str(tmp_path / "o"), *options]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 1, r.output
+    assert "Traceback" not in r.output and "compare.toml" not in r.output
+    last = r.output.strip().splitlines()[-1]
+    assert last.startswith("Error: ") and says in last, r.output
+
+
+def test_a_sample_time_beyond_any_discrete_model_is_refused_by_the_plant():
+    from ctrlblocks.blocks import ParameterError
+
+    with pytest.raises(ParameterError, match="too long for this model"):
+        PlantFOPDT(1.0, 2.0, 0.0, 1e308)

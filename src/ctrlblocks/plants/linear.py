@@ -162,7 +162,14 @@ def _zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray
 
     nx, nu = a.shape[0], b.shape[1]
     em = np.vstack((np.hstack((a, b)), np.zeros((nu, nx + nu))))
-    ms = expm(h * em)[:nx, :]
+    with np.errstate(all="ignore"):  # an overflow is refused below, with the cause
+        ms = expm(h * em)[:nx, :]
+    if not np.all(np.isfinite(ms)):  # h * A overflows (ts = 1e308), or A grows beyond floats
+        raise ParameterError(
+            ErrorCode.NO_CYCLE,
+            "ts",
+            f"{h!r} s is too long for this model: its discrete model over one sample is not finite",
+        )
     return ms[:, :nx], ms[:, nx:]
 
 

@@ -255,6 +255,34 @@ def _row_metrics(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, float]]:
     return out
 
 
+def _check_options(u_min: float | None, u_max: float | None, ts: float | None) -> None:
+    """Refuse MV limits and a sample time that no comparison can use (ValueError)."""
+    for name, v in (("u_min", u_min), ("u_max", u_max)):
+        if v is not None and not math.isfinite(v):
+            raise ValueError(f"{name}: must be a finite number [MV units], got {v!r}")
+    if u_min is not None and u_max is not None and not u_min < u_max:
+        raise ValueError(f"u_min = {u_min!r} must be below u_max = {u_max!r}")
+    if ts is not None and not (math.isfinite(ts) and ts > 0.0):
+        raise ValueError(f"ts: must be a finite number > 0 [s], got {ts!r}")
+
+
+def _check_ts(ts: float, T: float, L: float) -> None:
+    """Refuse a sample time the identified process (lag ``T``, dead time ``L``) makes useless."""
+    from .scenario import MAX_SAMPLES
+
+    if ts > T + L:
+        raise ValueError(
+            f"ts = {ts:g} s is longer than the identified process's lag and dead time together "
+            f"({T + L:.3g} s): a sampled controller would see it only after it has moved"
+        )
+    runs = max(10.0 * (T + L), 50.0 * ts) / ts
+    if runs > MAX_SAMPLES:
+        raise ValueError(
+            f"ts = {ts:g} s gives {runs:.3g} samples per run (10 x the process's lag and dead "
+            f"time of {T + L:.3g} s); at most {MAX_SAMPLES:,}"
+        )
+
+
 def compare(
     t: Any,
     u: Any,
@@ -304,12 +332,15 @@ def compare(
     from .scenario import parse_scenario
 
     say = progress or (lambda msg: log.info("%s", msg))
+    _check_options(u_min, u_max, ts)  # before any work: a mistake is named as the user wrote it
     t, u, y = (np.asarray(v, float) for v in (t, u, y))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     fo, so, model, why = better_model(t, u, y)
     say(f"identified: {why}")
     k, T, L = _fopdt_of(model)
+    if ts is not None:
+        _check_ts(ts, T, L)
     noise = float(np.std(y - model.response(t, u)))
     du = float(u[-1] - u[0])
     span = float(np.max(u) - np.min(u))
@@ -323,6 +354,11 @@ def compare(
     duration = float(max(10.0 * (T + L), 50.0 * ts))
     step = float(k * du) if du != 0 else 1.0
     u_op = float(model.u0)
+    if not lo < u_op < hi:
+        raise ValueError(
+            f"the MV limits {lo:g} .. {hi:g} do not contain the operating point of the bump "
+            f"test (the MV before the step, {u_op:g}): no controller could hold the process there"
+        )
     common = dict(ts=ts, step=step, load=-du / 2, noise=noise, u_min=lo - u_op,
                   u_max=hi - u_op, duration=duration, y_label=y_label, u_label=u_label)  # fmt: skip
     text = scenario_toml(model, ctrls, **common)
@@ -554,8 +590,10 @@ def _kind_sentence(res, kinds, key: str, tv: str, val) -> dict[str, Any]:
         how = f"with {_less(win_t, lose_t):.0f} % less MV travel"
     elif win_t < 2.0 * lose_t:
         how = f"with {100.0 * (win_t / lose_t - 1.0):.0f} % more MV travel"
-    else:
+    elif lose_t > 0.0:
         how = f"with {win_t / lose_t:.2g} times the MV travel"
+    else:  # the other controller did not move the MV at all in these windows
+        how = "moving the MV where the other does not"
     text += f", {how} ({first} {win_q['shown']} against {lose_q['shown']})."
     return {"text": text, "quotes": [qa, qp, qta, qtp]}
 
