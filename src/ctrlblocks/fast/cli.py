@@ -10,7 +10,7 @@ import click
 from ..loops.toml import KeyPathError
 from ..sim.cli import ENGINE, Progress, output_dir
 from ..sim.dispatch import CompiledLaneError
-from .sweep import SweepError, dask_executor, parameter_sets, sweep, write_rows
+from .sweep import SweepError, dask_executor, parameter_sets, process_pool, sweep, write_rows
 
 
 def parse_value(text: str) -> Any:
@@ -55,7 +55,12 @@ def parse_vary(items: tuple[str, ...]) -> dict[str, list[Any]]:
     show_default=True,
     help="Result table: Parquet (CSV when pyarrow is missing or the name ends in .csv).",
 )
-@click.option("--workers", type=int, default=None, help="Processes (default: one per core).")
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Processes (default: one per core; never more than the parameter sets).",
+)
 @click.option("--serial", is_flag=True, help="Run in this process, one after the other.")
 @click.option(
     "--dask",
@@ -79,8 +84,6 @@ def sweep_command(
     engine: str,
 ) -> None:
     """Run SCENARIO (a TOML file or a shipped name) for every combination of --vary values."""
-    import concurrent.futures as cf
-
     vary = parse_vary(vary_items)
     try:
         total = len(parameter_sets(vary))
@@ -93,7 +96,7 @@ def sweep_command(
     elif dask_address is not None:
         executor = dask_executor(None if dask_address == "local" else dask_address)
     else:
-        executor = cf.ProcessPoolExecutor(max_workers=workers) if workers else None
+        executor = process_pool(workers, total)
     # on a terminal a bar; in a log a line per chunk of about a tenth of the runs
     bar = Progress(total, "sweep", every=-(-total // 10))
     try:

@@ -53,6 +53,7 @@ __all__ = [
     "batch_size",
     "dask_executor",
     "parameter_sets",
+    "process_pool",
     "read_scenario_text",
     "run_batch",
     "run_one",
@@ -224,6 +225,12 @@ def sweep(
         :func:`parameter_sets`: the varied values, ``controller``, ``case``,
         every metric and ``claim i`` (True/False/None).
     """
+    from ..sim.runner import check_duration
+
+    try:
+        check_duration(duration)
+    except ValueError as exc:
+        raise SweepError(str(exc)) from None
     text, file = read_scenario_text(scenario)
     sets = parameter_sets(vary)
     for params in _probes(sets, vary):  # a bad key or value before sending work anywhere
@@ -339,6 +346,18 @@ def _run_sets(
         if own:
             ex.shutdown(cancel_futures=True)
     return rows  # type: ignore[return-value]
+
+
+def process_pool(workers: int | None, tasks: int) -> cf.ProcessPoolExecutor:
+    """A process pool of ``workers`` processes (None: one per core), never more than ``tasks``.
+
+    The pool forks all its workers at the first task: ``--workers 100000`` for
+    one parameter set would fork a hundred thousand processes.
+    """
+    want = (os.cpu_count() or 1) if workers is None else int(workers)
+    if want < 1:
+        raise SweepError(f"workers: must be at least 1, got {workers!r}")
+    return cf.ProcessPoolExecutor(max_workers=max(1, min(want, tasks)))
 
 
 def batch_size(seconds_per_set: float, n_sets: int, workers: int) -> int:

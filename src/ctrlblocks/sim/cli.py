@@ -329,12 +329,12 @@ def _sweep_runner(jobs: int) -> Any:
 
     Serial for ``jobs = 1``, else on a process pool of ``jobs`` workers.
     """
-    from ..fast.sweep import sweep
+    from ..fast.sweep import process_pool, sweep
 
     def run(path: Path, tables: list[dict[str, Any]], progress: Any) -> list[dict[str, Any]]:
         if jobs <= 1:
             return sweep(path, {"plant": tables}, executor="serial", progress=progress)
-        with cf.ProcessPoolExecutor(max_workers=jobs) as ex:
+        with process_pool(jobs, len(tables)) as ex:  # never more workers than models
             return sweep(path, {"plant": tables}, executor=ex, progress=progress)
 
     return run

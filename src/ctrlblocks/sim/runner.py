@@ -63,6 +63,14 @@ class ScenarioResult:
         return all(c.holds for c in self.claims)
 
 
+def check_duration(duration: Any) -> None:
+    """Refuse a run duration [s] that is not a number > 0 (``inf``: no cut; None: the case's)."""
+    if duration is None:
+        return
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not duration > 0:
+        raise ValueError(f"duration: must be a number of seconds > 0, got {duration!r}")
+
+
 def run_scenario(
     scenario: Scenario,
     *,
@@ -81,7 +89,8 @@ def run_scenario(
         Stop each case at ``scenario.quick_duration`` (used by
         ``reproduce --quick`` and the tests).
     duration : float, optional
-        Stop each case at this time [s] (overrides ``quick``).
+        Stop each case at this time [s] (overrides ``quick``); > 0 (``inf``:
+        no cut), else ``ValueError``.
     progress : callable, optional
         Called with ``"controller / case"`` after each run (for a progress bar).
     engine : {"auto", "compiled", "python"}
@@ -92,6 +101,7 @@ def run_scenario(
     """
     if duration is None and quick:
         duration = scenario.quick_duration
+    check_duration(duration)
     band = float(scenario.metrics.get("band", 0.02))
     want_windows = bool(scenario.metrics.get("windows", True))
     runs: list[Run] = []

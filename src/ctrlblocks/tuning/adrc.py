@@ -218,7 +218,7 @@ def adrc_bandwidth(
     f = SETTLING_FACTOR[order] if factor is None else require_positive("factor", factor)
     if not 3.0 <= f <= 5.0:
         warnings.append(f"factor {f:g} is outside Nowak et al.'s (2018) omega_c = (3..5)/tau_set")
-    ratio = require_positive("observer_ratio", observer_ratio, ErrorCode.BAD_BANDWIDTH)
+    ratio = _observer_ratio(observer_ratio)
     if not 3.0 <= ratio <= 10.0:
         warnings.append(
             f"observer_ratio {ratio:g} is outside omega_o = (3..10) omega_c (Nowak et al. 2018)"
@@ -324,7 +324,7 @@ def adrc_tuning(
 
     ihr = inverse_half_rule(gain, time_constant, dead_time, order)
     T, T0 = float(time_constant), float(dead_time)
-    ratio = require_positive("observer_ratio", observer_ratio, ErrorCode.BAD_BANDWIDTH)
+    ratio = _observer_ratio(observer_ratio)
     target = require_positive("ms", ms, ErrorCode.BAD_PARAMETER)
     if not 1.1 <= target <= MS_FRAGILE:
         raise ParameterError(ErrorCode.BAD_PARAMETER, "ms", f"must lie in 1.1..2, got {ms!r}")
@@ -653,6 +653,24 @@ def _order(order: int) -> int:
     if isinstance(order, bool) or order not in (1, 2, 3):
         raise ParameterError(ErrorCode.BAD_ORDER, "order", f"must be 1, 2 or 3, got {order!r}")
     return int(order)
+
+
+def _observer_ratio(value: float) -> float:
+    """``omega_o / omega_c``: >= 1, the observer at least as fast as the loop it serves.
+
+    Nowak et al. (2018) use 3..10 (a ratio outside gives a warning); below 1
+    the ESO would estimate the total disturbance more slowly than the loop
+    acts on it, and an absurdly small ratio (1e-320) made the suggested
+    sample time infinite.
+    """
+    ratio = require_positive("observer_ratio", value, ErrorCode.BAD_BANDWIDTH)
+    if ratio < 1.0:
+        raise ParameterError(
+            ErrorCode.BAD_BANDWIDTH,
+            "observer_ratio",
+            f"must be >= 1 (omega_o at least omega_c; Nowak et al. 2018 use 3..10), got {value!r}",
+        )
+    return ratio
 
 
 def _nice_floor(x: float) -> float:

@@ -417,12 +417,23 @@ class Loop:
         radius = float(np.max(np.abs(self.poles())))
         stable = radius < 1.0 - _POLE_TOL
         w = self.grid()
-        L = self.loop_gain(w)
-        s = np.abs(1.0 / (1.0 + L))
-        i = int(np.argmax(s))
-        ms, w_ms = self._refine_peak(w, i)
-        gm, w_gm = self._gain_margin(w, L)
-        pm, wc = self._phase_margin(w, L)
+        with np.errstate(all="ignore"):  # an overflow is refused below, with its cause
+            L = self.loop_gain(w)
+        if not (math.isfinite(radius) and np.all(np.isfinite(L))):
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER,
+                "model/tuning",
+                "the loop's frequency response or poles are not finite: the model's or the "
+                "controller's numbers are too extreme to analyse (a time constant of 1e308 s?)",
+            )
+        # a finite but extreme loop may overflow a margin to inf (an infinite gain margin):
+        # that is its value, not an error
+        with np.errstate(over="ignore", divide="ignore", under="ignore"):
+            s = np.abs(1.0 / (1.0 + L))
+            i = int(np.argmax(s))
+            ms, w_ms = self._refine_peak(w, i)
+            gm, w_gm = self._gain_margin(w, L)
+            pm, wc = self._phase_margin(w, L)
         return Margins(ms if stable else math.inf, gm, pm, wc, w_gm, w_ms, stable, radius, self.ts)
 
     def _refine_peak(self, w: np.ndarray, i: int) -> tuple[float, float]:

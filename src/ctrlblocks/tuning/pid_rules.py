@@ -56,7 +56,11 @@ Lambda / IMC -- Rivera, Morari & Skogestad, *Internal model control 4. PID
 
 from __future__ import annotations
 
+import functools
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 from ..blocks.base import (
     ErrorCode,
@@ -81,6 +85,31 @@ __all__ = [
 ]
 
 _CONTROLLERS = ("p", "pi", "pid")
+
+_R = TypeVar("_R")
+
+
+def _rule(fn: Callable[..., _R]) -> Callable[..., _R]:
+    """A tuning rule whose arithmetic never raises anything but :class:`ParameterError`.
+
+    Finite but extreme model numbers (a gain of ``5e-324``, a dead time of
+    ``1e-320`` s) make a rule's denominators underflow to zero: the division
+    is refused as a parameter error, as a result that is not finite is by
+    :class:`PIDTuning`.
+    """
+
+    @functools.wraps(fn)
+    def checked(*args: Any, **kwargs: Any) -> _R:
+        try:
+            return fn(*args, **kwargs)
+        except (ZeroDivisionError, OverflowError) as exc:
+            raise ParameterError(
+                ErrorCode.BAD_PID_COEFFS,
+                "gain/time_constant/dead_time",
+                f"too extreme for the {fn.__name__} rule ({exc})",
+            ) from None
+
+    return checked
 
 
 @dataclass(frozen=True)
@@ -116,6 +145,16 @@ class PIDTuning:
     note: str = ""
     b: float | None = None
 
+    def __post_init__(self) -> None:
+        for name in ("kp", "ti", "td"):
+            v = getattr(self, name)
+            if not math.isfinite(v):
+                raise ParameterError(
+                    ErrorCode.BAD_PID_COEFFS,
+                    name,
+                    f"the {self.rule} rule gives {v!r}: the model's numbers are too extreme for it",
+                )
+
     def as_kwargs(self) -> dict[str, float | bool]:
         """Keyword arguments for ``ctrlblocks.PID(**tuning.as_kwargs(), ts=..., ...)``.
 
@@ -135,6 +174,7 @@ class PIDTuning:
         return out
 
 
+@_rule
 def simc(
     gain: float,
     time_constant: float,
@@ -195,6 +235,7 @@ def simc(
     return PIDTuning(kp, ti, td, "simc", note=note)
 
 
+@_rule
 def amigo(
     gain: float,
     time_constant: float,
@@ -232,6 +273,7 @@ def amigo(
     return PIDTuning(kp, ti, td, "amigo", note=note, b=0.0 if tau <= 0.5 else 1.0)
 
 
+@_rule
 def ziegler_nichols_open(
     gain: float, time_constant: float, dead_time: float, *, controller: str = "pid"
 ) -> PIDTuning:
@@ -254,6 +296,7 @@ def ziegler_nichols_open(
     return PIDTuning(kp, ti, td, "zn-open")
 
 
+@_rule
 def ziegler_nichols_closed(ku: float, pu: float, *, controller: str = "pid") -> PIDTuning:
     """Ziegler-Nichols ultimate-gain rule (Trans. ASME 64 (1942) 759-768).
 
@@ -279,6 +322,7 @@ def ziegler_nichols_closed(ku: float, pu: float, *, controller: str = "pid") -> 
     return PIDTuning(kp, ti, td, "zn-closed")
 
 
+@_rule
 def tyreus_luyben(ku: float, pu: float, *, controller: str = "pid") -> PIDTuning:
     """Tyreus-Luyben ultimate-gain rule (Ind. Eng. Chem. Res. 31 (1992) 2625).
 
@@ -293,6 +337,7 @@ def tyreus_luyben(ku: float, pu: float, *, controller: str = "pid") -> PIDTuning
     return PIDTuning(ku / 2.2, 2.2 * pu, pu / 6.3, "tyreus-luyben")
 
 
+@_rule
 def lambda_tuning(
     gain: float,
     time_constant: float,
