@@ -225,6 +225,12 @@ def _model_dict(m: Model, kind: str, params: tuple[str, ...]) -> dict[str, objec
 # ---------------------------------------------------------------------------
 
 
+MAX_MAGNITUDE = 1e150
+"""The largest magnitude of a recorded time, MV or PV value: the fits square deviations of
+the data, and a square beyond the float range (~1.8e308) is no fit."""
+_BEYOND = "+-1e150 (ctrlblocks.tuning.identify.MAX_MAGNITUDE: the fits square the data)"
+
+
 class DataFileError(ValueError):
     """A bump-test file cannot be used; names the file, line and column.
 
@@ -478,6 +484,8 @@ def read_step_csv(
                 )
             if not math.isfinite(x):
                 raise DataFileError(path, line_no, name, f"{cell!r} is not a finite number")
+            if abs(x) > MAX_MAGNITUDE:
+                raise DataFileError(path, line_no, name, f"{cell!r} is beyond {_BEYOND}")
             values[name].append(x)
         line_of.append(line_no)
         tv = values[time]
@@ -504,6 +512,8 @@ def read_step_csv(
     if u_before is not None:
         if not math.isfinite(u_before):
             raise ValueError(f"u_before must be finite, got {u_before!r}")
+        if abs(u_before) > MAX_MAGNITUDE:
+            raise ValueError(f"u_before = {u_before!r} is beyond {_BEYOND}")
         h = float(tv[1] - tv[0])
         tv = np.concatenate(([tv[0] - h], tv))
         uv = np.concatenate(([float(u_before)], uv))
@@ -912,6 +922,9 @@ def _check_record(t, u, y) -> tuple[NDArray, NDArray, NDArray]:
             raise ValueError(
                 f"{name} contains NaN or inf (first at index {int(np.argmin(np.isfinite(a)))})"
             )
+        if np.any(np.abs(a) > MAX_MAGNITUDE):
+            first = int(np.argmax(np.abs(a) > MAX_MAGNITUDE))
+            raise ValueError(f"{name}[{first}] = {float(a[first])!r} is beyond {_BEYOND}")
     if np.any(np.diff(t) <= 0.0):
         raise ValueError(
             "time must increase strictly (first violation at index "
