@@ -27,6 +27,7 @@ from ctrlblocks.runtime import (
 )
 from ctrlblocks.sim import PlantProcess, parse_scenario, simulate
 
+from ..toml_text import toml_value as _toml
 from .test_structures import HEAD, _pi
 
 THREE_STEP = (
@@ -170,16 +171,6 @@ def _stage_table(sc) -> dict:
     if opts.get("feedback"):
         table["feedback"] = True
     return table
-
-
-def _toml(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return f'"{v}"'
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    return repr(v)
 
 
 def _run(sc, n: int, extra: str = "", outputs: tuple[str, ...] = ()):

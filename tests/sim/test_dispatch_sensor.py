@@ -24,6 +24,9 @@ import pytest
 from ctrlblocks.fast._jit import HAVE_NUMBA
 from ctrlblocks.sim import parse_scenario, run_scenario
 
+from ..toml_text import toml_table as _table
+from ..toml_text import toml_value as _toml
+
 pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled lane needs numba")
 
 HEAD = """
@@ -40,20 +43,6 @@ noise = 0.01
 [initial]
 {initial}
 """
-
-
-def _toml(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return repr(value)
-
-
-def _table(table: str, **keys) -> str:
-    return f"[{table}]\n" + "".join(f"{k} = {_toml(v)}\n" for k, v in keys.items())
 
 
 def _case(name: str, *events: dict, duration: float | None = None) -> str:

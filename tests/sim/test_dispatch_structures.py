@@ -26,6 +26,9 @@ from ctrlblocks.fast._jit import HAVE_NUMBA
 from ctrlblocks.sim import parse_scenario, run_scenario
 from ctrlblocks.sim.report import load_shipped
 
+from ..toml_text import toml_table as _table
+from ..toml_text import toml_value as _toml
+
 pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled lane needs numba")
 
 HEAD = """
@@ -42,20 +45,6 @@ noise = 0.01
 [initial]
 {initial}
 """
-
-def _toml(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return repr(value)
-
-
-def _table(name: str, **keys) -> str:
-    """A TOML table ``[name]`` with ``keys``."""
-    return f"[{name}]\n" + "".join(f"{k} = {_toml(v)}\n" for k, v in keys.items())
 
 
 def _events(sp1: float, load: float, um: float, sp2: float, *more: dict) -> str:
@@ -375,7 +364,9 @@ OVERRIDE = (
 @pytest.mark.parametrize("selector", ["min", "max"])
 def test_override_on_the_lane_equals_the_python_path(selector, caplog):
     limit = 0.45 if selector == "min" else 0.1
-    text = OVERRIDE + f"""
+    text = (
+        OVERRIDE
+        + f"""
 [[controllers]]
 name = "{selector}"
 selector = "{selector}"
@@ -387,6 +378,7 @@ measure = "y2"
 sp = {limit}
 {_pid(6.0, 0.5, -0.5, 1.0)}
 """
+    )
     res = _same(text, caplog)
     v1, v2, u = (res.runs[0].signals[k] for k in ("v1", "v2", "u"))
     # both blocks were selected at some time
@@ -403,8 +395,13 @@ def test_override_of_more_blocks_on_the_lane_equals_the_python_path(selector, n,
               ("y2", limits[0], _pid(6.0, 0.5, -0.5, 1.0)),
               ("y", limits[2], _pid(2.0, 2.0, -0.5, 1.0)),
               ("y2", limits[1], _pid(3.0, 1.0, -0.5, 1.0, "back_calc_model"))][:n]  # fmt: skip
-    text = OVERRIDE + f'[[controllers]]\nname = "{n}"\nselector = "{selector}"\n' + "".join(
-        f'[[controllers.blocks]]\nmeasure = "{m}"\nsp = {_toml(sp)}\n{pid}' for m, sp, pid in blocks
+    text = (
+        OVERRIDE
+        + f'[[controllers]]\nname = "{n}"\nselector = "{selector}"\n'
+        + "".join(
+            f'[[controllers.blocks]]\nmeasure = "{m}"\nsp = {_toml(sp)}\n{pid}'
+            for m, sp, pid in blocks
+        )
     )
     sig = _same(text, caplog).runs[0].signals
     vs = np.array([sig[f"v{j + 1}"] for j in range(n)])

@@ -28,6 +28,8 @@ import pytest
 
 from ctrlblocks.sim.scenario import MAX_SAMPLES, ScenarioError, parse_scenario
 
+from ..toml_text import toml_value as _toml
+
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((ROOT / "src" / "ctrlblocks" / "scenarios").glob("*.toml"))
 HOSTILE = (
@@ -259,10 +261,6 @@ t = 1.0
 do = "setpoint"
 value = 1.0
 """
-
-
-def _toml(v: object) -> str:
-    return ("true" if v else "false") if isinstance(v, bool) else repr(v).replace("'", '"')
 
 
 def _event(**fields: object) -> str:
