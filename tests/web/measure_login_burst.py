@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--window", type=float, default=6.5, help="length of each window [s]")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stdout)
-    logging.getLogger("httpx").setLevel(logging.WARNING)
+    logging.getLogger("httpx2").setLevel(logging.WARNING)
     with tempfile.TemporaryDirectory() as tmp:
         runtime, _ = demo_runtime(Path(tmp) / "history.sqlite")
         users = UserStore(Path(tmp) / "users.json")

@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 
 pytest.importorskip("fastapi")
-pytest.importorskip("httpx")
+pytest.importorskip("httpx2")
 
 from click.testing import CliRunner
 
@@ -225,7 +225,7 @@ def test_a_cross_site_websocket_is_refused(client):
 
 def burst(app: Any, bodies: list[dict[str, str]]) -> tuple[list[int], list[str]]:
     """Send the logins at once (one client address); status codes, threads that hashed."""
-    import httpx
+    import httpx2 as httpx
 
     users = app.state.users
     verify = users.verify
@@ -479,7 +479,7 @@ def self_signed(tmp_path: Path) -> tuple[Path, Path]:
 def test_over_tls_the_session_cookie_is_secure(tmp_path: Path, users):
     import ssl
 
-    import httpx
+    import httpx2 as httpx
 
     certfile, keyfile = self_signed(tmp_path)
     rt = make_runtime(tmp_path)
