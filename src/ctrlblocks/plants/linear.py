@@ -318,10 +318,11 @@ class LinearPlant(Plant):
         self._c = tuple(float(v) for v in self.c)
         # steady state map x_ss = (I - Phi)^-1 (Gamma0 + Gamma1) u0, None if integrating
         m = np.eye(nx) - self.phi
+        self._x_per_u: np.ndarray | None = None
         if np.linalg.cond(m) < 1e12:
-            self._x_per_u: np.ndarray | None = np.linalg.solve(m, self.gamma0 + self.gamma1)
-        else:
-            self._x_per_u = None
+            x_per_u = np.linalg.solve(m, self.gamma0 + self.gamma1)
+            if np.all(np.isfinite(x_per_u)):  # (ts = 1e-320: Phi = I to the last bit)
+                self._x_per_u = x_per_u
         self._buf_len = d + 2
 
     # -- the contract ----------------------------------------------------------
@@ -474,7 +475,13 @@ class LinearPlant(Plant):
 
 
 def _lag(name: str, t: Any) -> float:
-    return require_positive(name, t, ErrorCode.BAD_TIME_CONSTANT)
+    """A lag time constant [s] > 0 whose realisation (``1/t``, ``1/t^2``) is finite."""
+    x = require_positive(name, t, ErrorCode.BAD_TIME_CONSTANT)
+    if x * x == 0.0 or not math.isfinite(1.0 / (x * x)):
+        raise ParameterError(
+            ErrorCode.BAD_TIME_CONSTANT, name, f"{t!r} s is too short to model (1/t^2 overflows)"
+        )
+    return x
 
 
 class _Model(LinearPlant):

@@ -69,11 +69,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..blocks.base import ErrorCode, ParameterError, require_positive
+from ..blocks.base import ErrorCode, ParameterError, require_limits, require_positive
 from ..blocks.signals import clamp
 from .base import Plant
 
-__all__ = ["OUTLETS", "R_BETWEEN", "ThreeTank", "ThreeTankModel", "threetank_rk4"]
+__all__ = ["MAX_STEPS", "OUTLETS", "R_BETWEEN", "ThreeTank", "ThreeTankModel", "threetank_rk4"]
+
+MAX_STEPS = 1_000_000
+"""The most RK4 steps a sample may take (a longer ``ts`` is refused)."""
 
 R_GAS = 287.05
 """Specific gas constant of air [J/(kg K)]."""
@@ -145,7 +148,7 @@ class ThreeTankModel(NamedTuple):
     h: float
     """The RK4 step ``ts / substeps`` [s]."""
     substeps: int
-    """RK4 steps per sample."""
+    """RK4 steps per sample (:attr:`ThreeTank.steps`: ``substeps``, or more for a long ``ts``)."""
     u_min: float
     """Lowest supply pressure [bar gauge]."""
     u_max: float
@@ -164,7 +167,8 @@ class ThreeTank(Plant):
     outlet : {"a", "b"}
         Outlet valve in use; switch at run time with ``plant.outlet = "b"``.
     substeps : int
-        RK4 steps per sample, >= 1.
+        RK4 steps per sample, >= 1; more are taken when a step would be
+        longer than the fastest mode allows (:attr:`steps`).
     u_min, u_max : float
         Range of the proportional valve [bar gauge]; the supply pressure is
         clamped to it (default 0..5 bar, Nowak et al. 2018).
@@ -207,11 +211,12 @@ class ThreeTank(Plant):
         if not isinstance(substeps, int) or isinstance(substeps, bool) or substeps < 1:
             raise ParameterError(ErrorCode.BAD_PARAMETER, "substeps", "must be an integer >= 1")
         self.substeps = substeps
-        if not (-P_ATM < float(u_min) <= float(u_max)) or not math.isfinite(u_max):
+        lo, hi = require_limits("u_min", u_min, "u_max", u_max, allow_infinite=False)
+        if not lo > -P_ATM:
             raise ParameterError(
                 ErrorCode.BAD_LIMITS, "u_min/u_max", "need -p_atm < u_min <= u_max < inf"
             )
-        self.u_min, self.u_max = float(u_min), float(u_max)
+        self.u_min, self.u_max = lo, hi
         if len(resistances) != 3:
             raise ParameterError(ErrorCode.BAD_PARAMETER, "resistances", "give three")
         self.resistances = tuple(
@@ -222,7 +227,37 @@ class ThreeTank(Plant):
             outs[name] = require_positive(f"outlets[{name!r}]", r)
         self.outlets = outs
         self.outlet = outlet
+        rate = self._fastest_rate()
+        if not self.ts * rate <= MAX_STEPS:  # (also a rate that overflowed: u_max = 1e308)
+            raise ParameterError(
+                ErrorCode.NO_CYCLE,
+                "ts",
+                f"{ts!r} s needs more than {MAX_STEPS:,} RK4 steps per sample "
+                f"(steps of at most {1.0 / rate:.3g} s keep the integration stable)",
+            )
+        self._h_max = 1.0 / rate if rate > 0.0 else math.inf
         self.reset(0.0)
+
+    def _fastest_rate(self) -> float:
+        """A bound on ``|lambda|`` of (T2)'s Jacobian [1/s] at every pressure and outlet.
+
+        Gershgorin's bound on the rows of the linearisation (:meth:`linearise`)
+        with every pressure at its highest, ``u_max``, and the widest outlet.
+        """
+        g1a, g1b, g2b, g2c, g3c, _ = self._g
+        g3o = max(self._coefficients(r)[5] for r in self.outlets.values())
+        p = self.u_max + P_ATM
+        return 2.0 * p * max(g1a + 2.0 * g1b, 2.0 * g2b + 2.0 * g2c, 2.0 * g3c + g3o)
+
+    @property
+    def steps(self) -> int:
+        """RK4 steps per sample: ``substeps``, more if a step would be longer than stable.
+
+        Each step is at most ``1/|lambda|`` of the fastest mode (:meth:`_fastest_rate`;
+        ``h |lambda| <= 1``, well inside RK4's stability bound of 2.78): with
+        ``ts = 10`` s two steps of 5 s grew without bound (to 4e150 bar in a sample).
+        """
+        return max(self.substeps, math.ceil(self.ts / self._h_max))
 
     # -- the outlet valve ------------------------------------------------------
 
@@ -273,8 +308,8 @@ class ThreeTank(Plant):
         """
         return ThreeTankModel(
             self._g,
-            self.ts / self.substeps,
-            self.substeps,
+            self.ts / self.steps,
+            self.steps,
             self.u_min,
             self.u_max,
             {name: self._coefficients(r)[5] for name, r in self.outlets.items()},
@@ -312,7 +347,7 @@ class ThreeTank(Plant):
             u = self.u
         u = float(clamp(u, self.u_min, self.u_max))
         self.u = u
-        n = self.substeps
+        n = self.steps
         self._p1, self._p2, self._p3 = threetank_rk4(
             self._p1, self._p2, self._p3, u + P_ATM, self._g, self.ts / n, n
         )

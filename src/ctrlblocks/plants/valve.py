@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ..blocks.base import ErrorCode, require_finite, require_positive
 from .base import Plant
 
 __all__ = ["MotorValve"]
@@ -37,12 +38,10 @@ class MotorValve(Plant):
     """
 
     def __init__(self, travel_time: float, ts: float, span: float = 100.0, x0: float = 0.0) -> None:
-        if not (travel_time > 0 and ts > 0 and span > 0):
-            raise ValueError("travel_time, ts and span must be > 0")
-        self.travel_time = float(travel_time)
-        self.ts = float(ts)
-        self.span = float(span)
-        self.x0 = float(x0)
+        self.travel_time = require_positive("travel_time", travel_time, ErrorCode.BAD_TIME_CONSTANT)
+        self.ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
+        self.span = require_positive("span", span)
+        self.x0 = require_finite("x0", x0)
         self.reset()
 
     @property
