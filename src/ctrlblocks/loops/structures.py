@@ -435,7 +435,6 @@ class Structure:
                 bad += [f"{role}: {why}" for why in check(manual_ok=True)]
         return bad
 
-
     def lane_roles(self, side: ControllerSide) -> list[str]:
         """The roles of the compiled lane's controllers, in its wiring's order."""
         return self.controller_roles(side)
@@ -895,7 +894,6 @@ class RatioStructure(Structure):
         }
 
 
-
 class _OutputStage(Structure):
     """A controller whose continuous output drives an output block that makes the MV.
 
@@ -1262,6 +1260,16 @@ class ControllerSide:
     def event_target(self) -> str:
         """The role an event without a ``target`` acts on."""
         return self.kind.event_target
+
+    def event_blocks(self, kind: str, target: str | None = None) -> list[Any]:
+        """The blocks a controller-side event (``set``, ``mode``, ``manual_value``,
+        ``limits``) acts on: the block ``target`` names; without one, ``set`` acts on
+        :attr:`event_target`, the others on the MV blocks.  ``KeyError`` for a name that
+        is not one of :attr:`blocks` (a plant is the caller's).
+        """
+        if target is not None:
+            return [self.blocks[target]]
+        return [self.blocks[self.event_target]] if kind == "set" else list(self.mv_blocks)
 
     def reset_models(self) -> None:
         """Put the Smith predictor's models in the steady state of ``u0``."""

@@ -267,9 +267,7 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
         for m0, is_mv in zip(manual0, mv, strict=True)
     ]
     if sig["limits_changes"]:
-        sig["limits"], sig["limits_event"] = _limits(
-            blocks, kind.lane_roles(side), mv, sig["limits_changes"], n
-        )
+        sig["limits"], sig["limits_event"] = _limits(side, blocks, sig["limits_changes"], n)
     res = lane_loop(
         kind.compiled_lane, blocks, proc.model, inner_model=proc.inner_model,
         u_man=[float(b.manual_value) for b in blocks], mv=mv, warmup=nw,
@@ -306,12 +304,12 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
 
 
 def _limits(
-    blocks: list[Any], roles: list[str], mv: list[bool], events: list[tuple[int, Any]], n: int
+    side: Any, blocks: list[Any], events: list[tuple[int, Any]], n: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """The limits in force of every lane controller and sample, and where an event is due.
 
-    ``limits`` events (``_Simulation._apply``: ``set_limits`` of the MV
-    blocks, or of the one named by ``target``) are played on copies of the
+    ``limits`` events (``set_limits`` of the blocks
+    ``ControllerSide.event_blocks`` names, as the Python path) are played on copies of the
     blocks, so that the blocks themselves decide what a pair does: a valid
     pair is in force from its sample on, a refused one (reversed, NaN:
     ``BAD_LIMITS``) leaves the old limits.  Returns ``(limits, flags)``:
@@ -322,8 +320,9 @@ def _limits(
     flags = np.zeros(n)
     for k, f in events:
         flags[k] = 1.0
+        acts = side.event_blocks("limits", f.get("target"))
         for j, b in enumerate(copies):
-            if (roles[j] == f["target"]) if "target" in f else mv[j]:
+            if any(blocks[j] is a for a in acts):
                 b.set_limits(f["u_min"], f["u_max"])
                 changes[j].append((k, *b.output_limits()))
     lim = np.array([

@@ -199,30 +199,27 @@ class _Simulation:
 
     # -- events ------------------------------------------------------------------
 
-    def _target(self, ev: Event) -> Any:
+    def _targets(self, ev: Event) -> list[Any]:
+        """What ``ev`` acts on: a plant it names, else :meth:`ControllerSide.event_blocks`."""
         name = ev.fields.get("target")
-        if name is None:
-            name = self.side.event_target
         if name in ("plant", "inner_plant"):
-            return self.proc.model if name == "plant" else self.proc.inner_model
-        if name not in self.blocks:
+            return [self.proc.model if name == "plant" else self.proc.inner_model]
+        try:
+            return self.side.event_blocks(ev.kind, name)
+        except KeyError:  # the scenario parser refuses it; a scenario built in Python may not
             raise ValueError(
                 f"{self.sc.file}: event at t={ev.t:g}: unknown target {name!r}; "
                 f"expected one of {', '.join(self.blocks)}"
-            )
-        return self.blocks[name]
+            ) from None
 
     def _apply(self, ev: Event) -> None:
         """A controller-side event (the process side applies the others)."""
         f = ev.fields
         k = ev.kind
-        if k == "set":
-            _set_attr(self._target(ev), f["attr"], f["value"])
-            return
-        # mode, manual value and MV limits act on the MV blocks unless a target is named
-        targets = [self._target(ev)] if "target" in f else self.side.mv_blocks
-        for b in targets:
-            if k == "mode":
+        for b in self._targets(ev):
+            if k == "set":
+                _set_attr(b, f["attr"], f["value"])
+            elif k == "mode":
                 set_manual(b, f["mode"] == "manual", f.get("manual_value"))
             elif k == "manual_value":
                 set_manual(b, bool(getattr(b, "manual", True)), f["value"])

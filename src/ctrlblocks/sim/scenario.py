@@ -114,9 +114,9 @@ the step into the window's first sample included)."""
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
 
 
-
 _CSV_KEYS = ("file", "time", "u", "y", "u_before", "delimiter", "decimal", "encoding")
 """The keys of a ``[controllers.tune]`` table that read a recorded bump test."""
+
 
 class ScenarioError(KeyPathError):
     """A scenario file is malformed.
@@ -744,18 +744,14 @@ class _Parser(SpecReader):
             if kind != "set":
                 raise self.fail(f"{ev.key}.target", f"a {kind!r} event acts on a block, not {name}")
             return  # a plant attribute (plant events change plant parameters)
-        if name is not None and name not in side.blocks:
+        try:
+            blocks = side.event_blocks(kind, name)  # as the run resolves it (loop._targets)
+        except KeyError:
             raise self.fail(
                 f"{ev.key}.target",
                 f"controller {controller!r} has no block {name!r}; "
                 f"expected one of: {', '.join(side.blocks)}",
-            )
-        if name is not None:
-            blocks = [side.blocks[name]]
-        elif kind == "set":
-            blocks = [side.blocks[side.event_target]]
-        else:
-            blocks = list(side.mv_blocks)
+            ) from None
         for b in blocks:
             what = f"{type(b).__name__} of controller {controller!r}"
             if kind == "limits" and not hasattr(b, "set_limits"):
