@@ -16,8 +16,8 @@ The command prints which runs changed.  The hashes are bit-exact, so they hold
 for one numeric stack: the numpy and scipy versions **and the CPU's vector
 level** (numpy's dispatch level, ``X86_V3`` = AVX2/FMA, ``X86_V4`` = AVX-512:
 numpy's and the C library's ``exp``, ``log``, ... take other code paths on
-another level, and two of the shipped scenarios moved in the last bit between
-an AVX-512 machine and an AVX2 one with the same versions).  The file keeps one
+another level: two of the shipped scenarios moved in the last bit between the
+machine the hashes were first recorded on and an AVX2 one, same versions).  The file keeps one
 set of hashes per stack; the command replaces the set of the stack it runs on,
 and drops from the other sets every run whose hash moved here (a change of
 behaviour makes them stale; run the command on such a machine to restore
