@@ -161,9 +161,17 @@ def _zoh(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray
     from scipy.linalg import expm
 
     nx, nu = a.shape[0], b.shape[1]
-    em = np.vstack((np.hstack((a, b)), np.zeros((nu, nx + nu))))
+    # Gamma is linear in B: a B far larger than A (a gain of 1e100 in the input matrix) would
+    # set expm's scaling and cost Phi its accuracy (a closed-loop pole off in the 7th digit,
+    # at 1e200 not finite), so such a B is divided by a power of two (exact) and Gamma
+    # multiplied back; ordinary models (B within 2**10 of A and 1/h) are computed as they were
+    with np.errstate(all="ignore"):
+        big = float(np.max(np.abs(b))) / max(float(np.max(np.abs(a))), 1.0 / h)
+    scale = math.ldexp(1.0, min(1000, round(math.log2(big)))) if 2.0**10 < big < math.inf else 1.0
+    em = np.vstack((np.hstack((a, b / scale)), np.zeros((nu, nx + nu))))
     with np.errstate(all="ignore"):  # an overflow is refused below, with the cause
         ms = expm(h * em)[:nx, :]
+        ms[:, nx:] *= scale
     if not np.all(np.isfinite(ms)):  # h * A overflows (ts = 1e308), or A grows beyond floats
         raise ParameterError(
             ErrorCode.NO_CYCLE,

@@ -91,6 +91,10 @@ class DiscreteSS:
     c: np.ndarray
     d: np.ndarray
     ts: float
+    mv_states: tuple[bool, ...] = ()
+    """Which states hold MV values (a controller's integrator, its last output; the
+    rest hold PV values and their rates): :meth:`Loop.poles` scales them with the
+    process gain.  Empty: none does."""
 
     def response(self, w: np.ndarray) -> np.ndarray:
         """Frequency response at ``w`` [rad/s]: array (len(w), outputs, inputs), complex."""
@@ -129,7 +133,9 @@ def model_plant(model: Any, ts: float) -> LinearPlant:
     if isinstance(model, FOPDT):
         return PlantFOPDT(model.gain, model.time_constant, model.dead_time, ts)
     if isinstance(model, Integrating):
-        return LinearPlant([model.gain], [1.0, 0.0], ts=ts, dead_time=model.dead_time)
+        # k/s as (A, B, C) = (0, 1, k): the realisation tf2ss gives, without scipy.signal's
+        # "badly conditioned" warning for a gain of 1e-100
+        return LinearPlant(A=[[0.0]], B=[[1.0]], C=[[model.gain]], ts=ts, dead_time=model.dead_time)
     raise TypeError(f"no process model: {model!r}")
 
 
@@ -162,6 +168,10 @@ def plant_ss(plant: LinearPlant) -> DiscreteSS:
 # ---------------------------------------------------------------------------
 # The controller: matrices read off the real block
 # ---------------------------------------------------------------------------
+
+# the controller states that hold MV values (ADRC: the last output; PID: the integral and
+# derivative terms); the others hold PV values, their rates or the ESO's total disturbance
+_MV_STATES = frozenset({"_u_prev", "_i", "_d"})
 
 _ADRC_STATES = {
     1: ("_yh", "_x4", "_u_prev", "_ref"),
@@ -227,7 +237,7 @@ def controller_ss(block: PID | ADRC) -> DiscreteSS:
         a[:, j], c[0, j] = cycle(e, 0.0, 0.0)
     b[:, 0], d[0, 0] = cycle(zero, 1.0, 0.0)
     b[:, 1], d[0, 1] = cycle(zero, 0.0, 1.0)
-    return DiscreteSS(a, b, c, d, float(cfg.ts))
+    return DiscreteSS(a, b, c, d, float(cfg.ts), tuple(f in _MV_STATES for f in fields))
 
 
 # ---------------------------------------------------------------------------
@@ -369,8 +379,34 @@ class Loop:
         return a
 
     def poles(self) -> np.ndarray:
-        """Closed-loop poles (eigenvalues of :meth:`closed_loop_a`)."""
-        return np.linalg.eigvals(self.closed_loop_a())
+        """Closed-loop poles: eigenvalues of :meth:`closed_loop_a`, MV states scaled to the process.
+
+        The loop is the same in any units, its state matrix is not: with a
+        process gain of ``1e30`` the past MVs of the dead-time register and the
+        controller's MV states are ``1e30`` times smaller than the PV states,
+        and the eigenvalues of such a matrix are wrong in the 5th digit (a
+        loop of ``|z| = 0.999999`` came out at ``1.00001``; LAPACK's own
+        balancing does not undo it).  So the poles are those of
+        ``T A T^-1`` (the same eigenvalues), ``T`` scaling every state that
+        holds an MV by a power of two near the process gain ``|P|`` (at a
+        hundredth of the Nyquist frequency), and the plant's states by one
+        near its largest output coefficient: the loop as it is in units in
+        which the process gain is about 1.
+        """
+        a = self.closed_loop_a()
+        t = self._state_scales()
+        return np.linalg.eigvals(a * t[:, None] / t[None, :])
+
+    def _state_scales(self) -> np.ndarray:
+        """The diagonal of ``T`` in :meth:`poles` (powers of two: no rounding)."""
+        with np.errstate(all="ignore"):
+            gain = float(np.abs(self.process(np.array([0.01 * math.pi / self.ts])))[0])
+            c_max = float(np.max(np.abs(self.plant.c)))
+        nx, n_reg = self.plant.n_states, self.pss.a.shape[0] - self.plant.n_states
+        mv = _power_of_two(gain)
+        ctrl = [mv if is_mv else 1.0 for is_mv in self.ctrl.mv_states]
+        ctrl += [1.0] * (self.ctrl.a.shape[0] - len(ctrl))
+        return np.array([_power_of_two(c_max)] * nx + [mv] * n_reg + ctrl)
 
     def integral_gain(self) -> float:
         """The controller's integral gain ``ki`` [MV/(PV s)]: ``(z - 1)/ts C_y(z)`` at ``z -> 1``.
@@ -529,6 +565,13 @@ class Loop:
         if len(outside) == 0:
             return 0.0
         return math.nan if outside[-1] == len(y) - 1 else float(t[outside[-1] + 1])
+
+
+def _power_of_two(x: float) -> float:
+    """The power of two nearest ``x`` in log scale (2**-1000 .. 2**1000; 1 for 0, inf, NaN)."""
+    if not (math.isfinite(x) and x > 0.0):
+        return 1.0
+    return math.ldexp(1.0, max(-1000, min(1000, round(math.log2(x)))))
 
 
 def loop(model: Any, block: PID | ADRC) -> Loop:

@@ -148,7 +148,8 @@ class PIDTuning:
     def __post_init__(self) -> None:
         for name in ("kp", "ti", "td"):
             v = getattr(self, name)
-            if not math.isfinite(v):
+            # no rule gives kp = 0 for a finite non-zero gain but by underflow (a gain of 1e308)
+            if not math.isfinite(v) or (name == "kp" and v == 0.0):
                 raise ParameterError(
                     ErrorCode.BAD_PID_COEFFS,
                     name,
