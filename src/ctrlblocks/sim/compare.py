@@ -552,8 +552,10 @@ def _verdict(s: dict[str, Any]) -> list[dict[str, Any]]:
                          f"{q[0]['shown']}..{q[1]['shown']}.", "quotes": q})  # fmt: skip
     for kind in ("PID", "ADRC"):
         if not kinds[kind]:
-            said.append({"text": f"No {kind} tuning is in the verdict (none is stable with "
-                         f"Ms <= {MS_LIMIT:g} on the model).", "quotes": []})  # fmt: skip
+            tuned = [c for c in ctrls if c["type"] == kind and c["params"] is not None]
+            why = (f"none is stable with Ms <= {MS_LIMIT:g} on the model" if tuned
+                   else "none could be tuned, as said above")  # fmt: skip
+            said.append({"text": f"No {kind} tuning is in the verdict ({why}).", "quotes": []})
     if kinds["ADRC"] and kinds["PID"]:
         for key, tv in (("iae_tracking", "tv_u_tracking"), ("iae_load", "tv_u_load")):
             said.append(_kind_sentence(res, kinds, key, tv, val))

@@ -322,6 +322,14 @@ def adrc_tuning(
     """
     from .identify import FOPDT
 
+    if require_finite("gain", gain, ErrorCode.BAD_B0) < 0.0:
+        raise ParameterError(
+            ErrorCode.BAD_B0,
+            "gain",
+            f"{gain!r} < 0 (a reverse-acting process): the ADRC block takes b0 > 0 (the model "
+            "Y^(n) = h + b0 u of Nowak et al. 2018, section 2); tune it on the gain -k and "
+            "give the block -y and -sp, or use a PID with reverse = true",
+        )
     ihr = inverse_half_rule(gain, time_constant, dead_time, order)
     T, T0 = float(time_constant), float(dead_time)
     ratio = _observer_ratio(observer_ratio)
