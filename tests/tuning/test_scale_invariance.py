@@ -46,12 +46,11 @@ def _loop_numbers(lp: Loop) -> tuple[float, ...]:
 @pytest.mark.parametrize("order", [1, 2, 3])
 @pytest.mark.parametrize("scale", SCALES, ids=lambda s: f"{s:.3g}")
 def test_adrc_tuning_is_the_same_in_any_units(order: int, scale: float) -> None:
-    if scale < 0.0:  # the block takes b0 > 0: a reverse-acting process is refused, and says how
-        with pytest.raises(ParameterError, match=r"reverse-acting.*-y and -sp"):
-            adrc_tuning(scale, 10.0, 2.0, order)
-        return
     ref = adrc_tuning(1.0, 10.0, 2.0, order)
     got = adrc_tuning(scale, 10.0, 2.0, order)
+    # a negative gain: the block with reverse = True and b0 > 0, the same loop
+    assert got.reverse is (scale < 0.0) and got.config().get("reverse", False) is (scale < 0.0)
+    scale = abs(scale) if got.reverse else scale
     assert got.ts == ref.ts
     assert _same(got.omega_c, ref.omega_c, 1e-9), (got.omega_c, ref.omega_c)
     assert _same(got.omega_o, ref.omega_o, 1e-9)
@@ -59,7 +58,7 @@ def test_adrc_tuning_is_the_same_in_any_units(order: int, scale: float) -> None:
     assert got.margins.stable and ref.margins.stable
     assert _same(got.margins.ms, ref.margins.ms, 1e-6)
     assert _same(got.margins.pm, ref.margins.pm, 1e-6)
-    assert _same(got.integral_gain * scale, ref.integral_gain, 1e-6)
+    assert _same(got.integral_gain * (-scale if got.reverse else scale), ref.integral_gain, 1e-6)
 
 
 @pytest.mark.parametrize("rule", [simc, amigo, lambda_tuning], ids=lambda r: r.__name__)
@@ -88,13 +87,11 @@ def test_poles_are_the_same_in_any_units(scale: float, model, block: str) -> Non
     model's sits in its output matrix.
     """
 
-    if block == "adrc" and scale < 0.0:
-        pytest.skip("the ADRC block takes b0 > 0 (a reverse-acting process is refused above)")
 
     def make(k: float) -> PID | ADRC:
         if block == "pid":
             return PID(kp=0.3 / abs(k), ti=12.0, td=1.0, ts=0.1, reverse=k < 0)
-        return ADRC(order=2, b0=0.05 * k, omega_c=0.05, omega_o=0.25, ts=0.1)
+        return ADRC(order=2, b0=0.05 * abs(k), omega_c=0.05, omega_o=0.25, ts=0.1, reverse=k < 0)
 
     ref = Loop(model(1.0 if scale > 0 else -1.0), make(1.0 if scale > 0 else -1.0))
     got = Loop(model(scale), make(scale))
@@ -102,7 +99,8 @@ def test_poles_are_the_same_in_any_units(scale: float, model, block: str) -> Non
     r_got = np.sort(np.abs(got.poles()))[::-1]
     assert abs(r_got[0] - r_ref[0]) <= 1e-9, (r_got[0], r_ref[0])
     assert got.stable() == ref.stable()
-    assert _same(got.integral_gain() * abs(scale), ref.integral_gain(), 1e-6)
+    assert _same(got.integral_gain() * scale, ref.integral_gain() * (-1.0 if scale < 0 else 1.0),
+                 1e-6)  # fmt: skip
 
 
 def test_a_gain_whose_rule_underflows_names_the_rule() -> None:

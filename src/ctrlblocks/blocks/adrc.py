@@ -571,6 +571,15 @@ class ADRCConfig(BlockConfig):
         REAL does, every intermediate rounded to single precision (the cycle
         of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
         the configurations the export covers.
+    reverse : bool
+        A reverse-acting process (a negative process gain: more MV, less PV --
+        cooling, an outlet valve).  The block then works on ``-y`` and ``-sp``,
+        so that the process it sees has a positive gain and ``b0`` stays > 0
+        (the model ``Y^(n) = h + b0 u`` of section 2); u, its limits and the
+        manual value keep their meaning, and ``y``, ``e``, ``y_ref`` and
+        ``y_sat``/``y_sat_lo`` stay in PV units.  As the PID's ``reverse``
+        (controltheplant 2024, ``ixInverted``).  Not in the compiled kernels nor
+        the PLC cycle (``precision="float32"``): the per-call path runs it.
     """
 
     order: int = 2
@@ -591,6 +600,7 @@ class ADRCConfig(BlockConfig):
     y_sat_lo: float = -math.inf
     tau_wait: float = 0.0
     precision: str = "float64"
+    reverse: bool = False
 
     def validate(self) -> None:
         if isinstance(self.order, bool) or self.order not in (1, 2, 3):
@@ -613,6 +623,7 @@ class ADRCConfig(BlockConfig):
         require_bool("anti_backoff", self.anti_backoff)
         require_limits("y_sat_lo", self.y_sat_lo, "y_sat", self.y_sat)
         require_nonnegative("tau_wait", self.tau_wait, ErrorCode.BAD_TIME_CONSTANT)
+        require_bool("reverse", self.reverse)
         if self.precision != "float64":
             _check_precision(self, "adrc")
 
@@ -757,7 +768,7 @@ class ADRC(Block):
     ----------
     See :class:`ADRCConfig`: ``order, b0, omega_c, omega_o, ts, u_min, u_max,
     t_ref, discretisation, u_sf, u0, anti_windup, u_real_on, anti_backoff,
-    y_sat, y_sat_lo, tau_wait``.
+    y_sat, y_sat_lo, tau_wait, precision, reverse``.
 
     Inputs (attributes written between cycles, like PLC inputs)
     -----------------------------------------------------------
@@ -870,7 +881,14 @@ class ADRC(Block):
         c = self._config
         old_law = self._law if old is not None else (1.0, 0.0, 0.0, 0.0)
         self._prm: tuple[float, ...] | None = None
-        self._lean = c.discretisation == "euler" and not c.u_real_on and not c.anti_backoff
+        self._lean = (
+            c.discretisation == "euler" and not c.u_real_on and not c.anti_backoff and not c.reverse
+        )
+        # reverse: the block works on -y and -sp (ADRCConfig.reverse); the sensor's
+        # saturation in those units
+        self._sgn = -1.0 if c.reverse else 1.0
+        self._ysat_hi = -float(c.y_sat_lo) if c.reverse else float(c.y_sat)
+        self._ysat_lo = -float(c.y_sat) if c.reverse else float(c.y_sat_lo)
         self._n = int(c.order)
         self._ts = float(c.ts)
         self._b0 = float(c.b0)
@@ -891,6 +909,24 @@ class ADRC(Block):
             tuning = ("order", "b0", "omega_c", "omega_o", "ts", "discretisation")
             if any(getattr(old, f) != getattr(c, f) for f in tuning):
                 self._retune(old_law)
+            if old.reverse != c.reverse:
+                self._reverse_states()
+
+    def _reverse_states(self) -> None:
+        """``reverse`` changed: the states in the units of the measurement change sign.
+
+        Y_hat, x2, x3, x4 and the reference are negated (the cycle's units are
+        now those of the other sign of y) and x4 is re-solved by (11) in the
+        next cycle (``_track``), so the output continues from the last u.
+        """
+        pend = self._pending
+        if pend is None:
+            self._yh, self._x2, self._x3, self._x4 = -self._yh, -self._x2, -self._x3, -self._x4
+            self._ref, self._ab_sat = -self._ref, -self._ab_sat
+            self._track = True
+        else:
+            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait = pend
+            self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait)
 
     def _retune(self, old_law: tuple[float, float, float, float]) -> None:
         """Bumpless retuning at the instant of the change (:func:`retune_x4`).
@@ -1005,7 +1041,8 @@ class ADRC(Block):
         if self._pending is not None:
             # a two-phase cycle in progress: commit this cycle's reference (y_ref, made
             # finite above), as the per-call cycle, which committed it before the guard
-            self._pending = (0.0, 0.0, 0.0, 0.0, self.y_ref, False, True, 0, 0, 0.0)
+            ref = self._sgn * self.y_ref  # in the cycle's units (reverse: -y_ref)
+            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped."""
@@ -1021,7 +1058,10 @@ class ADRC(Block):
 
     @property
     def x(self) -> tuple[float, float, float, float]:
-        """ESO state vector ``(Y_hat, x2, x3, x4)``; x4 estimates the total disturbance h."""
+        """ESO state vector ``(Y_hat, x2, x3, x4)``; x4 estimates the total disturbance h.
+
+        In the units the cycle runs in: with ``reverse`` those of ``-y``.
+        """
         return (self._yh, self._x2, self._x3, self._x4)
 
     @property
@@ -1191,6 +1231,9 @@ class ADRC(Block):
             y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
         self._pending = None
         sp, y, y_ok = as_input(sp), as_input(y), as_flag(y_ok, False)
+        sgn = self._sgn
+        if sgn < 0.0:  # reverse acting: the cycle runs on -sp and -y (ADRCConfig.reverse)
+            sp, y = -sp, -y
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
@@ -1226,8 +1269,8 @@ class ADRC(Block):
             u_raw = u
             track_next = True
             sat = 0
-            y_out = self.y
-            e = self.e
+            y_out = sgn * self.y
+            e = sgn * self.e
         else:
             yf = float(y)
             if not started:
@@ -1265,11 +1308,11 @@ class ADRC(Block):
                     u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
                 end_wait = False
                 if self._config.anti_backoff:
-                    c = self._config
-                    now = 1 if yf >= c.y_sat else -1 if yf <= c.y_sat_lo else 0
+                    y_hi, y_lo = self._ysat_hi, self._ysat_lo
+                    now = 1 if yf >= y_hi else -1 if yf <= y_lo else 0
                     if now != 0 and ab_sat == 0:
                         # Y has just reached the sensor saturation: (12a)/(12b)
-                        ysat = float(c.y_sat if now > 0 else c.y_sat_lo)
+                        ysat = y_hi if now > 0 else y_lo
                         yh, x2, x3, x4 = anti_backoff_states(
                             ysat, ref, self._u_prev, *self._gains[:4], *self._law, *self._switches
                         )
@@ -1299,9 +1342,9 @@ class ADRC(Block):
         self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
         self.u_raw = u_raw
         self.awout = sat != 0
-        self.y = y_out
-        self.e = e
-        self.y_ref = ref
+        self.y = sgn * y_out
+        self.e = sgn * e
+        self.y_ref = sgn * ref
         self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait)
         return u
 

@@ -63,7 +63,7 @@ def unsupported(config: Any, kind: str) -> list[str]:
         if config.anti_windup not in ("clamping", "back_calc_model"):
             bad.append("anti_windup")
     elif kind == "adrc":
-        bad = [n for n in ("u_real_on", "anti_backoff") if getattr(config, n)]
+        bad = [n for n in ("u_real_on", "anti_backoff", "reverse") if getattr(config, n, False)]
         if config.discretisation != "euler":
             bad.append("discretisation")
     return bad
@@ -78,10 +78,13 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
     and the ADRC's exact discretisation, ``u_real`` and anti-backoff, which
     the compiled kernels lack.  Not covered: a dead-band window
     ``t_stab/ts`` beyond :data:`PLC_MAX_WINDOW` samples (the ARRAY the
-    function block holds).
+    function block holds), and the ADRC's ``reverse`` (on a PLC: negate the
+    measurement and the set point at the block's inputs).
     """
     if kind == "pid" and round(config.t_stab / config.ts) > PLC_MAX_WINDOW:
         return ["t_stab"]
+    if kind == "adrc" and getattr(config, "reverse", False):
+        return ["reverse"]
     return []
 
 

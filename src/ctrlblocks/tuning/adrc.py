@@ -76,6 +76,7 @@ applied to the ADRC's two free parameters.  On the SOPDT of the three-tank bump 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -149,6 +150,11 @@ class ADRCTuning:
         NaN from :func:`adrc_bandwidth`).
     b0_rule : float
         The inverse half-rule's b0 (equal to ``b0`` unless ``b0_search``).
+    reverse : bool
+        The process gain is negative: the block takes ``reverse = True``
+        (:class:`~ctrlblocks.blocks.adrc.ADRCConfig`) and everything else is
+        the tuning of the process with the opposite gain (``b0 > 0``, the same
+        margins); ``integral_gain`` keeps the controller's sign (negative).
     """
 
     order: int
@@ -167,15 +173,20 @@ class ADRCTuning:
     fastest_settling_time: float = math.nan
     integral_gain: float = math.nan
     b0_rule: float = math.nan
+    reverse: bool = False
 
     def config(self, **extra: Any) -> dict[str, Any]:
-        """Keyword arguments for ``ctrlblocks.ADRC(**tuning.config(u_min=..., u_max=...))``."""
+        """Keyword arguments for ``ctrlblocks.ADRC(**tuning.config(u_min=..., u_max=...))``.
+
+        ``reverse = True`` is among them for a process with a negative gain.
+        """
         return {
             "order": self.order,
             "b0": self.b0,
             "omega_c": self.omega_c,
             "omega_o": self.omega_o,
             "ts": self.ts,
+            **({"reverse": True} if self.reverse else {}),
             **extra,
         }
 
@@ -322,14 +333,13 @@ def adrc_tuning(
     """
     from .identify import FOPDT
 
-    if require_finite("gain", gain, ErrorCode.BAD_B0) < 0.0:
-        raise ParameterError(
-            ErrorCode.BAD_B0,
-            "gain",
-            f"{gain!r} < 0 (a reverse-acting process): the ADRC block takes b0 > 0 (the model "
-            "Y^(n) = h + b0 u of Nowak et al. 2018, section 2); tune it on the gain -k and "
-            "give the block -y and -sp, or use a PID with reverse = true",
-        )
+    # a reverse-acting process (k < 0): the block with reverse = True works on -y, so the loop
+    # is that of the mirrored process (gain -k) with the ordinary block; tuned on that one
+    reverse = require_finite("gain", gain, ErrorCode.BAD_B0) < 0.0
+    if reverse:
+        gain = -gain
+        if model is not None:
+            model = _mirrored(model)
     ihr = inverse_half_rule(gain, time_constant, dead_time, order)
     T, T0 = float(time_constant), float(dead_time)
     ratio = _observer_ratio(observer_ratio)
@@ -415,8 +425,18 @@ def adrc_tuning(
         bw.order, bw.omega_c, omega_o, bw.ts, bw.settling_time, bw.settling_time_model,
         search.b0, ihr.b0_min, ihr.b0_max, warnings, mg,
         target if settling_time is None else math.nan, settle, fastest,
-        lp.integral_gain(), ihr.b0,
+        -lp.integral_gain() if reverse else lp.integral_gain(), ihr.b0, reverse,
     )  # fmt: skip
+
+
+def _mirrored(model: Any) -> Any:
+    """The process model with the opposite gain (the one a reverse-acting ADRC sees)."""
+    from ..plants.linear import LinearPlant
+
+    if isinstance(model, LinearPlant):
+        return LinearPlant(A=model.a_c, B=model.b_c, C=-model.c_c, ts=model.ts,
+                           dead_time=model.dead_time)  # fmt: skip
+    return dataclasses.replace(model, gain=-model.gain)
 
 
 _B0_FACTORS = (0.2, 25.0)  # the searched b0 range, times the inverse half-rule's
@@ -629,7 +649,8 @@ def adrc_config(
     """Keyword arguments for ``ctrlblocks.ADRC(**config)`` from an FOPDT model.
 
     Returns ``{"order", "b0", "omega_c", "omega_o", "ts", "u_min", "u_max",
-    "t_ref"}`` from :func:`adrc_tuning`; ``u_min``/``u_max`` are the MV limits
+    "t_ref"}`` from :func:`adrc_tuning` (and ``"reverse": True`` for a
+    negative gain); ``u_min``/``u_max`` are the MV limits
     and ``t_ref`` [s] the time constant of the set-point reference trajectory
     (Nowak et al. 2018, Fig. 2: ``T_ref``), passed through.
     """
@@ -654,6 +675,7 @@ def adrc_config(
         "u_min": float(u_min),
         "u_max": float(u_max),
         "t_ref": require_finite("t_ref", t_ref),
+        **({"reverse": True} if tun.reverse else {}),
     }
 
 

@@ -188,6 +188,8 @@ def tune_from_bump_test(
             "omega_c": res.omega_c,
             "omega_o": res.omega_o,
         }
+        if res.reverse:  # a negative process gain, as the PID's below
+            tuned["reverse"] = True
         warnings += res.warnings
     else:
         res_pid = pid_from_model(model, rule, controller=controller)

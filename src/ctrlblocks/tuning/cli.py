@@ -332,6 +332,7 @@ def tune_adrc(
         "omega_c": r.omega_c,
         "omega_o": r.omega_o,
         "ts": r.ts,
+        **({"reverse": True} if r.reverse else {}),  # a process with a negative gain
         "discretisation": discretisation,
         "settling_time": r.settling_time,
         "settling_time_model": r.settling_time_model,

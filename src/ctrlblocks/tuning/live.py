@@ -268,10 +268,10 @@ def _step_result(exp: StepExperiment) -> TuningResult:
         adrc = adrc_tuning(model.gain, model.time_constant, model.dead_time, 2, ts=exp.ts)
         proposals["ADRC_2"] = {
             "type": "ADRC", "order": 2, "b0": adrc.b0, "omega_c": adrc.omega_c,
-            "omega_o": adrc.omega_o,
+            "omega_o": adrc.omega_o, "reverse": adrc.reverse,  # as the PIDs' proposals
         }  # fmt: skip
         warnings += adrc.warnings
-    except ParameterError as exc:  # e.g. a negative gain the ADRC tuning refuses
+    except ParameterError as exc:  # e.g. a dead time too long for every bandwidth
         warnings.append(f"no ADRC proposal: {exc}")
     return TuningResult(
         "step",
