@@ -582,3 +582,38 @@ def test_pid_failed_cycle_commits_the_same_memory_on_both_paths(td, sp) -> None:
     for _ in range(3):  # the recovery is the same on both paths too
         assert a(30.0, 40.0) == _two_phase(b, 30.0, 40.0)
         assert a.snapshot() == b.snapshot()
+
+
+# --- PID output ramp and limits written at run time (sixth session) -----------------
+
+
+def test_pid_recovers_bumplessly_after_limits_narrowed_during_bad_data() -> None:
+    """Found by the two-path property test: out_rate, a bad PV, the limits narrowed to
+    [-30, -30] (out limited to -30) and widened to [-30, -29]; the first good cycle jumped
+    from -30 to -29.25 -- the output ramp had kept the old output -28.67 as its state."""
+    pid = PID(kp=3.2, ti=27.0, ts=0.0018, u_min=-28.68, u_max=-28.67, out_rate=317.0,
+              form="parallel", algorithm="velocity", reset_value=-14.2)  # fmt: skip
+    pid(30.0, 0.0, pv_ok=False)
+    pid.set_limits(-30.0, -30.0)
+    pid.set_limits(-30.0, -29.0)
+    assert pid.out == -30.0
+    assert pid(30.0, 0.0) == pytest.approx(-30.0, abs=1e-9 * 30.0)
+
+
+@pytest.mark.parametrize("two_phase", [False, True])
+def test_pid_output_ramp_continues_from_the_limited_output(two_phase: bool) -> None:
+    """Limits narrowed below the output: the output is limited at once, and the next cycle
+    ramps from there towards the law's value (before, it stayed at the limit while the ramp
+    came down from the old output)."""
+    pid = PID(kp=1.0, ti=0.0, ts=0.1, u_min=0.0, u_max=100.0, out_rate=10.0)
+    pid.configure(reset_value=50.0)
+    pid.reset()
+    assert pid.out == 50.0
+    if two_phase:  # a pending cycle: its ramp state is limited with the output
+        pid.compute_output(10.0, 50.0)  # the law: -40 + the bias 50 = 10; ramped to 49
+        pid.set_limits(0.0, 20.0)
+        pid.update_state(pid.out)
+    else:
+        pid.set_limits(0.0, 20.0)
+    assert pid.out == 20.0
+    assert pid(10.0, 50.0) == pytest.approx(19.0)  # towards the law's 10 at 10 %/s

@@ -979,6 +979,29 @@ class PID(Block):
         self._reinit = self._reinit_d = True
         self._plc_state = None  # the float32 cycle restarts too
 
+    def _relimit(self) -> None:
+        """Limit ``out`` to the limits now in force, and the output ramp with it.
+
+        The ramp's state is the output (:meth:`_finish` ramps the limited law);
+        left at the old output it would hold the next cycles back (or, on the
+        first good cycle after bad data, ramp away from the held output: a
+        bump).  A pending two-phase cycle's ramp state is limited as well.
+        """
+        before = self.out
+        super()._relimit()
+        if self.out == before:
+            return
+        ramp = self._subs["_out_ramp"]
+        ramp.preset(self.out)
+        cycle = self._pending
+        if cycle is not None:  # the state update_state will commit
+            subs = self._cycle_subs
+            committed = subs.take()
+            subs.put(cycle.subs)
+            ramp.preset(self.out)
+            self._pending = cycle._replace(subs=subs.take())
+            subs.put(committed)
+
     def set_limits(self, u_min: float, u_max: float) -> None:
         """Change the output limits at run time; never raises.
 
