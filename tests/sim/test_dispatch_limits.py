@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from ctrlblocks.fast._jit import HAVE_NUMBA
+from ctrlblocks.sim import parse_scenario, run_scenario
 
 from .test_dispatch_sensor import (
     CASCADE,
@@ -203,3 +204,68 @@ def test_limits_of_something_not_a_lane_controller_are_refused_with_the_reason()
     exc = info.value
     assert exc.key.endswith("events[0].target") and exc.line is not None
     assert "the LeadLag of controller 'ff' has no output limits" in str(exc)
+
+
+# two limits events due in the same sample (t = 0 and t = 0.05, ts = 0.2), the second
+# pair excluding the first's low limit: found by tests/sim/test_dispatch_campaign.py
+TWO_IN_ONE_SAMPLE = """
+[scenario]
+name = "two_limits"
+title = "two limits events in one sample"
+source = "test"
+structure = "{structure}"
+ts = 0.2
+duration = 0.4
+[plant]
+type = "PT2"
+k = 2.0
+t1 = 0.2
+t2 = 0.5
+{inner}
+[initial]
+u = -0.866
+warmup = 0.2
+[[controllers]]
+name = "P"
+{controller}
+[[events]]
+t = 0.0
+do = "limits"
+u_min = -0.393
+u_max = 3.375
+{target}
+[[events]]
+t = 0.05
+do = "limits"
+u_min = -1.88
+u_max = 0.757
+{target}
+"""
+
+
+@pytest.mark.parametrize(
+    ("structure", "target"), [("single", ""), ("override", ""), ("cascade", 'target = "primary"')]
+)
+def test_two_limits_events_in_one_sample_limit_the_held_output_one_after_the_other(
+    structure, target
+):
+    """The held output -0.866 is limited to -0.393 by the first pair and stays there
+    (inside the second): the Python path's ``Block._relimit`` at each event.  Before,
+    the lane limited it once, to the last pair in force (-0.866 stayed: u = -0.866 on
+    the lane against -0.393)."""
+    from .test_dispatch_campaign import check_case
+
+    p = 'type = "PID"\nkp = 1.0\nu_min = -10.0\nu_max = 10.0\n'
+    controller = {
+        "single": p,
+        "override": f"[[controllers.blocks]]\n{p}[[controllers.blocks]]\n{p}sp = 5.0\n",
+        "cascade": f"[controllers.primary]\n{p}[controllers.secondary]\n{p}",
+    }[structure]
+    inner = "" if structure == "single" else '[inner_plant]\ntype = "PT1"\nk = 1.0\nt = 1.0\n'
+    text = TWO_IN_ONE_SAMPLE.format(structure=structure, inner=inner, controller=controller,
+                                    target=target)  # fmt: skip
+    runs, lane, _lines = check_case(text)
+    assert (runs, lane) == (1, 1)
+    sig = run_scenario(parse_scenario(text)).runs[0].signals
+    held = sig["sp2"] if structure == "cascade" else sig["u"]
+    assert held[0] == -0.393

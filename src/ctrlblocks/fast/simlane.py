@@ -149,18 +149,21 @@ def _adrc_limits(a, lo, hi):
 
 
 @jitable
-def _set_limits(kind, p, a, s, lo, hi):
+def _set_limits(kind, p, a, s, lo, hi, out_lo, out_hi):
     """``set_limits(lo, hi)`` of one controller: ``(p, a, s)`` with the limits in force.
 
-    ``lo``, ``hi`` are the limits in force after the event (a refused pair:
-    the old ones, found by the caller with the block's own ``set_limits``).
-    The PID's output is limited at once (``Block._relimit``: its next cycle
-    holds or continues from it); the ADRC's input of the ESO, the last
+    ``lo``, ``hi`` are the limits in force after the sample's events (a
+    refused pair: the old ones, found by the caller with the block's own
+    ``set_limits``).  The PID's output is limited at once
+    (``Block._relimit``: its next cycle holds or continues from it) to
+    ``out_lo``, ``out_hi``: the limits in force after one event, the
+    limitations of all of them one after the other after several (the
+    caller's ``limits[j, 2:]``).  The ADRC's input of the ESO, the last
     applied value, stays (``ADRC.set_limits`` limits ``out`` only, which
     the ESO does not read).
     """
     if kind == _PID:
-        s = (s[0], s[1], s[2], s[3], clamp(s[4], lo, hi), s[5], s[6], s[7], s[8], s[9])
+        s = (s[0], s[1], s[2], s[3], clamp(s[4], out_lo, out_hi), s[5], s[6], s[7], s[8], s[9])
     return _pid_limits(p, lo, hi), _adrc_limits(a, lo, hi), s
 
 
@@ -366,8 +369,8 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     load_out, manual[0], manual[1], u_man (NaN: unchanged), outlet g3o, load
     between the plants, the quality of ``y2`` (0: bad), the quality of ``y`` (0: bad,
     flagged or NaN), ``y`` replaced by NaN (1), a ``limits`` event (1: the
-    limits in force ``lim[j, 0 or 1, k]`` of controller ``j`` are set);
-    ``out`` rows: y, ym, u,
+    limits in force ``lim[j, 0 or 1, k]`` of controller ``j`` are set, its
+    held output limited to ``lim[j, 2 or 3, k]``); ``out`` rows: y, ym, u,
     u_act, y2 (the inner plant's output), the wiring's signal.
     """
     wiring = int(cfg[0])
@@ -410,8 +413,10 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
                 if mv1:
                     s1 = _with_um(s1, um_a[k])
             if sig[11, k] != 0.0:  # a limits event: the limits in force from this sample on
-                p0, a0, s0 = _set_limits(kinds[0], p0, a0, s0, lim[0, 0, k], lim[0, 1, k])
-                p1, a1, s1 = _set_limits(kinds[1], p1, a1, s1, lim[1, 0, k], lim[1, 1, k])
+                p0, a0, s0 = _set_limits(kinds[0], p0, a0, s0, lim[0, 0, k], lim[0, 1, k],
+                                         lim[0, 2, k], lim[0, 3, k])  # fmt: skip
+                p1, a1, s1 = _set_limits(kinds[1], p1, a1, s1, lim[1, 0, k], lim[1, 1, k],
+                                         lim[1, 2, k], lim[1, 3, k])  # fmt: skip
         ym = yc
         if smith:
             yc = yc + st3[4] - st2[4]  # ym + y_model_fast - y_model
@@ -480,7 +485,8 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
     is bad (``sig`` rows 9 and 10, the scenario's ``sensor`` events) the
     controller runs its bad-measurement cycle (:func:`_bad`, ``safe``: its
     safe value); from a ``limits`` event on (``sig`` row 11) the limits in
-    force are ``lim[0, :, k]`` (:func:`_set_limits`).
+    force are ``lim[0, :2, k]``, the held output limited to ``lim[0, 2:, k]``
+    (:func:`_set_limits`).
     """
     fx, st = _plant(pk, pp, ps, pos, buf, 0)
     # PID: i, d, w_prev, e_prev, cold, was_manual; ADRC: yh, x2, x3, x4, ref, started,
@@ -504,7 +510,7 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
             if sig[11, k] != 0.0:  # a limits event (_set_limits)
                 if p is not None:
                     pl = _pid_limits(pl, lim[0, 0, k], lim[0, 1, k])
-                    u = clamp(u, lim[0, 0, k], lim[0, 1, k])
+                    u = clamp(u, lim[0, 2, k], lim[0, 3, k])
                 if a is not None:
                     al = _adrc_limits(al, lim[0, 0, k], lim[0, 1, k])
         # numba prunes the branch whose parameters are None (checked on a None-typed value)
@@ -580,7 +586,7 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
                     lo, hi = lim[j, 0, k], lim[j, 1, k]
                     pprm[j, 9], pprm[j, 10], aprm[j, 18], aprm[j, 19] = lo, hi, lo, hi
                     if kinds[j] == _PID:
-                        cst[j, 4] = clamp(cst[j, 4], lo, hi)
+                        cst[j, 4] = clamp(cst[j, 4], lim[j, 2, k], lim[j, 3, k])
         u, ok = math.nan, True
         for j in range(nb):
             if not math.isnan(um):  # a manual-value event acts on every block (the MV's)
@@ -734,6 +740,10 @@ def lane_loop(
         default 0), ``limits_event`` (1 where a ``limits`` event is due;
         optional) with ``limits``, an array ``(controller, lo/hi, sample)``
         of the limits in force (optional: those of the blocks throughout),
+        or ``(controller, 4, sample)`` whose rows 2 and 3 are the bounds the
+        PID's held output is limited to at an event's sample (several events
+        in one sample: their limitations one after the other; default: the
+        limits in force),
         and ``manual``: a sequence of one 0/1 array per controller.
     noise : array
         The measurement noise of every sample.
@@ -791,13 +801,16 @@ def lane_loop(
         signals.get("y_nan", np.zeros(n)), signals.get("limits_event", np.zeros(n)),
     ])  # fmt: skip
     # the limits in force of every controller and sample (a single controller's twice)
-    lim = np.empty((len(slots), 2, n))
+    lim = np.empty((len(slots), 4, n))
     given = signals.get("limits")
     for j, (kind, pid, adrc, _st) in enumerate(slots):
         if given is not None:
-            lim[j] = given[min(j, nb - 1)]
+            g = given[min(j, nb - 1)]
+            lim[j, :2] = g[:2]
+            lim[j, 2:] = g[2:] if g.shape[0] == 4 else g[:2]
         else:
             lim[j, 0], lim[j, 1] = (pid[9], pid[10]) if kind == _PID else (adrc[18], adrc[19])
+            lim[j, 2:] = lim[j, :2]
     traces = np.zeros((5 + (nb if code == _OVERRIDE else 1), n))
     traces[5:] = math.nan
     act = np.array([*actuator, *sensor], dtype=float)

@@ -61,6 +61,7 @@ from typing import Any
 
 import numpy as np
 
+from ..blocks.signals import clamp
 from ..loops.structures import STRUCTURES
 from .loop import Run, _Simulation, played_events
 from .loop import simulate as python_simulate
@@ -313,10 +314,16 @@ def _limits(
     blocks, so that the blocks themselves decide what a pair does: a valid
     pair is in force from its sample on, a refused one (reversed, NaN:
     ``BAD_LIMITS``) leaves the old limits.  Returns ``(limits, flags)``:
-    ``limits[j, 0 or 1, k]`` and ``flags[k] = 1`` where an event is due.
+    ``limits[j, 0 or 1, k]`` the limits in force, ``limits[j, 2 or 3, k]``
+    the bounds the held output is limited to at an event's sample, and
+    ``flags[k] = 1`` where an event is due.  Several events in one sample
+    limit the output one after the other (``Block._relimit`` at each), which
+    is one limitation to the pair ``clamp(lo_1, lo_2, hi_2)``,
+    ``clamp(hi_1, lo_2, hi_2)`` (and so on): not to the last pair alone.
     """
     copies = [copy.deepcopy(b) for b in blocks]
     changes = [[(0, *b.output_limits())] for b in copies]
+    held: list[dict[int, tuple[float, float]]] = [{} for _ in copies]  # k -> bounds of out
     flags = np.zeros(n)
     for k, f in events:
         flags[k] = 1.0
@@ -324,11 +331,19 @@ def _limits(
         for j, b in enumerate(copies):
             if any(blocks[j] is a for a in acts):
                 b.set_limits(f["u_min"], f["u_max"])
-                changes[j].append((k, *b.output_limits()))
-    lim = np.array([
-        [_piecewise([(k, v[0]) for k, *v in ch], n), _piecewise([(k, v[1]) for k, *v in ch], n)]
-        for ch in changes
-    ])  # fmt: skip
+                lo, hi = b.output_limits()
+                changes[j].append((k, lo, hi))
+                if k in held[j]:  # out was limited before in this sample
+                    a, c = held[j][k]
+                    lo, hi = clamp(a, lo, hi), clamp(c, lo, hi)
+                held[j][k] = (lo, hi)
+    lim = np.empty((len(copies), 4, n))
+    for j, ch in enumerate(changes):
+        lim[j, 0] = _piecewise([(k, v[0]) for k, *v in ch], n)
+        lim[j, 1] = _piecewise([(k, v[1]) for k, *v in ch], n)
+        lim[j, 2:] = lim[j, :2]
+        for k, bounds in held[j].items():
+            lim[j, 2:, k] = bounds
     return lim, flags
 
 
