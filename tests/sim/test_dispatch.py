@@ -323,3 +323,78 @@ def test_the_cli_offers_the_engines_of_the_dispatcher():
     from ctrlblocks.sim import cli, dispatch
 
     assert cli.ENGINES == dispatch.ENGINES
+
+
+GUARD_PID = """
+[scenario]
+name = "guard"
+title = "output guard"
+source = "test"
+ts = 0.1
+duration = 1.0
+[plant]
+type = "PT1"
+k = 1.0
+t = 2.0
+[[controllers]]
+name = "PID"
+type = "PID"
+kp = 1e308
+u_min = 0.0
+u_max = 5.0
+[[events]]
+t = 0.5
+do = "setpoint"
+value = 10.0
+"""
+
+# an observer 2500 times faster than the sample rate (omega_o ts = 100): the primary's
+# states grow until its law result overflows at t = 29.4 s, while its output is limited
+GUARD_ADRC = """
+[scenario]
+name = "guard"
+title = "output guard"
+source = "test"
+structure = "cascade"
+ts = 0.2
+duration = 29.6
+[plant]
+type = "FOPDT"
+k = 1.0
+t = 1.2107
+dead_time = 0.27
+[inner_plant]
+type = "PT2Osc"
+k = 1.0
+t = 0.7196
+zeta = 0.1
+dead_time = 1.837
+[initial]
+u = -0.361
+[[controllers]]
+name = "ADRC"
+[controllers.primary]
+type = "ADRC"
+order = 1
+omega_o = 500.0
+u_max = 4.0
+[controllers.secondary]
+type = "ADRC"
+u_min = 0.0
+u_max = 0.189
+"""
+
+
+@needs_numba
+@pytest.mark.parametrize("text", [GUARD_PID, GUARD_ADRC], ids=["PID", "ADRC primary"])
+def test_a_law_result_that_overflows_behind_the_limits_falls_back_to_the_python_path(text):
+    """A law result that is not finite (a PID's ``v_raw``, an ADRC's ``u_raw``) is the
+    blocks' output guard (``BAD_RESULT``: the last output held), even when the limited
+    output is finite.  Before, the lane limited +inf to ``u_max`` and went on (PID: u = 5
+    against 0 held; ADRC: sp2 = 4 against -3.3e307 held); now it stops there and the run
+    is redone on the Python path.  Found by tests/sim/test_dispatch_campaign.py."""
+    from .test_dispatch_campaign import check_case
+
+    runs, lane, lines = check_case(text)
+    assert (runs, lane) == (1, 0)
+    assert "non-finite" in lines[0]

@@ -62,9 +62,11 @@ then recorded NaN) every controller on it runs its bad-measurement cycle
 all of them while ``y`` or ``y2`` is bad; the cascade's bad ``y2`` makes
 the primary hold.  ``limits`` events arrive as the limits in force of every
 controller and sample (:func:`_set_limits`).  A sample whose true
-measurement or controller output is not finite is where the two paths
-could part (the blocks' output guard): the loop stops there and returns its
-index, and the caller runs the Python path instead.
+measurement or controller output is not finite, or whose control law's
+result before the limits is not (a PID's ``v_raw``, an ADRC's ``u_raw``:
+the limited output may still be finite), is where the two paths could part
+(the blocks' output guard, ``BAD_RESULT``): the loop stops there and
+returns its index, and the caller runs the Python path instead.
 """
 
 from __future__ import annotations
@@ -192,11 +194,15 @@ def _compute(kind, p, a, s, sp, y, ff, man, awin):
             s[0], s[1], s[2], s[3], s[4], p,
         )  # fmt: skip
         awout = v_raw > p[10] or v_raw < p[9]  # limits_active (PID._finish)
+        if not math.isfinite(v_raw):  # the block's output guard (BAD_RESULT): not here
+            out = math.nan
         return out, awout, (out, v_raw, pt, i_k, dn, w, e, ff)
-    u, _ur, yh, x2, x3, x4, ref, track, sat = adrc_step(
+    u, u_raw, yh, x2, x3, x4, ref, track, sat = adrc_step(
         sp, y, man, s[9], s[6] != 0.0, s[7] != 0.0, int(s[8]), s[0], s[1], s[2], s[3],
         s[4], s[5], a, awin,
     )  # fmt: skip
+    if not math.isfinite(u_raw):  # the block's output guard (BAD_RESULT): not here
+        u = math.nan
     return u, sat != 0, (u, yh, x2, x3, x4, ref, 1.0 if track else 0.0, sat * 1.0)
 
 
@@ -516,9 +522,11 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
         # numba prunes the branch whose parameters are None (checked on a None-typed value)
         if p is not None:
             if k < 0 or good:
-                u, _vr, _p, _ish, c0, c1, c2, c3 = pid_step(
+                u, v_raw, _p, _ish, c0, c1, c2, c3 = pid_step(
                     sp, ym, 0.0, m, um, cold, (not m) and on, c0, c1, c2, c3, u, pl
                 )
+                if not math.isfinite(v_raw):  # the block's output guard: not on the lane
+                    u = math.nan
                 cold = False
                 on = m  # the mode of the last cycle (bumpless return to auto)
             else:  # the integrator and histories stay; the next good cycle re-initialises
@@ -527,9 +535,11 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
                 cold = on = True
         if a is not None:
             if k < 0 or good:
-                u, _ur, c0, c1, c2, c3, c5, track, sat = adrc_step(
+                u, u_raw, c0, c1, c2, c3, c5, track, sat = adrc_step(
                     sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, al
                 )
+                if not math.isfinite(u_raw):  # the block's output guard: not on the lane
+                    u = math.nan
                 on = True  # started
             else:  # the ESO frozen; x4 re-solved at the next good cycle
                 u, _aw, _s = _bad_adrc(al, (c0, c1, c2, c3, u, c5, 1.0, 0.0, 0.0, um), m, safe,
