@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -158,3 +159,25 @@ def test_run_metrics_equals_compute_metrics_of_every_window_to_the_bit():
         for k, v in ref.items():  # equal to the bit, NaN where NaN
             assert (math.isnan(v) and math.isnan(m[k])) or m[k] == v, (w, k)
     assert not math.isnan(per[1]["rise_time"]) and math.isnan(per[4]["iae"])
+
+
+def test_metrics_of_a_run_beyond_the_float_range_are_infinite_without_a_warning():
+    """An unstable loop's signals near 1e308: |e| sums, e**2 and |du|/h overflow.
+
+    The metrics are then infinite (``null`` in metrics.json) and no RuntimeWarning
+    leaves the module (the suite turns one from ctrlblocks into an error).  Before,
+    numpy warned "overflow encountered in multiply/reduce/scalar divide" in the
+    middle of ``run_scenario``: found by tests/sim/test_dispatch_campaign.py, whose
+    scenarios with gains of 1e300 drive the loop there.
+    """
+    t = np.arange(4) * H
+    r, y = np.zeros(4), np.array([0.0, 1e308, -1e308, 1e308])
+    u = np.array([0.0, 1e308, -1e308, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = compute_metrics(t, r, y, u, H)
+        whole, (win,) = run_metrics(t, r, y, u, H, [Window("all", 0.0, 4 * H)])
+    assert m["iae"] == m["ise"] == m["tv_u"] == m["max_rate_u"] == math.inf
+    assert m["peak_error"] == 1e308 and math.isnan(m["overshoot"])
+    for other in (whole, win):
+        assert all(v == m[k] or (math.isnan(v) and math.isnan(m[k])) for k, v in other.items())

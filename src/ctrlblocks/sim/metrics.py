@@ -52,7 +52,8 @@ Definitions (``k`` runs over the samples of the window, ``n`` of them):
     window against the sample just before it (0 for the first window) [MV
     units]: the bump of a mode switch.
 
-NaN values are written as ``null`` in ``metrics.json``.
+NaN values are written as ``null`` in ``metrics.json``, and so are infinite
+ones (a run whose signals reach beyond the float range, an unstable loop).
 """
 
 from __future__ import annotations
@@ -275,13 +276,18 @@ class _Run:
 
     def __init__(self, t: np.ndarray, r: np.ndarray, y: np.ndarray, u: np.ndarray) -> None:
         self.t, self.r, self.y, self.u = (np.asarray(a, dtype=float) for a in (t, r, y, u))
-        self.e = self.r - self.y
-        self.ae = np.abs(self.e)
-        self.e2 = self.e * self.e
-        self.du = np.abs(np.diff(self.u))
+        with _beyond_range():
+            self.e = self.r - self.y
+            self.ae = np.abs(self.e)
+            self.e2 = self.e * self.e
+            self.du = np.abs(np.diff(self.u))
 
     def metrics(self, i0: int, i1: int, h: float, band: float, step_tol: float) -> dict:
         """Every metric of the samples ``i0 <= k < i1`` (not empty; module docstring)."""
+        with _beyond_range():
+            return self._metrics(i0, i1, h, band, step_tol)
+
+    def _metrics(self, i0: int, i1: int, h: float, band: float, step_tol: float) -> dict:
         r = self.r
         tw, yw, ae = self.t[i0:i1], self.y[i0:i1], self.ae[i0:i1]
         r_end = float(r[i1 - 1])
@@ -312,6 +318,12 @@ class _Run:
             "max_rate_u": 0.0 if du is None else float(_max(du) / h),
             "jump_u": jump,
         }
+
+
+def _beyond_range() -> np.errstate:
+    """A run whose signals reach beyond the float range (an unstable loop: |e| near
+    1e308) has infinite (or NaN) metrics, written as ``null``, without a RuntimeWarning."""
+    return np.errstate(over="ignore", invalid="ignore")
 
 
 _sum = np.add.reduce  # np.sum of a 1-D float array, without the wrapper
