@@ -69,9 +69,11 @@ def _gain(rng: random.Random, typical: float) -> float:
     """A gain near ``typical``, now and then tiny or huge."""
     r = rng.random()
     if r < 0.06:
-        return rng.choice([1e-9, 1e-6, 1e-3])
+        return rng.choice([1e-9, 1e-6, 1e-3, 1e-300])
     if r < 0.12:
         return rng.choice([1e3, 1e6, 1e9])
+    if r < 0.15:  # the law's result overflows: the blocks' output guard (BAD_RESULT)
+        return rng.choice([1e200, 1e300, 1e308])
     return round(typical * _log_uniform(rng, 0.2, 5.0), 6)
 
 
@@ -147,6 +149,9 @@ def _pid(rng: random.Random, ts: float) -> dict[str, Any]:
                                           "back_calc_model", "back_calc_real"])):  # fmt: skip
         if rng.random() < 0.6:
             d[key] = rng.choice(choices)
+    if max(d["kp"], d.get("ti", 0.0), d.get("td", 0.0)) >= 1e200:
+        # a P controller (kp h/ti or kp td/tf would overflow: refused), its law overflowing
+        d = {"type": "PID", "kp": max(d["kp"], 1e200)}
     tf = d.get("td", 0.0) / d.get("n", 10.0)
     if d.get("derivative_method") == "forward" and (tf <= ts or d.get("form", "isa") != "isa"):
         # refused where Td/N <= ts/2 (unstable); the other forms scale Td
@@ -278,15 +283,20 @@ def _times(rng: random.Random, duration: float, ts: float, k: int) -> list[float
 
 
 def _events(rng: random.Random, structure: str, duration: float, ts: float, *, y2: bool,
-            tank: bool, roles: list[str]) -> str:  # fmt: skip
+            tank: bool, roles: list[str], header: str = "[events]") -> str:  # fmt: skip
     kinds = ["setpoint", "setpoint", "load", "mode", "manual_value", "limits", "sensor"]
     if tank:
         kinds.append("plant")
-    n = rng.choice([0, 1, 3, 6, 10])
+    if rng.random() < 0.05:  # events the lane does not cover (a load between plants that
+        # are not there is ignored by the Python path, with a warning)
+        series = structure in ("cascade", "override")
+        kinds.append("set" if series or rng.random() < 0.5 else "load inner")
+    n = rng.choice([0, 1, 3, 6, 10, 20])
+    dense = rng.random() < 0.15  # all in the first few samples: many in one sample
     evs = []
-    for t in _times(rng, duration, ts, n):
+    for t in _times(rng, min(duration, 3 * ts) if dense else duration, ts, n):
         kind = rng.choice(kinds)
-        e: dict[str, Any] = {"t": t, "do": kind}
+        e: dict[str, Any] = {"t": t, "do": kind.split()[0]}
         if kind == "setpoint":
             e["value"] = round(rng.uniform(-1.0, 3.0), 3)
             if rng.random() < 0.4:
@@ -316,10 +326,14 @@ def _events(rng: random.Random, structure: str, duration: float, ts: float, *, y
             for f in ("ok", "nan"):
                 if rng.random() < 0.6:
                     e[f] = rng.random() < 0.4
-        else:  # the three-tank's outlet valve
+        elif kind == "plant":  # the three-tank's outlet valve
             e["param"], e["value"] = "outlet", rng.choice(["a", "b"])
+        elif kind == "set":  # not covered by the lane: the run falls back
+            e.update(attr="u_min", value=-1000.0)
+        else:
+            e.update(value=0.1, at="inner")
         evs.append(e)
-    return "".join(toml_table("[events]", **e) for e in evs)
+    return "".join(toml_table(header, **e) for e in evs)
 
 
 def scenario_text(seed: int) -> str:
@@ -333,9 +347,17 @@ def scenario_text(seed: int) -> str:
     duration = round(n * ts, 9)
     plant, static = _plant(rng, ts)
     tank = plant["type"] == "ThreeTank"
+    head: dict[str, Any] = {}
+    if rng.random() < 0.15:  # the runs cut short (check_case runs quick)
+        head["quick_duration"] = round(rng.randint(1, n) * ts, 9)
+    if rng.random() < 0.1:
+        head["metrics"] = {"band": rng.choice([0.05, 0.5]), "windows": rng.random() < 0.5}
     text = toml_table("scenario", name=f"lane{seed}", title="campaign", source="test",
                       structure=structure, ts=ts, duration=duration,
-                      seed=rng.randint(0, 2**31))  # fmt: skip
+                      seed=rng.randint(0, 2**31),
+                      **{k: v for k, v in head.items() if k != "metrics"})  # fmt: skip
+    if "metrics" in head:
+        text += toml_table("metrics", **head["metrics"])
     text += toml_table("plant", **plant)
     inner_static = True
     if structure in ("cascade", "override"):
@@ -379,16 +401,49 @@ def scenario_text(seed: int) -> str:
         ini["mode"] = "manual"
     if ini:
         text += toml_table("initial", **ini)
-    text += _controllers(rng, structure, ts)
+    ctrl_text = _controllers(rng, structure, ts)
+    n_ctrl = ctrl_text.count("[[controllers]]")
+    text += ctrl_text
     roles = {"single": ["main"], "cascade": ["primary", "secondary"],
              "override": ["blocks[0]", "blocks[1]"], "feedforward": ["main"],
              "smith": ["main"]}[structure]  # fmt: skip
     y2 = structure == "cascade" or (structure == "override" and 'measure = "y2"' in text)
     text += _events(rng, structure, duration, ts, y2=y2, tank=tank, roles=roles)
-    if rng.random() < 0.3:
-        text += toml_table("[claims]", text="below", metric="iae", controller="c0",
-                           below=rng.choice([0.1, 10.0, 1e6]))  # fmt: skip
+    cases = ["main"]
+    if rng.random() < 0.2:  # several cases: the lane's arrays are kept per case
+        cases = [f"k{i}" for i in range(rng.randint(1, 3))]
+        for name in cases:
+            dur = round(rng.randint(1, n) * ts, 9) if rng.random() < 0.6 else duration
+            text += toml_table("[cases]", name=name, duration=dur)
+            text += _events(rng, structure, dur, ts, y2=y2, tank=tank, roles=roles,
+                            header="[cases.events]")  # fmt: skip
+    for _ in range(rng.choice([0, 0, 1, 3])):
+        text += _claim(rng, n_ctrl, cases)
     return text
+
+
+def _claim(rng: random.Random, n_ctrl: int, cases: list[str]) -> str:
+    """A claim on a metric or a signal statistic of the runs (checked on both engines)."""
+    c: dict[str, Any] = {"text": "claim", "case": rng.choice(cases)}
+    c["metric"] = rng.choice(["iae", "ise", "overshoot", "settling_time", "tv_u", "jump_u"])
+    if rng.random() < 0.3:
+        c["signal"] = rng.choice(["u", "ym", "y"])
+        c["metric"] = rng.choice(["max", "min", "final", "mean", "max_step"])
+    if rng.random() < 0.3:
+        c["window"] = rng.randint(0, 2)
+    kind = rng.choice(["below", "above", "between", "approx", "less", "best"])
+    if kind in ("less", "best") and n_ctrl < 2:
+        kind = "below"
+    if kind == "less":
+        c["less"] = ["c0", f"c{rng.randint(1, n_ctrl - 1)}"]
+    elif kind == "best":
+        c["best"] = f"c{rng.randrange(n_ctrl)}"
+    else:
+        c["controller"] = f"c{rng.randrange(n_ctrl)}"
+        c[kind] = [0.0, 1.0] if kind == "between" else rng.choice([0.1, 1.0, 1e6])
+        if kind == "approx":
+            c["tol"] = 0.5
+    return toml_table("[claims]", **c)
 
 
 # ---------------------------------------------------------------------------
@@ -432,11 +487,11 @@ def check_case(text: str) -> tuple[int, int, list[str]]:
     log.addHandler(handler)
     log.setLevel(logging.DEBUG)
     try:
-        auto = run_scenario(sc)
+        auto = run_scenario(sc, quick=True)
     finally:
         log.removeHandler(handler)
         log.setLevel(level)
-    ref = run_scenario(sc, engine="python")
+    ref = run_scenario(sc, quick=True, engine="python")
     keys = [(r.controller, r.case) for r in ref.runs]
     assert [(r.controller, r.case) for r in auto.runs] == keys
     fell = set()
