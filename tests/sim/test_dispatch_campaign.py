@@ -22,8 +22,9 @@ are drawn on purpose (the run must then fall back and say why).
 Each case runs with ``engine="auto"`` and ``engine="python"``: every run of
 ``auto`` took the lane or logged its reason (logger
 ``ctrlblocks.sim.dispatch``), all signals agree to 1e-12 with NaN at the same
-places, the metrics and the claims are equal; and a share of the runs must
-take the lane, so that the campaign does not test the fallback only.
+places, the metrics and the claims are equal; and at least 30 % of each
+chunk's runs must take the lane (about 72 % do), so that the campaign does not
+test the fallback only.
 
 Size: ``CASES`` cases in chunks of ``CHUNK`` (one test each); the environment
 variable ``CTRLBLOCKS_LANE_CASES`` runs more (``CTRLBLOCKS_LANE_SEED``: the
@@ -42,6 +43,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from ctrlblocks import ADRC, PID
 from ctrlblocks.fast._jit import HAVE_NUMBA
 from ctrlblocks.sim import parse_scenario, run_scenario
 
@@ -52,8 +54,8 @@ pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled lane needs 
 CASES = int(os.environ.get("CTRLBLOCKS_LANE_CASES", "160"))
 FIRST_SEED = int(os.environ.get("CTRLBLOCKS_LANE_SEED", "0"))
 CHUNK = 20
-LANE_SHARE = 0.5
-"""The least share of the campaign's runs that must take the lane."""
+LANE_SHARE = 0.3
+"""The least share of each chunk's runs that must take the lane (about 72 % do)."""
 
 
 # ---------------------------------------------------------------------------
@@ -212,8 +214,19 @@ def _adrc(rng: random.Random, ts: float) -> dict[str, Any]:
     return d
 
 
+def _accepted(d: dict[str, Any], ts: float) -> dict[str, Any]:
+    """``d``, or a plain PI with its limits where the block refuses the draw (a gain
+    whose coefficient overflows: ``kp = 1e-300`` in the parallel form with ``td = 1e9``)."""
+    try:
+        (PID if d["type"] == "PID" else ADRC)(**{k: v for k, v in d.items() if k != "type"},
+                                              ts=ts)  # fmt: skip
+    except ValueError:  # ParameterError
+        return {"type": "PID", "kp": 1.0, "ti": 5.0, "u_min": d["u_min"], "u_max": d["u_max"]}
+    return d
+
+
 def _block(rng: random.Random, ts: float, adrc_share: float = 0.35) -> dict[str, Any]:
-    return _adrc(rng, ts) if rng.random() < adrc_share else _pid(rng, ts)
+    return _accepted(_adrc(rng, ts) if rng.random() < adrc_share else _pid(rng, ts), ts)
 
 
 def _sub(name: str, d: dict[str, Any]) -> str:
@@ -244,7 +257,7 @@ def _controllers(rng: random.Random, structure: str, ts: float) -> str:
                 text += _sub("[controllers.blocks]", b)
             out.append(text)
         elif structure == "feedforward":
-            main = _pid(rng, ts)
+            main = _accepted(_pid(rng, ts), ts)
             ff: dict[str, Any] = {"type": "LeadLag", "k": round(rng.uniform(-2, 2), 3),
                                   "t_lead": rng.choice([0.0, 0.5, 2.0, ts]),
                                   "t_lag": rng.choice([0.0, 1.0, 3.0, ts]),

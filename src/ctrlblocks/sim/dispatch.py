@@ -42,10 +42,17 @@ event naming something other than a controller of the lane (the
 feed-forward lead-lag, a plant), other plant switches, numba not
 installed -- runs the Python path.
 
+A run in which a block's output guard would act (a measurement, an
+output or a control law's result before the limits that is not finite:
+``BAD_RESULT``) is stopped on the lane at that sample and redone on the
+Python path, with the reason logged.
+
 The lane's traces equal the Python path's (same operations in the same
 order; tests/sim/test_dispatch.py, test_dispatch_structures.py,
 test_dispatch_sensor.py and test_dispatch_limits.py compare both for every
-supported case, and
+supported case; test_dispatch_campaign.py, a seeded differential campaign,
+on scenarios it generates across the whole domain above, with hostile but
+accepted values and options the lane does not cover; and
 the stored trace hashes, recorded with the Python path, hold with ``auto``).
 The measurement noise is drawn by the scenario's own generator, in the
 Python path's order (:meth:`ctrlblocks.plants.Noise.samples`).
