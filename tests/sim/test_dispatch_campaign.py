@@ -209,6 +209,8 @@ def _adrc(rng: random.Random, ts: float) -> dict[str, Any]:
         d[rng.choice(["u_real_on", "anti_backoff"])] = True
     if rng.random() < 0.04:
         d["discretisation"] = "exact"
+    if rng.random() < 0.04:  # a reverse-acting ADRC: not in the kernels either
+        d["reverse"] = True
     if rng.random() < 0.04:
         d["precision"] = "float32"
     return d
