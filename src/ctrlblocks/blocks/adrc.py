@@ -845,6 +845,7 @@ class ADRC(Block):
     _ref: float
     _started: bool
     _track: bool
+    _ab_sat: int  # the sensor's saturation side (+1, -1, 0) in the cycle's units
     _state_fields = (
         "out",
         "u_man",
