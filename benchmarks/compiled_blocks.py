@@ -1,11 +1,13 @@
 """The blocks compiled from their own source, per call (issue 18, goal 6).
 
-Usage (from the repository root; needs Cython and a C compiler, and the
-``bench`` extra for the peers)::
+Usage (from the repository root; needs a C compiler and the ``bench`` extra:
+Cython and the peers)::
 
     python benchmarks/compiled_blocks.py             # build, check, time: a few minutes
     python benchmarks/compiled_blocks.py --rounds 9 --steps 20000
     python benchmarks/compiled_blocks.py --mypyc     # also try mypyc on the same files
+    python benchmarks/compiled_blocks.py --cdef double --float32-seeds 3 --keep /tmp/cdef
+    python benchmarks/compiled_blocks.py --cdef double --keep /tmp/cdef --reuse --rounds 9
 
 What it does, in a temporary folder (the package itself is never touched):
 
@@ -23,8 +25,20 @@ What it does, in a temporary folder (the package itself is never touched):
    the medians and the ratios with the load average.
 
 With ``--mypyc`` it also runs mypyc on the same modules and prints what it
-refuses.  Why the package ships no compiled build is in docs/performance.md
-("Compiled blocks (goal 6)").
+refuses.
+
+With ``--cdef object`` or ``--cdef double`` it compiles only ``base``, ``pid``
+and ``adrc`` (``double``: and ``signals``), with ``Block``, ``PID`` and ``ADRC``
+as Cython extension types (cdef classes): augmenting ``.pxd`` files next to the
+``.py`` files (:func:`cdef_pxd`) declare the attributes of the per-call path in
+the C struct (their float state as Python objects or as C doubles) and, at the
+double level, the per-call law functions with C arguments.  The source changes
+this needs are applied to the copy as text changes, each with its reason
+(:data:`CDEF_PATCHES`, :data:`CDEF_DOUBLE_PATCHES`, :func:`_cython_annotations`);
+the changed source interpreted is traced and timed as well (``changed,
+interpreted``), to show that the changes alone alter nothing.  The results, and
+why the package ships no compiled build, are in docs/performance.md ("Compiled
+blocks (goal 6)").
 """
 
 from __future__ import annotations
