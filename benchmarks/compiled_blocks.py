@@ -6,8 +6,8 @@ Cython and the peers)::
     python benchmarks/compiled_blocks.py             # build, check, time: a few minutes
     python benchmarks/compiled_blocks.py --rounds 9 --steps 20000
     python benchmarks/compiled_blocks.py --mypyc     # also try mypyc on the same files
-    python benchmarks/compiled_blocks.py --cdef double --float32-seeds 3 --keep /tmp/cdef
-    python benchmarks/compiled_blocks.py --cdef double --keep /tmp/cdef --reuse --rounds 9
+    python benchmarks/compiled_blocks.py --cdef double --float32-seeds 3 --keep cdef-build
+    python benchmarks/compiled_blocks.py --cdef double --keep cdef-build --reuse --rounds 9
 
 What it does, in a temporary folder (the package itself is never touched):
 
