@@ -588,7 +588,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reuse", action="store_true", help="reuse the build kept in --keep")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp_name:
-        tmp = args.keep or Path(tmp_name)
+        tmp = (args.keep or Path(tmp_name)).resolve()  # the runs change their directory
         print(f"compiling blocks/ with Cython ({load()}) ...", file=sys.stderr, flush=True)
         only = [m for m in args.modules.split(",") if m]
         src, mods, secs = build(tmp, not args.no_annotation_typing, only, args.cdef,
