@@ -125,8 +125,7 @@ def _tunings(model: Any, ts: float) -> list[dict[str, Any]]:
             out.append({"name": f"ADRC n={order}", "type": "ADRC", "params": None,
                         "rule": "adrc", "error": str(exc)})  # fmt: skip
             continue
-        params = {"order": order, "b0": r.b0, "omega_c": r.omega_c, "omega_o": r.omega_o,
-                  **({"reverse": True} if r.reverse else {})}  # fmt: skip
+        params = r.settings()
         out.append({"name": f"ADRC n={order}", "type": "ADRC", "params": params,
                     "rule": "adrc, b0 searched", "b0_rule": r.b0_rule,
                     "warnings": r.warnings})  # fmt: skip

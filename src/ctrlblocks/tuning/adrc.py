@@ -175,20 +175,23 @@ class ADRCTuning:
     b0_rule: float = math.nan
     reverse: bool = False
 
-    def config(self, **extra: Any) -> dict[str, Any]:
-        """Keyword arguments for ``ctrlblocks.ADRC(**tuning.config(u_min=..., u_max=...))``.
-
-        ``reverse = True`` is among them for a process with a negative gain.
-        """
-        return {
+    def settings(self) -> dict[str, Any]:
+        """The tuned keywords of ``ctrlblocks.ADRC``: ``order, b0, omega_c, omega_o``, and
+        ``reverse = True`` for a process with a negative gain (the sample time apart)."""
+        out: dict[str, Any] = {
             "order": self.order,
             "b0": self.b0,
             "omega_c": self.omega_c,
             "omega_o": self.omega_o,
-            "ts": self.ts,
-            **({"reverse": True} if self.reverse else {}),
-            **extra,
         }
+        if self.reverse:
+            out["reverse"] = True
+        return out
+
+    def config(self, **extra: Any) -> dict[str, Any]:
+        """Keyword arguments for ``ctrlblocks.ADRC(**tuning.config(u_min=..., u_max=...))``:
+        :meth:`settings`, ``ts`` and ``extra``."""
+        return {**self.settings(), "ts": self.ts, **extra}
 
 
 def adrc_bandwidth(
@@ -645,7 +648,7 @@ def adrc_config(
     observer_ratio: float = 5.0,
     noise_std: float | None = None,
     u_noise_max: float | None = None,
-) -> dict[str, float | int]:
+) -> dict[str, Any]:
     """Keyword arguments for ``ctrlblocks.ADRC(**config)`` from an FOPDT model.
 
     Returns ``{"order", "b0", "omega_c", "omega_o", "ts", "u_min", "u_max",
@@ -666,17 +669,7 @@ def adrc_config(
         noise_std=noise_std,
         u_noise_max=u_noise_max,
     )
-    return {
-        "order": tun.order,
-        "b0": tun.b0,
-        "omega_c": tun.omega_c,
-        "omega_o": tun.omega_o,
-        "ts": tun.ts,
-        "u_min": float(u_min),
-        "u_max": float(u_max),
-        "t_ref": require_finite("t_ref", t_ref),
-        **({"reverse": True} if tun.reverse else {}),
-    }
+    return tun.config(u_min=float(u_min), u_max=float(u_max), t_ref=require_finite("t_ref", t_ref))
 
 
 def _order(order: int) -> int:

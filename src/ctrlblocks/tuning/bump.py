@@ -182,14 +182,7 @@ def tune_from_bump_test(
             discretisation=str(params.get("discretisation", "euler")),
             model=tuned_on, b0_search=settling_time is None,
         )  # fmt: skip
-        tuned: dict[str, Any] = {
-            "order": order,
-            "b0": res.b0,
-            "omega_c": res.omega_c,
-            "omega_o": res.omega_o,
-        }
-        if res.reverse:  # a negative process gain, as the PID's below
-            tuned["reverse"] = True
+        tuned: dict[str, Any] = res.settings()  # reverse = True for a negative gain
         warnings += res.warnings
     else:
         res_pid = pid_from_model(model, rule, controller=controller)
