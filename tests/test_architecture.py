@@ -4,7 +4,8 @@ Layers (docs/architecture.md), lowest first; a module never imports a module of
 a higher layer, and peers of one layer import each other only where
 ``PEER_IMPORTS`` allows it::
 
-    0 blocks (and ctrlblocks._lazy, the packages' lazy re-exports)
+    0 blocks (and ctrlblocks._lazy, the packages' lazy re-exports, and
+      ctrlblocks.compiled, the loader of the optional compiled blocks)
     1 plants, tuning
     2 loops
     3 sim, runtime, fast, plc
@@ -25,6 +26,7 @@ PACKAGE = SRC / "ctrlblocks"
 LAYERS: dict[str, int] = {
     "": 0,  # the package's __init__: re-exports the blocks
     "_lazy": 0,  # the packages' lazy re-exports (PEP 562; standard library only)
+    "compiled": 0,  # the loader of the optional compiled blocks (standard library only)
     "blocks": 0,
     "plants": 1,
     "tuning": 1,
@@ -44,6 +46,7 @@ PEER_IMPORTS: set[tuple[str, str]] = {
     ("fast", "sim"),  # fast.sweep runs the simulator's scenarios
     ("sim", "fast"),  # sim.dispatch runs single loops on the compiled lane (module-level acyclic)
     ("", "blocks"),  # the package's __init__ re-exports the blocks
+    ("blocks", "compiled"),  # the blocks load their compiled build, if any, first
     ("cli", "web"),  # ``ctrlblocks web`` starts the faceplate
 }
 

@@ -21,6 +21,10 @@ _COMMANDS: dict[str, tuple[str, str]] = {
         "ctrlblocks.sim.cli:compare_command",
         "Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).",
     ),
+    "compile": (
+        "ctrlblocks.blocks.cli:compile_command",
+        "Build the optional compiled PID and ADRC blocks (Cython) for this Python and source.",
+    ),
     "export": (
         "ctrlblocks.plc.cli:export_command",
         "Export a tuned PID, ADRC or LeadLag as PLC code (IEC 61131-3 ST, TIA SCL, PLCopen XML).",

@@ -30,6 +30,7 @@ from hypothesis.stateful import (
 )
 
 import ctrlblocks
+from ctrlblocks import compiled
 from ctrlblocks.blocks import fuzz
 from ctrlblocks.blocks.base import live_snapshots
 from ctrlblocks.blocks.fuzz import BAD_PARAMS, BLOCKS, HOSTILE, HOSTILE_DT, Driver
@@ -197,7 +198,7 @@ def test_every_block_with_both_paths_is_driven_on_both() -> None:
     # a block whose compute_output takes __call__'s arguments has the two-phase form
     # (ManualStation's compute_output() is only its present output: one path)
     def same_args(cls) -> bool:
-        call = inspect.signature(cls.__call__).parameters
+        call = compiled.signature(cls).parameters  # also for a compiled class
         comp = inspect.signature(getattr(cls, "compute_output", lambda self: None)).parameters
         return list(comp)[1:3] == list(call)[1:3] and len(comp) > 2
 

@@ -29,6 +29,7 @@ from ctrlblocks import (
     MinSelector,
     RateLimiter,
     Saturation,
+    compiled,
     deadband,
 )
 
@@ -230,7 +231,7 @@ def _feed(name: str, block: Block, x: float) -> Any:
     feeder = FEEDERS.get(name)
     if feeder:
         return feeder(block, x)
-    params = list(inspect.signature(type(block).__call__).parameters.values())[1:]
+    params = list(compiled.signature(type(block)).parameters.values())[1:]
     required = [
         p
         for p in params

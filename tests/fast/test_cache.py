@@ -47,6 +47,8 @@ def _run(script: str, src: Path | None = None, **env: str) -> dict:
     e = {k: v for k, v in os.environ.items() if k not in drop}
     if src is not None:
         e["PYTHONPATH"] = str(src)
+    # a changed copy of the package has no compiled build: the numba cache is independent of it
+    e["CTRLBLOCKS_COMPILED"] = "auto"
     e.update(env)
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=e,
                          check=True, timeout=300, cwd=src or None)  # fmt: skip

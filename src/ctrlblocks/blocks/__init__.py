@@ -1,5 +1,10 @@
 """The function blocks, as a PLC library would list them."""
 
+# ruff: noqa: E402  (the compiled build, if any, must be loaded before any block module)
+from ..compiled import install as _install_compiled
+
+_install_compiled()  # the compiled PID and ADRC, when built (ctrlblocks compile); else nothing
+
 from . import plc_cycle  # noqa: F401  (registers the precision="float32" cycles)
 from .adrc import ADRC
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError

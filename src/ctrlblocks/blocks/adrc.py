@@ -831,7 +831,20 @@ class ADRC(Block):
     """
 
     Config = ADRCConfig
-    config: ADRCConfig
+    _guarded_steps = ()
+    # the attributes the compiled build keeps in the C struct (adrc.pxd), which
+    # configure's rollback saves by name; tests/blocks/test_compiled.py keeps both in step
+    _declared = (
+        "error_id _config manual awin u_man _lean _started _pending _track _prm _sat "
+        "_limits_bad _warn awout _eso _eso_coef _gains _law _sens out _h _ts _yh _x2 _x3 _x4 "
+        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat"
+    )
+
+    @property
+    def config(self) -> ADRCConfig:
+        """The configuration in force (:meth:`Block.config`)."""
+        return self._config
+
     _config: ADRCConfig
     _eso: Callable[..., tuple[float, float, float, float]]  # eso_euler or eso_exact
     _eso_coef: tuple[float, ...]  # the arguments of _eso after (Y_hat, x2, x3, x4, u, y, w4)
@@ -1151,7 +1164,16 @@ class ADRC(Block):
         ``u_real`` is used for the ESO when ``u_real_on`` is configured (a
         missing or NaN ``u_real`` then falls back to u and sets ``BAD_INPUT``).
         """
-        sp, y = as_input(sp), as_input(y)
+        # the output guard (Block._checked) around the body, with the inputs converted
+        # first: the compiled build's _call takes C doubles (docs/performance.md)
+        return self._checked(
+            self.out, self._call(as_input(sp), as_input(y), pv_ok, y_ok, u_real, dt)
+        )
+
+    def _call(
+        self, sp: float, y: float, pv_ok: Any, y_ok: Any, u_real: Any, dt: float | None
+    ) -> float:
+        """The body of :meth:`__call__` (inputs converted, output not yet checked)."""
         if pv_ok is not True:
             y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
         if (
@@ -1228,6 +1250,10 @@ class ADRC(Block):
         Idempotent within a cycle: it always starts from the committed state.
         ``pv_ok`` (``y_ok``, its older alias) is the quality of the measurement.
         """
+        return self._checked(self.out, self._compute_output(sp, y, pv_ok, y_ok, dt))
+
+    def _compute_output(self, sp: Any, y: Any, pv_ok: Any, y_ok: Any, dt: float | None) -> float:
+        """The body of :meth:`compute_output` (output not yet checked)."""
         if pv_ok is not True:
             y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
         self._pending = None

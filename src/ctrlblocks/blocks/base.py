@@ -431,16 +431,19 @@ def _guard(step: Callable[..., Any]) -> Callable[..., Any]:
     @functools.wraps(step)
     def guarded(self: Block, *args: Any, **kwargs: Any) -> Any:
         prev = self.out
-        result = step(self, *args, **kwargs)
-        y = self.out
-        lo, hi = self.output_limits()
-        if lo <= y <= hi and _NINF < y < _INF:
-            return result
-        held = self._contain(prev, y, lo, hi)
-        return held if isinstance(result, float) else result
+        return self._checked(prev, step(self, *args, **kwargs))
 
     guarded._output_guard = True  # type: ignore[attr-defined]
     return guarded
+
+
+def _guard_steps(cls: type[Block], **kwargs: Any) -> None:
+    """Put the output guard (:func:`_guard`) around the step methods a subclass defines."""
+    super(Block, cls).__init_subclass__(**kwargs)
+    for name in cls._guarded_steps:
+        fn = vars(cls).get(name)
+        if fn is not None and not getattr(fn, "_output_guard", False):
+            setattr(cls, name, _guard(fn))
 
 
 class Block:
@@ -455,17 +458,12 @@ class Block:
     Config: ClassVar[type[BlockConfig]] = BlockConfig
     _state_fields: ClassVar[tuple[str, ...]] = ()
     _guarded_steps: ClassVar[tuple[str, ...]] = ("__call__", "compute_output")
+    # the attributes a compiled build keeps outside __dict__, space-separated (pid.pxd ...)
+    _declared: ClassVar[str] = ""
 
-    out: float
     error_id: int
 
-    def __init_subclass__(cls, **kwargs: Any) -> None:
-        """Put the output guard (:func:`_guard`) around the step methods a subclass defines."""
-        super().__init_subclass__(**kwargs)
-        for name in cls._guarded_steps:
-            fn = cls.__dict__.get(name)
-            if fn is not None and not getattr(fn, "_output_guard", False):
-                setattr(cls, name, _guard(fn))
+    __init_subclass__ = classmethod(_guard_steps)
 
     def __init__(self, config: BlockConfig | None = None, /, **params: Any) -> None:
         if config is None:
@@ -498,13 +496,21 @@ class Block:
         old = self._config
         # _apply_config refuses (require_coefficients, ...) before it changes any state,
         # so the attribute bindings of before the call restore everything
-        saved = dict(self.__dict__)
+        saved = dict(vars(self))
+        # and those of a compiled build's C struct (_declared), which are not in __dict__
+        kept = {
+            name: getattr(self, name)
+            for name in self._declared.split()
+            if name not in saved and hasattr(self, name)
+        }
         self._config = new
         try:
             self._apply_config(old)
         except Exception:
-            self.__dict__.clear()
-            self.__dict__.update(saved)
+            vars(self).clear()
+            vars(self).update(saved)
+            for name, value in kept.items():
+                setattr(self, name, value)
             raise
         self._relimit()
 
@@ -561,6 +567,15 @@ class Block:
         self.error_id = snapshot.get("error_id", ErrorCode.NO_ERROR)
 
     # -- the output guard ------------------------------------------------------
+
+    def _checked(self, prev: float, result: Any) -> Any:
+        """The output rule after a step that started from ``out == prev`` (:func:`_guard`)."""
+        y = self.out
+        lo, hi = self.output_limits()
+        if lo <= y <= hi and _NINF < y < _INF:
+            return result
+        held = self._contain(prev, y, lo, hi)
+        return held if isinstance(result, float) else result
 
     def output_limits(self) -> tuple[float, float]:
         """The limits ``out`` must lie in, as in force now (override; default: none)."""

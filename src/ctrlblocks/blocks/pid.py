@@ -711,7 +711,21 @@ class PID(Block):
     """
 
     Config = PIDConfig
-    config: PIDConfig
+    _guarded_steps = ()
+    # the attributes the compiled build keeps in the C struct (pid.pxd), which
+    # configure's rollback saves by name; tests/blocks/test_compiled.py keeps both in step
+    _declared = (
+        "error_id _config manual track hold reset_active awin manual_value _lean _mode_prev "
+        "_cold _reinit _pending _prm limits_active _limits_status _lean_ran _law_in_force "
+        "deadband_active p_suppressed out _h _ts _i _d _w_prev _e_prev p i d e sp_w pv_f ff "
+        "_lo _hi _x _bias _ff_prev"
+    )
+
+    @property
+    def config(self) -> PIDConfig:
+        """The configuration in force (:meth:`Block.config`)."""
+        return self._config
+
     _config: PIDConfig
     _law_in_force: tuple[Any, ...]
     # state read by the retune (_carry_over) before _reset_state assigns it
@@ -1133,7 +1147,17 @@ class PID(Block):
         cycle is one call of :func:`pid_step`, which gives exactly the same
         result as the two phases.
         """
-        sp, pv, ff, dv = as_input(sp), as_input(pv), as_input(ff), as_input(dv)
+        # the output guard (Block._checked) around the body, with the inputs converted
+        # first: the compiled build's _call takes C doubles (docs/performance.md)
+        return self._checked(
+            self.out,
+            self._call(as_input(sp), as_input(pv), as_input(ff), as_input(dv), dt, pv_ok),
+        )
+
+    def _call(
+        self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool
+    ) -> float:
+        """The body of :meth:`__call__` (inputs converted, output not yet checked)."""
         if (
             self._lean
             and dt is None
@@ -1204,6 +1228,12 @@ class PID(Block):
         float
             The output ``v`` [%] (limited, ramped); also ``self.out``.
         """
+        return self._checked(self.out, self._compute_output(sp, pv, ff, dv, dt, pv_ok))
+
+    def _compute_output(
+        self, sp: Any, pv: Any, ff: Any, dv: Any, dt: float | None, pv_ok: Any
+    ) -> float:
+        """The body of :meth:`compute_output` (output not yet checked)."""
         sp, pv, ff, dv = as_input(sp), as_input(pv), as_input(ff), as_input(dv)
         pv_ok = as_flag(pv_ok, False)
         pending = self._pending

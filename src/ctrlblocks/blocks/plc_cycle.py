@@ -43,35 +43,45 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from .adrc import (
-    EULER_LIMIT,
-    EXACT_LIMIT,
-    adrc_step,
-    adrc_switches,
-    anti_backoff_states,
-    control_law,
-    eso_euler,
-    eso_exact,
-    retune_x4,
-    solve_x4,
-    x4_update_allowed,
-)
+from ..compiled import interpreted as _interpreted
 from .base import ErrorCode, Mode, as_input
-from .leadlag import leadlag_coefficients, leadlag_step
-from .pid import (
-    clamping_blocks,
-    clamping_integral,
-    derivative_coefficients,
-    derivative_step,
-    integral_increment,
-    integral_weights,
-    pid_step,
-    ramp_blocks,
-    retune_states,
-    tracking_gain,
-)
 from .precision import CYCLES
-from .signals import clamp, deadband, pt1_coefficient, pt1_step, rate_limit_step, scale
+
+# the law functions as Python functions even when the compiled blocks are loaded: the
+# float32 cycle rebuilds them with float32 math and the PLC export reads their source
+_adrc = _interpreted("adrc")
+EULER_LIMIT = _adrc.EULER_LIMIT
+EXACT_LIMIT = _adrc.EXACT_LIMIT
+adrc_step = _adrc.adrc_step
+adrc_switches = _adrc.adrc_switches
+anti_backoff_states = _adrc.anti_backoff_states
+control_law = _adrc.control_law
+eso_euler = _adrc.eso_euler
+eso_exact = _adrc.eso_exact
+retune_x4 = _adrc.retune_x4
+solve_x4 = _adrc.solve_x4
+x4_update_allowed = _adrc.x4_update_allowed
+_leadlag = _interpreted("leadlag")
+leadlag_coefficients = _leadlag.leadlag_coefficients
+leadlag_step = _leadlag.leadlag_step
+_pid = _interpreted("pid")
+clamping_blocks = _pid.clamping_blocks
+clamping_integral = _pid.clamping_integral
+derivative_coefficients = _pid.derivative_coefficients
+derivative_step = _pid.derivative_step
+integral_increment = _pid.integral_increment
+integral_weights = _pid.integral_weights
+pid_step = _pid.pid_step
+ramp_blocks = _pid.ramp_blocks
+retune_states = _pid.retune_states
+tracking_gain = _pid.tracking_gain
+_signals = _interpreted("signals")
+clamp = _signals.clamp
+deadband = _signals.deadband
+pt1_coefficient = _signals.pt1_coefficient
+pt1_step = _signals.pt1_step
+rate_limit_step = _signals.rate_limit_step
+scale = _signals.scale
 
 __all__ = [
     "ADRC_RESULTS",

@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from ..blocks import pid as _pid
+from ..compiled import interpreted
 from ._jit import HAVE_NUMBA, jit, jit_parallel, jitable, prange, python_function
 from .kernels import (
     UnsupportedConfig,
@@ -61,6 +61,8 @@ from .kernels import (
     pid_params,
     pid_step,
 )
+
+_pid = interpreted("pid")  # the law functions as Python functions (ctrlblocks.compiled)
 
 __all__ = ["ADRCBank", "BankResult", "PIDBank"]
 

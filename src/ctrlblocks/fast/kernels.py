@@ -36,10 +36,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..blocks import adrc as _adrc
-from ..blocks import pid as _pid
+from ..compiled import interpreted
 from ..plants import threetank as _tt
 from ._jit import jitable
+
+# the blocks' law functions as Python functions (numba compiles those, not a compiled build's)
+_adrc = interpreted("adrc")
+_pid = interpreted("pid")
 
 __all__ = [
     "ADRC_PARAMS",

@@ -77,11 +77,15 @@ from typing import Any
 
 import numpy as np
 
-from ..blocks.leadlag import leadlag_coefficients, leadlag_step
-from ..blocks.signals import clamp
+from ..compiled import interpreted
 from ._jit import HAVE_NUMBA, jit, jitable, python_function
 from .kernels import UnsupportedConfig, adrc_step, pid_step
 from .loops import _controller_arrays, _plant_arrays, _plant_step
+
+# the law functions as Python functions, for numba (ctrlblocks.compiled.interpreted)
+leadlag_coefficients = interpreted("leadlag").leadlag_coefficients
+leadlag_step = interpreted("leadlag").leadlag_step
+clamp = interpreted("signals").clamp
 
 __all__ = ["WIRINGS", "LaneResult", "lane_loop", "plant_blocker"]
 

@@ -1,0 +1,46 @@
+# Declarations for the optional compiled build of the blocks (see base.pxd): ADRC as an
+# extension type whose float state is C doubles, and the per-call law functions with
+# C arguments (the interpreted functions of adrc.py stay what ctrlblocks.fast compiles
+# with numba and the float32 cycle rebuilds).  The attributes declared here are
+# ADRC._declared; tests/blocks/test_compiled.py keeps this file in step with adrc.py.
+
+cimport cython
+from .signals cimport clamp
+
+cdef double _INF, _NINF
+cpdef (double, double, double, double) eso_euler(
+    double yh, double x2, double x3, double x4, double u_prev, double y, double w4, double ts,
+    double b0, double l1, double l2, double l3, double l4, double p1, double p2, double k1,
+    double k2, double k3)
+cpdef double control_law(double r, double yh, double x2, double x3, double x4, double b0,
+                         double kp, double kd1, double kd2)
+cpdef double x4_update_allowed(long rule, bint awin, long sat, double du)
+cpdef (double, double, double, double) solve_x4(
+    double u_target, double u_law, double yh, double x2, double x3, double x4, double s_yh,
+    double s_x2, double s_x3, double s_u)
+@cython.locals(ts=cython.double, b0=cython.double, l1=cython.double, l2=cython.double, l3=cython.double,
+               l4=cython.double, p1=cython.double, p2=cython.double, k1=cython.double,
+               k2=cython.double, k3=cython.double, kp=cython.double, kd1=cython.double,
+               kd2=cython.double, s_yh=cython.double, s_x2=cython.double,
+               s_x3=cython.double, s_u=cython.double, lo=cython.double, hi=cython.double,
+               rule=cython.double, a_ref=cython.double, target=cython.double,
+               z0=cython.double, z1=cython.double, z2=cython.double, z3=cython.double,
+               u_free=cython.double, du=cython.double, u_raw=cython.double,
+               u=cython.double, sat_next=cython.long)
+cpdef (double, double, double, double, double, double, double, bint, long) adrc_step(
+    double sp, double y, bint manual, double u_man, bint started, bint track, long sat,
+    double yh, double x2, double x3, double x4, double u_prev, double ref, object prm,
+    bint awin=*)
+
+from .base cimport Block, as_input
+
+cdef class ADRC(Block):
+    cdef public object manual, awin, u_man, _lean, _started, _pending, _track, _prm, _sat
+    cdef public object _limits_bad, _warn, awout, _eso, _eso_coef, _gains, _law, _sens
+    cdef public object _ab_sat
+    cdef public double out, _h, _ts, _yh, _x2, _x3, _x4, _u_prev, _ref, u_raw, y, e
+    cdef public double y_ref, _u_lo, _u_hi
+    cpdef output_limits(self)
+    cdef _call(self, double sp, double y, pv_ok, y_ok, u_real, dt)
+    cdef _compute_output(self, sp, y, pv_ok, y_ok, dt)
+    cdef _fast_cycle(self, double sp, double y)

@@ -1,0 +1,36 @@
+# Declarations for the optional compiled build of the blocks (see base.pxd): PID as an
+# extension type whose float state is C doubles, and the per-call law functions with
+# C arguments (the interpreted functions of pid.py stay what ctrlblocks.fast compiles
+# with numba and the float32 cycle rebuilds).  The attributes declared here are
+# PID._declared; tests/blocks/test_compiled.py keeps this file in step with pid.py.
+
+cimport cython
+from .signals cimport clamp
+
+cdef double _INF, _NINF
+cpdef double derivative_step(double a, double bd, double d_prev, double w, double w_prev)
+cpdef double integral_increment(double ki_h, double alpha, double beta, double e_prev, double e)
+cpdef bint clamping_blocks(double di, double v, double lo, double hi)
+cpdef double clamping_integral(double i, double di, double rest, double lo, double hi)
+@cython.locals(k=cython.double, sgn=cython.double, b=cython.double, c=cython.double, ad=cython.double,
+               bd=cython.double, ki_h=cython.double, alpha=cython.double,
+               beta=cython.double, lo=cython.double, hi=cython.double, aw=cython.double,
+               g=cython.double, e=cython.double, p=cython.double, w=cython.double,
+               dn=cython.double, out=cython.double, i_new=cython.double,
+               i_k=cython.double, di=cython.double, v_raw=cython.double)
+cpdef (double, double, double, double, double, double, double, double) pid_step(
+    double sp, double pv, double ff, bint manual, double u_man, bint cold, bint transfer,
+    double i, double d, double w_prev, double e_prev, double out_prev, object prm)
+
+from .base cimport Block, as_input
+
+cdef class PID(Block):
+    cdef public object manual, track, hold, reset_active, awin, manual_value, _lean
+    cdef public object _mode_prev, _cold, _reinit, _pending, _prm, limits_active
+    cdef public object _limits_status, _lean_ran, _law_in_force, deadband_active
+    cdef public object p_suppressed
+    cdef public double out, _h, _ts, _i, _d, _w_prev, _e_prev, p, i, d, e, sp_w, pv_f, ff
+    cdef public double _lo, _hi, _x, _bias, _ff_prev
+    cpdef output_limits(self)
+    cdef _call(self, double sp, double pv, double ff, double dv, dt, pv_ok)
+    cdef _compute_output(self, sp, pv, ff, dv, dt, pv_ok)
