@@ -17,7 +17,7 @@ Comparisons (targets of issue 6):
 
 1. ``PID`` block call from Python vs ``simple_pid.PID`` call (<= 0.5x);
 2. ``ADRC`` block call vs ``pyadrc.StateSpace`` step (<= 0.1x); the same two calls
-   with the blocks compiled by Cython: ``benchmarks/compiled_blocks.py``;
+   with the compiled blocks (``ctrlblocks compile``): ``benchmarks/compiled_blocks.py``;
 3. compiled closed loop (``ctrlblocks.fast.closed_loop``) vs C -O2, PID and
    ADRC n = 2 on a 3rd-order plant (<= 1.5x);
 4. bank of N loops (``PIDBank``) per loop-step vs the C single-loop floor

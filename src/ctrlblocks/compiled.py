@@ -339,16 +339,19 @@ def build(
                 shutil.copy2(_BLOCKS / f"{name}{ending}", pkg / f"{name}{ending}")
         if source_key(pkg) != key:
             raise BuildError("the sources changed while they were copied; run it again")
-        say(
-            f"compiling {', '.join(MODULES)} with Cython on {jobs} core(s) "
-            "(about 1-3 minutes; the C compiler prints nothing until it is done) ..."
-        )
+        say(f"compiling {', '.join(MODULES)} with Cython on {jobs} core(s) (about 1-3 minutes) ...")
         cmd = [sys.executable, "-c", _BUILD_SCRIPT, json.dumps({"jobs": jobs, "cflags": cflags})]
-        proc = subprocess.run(
-            [*cmd, *MODULES], cwd=tmp, capture_output=True, text=True, check=False
-        )
+        log_file = tmp / "build.log"
+        with log_file.open("w") as out:
+            proc = subprocess.Popen([*cmd, *MODULES], cwd=tmp, stdout=out, stderr=out)
+            while True:  # a line every 15 s, also into a file or a pipe
+                try:
+                    proc.wait(timeout=15)
+                    break
+                except subprocess.TimeoutExpired:
+                    say(f"  ... still compiling ({time.monotonic() - t0:.0f} s)")
         if proc.returncode:
-            tail = "\n".join((proc.stderr or proc.stdout).strip().splitlines()[-15:])
+            tail = "\n".join(log_file.read_text(errors="replace").strip().splitlines()[-15:])
             raise BuildError(f"the compiler failed (exit {proc.returncode}):\n{tail}")
         staged = root / f".{key}.{os.getpid()}"
         shutil.rmtree(staged, ignore_errors=True)
