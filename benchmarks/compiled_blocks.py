@@ -46,28 +46,9 @@ TARGETS = {"pid": 0.5, "adrc": 0.1}
 TRACES = """
 import json, sys
 from ctrlblocks import compiled
-from ctrlblocks.blocks.fuzz import BLOCKS, RandomRun
-steps, seeds, f32 = (int(a) for a in sys.argv[1:4])
-out = {"compiled": compiled.active(), "traces": {}, "float32": 0}
-def f32_seeds(spec):  # the first seeds whose block starts in precision="float32"
-    found, seed = [], 1000
-    while len(found) < f32:
-        if RandomRun(spec, seed).driver.block.config.precision == "float32":
-            found.append(seed)
-        seed += 1
-    return found
-for name, spec in sorted(BLOCKS.items()):
-    extra = f32_seeds(spec) if name in ("PID", "ADRC") else []
-    for seed in [*range(seeds), *extra]:
-        run = RandomRun(spec, seed)
-        trace = []
-        for _ in range(steps):
-            run.step()
-            b = run.driver.block
-            trace.append((repr(b.out), int(b.error_id)))
-            out["float32"] += getattr(b.config, "precision", "") == "float32"
-        out["traces"][f"{name}/{seed}"] = trace
-print(json.dumps(out))
+from ctrlblocks.blocks.fuzz import traces
+out = traces(*(int(a) for a in sys.argv[1:4]))
+print(json.dumps({"active": compiled.active(), **out}))
 """
 
 TIMING = """
@@ -159,7 +140,7 @@ def main(argv: list[str] | None = None) -> int:
         targs = (str(args.steps), str(args.seeds), str(args.float32_seeds))
         interp = run_json(TRACES, root, "off", *targs)
         comp = run_json(TRACES, root, "require", *targs)
-        assert not interp["compiled"] and comp["compiled"], "not the builds asked for"
+        assert not interp["active"] and comp["active"], "not the builds asked for"
         res: dict[str, dict[str, list[float]]] = {"interpreted": {}, "compiled": {}}
         for r in range(args.rounds):
             print(f"timing round {r + 1}/{args.rounds} ({load()})", file=sys.stderr, flush=True)

@@ -39,6 +39,7 @@ BASE: dict[tuple[str, ...], list[str]] = {
                    "--no-corners", "--out", "{tmp}/compare"],
     ("sweep",): ["nowak_fig7", "--vary", "controllers[2].kp=5", "--duration", "2", "--serial",
                  "--out", "{tmp}/sweep.csv"],
+    ("compile",): ["--status"],  # no hostile --jobs is a valid count: nothing is built
 }  # fmt: skip
 # commands that start a server or act on a running one: their start-up numbers are
 # checked by tests/runtime/test_cli_user_errors.py (busy ports, both ports 0, ...)

@@ -15,6 +15,7 @@ Three kinds of test:
 from __future__ import annotations
 
 import ast
+import fcntl
 import importlib.util
 import inspect
 import json
@@ -251,47 +252,33 @@ def build_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
     why = _compiler_missing()
     if why:
         pytest.skip(why)
-    root = tmp_path_factory.mktemp("compiled")
-    env = dict(os.environ, CTRLBLOCKS_COMPILED_DIR=str(root))
-    done = subprocess.run(
-        [sys.executable, "-c", "from ctrlblocks.cli import main; main()", "compile", "--jobs", "2"],
-        capture_output=True, text=True, env=env, timeout=900,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert "checking that it loads and computes as the interpreted" in done.stderr
-    manifest = json.loads((root / compiled.source_key() / "build.json").read_text())
-    assert manifest["key"] == compiled.source_key()
+    # one build for the whole run: the xdist workers share the parent of their temp folders
+    root = tmp_path_factory.getbasetemp().parent / "compiled-blocks"
+    root.mkdir(exist_ok=True)
+    key = compiled.source_key()
+    with (root / ".lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # the other worker waits for the build
+        if not (root / key / "build.json").is_file():
+            env = dict(os.environ, CTRLBLOCKS_COMPILED_DIR=str(root))
+            cli = [sys.executable, "-c", "from ctrlblocks.cli import main; main()"]
+            done = subprocess.run(
+                [*cli, "compile", "--jobs", "2"], capture_output=True, text=True, env=env,
+                timeout=900,
+            )  # fmt: skip
+            assert done.returncode == 0, done.stderr[-3000:]
+            assert "checking that it loads and computes as the interpreted" in done.stderr
+    manifest = json.loads((root / key / "build.json").read_text())
+    assert manifest["key"] == key
     assert manifest["modules"] == list(compiled.MODULES)
     return root
 
 
 TRACES = """
 import json, sys
-import ctrlblocks
 from ctrlblocks import compiled
-from ctrlblocks.blocks.fuzz import BLOCKS, RandomRun
-steps, seeds, f32 = (int(a) for a in sys.argv[1:4])
-def f32_seeds(spec):  # the first seeds whose block starts in precision="float32"
-    found, seed = [], 1000
-    while len(found) < f32:
-        if RandomRun(spec, seed).driver.block.config.precision == "float32":
-            found.append(seed)
-        seed += 1
-    return found
-out = {"active": compiled.active(), "types": {}, "traces": {}, "float32": 0}
-for name, spec in sorted(BLOCKS.items()):
-    extra = f32_seeds(spec) if name in ("PID", "ADRC") else []
-    for seed in [*range(seeds), *extra]:
-        run = RandomRun(spec, seed)
-        trace = []
-        for _ in range(steps):
-            run.step()
-            b = run.driver.block
-            trace.append((repr(b.out), int(b.error_id)))
-            out["float32"] += getattr(b.config, "precision", "") == "float32"
-        out["traces"][f"{name}/{seed}"] = trace
-        out["types"][name] = type(run.driver.block).__module__
-print(json.dumps(out))
+from ctrlblocks.blocks.fuzz import traces
+out = traces(*(int(a) for a in sys.argv[1:4]))
+print(json.dumps({"active": compiled.active(), **out}))
 """
 
 

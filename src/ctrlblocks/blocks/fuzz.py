@@ -895,6 +895,42 @@ def run(
     return 0
 
 
+def traces(steps: int, seeds: int, float32_seeds: int = 0) -> dict[str, Any]:
+    """What every block outputs along the campaign's seeded actions, for comparing builds.
+
+    For each exported block and seed ``0 .. seeds-1`` (and, for PID and ADRC,
+    the first ``float32_seeds`` seeds from 1000 on whose block starts in
+    ``precision="float32"``): after each of ``steps`` actions of
+    :class:`RandomRun`, ``repr(out)`` (bit for bit) and the error code.
+    Returns ``{"traces": {"NAME/seed": [...]}, "float32": actions in float32}``.
+    Used to hold the compiled build to the interpreted blocks
+    (``ctrlblocks.compiled``).
+    """
+
+    def f32_seeds(spec: Spec) -> list[int]:
+        found: list[int] = []
+        seed = 1000
+        while len(found) < float32_seeds:
+            if getattr(RandomRun(spec, seed).driver.block.config, "precision", "") == "float32":
+                found.append(seed)
+            seed += 1
+        return found
+
+    out: dict[str, Any] = {"traces": {}, "float32": 0}
+    for name, spec in sorted(BLOCKS.items()):
+        extra = f32_seeds(spec) if name in ("PID", "ADRC") else []
+        for seed in [*range(seeds), *extra]:
+            run = RandomRun(spec, seed)
+            trace = []
+            for _ in range(steps):
+                run.step()
+                b = run.driver.block
+                trace.append((repr(b.out), int(b.error_id)))
+                out["float32"] += getattr(b.config, "precision", "") == "float32"
+            out["traces"][f"{name}/{seed}"] = trace
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Command line of the long campaign (see the module docstring)."""
     ap = argparse.ArgumentParser(prog="python -m ctrlblocks.blocks.fuzz", description=__doc__
