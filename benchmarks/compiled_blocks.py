@@ -162,14 +162,25 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {name} | {m['pid']:.0f} ns | {m['simple_pid']:.0f} ns | "
               f"{m['pid'] / m['simple_pid']:.2f}x | {m['adrc']:.0f} ns | {m['pyadrc']:.0f} ns | "
               f"{m['adrc'] / m['pyadrc']:.3f}x |")  # fmt: skip
-    c = med["compiled"]
-    ratios = {"pid": c["pid"] / c["simple_pid"], "adrc": c["adrc"] / c["pyadrc"]}
+    # the machine is shared: a whole process may run at half speed, so the ratio is taken
+    # inside each process (block and peer timed in it) and its median over the rounds
+    c = res["compiled"]
+    per_round = {
+        "pid": [a / b for a, b in zip(c["pid"], c["simple_pid"], strict=True)],
+        "adrc": [a / b for a, b in zip(c["adrc"], c["pyadrc"], strict=True)],
+    }
+    ratios = {k: statistics.median(v) for k, v in per_round.items()}
+    print("compiled, the ratio in each process: median (lowest-highest) over the rounds: "
+          f"PID {ratios['pid']:.2f}x ({min(per_round['pid']):.2f}-{max(per_round['pid']):.2f}), "
+          f"ADRC {ratios['adrc']:.3f}x ({min(per_round['adrc']):.3f}-"
+          f"{max(per_round['adrc']):.3f})")  # fmt: skip
     met = {k: ratios[k] <= TARGETS[k] for k in TARGETS}
     print(f"targets: PID <= {TARGETS['pid']}x simple-pid: {'met' if met['pid'] else 'MISSED'}; "
           f"ADRC <= {TARGETS['adrc']}x pyadrc: {'met' if met['adrc'] else 'MISSED'}")  # fmt: skip
     if args.json:
-        args.json.write_text(json.dumps({"medians": med, "ratios": ratios, "actions": n,
-                                         "differ": differ, "load": load()}, indent=2))  # fmt: skip
+        args.json.write_text(json.dumps({"medians": med, "ratios": ratios, "rounds": res,
+                                         "actions": n, "differ": differ, "load": load()},
+                                        indent=2))  # fmt: skip
     return 0 if not differ else 1
 
 
