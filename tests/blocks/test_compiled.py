@@ -138,6 +138,28 @@ def test_the_source_key_follows_every_compiled_file(tmp_path: Path) -> None:
             f.write_bytes(old)
 
 
+SUBCLASSED = {
+    "PID": dict(kp=2.0, ti=5.0, ts=0.1, u_max=10.0),
+    "ADRC": dict(order=1, b0=1.0, omega_c=1.0, omega_o=4.0, ts=0.1, u_min=0.0, u_max=10.0),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SUBCLASSED))
+def test_a_subclass_that_overrides_the_step_is_still_guarded(name: str) -> None:
+    # PID and ADRC guard their own steps explicitly (_guarded_steps = ()); the override of
+    # a user's subclass is wrapped as every other block's step is
+    class Broken(getattr(ctrlblocks, name)):  # type: ignore[misc]
+        def __call__(self, sp, pv, **kw):
+            super().__call__(sp, pv, **kw)
+            self.out = float("inf")  # a law gone wrong
+            return self.out
+
+    block = Broken(**SUBCLASSED[name])
+    assert block(1.0, 0.5) == block.out
+    assert 0.0 <= block.out <= 10.0
+    assert block.error_id == ctrlblocks.ErrorCode.BAD_RESULT
+
+
 # ---------------------------------------------------------------------------
 # the loader, with fake builds
 # ---------------------------------------------------------------------------

@@ -438,9 +438,15 @@ def _guard(step: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def _guard_steps(cls: type[Block], **kwargs: Any) -> None:
-    """Put the output guard (:func:`_guard`) around the step methods a subclass defines."""
+    """Put the output guard (:func:`_guard`) around the step methods a subclass defines.
+
+    ``_guarded_steps`` counts for the class that sets it: PID and ADRC set it
+    empty because their steps call the guard themselves (``Block._checked``,
+    as their compiled build must); a subclass of theirs has its own overrides
+    wrapped again.
+    """
     super(Block, cls).__init_subclass__(**kwargs)
-    for name in cls._guarded_steps:
+    for name in vars(cls).get("_guarded_steps", Block._guarded_steps):
         fn = vars(cls).get(name)
         if fn is not None and not getattr(fn, "_output_guard", False):
             setattr(cls, name, _guard(fn))
