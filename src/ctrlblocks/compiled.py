@@ -406,7 +406,12 @@ def build(
             f"{outputs['off']}: not used"
         )
     shutil.rmtree(folder, ignore_errors=True)
-    staged.rename(folder)
+    try:
+        staged.rename(folder)
+    except OSError:  # another ctrlblocks compile of the same source finished first
+        shutil.rmtree(staged, ignore_errors=True)
+        if not (folder / _MANIFEST).is_file():
+            raise
     say(f"done: {folder}")
     return folder
 

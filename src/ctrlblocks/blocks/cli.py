@@ -38,3 +38,5 @@ def compile_command(show: bool, force: bool, drop: bool, jobs: int | None) -> No
         compiled.build(jobs=jobs, force=force)
     except compiled.BuildError as exc:
         raise click.ClickException(str(exc)) from None
+    except OSError as exc:  # a full disk, a folder that cannot be written, ...
+        raise click.ClickException(f"{exc.strerror or exc}: {exc.filename or ''}") from None
