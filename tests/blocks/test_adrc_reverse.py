@@ -7,7 +7,8 @@ point instead.  The oracle is exact: negation is exact in floating point, so a
 reversed block fed ``(sp, y)`` must give bit for bit the u, the status and the
 (negated) readings of the plain block fed ``(-sp, -y)`` with the sensor
 saturation mirrored -- through bad data, MAN, anti-windup, anti-backoff and
-both discretisations, per call and in the two-phase form.
+both discretisations, per call and in the two-phase form, in float64 and in the
+PLC cycle's REAL (``precision="float32"``, what the exported FB computes).
 """
 
 from __future__ import annotations
@@ -25,8 +26,9 @@ def _same(a: float, b: float) -> bool:
     return a == b or (math.isnan(a) and math.isnan(b))
 
 
-def _pair(r: random.Random) -> tuple[ADRC, ADRC]:
+def _pair(r: random.Random, precision: str = "float64") -> tuple[ADRC, ADRC]:
     kw = dict(
+        precision=precision,
         order=r.choice((1, 2, 3)), b0=10 ** r.uniform(-2, 2), omega_c=0.3, omega_o=1.5, ts=0.1,
         u_min=-5.0, u_max=5.0, t_ref=r.choice((0.0, 1.0)), u_sf=r.uniform(-1, 1),
         anti_windup=r.choice(("directional", "freeze", "off")), anti_backoff=r.random() < 0.4,
@@ -37,11 +39,14 @@ def _pair(r: random.Random) -> tuple[ADRC, ADRC]:
     return ADRC(**kw, reverse=True), ADRC(**mirrored)
 
 
+@pytest.mark.parametrize("precision", ["float64", "float32"])
 @pytest.mark.parametrize("two_phase", [False, True], ids=["per-call", "two-phase"])
 @pytest.mark.parametrize("seed", range(12))
-def test_reverse_is_the_plain_block_on_the_mirrored_signals(seed: int, two_phase: bool) -> None:
+def test_reverse_is_the_plain_block_on_the_mirrored_signals(
+    seed: int, two_phase: bool, precision: str
+) -> None:
     r = random.Random(seed)
-    rev, plain = _pair(r)
+    rev, plain = _pair(r, precision)
     y = 0.0
     for k in range(400):
         sp = 1.0 if k > 10 else 0.0
@@ -75,31 +80,35 @@ def test_a_reverse_acting_loop_settles_on_the_set_point() -> None:
     assert u == pytest.approx(-4.0, rel=1e-5)  # u = y/k, k = -0.5
 
 
-def test_switching_reverse_in_operation_is_bumpless() -> None:
-    adrc = ADRC(order=2, b0=0.2, omega_c=0.4, omega_o=2.0, ts=0.1, u_min=-10.0, u_max=10.0)
+@pytest.mark.parametrize(("precision", "tol"), [("float64", 1e-9), ("float32", 1e-5)])
+def test_switching_reverse_in_operation_is_bumpless(precision: str, tol: float) -> None:
+    adrc = ADRC(order=2, b0=0.2, omega_c=0.4, omega_o=2.0, ts=0.1, u_min=-10.0, u_max=10.0,
+                precision=precision)  # fmt: skip
     y = 0.0
     for _ in range(100):
         u = adrc(1.0, y)
         y += 0.02 * (0.5 * u - y)
+    assert abs(u) > 0.1
     adrc.configure(reverse=True)
     assert adrc.config.reverse is True
     u_next = adrc(1.0, y)
-    assert u_next == pytest.approx(u, abs=1e-9 * max(1.0, abs(u))), (u, u_next)
+    assert u_next == pytest.approx(u, abs=tol * max(1.0, abs(u))), (u, u_next)
+    # and back: the states change sign again
+    adrc.configure(reverse=False)
+    assert adrc(1.0, y) == pytest.approx(u, abs=tol * max(1.0, abs(u)))
 
 
-def test_reverse_is_not_on_the_compiled_paths_nor_the_plc_cycle() -> None:
+def test_reverse_is_not_on_the_compiled_paths_but_in_the_plc_cycle() -> None:
     adrc = ADRC(order=2, b0=0.2, omega_c=0.4, omega_o=2.0, reverse=True)
     assert "reverse" in adrc.fast_path_blockers()
-    with pytest.raises(ParameterError) as exc:
-        ADRC(order=2, b0=0.2, omega_c=0.4, omega_o=2.0, reverse=True, precision="float32")
-    assert "reverse" in str(exc.value)
+    f32 = ADRC(order=2, b0=0.2, omega_c=0.4, omega_o=2.0, reverse=True, precision="float32")
+    assert f32.config.reverse is True
     with pytest.raises(ParameterError) as exc:
         ADRC(order=2, b0=0.2, omega_c=0.4, omega_o=2.0, reverse="yes")
     assert exc.value.code == ErrorCode.BAD_PARAMETER and exc.value.field == "reverse"
     plain = ADRC(order=2, b0=0.2, omega_c=0.4, omega_o=2.0, precision="float32")
-    with pytest.raises(ParameterError):  # the old configuration stays in force
-        plain.configure(reverse=True)
-    assert plain.config.reverse is False
+    plain.configure(reverse=True)
+    assert plain.config.reverse is True
 
 
 SCENARIO = """

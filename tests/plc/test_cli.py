@@ -67,3 +67,16 @@ def test_export_mistakes_are_messages_not_tracebacks(tmp_path):
     toml = resources.files("ctrlblocks") / "scenarios" / "nowak_fig5.toml"
     r = _run("export", "--toml", str(toml), "--controller", "nope")
     assert r.exit_code == 2 and "no controller 'nope'" in r.output
+
+
+def test_a_reverse_acting_adrc_from_tune_adrc_exports_with_reverse(tmp_path):
+    # a negative process gain: tune adrc sets reverse, and the exported FB has it
+    r = _run("tune", "adrc", "--order", "2", "--gain", "-2", "--time-constant", "5",
+             "--dead-time", "1", "--json")  # fmt: skip
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["reverse"] is True
+    tuned = tmp_path / "adrc.json"
+    tuned.write_text(r.output)
+    r = _run("export", "--from-json", str(tuned), "--set", "ts=0.1")
+    assert r.exit_code == 0, r.output
+    assert "FUNCTION_BLOCK CB_ADRC" in r.output and "REVERSE : BOOL := TRUE;" in r.output

@@ -22,11 +22,11 @@ CASES = [
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, deadband=1.0, t_stab=2.0), "CB_PID",
      {"SP": 50.0, "PV": 50.5}, (69, 85, 18, 28, 5)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (68, 36, 9, 16, 0)),
+     {"SP": 1.0, "PV": 0.5}, (68, 37, 9, 16, 0)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (76, 38, 10, 16, 0)),
+     {"SP": 1.0, "PV": 0.5}, (76, 39, 10, 16, 0)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, discretisation="exact"), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (140, 41, 11, 19, 0)),
+     {"SP": 1.0, "PV": 0.5}, (140, 42, 11, 19, 0)),
     (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 5, 1, 4, 0)),
 ]  # fmt: skip
 

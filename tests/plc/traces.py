@@ -168,9 +168,13 @@ ADRC_OPTIONS = [
     {"discretisation": "exact", "u_real_on": True, "anti_backoff": True, "y_sat": 3.0,
      "y_sat_lo": -0.5, "t_ref": 1.0},
     {"omega_o": 5.0},  # omega_o ts = 0.5: beyond the trusted Euler range, 16#8301
+    {"reverse": True},  # a reverse-acting process (the trace's plant gain negated)
+    {"reverse": True, "discretisation": "exact", "anti_backoff": True, "y_sat": 0.5,
+     "y_sat_lo": -3.0, "u_real_on": True},
 ]  # fmt: skip
 """ADRC options beyond the Euler law of ``adrc_step``: the exact discretisation, u_real,
-the anti-backoff action (with a sensor that saturates), a warned discretisation."""
+the anti-backoff action (with a sensor that saturates), a warned discretisation, a
+reverse-acting process."""
 
 
 def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[ADRC, Trace]:
@@ -179,14 +183,16 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
     ``modes`` adds an AWIN stretch and a measured actuator value ``U_REAL`` lagging
     u (with a NaN sample), the two overflowing PV spikes of :func:`pid_trace`, and
     makes the plant self-regulating (``- 0.1 y``); with
-    ``anti_backoff`` the PV saturates at ``y_sat``.
+    ``anti_backoff`` the PV saturates at ``y_sat``.  With ``reverse`` the plant's
+    gain and the set points are negated (a reverse-acting process).
     """
     cfg = {"order": 2, "b0": 0.05, "omega_c": 0.5, "omega_o": 2.5, "ts": 0.1,
            "u_min": 0.0, "u_max": 100.0, **config}  # fmt: skip
     adrc = ADRC(**cfg, precision="float32")
     rng = np.random.default_rng(seed)
     tr = Trace()
-    y, dy, sp = 0.0, 0.0, 1.0
+    sgn = -1.0 if cfg.get("reverse") else 1.0
+    y, dy, sp = 0.0, 0.0, sgn * 1.0
     u_act = 0.0
     for k in range(n):
         inp: dict[str, Any] = {}
@@ -195,7 +201,7 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
                 adrc.awin = inp["AWIN"] = k == int(0.65 * n)
             inp["U_REAL"] = NAN if k == int(0.4 * n) else u_act
         if k == int(0.2 * n):
-            sp = 4.0  # saturates the output for a while
+            sp = sgn * 4.0  # saturates the output for a while
         if k == int(0.3 * n):
             adrc.manual = True
             adrc.u_man = 20.0
@@ -224,7 +230,7 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
         tr.inputs.append(inp)
         tr.outputs.append((u, int(adrc.error_id), bool(adrc.awout)))
         load = -0.05 if k > 0.75 * n else 0.0
-        ddy = -0.5 * dy + 0.05 * u + load
+        ddy = -0.5 * dy + sgn * 0.05 * u + load
         if modes:
             ddy -= 0.1 * y  # a self-regulating plant: the loop works in both directions
         y += 0.1 * dy

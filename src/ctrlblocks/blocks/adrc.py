@@ -578,8 +578,10 @@ class ADRCConfig(BlockConfig):
         (the model ``Y^(n) = h + b0 u`` of section 2); u, its limits and the
         manual value keep their meaning, and ``y``, ``e``, ``y_ref`` and
         ``y_sat``/``y_sat_lo`` stay in PV units.  As the PID's ``reverse``
-        (controltheplant 2024, ``ixInverted``).  Not in the compiled kernels nor
-        the PLC cycle (``precision="float32"``): the per-call path runs it.
+        (controltheplant 2024, ``ixInverted``).  The PLC cycle
+        (``precision="float32"``) and the export have it (input ``REVERSE``);
+        the compiled kernels (:mod:`ctrlblocks.fast`) do not, so the simulator
+        runs such an ADRC on its Python path.
     """
 
     order: int = 2

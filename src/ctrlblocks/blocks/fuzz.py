@@ -180,10 +180,9 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
         "tau_wait": _maybe(r, 0.5, _lu(r, 1e-2, 10.0), 0.0),
         "precision": "float64",
     }
-    if r.random() < 0.15:  # single-precision PLC cycle: every option but reverse
-        cfg.update(precision="float32", reverse=False)
-    else:
-        cfg["reverse"] = r.random() < 0.3
+    if r.random() < 0.15:  # single-precision PLC cycle: every option
+        cfg["precision"] = "float32"
+    cfg["reverse"] = r.random() < 0.3
     return cfg
 
 

@@ -869,7 +869,7 @@ ADRC_RESULTS = (
     "mv", "error_id", "awout", "u_raw", "u_man", "x4_out",
     "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "started", "track", "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
-    "exact_prev",
+    "exact_prev", "rev_prev",
 )  # fmt: skip
 """Names of the values :func:`adrc_cycle` returns: outputs, then the new state."""
 
@@ -1125,6 +1125,7 @@ def adrc_cycle(
     y_sat: float,
     y_sat_lo: float,
     tau_wait: float,
+    reverse: bool,
     out: float,
     yh: float,
     x2: float,
@@ -1146,6 +1147,7 @@ def adrc_cycle(
     wo_prev: float,
     ts_prev: float,
     exact_prev: bool,
+    rev_prev: bool,
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
@@ -1153,7 +1155,10 @@ def adrc_cycle(
     ZOH current observer instead of the Euler ESO (4a); ``u_real_on``: the
     measured actuator value ``u_real`` drives the ESO (section 5; a NaN falls
     back to u, 16#8101); ``anti_backoff`` (12a)/(12b) with ``y_sat``,
-    ``y_sat_lo`` and ``tau_wait`` (0: 3.5/omega_o).  The status
+    ``y_sat_lo`` and ``tau_wait`` (0: 3.5/omega_o); ``reverse``: a reverse-acting
+    process, the cycle runs on -sp and -y (``ADRCConfig.reverse``; ``y_sat`` and
+    ``y_sat_lo`` stay in the units of y), and a change of ``reverse`` negates the
+    states and re-solves x4 by (11), bumplessly.  The status
     ``WARN_DISCRETISATION`` (16#8301) when omega ts leaves the trusted range;
     a law that overflows REAL holds the output and restarts the ESO
     (16#8103), as the block's output guard does.  Returns :data:`ADRC_RESULTS`.
@@ -1223,7 +1228,26 @@ def adrc_cycle(
     ab_on = 0.0
     if anti_backoff:
         ab_on = 1.0
-    ab = (ab_on, y_sat, y_sat_lo, tau)
+    if reverse != rev_prev:
+        # reverse changed (ADRC._reverse_states): the states in the units of y change sign,
+        # x4 is re-solved by (11) in this cycle, so u continues from the last one
+        yh = -yh
+        x2 = -x2
+        x3 = -x3
+        x4 = -x4
+        ref = -ref
+        ab_sat = -ab_sat
+        track = True
+    rev_prev = reverse
+    sat_hi = y_sat
+    sat_lo = y_sat_lo
+    if reverse:
+        # a reverse-acting process: the cycle runs on -sp and -y (ADRCConfig.reverse)
+        sp = -sp
+        y = -y
+        sat_hi = -y_sat_lo
+        sat_lo = -y_sat
+    ab = (ab_on, sat_hi, sat_lo, tau)
     # process data
     err = NO_ERROR
     y_valid = y_ok and is_real(y)
@@ -1314,7 +1338,7 @@ def adrc_cycle(
     return (
         mv, err, sat != 0, u_raw, u_man, x4,
         out, yh, x2, x3, x4, u_prev, ref, started, track, sat, ab_sat, ab_wait, lo, hi,
-        tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev,
+        tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
     )  # fmt: skip
 
 
@@ -1505,7 +1529,7 @@ def adrc_inputs(config: Any) -> dict[str, Any]:
         "aw_rule": _ADRC_AW[config.anti_windup], "exact": config.discretisation == "exact",
         "u_real_on": bool(config.u_real_on), "anti_backoff": bool(config.anti_backoff),
         "y_sat": float(config.y_sat), "y_sat_lo": float(config.y_sat_lo),
-        "tau_wait": float(config.tau_wait),
+        "tau_wait": float(config.tau_wait), "reverse": bool(config.reverse),
     }  # fmt: skip
 
 
@@ -1517,7 +1541,7 @@ def adrc_state(config: Any) -> dict[str, Any]:
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ref": 0.0,
         "started": False, "track": False, "sat": 0, "ab_sat": 0, "ab_wait": 0.0, "lo": lo,
         "hi": hi, "tuned": False, "order_prev": 0, "b0_prev": 0.0, "wc_prev": 0.0,
-        "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
+        "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False, "rev_prev": bool(config.reverse),
     }  # fmt: skip
 
 

@@ -75,16 +75,13 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
     A subset of :func:`unsupported`: the PLC cycle of :mod:`.plc_cycle` has
     the PID's velocity algorithm, PV scaling, filters, ramps, lead-lag
     feed-forward, adaptive dead band, every bumpless and anti-windup method,
-    and the ADRC's exact discretisation, ``u_real`` and anti-backoff, which
-    the compiled kernels lack.  Not covered: a dead-band window
-    ``t_stab/ts`` beyond :data:`PLC_MAX_WINDOW` samples (the ARRAY the
-    function block holds), and the ADRC's ``reverse`` (on a PLC: negate the
-    measurement and the set point at the block's inputs).
+    and the ADRC's exact discretisation, ``u_real``, anti-backoff and
+    ``reverse``, which the compiled kernels lack.  Not covered: a dead-band
+    window ``t_stab/ts`` beyond :data:`PLC_MAX_WINDOW` samples (the ARRAY the
+    function block holds).
     """
     if kind == "pid" and round(config.t_stab / config.ts) > PLC_MAX_WINDOW:
         return ["t_stab"]
-    if kind == "adrc" and getattr(config, "reverse", False):
-        return ["reverse"]
     return []
 
 

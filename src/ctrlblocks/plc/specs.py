@@ -183,6 +183,7 @@ anti_backoff ANTI_BACKOFF anti-backoff action (12a)/(12b) at a sensor limit (4.3
 y_sat        Y_SAT        upper saturation of the sensor [units of Y] (ANTI_BACKOFF)
 y_sat_lo     Y_SAT_LO     lower saturation of the sensor [units of Y] (ANTI_BACKOFF)
 tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
+reverse      REVERSE      reverse-acting process (negative gain): the ESO and law run on -SP, -Y
 """)
 _ADRC_OUT = _table("""
 mv       MV          manipulated variable u (limited)
@@ -199,6 +200,7 @@ _ADRC_STATE_COMMENTS = {
     "sat": "+1/-1: last u_raw above/below the limits", "lo": "low limit in force",
     "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
     "ab_wait": "anti-backoff hold time left [s]",
+    "rev_prev": "REVERSE of the last cycle (a change negates the states)",
 }  # fmt: skip
 
 _LL_PROCESS = _table("""
