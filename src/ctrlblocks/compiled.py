@@ -177,7 +177,10 @@ def install() -> bool:
     if missing:
         _state["reason"] = missing + " (ctrlblocks compile builds one)"
         if how == "require":
-            raise ImportError(f"CTRLBLOCKS_COMPILED=require: {_state['reason']}")
+            raise ImportError(
+                f"CTRLBLOCKS_COMPILED=require: {_state['reason']}; build it with "
+                "CTRLBLOCKS_COMPILED=auto ctrlblocks compile"
+            )
         log.debug("ctrlblocks.compiled: %s", _state["reason"])
         return False
     assert folder is not None

@@ -234,11 +234,11 @@ def test_a_build_folder_that_cannot_be_made_is_an_error_line(tmp_path: Path) -> 
         pytest.skip("Cython is not installed (pip install 'ctrlblocks[compiled]')")
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")
-    env = dict(os.environ, CTRLBLOCKS_COMPILED_DIR=str(blocker / "builds"))
+    env = dict(os.environ, CTRLBLOCKS_COMPILED="auto", CTRLBLOCKS_COMPILED_DIR=str(blocker / "b"))
     cli = [sys.executable, "-c", "from ctrlblocks.cli import main; main()"]
     out = subprocess.run([*cli, "compile"], capture_output=True, text=True, env=env, timeout=120)
     assert out.returncode == 1 and "Traceback" not in out.stderr
-    assert f"Error: cannot create {blocker / 'builds'}" in out.stderr
+    assert f"Error: cannot create {blocker / 'b'}" in out.stderr
 
 
 def test_build_without_cython_says_what_to_install(monkeypatch) -> None:
