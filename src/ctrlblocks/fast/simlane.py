@@ -83,8 +83,9 @@ from .kernels import UnsupportedConfig, adrc_step, pid_step
 from .loops import _controller_arrays, _plant_arrays, _plant_step
 
 # the law functions as Python functions, for numba (ctrlblocks.compiled.interpreted)
-leadlag_coefficients = interpreted("leadlag").leadlag_coefficients
-leadlag_step = interpreted("leadlag").leadlag_step
+_leadlag = interpreted("leadlag")
+leadlag_coefficients = _leadlag.leadlag_coefficients
+leadlag_step = _leadlag.leadlag_step
 clamp = interpreted("signals").clamp
 
 __all__ = ["WIRINGS", "LaneResult", "lane_loop", "plant_blocker"]
