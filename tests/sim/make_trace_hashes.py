@@ -12,17 +12,30 @@ scenarios whose hashes moved::
 
     PYTHONPATH=$PWD/src python -m tests.sim.make_trace_hashes
 
-The command prints which runs changed.  The hashes are bit-exact, so they hold
-for one numeric stack: the numpy and scipy versions **and the CPU's vector
-level** (numpy's dispatch level, ``X86_V3`` = AVX2/FMA, ``X86_V4`` = AVX-512:
-numpy's and the C library's ``exp``, ``log``, ... take other code paths on
-another level: two of the shipped scenarios moved in the last bit between the
-machine the hashes were first recorded on and an AVX2 one, same versions).  The file keeps one
-set of hashes per stack; the command replaces the set of the stack it runs on,
-and drops from the other sets every run whose hash moved here (a change of
-behaviour makes them stale; run the command on such a machine to restore
-them).  The test compares with the set of its own stack and skips (with the
-reason) when there is none.
+The command prints which runs changed.
+
+**Which operations depend on the CPU, and how the hashes are made independent
+of it.**  Two libraries choose their code by the CPU they run on: numpy's
+transcendental and power ufuncs (``exp``, ``log``, ``expm1``, ``power``, ...)
+dispatch to SIMD kernels by the CPU's vector level (``X86_V3`` = AVX2/FMA,
+``X86_V4`` = AVX-512), and OpenBLAS (numpy's and scipy's BLAS/LAPACK: the
+least-squares fits of ``[controllers.tune]``, ``expm`` of the plant
+discretisation) picks its kernels by the CPU core type.  Results differ in the
+last bit between kernels: measured on an AVX-512 machine with the same numpy
+and scipy, 17 of 19 shipped scenarios moved with numpy's AVX-512 kernels and
+the other two with OpenBLAS's SkylakeX kernels; with both pinned every run
+equals the hashes recorded on an AVX2 machine.  So the hashes are recorded and
+checked under one pinned configuration (:data:`PINNED_ENV`: numpy at dispatch
+level ``X86_V3``, OpenBLAS with its Haswell kernels), which every x86-64
+machine with AVX2 and FMA can run: the test runs the simulator in a
+subprocess with that environment, and this command re-runs itself in it.  A
+machine that cannot (another architecture, a CPU without AVX2) has a stack of
+its own (numpy and scipy versions and CPU level); the file keeps one set of
+hashes per stack, the command replaces the set of the stack it runs on and
+drops from the other sets every run whose hash moved here (a change of
+behaviour makes them stale); the test skips, with the reason, on a stack with
+no set.  Users get the same traces on such machines only when they pin the
+same way; unpinned, a trace may differ in the last bits of a few samples.
 """
 
 from __future__ import annotations
@@ -30,7 +43,9 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import os
 import platform
+import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -43,6 +58,16 @@ from ctrlblocks.sim.loop import Run
 from ctrlblocks.sim.report import load_shipped, shipped_scenarios
 
 HASH_FILE = Path(__file__).with_name("trace_hashes.json")
+ROOT = Path(__file__).resolve().parents[2]
+
+PINNED_ENV = {
+    # numpy's SIMD kernels of the X86_V3 level (AVX2/FMA): the AVX-512 ones are switched off
+    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+    # OpenBLAS's kernels for Haswell (AVX2/FMA), whatever core it runs on
+    "OPENBLAS_CORETYPE": "Haswell",
+    "OPENBLAS_NUM_THREADS": "1",
+}
+"""The numeric configuration the hashes are recorded in on x86-64 (module docstring)."""
 
 log = logging.getLogger(__name__)
 
@@ -82,6 +107,35 @@ def stack_versions() -> dict[str, str]:
     return {"numpy": np.__version__, "scipy": scipy.__version__, "cpu": cpu_level()}
 
 
+def can_pin() -> bool:
+    """True on an x86-64 machine whose CPU has numpy's ``X86_V3`` level (AVX2 and FMA)."""
+    if platform.machine() not in ("x86_64", "AMD64"):
+        return False
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__
+    except ImportError:
+        return False
+    return bool(__cpu_features__.get("X86_V3") or __cpu_features__.get("X86_V4"))
+
+
+def is_pinned() -> bool:
+    """True when this process runs in :data:`PINNED_ENV`."""
+    return all(os.environ.get(k) == v for k, v in PINNED_ENV.items())
+
+
+def pinned_run(*args: str, timeout: float = 600.0) -> subprocess.CompletedProcess[str]:
+    """Run ``python -m tests.sim.make_trace_hashes ARGS`` in :data:`PINNED_ENV` (or as is)."""
+    env = dict(os.environ)
+    if can_pin():
+        env.update(PINNED_ENV)
+    src = str(ROOT / "src")
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (src, str(ROOT), env.get("PYTHONPATH")) if p)
+    return subprocess.run(
+        [sys.executable, "-m", "tests.sim.make_trace_hashes", *args],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout, check=False,
+    )
+
+
 def compute_hashes() -> dict[str, str]:
     """Run every shipped scenario (full length) and hash every run."""
     out: dict[str, str] = {}
@@ -107,7 +161,19 @@ def hashes_for(stack: dict[str, str]) -> dict[str, str] | None:
     return None
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if can_pin() and not is_pinned():  # record in the pinned configuration, whatever the CPU
+        done = pinned_run(*args, timeout=3600.0)
+        sys.stdout.write(done.stdout)
+        sys.stderr.write(done.stderr)
+        return done.returncode
+    if args == ["--json"]:  # what the test reads: the stack and its hashes, nothing written
+        json.dump({"stack": stack_versions(), "hashes": compute_hashes()}, sys.stdout)
+        return 0
+    if args:
+        sys.stderr.write("usage: python -m tests.sim.make_trace_hashes [--json]\n")
+        return 2
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     here = stack_versions()
     new = compute_hashes()
