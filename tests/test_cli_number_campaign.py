@@ -83,6 +83,7 @@ def test_every_command_with_number_options_is_in_the_campaign():
     [(p, o) for p, o in OPTIONS if p in BASE and (p[0], o) not in SKIP],
     ids=lambda x: " ".join(x) if isinstance(x, tuple) else x,
 )
+@pytest.mark.slow  # a campaign over every option (pytest -m slow)
 def test_a_hostile_number_gives_an_error_line_not_a_traceback(tmp_path, path, option):
     base = [a.replace("{tmp}", str(tmp_path)) for a in BASE[path]]
     for value in HOSTILE:

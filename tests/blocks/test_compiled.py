@@ -325,6 +325,7 @@ def _traces(root: Path, how: str, *args: str) -> dict:
     return json.loads(done.stdout)
 
 
+@pytest.mark.slow  # builds the extension, about a minute (pytest -m slow)
 @pytest.mark.timeout(1500)
 def test_the_build_computes_every_campaign_action_bit_for_bit(build_root: Path) -> None:
     # the fuzz campaign's seeded actions (NaN/inf/huge inputs, modes, limits, refused
@@ -340,6 +341,7 @@ def test_the_build_computes_every_campaign_action_bit_for_bit(build_root: Path) 
             assert a == b, f"{key}: action {i}: interpreted {a}, compiled {b}"
 
 
+@pytest.mark.slow  # builds the extension, about a minute (pytest -m slow)
 @pytest.mark.timeout(1500)
 def test_the_block_tests_pass_against_the_build(build_root: Path) -> None:
     if compiled.active():

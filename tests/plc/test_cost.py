@@ -9,6 +9,7 @@ from ctrlblocks import ADRC, PID, LeadLag, plc
 from .st_interpreter import Interpreter
 
 pytest.importorskip("blark")
+pytestmark = pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 
 # (block, FB, inputs) -> documented (arithmetic, comparison, standard function, FUNCTION call,
 # FB instance call) counts

@@ -37,6 +37,7 @@ from .traces import (
 )
 
 pytest.importorskip("blark")
+pytestmark = pytest.mark.slow  # blark's parser and long traces: the long campaign (pytest -m slow)
 
 
 def _compare(block, trace, fb_name: str, mv: str, flag: str | None, watch: str = "") -> int:

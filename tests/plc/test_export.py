@@ -58,6 +58,7 @@ def _bodies(st: str) -> dict[str, list[str]]:
     return out
 
 
+@pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 @pytest.mark.parametrize("name", sorted(BLOCKS))
 def test_st_targets_parse_with_blark(name):
     src = plc.export(BLOCKS[name](), "codesys")
@@ -78,6 +79,7 @@ def test_header_names_version_and_configuration():
     assert "pid_cycle" in head
 
 
+@pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 def test_fb_inputs_start_at_the_configured_values():
     src = plc.export(PID(kp=2.5, ti=7.0, td=0.3, n=8.0, ts=0.2, u_min=-1.0, u_max=1.0,
                          reverse=True, integral_method="backward"), "codesys")  # fmt: skip
@@ -89,6 +91,7 @@ def test_fb_inputs_start_at_the_configured_values():
     assert ll["OUT_MAX"] == np.float32(3.402823e38) and not math.isinf(ll["OUT_MAX"])
 
 
+@pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 @pytest.mark.parametrize("name", sorted(BLOCKS))
 def test_tcpou_files_are_xml_holding_the_parsed_st(name):
     block = BLOCKS[name]()
@@ -146,6 +149,7 @@ _SCL_KEYWORDS = {
 }  # fmt: skip
 
 
+@pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 @pytest.mark.parametrize("name", sorted(BLOCKS))
 def test_tia_scl_follows_the_dialect_rules(name):
     block = BLOCKS[name]()
@@ -184,6 +188,7 @@ def test_tia_scl_follows_the_dialect_rules(name):
         assert body == ref, pou
 
 
+@pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 def test_small_blocks_with_memory_are_fbs_instantiated_inside_the_pid():
     """The SP/PV filters, the setpoint ramp and the feed-forward lead-lag are FUNCTION_BLOCKs
     of their own, held as instances in CB_PID's VAR (a multi-instance in TIA), and their
@@ -214,6 +219,7 @@ def test_small_blocks_with_memory_are_fbs_instantiated_inside_the_pid():
     assert pous["CB_PT1_STEP"].startswith("FUNCTION CB_PT1_STEP : REAL")
 
 
+@pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 def test_an_instance_runs_with_its_own_memory_in_the_interpreter():
     """Two CB_PT1 instances (SP and PV filter) keep separate memories across calls."""
     it = Interpreter(plc.export(PID(kp=1.0, ti=5.0, sp_filter=2.0, pv_filter=0.5), "codesys"))
@@ -263,6 +269,7 @@ def test_translator_names_function_and_line_of_an_unsupported_construct():
         Program().function(_with_a_loop)
 
 
+@pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
 def test_reversed_limits_written_at_run_time_keep_the_old_ones_with_bad_limits():
     fb = Interpreter(plc.export(PID(kp=1.0, ti=1.0, u_min=0.0, u_max=10.0))).instance("CB_PID")
     fb(SP=50.0, PV=0.0)

@@ -67,6 +67,7 @@ def check_refusal(exc: ScenarioError | Exception, file: str, what: str) -> None:
         assert exc.line is not None, f"{what}: {exc}"  # type: ignore[union-attr]
 
 
+@pytest.mark.slow  # a mutation campaign (pytest -m slow)
 @pytest.mark.parametrize("seed", [11, 12])
 def test_a_mutated_scenario_is_loaded_or_refused_with_its_file_line_and_key(seed):
     rng = random.Random(seed)
@@ -83,6 +84,7 @@ def test_a_mutated_scenario_is_loaded_or_refused_with_its_file_line_and_key(seed
     assert refused > 300  # the campaign reaches the checks, not only harmless lines
 
 
+@pytest.mark.slow  # a mutation campaign (pytest -m slow)
 def test_accepted_mutated_scenarios_run():
     """Scenarios the loader accepts run (the Python path, a few seconds of each)."""
     from ctrlblocks.sim.runner import run_scenario
@@ -112,6 +114,7 @@ def _runtime_configs() -> dict[str, str]:
     return {f"runtime{i}.toml": b for i, b in enumerate(blocks)}
 
 
+@pytest.mark.slow  # a mutation campaign (pytest -m slow)
 def test_a_mutated_runtime_configuration_is_loaded_or_refused_with_its_file_line_and_key(
     monkeypatch,
 ):

@@ -78,6 +78,7 @@ def _check(args: list[str], what: str) -> str:
     return ""
 
 
+@pytest.mark.slow  # a mutation campaign (pytest -m slow)
 def test_identify_a_mutated_bump_test_gives_a_model_or_names_the_line(tmp_path):
     rng = random.Random(5)
     refused = 0
@@ -93,6 +94,7 @@ def test_identify_a_mutated_bump_test_gives_a_model_or_names_the_line(tmp_path):
     assert refused > 40
 
 
+@pytest.mark.slow  # a mutation campaign (pytest -m slow)
 def test_compare_a_mutated_bump_test_gives_a_report_or_an_error_line(tmp_path):
     rng = random.Random(6)
     for k in range(12):
