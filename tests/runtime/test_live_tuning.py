@@ -328,6 +328,7 @@ def test_over_opcua_the_live_tunings_equal_the_offline_step_and_relay_results(
 protocol = "opcua"
 url = "{server.opcua_url}"
 timeout = 5.0
+deadline = 5.0
 [[loops]]
 name = "p3"
 ts = 0.1

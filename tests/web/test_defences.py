@@ -51,8 +51,13 @@ class FakeClock:
 
 
 def rows(app: Any, loop: str | None = None) -> list[dict[str, Any]]:
-    """The audit trail, newest first (straight from the historian)."""
+    """The audit trail of the requests, newest first (straight from the historian).
+
+    The runtime's own rows about its loops (an alarm of a late cycle on a busy
+    machine) are left out.
+    """
     out = app.state.runtime.historian.audit_rows(loop, 1000)[::-1]
+    out = [d for d in out if d["action"] not in ("alarm", "alarm-cleared", "bumpless")]
     for d in out:
         d["new"] = json.loads(d["new"]) if d["new"] is not None else None
     return out

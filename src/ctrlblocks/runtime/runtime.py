@@ -1,14 +1,22 @@
 """The soft-controller runtime: loops on absolute deadlines, I/O supervision, historian, stop.
 
-Scheduling: loops with the same sample time share one asyncio task; the
-task's k-th cycle is due at ``t0 + k ts`` (absolute deadlines, so delays do
-not accumulate), and runs a :class:`~ctrlblocks.runtime.scan.Scan` -- one
-I/O image per connection: one batched read of every input, the loops
-compute, one batched write of every MV (and the connection's heartbeat).  A cycle that
-ends after the next deadline skips the missed deadlines (the phase is kept);
-the loop's :class:`~ctrlblocks.blocks.monitor.CycleMonitor` sees the long
-period, flags the overrun, and the next block call uses the measured period
-as ``dt``.
+Scheduling: the loops of one sample time that share connections form a
+:class:`~ctrlblocks.runtime.scan.Scan` (:func:`~ctrlblocks.runtime.scan.scan_groups`),
+and each scan runs on an asyncio task of its own: loops on different
+connections never wait for each other, so a slow or dead device delays only
+the loops that use it.  The task's k-th cycle is due at ``t0 + k ts``
+(absolute deadlines, so delays do not accumulate) and runs the scan -- one
+I/O image per connection: one batched read of every input, waited for until
+the connection's input deadline (later inputs are *late*: their loops hold
+or run on their last good inputs), the loops compute, one batched write of
+every MV (and the connection's heartbeat).  A cycle that ends after the next
+deadline skips the missed deadlines (the phase is kept); the loop's
+:class:`~ctrlblocks.blocks.monitor.CycleMonitor` sees the long period and
+flags the overrun, and the block gets the time since its last step as ``dt``
+(within ``max_dt``; :mod:`ctrlblocks.runtime.loop`).  Overruns, late inputs,
+stretched periods and the loops' other conditions are alarms: in the state,
+on the faceplate and in the audit table (one row when one comes, one when it
+goes).
 
 In-process API (for a faceplate, a test, a notebook; all on the event loop
 of the runtime):
@@ -62,7 +70,7 @@ from .historian import Historian
 from .io import Adapter, Connection
 from .loop import CommandError, ControlLoop, Sample
 from .retain import RetainStore, encode_state
-from .scan import Heartbeat, Scan
+from .scan import Heartbeat, Scan, scan_groups
 from .writer import ProcessHistorian, open_historian
 
 __all__ = ["Runtime"]
@@ -130,6 +138,7 @@ class Runtime:
         self.running = False
         self.stopped = asyncio.Event()
         self.heartbeats: dict[str, Heartbeat] = {}
+        self.scans: list[Scan] = []
         self.gc_freeze = True  # see the module docstring; a benchmark turns it off to compare
         # True: the historian flushes right after a cycle's writes, in the idle rest of the
         # period, instead of at any time (a benchmark's switch, docs/performance.md)
@@ -166,9 +175,10 @@ class Runtime:
         await asyncio.gather(*(c.start() for c in self.connections.values()))
         if self.retain is not None:
             await self._restore_retained()
+        self.scans = self._scans()
         self._tasks = [
-            asyncio.create_task(self._cycles(ts, scan), name=f"ctrlblocks-ts-{ts:g}")
-            for ts, scan in self._scans().items()
+            asyncio.create_task(self._cycles(scan.ts, scan), name=f"ctrlblocks-scan-{i}")
+            for i, scan in enumerate(self.scans)
         ]
         if self.historian is not None:
             self._tasks.append(asyncio.create_task(self._flusher(), name="ctrlblocks-historian"))
@@ -179,24 +189,26 @@ class Runtime:
             self._gc_thresholds = freeze_garbage_collector()
         log.info("runtime %s: %d loop(s) started", self.config.name, len(self.loops))
 
-    def _scans(self) -> dict[float, Scan]:
-        """One :class:`Scan` per sample time; a heartbeat goes with the fastest loops using it."""
-        groups: dict[float, list[ControlLoop]] = {}
+    def _scans(self) -> list[Scan]:
+        """One :class:`Scan` per sample time and group of connections (:func:`scan_groups`).
+
+        A connection's heartbeat goes with the fastest scan that uses it.
+        """
+        by_ts: dict[float, list[ControlLoop]] = {}
         for lp in self.loops.values():
-            groups.setdefault(lp.ts, []).append(lp)
-        hb_of: dict[float, dict[str, Heartbeat]] = {ts: {} for ts in groups}
+            by_ts.setdefault(lp.ts, []).append(lp)
+        scans = [
+            Scan(group, self.connections, clock=self.clock, ts=ts)
+            for ts in sorted(by_ts)
+            for group in scan_groups(by_ts[ts])
+        ]
         for name, conn in self.connections.items():
-            if conn.config.heartbeat is None or not groups:
+            if conn.config.heartbeat is None or not scans:
                 continue
-            using = [
-                ts
-                for ts, lps in groups.items()
-                if any(b.connection == name for lp in lps for b in lp.config.bindings().values())
-            ]
-            ts = min(using or groups)
-            self.heartbeats[name] = Heartbeat(conn.config.heartbeat, conn.config.heartbeat_max)
-            hb_of[ts][name] = self.heartbeats[name]
-        return {ts: Scan(groups[ts], self.connections, hb_of[ts]) for ts in sorted(groups)}
+            using = [sc for sc in scans if any(name in lp.config.connections() for lp in sc.loops)]
+            hb = self.heartbeats[name] = Heartbeat(conn.config.heartbeat, conn.config.heartbeat_max)
+            (using or scans)[0].heartbeats[name] = hb  # sorted by ts: the fastest first
+        return scans
 
     def request_stop(self) -> None:
         """Ask the runtime to stop after the current cycle (safe to call from a signal handler)."""
@@ -214,6 +226,8 @@ class Runtime:
             except Exception:
                 log.exception("runtime task failed")
         self._tasks = []
+        for scan in self.scans:
+            await scan.close()  # reads still in flight end before the stop values go out
         if self.running:
             await self._shutdown()
         if self._gc_thresholds is not None:
@@ -246,22 +260,12 @@ class Runtime:
             ) from None
 
     async def _restore_retained(self) -> None:
-        """Restore the retained loops and read their MVs back (one batched read per connection)."""
+        """Restore the retained loops; their first cycle reads the MV back (bumpless restart)."""
         assert self.retain is not None
         states = await asyncio.to_thread(self.retain.load)
         restored = [lp for n, lp in self.loops.items() if n in states]
         for lp in restored:
             lp.restore_retained(states[lp.name])
-        by_conn: dict[str, list[ControlLoop]] = {}
-        for lp in restored:
-            by_conn.setdefault(lp.config.mv.connection or "", []).append(lp)
-        for name, lps in by_conn.items():
-            conn = self.connections.get(name)
-            if conn is None:
-                continue
-            readings = await conn.read([lp.config.mv.address for lp in lps])
-            for lp, r in zip(lps, readings, strict=True):
-                lp.restart_from(r)
         if restored:
             log.info("runtime %s: %d loop(s) restored from %s", self.config.name,
                      len(restored), self.retain.path)  # fmt: skip
@@ -407,12 +411,27 @@ class Runtime:
                 self._record(s)
             self._cycle_end.set()  # a flush may run now (_flusher, flush_after_cycle)
             for lp in scan.loops:
-                while lp.alarms:
-                    self._audit("runtime", lp.name, "alarm", None, None, False, lp.alarms.pop(0))
+                self._report(lp)
             k += 1
             late = clock.now() - (t0 + k * ts)
             if late >= 0.0:  # overrun: skip the missed deadlines, keep the phase
                 k += math.floor(late / ts) + 1
+
+    def _report(self, lp: ControlLoop) -> None:
+        """Audit what the loop's last cycle raised: alarms that came or went, bumpless starts."""
+        events = lp.conditions.events
+        while events:
+            raised, c = events.pop(0)
+            action = "alarm" if raised else "alarm-cleared"
+            msg = f"{c.code}: {c.text}"
+            if raised and c.severity == "alarm":
+                log.warning("loop %s: %s", lp.name, msg)
+            self._audit("runtime", lp.name, action, None, {"code": c.code,
+                        "severity": c.severity}, not raised, msg)  # fmt: skip
+        while lp.events:
+            action, msg = lp.events.pop(0)
+            log.info("loop %s: %s", lp.name, msg)
+            self._audit("runtime", lp.name, action, None, {"mv": lp.mv}, True, msg)
 
     def _record(self, s: Sample) -> None:
         if self.historian is not None:

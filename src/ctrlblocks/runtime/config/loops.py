@@ -28,7 +28,7 @@ from .model import (
 __all__ = ["LoopTables"]
 
 _FAULT_LOOP_KEYS = ("on_fault", "hold_time")
-_TIME_LOOP_KEYS = ("on_late", "max_dt", "initial_mv")
+_TIME_LOOP_KEYS = ("on_late", "max_dt", "initial_mv", "start")
 
 
 class LoopTables:
@@ -343,7 +343,7 @@ class LoopTables:
         return {"on_fault": on_fault, "hold_time": hold}
 
     def time_settings(self, raw: Mapping[str, Any], key: str, ts: float) -> dict[str, Any]:
-        """``on_late``, ``max_dt`` [s] and ``initial_mv`` of a loop (docs/runtime.md)."""
+        """``on_late``, ``max_dt`` [s], ``initial_mv`` and ``start`` of a loop (docs/runtime.md)."""
         on_late = self.choice(raw, "on_late", f"{key}.on_late", ("hold", "last_good"), "hold")
         max_dt = self.number(raw, "max_dt", f"{key}.max_dt", None, positive=True)
         if max_dt is not None and not ts <= max_dt <= MAX_DT_TS * ts * (1 + 1e-12):
@@ -355,4 +355,5 @@ class LoopTables:
         initial = self.number(raw, "initial_mv", f"{key}.initial_mv", None)
         if initial is not None and not math.isfinite(initial):
             raise self.fail(f"{key}.initial_mv", "must be finite")
-        return {"on_late": on_late, "max_dt": max_dt, "initial_mv": initial}
+        start = self.choice(raw, "start", f"{key}.start", ("read_back", "block"), "read_back")
+        return {"on_late": on_late, "max_dt": max_dt, "initial_mv": initial, "start": start}

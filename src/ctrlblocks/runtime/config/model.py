@@ -166,6 +166,9 @@ class LoopConfig:
     on_late: str = "hold"
     max_dt: float | None = None  # None: 10 ts (LoopConfig.dt_bound)
     initial_mv: float | None = None
+    # a cold start: "read_back" (bumpless from the device's MV) or "block" (the blocks' own
+    # initial state, as a simulation without a warm-up)
+    start: str = "read_back"
     # engineering bounds and units (the faceplate's keys, .engineering)
     sp_range: tuple[float, float] | None = None
     mv_range: tuple[float, float] | None = None
