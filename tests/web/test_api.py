@@ -30,7 +30,7 @@ from .conftest import (
     wait_push,
 )
 
-RUNTIME_ACTIONS = ("alarm", "alarm-cleared", "bumpless")
+RUNTIME_ACTIONS = ("alarm", "alarm-cleared")
 """Audit actions the runtime writes about its loops (not about a request)."""
 
 

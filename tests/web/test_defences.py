@@ -57,7 +57,7 @@ def rows(app: Any, loop: str | None = None) -> list[dict[str, Any]]:
     machine) are left out.
     """
     out = app.state.runtime.historian.audit_rows(loop, 1000)[::-1]
-    out = [d for d in out if d["action"] not in ("alarm", "alarm-cleared", "bumpless")]
+    out = [d for d in out if d["action"] not in ("alarm", "alarm-cleared")]
     for d in out:
         d["new"] = json.loads(d["new"]) if d["new"] is not None else None
     return out

@@ -159,9 +159,9 @@ class ControlLoop:
         self.initialisations = 0  # bumpless (re)starts: start, reconnect, restart, held
         self.last_start = ""  # how the last one went
         self.conditions = Conditions()  # what the faceplate shows at a glance (.status)
-        self.events: list[tuple[str, str]] = []  # (action, message) for the audit
         self._swing = SwingDetector()
         self._stretched_now = False
+        self._held_long = False
         self._fault_since: float | None = None
         self._last_good_mv: float | None = None
         self._t = 0.0
@@ -426,6 +426,9 @@ class ControlLoop:
               f"cycle period {self.monitor.out:.3g} s, ts {self.ts:g} s", t,
               off_delay=OFF_DELAY)  # fmt: skip
         c.set("stretched", self._stretched_now, t=t, off_delay=OFF_DELAY)
+        c.set("held_long", self._held_long, t=t,
+              off_delay=OFF_DELAY + math.ceil(cfg.dt_bound / self.ts))  # fmt: skip
+        self._held_long = False
         self._stretched_now = False
         bad = self.cycle_count > 0 or self.dt != 0.0
         bad = bad and not self.pv_ok and self.pv_reason != "no cycle yet"
@@ -710,10 +713,13 @@ class ControlLoop:
         self.initialisations += 1
         age = "" if math.isinf(self._init_age) else f", block state {self._init_age:.3g} s old"
         self.last_start = f"{reason}: bumpless from {what}{age}"
-        if reason == "held":  # an alarm-like event: audited (the others are logged)
-            self.events.append(("bumpless", self.last_start))
-        else:
-            log.debug("loop %s: %s", self.name, self.last_start)
+        log.debug("loop %s: %s", self.name, self.last_start)
+        if reason == "held":  # a warning (audited once per episode), kept over the next holds
+            span = OFF_DELAY + math.ceil(self.config.dt_bound / self.ts)
+            self.conditions.set("held_long", True, f"no step on good inputs for more than "
+                                f"max_dt = {self.config.dt_bound:g} s: {self.last_start}",
+                                t, off_delay=span)  # fmt: skip
+            self._held_long = True
         self._init_age = math.inf
         return u
 

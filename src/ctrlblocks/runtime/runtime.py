@@ -218,6 +218,8 @@ class Runtime:
         """Stop: end the cycles, write stop values, flush the historian, close connections."""
         self._stop.set()
         self._cycle_end.set()  # a flusher waiting for the end of a cycle goes on
+        for scan in self.scans:
+            scan.cancel_reads()  # a cycle waiting for a late read ends now
         for t in self._tasks:
             try:
                 await t
@@ -226,8 +228,6 @@ class Runtime:
             except Exception:
                 log.exception("runtime task failed")
         self._tasks = []
-        for scan in self.scans:
-            await scan.close()  # reads still in flight end before the stop values go out
         if self.running:
             await self._shutdown()
         if self._gc_thresholds is not None:
@@ -418,7 +418,7 @@ class Runtime:
                 k += math.floor(late / ts) + 1
 
     def _report(self, lp: ControlLoop) -> None:
-        """Audit what the loop's last cycle raised: alarms that came or went, bumpless starts."""
+        """Audit what the loop's last cycle raised: the conditions that came or went."""
         events = lp.conditions.events
         while events:
             raised, c = events.pop(0)
@@ -428,10 +428,6 @@ class Runtime:
                 log.warning("loop %s: %s", lp.name, msg)
             self._audit("runtime", lp.name, action, None, {"code": c.code,
                         "severity": c.severity}, not raised, msg)  # fmt: skip
-        while lp.events:
-            action, msg = lp.events.pop(0)
-            log.info("loop %s: %s", lp.name, msg)
-            self._audit("runtime", lp.name, action, None, {"mv": lp.mv}, True, msg)
 
     def _record(self, s: Sample) -> None:
         if self.historian is not None:

@@ -30,7 +30,6 @@ The connection serialises the requests of all scans that use it and its
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
@@ -233,6 +232,9 @@ class Scan:
             if not task.done():
                 self.late_reads += 1
                 continue
+            if task.cancelled():  # the runtime stops: this cycle holds
+                inp.task, inp.back = None, []
+                continue
             res = task.result()
             inp.image, inp.new, inp.task = res[: len(inp.addresses)], True, None
             for lp, i in inp.back:
@@ -312,11 +314,8 @@ class Scan:
         for lp, err in outcome.items():
             lp.written(err)
 
-    async def close(self) -> None:
-        """Cancel the reads still in flight (the runtime's stop)."""
+    def cancel_reads(self) -> None:
+        """Cancel the reads in flight (the runtime's stop: a late read must not hold it up)."""
         for inp in self._in.values():
             if inp.task is not None and not inp.task.done():
                 inp.task.cancel()
-                with contextlib.suppress(asyncio.CancelledError, Exception):
-                    await inp.task
-            inp.task = None

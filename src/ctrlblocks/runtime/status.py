@@ -50,6 +50,7 @@ WORDS: dict[str, tuple[str, str]] = {
     "oscillating": ("warning", "oscillating"),
     "overrun": ("warning", "cycle overrun"),
     "stretched": ("warning", "stretched period"),
+    "held_long": ("warning", "held beyond max_dt"),
     "input_error": ("warning", "input error"),
     "mv_limit": ("info", "MV at limit"),
     "tuning": ("info", "tuning test"),
