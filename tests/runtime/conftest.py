@@ -234,8 +234,18 @@ class ClockedPlant:
     ``hold`` pins the device's MV (a device watchdog's safe value).
     """
 
-    def __init__(self, bus: MemoryBus, clock: Any, ts: float, *, a: float = 0.9,
-                 gain: float = 1.0, pv: str = "pv", mv: str = "mv", u0: float = 0.0) -> None:  # fmt: skip
+    def __init__(
+        self,
+        bus: MemoryBus,
+        clock: Any,
+        ts: float,
+        *,
+        a: float = 0.9,
+        gain: float = 1.0,
+        pv: str = "pv",
+        mv: str = "mv",
+        u0: float = 0.0,
+    ) -> None:
         self.bus, self.clock, self.ts, self.a, self.gain = bus, clock, ts, a, gain
         self.pv, self.mv = pv, mv
         bus.values[mv] = u0

@@ -117,7 +117,7 @@ def test_a_reconnection_starts_from_the_devices_mv_not_from_the_unwritten_safe_v
     and the plant follows it; the loop wrote nothing (its safe value 0.0 never got
     there).  At the reconnection it reads 1.0 back and goes on from it."""
     bus = MemoryBus()
-    rt, clock, samples = make(
+    rt, clock, _samples = make(
         '[connections.io]\nprotocol = "memory"\nreconnect_min = 0.2\nreconnect_max = 0.4\n'
         + loop_toml(sp="1.5", block=BLOCKS[kind]),
         {},
@@ -187,7 +187,7 @@ def test_a_restart_after_a_kill_during_a_transient_starts_from_the_mv_and_the_pr
     mv_at_kill = bus.values["mv"]
     for _ in range(30):  # the plant moves 3 s on the MV the device holds
         plant.step()
-    rt2, clock2, samples = life()
+    rt2, clock2, _samples = life()
     plant.clock = clock2
 
     async def second():

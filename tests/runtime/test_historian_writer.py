@@ -177,9 +177,11 @@ def test_a_runtime_killed_with_samples_in_memory_leaves_the_count_it_lost_in_the
     lost: list[dict] = []
     while time.monotonic() < t_end and not lost:
         time.sleep(0.1)
-        with contextlib.suppress(sqlite3.OperationalError, HistoryError):
-            with SQLiteHistorian(db).reading() as h:
-                lost = [r for r in h.audit_rows() if r["action"] == "lost"]
+        with (
+            contextlib.suppress(sqlite3.OperationalError, HistoryError),
+            SQLiteHistorian(db).reading() as h,
+        ):
+            lost = [r for r in h.audit_rows() if r["action"] == "lost"]
     cycles, _ = stored(db)
     assert cycles == list(range(50))
     (row,) = lost

@@ -8,6 +8,7 @@ move on the clock whatever the runtime does (:class:`ClockedPlant`).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import pytest
@@ -64,7 +65,7 @@ def two_devices(delay: float, *, b_extra: str = "", b_block: str = PI, t_end: fl
 
 @pytest.mark.parametrize("delay", [0.3, 0.6])
 def test_a_slow_device_delays_only_its_own_loops(delay):
-    by, states, plants = two_devices(delay)
+    by, states, _ = two_devices(delay)
     for n in ("a1", "a2"):  # the healthy device's loops: every deadline, ts as dt
         s = by[n]
         assert [round(x.t, 9) for x in s] == pytest.approx([0.1 * k for k in range(len(s))])
@@ -83,7 +84,7 @@ def test_the_slow_loop_steps_with_the_time_since_its_last_step_as_dt_within_max_
     held = [s for s in by["b1"] if s.dt == 0.0]
     assert held and stepped
     assert [s.dt for s in stepped[:2]] == [0.1, 0.1]  # the start, and the step after it
-    for prev, s in zip(stepped[1:], stepped[2:]):
+    for prev, s in itertools.pairwise(stepped[1:]):
         gap = s.t - prev.t
         # the jitter band (warn_limit 1.5 ts) gives ts, beyond it the measured period
         assert s.dt == pytest.approx(0.1 if gap <= 0.15 + 1e-9 else gap), (prev, s)
@@ -106,7 +107,7 @@ def test_inputs_late_beyond_max_dt_hold_the_loop_and_restart_its_blocks_from_the
     (its Euler observer is unstable from omega_o dt = 2): at each return it starts
     again from the MV last written and the present PV, as after a restart -- so the
     loop holds its MV -- with the warning ``held_long``, audited once."""
-    by, states, plants = two_devices(1.5, b_extra="max_dt = 1.0", b_block=ADRC1, t_end=30.0)
+    by, states, _ = two_devices(1.5, b_extra="max_dt = 1.0", b_block=ADRC1, t_end=30.0)
     b = by["b1"]
     stepped = [s for s in b if s.dt > 0.0]
     assert all(s.dt == 0.1 for s in stepped)

@@ -663,8 +663,8 @@ class _Writer:
         log.error("historian writer: %s", msg)
         from .historian import audit_row
 
-        self.audits.append(audit_row("historian", "", "lost", None,
-                                     {"lost": lost, "recorded": recorded}, lost == 0, msg))  # fmt: skip
+        new = {"lost": lost, "recorded": recorded}
+        self.audits.append(audit_row("historian", "", "lost", None, new, lost == 0, msg))
         self.pending += 1
         tally.remove()
 
