@@ -74,7 +74,9 @@ def test_viewer_sees_every_loop_with_sp_pv_mv_mode_and_error(client):
         assert s["pv"] == pytest.approx(1.0, abs=1e-9)
         assert s["mv"] == pytest.approx(1.0, abs=1e-9)
         assert s["error"] is False and s["error_id"] == 0
-        assert s["alarms"] == []
+        # nothing wrong with the loop (a busy machine may stretch a period: a warning)
+        assert [c for c in s["conditions"] if c["severity"] == "alarm"] == []
+        assert set(s["status"]) <= {"overrun", "late_io", "stretched"}
     info = client.get("/api/info").json()
     assert info["user"] is None and info["role"] is None and info["may_change"] == []
     assert info["public_view"] is True and info["loops"] == ["fast", "level"]

@@ -31,8 +31,9 @@ What it guarantees:
   GM, PM of each proposal on the identified model where there is one,
   :func:`~ctrlblocks.tuning.margins.margins`); :meth:`LiveTuning.accept`
   applies one through :meth:`Runtime.command <ctrlblocks.runtime.Runtime.command>`
-  (validated by the block, bumpless by the block's own retuning rules) and
-  writes the retain file at once, so the tuning survives a restart.
+  (validated by the block, bumpless by the block's own retuning rules), which
+  writes the retain file at once, so the tuning survives a restart (the
+  faceplate confirms after :meth:`Runtime.durable <ctrlblocks.runtime.Runtime.durable>`).
 * **Audited.** ``tune-start`` (who, method, bounds), ``tune-abort`` (who or
   what, and why), ``tune-result`` (the model and the proposals, or why it
   failed), ``tune-accept`` / ``tune-reject`` (who, which proposal) go to the
@@ -464,8 +465,7 @@ class LiveTuning:
         tu.changed()
         self.runtime.audit(user, "tune-accept", loop=loop, old=_plain(old.get("tunings")),
                            new=_plain({"proposal": proposal, "tunings": tunings}))  # fmt: skip
-        self._retain_now()
-        return old
+        return old  # (the command has started writing the retain file: Runtime.durable)
 
     def reject(self, loop: str, *, user: str) -> dict[str, Any]:
         """Reject the result of the finished test of ``loop`` (nothing changes); its status."""
@@ -496,17 +496,6 @@ class LiveTuning:
             self.runtime.audit(user, action, loop=loop, ok=False, message=msg)
             raise CommandError("tune", msg)
         return tu
-
-    def _retain_now(self) -> None:
-        if self.runtime.retain is None:
-            return
-        try:
-            loop = asyncio.get_running_loop()
-        except RuntimeError:  # no event loop here: the next periodic save retains it
-            return
-        task = loop.create_task(self.runtime.save_retained())
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
 
 
 def fragile(margins: Mapping[str, Any] | None) -> str:

@@ -26,8 +26,11 @@ of the runtime):
   :meth:`Runtime.states`;
 * :meth:`Runtime.command` -- mode, manual value, setpoint, limits, tunings,
   validated by the loop and the block (refused changes leave everything as it
-  was), each one written to the historian's audit table with who sent it;
-* :meth:`Runtime.submit` -- the same from another thread
+  was), each one written to the historian's audit table with who sent it,
+  and to the retain file at once;
+* :meth:`Runtime.execute` -- a command that returns once the change is in
+  the retain file, fsync'd (what a front end confirms; :mod:`.retain`);
+* :meth:`Runtime.submit` -- :meth:`execute` from another thread
   (:attr:`Runtime.event_loop` tells which loop the runtime runs on);
 * :meth:`Runtime.audit` -- an audit row for what a front end does (logins,
   logouts, refused attempts), next to the commands;
@@ -129,6 +132,9 @@ class Runtime:
             retain = RetainStore(rc.path) if rc.enabled else None
         self.retain: RetainStore | None = retain  # type: ignore[assignment]
         self.retain_failures = 0  # consecutive failed saves of the retain file (0: it is saved)
+        self._retain_pool: concurrent.futures.ThreadPoolExecutor | None = None  # one writer
+        self._retained: dict[str, str] = {}  # the newest encoded state of every loop
+        self._commanded: dict[str, asyncio.Future[None]] = {}  # loop -> its durable save
         self.historian: Historian | None = None
         self.on_sample = on_sample
         self._stop = asyncio.Event()
@@ -233,6 +239,9 @@ class Runtime:
         if self._gc_thresholds is not None:
             thaw_garbage_collector(self._gc_thresholds)
             self._gc_thresholds = None
+        if self._retain_pool is not None:
+            self._retain_pool.shutdown(wait=True)
+            self._retain_pool = None
         self.running = False
         self.stopped.set()
 
@@ -250,7 +259,7 @@ class Runtime:
         """Refuse to start when the retain file cannot be written (closing what is open)."""
         assert self.retain is not None
         try:
-            await asyncio.to_thread(self.retain.check)
+            await self.retain_call(self.retain.check)
         except (OSError, sqlite3.OperationalError) as exc:
             if self.historian is not None and self._historian_arg == "config":
                 await asyncio.to_thread(self.historian.close)
@@ -262,7 +271,7 @@ class Runtime:
     async def _restore_retained(self) -> None:
         """Restore the retained loops; their first cycle reads the MV back (bumpless restart)."""
         assert self.retain is not None
-        states = await asyncio.to_thread(self.retain.load)
+        states = await self.retain_call(self.retain.load)
         restored = [lp for n, lp in self.loops.items() if n in states]
         for lp in restored:
             lp.restore_retained(states[lp.name])
@@ -270,16 +279,44 @@ class Runtime:
             log.info("runtime %s: %d loop(s) restored from %s", self.config.name,
                      len(restored), self.retain.path)  # fmt: skip
 
+    async def retain_call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """Run ``fn(*args)`` on the retain file's one writer thread (in order) and await it."""
+        if self._retain_pool is None:
+            self._retain_pool = concurrent.futures.ThreadPoolExecutor(1, "ctrlblocks-retain")
+        return await asyncio.get_running_loop().run_in_executor(self._retain_pool, fn, *args)
+
     async def save_retained(self) -> None:
         """Write every loop's retentive state now (also done every interval and on stop)."""
         if self.retain is None:
             return
-        await self._save_retained({n: encode_state(lp.retained()) for n, lp in self.loops.items()})
+        self._retained = {n: encode_state(lp.retained()) for n, lp in self.loops.items()}
+        await self._save_retained(dict(self._retained))
+
+    def _retain_loop(self, name: str) -> asyncio.Future[None] | None:
+        """Start writing loop ``name``'s state to the retain file now (a command's change)."""
+        if self.retain is None or self._loop is None:
+            return None
+        text = self._retained[name] = encode_state(self.loops[name].retained())
+        fut = asyncio.ensure_future(self.retain_call(self.retain.save_loop, name, text))
+        self._commanded[name] = fut
+        fut.add_done_callback(lambda f: f.cancelled() or f.exception())  # never unretrieved
+        return fut
+
+    async def durable(self, loop: str) -> bool:
+        """Wait until the last change to ``loop`` is in the retain file (False: no retain file).
+
+        Raises the write's error (``OSError``, ``sqlite3.Error``) when it failed.
+        """
+        fut = self._commanded.get(loop)
+        if fut is None:
+            return self.retain is not None
+        await asyncio.shield(fut)
+        return True
 
     async def _save_retained(self, states: dict[str, str]) -> None:
         assert self.retain is not None
         try:
-            await asyncio.to_thread(self.retain.save, states)
+            await self.retain_call(self.retain.save, states)
         except Exception as exc:  # the loops go on; the next save retries
             # one line and one audit entry per streak of failures (a full disk fails every
             # interval: a traceback each time would bury the log), one when it recovers
@@ -312,7 +349,7 @@ class Runtime:
         loops = list(self.loops.values())
         chunks = [loops[i : i + 10] for i in range(0, len(loops), 10)] or [[]]
         step = interval / len(chunks)
-        states: dict[str, str] = {}
+        states = self._retained  # (a command updates its loop's entry at once)
         t = self.clock.now()
         while True:
             for chunk in chunks:
@@ -514,17 +551,29 @@ class Runtime:
             self._audit(user, loop, action, None, changes, False, str(exc))
             raise
         self._audit(user, loop, action, old, changes, True, "")
+        self._retain_loop(loop)
+        return old
+
+    async def execute(self, loop: str, *, user: str, **changes: Any) -> dict[str, Any]:
+        """:meth:`command`, returning once the change is durable (in the retain file, fsync'd).
+
+        What a front end confirms to a person: a ``kill -9`` after the return
+        keeps the change.  Raises :class:`~ctrlblocks.runtime.loop.CommandError`
+        (refused, nothing changed) or the retain file's error (``OSError``,
+        ``sqlite3.Error``: the change is in force but not retained).  Call it
+        on the runtime's event loop.
+        """
+        old = self.command(loop, user=user, **changes)
+        await self.durable(loop)
         return old
 
     def submit(self, loop: str, *, user: str, **changes: Any) -> concurrent.futures.Future:
-        """:meth:`command` from another thread; returns a future with its result."""
+        """:meth:`execute` from another thread; returns a future with its result."""
         if self._loop is None:
             raise RuntimeError("the runtime is not started")
-
-        async def call() -> dict[str, Any]:
-            return self.command(loop, user=user, **changes)
-
-        return asyncio.run_coroutine_threadsafe(call(), self._loop)
+        return asyncio.run_coroutine_threadsafe(
+            self.execute(loop, user=user, **changes), self._loop
+        )
 
     def audit(
         self,
