@@ -238,7 +238,7 @@ class LiveTuning:
         pv_min: float | None = None,
         pv_max: float | None = None,
         max_time: float = 3600.0,
-        hysteresis: float = 0.0,
+        hysteresis: float | None = None,
         pre_time: float = 1.0,
     ) -> dict[str, Any]:
         """Start a ``method`` test on ``loop`` as ``user``; its status.
@@ -255,8 +255,9 @@ class LiveTuning:
             PV bounds; leaving them aborts the test (default: none).
         max_time : float
             Longest test [s].
-        hysteresis : float
-            Relay hysteresis [PV unit] (just above the noise band).
+        hysteresis : float, optional
+            Relay hysteresis [PV unit]; default: sized from the noise the relay
+            measures first (:mod:`ctrlblocks.tuning.relay`, "Noisy plants").
         pre_time : float
             Step: time held at the present MV before the step [s].
 
@@ -275,7 +276,7 @@ class LiveTuning:
             tu = self._new(lp, user, options)
         except CommandError as exc:
             self.runtime.audit(user, "tune-start", loop=loop, new=_plain(options), ok=False,
-                               message=str(exc))  # fmt: skip
+                               message=str(exc), bound=True)  # fmt: skip
             raise
         self.tunings[loop] = tu
         self.runtime.audit(user, "tune-start", loop=loop, old={"mode": tu.mode0, "mv": tu.u0},
@@ -307,6 +308,8 @@ class LiveTuning:
             opts[k] = default if v is None else v
         for k in _OPTIONS:
             v = opts[k]
+            if v is None and k == "hysteresis":
+                continue  # sized from the noise
             if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
                 raise CommandError(k, f"must be a number, got {v!r}")
             opts[k] = float(v)
@@ -422,6 +425,9 @@ class LiveTuning:
         tu.margins_ready = True
         tu.changed()
         st = tu.status()
+        model = st.get("model") or {}
+        if model.get("kind") == "FOPDT":  # the loop's derived ranges follow the process
+            tu.loop.bounds.set_model(model)
         self.runtime.audit(
             "runtime", "tune-result", loop=tu.loop.name, ok=True,
             new=_plain({k: st.get(k) for k in ("method", "model", "proposals", "margins",
@@ -452,14 +458,14 @@ class LiveTuning:
             msg = f"{proposal} {why} on the identified model: accept it with force"
         if msg:
             self.runtime.audit(user, "tune-accept", loop=loop, ok=False, message=msg,
-                               new={"proposal": proposal})  # fmt: skip
+                               new={"proposal": proposal}, bound=True)  # fmt: skip
             raise CommandError("proposal", msg)
         try:
             tunings = block_tunings(tu.loop, proposals[proposal])
             old = self.runtime.command(loop, user=user, tunings=tunings)
         except CommandError as exc:
             self.runtime.audit(user, "tune-accept", loop=loop, ok=False,
-                               new={"proposal": proposal}, message=str(exc))  # fmt: skip
+                               new={"proposal": proposal}, message=str(exc), bound=True)  # fmt: skip
             raise
         tu.decision, tu.decided_by, tu.accepted = "accepted", user, proposal
         tu.changed()
@@ -480,7 +486,7 @@ class LiveTuning:
         tu = self.tunings.get(loop)
         if tu is None or not tu.running:
             msg = "no test is running on this loop"
-            self.runtime.audit(user, action, loop=loop, ok=False, message=msg)
+            self.runtime.audit(user, action, loop=loop, ok=False, message=msg, bound=True)
             raise CommandError("tune", msg)
         return tu
 
@@ -493,7 +499,7 @@ class LiveTuning:
                 if tu is not None and tu.active
                 else "no test result waits for a decision"
             )
-            self.runtime.audit(user, action, loop=loop, ok=False, message=msg)
+            self.runtime.audit(user, action, loop=loop, ok=False, message=msg, bound=True)
             raise CommandError("tune", msg)
         return tu
 

@@ -66,6 +66,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from .adapters import make_adapter
+from .audit import SlidingWindow, bounded
 from .autotune import LiveTuning
 from .clock import Clock, MonotonicClock
 from .config import RuntimeConfig, RuntimeConfigError, require_packages
@@ -76,9 +77,17 @@ from .retain import RetainStore, encode_state
 from .scan import Heartbeat, Scan, scan_groups
 from .writer import ProcessHistorian, open_historian
 
-__all__ = ["Runtime"]
+__all__ = ["AUDIT_REFUSALS", "Runtime"]
 
 log = logging.getLogger(__name__)
+
+AUDIT_REFUSALS = (10, 60.0)
+"""Audit rows of refused commands per user and window [s]: beyond them a refusal is counted,
+and the count is written with the next row let through; a refused command's values are
+cut (:func:`ctrlblocks.runtime.audit.bounded`)."""
+
+_SYSTEM = ("runtime", "historian")
+"""Writers of audit rows about the runtime itself (never bounded)."""
 
 
 class Runtime:
@@ -151,6 +160,8 @@ class Runtime:
         self.flush_after_cycle = False
         self._gc_thresholds: tuple[int, int, int] | None = None
         self.stop_failures: dict[str, str] = {}  # loop -> why its stop value was not written
+        self.refusals = SlidingWindow(*AUDIT_REFUSALS)  # refusal rows per user (bounded)
+        self._refusals_left: dict[str, int] = {}  # user -> refusals not written
         self.tuning = LiveTuning(self)  # live auto-tuning of the loops (runtime.autotune)
 
     @property
@@ -548,7 +559,7 @@ class Runtime:
         try:
             old = self.tuning.command(lp, user, changes)  # a command ends a live test
         except CommandError as exc:
-            self._audit(user, loop, action, None, changes, False, str(exc))
+            self._audit(user, loop, action, None, changes, False, str(exc), bound=True)
             raise
         self._audit(user, loop, action, old, changes, True, "")
         self._retain_loop(loop)
@@ -585,20 +596,47 @@ class Runtime:
         new: Any = None,
         ok: bool = True,
         message: str = "",
+        bound: bool = False,
     ) -> None:
         """Write one row to the historian's audit table (nothing without a historian).
 
         For what happens around the commands, e.g. a faceplate's logins
         (``action="login"``, ``ok`` False for a wrong password), logouts and
-        refused attempts.  A failed write is logged, never raised.
+        refused attempts.  ``bound``: a refusal of ``who``'s request, bounded
+        as the runtime bounds refused commands (:data:`AUDIT_REFUSALS`); a
+        front end that bounds its own rows (per client address) leaves it off.
+        A failed write is logged, never raised.
         """
-        self._audit(who, loop, action, old, new, ok, message)
+        self._audit(who, loop, action, old, new, ok, message, bound=bound)
 
-    def _audit(self, *args: Any) -> None:
+    def _audit(
+        self,
+        who: str,
+        loop: str,
+        action: str,
+        old: Any,
+        new: Any,
+        ok: bool,
+        message: str = "",
+        *,
+        bound: bool = False,
+    ) -> None:
+        """One audit row; ``bound``: a user's refusal, bounded in size and number."""
         if self.historian is None:
             return
+        if bound and not ok and who not in _SYSTEM:
+            key = who
+            if not self.refusals.hit(key):
+                self._refusals_left[key] = self._refusals_left.get(key, 0) + 1
+                if len(self._refusals_left) > 10_000:
+                    self._refusals_left.clear()
+                return
+            n = self._refusals_left.pop(key, 0)
+            old, new, message = bounded(old), bounded(new), str(message)[:300]
+            if n:
+                message = f"{message} ({n} more not recorded)"
         try:
-            self.historian.audit(*args)
+            self.historian.audit(who, loop, action, old, new, ok, message)
         except Exception:  # the audit must not break a command
             log.exception("audit write failed")
 

@@ -151,10 +151,10 @@ class Faceplate:
         web_cfg = getattr(runtime.config, "web", None)
         confirm_step = float(getattr(web_cfg, "confirm_step", 0.1))
         # the loops' own engineering ranges (they check every command), with the page's step
-        self.bounds: dict[str, LoopBounds] = {
-            n: runtime.loops[n].bounds.with_confirm_step(confirm_step)
-            for n in runtime.loop_names()
-        }
+        self.bounds: dict[str, LoopBounds] = {}
+        for n in runtime.loop_names():
+            b = self.bounds[n] = runtime.loops[n].bounds
+            b.confirm_step = confirm_step
         self.proxies = _networks(trusted_proxies)
         self.hashing: dict[str, Any] = {"pool": None, "pending": 0}
         self._last_users_check = -math.inf

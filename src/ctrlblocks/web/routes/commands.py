@@ -202,7 +202,8 @@ async def command(name: str, request: Request) -> Any:
         code = exc.code if isinstance(exc, ParameterError) else ErrorCode.BAD_PARAMETER
         msg = f"refused: {type(exc).__name__}: {str(exc)[:200]}"
         log.warning("loop %s: command %s failed: %s", name, action, msg)
-        fp.runtime.audit(s.user, action, loop=name, new=json_safe(changes), ok=False, message=msg)
+        fp.runtime.audit(s.user, action, loop=name, new=json_safe(changes), ok=False,
+                         message=msg, bound=True)  # fmt: skip
         return error(422, msg, str(field), code)
     retained = fp.runtime.retain is not None
     return {"ok": True, "old": json_safe(old), "retained": retained, "state": fp.loop_state(name)}
@@ -253,7 +254,7 @@ async def _tune_action(name: str, request: Request, action: str) -> Any:
                 kw = tune_options(body, fp.bounds[name])
             except CommandError as exc:
                 rt.audit(s.user, audit_action, loop=name, new=json_safe(body), ok=False,
-                         message=str(exc))  # fmt: skip
+                         message=str(exc), bound=True)  # fmt: skip
                 raise
             st = await fp.on_runtime(rt.tuning.start, name, user=s.user, **kw)
         elif action == "abort":
@@ -268,7 +269,7 @@ async def _tune_action(name: str, request: Request, action: str) -> Any:
             outside = proposal_outside(rt, name, proposal[:64], fp.bounds[name])
             if outside is not None:
                 field, msg, code = outside
-                rt.audit(s.user, audit_action, loop=name, ok=False,
+                rt.audit(s.user, audit_action, loop=name, ok=False, bound=True,
                          new={"proposal": proposal[:64]}, message=f"{field}: {msg}")  # fmt: skip
                 return error(422, msg, field, code)
             await fp.on_runtime(rt.tuning.accept, name, user=s.user, proposal=proposal[:64],

@@ -324,14 +324,17 @@ function rangeText(r, u) {
   if (!r) return "";
   u = u || r.unit || "";
   const tail = u ? ` ${u}` : "";
-  const zero = r.zero_ok && r.lo > 0 ? "0 or " : "";
   const inf = r.inf_ok ? " or inf" : "";
+  if (r.generic) return (r.lo_open ? "> 0" : r.lo === 0 ? "≥ 0" : "any") + inf;
+  const zero = r.zero_ok && r.lo > 0 ? "0 or " : "";
+  const pm = r.symmetric ? "±" : "";
   if (r.integer) {
     const n = [];
     for (let k = r.lo; k <= r.hi && n.length < 6; k++) n.push(k);
     return n.length && n[n.length - 1] === r.hi ? n.join(", ") : `${r.lo} … ${r.hi}`;
   }
-  return `${zero}${fmtParam(r.lo)} … ${fmtParam(r.hi)}${tail}${inf}`;
+  const num = (x) => String(Number(x.toPrecision(4)));
+  return `${zero}${pm}${num(r.lo)} … ${num(r.hi)}${tail}${inf}`;
 }
 
 function showRanges() {
