@@ -557,7 +557,7 @@ def test_a_logged_in_users_refusals_are_bounded_like_anonymous_ones(timed, clock
     app = timed.app
     limit, window = AUDIT_REFUSALS
     assert login(timed, user).status_code == 200
-    for k in range(3 * limit):
+    for _ in range(3 * limit):
         clock.t += window / (10 * limit)  # 30 requests in 3/10 of the window, under the rate
         r = timed.post(CMD, json=body)
         assert r.status_code in (403, 422), r.text
@@ -584,9 +584,10 @@ def test_x_forwarded_for_counts_only_from_a_trusted_proxy(tmp_path, users, clock
     limit, _window = COMMAND_REQUESTS
     with TestClient(app, client=("127.0.0.1", 50000)) as c:
         codes = [
-            c.post(CMD, json={"sp": 1.0}, headers={"X-Forwarded-For": f"198.51.100.{k}"}).status_code
+            c.post(CMD, json={"sp": 1.0}, headers={"X-Forwarded-For": f"198.51.100.{k}"})
             for k in range(limit + 5)
         ]
+    codes = [r.status_code for r in codes]
     trusted = "127.0.0.1" in proxies
     # one address: the budget runs out; a trusted proxy's clients: each its own budget
     assert codes.count(429) == (0 if trusted else 5)
@@ -610,8 +611,9 @@ def test_the_server_leaves_x_forwarded_for_to_the_application():
     """uvicorn believes X-Forwarded-For from 127.0.0.1 by default: switched off."""
     from ctrlblocks.web import make_server
 
-    rt = type("R", (), {"config": type("C", (), {"web": None, "name": "x"})(),
-                        "loop_names": lambda self: [], "loops": {}, "on_sample": None})()  # fmt: skip
+    config = type("C", (), {"web": None, "name": "x"})()
+    rt = type("R", (), {"config": config, "loop_names": lambda self: [], "loops": {},
+                        "on_sample": None})()  # fmt: skip
     server = make_server(rt, port=0)
     assert server.config.proxy_headers is False
 

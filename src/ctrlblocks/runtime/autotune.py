@@ -464,8 +464,8 @@ class LiveTuning:
             tunings = block_tunings(tu.loop, proposals[proposal])
             old = self.runtime.command(loop, user=user, tunings=tunings)
         except CommandError as exc:
-            self.runtime.audit(user, "tune-accept", loop=loop, ok=False,
-                               new={"proposal": proposal}, message=str(exc), bound=True)  # fmt: skip
+            self.runtime.audit(user, "tune-accept", loop=loop, ok=False, bound=True,
+                               new={"proposal": proposal}, message=str(exc))  # fmt: skip
             raise
         tu.decision, tu.decided_by, tu.accepted = "accepted", user, proposal
         tu.changed()
