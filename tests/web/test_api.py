@@ -443,3 +443,46 @@ def test_five_failed_logins_lock_the_name_for_a_minute(client):
     rows = [a for a in audit(client) if a["who"] == "alice"]
     assert rows[0]["message"] == "refused: too many failed logins"  # newest first
     assert len(rows) == LOCKOUT_FAILURES + 1
+
+
+# -- the push: only what changed, only the loops on screen ---------------------------------------
+
+
+def test_the_push_sends_only_the_watched_loops_and_only_what_changed(client):
+    from ctrlblocks.web.live import ROW_FIELDS
+
+    with client.websocket_connect("/ws") as ws:
+        hello = ws.receive_json()
+        assert hello["loops"] == ["fast", "level"] and hello["words"]["bad_pv"][0] == "alarm"
+        ws.send_json({"type": "watch", "rows": ["fast"], "plate": None})
+        pushes = [ws.receive_json() for _ in range(12)]
+        ws.send_json({"type": "watch", "rows": [], "plate": "level"})
+        later = [ws.receive_json() for _ in range(12)]
+    # after the watch message: the row of "fast" only (what it had not had yet: its
+    # state words), then only its changes; no samples (no faceplate open)
+    for p in pushes[4:]:  # (the watch message is in by then)
+        assert set(p["loops"]) <= {"fast"} and not p["samples"]
+        assert set(p["loops"].get("fast", {})) <= set(ROW_FIELDS)
+    # the open faceplate: the loop's whole state once, then what changed, and its trend
+    k = next(i for i, p in enumerate(later) if "level" in p["loops"])
+    assert {"tunings", "cycle", "period", "conditions"} <= set(later[k]["loops"]["level"])
+    assert "fast" not in later[k]["loops"]
+    assert any(p["samples"].get("level") for p in later[k:])
+    assert not any(p["samples"].get("fast") for p in later[k:])
+    assert all(len(p["loops"].get("level", {})) < 20 for p in later[k + 1 :])
+
+
+def test_a_view_is_made_once_per_push_period_whoever_watches(client):
+    hub = client.app.state.hub
+    with client.websocket_connect("/ws") as a, client.websocket_connect("/ws") as b:
+        for ws in (a, b):
+            ws.receive_json()
+            ws.send_json({"type": "watch", "rows": ["fast", "level"], "plate": None})
+        for ws in (a, b):
+            ws.receive_json()
+        made = hub.made
+        for _ in range(10):
+            a.receive_json()
+            b.receive_json()
+    # two browsers, two rows, 10 pushes each: at most 2 rows x (10 + 2) periods, not 40
+    assert hub.made - made <= 2 * 12

@@ -373,3 +373,80 @@ def test_an_engineer_runs_a_live_tuning_from_the_panel_and_rejects_it(page: Any)
     wait_message(page, "reject accepted")
     assert page.text_content("#tune-status") == "step test rejected by alice"
     assert rows.first.locator("button").count() == 0  # nothing left to accept
+
+
+def _background(page: Any, selector: str) -> str:
+    return js(page, f"getComputedStyle(document.querySelector({selector!r})).backgroundColor")
+
+
+@pytest.mark.parametrize("size", [(1280, 800), (390, 844)])
+def test_a_loop_in_trouble_shows_its_state_in_words_and_colour(
+    browser: Any, tmp_path: Path, size: tuple[int, int]
+) -> None:
+    """The issue: a loop on its safe value showed green "AUTO", its alarm one technical
+    string, off-screen at phone width.  Now: the mode turns red, the words "bad PV" and
+    "on safe value" stand in the row (and on the faceplate), on a desktop and a phone."""
+    rt = make_runtime(tmp_path)
+    bus = rt.connections["sim"].adapter.bus
+    with running_server(rt, make_users(tmp_path)) as url:
+        p = browser.new_page()
+        p.set_viewport_size({"width": size[0], "height": size[1]})
+        p.set_default_timeout(20_000)
+        try:
+            p.goto(url)
+            p.wait_for_function("() => window.faceplate && window.faceplate.updates > 2")
+            row = "#loops tr[data-loop=fast]"
+            assert p.text_content(f"{row} td.mode") == "AUTO"
+            # all well: green (a loaded machine may stretch a period: amber, a warning)
+            assert _background(p, f"{row} td.mode") in ("rgb(211, 249, 216)", "rgb(255, 243, 191)")
+            assert not js(p, f"document.querySelector({row!r}).classList.contains('alarm')")
+            bus.bad.add("fast.pv")  # the sensor fails: the PID writes its safe value
+            p.wait_for_function(
+                "() => document.querySelector('#loops tr[data-loop=fast]')"
+                ".classList.contains('alarm')"
+            )
+            words = p.locator(f"{row} td.state .st").all_text_contents()
+            assert {"bad PV", "on safe value"} <= set(words)
+            assert p.text_content(f"{row} td.mode") == "AUTO"  # the mode it is in, in red
+            assert _background(p, f"{row} td.mode") == "rgb(255, 227, 227)"
+            assert _background(p, f"{row} td.state .st.alarm") == "rgb(201, 42, 42)"
+            # the words are on the screen, at phone width too, and on the faceplate
+            box = p.locator(f"{row} td.state").bounding_box()
+            assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= size[0]
+            assert js(p, "document.documentElement.scrollWidth") <= size[0]
+            items = p.locator("#plate-alarms li").all_text_contents()
+            assert any(t.startswith("bad PV: PV bad: bad quality") for t in items), items
+            bus.bad.discard("fast.pv")  # back: the words go
+            p.wait_for_function(
+                "() => !document.querySelector('#loops tr[data-loop=fast] td.state')"
+                ".textContent.includes('bad PV')"
+            )
+        finally:
+            p.close()
+
+
+def test_the_time_axis_labels_do_not_overlap(page: Any) -> None:
+    """The issue saw '12/3/26 7:13pm7:14pm': labels drawn into each other."""
+    for window in ("30", "120", "300"):
+        page.select_option("#trend-window", window)
+        page.wait_for_function("() => faceplate.chart.axes[0]._values")
+        boxes = js(
+            page,
+            """(() => {
+                const u = faceplate.chart, ax = u.axes[0];
+                const ctx = document.createElement('canvas').getContext('2d');
+                ctx.font = ax.font[0];
+                return ax._splits.map((v, i) => {
+                  const x = u.valToPos(v, 'x');
+                  const w = Math.max(...String(ax._values[i]).split('\\n')
+                                          .map((l) => ctx.measureText(l).width));
+                  return [x - w / 2, x + w / 2];
+                });
+              })()""",
+        )
+        assert len(boxes) >= 2
+        for (_, right), (left, _) in zip(boxes, boxes[1:], strict=False):
+            assert right < left, (window, boxes)
+    labels = js(page, "faceplate.timeLabels(null, [0, 3600, 90000], 0, 0, 60)")
+    assert labels[0].count("\n") == 1 and "\n" not in labels[1]  # the date once, then per day
+    assert labels[2].count("\n") == 1
