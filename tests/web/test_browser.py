@@ -8,6 +8,7 @@ into the repository.
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from pathlib import Path
@@ -445,7 +446,7 @@ def test_the_time_axis_labels_do_not_overlap(page: Any) -> None:
               })()""",
         )
         assert len(boxes) >= 2
-        for (_, right), (left, _) in zip(boxes, boxes[1:], strict=False):
+        for (_, right), (left, _) in itertools.pairwise(boxes):
             assert right < left, (window, boxes)
     labels = js(page, "faceplate.timeLabels(null, [0, 3600, 90000], 0, 0, 60)")
     assert labels[0].count("\n") == 1 and "\n" not in labels[1]  # the date once, then per day
