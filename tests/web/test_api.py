@@ -486,3 +486,28 @@ def test_a_view_is_made_once_per_push_period_whoever_watches(client):
             b.receive_json()
     # two browsers, two rows, 10 pushes each: at most 2 rows x (10 + 2) periods, not 40
     assert hub.made - made <= 2 * 12
+
+
+def test_a_command_is_confirmed_once_it_is_in_the_retain_file(client):
+    """The 200 comes after the retain file has the new set point (fsync'd)."""
+    import sqlite3
+
+    login(client)
+    r = client.post("/api/loops/fast/command", json={"sp": 1.3})
+    assert r.status_code == 200 and r.json()["retained"] is True
+    path = client.app.state.runtime.retain.path
+    with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as c:
+        (state,) = c.execute("SELECT state FROM loops WHERE name = 'fast'").fetchone()
+    assert json.loads(state)["sp"] == 1.3
+
+
+def test_a_command_that_cannot_be_retained_is_a_503_that_says_so(client, monkeypatch):
+    login(client)
+
+    def full_disk(name, state):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(client.app.state.runtime.retain, "save_loop", full_disk)
+    r = client.post("/api/loops/fast/command", json={"sp": 1.2})
+    assert r.status_code == 503
+    assert "in force but NOT retained" in r.json()["error"]["message"]
