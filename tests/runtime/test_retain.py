@@ -255,7 +255,7 @@ def test_a_command_is_in_the_retain_file_when_execute_returns_and_survives_a_kil
 
     old, on_disk = bounded(first())
     assert old == {"sp": 1.0} and on_disk == 2.5
-    rt2, clock2, _ = runtime(bus, path)
+    rt2, _clock2, _ = runtime(bus, path)
 
     async def second():
         await rt2.start()
