@@ -170,7 +170,8 @@ def test_units_ranges_and_a_trend_axis_that_keeps_the_sp_in_view(page: Any) -> N
     assert page.text_content("#r-manual") == "0 … 5 %"  # the block's limits: no mv_range given
     assert page.text_content("#r-limits") == "within 0 … 5 %"
     assert page.text_content("#tunings tr[data-key=kp] td.range") == "0.1 … 10"
-    assert page.text_content("#tunings tr[data-key=ti] td.range") == "≥ 0"  # from the block
+    # derived from the loop: 0 (no integral) or a tenth of ts = 0.05 s up to 10^4 ts
+    assert page.text_content("#tunings tr[data-key=ti] td.range") == "0 or 0.005 … 500 s"
     # steady state SP = PV = 1 m: the axis shows the SP and at least 5 % of [0, 2] m
     wait_cycles(page, "fast", 5)
     lo, hi = js(page, "[faceplate.chart.scales.y.min, faceplate.chart.scales.y.max]")
