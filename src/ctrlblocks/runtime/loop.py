@@ -449,7 +449,7 @@ class ControlLoop:
               severity="alarm" if blk.error else "info")  # fmt: skip
         lo, hi = float(blk.u_min), float(blk.u_max)
         mv = self.mv
-        at = not manual and is_finite(mv) and (
+        at = not manual and not safe and not held and is_finite(mv) and (
             (math.isfinite(hi) and mv >= hi - 1e-9 * max(1.0, abs(hi)))
             or (math.isfinite(lo) and mv <= lo + 1e-9 * max(1.0, abs(lo))))  # fmt: skip
         c.set("mv_limit", at, f"MV {mv:.6g} at its {'upper' if mv >= hi else 'lower'} limit", t)
