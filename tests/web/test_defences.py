@@ -556,6 +556,7 @@ def test_a_logged_in_users_refusals_are_bounded_like_anonymous_ones(timed, clock
     The issue measured 1.29 GB/day of refused bodies stored from one viewer."""
     app = timed.app
     limit, window = AUDIT_REFUSALS
+    app.state.runtime.refusals.window.clock = lambda: clock.t  # the runtime's, per user
     assert login(timed, user).status_code == 200
     for _ in range(3 * limit):
         clock.t += window / (10 * limit)  # 30 requests in 3/10 of the window, under the rate
@@ -565,7 +566,6 @@ def test_a_logged_in_users_refusals_are_bounded_like_anonymous_ones(timed, clock
     assert len(refused) == limit
     assert all(len(json.dumps(r["new"])) + len(r["message"]) < 1500 for r in refused)
     clock.t += window
-    app.state.runtime.refusals = type(app.state.runtime.refusals)(limit, window, lambda: clock.t)
     timed.post(CMD, json=body)
     assert f"({2 * limit} more not recorded)" in rows(app, "fast")[0]["message"]
 

@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
-__all__ = ["MAX_FIELDS", "MAX_TEXT", "SlidingWindow", "bounded"]
+__all__ = ["MAX_FIELDS", "MAX_TEXT", "RefusalBudget", "SlidingWindow", "bounded"]
 
 MAX_FIELDS = 8
 """Most fields (and list items) a bounded value keeps per level."""
@@ -115,3 +115,27 @@ class SlidingWindow:
 
     def __len__(self) -> int:
         return len(self._events)
+
+
+class RefusalBudget:
+    """At most ``limit`` audit rows of refusals per key and ``window`` seconds (module docstring).
+
+    :meth:`admit` says whether a refusal's row is written, and what its
+    message gets added: the count of the rows left out since the last one.
+    """
+
+    def __init__(
+        self, limit: int, window: float, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        self.window = SlidingWindow(limit, window, clock)
+        self.left: dict[str, int] = {}  # key -> refusals not written since its last row
+
+    def admit(self, key: str) -> str | None:
+        """None: leave this row out (it is counted); else the suffix for its message."""
+        if not self.window.hit(key):
+            self.left[key] = self.left.get(key, 0) + 1
+            if len(self.left) > 10_000:
+                self.left.clear()
+            return None
+        n = self.left.pop(key, 0)
+        return f" ({n} more not recorded)" if n else ""

@@ -66,7 +66,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from .adapters import make_adapter
-from .audit import SlidingWindow, bounded
+from .audit import RefusalBudget, bounded
 from .autotune import LiveTuning
 from .clock import Clock, MonotonicClock
 from .config import RuntimeConfig, RuntimeConfigError, require_packages
@@ -160,8 +160,7 @@ class Runtime:
         self.flush_after_cycle = False
         self._gc_thresholds: tuple[int, int, int] | None = None
         self.stop_failures: dict[str, str] = {}  # loop -> why its stop value was not written
-        self.refusals = SlidingWindow(*AUDIT_REFUSALS)  # refusal rows per user (bounded)
-        self._refusals_left: dict[str, int] = {}  # user -> refusals not written
+        self.refusals = RefusalBudget(*AUDIT_REFUSALS)  # refusal rows per user (bounded)
         self.tuning = LiveTuning(self)  # live auto-tuning of the loops (runtime.autotune)
 
     @property
@@ -625,16 +624,10 @@ class Runtime:
         if self.historian is None:
             return
         if bound and not ok and who not in _SYSTEM:
-            key = who
-            if not self.refusals.hit(key):
-                self._refusals_left[key] = self._refusals_left.get(key, 0) + 1
-                if len(self._refusals_left) > 10_000:
-                    self._refusals_left.clear()
+            suffix = self.refusals.admit(who)
+            if suffix is None:
                 return
-            n = self._refusals_left.pop(key, 0)
-            old, new, message = bounded(old), bounded(new), str(message)[:300]
-            if n:
-                message = f"{message} ({n} more not recorded)"
+            old, new, message = bounded(old), bounded(new), str(message)[:300] + suffix
         try:
             self.historian.audit(who, loop, action, old, new, ok, message)
         except Exception:  # the audit must not break a command

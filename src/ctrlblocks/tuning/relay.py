@@ -42,8 +42,8 @@ last ``cycles`` periods of the cycle:
   correction removes most of the describing-function error; measured on five
   plants (tests/tuning/test_relay.py and docs/tuning.md) the harmonic
   estimate is within 2.4 % (``ku``) and 1.7 % (``pu``), the describing
-  function within 6.1 % and 3.7 % (10b: harmonic -1.1 %/+1.0 %, describing
-  function -6.1 %/+3.1 %).  A hysteresis moves the cycle away from -180 deg
+  function within 6.2 % and 3.7 % (10b: harmonic -1.5 %/+1.1 %, describing
+  function -6.2 %/+3.1 %).  A hysteresis moves the cycle away from -180 deg
   (by ``asin(eps/a)``); the interpolation then has farther to go and is less
   accurate (``eps = 0.16 a``: up to 5 % harmonic, 10-45 % describing
   function), so keep the hysteresis just above the noise band.

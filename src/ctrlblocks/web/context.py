@@ -28,6 +28,7 @@ from fastapi import Request, WebSocket
 from fastapi.responses import JSONResponse
 
 from ..blocks.base import ErrorCode
+from ..runtime.audit import RefusalBudget
 from ..runtime.bounds import LoopBounds
 from ..runtime.historian import SAMPLE_COLUMNS
 from .auth import SessionStore, UserStore
@@ -145,8 +146,7 @@ class Faceplate:
         self.guard = LoginGuard(LOCKOUT_FAILURES, CLIENT_LOGINS, LOCKOUT_SECONDS, clock)
         self.login_rate = SlidingWindow(*LOGIN_REQUESTS, clock)
         self.command_rate = SlidingWindow(*COMMAND_REQUESTS, clock)
-        self.audit_rate = SlidingWindow(*AUDIT_REFUSALS, clock)
-        self.suppressed: dict[str, int] = {}  # client -> refusals not written to the audit trail
+        self.refusals = RefusalBudget(*AUDIT_REFUSALS, clock)  # audit rows per client
         self.hub = LiveHub(runtime, seconds=trend_seconds, period=push_period)
         web_cfg = getattr(runtime.config, "web", None)
         confirm_step = float(getattr(web_cfg, "confirm_step", 0.1))
@@ -204,14 +204,10 @@ class Faceplate:
 
     def audit_refusal(self, client: str, **row: Any) -> None:
         """An audit row of a refused request, at most AUDIT_REFUSALS per client and window."""
-        if not self.audit_rate.hit(client):
-            self.suppressed[client] = self.suppressed.get(client, 0) + 1
-            if len(self.suppressed) > 10_000:
-                self.suppressed.clear()
+        suffix = self.refusals.admit(client)
+        if suffix is None:
             return
-        n = self.suppressed.pop(client, 0)
-        if n:
-            row["message"] = f"{row.get('message', '')} ({n} more not recorded)"
+        row["message"] = f"{row.get('message', '')}{suffix}"
         self.runtime.audit(**row)
 
     async def json_body(self, request: Request) -> dict[str, Any] | JSONResponse:

@@ -89,6 +89,16 @@ async def one_loop(name: str, request: Request) -> Any:
         return fp.unknown_loop(name)
 
 
+async def _history(request: Request, name: str, start: float | None, end: float | None) -> Any:
+    """The loop's historian rows for a logged-in user, or the refusal (login, loop, window)."""
+    fp = faceplate(request)
+    if fp.session_of(request) is None:
+        return fp.not_logged_in()
+    if name not in fp.runtime.loop_names():
+        return fp.unknown_loop(name)
+    return await fp.history_rows(name, start, end)
+
+
 @router.get("/api/loops/{name}/history", response_model=None)
 async def history(
     request: Request,
@@ -98,11 +108,7 @@ async def history(
     max_points: int = 5000,
 ) -> Any:
     fp = faceplate(request)
-    if fp.session_of(request) is None:
-        return fp.not_logged_in()
-    if name not in fp.runtime.loop_names():
-        return fp.unknown_loop(name)
-    rows = await fp.history_rows(name, start, end)
+    rows = await _history(request, name, start, end)
     if isinstance(rows, JSONResponse):
         return rows
     n = len(rows)
@@ -117,11 +123,7 @@ async def history_csv(
     request: Request, name: str, start: float | None = None, end: float | None = None
 ) -> Any:
     fp = faceplate(request)
-    if fp.session_of(request) is None:
-        return fp.not_logged_in()
-    if name not in fp.runtime.loop_names():
-        return fp.unknown_loop(name)
-    rows = await fp.history_rows(name, start, end)
+    rows = await _history(request, name, start, end)
     if isinstance(rows, JSONResponse):
         return rows
     buf = io.StringIO()
