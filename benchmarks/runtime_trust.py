@@ -297,7 +297,8 @@ def plot_slow(samples: list[Any], marks: list[Any], path: Path) -> None:
     ax[2].set_xlabel("time [s]")
     for name, a_, b_ in marks:
         for x in ax:
-            x.axvspan(a_ - t0, b_ - t0, alpha=0.06 if "ms" in name else 0.0, color="k")
+            x.axvspan(a_ - t0, b_ - t0, alpha=0.08 if name in ("300 ms", "600 ms") else 0.0,
+                      color="k")
         ax[0].text((a_ + b_) / 2 - t0, ax[0].get_ylim()[1], name, ha="center", va="top")
     for x in ax:
         x.legend(loc="upper right", fontsize=8)
@@ -568,6 +569,20 @@ def browsers(a: argparse.Namespace) -> dict[str, Any]:
         last[s.loop] = s.t
 
     rt = Runtime(parse_config(text), adapters={"io": MemoryAdapter(bus)}, on_sample=on_sample)
+    # the event loop's time in making the pushes (the views, the diffs, the JSON)
+    from ctrlblocks.web.routes import push
+
+    push_cost: list[float] = []
+    update = push._Client.update
+
+    def timed_update(self, hub):
+        t = time.perf_counter()
+        msg = update(self, hub)
+        json.dumps(msg)  # what the route does with it next (its own dumps, the same cost)
+        push_cost.append(time.perf_counter() - t)
+        return msg
+
+    push._Client.update = timed_update  # type: ignore[method-assign]
     sock = bind_socket("127.0.0.1", 0)
     port = sock.getsockname()[1]
     server = make_server(rt, port=port, users=UserStore(None))
@@ -594,6 +609,7 @@ def browsers(a: argparse.Namespace) -> dict[str, Any]:
                     pg.wait_for_function("() => window.faceplate && window.faceplate.updates > 5")
                     pages.append(pg)
                 time.sleep(3.0)
+                push_cost.clear()
                 t0 = time.monotonic()
                 bytes0 = sum(pg.evaluate("() => window.faceplate.updates") for pg in pages)
                 end = t0 + a.duration
@@ -611,6 +627,11 @@ def browsers(a: argparse.Namespace) -> dict[str, Any]:
                     "max_ms": round(1e3 * float(ps.max()), 1),
                     "pushes_received": int(pushes),
                     "views_made": int(server.config.app.state.hub.made),
+                    "push_ms_median": round(1e3 * float(np.median(push_cost)), 3)
+                    if push_cost else 0.0,
+                    "push_ms_p99": round(1e3 * float(np.percentile(push_cost, 99)), 3)
+                    if push_cost else 0.0,
+                    "load_average": round(os.getloadavg()[0], 1),
                 }
             br.close()
     finally:

@@ -212,7 +212,7 @@ function onUpdate(msg) {
     while (cut < d.t.length && d.t[cut] < tmin) cut++;
     if (cut > 0) for (const k of Object.keys(d)) d[k].splice(0, cut);
   }
-  renderTable(Object.keys(msg.loops));
+  renderTable(msg.loops);
   if (S.selected && msg.loops[S.selected]) renderPlate();
   else if (S.selected && msg.samples[S.selected]) updateChart();
 }
@@ -278,22 +278,26 @@ function buildTable() {
   }
 }
 
-function renderTable(names) {
+// the rows of the loops in ``diffs`` (name -> the fields that changed; all rows without it):
+// only the cells whose fields changed are touched
+function renderTable(diffs) {
   const tbody = $("loops").tBodies[0];
-  for (const name of names || S.order) {
+  for (const name of diffs ? Object.keys(diffs) : S.order) {
     const st = S.states[name];
     const tr = tbody.querySelector(`tr[data-loop="${CSS.escape(name)}"]`);
     if (!st || !tr) continue;
-    tr.classList.toggle("selected", name === S.selected);
-    const w = worst(st);
-    tr.classList.toggle("alarm", w === "alarm");
-    tr.classList.toggle("warning", w === "warning");
-    if (st.block) tr.querySelector(".block").textContent = st.block;
-    modeBadge(tr.querySelector(".mode"), st);
-    stateBadges(tr.querySelector(".state"), st);
-    tr.querySelector(".sp").textContent = withUnit(st.sp, "sp", name);
-    tr.querySelector(".pv").textContent = withUnit(st.pv, "pv", name);
-    tr.querySelector(".mv").textContent = withUnit(st.mv, "mv", name);
+    const d = diffs ? diffs[name] : st;
+    if ("conditions" in d || "mode" in d) {
+      const w = worst(st);
+      tr.classList.toggle("alarm", w === "alarm");
+      tr.classList.toggle("warning", w === "warning");
+      modeBadge(tr.querySelector(".mode"), st);
+      stateBadges(tr.querySelector(".state"), st);
+    }
+    if ("block" in d) tr.querySelector(".block").textContent = st.block;
+    for (const sig of ["sp", "pv", "mv"]) {
+      if (sig in d) tr.querySelector("." + sig).textContent = withUnit(st[sig], sig, name);
+    }
   }
 }
 
