@@ -241,7 +241,8 @@ def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
         }
 
     def loop_alarms(r: random.Random) -> dict[str, Any]:
-        lims = zip(("ll", "l", "h", "hh"), sorted(r.uniform(-100, 100) for _ in range(4)), strict=True)
+        values = sorted(r.uniform(-100, 100) for _ in range(4))
+        lims = zip(("ll", "l", "h", "hh"), values, strict=True)
         return {
             **{k: _maybe(r, 0.7, v, None) for k, v in lims},
             "dev": _maybe(r, 0.6, _lu(r, 1e-2, 1e2), None),
