@@ -35,7 +35,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import figures as fg
+from .figures import (
+    HarrisResult,
+    HorchResult,
+    OscillationResult,
+    ServiceFactors,
+    ValveWear,
+    harris_index,
+    horch_stiction,
+    oscillation,
+    service_factors,
+    setpoint_steps,
+    valve_wear,
+)
 
 __all__ = ["AssessOptions", "Assessment", "Finding", "LoopData", "Model", "assess", "normal_mode"]
 
@@ -183,11 +195,11 @@ class Assessment:
     loop: str
     start: float
     end: float
-    service: fg.ServiceFactors
-    wear: fg.ValveWear
-    osc: fg.OscillationResult
-    harris: fg.HarrisResult
-    horch: fg.HorchResult | None
+    service: ServiceFactors
+    wear: ValveWear
+    osc: OscillationResult
+    harris: HarrisResult
+    horch: HorchResult | None
     drift: dict[str, Any]
     findings: list[Finding]
     notes: list[str]
@@ -273,7 +285,7 @@ def assess(data: LoopData, options: AssessOptions | None = None) -> Assessment:
         findings.append(Finding(kind, data.name, a, b, message, figs))
 
     # -- service factors --------------------------------------------------------------
-    sf = fg.service_factors(t, u, data.mode, data.pv_ok, o.u_min, o.u_max)
+    sf = service_factors(t, u, data.mode, data.pv_ok, o.u_min, o.u_max)
     if sf.limits_from_data:
         notes.append("MV limits not given: the record's extremes were taken "
                      f"({sf.u_min:.4g} .. {sf.u_max:.4g}); give --u-min/--u-max")  # fmt: skip
@@ -290,7 +302,7 @@ def assess(data: LoopData, options: AssessOptions | None = None) -> Assessment:
 
     # -- valve wear ---------------------------------------------------------------------
     span_u = sf.u_max - sf.u_min if sf.u_max > sf.u_min else 1.0
-    wear = fg.valve_wear(t, u, o.reversal_deadband * span_u)
+    wear = valve_wear(t, u, o.reversal_deadband * span_u)
     if wear.reversals_per_hour > o.max_reversals_per_hour:
         find("valve_wear", f"{wear.reversals_per_hour:.0f} MV reversals per hour "
              f"(travel {wear.travel_per_hour:.4g} per hour)",
@@ -302,7 +314,7 @@ def assess(data: LoopData, options: AssessOptions | None = None) -> Assessment:
     tu = _ultimate_period(o, h, notes)
     a = o.osc_amplitude * _pv_span(o, sp, y, notes)
     e = sp - y
-    osc = fg.oscillation(t, e, a, tu, active=auto)
+    osc = oscillation(t, e, a, tu, active=auto)
     horch = None
     if osc.detected:
         sp0, sp1 = osc.spans[0][0], osc.spans[-1][1]
@@ -311,7 +323,7 @@ def assess(data: LoopData, options: AssessOptions | None = None) -> Assessment:
              {"period_s": osc.period, "amplitude": osc.amplitude, "loads": osc.loads,
               "time_fraction": osc.fraction}, (sp0, sp1))  # fmt: skip
         k = (t >= sp0) & (t <= sp1) & auto
-        horch = fg.horch_stiction(u[k], y[k], h, osc.period)
+        horch = horch_stiction(u[k], y[k], h, osc.period)
         if horch.verdict == "stiction":
             find("stiction", "the oscillation looks like valve stiction (Horch 1999: odd "
                  f"cross-correlation of MV and PV, asymmetry {horch.asymmetry:+.2f})",
@@ -321,7 +333,7 @@ def assess(data: LoopData, options: AssessOptions | None = None) -> Assessment:
     # -- minimum-variance benchmark (Harris 1989) ----------------------------------------
     delay = _delay_samples(o, h, notes)
     e_auto = np.where(auto, y - sp, np.nan)
-    harris = fg.harris_index(_longest_run(e_auto), delay, o.harris_order)
+    harris = harris_index(_longest_run(e_auto), delay, o.harris_order)
     if math.isfinite(harris.index) and harris.index < o.min_harris and not osc.detected:
         find("performance", f"Harris index {harris.index:.3f}: the error variance is "
              f"{1 / harris.index:.0f} times the minimum variance (Harris 1989)",
@@ -410,7 +422,7 @@ def _model_drift(
     m = o.model
     noise = _noise_level(y[auto])
     span = _pv_span(dataclasses.replace(o), sp, y, [])
-    steps = fg.setpoint_steps(t, sp, max(5.0 * noise, 0.002 * span))
+    steps = setpoint_steps(t, sp, max(5.0 * noise, 0.002 * span))
     lo, hi = (o.u_min, o.u_max) if o.u_min is not None and o.u_max is not None else (
         np.nanmin(u), np.nanmax(u))
     tol = 0.002 * (hi - lo)

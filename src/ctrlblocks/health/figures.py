@@ -89,8 +89,8 @@ def service_factors(
     A sample is *at a limit* when ``u`` lies within ``tol`` (a fraction of
     ``u_max - u_min``) of it.  Without given limits the record's own extremes
     are taken and a sample counts only while ``u`` also stays there (``|du| <=
-    tol`` span): a loop pinned at a limit holds the same MV, a healthy loop
-    only touches its extremes.  Each sample weighs its hold time
+    tol`` span from a neighbour): a loop pinned at a limit holds the same MV, a
+    healthy loop only touches its extremes.  Each sample weighs its hold time
     (:func:`hold_times`).
     """
     w = hold_times(t)
@@ -103,8 +103,8 @@ def service_factors(
     at_lo = ok_u & (u <= lo + tol * span)
     at_hi = ok_u & (u >= hi - tol * span)
     if from_data:
-        still = np.append(np.abs(np.diff(u)) <= tol * span, True)
-        still = still & np.append(True, still[:-1])
+        flat = np.abs(np.diff(u)) <= tol * span  # u[i+1] ~ u[i]
+        still = np.append(flat, False) | np.append(False, flat)  # in a run of >= 2 samples
         at_lo &= still
         at_hi &= still
     modes: dict[str, float] = {}
