@@ -1,7 +1,7 @@
 """The fault campaign: each injected fault is found, healthy loops raise no finding.
 
 The default run assesses two loops of each kind; the campaign of docs/health.md
-(``-m slow``) 60 of each, 360 loops, and checks the rates stated there.
+(``-m slow``) 50 of each, 300 loops, and checks the rates stated there.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ def test_a_fault_case_is_reproducible_from_its_seed() -> None:
 
 @pytest.mark.slow
 def test_campaign_rates_of_docs_health() -> None:
-    res = campaign(range(60))
+    res = campaign(range(50))
     for kind in KINDS:
         print(kind, res.loops[kind], res.detected[kind], res.any_finding[kind], res.findings[kind])
     assert res.rate("healthy") <= 0.02

@@ -101,7 +101,8 @@ class LoopData:
         if not (self.sp.size == self.y.size == self.u.size == n):
             raise ValueError("t, sp, y and u must have the same length")
         if self.mode is not None:
-            self.mode = [normal_mode(m) for m in self.mode]
+            names = {m: normal_mode(m) for m in set(self.mode)}
+            self.mode = [names[m] for m in self.mode]
             if len(self.mode) != n:
                 raise ValueError("mode must have one value per sample")
         ok = np.isfinite(self.y)
@@ -440,6 +441,8 @@ def _model_drift(
             continue  # a saturated MV says nothing of the process
         segs.append((abs(float(sp[k] - sp[k - 1])), a, b))
     out: dict[str, Any] = {"steps": len(steps), "segments": 0, "drifted": False}
+    if o.drift_segments <= 0:
+        return out
     if not segs:
         if m is not None:
             notes.append("no set-point step with a settled response in AUTO: model drift "

@@ -1,6 +1,6 @@
 """A control valve with stiction: Choudhury et al.'s two-parameter data-driven model.
 
-Choudhury, Thornhill and Shah (2005) describe a sticky valve by two numbers, in % of
+Choudhury et al. (2005) describe a sticky valve by two numbers, in % of
 the valve span: ``S``, the deadband plus the stickband, and ``J``, the slip jump.
 While the valve moves, its position follows the controller output ``x`` with the
 offset of half the dead zone::
