@@ -56,18 +56,23 @@ def campaign(seeds: int, jobs: int) -> dict:
         for f in found:
             for x in f:
                 counts[x] = counts.get(x, 0) + 1
-        out["kinds"][kind] = {"loops": len(found), "hits": hits, "findings": counts,
-                              "missed": [s for k, s, f in rows if k == kind and exp and exp not in f],
-                              "false": [s for k, s, f in rows if k == kind and not exp and f]}
+        out["kinds"][kind] = {
+            "loops": len(found),
+            "hits": hits,
+            "findings": counts,
+            "missed": [s for k, s, f in rows if k == kind and exp and exp not in f],
+            "false": [s for k, s, f in rows if k == kind and not exp and f],
+        }
     return out
 
 
 def offline(loops: int, jobs: int) -> dict:
-    from ctrlblocks.runtime.historian import SQLiteHistorian  # noqa: F401  (the file format)
     import sqlite3
 
+    from ctrlblocks.runtime.historian import SQLiteHistorian  # noqa: F401  (the file format)
+
     n = 86400
-    rng = np.random.default_rng(1)
+    np.random.default_rng(1)
     with tempfile.TemporaryDirectory() as d:
         db = Path(d) / "day.sqlite"
         con = sqlite3.connect(db)
@@ -79,28 +84,67 @@ def offline(loops: int, jobs: int) -> dict:
             "INTEGER, PRIMARY KEY (run_id, cycle, loop)); CREATE INDEX samples_loop_time ON "
             "samples (loop, t_wall); CREATE TABLE audit (id INTEGER PRIMARY KEY AUTOINCREMENT, "
             "t_wall REAL NOT NULL, who TEXT, loop TEXT, action TEXT, old TEXT, new TEXT, ok "
-            "INTEGER, message TEXT);")
+            "INTEGER, message TEXT);"
+        )
         con.execute("INSERT INTO runs VALUES (1, 0, NULL, 'bench')")
         t0 = 1.7e9
         kinds = KINDS
         for j in range(loops):
             c = simulate(kinds[j % len(kinds)], j, hours=24.0)
             dd = c.data
-            rows = ((1, f"loop{j:03d}", i, t0 + dd.t[i], dd.t[i], 1.0, dd.sp[i], dd.y[i], dd.u[i],
-                     dd.mode[i].lower(), 0, 1, 1, 0) for i in range(n))
+            rows = (
+                (
+                    1,
+                    f"loop{j:03d}",
+                    i,
+                    t0 + dd.t[i],
+                    dd.t[i],
+                    1.0,
+                    dd.sp[i],
+                    dd.y[i],
+                    dd.u[i],
+                    dd.mode[i].lower(),
+                    0,
+                    1,
+                    1,
+                    0,
+                )
+                for i in range(n)
+            )
             con.executemany("INSERT INTO samples VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)", rows)
             print(f"  wrote loop {j + 1}/{loops}", file=sys.stderr, flush=True)
         con.commit()
         con.close()
-        cmd = [sys.executable, "-m", "ctrlblocks.cli", "assess", str(db), "--jobs", str(jobs),
-               "--out", str(Path(d) / "out"), "--u-min", "0", "--u-max", "100", "--pv-span", "100",
-               "--json"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "ctrlblocks.cli",
+            "assess",
+            str(db),
+            "--jobs",
+            str(jobs),
+            "--out",
+            str(Path(d) / "out"),
+            "--u-min",
+            "0",
+            "--u-max",
+            "100",
+            "--pv-span",
+            "100",
+            "--json",
+        ]
         t = time.perf_counter()
         p = subprocess.run(cmd, capture_output=True, text=True, check=True)
         wall = time.perf_counter() - t
         found = json.loads(p.stdout)["findings"]
-    return {"loops": loops, "samples_per_loop": n, "jobs": jobs, "wall_s": wall,
-            "findings": len(found), "cpus": os.cpu_count()}
+    return {
+        "loops": loops,
+        "samples_per_loop": n,
+        "jobs": jobs,
+        "wall_s": wall,
+        "findings": len(found),
+        "cpus": os.cpu_count(),
+    }
 
 
 def live(loops: int) -> dict:
@@ -110,7 +154,9 @@ def live(loops: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("what", choices=("campaign", "offline", "live"))
     ap.add_argument("--seeds", type=int, default=60)
     ap.add_argument("--loops", type=int, default=None)

@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from ctrlblocks.health.faults import EXPECTED, KINDS, campaign, simulate
-from ctrlblocks.health.faults import assess_case
+from ctrlblocks.health.faults import EXPECTED, KINDS, assess_case, campaign, simulate
 
 
 @pytest.mark.parametrize("kind", KINDS)

@@ -105,7 +105,9 @@ def test_horch_says_even_for_opposed_signals_and_odd_for_a_quarter_period() -> N
     y = np.sin(2 * np.pi * t / period)
     even = fg.horch_stiction(-y, y, h, period)
     assert even.verdict == "no stiction" and abs(even.asymmetry) < 0.05
-    assert even.tau_r == pytest.approx(period / 4, abs=h) and even.tau_l == pytest.approx(-period / 4, abs=h)
+    assert even.tau_r == pytest.approx(period / 4, abs=h) and even.tau_l == pytest.approx(
+        -period / 4, abs=h
+    )
     # a triangle (the integral of a square wave) against the square wave: 90 deg apart
     sq = np.sign(np.sin(2 * np.pi * t / period))
     tri = -np.cumsum(sq) * h

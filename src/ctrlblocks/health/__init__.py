@@ -12,6 +12,6 @@ The alarm blocks are blocks (:mod:`ctrlblocks.blocks.alarms`).  See docs/health.
 
 from __future__ import annotations
 
-from .assess import AssessOptions, Assessment, Finding, LoopData, Model, assess
+from .assess import Assessment, AssessOptions, Finding, LoopData, Model, assess
 
 __all__ = ["AssessOptions", "Assessment", "Finding", "LoopData", "Model", "assess"]

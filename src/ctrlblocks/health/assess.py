@@ -53,12 +53,21 @@ __all__ = ["AssessOptions", "Assessment", "Finding", "LoopData", "Model", "asses
 
 Array = NDArray[np.float64]
 
-_MODE_NAMES = {"0": "AUTO", "1": "MANUAL", "2": "TRACK", "3": "HOLD", "4": "RESET",
-               "MAN": "MANUAL", "A": "AUTO", "M": "MANUAL", "CAS": "AUTO"}  # fmt: skip
+_MODE_NAMES = {
+    "0": "AUTO",
+    "1": "MANUAL",
+    "2": "TRACK",
+    "3": "HOLD",
+    "4": "RESET",
+    "MAN": "MANUAL",
+    "A": "AUTO",
+    "M": "MANUAL",
+    "CAS": "AUTO",
+}
 
 
 def normal_mode(value: Any) -> str:
-    """A mode as recorded (``"auto"``, ``"manual"``, 0/1, ``"MAN"``) -> ``"AUTO"``, ``"MANUAL"``, ...
+    """A mode as recorded (``"auto"``, ``"manual"``, 0/1, ``"MAN"``) -> ``"AUTO"``, ``"MANUAL"``.
 
     Numbers follow :class:`ctrlblocks.Mode` (0 AUTO, 1 MANUAL, 2 TRACK, 3 HOLD,
     4 RESET); a cascade (``CAS``) counts as AUTO.
@@ -122,10 +131,13 @@ class LoopData:
             k &= self.t >= start
         if end is not None:
             k &= self.t <= end
-        mode = None if self.mode is None else [m for m, keep in zip(self.mode, k, strict=True) if keep]
+        mode = (
+            None if self.mode is None else [m for m, keep in zip(self.mode, k, strict=True) if keep]
+        )
         assert self.pv_ok is not None
-        return LoopData(self.t[k], self.sp[k], self.y[k], self.u[k], mode, self.pv_ok[k],
-                        self.name, self.start)  # fmt: skip
+        return LoopData(
+            self.t[k], self.sp[k], self.y[k], self.u[k], mode, self.pv_ok[k], self.name, self.start
+        )
 
 
 @dataclass
@@ -185,8 +197,14 @@ class Finding:
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready (no NaN: null)."""
-        return {"kind": self.kind, "loop": self.loop, "start": self.start, "end": self.end,
-                "message": self.message, "figures": _clean(self.figures)}  # fmt: skip
+        return {
+            "kind": self.kind,
+            "loop": self.loop,
+            "start": self.start,
+            "end": self.end,
+            "message": self.message,
+            "figures": _clean(self.figures),
+        }
 
 
 @dataclass
@@ -242,9 +260,14 @@ class Assessment:
 
     def as_dict(self) -> dict[str, Any]:
         """The loop's summary: figures, findings, notes."""
-        return {"loop": self.loop, "start": self.start, "end": self.end,
-                "figures": self.figures(), "findings": [f.as_dict() for f in self.findings],
-                "notes": list(self.notes)}  # fmt: skip
+        return {
+            "loop": self.loop,
+            "start": self.start,
+            "end": self.end,
+            "figures": self.figures(),
+            "findings": [f.as_dict() for f in self.findings],
+            "notes": list(self.notes),
+        }
 
 
 def _clean(d: Any) -> Any:
@@ -280,35 +303,51 @@ def assess(data: LoopData, options: AssessOptions | None = None) -> Assessment:
     t0, t1 = float(t[0]), float(t[-1])
     findings: list[Finding] = []
 
-    def find(kind: str, message: str, figs: dict[str, Any], span: tuple[float, float] | None = None
-             ) -> None:  # fmt: skip
+    def find(
+        kind: str, message: str, figs: dict[str, Any], span: tuple[float, float] | None = None
+    ) -> None:
         a, b = span or (t0, t1)
         findings.append(Finding(kind, data.name, a, b, message, figs))
 
     # -- service factors --------------------------------------------------------------
     sf = service_factors(t, u, data.mode, data.pv_ok, o.u_min, o.u_max)
     if sf.limits_from_data:
-        notes.append("MV limits not given: the record's extremes were taken "
-                     f"({sf.u_min:.4g} .. {sf.u_max:.4g}); give --u-min/--u-max")  # fmt: skip
+        notes.append(
+            "MV limits not given: the record's extremes were taken "
+            f"({sf.u_min:.4g} .. {sf.u_max:.4g}); give --u-min/--u-max"
+        )
     not_auto = 1.0 - sf.modes.get("AUTO", 0.0)
     if not_auto > o.max_manual:
-        find("manual", f"{100 * not_auto:.1f} % of the time not in AUTO",
-             {"time_not_auto": not_auto, "time_in_mode": sf.modes})  # fmt: skip
+        find(
+            "manual",
+            f"{100 * not_auto:.1f} % of the time not in AUTO",
+            {"time_not_auto": not_auto, "time_in_mode": sf.modes},
+        )
     for side, frac, lim in (("low", sf.at_low, sf.u_min), ("high", sf.at_high, sf.u_max)):
         if frac > o.max_saturated:
-            find("saturation", f"MV at its {side} limit {lim:.4g} for {100 * frac:.1f} % of the time",
-                 {"limit": side, "u_limit": lim, "time_at_limit": frac})  # fmt: skip
+            find(
+                "saturation",
+                f"MV at its {side} limit {lim:.4g} for {100 * frac:.1f} % of the time",
+                {"limit": side, "u_limit": lim, "time_at_limit": frac},
+            )
     if sf.bad_pv > o.max_bad_pv:
-        find("bad_pv", f"PV bad for {100 * sf.bad_pv:.1f} % of the time", {"time_bad_pv": sf.bad_pv})
+        find(
+            "bad_pv", f"PV bad for {100 * sf.bad_pv:.1f} % of the time", {"time_bad_pv": sf.bad_pv}
+        )
 
     # -- valve wear ---------------------------------------------------------------------
     span_u = sf.u_max - sf.u_min if sf.u_max > sf.u_min else 1.0
     wear = valve_wear(t, u, o.reversal_deadband * span_u)
     if wear.reversals_per_hour > o.max_reversals_per_hour:
-        find("valve_wear", f"{wear.reversals_per_hour:.0f} MV reversals per hour "
-             f"(travel {wear.travel_per_hour:.4g} per hour)",
-             {"reversals_per_hour": wear.reversals_per_hour,
-              "travel_per_hour": wear.travel_per_hour})  # fmt: skip
+        find(
+            "valve_wear",
+            f"{wear.reversals_per_hour:.0f} MV reversals per hour "
+            f"(travel {wear.travel_per_hour:.4g} per hour)",
+            {
+                "reversals_per_hour": wear.reversals_per_hour,
+                "travel_per_hour": wear.travel_per_hour,
+            },
+        )
 
     # -- oscillation (Hägglund 1995) -----------------------------------------------------
     auto = data.auto & data.pv_ok
@@ -319,37 +358,66 @@ def assess(data: LoopData, options: AssessOptions | None = None) -> Assessment:
     horch = None
     if osc.detected:
         sp0, sp1 = osc.spans[0][0], osc.spans[-1][1]
-        find("oscillation", f"oscillation of period {osc.period:.3g} s and amplitude "
-             f"{osc.amplitude:.3g} (Hägglund 1995) during {100 * osc.fraction:.0f} % of the time",
-             {"period_s": osc.period, "amplitude": osc.amplitude, "loads": osc.loads,
-              "time_fraction": osc.fraction}, (sp0, sp1))  # fmt: skip
+        find(
+            "oscillation",
+            f"oscillation of period {osc.period:.3g} s and amplitude "
+            f"{osc.amplitude:.3g} (Hägglund 1995) during {100 * osc.fraction:.0f} % of the time",
+            {
+                "period_s": osc.period,
+                "amplitude": osc.amplitude,
+                "loads": osc.loads,
+                "time_fraction": osc.fraction,
+            },
+            (sp0, sp1),
+        )
         k = (t >= sp0) & (t <= sp1) & auto
         horch = horch_stiction(u[k], y[k], h, osc.period)
         if horch.verdict == "stiction":
-            find("stiction", "the oscillation looks like valve stiction (Horch 1999: odd "
-                 f"cross-correlation of MV and PV, asymmetry {horch.asymmetry:+.2f})",
-                 {"ccf_asymmetry": horch.asymmetry, "tau_l_s": horch.tau_l,
-                  "tau_r_s": horch.tau_r}, (sp0, sp1))  # fmt: skip
+            find(
+                "stiction",
+                "the oscillation looks like valve stiction (Horch 1999: odd "
+                f"cross-correlation of MV and PV, asymmetry {horch.asymmetry:+.2f})",
+                {"ccf_asymmetry": horch.asymmetry, "tau_l_s": horch.tau_l, "tau_r_s": horch.tau_r},
+                (sp0, sp1),
+            )
 
     # -- minimum-variance benchmark (Harris 1989) ----------------------------------------
     delay = _delay_samples(o, h, notes)
     e_auto = np.where(auto, y - sp, np.nan)
     harris = harris_index(_longest_run(e_auto), delay, o.harris_order)
     if math.isfinite(harris.index) and harris.index < o.min_harris and not osc.detected:
-        find("performance", f"Harris index {harris.index:.3f}: the error variance is "
-             f"{1 / harris.index:.0f} times the minimum variance (Harris 1989)",
-             {"harris_index": harris.index, "delay_samples": delay})  # fmt: skip
+        find(
+            "performance",
+            f"Harris index {harris.index:.3f}: the error variance is "
+            f"{1 / harris.index:.0f} times the minimum variance (Harris 1989)",
+            {"harris_index": harris.index, "delay_samples": delay},
+        )
 
     # -- model drift -----------------------------------------------------------------------
     drift = _model_drift(data, o, h, auto, notes)
     if drift.get("drifted"):
         m = o.model
         assert m is not None
-        find("model_drift", drift["message"],
-             {k: drift[k] for k in ("gain", "time_constant", "dead_time", "gain_change",
-                                    "time_constant_change", "dead_time_change", "segments")},
-             (drift["start"], drift["end"]))  # fmt: skip
-    return Assessment(data.name, t0, t1, sf, wear, osc, harris, horch, drift, findings, notes, tu, a)
+        find(
+            "model_drift",
+            drift["message"],
+            {
+                k: drift[k]
+                for k in (
+                    "gain",
+                    "time_constant",
+                    "dead_time",
+                    "gain_change",
+                    "time_constant_change",
+                    "dead_time_change",
+                    "segments",
+                )
+            },
+            (drift["start"], drift["end"]),
+        )
+    return Assessment(
+        data.name, t0, t1, sf, wear, osc, harris, horch, drift, findings, notes, tu, a
+    )
 
 
 def _ultimate_period(o: AssessOptions, h: float, notes: list[str]) -> float:
@@ -361,7 +429,9 @@ def _ultimate_period(o: AssessOptions, h: float, notes: list[str]) -> float:
     if o.model is not None:
         notes.append("no integral time: the ultimate period is the model's (phase crossover)")
         return ultimate_period(o.model)
-    notes.append("no Ti, Tu or model: the ultimate period is taken as 60 samples; give --ti or --tu")
+    notes.append(
+        "no Ti, Tu or model: the ultimate period is taken as 60 samples; give --ti or --tu"
+    )
     return 60.0 * h
 
 
@@ -397,7 +467,7 @@ def _delay_samples(o: AssessOptions, h: float, notes: list[str]) -> int:
     if L is None:
         notes.append("no dead time: Harris' benchmark uses 1 sample; give --dead-time or a model")
         return 1
-    return 1 + int(math.floor(L / h + 1e-9))
+    return 1 + math.floor(L / h + 1e-9)
 
 
 def _longest_run(x: Array) -> Array:
@@ -424,8 +494,11 @@ def _model_drift(
     noise = _noise_level(y[auto])
     span = _pv_span(dataclasses.replace(o), sp, y, [])
     steps = setpoint_steps(t, sp, max(5.0 * noise, 0.002 * span))
-    lo, hi = (o.u_min, o.u_max) if o.u_min is not None and o.u_max is not None else (
-        np.nanmin(u), np.nanmax(u))
+    lo, hi = (
+        (o.u_min, o.u_max)
+        if o.u_min is not None and o.u_max is not None
+        else (np.nanmin(u), np.nanmax(u))
+    )
     tol = 0.002 * (hi - lo)
     at_limit = (u <= lo + tol) | (u >= hi - tol)
     settle = 8.0 * (m.time_constant + m.dead_time) if m else 600.0
@@ -445,8 +518,10 @@ def _model_drift(
         return out
     if not segs:
         if m is not None:
-            notes.append("no set-point step with a settled response in AUTO: model drift "
-                         "not assessed (needs excitation)")  # fmt: skip
+            notes.append(
+                "no set-point step with a settled response in AUTO: model drift "
+                "not assessed (needs excitation)"
+            )
         return out
     segs.sort(reverse=True)
     fits = []
@@ -485,7 +560,8 @@ def _model_drift(
     if bad:
         out["drifted"] = True
         out["message"] = (
-            "the process has drifted from the tuning's model: " + ", ".join(bad)
+            "the process has drifted from the tuning's model: "
+            + ", ".join(bad)
             + f" (closed-loop re-identification at {len(fits)} set-point step(s)); check the "
             f"tuning on it: ctrlblocks tune pid --gain {k:.4g} --time-constant {tc:.4g} "
             f"--dead-time {lt:.4g}, or ctrlblocks compare on the step's record"

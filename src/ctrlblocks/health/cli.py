@@ -65,17 +65,35 @@ def _is_sqlite(path: Path) -> bool:
 @click.option("--y", "y_col", help="CSV: name of the PV column.")
 @click.option("--u", "u_col", help="CSV: name of the MV column.")
 @click.option("--mode", "mode_col", help="CSV: name of the mode column (AUTO/MAN or 0/1).")
-@click.option("--delimiter", type=click.Choice([",", ";", "tab"]), default=None,
-              help="CSV: column delimiter (default: detected).")  # fmt: skip
-@click.option("--decimal", type=click.Choice([".", ","]), default=None,
-              help="CSV: decimal mark (default: detected).")  # fmt: skip
+@click.option(
+    "--delimiter",
+    type=click.Choice([",", ";", "tab"]),
+    default=None,
+    help="CSV: column delimiter (default: detected).",
+)
+@click.option(
+    "--decimal",
+    type=click.Choice([".", ","]),
+    default=None,
+    help="CSV: decimal mark (default: detected).",
+)
 @click.option("--encoding", default=None, help="CSV: text encoding (as for identify).")
-@click.option("--out", "out_dir", default="assess", show_default=True,
-              help="Folder of report.md and the PNGs.")  # fmt: skip
+@click.option(
+    "--out",
+    "out_dir",
+    default="assess",
+    show_default=True,
+    help="Folder of report.md and the PNGs.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary of the findings.")
 @click.option("--no-plots", is_flag=True, help="Write the report without PNGs.")
-@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
-              help="Loops assessed in parallel (processes).")  # fmt: skip
+@click.option(
+    "--jobs",
+    type=click.IntRange(1, 64),
+    default=1,
+    show_default=True,
+    help="Loops assessed in parallel (processes).",
+)
 @click.option("--u-min", type=float, help="MV low limit (default: the record's minimum).")
 @click.option("--u-max", type=float, help="MV high limit (default: the record's maximum).")
 @click.option("--pv-span", type=float, help="PV range [PV units] (Hägglund's a = 1 % of it).")
@@ -85,13 +103,31 @@ def _is_sqlite(path: Path) -> bool:
 @click.option("--gain", type=float, help="The tuning's model: gain [PV unit / MV unit].")
 @click.option("--time-constant", type=float, help="The tuning's model: time constant [s].")
 def assess_command(
-    history: str, loops: tuple[str, ...], start: str | None, end: str | None,
-    time_col: str | None, sp_col: str | None, y_col: str | None, u_col: str | None,
-    mode_col: str | None, delimiter: str | None, decimal: str | None, encoding: str | None,
-    out_dir: str, as_json: bool, no_plots: bool, jobs: int, u_min: float | None,
-    u_max: float | None, pv_span: float | None, ti: float | None, tu: float | None,
-    dead_time: float | None, gain: float | None, time_constant: float | None,
-) -> None:  # fmt: skip
+    history: str,
+    loops: tuple[str, ...],
+    start: str | None,
+    end: str | None,
+    time_col: str | None,
+    sp_col: str | None,
+    y_col: str | None,
+    u_col: str | None,
+    mode_col: str | None,
+    delimiter: str | None,
+    decimal: str | None,
+    encoding: str | None,
+    out_dir: str,
+    as_json: bool,
+    no_plots: bool,
+    jobs: int,
+    u_min: float | None,
+    u_max: float | None,
+    pv_span: float | None,
+    ti: float | None,
+    tu: float | None,
+    dead_time: float | None,
+    gain: float | None,
+    time_constant: float | None,
+) -> None:
     """Assess the performance of loops from a historian file or a CSV; write a report.
 
     HISTORY is the runtime's historian (SQLite file) or a CSV with a header row
@@ -119,19 +155,37 @@ def assess_command(
             _fail(f"{name} must be > 0, got {v:g}")
     if u_min is not None and u_max is not None and not u_min < u_max:
         _fail(f"--u-min {u_min:g} must be below --u-max {u_max:g}")
-    opts = AssessOptions(u_min=u_min, u_max=u_max, pv_span=pv_span, model=model, ti=ti, tu=tu,
-                         dead_time=dead_time)  # fmt: skip
+    opts = AssessOptions(
+        u_min=u_min, u_max=u_max, pv_span=pv_span, model=model, ti=ti, tu=tu, dead_time=dead_time
+    )
     if not path.is_file():
         _fail(f"{path}: no such file")
     if _is_sqlite(path):
         records = _from_historian(path, loops, t0, t1)
     else:
-        missing = [o for o, v in (("--time", time_col), ("--sp", sp_col), ("--y", y_col),
-                                  ("--u", u_col)) if v is None]  # fmt: skip
+        missing = [
+            o
+            for o, v in (("--time", time_col), ("--sp", sp_col), ("--y", y_col), ("--u", u_col))
+            if v is None
+        ]
         if missing:
             _fail(f"{path} is not a historian file; as a CSV it needs {', '.join(missing)}")
-        records = [_from_csv(path, time_col, sp_col, y_col, u_col, mode_col, delimiter,  # type: ignore[arg-type]
-                             decimal, encoding, loops[0] if loops else path.stem, t0, t1)]  # fmt: skip
+        records = [
+            _from_csv(
+                path,
+                time_col,
+                sp_col,
+                y_col,
+                u_col,
+                mode_col,
+                delimiter,  # type: ignore[arg-type]
+                decimal,
+                encoding,
+                loops[0] if loops else path.stem,
+                t0,
+                t1,
+            )
+        ]
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -182,8 +236,9 @@ def _assess_all(records: list[Any], opts: Any, jobs: int, *, quiet: bool) -> lis
     return out
 
 
-def _from_historian(path: Path, loops: tuple[str, ...], t0: float | None, t1: float | None
-                    ) -> list[Any]:  # fmt: skip
+def _from_historian(
+    path: Path, loops: tuple[str, ...], t0: float | None, t1: float | None
+) -> list[Any]:
     import numpy as np
 
     from ..runtime.historian import SQLiteHistorian
@@ -194,11 +249,14 @@ def _from_historian(path: Path, loops: tuple[str, ...], t0: float | None, t1: fl
             names = [r[0] for r in h.query("SELECT DISTINCT loop FROM samples ORDER BY loop")]
             unknown = [n for n in loops if n not in names]
             if unknown:
-                _fail(f"{path}: no loop {', '.join(unknown)}; its loops: {', '.join(names) or 'none'}")
+                _fail(
+                    f"{path}: no loop {', '.join(unknown)}; its loops: {', '.join(names) or 'none'}"
+                )
             records = []
             for name in loops or tuple(names):
-                rows = h.samples(name, t0 if t0 is not None else -math.inf,
-                                 t1 if t1 is not None else math.inf)  # fmt: skip
+                rows = h.samples(
+                    name, t0 if t0 is not None else -math.inf, t1 if t1 is not None else math.inf
+                )
                 if len(rows) < 10:
                     _fail(f"loop {name!r}: {len(rows)} samples in the time window; need >= 10")
                 t = np.array([r["t_wall"] for r in rows], dtype=float)
@@ -206,9 +264,21 @@ def _from_historian(path: Path, loops: tuple[str, ...], t0: float | None, t1: fl
                 pick = [r for r, k in zip(rows, keep, strict=True) if k]
                 col = {c: np.array([r[c] for r in pick], dtype=float) for c in ("sp", "pv", "mv")}
                 pv_ok = np.array([bool(r["pv_ok"]) for r in pick])
-                start = datetime.datetime.fromtimestamp(t[0]).astimezone().isoformat(timespec="seconds")
-                records.append(LoopData(t[keep], col["sp"], col["pv"], col["mv"],
-                                        [str(r["mode"]) for r in pick], pv_ok, name, start))  # fmt: skip
+                start = (
+                    datetime.datetime.fromtimestamp(t[0]).astimezone().isoformat(timespec="seconds")
+                )
+                records.append(
+                    LoopData(
+                        t[keep],
+                        col["sp"],
+                        col["pv"],
+                        col["mv"],
+                        [str(r["mode"]) for r in pick],
+                        pv_ok,
+                        name,
+                        start,
+                    )
+                )
     except Exception as exc:  # sqlite3 errors and a file that is no historian
         _fail(f"{path}: cannot read the historian: {exc}")
     if not records:
@@ -216,17 +286,33 @@ def _from_historian(path: Path, loops: tuple[str, ...], t0: float | None, t1: fl
     return records
 
 
-def _from_csv(path: Path, time_col: str, sp_col: str, y_col: str, u_col: str,
-              mode_col: str | None, delimiter: str | None, decimal: str | None,
-              encoding: str | None, name: str, t0: float | None, t1: float | None) -> Any:  # fmt: skip
+def _from_csv(
+    path: Path,
+    time_col: str,
+    sp_col: str,
+    y_col: str,
+    u_col: str,
+    mode_col: str | None,
+    delimiter: str | None,
+    decimal: str | None,
+    encoding: str | None,
+    name: str,
+    t0: float | None,
+    t1: float | None,
+) -> Any:
     from ..tuning.identify import DataFileError, read_csv_columns
     from .assess import LoopData
 
     try:
-        cols = read_csv_columns(path, time_col, (sp_col, y_col, u_col),
-                                text_columns=(mode_col,) if mode_col else (),
-                                delimiter="\t" if delimiter == "tab" else delimiter,
-                                decimal=decimal, encoding=encoding)  # fmt: skip
+        cols = read_csv_columns(
+            path,
+            time_col,
+            (sp_col, y_col, u_col),
+            text_columns=(mode_col,) if mode_col else (),
+            delimiter="\t" if delimiter == "tab" else delimiter,
+            decimal=decimal,
+            encoding=encoding,
+        )
     except (DataFileError, ValueError, OSError) as exc:
         _fail(str(exc))
     v = cols.values

@@ -33,7 +33,7 @@ import numpy as np
 from ..blocks.pid import PID
 from ..plants import FOPDT, Actuator, StictionValve
 from ..tuning.pid_rules import simc
-from .assess import AssessOptions, Assessment, LoopData, Model, assess, ultimate_period
+from .assess import Assessment, AssessOptions, LoopData, Model, assess, ultimate_period
 
 __all__ = ["EXPECTED", "KINDS", "CampaignResult", "FaultCase", "campaign", "simulate"]
 
@@ -65,7 +65,7 @@ def simulate(kind: str, seed: int, *, hours: float = 2.0, ts: float = 1.0) -> Fa
     if kind not in KINDS:
         raise ValueError(f"unknown fault {kind!r}; kinds: {', '.join(KINDS)}")
     rng = np.random.default_rng([KINDS.index(kind), seed])
-    n = int(round(hours * 3600.0 / ts))
+    n = round(hours * 3600.0 / ts)
     k_model = float(rng.uniform(0.6, 1.6))
     tc = float(rng.uniform(20.0, 80.0))
     lt = float(rng.uniform(2.0, 10.0))
@@ -152,9 +152,12 @@ class CampaignResult:
 
 
 def campaign(
-    seeds: Iterable[int], kinds: Iterable[str] = KINDS, *, hours: float = 2.0,
+    seeds: Iterable[int],
+    kinds: Iterable[str] = KINDS,
+    *,
+    hours: float = 2.0,
     progress: Callable[[int, int], None] | None = None,
-) -> CampaignResult:  # fmt: skip
+) -> CampaignResult:
     """Simulate and assess every ``(kind, seed)``; count the findings."""
     jobs = [(k, s) for k in kinds for s in seeds]
     res = CampaignResult({}, {}, {}, {})

@@ -36,8 +36,8 @@ __all__ = [
     "ServiceFactors",
     "ValveWear",
     "harris_index",
-    "horch_stiction",
     "hold_times",
+    "horch_stiction",
     "oscillation",
     "service_factors",
     "setpoint_steps",
@@ -81,9 +81,14 @@ class ServiceFactors:
 
 
 def service_factors(
-    t: Array, u: Array, mode: list[str] | None, pv_ok: NDArray[np.bool_],
-    u_min: float | None = None, u_max: float | None = None, tol: float = 0.002,
-) -> ServiceFactors:  # fmt: skip
+    t: Array,
+    u: Array,
+    mode: list[str] | None,
+    pv_ok: NDArray[np.bool_],
+    u_min: float | None = None,
+    u_max: float | None = None,
+    tol: float = 0.002,
+) -> ServiceFactors:
     """Time in each mode, at each MV limit and with a bad PV, as fractions of the record.
 
     A sample is *at a limit* when ``u`` lies within ``tol`` (a fraction of
@@ -216,9 +221,14 @@ SUPERVISION = 50.0
 
 
 def oscillation(
-    t: Array, e: Array, a: float, tu: float, *, active: NDArray[np.bool_] | None = None,
+    t: Array,
+    e: Array,
+    a: float,
+    tu: float,
+    *,
+    active: NDArray[np.bool_] | None = None,
     filter_time: float | None = None,
-) -> OscillationResult:  # fmt: skip
+) -> OscillationResult:
     """Hägglund's (1995) oscillation detection on the control error ``e = sp - y``.
 
     Between successive zero crossings of ``e`` (a half-cycle of duration
@@ -296,7 +306,7 @@ def oscillation(
 
 
 def _lowpass(x: Array, w: Array, tf: float) -> Array:
-    """First-order filter ``y[k] = a y[k-1] + (1 - a) x[k]``, ``a = exp(-h/tf)``, from rest at x[0]."""
+    """First-order filter ``y[k] = a y[k-1] + (1 - a) x[k]``, ``a = exp(-h/tf)``, from x[0]."""
     if tf <= 0.0:
         return x
     from scipy.signal import lfilter
@@ -332,9 +342,9 @@ def harris_index(e: Array, delay: int, order: int = 20) -> HarrisResult:
     The error ``e = y - sp`` (sampled at the controller's period) is fitted by
     an autoregressive model of ``order``, ``e_t = sum a_i e_{t-i} + eps_t``
     (the Yule-Walker equations of its autocovariances: for the long records of
-    routine data the same as least squares, at a fraction of the cost); its impulse response ``psi_0 = 1, psi_j = sum_i a_i
-    psi_{j-i}`` gives the first ``d`` terms of the closed loop's moving-average
-    form, which no feedback can change, so ``sigma_mv^2 = sigma_eps^2
+    routine data the same as least squares, at a fraction of the cost); its
+    impulse response ``psi_0 = 1, psi_j = sum_i a_i psi_{j-i}`` gives the first
+    ``d`` terms of the closed loop's moving-average form, which no feedback can change, so ``sigma_mv^2 = sigma_eps^2
     sum_{j=0}^{d-1} psi_j^2``.  ``eta = sigma_mv^2 / mean(e^2)``.
 
     ``delay`` is the dead time in samples including the hold: ``d = 1 +
@@ -408,7 +418,7 @@ def horch_stiction(u: Array, y: Array, h: float, period: float) -> HorchResult:
     integrating processes (Horch 1999's condition).
     """
     ok = np.isfinite(u) & np.isfinite(y)
-    m = max(int(round(period / h)), 1)
+    m = max(round(period / h), 1)
     uu = _detrend(u[ok], m)
     yy = _detrend(y[ok], m)
     n = uu.size

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from .assess import AssessOptions, Assessment, LoopData, assess
+from .assess import Assessment, AssessOptions, LoopData, assess
 
 __all__ = ["LiveAssessor"]
 
@@ -45,16 +45,23 @@ class LiveAssessor:
     """
 
     def __init__(
-        self, name: str, ts: float, *, window: float = 3600.0, every: float = 900.0,
-        options: AssessOptions | None = None, drift: bool = False, sample: float = 1.0,
-    ) -> None:  # fmt: skip
+        self,
+        name: str,
+        ts: float,
+        *,
+        window: float = 3600.0,
+        every: float = 900.0,
+        options: AssessOptions | None = None,
+        drift: bool = False,
+        sample: float = 1.0,
+    ) -> None:
         if not (math.isfinite(ts) and ts > 0 and math.isfinite(window) and window >= 10 * ts):
             raise ValueError("needs ts > 0 and a window of at least 10 samples")
         self.name = name
         self.every = float(every)
-        self._keep = max(1, int(round(sample / ts)))
+        self._keep = max(1, round(sample / ts))
         self._skip = 0
-        n = int(math.ceil(window / (ts * self._keep)))
+        n = math.ceil(window / (ts * self._keep))
         self._t = np.zeros(n)
         self._sp = np.zeros(n)
         self._y = np.zeros(n)
@@ -95,8 +102,9 @@ class LiveAssessor:
         """The samples of the window, oldest first."""
         k = np.r_[self._i : self._t.size, 0 : self._i] if self._full else np.arange(self._i)
         mode = np.where(self._auto[k], "AUTO", "MANUAL").tolist()
-        return LoopData(self._t[k], self._sp[k], self._y[k], self._u[k], mode, self._ok[k],
-                        self.name)  # fmt: skip
+        return LoopData(
+            self._t[k], self._sp[k], self._y[k], self._u[k], mode, self._ok[k], self.name
+        )
 
     def assess(self, t: float | None = None) -> Assessment | None:
         """Assess the window now; None while it holds fewer than 10 samples."""
@@ -141,7 +149,15 @@ class LiveAssessor:
         t_app, t_ass, t_blk = (float(np.median(x)) for x in (app, ass, blk))
         live = loops * (t_app / ts + t_ass / a.every)
         blocks = loops * t_blk / ts
-        return {"loops": loops, "ts": ts, "window_samples": a._t.size, "every_s": a.every,
-                "append_us": 1e6 * t_app, "assess_window_ms": 1e3 * t_ass,
-                "pid_call_us": 1e6 * t_blk, "live_cpu_per_s": live, "blocks_cpu_per_s": blocks,
-                "live_over_blocks": live / blocks}  # fmt: skip
+        return {
+            "loops": loops,
+            "ts": ts,
+            "window_samples": a._t.size,
+            "every_s": a.every,
+            "append_us": 1e6 * t_app,
+            "assess_window_ms": 1e3 * t_ass,
+            "pid_call_us": 1e6 * t_blk,
+            "live_cpu_per_s": live,
+            "blocks_cpu_per_s": blocks,
+            "live_over_blocks": live / blocks,
+        }

@@ -46,16 +46,22 @@ def slug(name: str) -> str:
 
 
 def write_report(
-    assessments: Sequence[Assessment], records: Sequence[LoopData], out_dir: str | Path,
-    *, plots: bool = True,
-) -> Path:  # fmt: skip
+    assessments: Sequence[Assessment],
+    records: Sequence[LoopData],
+    out_dir: str | Path,
+    *,
+    plots: bool = True,
+) -> Path:
     """Write ``report.md`` (and a PNG per loop) into ``out_dir``; return the report's path."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Loop health report", ""]
     n_find = sum(len(a.findings) for a in assessments)
-    lines += [f"{len(assessments)} loop(s), {n_find} finding(s).  Definitions and sources of "
-              "every figure: docs/health.md of ctrlblocks.", ""]  # fmt: skip
+    lines += [
+        f"{len(assessments)} loop(s), {n_find} finding(s).  Definitions and sources of "
+        "every figure: docs/health.md of ctrlblocks.",
+        "",
+    ]
     lines += ["| loop | findings |", "| --- | --- |"]
     for a in assessments:
         kinds = ", ".join(sorted({f.kind for f in a.findings})) or "none"
@@ -109,8 +115,14 @@ _ROWS = (
 
 def _loop_section(a: Assessment, d: LoopData) -> list[str]:
     figs = a.figures()
-    lines = [f"## {a.loop}", "", f"{d.start + ', ' if d.start else ''}t = {a.start:g} .. "
-             f"{a.end:g} s", "", "| figure | value |", "| --- | --- |"]  # fmt: skip
+    lines = [
+        f"## {a.loop}",
+        "",
+        f"{d.start + ', ' if d.start else ''}t = {a.start:g} .. {a.end:g} s",
+        "",
+        "| figure | value |",
+        "| --- | --- |",
+    ]
     for key, label, scale in _ROWS:
         if key not in figs:
             continue
@@ -135,7 +147,7 @@ def _decimate(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = t.size
     if n <= _POINTS:
         return t, x
-    m = int(math.ceil(n / (_POINTS / 2)))
+    m = math.ceil(n / (_POINTS / 2))
     k = (n // m) * m
     tb = t[:k].reshape(-1, m)
     xb = x[:k].reshape(-1, m)
@@ -155,8 +167,13 @@ def plot_loop(a: Assessment, d: LoopData, path: Path) -> None:
 
     ccf = a.horch is not None and a.horch.ccf.size > 0
     n_ax = 3 if ccf else 2
-    fig, axes = plt.subplots(n_ax, 1, figsize=(7.5, 2.2 * n_ax + 0.8), dpi=100,
-                             gridspec_kw={"height_ratios": [3, 2, 2][:n_ax]})  # fmt: skip
+    fig, axes = plt.subplots(
+        n_ax,
+        1,
+        figsize=(7.5, 2.2 * n_ax + 0.8),
+        dpi=100,
+        gridspec_kw={"height_ratios": [3, 2, 2][:n_ax]},
+    )
     ax1, ax2 = axes[0], axes[1]
     t = d.t - d.t[0]
     unit = "h" if t[-1] > 7200 else "s"
@@ -177,8 +194,17 @@ def plot_loop(a: Assessment, d: LoopData, path: Path) -> None:
     if d.mode is not None:
         man = ~d.auto
         if man.any():
-            ax2.fill_between(ts, s.u_min, s.u_max, where=man, color="0.6", alpha=0.25,
-                             lw=0, label="not in AUTO", step="post")  # fmt: skip
+            ax2.fill_between(
+                ts,
+                s.u_min,
+                s.u_max,
+                where=man,
+                color="0.6",
+                alpha=0.25,
+                lw=0,
+                label="not in AUTO",
+                step="post",
+            )
     ax2.set_ylabel("MV [MV units]")
     ax2.set_xlabel(f"time [{unit}]")
     ax2.legend(loc="upper right", fontsize=8)
@@ -190,8 +216,11 @@ def plot_loop(a: Assessment, d: LoopData, path: Path) -> None:
         ax3.axvline(0.0, color="k", lw=0.5, ls=":")
         ax3.set_xlabel("lag [s]")
         ax3.set_ylabel("r_uy")
-        ax3.set_title(f"Horch (1999): cross-correlation MV-PV, {a.horch.verdict} "
-                      f"(asymmetry {a.horch.asymmetry:+.2f})", fontsize=9)  # fmt: skip
+        ax3.set_title(
+            f"Horch (1999): cross-correlation MV-PV, {a.horch.verdict} "
+            f"(asymmetry {a.horch.asymmetry:+.2f})",
+            fontsize=9,
+        )
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
