@@ -344,8 +344,9 @@ def harris_index(e: Array, delay: int, order: int = 20) -> HarrisResult:
     (the Yule-Walker equations of its autocovariances: for the long records of
     routine data the same as least squares, at a fraction of the cost); its
     impulse response ``psi_0 = 1, psi_j = sum_i a_i psi_{j-i}`` gives the first
-    ``d`` terms of the closed loop's moving-average form, which no feedback can change, so ``sigma_mv^2 = sigma_eps^2
-    sum_{j=0}^{d-1} psi_j^2``.  ``eta = sigma_mv^2 / mean(e^2)``.
+    ``d`` terms of the closed loop's moving-average form, which no feedback
+    can change, so ``sigma_mv^2 = sigma_eps^2 sum_{j=0}^{d-1} psi_j^2``;
+    ``eta = sigma_mv^2 / mean(e^2)``.
 
     ``delay`` is the dead time in samples including the hold: ``d = 1 +
     floor(L / h)`` for a dead time ``L`` at sample time ``h``.
