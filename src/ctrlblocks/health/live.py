@@ -71,12 +71,19 @@ class LiveAssessor:
         self._i = 0
         self._full = False
         self._next = -math.inf
+        self._first_delay = 0.0
         opts = options or AssessOptions()
         self.options = opts if drift else dataclasses.replace(opts, drift_segments=0)
         self.last: Assessment | None = None
 
+    def delay_first(self, seconds: float) -> None:
+        """Make the first assessment due ``seconds`` after the first sample (spreads many loops)."""
+        self._first_delay = float(seconds)
+
     def append(self, t: float, sp: float, pv: float, mv: float, auto: bool, pv_ok: bool) -> None:
         """Record one cycle (time [s], setpoint, PV, MV, in AUTO, PV valid)."""
+        if self._next == -math.inf:
+            self._next = t + self._first_delay
         if self._skip:
             self._skip -= 1
             return
