@@ -252,3 +252,31 @@ def test_rate_cycle_translates_to_st() -> None:
     prog = Program()
     sig = prog.fb_type(al.rate_cycle)
     assert sig.pou == "CB_ROC"
+
+
+@given(st.lists(st.tuples(st.floats(-20, 120), st.floats(30, 70), st.booleans(), st.booleans()),
+                min_size=1, max_size=80),
+       st.sampled_from([0.0, 0.5, 2.0]), st.sampled_from([0.0, 1.0, 3.0]))  # fmt: skip
+@settings(max_examples=200, deadline=None)
+def test_loop_alarms_equal_alarm_cycle_called_for_every_alarm(steps, db, delay) -> None:
+    """The block's cycle (which skips alarms at rest) against alarm_cycle on every alarm."""
+    cfg = dict(hh=95.0, h=80.0, l=20.0, ll=5.0, dev=10.0, roc=3.0, roc_period=2.0,
+               deadband=db, roc_deadband=0.5, on_delay=delay, off_delay=delay, ts=1.0)  # fmt: skip
+    la = LoopAlarms(**cfg)
+    limits = (95.0, 80.0, 20.0, 5.0, 10.0, 3.0, 0.5)
+    dbs = (db, db, db, db, db, 0.5, 0.0)
+    high = (True, True, False, False, True, True, True)
+    sup = (False, False, False, False, True, True, False)
+    mem = [[al.NORMAL, False, 0.0, 0.0] for _ in range(7)]
+    roc = (0.0, 0.0, 0.0, False)
+    for pv, sp, manual, ok in steps:
+        la(sp, pv, pv_ok=ok, manual=manual)
+        roc = al.rate_cycle(pv, ok, 2.0, 1.0, *roc)
+        vals = (pv, pv, pv, pv, abs(sp - pv), abs(roc[0]), 0.0 if ok else 1.0)
+        oks = (ok,) * 6 + (True,)
+        for i in range(7):
+            mem[i] = list(al.alarm_cycle(vals[i], oks[i], limits[i], dbs[i], high[i], delay,
+                                         delay, 1.0, True, False, False, 0.0, False,
+                                         manual and sup[i], *mem[i]))  # fmt: skip
+        assert [s.state for s in la.status()] == [m[0] for m in mem]
+        assert [s.active for s in la.status()] == [m[1] for m in mem]

@@ -452,6 +452,7 @@ rate of change ``|dPV/dt|`` and bad PV."""
 
 _PRIORITY = {"HH": 1, "H": 2, "L": 2, "LL": 1, "DEV": 3, "ROC": 3, "BAD": 1}
 _HIGH = {"HH": True, "H": True, "L": False, "LL": False, "DEV": True, "ROC": True, "BAD": True}
+_HIGH_BY_INDEX = tuple(_HIGH[n] for n in ALARM_NAMES)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -574,6 +575,7 @@ class LoopAlarms(Block):
         db = (c.deadband,) * 6
         self._deadbands = (*db[:5], c.roc_deadband, 0.0)
         self._suppress = tuple(n in c.suppress_in_manual for n in ALARM_NAMES)
+        self._configured = tuple(i for i, on in enumerate(self._on) if on)
         if old is not None:  # an alarm switched off goes out of service; switched on: NORMAL
             self._state = [
                 s if on else OUT_OF_SERVICE for s, on in zip(self._state, self._on, strict=True)
@@ -657,12 +659,21 @@ class LoopAlarms(Block):
         values = (y, y, y, y, dev, abs(self.rate), 0.0 if y_ok else 1.0)
         oks = (y_ok,) * 4 + (y_ok and math.isfinite(dev), y_ok, True)
         old = list(self._state)
-        for i in range(len(ALARM_NAMES)):  # operator actions act at once, not as inputs here
-            self._state[i], self._active[i], self._timer[i], self._shelve_left[i] = alarm_cycle(
-                values[i], oks[i], self._limits[i], self._deadbands[i], _HIGH[ALARM_NAMES[i]],
-                c.on_delay, c.off_delay, h, self._on[i], False, False, 0.0, False,
-                man and self._suppress[i], self._state[i], self._active[i], self._timer[i],
-                self._shelve_left[i],
+        st, act, tim, shl = self._state, self._active, self._timer, self._shelve_left
+        for i in self._configured:  # operator actions act at once, not as inputs here
+            sup = man and self._suppress[i]
+            if st[i] == NORMAL and not act[i] and tim[i] == 0.0 and shl[i] == 0.0 and not sup:
+                # at rest: alarm_cycle would change nothing unless the condition is true
+                if not oks[i]:
+                    continue
+                if not limit_condition(values[i], self._limits[i], self._deadbands[i],
+                                       _HIGH_BY_INDEX[i], False):  # fmt: skip
+                    self._value[i] = values[i]
+                    continue
+            st[i], act[i], tim[i], shl[i] = alarm_cycle(
+                values[i], oks[i], self._limits[i], self._deadbands[i], _HIGH_BY_INDEX[i],
+                c.on_delay, c.off_delay, h, True, False, False, 0.0, False, sup, st[i], act[i],
+                tim[i], shl[i],
             )  # fmt: skip
             if oks[i]:
                 self._value[i] = values[i]
@@ -670,6 +681,10 @@ class LoopAlarms(Block):
         return int(self.out)
 
     def _finish(self, old: list[int]) -> None:
+        if old == self._state:  # the common cycle: nothing changed
+            if self.transitions:
+                self.transitions = ()
+            return
         self.transitions = tuple(
             (n, o, s, self._value[i])
             for i, (n, o, s) in enumerate(zip(ALARM_NAMES, old, self._state, strict=True))
