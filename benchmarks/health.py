@@ -117,8 +117,8 @@ def offline(loops: int, jobs: int) -> dict:
         con.close()
         cmd = [
             sys.executable,
-            "-m",
-            "ctrlblocks.cli",
+            "-c",
+            "from ctrlblocks.cli import main; main()",
             "assess",
             str(db),
             "--jobs",
@@ -134,14 +134,18 @@ def offline(loops: int, jobs: int) -> dict:
             "--json",
         ]
         t = time.perf_counter()
+        c0 = os.times()
         p = subprocess.run(cmd, capture_output=True, text=True, check=True)
         wall = time.perf_counter() - t
+        c1 = os.times()
+        cpu = (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system)
         found = json.loads(p.stdout)["findings"]
     return {
         "loops": loops,
         "samples_per_loop": n,
         "jobs": jobs,
         "wall_s": wall,
+        "cpu_s": cpu,
         "findings": len(found),
         "cpus": os.cpu_count(),
     }
