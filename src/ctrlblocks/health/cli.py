@@ -254,31 +254,25 @@ def _from_historian(
                 )
             records = []
             for name in loops or tuple(names):
-                rows = h.samples(
-                    name, t0 if t0 is not None else -math.inf, t1 if t1 is not None else math.inf
+                rows = h.query(
+                    "SELECT t_wall, sp, pv, mv, mode, pv_ok FROM samples WHERE loop = ? AND "
+                    "t_wall >= ? AND t_wall <= ? ORDER BY t_wall, run_id, cycle",
+                    (name, -math.inf if t0 is None else t0, math.inf if t1 is None else t1),
                 )
                 if len(rows) < 10:
                     _fail(f"loop {name!r}: {len(rows)} samples in the time window; need >= 10")
-                t = np.array([r["t_wall"] for r in rows], dtype=float)
+                cols = list(zip(*rows, strict=True))
+                # NULL floats (SQLite's NaN) as NaN
+                num = {c: np.array([np.nan if v is None else v for v in cols[i]], dtype=float)
+                       for i, c in ((0, "t"), (1, "sp"), (2, "pv"), (3, "mv"))}  # fmt: skip
+                t = num["t"]
                 keep = np.append(True, np.diff(t) > 0)  # a restart may repeat a time stamp
-                pick = [r for r, k in zip(rows, keep, strict=True) if k]
-                col = {c: np.array([r[c] for r in pick], dtype=float) for c in ("sp", "pv", "mv")}
-                pv_ok = np.array([bool(r["pv_ok"]) for r in pick])
-                start = (
-                    datetime.datetime.fromtimestamp(t[0]).astimezone().isoformat(timespec="seconds")
-                )
-                records.append(
-                    LoopData(
-                        t[keep],
-                        col["sp"],
-                        col["pv"],
-                        col["mv"],
-                        [str(r["mode"]) for r in pick],
-                        pv_ok,
-                        name,
-                        start,
-                    )
-                )
+                pv_ok = np.array(cols[5], dtype=bool)[keep]
+                mode = [str(m) for m, k in zip(cols[4], keep, strict=True) if k]
+                start = datetime.datetime.fromtimestamp(t[0]).astimezone()
+                records.append(LoopData(t[keep], num["sp"][keep], num["pv"][keep],
+                                        num["mv"][keep], mode, pv_ok, name,
+                                        start.isoformat(timespec="seconds")))  # fmt: skip
     except Exception as exc:  # sqlite3 errors and a file that is no historian
         _fail(f"{path}: cannot read the historian: {exc}")
     if not records:

@@ -427,10 +427,10 @@ def horch_stiction(u: Array, y: Array, h: float, period: float) -> HorchResult:
     if n < 10 or su == 0.0 or sy == 0.0 or not period > 0.0:
         return HorchResult("undecided", math.nan, math.nan, math.nan)
     m = min(m, n // 2)
-    full = np.correlate(yy, uu, mode="full") / (n * su * sy)  # r[k] = sum u[i] y[i + k]
-    mid = n - 1
+    # r[k] = sum_i u[i] y[i + k] / (n s_u s_y) for |k| <= m only: O(n m), not O(n^2)
     lags = np.arange(-m, m + 1)
-    r = full[mid - m : mid + m + 1]
+    r = np.array([float(np.dot(uu[max(0, -k) : n - max(0, k)], yy[max(0, k) : n - max(0, -k)]))
+                  for k in lags.tolist()]) / (n * su * sy)  # fmt: skip
     tau_r = _first_zero(r[m:], 1.0)
     tau_l = -_first_zero(r[m::-1], 1.0)
     if not (math.isfinite(tau_r) and math.isfinite(tau_l)) or tau_r - tau_l <= 0.0:
