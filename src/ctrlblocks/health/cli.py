@@ -191,10 +191,11 @@ def assess_command(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         _fail(f"--out {out}: {exc.strerror or exc}")
-    results = _assess_all(records, opts, jobs, quiet=as_json)
-    from .report import summary_json, write_report
+    from .report import png_names, summary_json, write_report
 
-    report = write_report(results, records, out, plots=not no_plots)
+    pngs = [None if no_plots else out / n for n in png_names([r.name for r in records])]
+    results = _assess_all(records, opts, pngs, jobs)
+    report = write_report(results, records, out, plots=not no_plots, plotted=True)
     if as_json:
         click.echo(summary_json(results))
         return
@@ -211,26 +212,33 @@ def _fail(message: str) -> None:
     sys.exit(1)
 
 
-def _assess_one(args: tuple[Any, Any]) -> Any:
+def _assess_one(args: tuple[Any, Any, Path | None]) -> Any:
+    """Assess one record and draw its PNG (in a worker process with ``--jobs``)."""
     from .assess import assess
+    from .report import plot_loop
 
-    return assess(*args)
+    record, opts, png = args
+    a = assess(record, opts)
+    if png is not None:
+        plot_loop(a, record, png)
+    return a
 
 
-def _assess_all(records: list[Any], opts: Any, jobs: int, *, quiet: bool) -> list[Any]:
-    """Assess every record, in ``jobs`` processes, with progress on stderr."""
+def _assess_all(records: list[Any], opts: Any, pngs: list[Path | None], jobs: int) -> list[Any]:
+    """Assess every record (and plot it), in ``jobs`` processes, with progress on stderr."""
     out = []
     n = len(records)
+    todo = [(r, opts, p) for r, p in zip(records, pngs, strict=True)]
     try:
         if jobs > 1 and n > 1:
             with ProcessPoolExecutor(max_workers=jobs) as ex:
-                for i, a in enumerate(ex.map(_assess_one, [(r, opts) for r in records])):
+                for i, a in enumerate(ex.map(_assess_one, todo)):
                     out.append(a)
                     click.echo(f"assessed {i + 1}/{n}: {a.loop}", err=True)
         else:
-            for i, r in enumerate(records):
-                out.append(_assess_one((r, opts)))
-                click.echo(f"assessed {i + 1}/{n}: {r.name}", err=True)
+            for i, job in enumerate(todo):
+                out.append(_assess_one(job))
+                click.echo(f"assessed {i + 1}/{n}: {job[0].name}", err=True)
     except ValueError as exc:
         _fail(str(exc))
     return out

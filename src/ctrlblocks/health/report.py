@@ -45,14 +45,30 @@ def slug(name: str) -> str:
     return s[:80]
 
 
+def png_names(loops: Sequence[str]) -> list[str]:
+    """The PNG file name of each loop (unique, from :func:`slug`)."""
+    names: list[str] = []
+    for loop in loops:
+        name = slug(loop)
+        while f"{name}.png" in names:
+            name += "_"
+        names.append(f"{name}.png")
+    return names
+
+
 def write_report(
     assessments: Sequence[Assessment],
     records: Sequence[LoopData],
     out_dir: str | Path,
     *,
     plots: bool = True,
+    plotted: bool = False,
 ) -> Path:
-    """Write ``report.md`` (and a PNG per loop) into ``out_dir``; return the report's path."""
+    """Write ``report.md`` (and a PNG per loop) into ``out_dir``; return the report's path.
+
+    ``plotted``: the PNGs are there already (:func:`png_names`, drawn by the workers
+    that assessed the loops); only link them.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Loop health report", ""]
@@ -67,16 +83,13 @@ def write_report(
         kinds = ", ".join(sorted({f.kind for f in a.findings})) or "none"
         lines.append(f"| {a.loop} | {kinds} |")
     lines.append("")
-    names: set[str] = set()
-    for a, d in zip(assessments, records, strict=True):
-        name = slug(a.loop)
-        while name in names:
-            name += "_"
-        names.add(name)
+    for a, d, name in zip(assessments, records, png_names([a.loop for a in assessments]),
+                          strict=True):  # fmt: skip
         lines += _loop_section(a, d)
         if plots:
-            png = out / f"{name}.png"
-            plot_loop(a, d, png)
+            png = out / name
+            if not plotted:
+                plot_loop(a, d, png)
             lines += [f"![{a.loop}]({png.name})", ""]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
