@@ -517,6 +517,9 @@ def _model_drift(
     out: dict[str, Any] = {"steps": len(steps), "segments": 0, "drifted": False}
     if o.drift_segments <= 0:
         return out
+    if m is None:  # nothing to compare with: the fits (most of the cost) are not made
+        notes.append("no model (--gain, --time-constant, --dead-time): model drift not assessed")
+        return out
     if not segs:
         if m is not None:
             notes.append(
@@ -545,8 +548,6 @@ def _model_drift(
     out.update(gain=k, time_constant=tc, dead_time=lt, start=fits[0][1], end=fits[-1][2])
     out["start"] = min(a for _, a, _ in fits)
     out["end"] = max(b for _, _, b in fits)
-    if m is None:
-        return out
     dk = k / m.gain - 1.0
     dT = tc / m.time_constant - 1.0
     dL = (lt - m.dead_time) / max(m.dead_time, h)
