@@ -468,7 +468,7 @@ def _delay_samples(o: AssessOptions, h: float, notes: list[str]) -> int:
     if L is None:
         notes.append("no dead time: Harris' benchmark uses 1 sample; give --dead-time or a model")
         return 1
-    return 1 + math.floor(L / h + 1e-9)
+    return 1 + math.floor(min(L / h, 1e9) + 1e-9)
 
 
 def _longest_run(x: Array) -> Array:

@@ -150,6 +150,12 @@ def assess_command(
         if gain == 0 or time_constant <= 0 or dead_time < 0:
             _fail("the model needs a non-zero --gain, --time-constant > 0 and --dead-time >= 0")
         model = Model(gain, time_constant, dead_time)
+    for name, v in (("--u-min", u_min), ("--u-max", u_max), ("--gain", gain),
+                    ("--time-constant", time_constant), ("--dead-time", dead_time)):  # fmt: skip
+        if v is not None and not math.isfinite(v):
+            _fail(f"{name} must be a finite number, got {v:g}")
+    if dead_time is not None and dead_time < 0:
+        _fail(f"--dead-time must be >= 0, got {dead_time:g}")
     for name, v in (("--pv-span", pv_span), ("--ti", ti), ("--tu", tu)):
         if v is not None and not (math.isfinite(v) and v > 0):
             _fail(f"{name} must be > 0, got {v:g}")

@@ -274,7 +274,7 @@ def oscillation(
     valid[-1] = False
     load = valid & (iae > iae_lim)
     h = float(np.median(w))
-    gamma = 1.0 - h / (SUPERVISION * tu)
+    gamma = max(0.0, 1.0 - h / (SUPERVISION * tu))  # a T_u below h/50: no memory
     x = 0.0
     last = 0
     peak = 0.0
@@ -353,8 +353,9 @@ def harris_index(e: Array, delay: int, order: int = 20) -> HarrisResult:
     """
     e = np.asarray(e, dtype=float)
     e = e[np.isfinite(e)]
-    delay = max(int(delay), 1)
     p = int(order)
+    # a dead time longer than the record leaves nothing to judge: at most a quarter of it
+    delay = min(max(int(delay), 1), max(e.size // 4, 1))
     ms = float(np.mean(e * e)) if e.size else math.nan
     if e.size < 5 * p + 10 or not ms > 0.0:
         return HarrisResult(math.nan, ms, math.nan, delay, p)

@@ -76,6 +76,16 @@ class LiveAssessor:
         self.options = opts if drift else dataclasses.replace(opts, drift_segments=0)
         self.last: Assessment | None = None
 
+    @property
+    def capacity(self) -> int:
+        """Samples the window holds."""
+        return int(self._t.size)
+
+    @property
+    def keep(self) -> int:
+        """One cycle in ``keep`` is kept."""
+        return self._keep
+
     def delay_first(self, seconds: float) -> None:
         """Make the first assessment due ``seconds`` after the first sample (spreads many loops)."""
         self._first_delay = float(seconds)
@@ -137,7 +147,7 @@ class LiveAssessor:
 
         rng = np.random.default_rng(0)
         a = LiveAssessor("bench", ts)
-        n = a._t.size * a._keep
+        n = a.capacity * a.keep
         y = (50.0 + rng.normal(0.0, 0.5, n)).tolist()
         pid = PID(kp=1.0, ti=10.0, ts=ts, u_min=0.0, u_max=100.0)
         app, ass, blk = [], [], []
@@ -159,7 +169,7 @@ class LiveAssessor:
         return {
             "loops": loops,
             "ts": ts,
-            "window_samples": a._t.size,
+            "window_samples": a.capacity,
             "every_s": a.every,
             "append_us": 1e6 * t_app,
             "assess_window_ms": 1e3 * t_ass,
