@@ -39,6 +39,8 @@ BASE: dict[tuple[str, ...], list[str]] = {
                    "--no-corners", "--out", "{tmp}/compare"],
     ("sweep",): ["nowak_fig7", "--vary", "controllers[2].kp=5", "--duration", "2", "--serial",
                  "--out", "{tmp}/sweep.csv"],
+    ("assess",): [CSV, "--time", "time_s", "--sp", "p3_bar", "--y", "p3_bar", "--u",
+                  "p_supply_bar", "--no-plots", "--out", "{tmp}/assess"],
     ("compile",): ["--status"],  # no hostile --jobs is a valid count: nothing is built
 }  # fmt: skip
 # commands that start a server or act on a running one: their start-up numbers are

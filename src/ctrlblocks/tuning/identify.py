@@ -63,12 +63,14 @@ from scipy import interpolate, optimize
 __all__ = [
     "FOPDT",
     "SOPDT",
+    "CsvColumns",
     "DataFileError",
     "Integrating",
     "StepData",
     "fit_fopdt",
     "fit_integrating",
     "fit_sopdt",
+    "read_csv_columns",
     "read_step_csv",
     "split_unit",
     "sundaresan_krishnaswamy",
@@ -394,6 +396,88 @@ def read_step_csv(
         ``MIN_SAMPLES`` rows, or no change in the MV column.  The message
         names file, line and column.
     """
+    cols = read_csv_columns(
+        path, time, (u, y), delimiter=delimiter, decimal=decimal, encoding=encoding
+    )
+    path = Path(path)
+    tv, notes = cols.t, cols.notes
+    uv, yv = cols.values[u], cols.values[y]
+    if u_before is not None:
+        if not math.isfinite(u_before):
+            raise ValueError(f"u_before must be finite, got {u_before!r}")
+        if abs(u_before) > MAX_MAGNITUDE:
+            raise ValueError(f"u_before = {u_before!r} is beyond {_BEYOND}")
+        h = float(tv[1] - tv[0])
+        tv = np.concatenate(([tv[0] - h], tv))
+        uv = np.concatenate(([float(u_before)], uv))
+        yv = np.concatenate(([yv[0]], yv))
+        notes = (*notes, f"MV {u_before:g} before the record: a sample added at t = {tv[0]:g} s")
+    if _constant(uv):
+        raise DataFileError(
+            path,
+            None,
+            u,
+            f"the MV never changes (constant {uv[0]:g}): there is no step to identify from"
+            + (
+                "; if the step is at the first sample, give the MV before it "
+                "(--u-before, u_before=)"
+                if u_before is None
+                else ""
+            ),
+        )
+    return StepData(
+        tv,
+        uv,
+        yv,
+        str(path),
+        u_unit=cols.units[u],
+        y_unit=cols.units[y],
+        encoding=cols.encoding,
+        delimiter=cols.delimiter,
+        decimal=cols.decimal,
+        start=cols.start,
+        notes=tuple(notes),
+    )
+
+
+@dataclass
+class CsvColumns:
+    """Columns read from a CSV file by :func:`read_csv_columns`.
+
+    ``t`` is the time [s] (from the first timestamp when the column held
+    timestamps: ``start``); ``values`` the numeric columns, ``texts`` the text
+    columns, ``units`` the unit of each column from its header (or None).
+    """
+
+    t: NDArray[np.float64]
+    values: dict[str, NDArray[np.float64]]
+    texts: dict[str, list[str]]
+    units: dict[str, str | None]
+    encoding: str
+    delimiter: str
+    decimal: str
+    start: str
+    notes: tuple[str, ...]
+
+
+def read_csv_columns(
+    path: str | Path,
+    time: str,
+    columns: tuple[str, ...],
+    *,
+    text_columns: tuple[str, ...] = (),
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    encoding: str | None = None,
+) -> CsvColumns:
+    """Read a time column, numeric ``columns`` and ``text_columns`` of a CSV file.
+
+    The reading of :func:`read_step_csv` (delimiters, decimal commas, units in
+    the header, ISO 8601 timestamps, encodings, strictly increasing time, at
+    least ``MIN_SAMPLES`` rows) for any columns; a text column (a mode:
+    ``AUTO``, ``MAN``) is kept as strings.  Raises :class:`DataFileError`
+    naming the file, line and column.
+    """
     path = Path(path)
     if delimiter is not None and delimiter not in (",", ";", "\t"):
         raise ValueError(f"delimiter must be ',', ';' or a tab, got {delimiter!r}")
@@ -418,7 +502,7 @@ def read_step_csv(
     bare = [split_unit(n) for n in names]
     cols: dict[str, int] = {}
     units: dict[str, str | None] = {}
-    for want in (time, u, y):
+    for want in (time, *columns, *text_columns):
         w = want.strip()
         idx = next((i for i, n in enumerate(names) if n == w), None)
         if idx is None:
@@ -445,7 +529,8 @@ def read_step_csv(
     if decimal == "," and delimiter == ",":
         raise ValueError("a decimal comma needs another delimiter (';' or a tab)")
     time_scale = _TIME_UNITS.get((units[time] or "s").lower())
-    values: dict[str, list[float]] = {time: [], u: [], y: []}
+    values: dict[str, list[float]] = {c: [] for c in (time, *columns)}
+    texts: dict[str, list[str]] = {c: [] for c in text_columns}
     stamps: list[datetime.datetime] = []
     line_of: list[int] = []
     for line_no, row in rows:
@@ -453,6 +538,9 @@ def read_step_csv(
             if idx >= len(row) or not row[idx].strip():
                 raise DataFileError(path, line_no, name, "empty cell")
             cell = row[idx].strip()
+            if name in texts:
+                texts[name].append(cell)
+                continue
             num = cell.replace(".", "").replace(",", ".") if decimal == "," else cell
             try:
                 x = float(num)
@@ -508,42 +596,16 @@ def read_step_csv(
     tv = np.asarray(values[time])
     if not stamps and time_scale is not None:
         tv = tv * time_scale
-    uv, yv = np.asarray(values[u]), np.asarray(values[y])
-    if u_before is not None:
-        if not math.isfinite(u_before):
-            raise ValueError(f"u_before must be finite, got {u_before!r}")
-        if abs(u_before) > MAX_MAGNITUDE:
-            raise ValueError(f"u_before = {u_before!r} is beyond {_BEYOND}")
-        h = float(tv[1] - tv[0])
-        tv = np.concatenate(([tv[0] - h], tv))
-        uv = np.concatenate(([float(u_before)], uv))
-        yv = np.concatenate(([yv[0]], yv))
-        notes = (*notes, f"MV {u_before:g} before the record: a sample added at t = {tv[0]:g} s")
-    if _constant(uv):
-        raise DataFileError(
-            path,
-            None,
-            u,
-            f"the MV never changes (constant {uv[0]:g}): there is no step to identify from"
-            + (
-                "; if the step is at the first sample, give the MV before it "
-                "(--u-before, u_before=)"
-                if u_before is None
-                else ""
-            ),
-        )
-    return StepData(
+    return CsvColumns(
         tv,
-        uv,
-        yv,
-        str(path),
-        u_unit=units[u],
-        y_unit=units[y],
-        encoding=used_encoding,
-        delimiter=delimiter,
-        decimal=decimal,
-        start=stamps[0].isoformat() if stamps else "",
-        notes=tuple(notes),
+        {c: np.asarray(values[c]) for c in columns},
+        texts,
+        units,
+        used_encoding,
+        delimiter,
+        decimal,
+        stamps[0].isoformat() if stamps else "",
+        tuple(notes),
     )
 
 
