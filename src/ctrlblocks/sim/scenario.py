@@ -114,8 +114,10 @@ the step into the window's first sample included)."""
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
 
 
-_CSV_KEYS = ("file", "time", "u", "y", "u_before", "delimiter", "decimal", "encoding")
-"""The keys of a ``[controllers.tune]`` table that read a recorded bump test."""
+_CSV_KEYS = ("file", "time", "u", "y", "u_before", "delimiter", "decimal", "encoding", "tz",
+             "time_format", "bad_rows", "gaps", "start", "end")  # fmt: skip
+"""The keys of a ``[controllers.tune]`` table that read a recorded bump test (the reading
+options are those of ``ctrlblocks.tuning.records.CSV_OPTIONS``; a test keeps them equal)."""
 
 
 class ScenarioError(KeyPathError):
@@ -570,8 +572,10 @@ class _Parser(SpecReader):
 
         With ``file = "bump.csv"`` the recorded bump test of the real process
         is fitted instead (path relative to the scenario file; the keys
-        ``time``, ``u``, ``y``, ``u_before``, ``delimiter``, ``decimal`` and
-        ``encoding`` are those of ``ctrlblocks identify``, read by
+        ``time``, ``u``, ``y``, ``u_before`` and the reading options
+        ``delimiter``, ``decimal``, ``encoding``, ``tz``, ``time_format``,
+        ``bad_rows``, ``gaps``, ``start``, ``end`` are those of ``ctrlblocks
+        identify``, read by
         :func:`ctrlblocks.tuning.identify.read_step_csv`); ``du`` is then the
         record's.
         """
@@ -620,8 +624,13 @@ class _Parser(SpecReader):
         from ..tuning.identify import DataFileError, read_step_csv
 
         strings = {}
-        for name in ("file", "time", "u", "y", "delimiter", "decimal", "encoding"):
-            if name in d:
+        for name in _CSV_KEYS:
+            if name in d and name not in ("u_before", "start", "end"):
+                strings[name] = self.string(d, name, f"{key}.{name}")
+        for name in ("start", "end"):  # a stamp, or a number as in the time column
+            if name in d and not isinstance(d[name], str):
+                strings[name] = self.number(d, name, f"{key}.{name}")
+            elif name in d:
                 strings[name] = self.string(d, name, f"{key}.{name}")
         u_before = self.number(d, "u_before", f"{key}.u_before", default=None)
         path = Path(strings.pop("file"))
@@ -634,6 +643,8 @@ class _Parser(SpecReader):
             )  # fmt: skip
         except (DataFileError, OSError) as exc:
             raise self.fail(f"{key}.file", str(exc)) from None
+        except ValueError as exc:  # a reading option out of its range (tz, gaps, ...)
+            raise self.fail(key, str(exc)) from None
         return data.t, data.u, data.y
 
     # -- time line ---------------------------------------------------------------
