@@ -452,8 +452,14 @@ def time_format(name: str) -> TimeFormat:
         return TimeFormat(name, f"strptime pattern {name!r}", parse=_strptime(name))
     raise ValueError(
         f"time_format must be auto, {', '.join(TIME_FORMATS)} or a strptime pattern with %; "
-        f"got {name!r}"
+        f"got {shown(name)}"
     )
+
+
+def shown(value: Any, most: int = 60) -> str:
+    """``repr(value)``, cut to about ``most`` characters: a user's value in a message."""
+    text = repr(value)
+    return text if len(text) <= most else text[: most - 5] + "...'" + f" ({len(text)} chars)"
 
 
 def _number(cell: str, decimal: str) -> float | None:
@@ -494,7 +500,7 @@ def _decode(path: Path, encoding: str | None) -> tuple[str, str, tuple[str, ...]
         try:
             text = raw.decode(encoding)
         except LookupError:
-            raise DataFileError(path, None, None, f"unknown encoding {encoding!r}") from None
+            raise DataFileError(path, None, None, f"unknown encoding {shown(encoding)}") from None
         except UnicodeDecodeError as exc:
             line = raw[: exc.start].count(b"\n") + 1
             raise DataFileError(
@@ -705,15 +711,15 @@ def read_record(
 
 def _check_options(delimiter, decimal, bad_rows, gaps) -> dict[str, Any]:
     if delimiter is not None and delimiter not in (",", ";", "\t"):
-        raise ValueError(f"delimiter must be ',', ';' or a tab, got {delimiter!r}")
+        raise ValueError(f"delimiter must be ',', ';' or a tab, got {shown(delimiter)}")
     if decimal is not None and decimal not in (".", ","):
-        raise ValueError(f"decimal must be '.' or ',', got {decimal!r}")
+        raise ValueError(f"decimal must be '.' or ',', got {shown(decimal)}")
     if decimal == "," and delimiter == ",":
         raise ValueError("a decimal comma needs another delimiter (';' or a tab)")
     if bad_rows not in BAD_ROWS:
-        raise ValueError(f"bad_rows must be one of {', '.join(BAD_ROWS)}; got {bad_rows!r}")
+        raise ValueError(f"bad_rows must be one of {', '.join(BAD_ROWS)}; got {shown(bad_rows)}")
     if gaps not in GAPS:
-        raise ValueError(f"gaps must be one of {', '.join(GAPS)}; got {gaps!r}")
+        raise ValueError(f"gaps must be one of {', '.join(GAPS)}; got {shown(gaps)}")
     return {"delimiter": delimiter, "decimal": decimal, "bad_rows": bad_rows, "gaps": gaps}
 
 
@@ -728,9 +734,9 @@ def _zone(tz: str | datetime.tzinfo | None) -> datetime.tzinfo | None:
 
     try:
         return zoneinfo.ZoneInfo(str(tz))
-    except (zoneinfo.ZoneInfoNotFoundError, ValueError, TypeError):
+    except (zoneinfo.ZoneInfoNotFoundError, ValueError, TypeError, OSError):
         raise ValueError(
-            f"unknown time zone {tz!r}: give an IANA name such as Europe/Berlin or "
+            f"unknown time zone {shown(tz)}: give an IANA name such as Europe/Berlin or "
             "America/Chicago, UTC, or an offset such as +01:00 (on Windows the zone names "
             "come with the tzdata package)"
         ) from None
@@ -989,7 +995,10 @@ def _window(path, rows, time, fmt, decimal, zone, start, end, notes) -> list[_Ro
     if first is None or last is None or last < first:
         span = f"{rows[timed[0]].cell} .. {rows[timed[-1]].cell}" if timed else "unreadable"
         raise DataFileError(
-            path, None, time, f"no row from start {start} to end {end} (the file runs {span})"
+            path,
+            None,
+            time,
+            f"no row from start {shown(start)} to end {shown(end)} (the file runs {span})",
         )
     out = rows[first : last + 1]
     notes.append(
@@ -1010,7 +1019,8 @@ def _bound(what, v, fmt: TimeFormat, decimal, zone, aware: bool) -> float:
     elif isinstance(v, (int, float)) and not isinstance(v, bool):
         if not fmt.numeric:
             raise ValueError(
-                f"{what} = {v!r}: the time column holds stamps; give {what} as one ({fmt.looks})"
+                f"{what} = {shown(v)}: the time column holds stamps; give {what} as one "
+                f"({fmt.looks})"
             )
         stamp = fmt.read(repr(float(v)), ".")
     else:
@@ -1020,7 +1030,7 @@ def _bound(what, v, fmt: TimeFormat, decimal, zone, aware: bool) -> float:
             stamp = _parse_iso(s)
     if stamp is None:
         raise ValueError(
-            f"{what} = {v!r} is not a time like those of the time column ({fmt.looks})"
+            f"{what} = {shown(v)} is not a time like those of the time column ({fmt.looks})"
         )
     sec, off_ = stamp
     if aware and off_ is None:  # a wall time against UTC stamps
