@@ -270,7 +270,10 @@ def test_lost_data_in_the_bump_test_is_refused_then_kept_as_time_that_passed(tmp
     with pytest.raises(DataFileError) as e:
         read_step_csv(p, "t", "MV", "PV")
     assert (e.value.line, e.value.column) == (302, "t")
-    assert "inside the experiment (after MV first moves on line 182)" in str(e.value)
+    assert (  # the example of docs/tuning.md
+        "time jumps 15.5 s from line 301 (149.5) to line 302 (165), 31 times the median sample "
+        "time 0.5 s, inside the experiment (after MV first moves on line 182)"
+    ) in str(e.value)
     d = read_step_csv(p, "t", "MV", "PV", gaps="keep")
     np.testing.assert_array_equal(d.t, t)
     m = fit_fopdt(d.t, d.u, d.y)
@@ -384,3 +387,16 @@ def test_a_bad_reading_option_is_one_error_line(option, value, error):
     r = CliRunner().invoke(main, [*args, option, value])
     assert r.exit_code == 1 and isinstance(r.exception, SystemExit), r.output
     assert r.output.strip().splitlines()[-1].startswith("Error: ") and error in r.output
+
+
+def test_the_tuning_guide_lists_every_time_format_and_reading_option():
+    from pathlib import Path
+
+    from ctrlblocks.tuning.records import CSV_OPTIONS
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "tuning.md").read_text(encoding="utf-8")
+    table = text[text.index("| `--time-format` | looks like |") :].split("\n\n")[0]
+    listed = {row.split("`")[1] for row in table.splitlines()[2:] if row.startswith("| `")}
+    assert listed == set(TIME_FORMATS)
+    for name in CSV_OPTIONS:
+        assert f"{name}=" in text or f"--{name.replace('_', '-')}" in text, name

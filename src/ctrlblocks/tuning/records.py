@@ -1227,7 +1227,8 @@ def _gap_hint(size: float, r: _Row, fmt: TimeFormat, zone) -> str:
     if dst:
         hint = (
             "the wall clock jumped an hour, as at the start of daylight-saving time: give the "
-            "stamps' time zone (--tz Europe/Berlin, tz=) to read them in UTC; otherwise "
+            "stamps' time zone (e.g. --tz Europe/Berlin; tz= in Python) to read them in UTC; "
+            "otherwise "
         )
     return hint + (
         "say what the gap is: --gaps keep (the time passed: data lost), --gaps close "
