@@ -16,7 +16,7 @@ import numpy as np
 
 from .dispatch import simulate
 from .loop import Run, event_times
-from .metrics import METRIC_NAMES, run_metrics, window_index, windows_from_events
+from .metrics import METRIC_NAMES, Window, run_metrics, window_index, windows_from_events
 from .scenario import Claim, Scenario
 
 __all__ = ["ClaimResult", "ScenarioResult", "check_claim", "run_scenario"]
@@ -115,7 +115,7 @@ def run_scenario(
             # the whole run and every event window in one pass (metrics.run_metrics)
             wins = []
             if want_windows:
-                wins = windows_from_events(event_times(run.events), run.duration)
+                wins = _windows(scenario, run)
             whole, per_window = run_metrics(s["t"], s["sp"], s["y"], s["u"], run.ts, wins,
                                             band=band)  # fmt: skip
             row: dict[str, Any] = {
@@ -203,7 +203,7 @@ def _signal_stat(
     x = run.signals[signal]
     t = run.signals["t"]
     if window is not None:
-        w = windows_from_events(event_times(run.events), run.duration)[window]
+        w = _windows(result.scenario, run)[window]
         idx = window_index(t, run.ts, w.t0, w.t1)
         if stat == "max_step" and len(idx) and idx[0] > 0:
             idx = np.concatenate(([idx[0] - 1], idx))  # the step into the window counts
@@ -219,6 +219,13 @@ def _signal_stat(
     if stat == "max_step":
         return float(np.max(np.abs(np.diff(x)))) if len(x) > 1 else 0.0
     return float(np.mean(x))
+
+
+def _windows(scenario: Scenario, run: Run) -> list[Window]:
+    """The event windows of a run (the first opens with the loop in control unless it
+    starts in MAN)."""
+    auto = scenario.initial.get("mode", "auto") == "auto"
+    return windows_from_events(event_times(run.events), run.duration, start_switch=auto)
 
 
 TABLE_UNITS: dict[str, tuple[str, float]] = {"overshoot": ("overshoot [%]", 100.0)}
