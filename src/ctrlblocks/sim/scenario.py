@@ -351,9 +351,12 @@ class _Parser(SpecReader):
                 "ylim_upper",
                 "ylim_lower",
                 "legend",
+                "lower_per_controller",
             },
             "plot",
         )
+        if not isinstance(plot.get("lower_per_controller", False), bool):
+            raise self.fail("plot.lower_per_controller", "must be true or false")
         if "legend" in plot and not (
             isinstance(plot["legend"], dict)
             and all(isinstance(v, str) for v in plot["legend"].values())

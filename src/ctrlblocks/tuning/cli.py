@@ -437,8 +437,10 @@ def tune_pid(
                     f"this model (Ms > 2): detune (SIMC --tau-c, lambda) or check the model"
                 )
             if plot_path:
-                _write_plot(lp, mg, plot_path, f"{title.split(';')[0]}: kp = {tun.kp:.4g}, "
-                            f"ti = {tun.ti:.4g} s, td = {tun.td:.4g} s, ts = {h:g} s")  # fmt: skip
+                reverse = ", reverse" if out.get("reverse") else ""  # kp as printed: |kp|
+                _write_plot(lp, mg, plot_path, f"{title.split(';')[0]}: kp = {out['kp']:.4g}"
+                            f"{reverse}, ti = {tun.ti:.4g} s, td = {tun.td:.4g} s, "
+                            f"ts = {h:g} s")  # fmt: skip
                 out["plot"] = plot_path
         else:
             warnings.append("no model given: margins need --gain, --time-constant, --dead-time")
