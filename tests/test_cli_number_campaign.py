@@ -1,7 +1,8 @@
 """Every number option of every command, given hostile values: an error line, never a traceback.
 
 The contract (README): the CLI never shows a traceback for a user mistake, and
-no option can make it exhaust the machine.  For each command with number
+no option can make it exhaust the machine; and what it prints has no number
+written with all of its float digits (``tests/text_checks.py``).  For each command with number
 options (found by walking the command tree, so a new option is covered the day
 it is added), each option is given ``nan``, ``inf``, ``-inf``, ``0``, ``-1``,
 ``1e308``, ``1e-320`` and ``abc`` in an otherwise valid command line.  The
@@ -24,6 +25,8 @@ import pytest
 from click.testing import CliRunner
 
 from ctrlblocks.cli import main
+
+from .text_checks import long_floats
 
 ROOT = Path(__file__).resolve().parents[1]
 CSV = str(ROOT / "docs" / "examples" / "bump_k2.csv")
@@ -97,6 +100,8 @@ def test_a_hostile_number_gives_an_error_line_not_a_traceback(tmp_path, path, op
             raise AssertionError(f"{' '.join(path)} {option} {value}: {r.exception!r}")
         if r.exit_code != 0:
             assert r.exit_code in (1, 2) and "Error" in r.output, (option, value, r.output)
+        # what the command printed: no number with all its float digits (55.349999999999994)
+        assert long_floats(r.output, allowed=args) == [], (option, value, r.output)
 
 
 def test_sweep_never_starts_more_processes_than_parameter_sets():

@@ -30,12 +30,12 @@ def test_identify_plots_are_legible(tmp_path, monkeypatch, method):
     assert found == []
 
 
-@pytest.mark.parametrize(("k", "t", "l"), MODELS)
-def test_tune_plots_are_legible(tmp_path, monkeypatch, k, t, l):
+@pytest.mark.parametrize(("k", "t", "dead"), MODELS)
+def test_tune_plots_are_legible(tmp_path, monkeypatch, k, t, dead):
     found = watch_savefig(monkeypatch)
-    model = ["--gain", k, "--time-constant", t, "--dead-time", l]
+    model = ["--gain", k, "--time-constant", t, "--dead-time", dead]
     runs = [["pid", "--rule", "simc"], ["pid", "--rule", "amigo"]]
-    runs += [["adrc", "--order", "2"]] if float(l) < float(t) else [["adrc", "--order", "1"]]
+    runs += [["adrc", "--order", "2"]] if float(dead) < float(t) else [["adrc", "--order", "1"]]
     for args in runs:
         r = CliRunner().invoke(main, ["tune", *args, *model, "--plot", str(tmp_path / "l.png")])
         assert r.exit_code == 0, r.output
