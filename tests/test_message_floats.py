@@ -13,6 +13,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+from .text_checks import long_floats
+
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "ctrlblocks"
 
 
@@ -35,3 +37,9 @@ def unformatted_products() -> list[str]:
 
 def test_no_product_is_written_into_an_f_string_without_a_format():
     assert unformatted_products() == []
+
+
+def test_the_checker_finds_the_issues_number():
+    assert long_floats("warning: T < 3 T0 (20.0 < 55.349999999999994)") == ["55.349999999999994"]
+    assert long_floats("Ms 1.594, GM 2.76 (8.8 dB), 0.007301 rad/s, 1714564800500 ms") == []
+    assert long_floats("got 0.1234567890123", allowed=["0.1234567890123"]) == []
