@@ -138,7 +138,7 @@ def output_dir(path: Path, what: str = "--out") -> Path:
 def _echo_claims(result: ScenarioResult) -> None:
     for c in result.claims:
         mark = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c.holds]
-        click.echo(f"  [{mark}] {c.claim.text}: {c.detail}")
+        click.echo(f"  [{mark}] {result.quoted(c.claim.text)}: {c.detail}")
 
 
 @click.command()

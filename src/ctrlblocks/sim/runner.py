@@ -57,6 +57,17 @@ class ScenarioResult:
                 return math.nan if v is None else float(v)
         raise KeyError((controller, case))
 
+    def quoted(self, text: str) -> str:
+        """``text`` with its quotes of this run's numbers filled in (:mod:`.quotes`)."""
+        from .quotes import fill
+
+        def value(metric: str, case: str, ctrl: str, window: int | None, signal: str | None):
+            if signal is not None:
+                return signal_stat(self, ctrl, case, signal, metric, window)
+            return self.metric(ctrl, case, metric, window)
+
+        return fill(text, value)
+
     @property
     def all_claims_hold(self) -> bool:
         """True when every claim holds (undecided claims count as failures)."""
@@ -152,7 +163,7 @@ def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
     def val(name: str) -> float:
         try:
             if signal is not None:
-                return _signal_stat(result, name, case, signal, claim.metric, claim.window)
+                return signal_stat(result, name, case, signal, claim.metric, claim.window)
             return result.metric(name, case, claim.metric, claim.window)
         except (IndexError, KeyError):
             return math.nan
@@ -195,7 +206,7 @@ def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
     )
 
 
-def _signal_stat(
+def signal_stat(
     result: ScenarioResult, controller: str, case: str, signal: str, stat: str, window: int | None
 ) -> float:
     """``max``/``min``/``final``/``mean``/``max_step`` of a trace signal (run or event window)."""

@@ -339,6 +339,7 @@ class _Parser(SpecReader):
         self.controller_events(structure, ts, controllers, cases)
         self.structure_inputs(doc, structure, initial, cases)
         claims = self.claims(doc, controllers, cases)
+        self.quotes(head, claims, controllers, cases)
         plot = self.table(doc, "plot", "plot", False)
         self.check_keys(
             plot,
@@ -790,6 +791,30 @@ class _Parser(SpecReader):
             raise self.fail(f"{ev.key}.attr", f"the {what} has no parameter or input {attr!r}")
 
     # -- claims -------------------------------------------------------------------
+
+    def quotes(
+        self,
+        head: dict[str, Any],
+        claims: list[Claim],
+        controllers: list[ControllerSpec],
+        cases: list[Case],
+    ) -> None:
+        """Every quote of a run's number in the texts names a metric, case, controller and
+        window that exist (:mod:`ctrlblocks.sim.quotes`)."""
+        from .metrics import windows_from_events
+        from .quotes import check_quotes
+
+        count = {
+            c.name: len(windows_from_events([(e.t, e.label) for e in c.events], c.duration))
+            for c in cases
+        }
+        names = [c.name for c in controllers]
+        texts = [(f"scenario.{k}", head.get(k, "")) for k in ("description", "notes")]
+        texts += [(f"claims[{i}].text", c.text) for i, c in enumerate(claims)]
+        for key, text in texts:
+            problem = check_quotes(str(text), names, list(count), count.get)
+            if problem:
+                raise self.fail(key, problem)
 
     def claims(
         self, doc: dict[str, Any], controllers: list[ControllerSpec], cases: list[Case]
