@@ -289,8 +289,9 @@ def render_report(
         "Metrics (definitions in `docs/simulator.md`): IAE, ISE, ITAE of the error "
         "e = SP − y; overshoot in % of the step (in every table); settling time to the "
         "2 % band; "
-        "total variation (tv_u) and largest rate of the MV.  A dash means undefined "
-        "(e.g. no setpoint step).",
+        "total variation (tv_u) and largest rate of the MV.  A dash means undefined: "
+        "an overshoot only where the loop was asked to step (a setpoint change, the "
+        "switch to AUTO), not after a load or at steady state.",
     ]
     for r in results:
         sc = r.scenario
