@@ -43,6 +43,14 @@ def write(path, header: str, cells: list[str], u, y, sep: str = ";", dec: str = 
     return str(path)
 
 
+def dst_file(tmp_path, month: int) -> str:
+    """The issue's bump test with Berlin wall-clock stamps that cross the jump of
+    2024-03-31 (month 3: forward) or 2024-10-27 (month 10: back) at 01:00 UTC, 2 min in."""
+    t, u, y = bump()
+    start = datetime.datetime(2024, month, 31 if month == 3 else 27, 0, 58, tzinfo=UTC)
+    return write(tmp_path / "dst.csv", "Zeit;MV [%];PV [degC]", local_cells(start, t), u, y)
+
+
 def local_cells(start_utc: datetime.datetime, t: np.ndarray) -> list[str]:
     """WinCC-style local wall-clock stamps (dd.mm.yyyy hh:mm:ss,fff) in Berlin."""
     out = []
@@ -56,9 +64,8 @@ def local_cells(start_utc: datetime.datetime, t: np.ndarray) -> list[str]:
 
 
 def test_the_spring_jump_inside_the_bump_test_is_refused_with_the_tz_hint(tmp_path):
-    t, u, y = bump()
-    start = datetime.datetime(2024, 3, 31, 0, 58, tzinfo=UTC)  # clocks go forward at 01:00 UTC
-    p = write(tmp_path / "dst.csv", "Zeit;MV [%];PV [degC]", local_cells(start, t), u, y)
+    t, _, _ = bump()
+    p = dst_file(tmp_path, 3)
     with pytest.raises(DataFileError) as e:
         read_step_csv(p, "Zeit", "MV", "PV")
     assert (e.value.line, e.value.column) == (242, "Zeit")
@@ -73,9 +80,8 @@ def test_the_spring_jump_inside_the_bump_test_is_refused_with_the_tz_hint(tmp_pa
 
 
 def test_the_autumn_hour_read_twice_is_refused_and_read_in_order_with_tz(tmp_path):
-    t, u, y = bump()
-    start = datetime.datetime(2024, 10, 27, 0, 58, tzinfo=UTC)  # clocks go back at 01:00 UTC
-    p = write(tmp_path / "dst.csv", "Zeit;MV;PV", local_cells(start, t), u, y)
+    t, _, _ = bump()
+    p = dst_file(tmp_path, 10)
     with pytest.raises(DataFileError) as e:
         read_step_csv(p, "Zeit", "MV", "PV")
     assert e.value.line == 242
@@ -296,9 +302,8 @@ def test_a_gap_the_step_falls_into_is_refused_even_when_kept(tmp_path):
 
 
 def test_gaps_close_removes_a_clock_jump(tmp_path):
-    t, u, y = bump()
-    start = datetime.datetime(2024, 3, 31, 0, 58, tzinfo=UTC)
-    p = write(tmp_path / "dst.csv", "Zeit;MV;PV", local_cells(start, t), u, y)
+    t, _, _ = bump()
+    p = dst_file(tmp_path, 3)
     d = read_step_csv(p, "Zeit", "MV", "PV", gaps="close")
     np.testing.assert_allclose(d.t, t, rtol=0, atol=1e-6)
     assert "closed to one sample time" in d.notes[0]
@@ -353,9 +358,7 @@ def test_text_columns_come_back_as_text_beside_the_numbers(tmp_path):
 
 
 def test_identify_reads_the_dst_export_with_tz_and_refuses_it_without(tmp_path):
-    t, u, y = bump()
-    start = datetime.datetime(2024, 3, 31, 0, 58, tzinfo=UTC)
-    p = write(tmp_path / "dst.csv", "Zeit;MV [%];PV [degC]", local_cells(start, t), u, y)
+    p = dst_file(tmp_path, 3)
     args = ["identify", p, "--time", "Zeit", "--u", "MV", "--y", "PV", "--json"]
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 1 and isinstance(r.exception, SystemExit)
