@@ -681,14 +681,16 @@ def read_record(
     u_step = None if step_column is None else vals[:, list(columns).index(step_column)]
     t = _gaps(path, t, line_no, rows, time, u_step, opts["gaps"], fmt, zone, step_column, notes)
     if opts["bad_rows"] == "interpolate":
+        last = int(line_no[-1])
         vals, t, line_no, kept = _fill(vals, t, line_no, list(columns), set(hold), notes)
         rows = [rows[i] for i in kept]
         if len(rows) < MIN_SAMPLES:
             raise DataFileError(
                 path,
+                last,
                 None,
-                None,
-                f"only {len(rows)} data row(s) left; at least {MIN_SAMPLES} are needed",
+                f"only {len(rows)} data row(s) left after dropping the rows at the start and "
+                f"the end whose bad cells cannot be filled; at least {MIN_SAMPLES} are needed",
             )
     text_out = {k: tuple(by_line[no] for no in line_no.tolist()) for k, by_line in texts.items()}
     for n in notes:
