@@ -57,7 +57,7 @@ import functools
 import logging
 import math
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -357,8 +357,9 @@ class TimeFormat:
     error and the docs), ``numeric`` whether its cells are numbers (read
     with the file's decimal mark), ``scale`` the seconds per unit of a
     numeric cell, ``epoch`` the seconds to add after scaling (Excel's day 0),
-    ``zone`` whether a numeric stamp is UTC, ``parse`` the parser of a text
-    stamp.
+    ``utc`` whether a numeric stamp is UTC (epoch) rather than a wall clock
+    (Excel), ``absolute`` whether it names a date (not plain seconds), and
+    ``parse`` the parser of a text stamp.
     """
 
     name: str
@@ -1386,8 +1387,3 @@ def read_step_csv(
 def constant(u: NDArray) -> bool:
     """True when the MV record never changes (within rounding): nothing to identify."""
     return bool(np.ptp(u) <= 1e-12 * max(1.0, float(np.max(np.abs(u)))))
-
-
-def csv_kwargs(options: Mapping[str, Any]) -> dict[str, Any]:
-    """The reading options of ``options`` that are set (None left out), for :func:`read_record`."""
-    return {k: v for k, v in options.items() if k in CSV_OPTIONS and v is not None}
