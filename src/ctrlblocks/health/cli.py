@@ -27,6 +27,8 @@ from typing import Any
 
 import click
 
+from ..tuning.csv_options import csv_options
+
 
 def _time_bound(text: str | None, what: str) -> float | None:
     """``--start``/``--end``: seconds, or an ISO 8601 time (Unix time for a historian)."""
@@ -66,19 +68,6 @@ def _is_sqlite(path: Path) -> bool:
 @click.option("--u", "u_col", help="CSV: name of the MV column.")
 @click.option("--mode", "mode_col", help="CSV: name of the mode column (AUTO/MAN or 0/1).")
 @click.option(
-    "--delimiter",
-    type=click.Choice([",", ";", "tab"]),
-    default=None,
-    help="CSV: column delimiter (default: detected).",
-)
-@click.option(
-    "--decimal",
-    type=click.Choice([".", ","]),
-    default=None,
-    help="CSV: decimal mark (default: detected).",
-)
-@click.option("--encoding", default=None, help="CSV: text encoding (as for identify).")
-@click.option(
     "--out",
     "out_dir",
     default="assess",
@@ -102,6 +91,7 @@ def _is_sqlite(path: Path) -> bool:
 @click.option("--dead-time", type=float, help="Dead time [s] (Harris' benchmark).")
 @click.option("--gain", type=float, help="The tuning's model: gain [PV unit / MV unit].")
 @click.option("--time-constant", type=float, help="The tuning's model: time constant [s].")
+@csv_options(without=("start", "end"))
 def assess_command(
     history: str,
     loops: tuple[str, ...],
@@ -112,9 +102,6 @@ def assess_command(
     y_col: str | None,
     u_col: str | None,
     mode_col: str | None,
-    delimiter: str | None,
-    decimal: str | None,
-    encoding: str | None,
     out_dir: str,
     as_json: bool,
     no_plots: bool,
@@ -127,6 +114,7 @@ def assess_command(
     dead_time: float | None,
     gain: float | None,
     time_constant: float | None,
+    csv: dict[str, Any],
 ) -> None:
     """Assess the performance of loops from a historian file or a CSV; write a report.
 
@@ -184,9 +172,7 @@ def assess_command(
                 y_col,
                 u_col,
                 mode_col,
-                delimiter,  # type: ignore[arg-type]
-                decimal,
-                encoding,
+                csv,
                 loops[0] if loops else path.stem,
                 t0,
                 t1,
@@ -301,30 +287,29 @@ def _from_csv(
     y_col: str,
     u_col: str,
     mode_col: str | None,
-    delimiter: str | None,
-    decimal: str | None,
-    encoding: str | None,
+    csv: dict[str, Any],
     name: str,
     t0: float | None,
     t1: float | None,
 ) -> Any:
-    from ..tuning.identify import DataFileError, read_csv_columns
+    from ..tuning.csv_options import echo_notes
+    from ..tuning.records import DataFileError, read_record
     from .assess import LoopData
 
     try:
-        cols = read_csv_columns(
+        cols = read_record(
             path,
             time_col,
             (sp_col, y_col, u_col),
             text_columns=(mode_col,) if mode_col else (),
-            delimiter="\t" if delimiter == "tab" else delimiter,
-            decimal=decimal,
-            encoding=encoding,
+            hold=(sp_col, u_col),
+            **csv,
         )
     except (DataFileError, ValueError, OSError) as exc:
         _fail(str(exc))
+    echo_notes(str(path), cols.notes)
     v = cols.values
-    mode = cols.texts[mode_col] if mode_col else None
+    mode = cols.text[mode_col] if mode_col else None
     data = LoopData(cols.t, v[sp_col], v[y_col], v[u_col], mode, None, name, cols.start)
     if t0 is not None or t1 is not None:
         data = data.window(t0, t1)
