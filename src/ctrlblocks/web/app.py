@@ -20,6 +20,11 @@ route                                   who       what
 ``GET /api/loops/NAME/history.csv``     login     the same as a CSV download (every sample)
 ``GET /api/audit``                      login     the audit trail (who changed what, when)
 ``POST /api/login``, ``/api/logout``    anyone    ``{"user": .., "password": ..}``; a cookie
+``GET /api/alarms``                     live      every loop's alarm state and its annunciated
+                                                  alarms (:mod:`ctrlblocks.runtime.health`)
+``POST /api/loops/NAME/alarms/ACTION``  operator  ``ack`` (``{"alarm": "H"}``, or all),
+                                                  ``shelve`` (``{"alarm": "H", "seconds": 600}``),
+                                                  ``unshelve``; audited with the user (engineer too)
 ``POST /api/loops/NAME/command``        role      ``{"mode": "manual", "manual_value": 40}``,
                                                   ``{"sp": 2.0}`` (operator, engineer);
                                                   ``{"u_min": 0, "u_max": 80}``,
@@ -104,7 +109,7 @@ from .context import (
     MAX_PENDING_HASHES,
     Faceplate,
 )
-from .routes import commands, pages, push, session
+from .routes import alarms, commands, pages, push, session
 from .routes.commands import TUNE_OPTIONS, coerce_command, proposal_outside, tune_options
 from .routes.pages import STATIC, csv_header
 
@@ -226,6 +231,6 @@ def create_app(
             response.headers.setdefault(k, v)
         return response
 
-    for module in (pages, session, commands, push):
+    for module in (pages, session, commands, alarms, push):
         app.include_router(module.router)
     return app

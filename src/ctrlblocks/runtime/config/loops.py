@@ -14,6 +14,7 @@ from ...loops.spec import ControllerSpec
 from ...loops.structures import STRUCTURES as _STRUCTURES
 from ...loops.structures import parse_controller
 from ...loops.toml import NAME_RE
+from ..health import check_health_tables
 from .engineering import ENGINEERING_KEYS, engineering
 from .model import (
     MAX_DT_TS,
@@ -70,6 +71,8 @@ class LoopTables:
             "alarm_limit",
             "write_retries",
             "u0",
+            "alarms",
+            "assess",
             *_FAULT_LOOP_KEYS,
             *_TIME_LOOP_KEYS,
             *ENGINEERING_KEYS,
@@ -212,6 +215,7 @@ class LoopTables:
             mv2=mv2,
             wild=meas.get("wild"),
             outputs=outputs,
+            health=check_health_tables(raw, key, ts, self.fail),
             **self.fault_action(raw, key),
             **self.time_settings(raw, key, ts),
             **engineering(self, raw, key, sp, opt["manual_value"]),

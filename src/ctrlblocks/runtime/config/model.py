@@ -174,6 +174,8 @@ class LoopConfig:
     mv_range: tuple[float, float] | None = None
     tuning_ranges: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     units: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    # -- loop health (runtime.health): the checked ``alarms`` and ``assess`` tables --
+    health: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
     def bindings(self) -> dict[str, Binding]:
         """The signal bindings by name (only those that are set)."""

@@ -3,6 +3,7 @@
 * :mod:`.pages` -- the page, ``/api/info``, loop states, history, CSV, audit;
 * :mod:`.session` -- login and logout;
 * :mod:`.commands` -- operator commands and live tuning;
+* :mod:`.alarms` -- process alarms: the list, acknowledge, shelve, unshelve;
 * :mod:`.push` -- the WebSocket push (only what changed, only the loops on screen).
 
 Every route finds the shared :class:`~ctrlblocks.web.context.Faceplate` as
