@@ -219,7 +219,7 @@ safe_value = 0.0
                 seen: set[str] = set()
                 while rt.clock.now() < end:
                     await asyncio.sleep(0.5)
-                    seen |= set(rt.state("adrc")["status"])
+                    seen |= set(rt.state("adrc").get("status", ()))  # (older runtimes: none)
                 statuses[name] = seen
                 loads[name] = round(os.getloadavg()[0], 1)
                 marks.append((name, t0, rt.clock.now()))
@@ -269,7 +269,7 @@ safe_value = 0.0
         spv = [s.pv for s in sl if s.pv_ok]
         row["slow_pv_range_bar"] = [round(min(spv), 4), round(max(spv), 4)] if spv else None
         out["phases"].append(row)
-    out["final_status"] = {n: s["status"] for n, s in st.items()}
+    out["final_status"] = {n: s.get("status") for n, s in st.items()}
     if a.plot_dir:
         plot_slow(samples, marks, Path(a.plot_dir) / "runtime-slow-device.png")
     return out

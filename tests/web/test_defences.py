@@ -301,6 +301,11 @@ def test_roles_are_enforced_by_the_server(client, app, user, body, status):
     assert (row["who"], bool(row["ok"])) == (user, status == 200)
     if status == 403:
         assert r.json()["error"]["field"] in body and "may not change" in row["message"]
+        # in English: "an operator", "a viewer" (the issue read "a operator may not ...")
+        role = USERS[user][0]
+        who = {"operator": "an operator", "viewer": "a viewer"}[role]
+        assert r.json()["error"]["message"].startswith(f"{who} may not change ")
+        assert row["message"].startswith(f"refused: {who} may not change ")
 
 
 # -- sessions end when the users file changes -------------------------------------------------

@@ -464,7 +464,7 @@ class ControlLoop:
             swinging = self._swing.update(mv, span)
         c.set("oscillating", swinging,
               "the MV swings: it reversed by more than 10 % of its range "
-              f"{len(self._swing._at)} times in {self._swing.window} cycles", t)  # fmt: skip
+              f"{self._swing.recent} times in {self._swing.window} cycles", t)  # fmt: skip
         testing = self.tuning is not None and self.tuning.active
         c.set("tuning", testing, "a live tuning test runs", t)
         down = sorted(n for n in cfg.connections() if not self.connections[n].connected)

@@ -157,6 +157,11 @@ class SwingDetector:
         self._hi = self._lo = math.nan  # the extremes (while the direction is not known)
         self._at = []
 
+    @property
+    def recent(self) -> int:
+        """The reversals counted in the window now."""
+        return len(self._at)
+
     def update(self, u: float, span: float) -> bool:
         """Take this cycle's MV ``u`` and the MV range ``span``; True while it swings."""
         self._k += 1
