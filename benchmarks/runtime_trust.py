@@ -207,9 +207,22 @@ safe_value = 0.0
     statuses: dict[str, set[str]] = {}
     loads: dict[str, float] = {}
 
+    stalls: list[tuple[float, float, float]] = []  # (time, how late [s], CPU of the process)
+
+    async def lag_monitor() -> None:
+        """The event loop's own lateness: a 20 ms sleep that wakes more than 100 ms late."""
+        loop = asyncio.get_running_loop()
+        while True:
+            t, cpu = loop.time(), time.process_time()
+            await asyncio.sleep(0.02)
+            late = loop.time() - t - 0.02
+            if late > 0.1:
+                stalls.append((loop.time(), late, time.process_time() - cpu))
+
     async def main():
         rt = Runtime(parse_config(text), on_sample=samples.append)
         await rt.start()
+        monitor = asyncio.ensure_future(lag_monitor())
         marks = []
         try:
             for name, d, secs in phases:
@@ -225,6 +238,7 @@ safe_value = 0.0
                 marks.append((name, t0, rt.clock.now()))
             st = {n: rt.state(n) for n in ("adrc", "slow_pid")}
         finally:
+            monitor.cancel()
             await rt.stop()
         return marks, st
 
@@ -253,6 +267,11 @@ safe_value = 0.0
         row["healthy_overrun_times_s"] = sorted({round(s.t - t0, 1) for s in ph
                                                  if s.loop in healthy and s.overrun})[:20]
         row["load_average"] = loads.get(name)
+        # the runtime's event loop woke late (its process busy: CPU used, or not given a core)
+        row["event_loop_stalls"] = [
+            {"t": round(t - t0, 1), "late_ms": round(1e3 * late), "cpu_ms": round(1e3 * cpu)}
+            for t, late, cpu in stalls if t0 <= t < t1
+        ][:10]
         row["healthy_overruns"] = over
         row["healthy_held_cycles"] = late
         ad = [s for s in ph if s.loop == "adrc"]
