@@ -1422,6 +1422,15 @@ class ADRC(Block):
             sat = 1 if u_raw > hi else -1 if u_raw < lo else 0
             y_out = yf
             e = float(sp) - yf if sp_valid else self.e
+            if not (_NINF < yh < _INF and _NINF < x2 < _INF and _NINF < x3 < _INF
+                    and _NINF < x4 < _INF):  # fmt: skip
+                # the ESO overflowed behind an output that did not need it (MAN, the
+                # re-solve by (11), the anti-backoff wait): it restarts at rest on the
+                # next valid measurement with x4 by (11), as after a failed cycle
+                # (_resume), and the cycle says so; the output of this cycle stands
+                yh = x2 = x3 = x4 = 0.0
+                started, track_next, sat, ab_sat, ab_wait = False, True, 0, 0, 0.0
+                err = ErrorCode.BAD_RESULT
         if err == ErrorCode.NO_ERROR and self._limits_bad:
             err = ErrorCode.BAD_LIMITS
         if err == ErrorCode.NO_ERROR and self._warn:

@@ -1245,6 +1245,15 @@ class PID(Block):
         cycle = self._compute(sp, pv, ff, dv, dt, pv_ok, out_prev)
         self._pending = _with_subs(cycle, subs.take())
         subs.put(committed)
+        if cycle.kind == _LAW and not (
+            _NINF < cycle.d < _INF and _NINF < cycle.w < _INF and _NINF < self.i < _INF
+        ):
+            # the law's memory overflowed behind an output that did not need it (a mode's
+            # target, the dead band's hold: a forward-Euler derivative over an absurd dt):
+            # as a failed cycle, the memory is made finite and re-initialised bumplessly
+            # from the output on recovery (_resume); the output of this cycle stands
+            self.error_id = ErrorCode.BAD_RESULT
+            self._resume(self.out)
         return self.out
 
     def _compute(

@@ -1320,6 +1320,20 @@ def adrc_cycle(
             sat = 0
             ab_sat = 0
             ab_wait = 0.0
+        elif not (is_real(yh) and is_real(x2) and is_real(x3) and is_real(x4)):
+            # the ESO overflowed REAL behind an output that did not need it (MAN, the
+            # re-solve by (11), the anti-backoff wait): it restarts at rest on the next
+            # valid PV with x4 by (11), as ADRC.compute_output; this cycle's MV stands
+            overflow = True
+            yh = 0.0
+            x2 = 0.0
+            x3 = 0.0
+            x4 = 0.0
+            started = False
+            track = True
+            sat = 0
+            ab_sat = 0
+            ab_wait = 0.0
     if err == NO_ERROR:
         err = lim_err
     if err == NO_ERROR and not discretisation_ok(order, omega_c, omega_o, ts, exact):
@@ -1582,12 +1596,20 @@ def _lane(
     return res
 
 
+def _no_cycle(block: Any) -> float:
+    """A cycle time beyond REAL's range (a PLC's TS cannot carry it): hold, ``NO_CYCLE``."""
+    block.error_id = ErrorCode.NO_CYCLE
+    return float(block.out)
+
+
 def pid_float32(
     pid: Any, sp: float, pv: float, ff: float, pv_ok: bool, dt: float | None, dv: float = 0.0
 ) -> float:
     """The cycle of a PID with ``precision="float32"``: :func:`pid_cycle` in REAL."""
     prm = pid_inputs(pid.config)
     if dt is not None:
+        if not float(dt) <= REAL_MAX:
+            return _no_cycle(pid)
         prm["ts"] = float(dt)
     res = _lane(pid, pid_cycle, PID_RESULTS, {
         "sp": sp, "pv": pv, "ff": ff, "dv": dv, "pv_ok": bool(pv_ok), "manual": bool(pid.manual),
@@ -1609,6 +1631,8 @@ def adrc_float32(
     prm = adrc_inputs(adrc.config)
     prm["u_min"], prm["u_max"] = adrc.u_min, adrc.u_max  # as written by set_limits
     if dt is not None:
+        if not float(dt) <= REAL_MAX:
+            return _no_cycle(adrc)
         prm["ts"] = float(dt)
     res = _lane(adrc, adrc_cycle, ADRC_RESULTS, {
         "sp": sp, "y": y, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
@@ -1626,6 +1650,8 @@ def leadlag_float32(ll: Any, x: float, enable: bool, dt: float | None) -> float:
     """The sample of a LeadLag with ``precision="float32"``: :func:`leadlag_cycle` in REAL."""
     prm = leadlag_inputs(ll.config)
     if dt is not None:
+        if not float(dt) <= REAL_MAX:
+            return _no_cycle(ll)
         prm["ts"] = float(dt)
     res = _lane(
         ll, leadlag_cycle, LEADLAG_RESULTS, {"x": x, "enable": bool(enable)}, prm, leadlag_state
