@@ -564,7 +564,7 @@ class Driver:
         self.log.append(("acknowledge",))
         self._both("acknowledge", lambda b: b.acknowledge())
         self._check_state(self.block, "acknowledge")
-        b = self.block
+        b: Any = self.block
         live = b.count > 0 and b.out > b.warn_limit, b.count > 0 and b.out > b.alarm_limit
         if (b.warning, b.alarm) != live:
             raise Breach(

@@ -181,6 +181,9 @@ class CycleMonitor(Block):
     )
     config: CycleMonitorConfig
     _config: CycleMonitorConfig
+    warning: bool
+    alarm: bool
+    count: int
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
