@@ -126,6 +126,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .base import (
+    MAX_TIME,
     Block,
     BlockConfig,
     ErrorCode,
@@ -969,7 +970,8 @@ class ADRC(Block):
         if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):  # type: ignore[attr-defined]
             self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
             self._limits_bad = False
-        self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else 3.5 / float(c.omega_o)
+        # (the default saturates: omega_o = 5e-324 would make the wait +inf)
+        self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else min(3.5 / c.omega_o, MAX_TIME)
         if old is not None:
             assert isinstance(old, ADRCConfig)
             tuning = ("order", "b0", "omega_c", "omega_o", "ts", "discretisation")

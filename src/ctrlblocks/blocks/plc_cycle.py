@@ -1225,6 +1225,8 @@ def adrc_cycle(
     tau = tau_wait
     if tau_wait <= 0.0:
         tau = 3.5 / omega_o
+        if not is_real(tau):
+            tau = REAL_MAX  # omega_o of a subnormal: the wait saturates
     ab_on = 0.0
     if anti_backoff:
         ab_on = 1.0
