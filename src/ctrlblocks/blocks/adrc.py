@@ -154,6 +154,7 @@ __all__ = [
     "ADRCKernelParams",
     "ADRCKernelState",
     "adrc_gains",
+    "adrc_law",
     "adrc_step",
     "adrc_switches",
     "anti_backoff_states",
@@ -461,6 +462,142 @@ def anti_backoff_states(
     return yh, x2, x3, x4
 
 
+def adrc_law(
+    r_in: float,
+    y: float,
+    manual: bool,
+    target: float,
+    tracking: bool,
+    started: bool,
+    sat: int,
+    awin: bool,
+    exact: bool,
+    ab_on: bool,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_eso: float,
+    u_prev: float,
+    ref: float,
+    ab_sat: int,
+    ab_wait: float,
+    prm: tuple[float, ...],
+    ecoef: tuple[float, ...],
+    ab: tuple[float, ...],
+) -> tuple[float, float, float, float, float, float, float, bool, int, int, float]:
+    """The ADRC's cycle on a valid measurement ``y``, every option: the one cycle of every executor.
+
+    The block (:meth:`ADRC.compute_output`), its per-call fast lane, the
+    compiled kernels (:func:`adrc_step`, numba and Cython), the float32 cycle
+    and the exported function block (:mod:`.plc_cycle`) all run this function
+    -- written once, in the subset the PLC translator accepts (no lists, no
+    exceptions).  In Åström's (1987, section 6) computational order it is the
+    ``compute`` half: from the committed state to this cycle's output and the
+    state to commit; the caller commits it with the value actually applied.
+
+    * ``started`` False: the first valid measurement starts the ESO at rest on
+      it (``Y_hat = y``, ``x2 = x3 = 0``, ``x4 = -b0 u_eso``, reference ``y``);
+    * the reference trajectory (section 5): the exact PT1 ``a_ref`` of the
+      setpoint ``r_in``; in MAN with a filter it follows ``y``;
+    * the ESO (4a) by :func:`eso_euler`, or the exact current observer by
+      :func:`eso_exact` (``exact``, coefficients ``ecoef``), fed ``u_eso`` --
+      the applied u, or that of ``input_delay`` ago (Zhao & Gao 2014);
+    * ``tracking`` (MAN, a bad setpoint, the cycle after MAN or a bad
+      measurement): the output is ``target`` (limited by the caller) and x4
+      is re-solved by (11) with :func:`solve_x4`;
+    * else the law (4b) by :func:`control_law`, the x4 anti-windup rule
+      (section 4.1, :func:`x4_update_allowed`; ``awin`` freezes x4, section 5)
+      and, with ``ab_on``, the anti-backoff action (12a)/(12b) of section 4.3
+      (``ab = (y_sat, y_sat_lo, tau_wait)``): the states of
+      :func:`anti_backoff_states` when y reaches the sensor's saturation, u
+      held for ``tau_wait`` after it leaves (``u_prev``, the applied u).
+
+    ``prm`` is :class:`ADRCKernelParams` (sample time, gains, switches,
+    sensitivities, limits, anti-windup rule, reference pole).  Returns
+    ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next, ab_sat,
+    ab_wait)``: ``track_next`` asks the next cycle to re-solve x4 (the end of
+    the anti-backoff wait); the caller adds its own reasons (MAN, bad data).
+    """
+    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
+     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
+    f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3 = ecoef
+    y_sat, y_sat_lo, tau_wait = ab
+    if not started:
+        yh = y
+        x2 = 0.0
+        x3 = 0.0
+        x4 = -b0 * u_eso
+        ref = y
+    # in manual with a reference filter the reference follows y
+    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * r_in
+    if exact:
+        z0, z1, z2, z3 = eso_exact(yh, x2, x3, x4, u_eso, y, 1.0, f01, f02, f03, f12, f13,
+                                   f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
+    else:
+        z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_eso, y, 1.0, ts, b0, l1, l2, l3, l4,
+                                   p1, p2, k1, k2, k3)  # fmt: skip
+    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+    if tracking:
+        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
+        return target, target, yh, x2, x3, x4, ref, False, 0, ab_sat, ab_wait
+    du = s_u * (z3 - x4)
+    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
+        yh = z0
+        x2 = z1
+        x3 = z2
+        x4 = z3
+        u_raw = u_free
+    else:
+        if exact:
+            yh, x2, x3, x4 = eso_exact(yh, x2, x3, x4, u_eso, y, 0.0, f01, f02, f03, f12,
+                                       f13, f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
+        else:
+            yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_eso, y, 0.0, ts, b0, l1, l2, l3, l4,
+                                       p1, p2, k1, k2, k3)  # fmt: skip
+        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+    end_wait = False
+    if ab_on:
+        now = 0
+        if y >= y_sat:
+            now = 1
+        elif y <= y_sat_lo:
+            now = -1
+        if now != 0 and ab_sat == 0:
+            # Y has just reached the sensor saturation: (12a)/(12b)
+            ysat = y_sat_lo
+            if now > 0:
+                ysat = y_sat
+            yh, x2, x3, x4 = anti_backoff_states(ysat, ref, u_eso, l1, l2, l3, l4, b0, kp,
+                                                 kd1, kd2, p1, p2, k1, k2, k3)  # fmt: skip
+            u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+            ab_wait = 0.0
+        elif now == 0 and ab_sat != 0:
+            ab_wait = tau_wait  # Y has left the saturation
+        ab_sat = now
+        if ab_wait > 0.0:
+            # hold u for tau_wait while the ESO converges (section 4.3)
+            u_raw = clamp(u_prev, lo, hi)
+            ab_wait = max(ab_wait - ts, 0.0)
+            if ab_wait < 1e-9 * ts:
+                ab_wait = 0.0
+                end_wait = True  # leave the wait bumplessly, x4 by (11)
+    sat_next = 0
+    if u_raw > hi:
+        sat_next = 1
+    elif u_raw < lo:
+        sat_next = -1
+    return (clamp(u_raw, lo, hi), u_raw, yh, x2, x3, x4, ref, end_wait, sat_next, ab_sat,
+            ab_wait)  # fmt: skip
+
+
+NO_EXACT: tuple[float, ...] = (0.0,) * 13
+"""The ``ecoef`` of :func:`adrc_law` for the Euler ESO (not read)."""
+
+NO_ANTI_BACKOFF: tuple[float, float, float] = (math.inf, -math.inf, 0.0)
+"""The ``ab`` of :func:`adrc_law` without the anti-backoff action (not read)."""
+
+
 def adrc_step(
     sp: float,
     y: float,
@@ -478,53 +615,28 @@ def adrc_step(
     prm: tuple[float, ...],
     awin: bool = False,
 ) -> tuple[float, float, float, float, float, float, float, bool, int]:
-    """One whole cycle of the Euler ADRC with ``applied = u``, from the functions above.
+    """One whole cycle of the Euler ADRC with ``applied = u``: :func:`adrc_law` for the kernels.
 
-    The per-call fast lane of :class:`ADRC` (auto mode, Euler, no ``u_real``,
-    no anti-backoff) and the compiled loops of :mod:`ctrlblocks.fast` run this
-    one function; it is :meth:`ADRC.compute_output` followed by
-    :meth:`ADRC.update_state` for that configuration: reference filter, ESO
-    (4a) by :func:`eso_euler`, law (4b) by :func:`control_law`, the x4
-    anti-windup rule (section 4.1) by :func:`x4_update_allowed`, limits, and
-    in manual mode (or on the first auto cycle after it, ``track``) x4 solved
-    by (11) with :func:`solve_x4`.  ``started`` is False before the first
-    measurement (the ESO then starts at rest on it); ``sat`` is +1/-1/0 when
-    the previous raw output was above/below/inside the limits.  ``prm = (ts,
-    b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3,
-    s_u, u_min, u_max, rule, a_ref)`` (``a_ref``: pole of the reference filter);
-    ``awin`` is the anti-windup input (a cascade's AW handshake, section 5:
-    x4 frozen this cycle).
+    The compiled loops of :mod:`ctrlblocks.fast` run this function (numba
+    inlines it): :func:`adrc_law` with the Euler ESO, no anti-backoff and no
+    input delay, the target of (11) the manual value (MAN) or the last u.
+    ``started`` is False before the first measurement; ``sat`` is +1/-1/0
+    when the previous raw output was above/below/inside the limits; ``prm``
+    is :class:`ADRCKernelParams`; ``awin`` the anti-windup input (a
+    cascade's AW handshake, section 5: x4 frozen this cycle).
 
     Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next)``.
     """
-    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
-     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
-    target = clamp(u_man, lo, hi) if manual else clamp(u_prev, lo, hi)
-    if not started:
-        yh = y
-        x2 = 0.0
-        x3 = 0.0
-        x4 = -b0 * u_prev
-        ref = y
-    # in manual with a reference filter the reference follows y (ADRC.compute_output)
-    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * sp
-    z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
-                               p1, p2, k1, k2, k3)  # fmt: skip
-    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
-    if manual or track:
-        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
-        return target, target, yh, x2, x3, x4, ref, manual, 0
-    du = s_u * (z3 - x4)
-    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
-        yh, x2, x3, x4 = z0, z1, z2, z3
-        u_raw = u_free
-    else:
-        yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
-                                   p1, p2, k1, k2, k3)  # fmt: skip
-        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-    u = clamp(u_raw, lo, hi)
-    sat_next = 1 if u_raw > hi else -1 if u_raw < lo else 0
-    return u, u_raw, yh, x2, x3, x4, ref, False, sat_next
+    lo = prm[18]
+    hi = prm[19]
+    target = clamp(u_prev, lo, hi)
+    if manual:
+        target = clamp(u_man, lo, hi)
+    u, u_raw, yh, x2, x3, x4, ref, end_wait, sat_next, _ab_sat, _ab_wait = adrc_law(
+        sp, y, manual, target, manual or track, started, sat, awin, False, False, yh, x2, x3,
+        x4, u_prev, u_prev, ref, 0, 0.0, prm, NO_EXACT, NO_ANTI_BACKOFF,
+    )  # fmt: skip
+    return u, u_raw, yh, x2, x3, x4, ref, manual or end_wait, sat_next
 
 
 # ---------------------------------------------------------------------------
@@ -972,6 +1084,7 @@ class ADRC(Block):
             self._limits_bad = False
         # (the default saturates: omega_o = 5e-324 would make the wait +inf)
         self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else min(3.5 / c.omega_o, MAX_TIME)
+        self._ab = (self._ysat_hi, self._ysat_lo, self._tau_wait)  # adrc_law's ab
         if old is not None:
             assert isinstance(old, ADRCConfig)
             tuning = ("order", "b0", "omega_c", "omega_o", "ts", "discretisation")
@@ -1229,9 +1342,16 @@ class ADRC(Block):
         """
         # the output guard (Block._checked) around the body, with the inputs converted
         # first: the compiled build's _call takes C doubles (docs/performance.md)
-        return self._checked(
-            self.out, self._call(as_input(sp), as_input(y), pv_ok, y_ok, u_real, dt)
-        )
+        if type(sp) is not float:
+            sp = as_input(sp)
+        if type(y) is not float:
+            y = as_input(y)
+        prev = self.out
+        v = self._call(sp, y, pv_ok, y_ok, u_real, dt)
+        u = self.out
+        if self._u_lo <= u <= self._u_hi and _NINF < u < _INF:
+            return v  # the guard's test inline: no call on the usual path
+        return self._checked(prev, v)
 
     def _call(
         self, sp: float, y: float, pv_ok: Any, y_ok: Any, u_real: Any, dt: float | None
@@ -1274,9 +1394,12 @@ class ADRC(Block):
         prm = self._prm
         if prm is None:
             prm = self._prm = self._kernel_params()
-        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, _track, self._sat) = adrc_step(
-            sp, y, False, 0.0, True, False, self._sat, self._yh, self._x2, self._x3, self._x4,
-            self._u_prev, self._ref, prm,
+        u_prev = self._u_prev
+        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, _end, self._sat, _abs,
+         _abw) = adrc_law(
+            sp, y, False, u_prev, False, True, self._sat, False, False, False, self._yh,
+            self._x2, self._x3, self._x4, u_prev, u_prev, self._ref, 0, 0.0, prm, NO_EXACT,
+            NO_ANTI_BACKOFF,
         )  # fmt: skip
         self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
         self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
@@ -1290,7 +1413,9 @@ class ADRC(Block):
 
     def _kernel_params(self) -> tuple[float, ...]:
         """The ``prm`` tuple of :func:`adrc_step` for the coefficients and limits in force."""
-        h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3 = self._eso_coef
+        h, b0 = self._h, self._b0
+        l1, l2, l3, l4 = self._gains[:4]
+        p1, p2, k1, k2, k3 = self._switches
         _b0, kp, kd1, kd2 = self._law
         s_yh, s_x2, s_x3, s_u = self._sens
         return tuple(
@@ -1365,63 +1490,19 @@ class ADRC(Block):
             e = sgn * self.e
         else:
             yf = float(y)
-            if not started:
-                # first valid measurement: start the ESO at rest on it
-                yh, x2, x3, x4 = yf, 0.0, 0.0, -self._b0 * u_eso
-                ref = yf
-                started = True
-            r_in = float(sp) if sp_valid else ref
-            # reference trajectory (Nowak et al. 2018, section 5): exact PT1 of the setpoint
-            # (.signals.pt1_coefficient), as in adrc_step; in MAN it follows Y
-            if manual and self._a_ref != 0.0:
-                ref = yf
-            else:
-                ref = self._a_ref * ref + (1.0 - self._a_ref) * r_in
-            tracking = manual or not sp_valid or self._track
-            b0, kp, kd1, kd2 = self._law
-            s_yh, s_x2, s_x3, s_u = self._sens
-            z = self._eso(yh, x2, x3, x4, u_eso, yf, 1.0, *self._eso_coef)
-            u_free = control_law(ref, *z, b0, kp, kd1, kd2)
-            if tracking:
-                yh, x2, x3, x4 = solve_x4(target, u_free, *z, s_yh, s_x2, s_x3, s_u)
-                u_raw = target
-                u = target
-                track_next = manual or not sp_valid
-            else:
-                du = s_u * (z[3] - x4)
-                w4 = x4_update_allowed(self._rule, bool(self.awin), self._sat, du)
-                if w4 == 1.0:
-                    yh, x2, x3, x4 = z
-                    u_raw = u_free
-                else:
-                    yh, x2, x3, x4 = self._eso(yh, x2, x3, x4, u_eso, yf, 0.0, *self._eso_coef)
-                    u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-                end_wait = False
-                if self._config.anti_backoff:
-                    y_hi, y_lo = self._ysat_hi, self._ysat_lo
-                    now = 1 if yf >= y_hi else -1 if yf <= y_lo else 0
-                    if now != 0 and ab_sat == 0:
-                        # Y has just reached the sensor saturation: (12a)/(12b)
-                        ysat = y_hi if now > 0 else y_lo
-                        yh, x2, x3, x4 = anti_backoff_states(
-                            ysat, ref, u_eso, *self._gains[:4], *self._law, *self._switches
-                        )
-                        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-                        ab_wait = 0.0
-                    elif now == 0 and ab_sat != 0:
-                        ab_wait = self._tau_wait  # Y has left the saturation
-                    ab_sat = now
-                    if ab_wait > 0.0:
-                        # hold u for tau_wait while the ESO converges (section 4.3)
-                        u_raw = clamp(self._u_prev, lo, hi)
-                        ab_wait = max(ab_wait - h, 0.0)
-                        if ab_wait < 1e-9 * h:
-                            ab_wait = 0.0
-                            end_wait = True
-                u = clamp(u_raw, lo, hi)
-                track_next = end_wait  # leave the wait bumplessly, x4 by (11)
-            # (tracking: u_raw is the limited target, so sat = 0)
-            sat = 1 if u_raw > hi else -1 if u_raw < lo else 0
+            r_in = float(sp) if sp_valid else ref if started else yf
+            prm = self._prm
+            if prm is None:
+                prm = self._prm = self._kernel_params()
+            (u, u_raw, yh, x2, x3, x4, ref, end_wait, sat, ab_sat, ab_wait) = adrc_law(
+                r_in, yf, manual, target, manual or not sp_valid or self._track, started,
+                self._sat, bool(self.awin), self._exact, self._config.anti_backoff, yh, x2, x3,
+                x4, u_eso, self._u_prev, ref, ab_sat, ab_wait, prm,
+                self._eso_coef if self._exact else NO_EXACT, self._ab,
+            )  # fmt: skip
+            started = True
+            # x4 by (11) next cycle: after MAN or a bad setpoint, at the end of the wait
+            track_next = manual or not sp_valid or end_wait
             y_out = yf
             e = float(sp) - yf if sp_valid else self.e
             if not (_NINF < yh < _INF and _NINF < x2 < _INF and _NINF < x3 < _INF

@@ -1149,10 +1149,20 @@ class PID(Block):
         """
         # the output guard (Block._checked) around the body, with the inputs converted
         # first: the compiled build's _call takes C doubles (docs/performance.md)
-        return self._checked(
-            self.out,
-            self._call(as_input(sp), as_input(pv), as_input(ff), as_input(dv), dt, pv_ok),
-        )
+        if type(sp) is not float:
+            sp = as_input(sp)
+        if type(pv) is not float:
+            pv = as_input(pv)
+        if type(ff) is not float:
+            ff = as_input(ff)
+        if type(dv) is not float:
+            dv = as_input(dv)
+        prev = self.out
+        v = self._call(sp, pv, ff, dv, dt, pv_ok)
+        u = self.out
+        if self._lo <= u <= self._hi and _NINF < u < _INF:
+            return v  # the guard's test inline: no call on the usual path
+        return self._checked(prev, v)
 
     def _call(
         self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool

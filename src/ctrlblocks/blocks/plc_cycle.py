@@ -52,6 +52,7 @@ from .precision import CYCLES, real_exp, real_ln, real_sqrt
 _adrc = _interpreted("adrc")
 EULER_LIMIT = _adrc.EULER_LIMIT
 EXACT_LIMIT = _adrc.EXACT_LIMIT
+adrc_law = _adrc.adrc_law
 adrc_step = _adrc.adrc_step
 adrc_switches = _adrc.adrc_switches
 anti_backoff_states = _adrc.anti_backoff_states
@@ -1002,105 +1003,6 @@ def discretisation_ok(n: int, omega_c: float, omega_o: float, ts: float, exact: 
     return omega_o * ts <= lim_o and omega_c * ts <= lim_c
 
 
-def adrc_general_step(
-    r_in: float,
-    y: float,
-    manual: bool,
-    target: float,
-    tracking: bool,
-    sat: int,
-    awin: bool,
-    exact: bool,
-    yh: float,
-    x2: float,
-    x3: float,
-    x4: float,
-    u_prev: float,
-    ref: float,
-    ab_sat: int,
-    ab_wait: float,
-    prm: tuple[float, ...],
-    ecoef: tuple[float, ...],
-    ab: tuple[float, ...],
-) -> tuple[float, float, float, float, float, float, float, bool, int, int, float]:
-    """One valid-measurement cycle of the ADRC in every option (:meth:`ADRC.compute_output`).
-
-    What :func:`.adrc.adrc_step` does not cover: the exact (ZOH) current
-    observer :func:`.adrc.eso_exact` (``exact``, coefficients ``ecoef`` from
-    :func:`exact_coefficients`), the cascade input ``awin`` and the
-    anti-backoff action (12a)/(12b) of Nowak et al. 2018, section 4.3 by
-    :func:`.adrc.anti_backoff_states` (``ab = (on, y_sat, y_sat_lo,
-    tau_wait)``), with the same functions in the block's order.  The ESO has
-    been started on ``y`` by the caller; ``tracking`` re-solves x4 by (11).
-    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next,
-    ab_sat, ab_wait)``.
-    """
-    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
-     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
-    f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3 = ecoef
-    ab_on, y_sat, y_sat_lo, tau_wait = ab
-    # in manual with a reference filter the reference follows y (ADRC.compute_output)
-    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * r_in
-    if exact:
-        z0, z1, z2, z3 = eso_exact(yh, x2, x3, x4, u_prev, y, 1.0, f01, f02, f03, f12, f13,
-                                   f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
-    else:
-        z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
-                                   p1, p2, k1, k2, k3)  # fmt: skip
-    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
-    if tracking:
-        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
-        return target, target, yh, x2, x3, x4, ref, False, 0, ab_sat, ab_wait
-    du = s_u * (z3 - x4)
-    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
-        yh = z0
-        x2 = z1
-        x3 = z2
-        x4 = z3
-        u_raw = u_free
-    else:
-        if exact:
-            yh, x2, x3, x4 = eso_exact(yh, x2, x3, x4, u_prev, y, 0.0, f01, f02, f03, f12,
-                                       f13, f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
-        else:
-            yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
-                                       p1, p2, k1, k2, k3)  # fmt: skip
-        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-    end_wait = False
-    if ab_on != 0.0:
-        now = 0
-        if y >= y_sat:
-            now = 1
-        elif y <= y_sat_lo:
-            now = -1
-        if now != 0 and ab_sat == 0:
-            # Y has just reached the sensor saturation: (12a)/(12b)
-            ysat = y_sat_lo
-            if now > 0:
-                ysat = y_sat
-            yh, x2, x3, x4 = anti_backoff_states(ysat, ref, u_prev, l1, l2, l3, l4, b0, kp,
-                                                 kd1, kd2, p1, p2, k1, k2, k3)  # fmt: skip
-            u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-            ab_wait = 0.0
-        elif now == 0 and ab_sat != 0:
-            ab_wait = tau_wait  # Y has left the saturation
-        ab_sat = now
-        if ab_wait > 0.0:
-            # hold u for tau_wait while the ESO converges (section 4.3)
-            u_raw = clamp(u_prev, lo, hi)
-            ab_wait = max(ab_wait - ts, 0.0)
-            if ab_wait < 1e-9 * ts:
-                ab_wait = 0.0
-                end_wait = True  # leave the wait bumplessly, x4 by (11)
-    sat_next = 0
-    if u_raw > hi:
-        sat_next = 1
-    elif u_raw < lo:
-        sat_next = -1
-    return (clamp(u_raw, lo, hi), u_raw, yh, x2, x3, x4, ref, end_wait, sat_next, ab_sat,
-            ab_wait)  # fmt: skip
-
-
 def adrc_cycle(
     sp: float,
     y: float,
@@ -1227,9 +1129,6 @@ def adrc_cycle(
         tau = 3.5 / omega_o
         if not is_real(tau):
             tau = REAL_MAX  # omega_o of a subnormal: the wait saturates
-    ab_on = 0.0
-    if anti_backoff:
-        ab_on = 1.0
     if reverse != rev_prev:
         # reverse changed (ADRC._reverse_states): the states in the units of y change sign,
         # x4 is re-solved by (11) in this cycle, so u continues from the last one
@@ -1249,7 +1148,7 @@ def adrc_cycle(
         y = -y
         sat_hi = -y_sat_lo
         sat_lo = -y_sat
-    ab = (ab_on, sat_hi, sat_lo, tau)
+    ab = (sat_hi, sat_lo, tau)
     # process data
     err = NO_ERROR
     y_valid = y_ok and is_real(y)
@@ -1285,23 +1184,12 @@ def adrc_cycle(
         tgt = u_prev
         if manual:
             tgt = u_target
-        if exact or anti_backoff or awin:
-            if not started:
-                # first valid measurement: start the ESO at rest on it
-                yh = y
-                x2 = 0.0
-                x3 = 0.0
-                x4 = -b0 * u_prev
-                ref = y
-            mv, u_raw, yh, x2, x3, x4, ref, track, sat, ab_sat, ab_wait = adrc_general_step(
-                r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, sat,
-                awin, exact, yh, x2, x3, x4, u_prev, ref, ab_sat, ab_wait, prm, ecoef, ab,
-            )  # fmt: skip
-        else:
-            mv, u_raw, yh, x2, x3, x4, ref, track, sat = adrc_step(
-                r_in, y, manual, u_target, started, track or not sp_valid, sat,
-                yh, x2, x3, x4, u_prev, ref, prm, awin,
-            )  # fmt: skip
+        # the ADRC's one cycle (adrc.adrc_law), as the block runs it
+        mv, u_raw, yh, x2, x3, x4, ref, track, sat, ab_sat, ab_wait = adrc_law(
+            r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, started, sat,
+            awin, exact, anti_backoff, yh, x2, x3, x4, u_prev, u_prev, ref, ab_sat, ab_wait,
+            prm, ecoef, ab,
+        )  # fmt: skip
         track = track or manual or not sp_valid
         started = True
         if not is_real(u_raw):
