@@ -380,6 +380,11 @@ BLOCKS: dict[str, Spec] = _specs()
 # ---------------------------------------------------------------------------
 
 
+_USER_INPUTS = {"u_man", "manual_value", "track_value"}
+"""Inputs a user writes that the snapshot keeps (the manual and track values): a NaN
+there is a bad input the block reports and holds against, not a state it computed."""
+
+
 def _non_finite(x: Any, path: str = "") -> str | None:
     """The path of the first non-finite float in a snapshot (dicts, sequences, arrays), or None.
 
@@ -390,6 +395,8 @@ def _non_finite(x: Any, path: str = "") -> str | None:
         return None if -math.inf < x < math.inf else path or "value"
     if isinstance(x, dict):
         for k, v in x.items():
+            if k in _USER_INPUTS:
+                continue
             bad = _non_finite(v, f"{path}.{k}" if path else str(k))
             if bad:
                 return bad
