@@ -162,6 +162,8 @@ __all__ = [
     "eso_euler",
     "eso_exact",
     "euler_pole_polynomial",
+    "euler_substeps",
+    "handover_offset",
     "retune_x4",
 ]
 
@@ -480,12 +482,13 @@ def adrc_law(
     u_eso: float,
     u_prev: float,
     ref: float,
+    q: float,
     ab_sat: int,
     ab_wait: float,
     prm: tuple[float, ...],
     ecoef: tuple[float, ...],
     ab: tuple[float, ...],
-) -> tuple[float, float, float, float, float, float, float, bool, int, int, float]:
+) -> tuple[float, float, float, float, float, float, float, float, bool, int, int, float]:
     """The ADRC's cycle on a valid measurement ``y``, every option: the one cycle of every executor.
 
     The block (:meth:`ADRC.compute_output`), its per-call fast lane, the
@@ -504,9 +507,15 @@ def adrc_law(
       :func:`eso_exact` (``exact``, coefficients ``ecoef``), fed ``u_eso`` --
       the applied u, or that of ``input_delay`` ago (Zhao & Gao 2014);
     * ``tracking`` (MAN, a bad setpoint, the cycle after MAN or a bad
-      measurement): the output is ``target`` (limited by the caller) and x4
-      is re-solved by (11) with :func:`solve_x4`;
-    * else the law (4b) by :func:`control_law`, the x4 anti-windup rule
+      measurement): the output is ``target`` (limited by the caller).  The ESO
+      runs on, undisturbed, and the *handover offset* ``q`` of the reference
+      is solved so that (4b) gives ``target`` (:func:`handover_offset`); only
+      where that cannot be done (``kp`` underflowed) x4 is re-solved by (11)
+      with :func:`solve_x4`;
+    * else ``q`` decays by ``a_q = exp(-omega_c h)`` and the law (4b) runs on
+      the reference ``ref + q`` (docs/blocks/adrc.md, "Modes and bumpless
+      transfer": the output continues without a bump and its first move goes
+      toward the setpoint), by :func:`control_law`, the x4 anti-windup rule
       (section 4.1, :func:`x4_update_allowed`; ``awin`` freezes x4, section 5)
       and, with ``ab_on``, the anti-backoff action (12a)/(12b) of section 4.3
       (``ab = (y_sat, y_sat_lo, tau_wait)``): the states of
@@ -514,13 +523,15 @@ def adrc_law(
       held for ``tau_wait`` after it leaves (``u_prev``, the applied u).
 
     ``prm`` is :class:`ADRCKernelParams` (sample time, gains, switches,
-    sensitivities, limits, anti-windup rule, reference pole).  Returns
-    ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next, ab_sat,
-    ab_wait)``: ``track_next`` asks the next cycle to re-solve x4 (the end of
-    the anti-backoff wait); the caller adds its own reasons (MAN, bad data).
+    sensitivities, limits, anti-windup rule, reference pole, handover pole,
+    Euler sub-steps: the Euler ESO runs ``nsub`` steps of ``ts/nsub`` with u
+    and y held, :func:`euler_substeps`).  Returns ``(u, u_raw, Y_hat, x2,
+    x3, x4, ref, q, track_next, sat_next, ab_sat, ab_wait)``: ``track_next``
+    asks the next cycle to track (the end of the anti-backoff wait); the
+    caller adds its own reasons (MAN, bad data).
     """
     (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
-     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
+     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref, a_q, nsub) = prm  # fmt: skip
     f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3 = ecoef
     y_sat, y_sat_lo, tau_wait = ab
     if not started:
@@ -534,13 +545,23 @@ def adrc_law(
     if exact:
         z0, z1, z2, z3 = eso_exact(yh, x2, x3, x4, u_eso, y, 1.0, f01, f02, f03, f12, f13,
                                    f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
-    else:
+    elif nsub == 1.0:
         z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_eso, y, 1.0, ts, b0, l1, l2, l3, l4,
                                    p1, p2, k1, k2, k3)  # fmt: skip
-    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+    else:
+        z0, z1, z2, z3 = eso_euler_substeps(yh, x2, x3, x4, u_eso, y, 1.0, ts, nsub, b0, l1,
+                                            l2, l3, l4, p1, p2, k1, k2, k3)  # fmt: skip
     if tracking:
+        if kp != 0.0:
+            q = handover_offset(target, ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+            if q - q == 0.0:  # finite: the ESO runs on, the reference takes the offset
+                return target, target, z0, z1, z2, z3, ref, q, False, 0, ab_sat, ab_wait
+        u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
         yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
-        return target, target, yh, x2, x3, x4, ref, False, 0, ab_sat, ab_wait
+        return target, target, yh, x2, x3, x4, ref, 0.0, False, 0, ab_sat, ab_wait
+    q = a_q * q
+    r = ref + q
+    u_free = control_law(r, z0, z1, z2, z3, b0, kp, kd1, kd2)
     du = s_u * (z3 - x4)
     if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
         yh = z0
@@ -552,10 +573,14 @@ def adrc_law(
         if exact:
             yh, x2, x3, x4 = eso_exact(yh, x2, x3, x4, u_eso, y, 0.0, f01, f02, f03, f12,
                                        f13, f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
-        else:
+        elif nsub == 1.0:
             yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_eso, y, 0.0, ts, b0, l1, l2, l3, l4,
                                        p1, p2, k1, k2, k3)  # fmt: skip
-        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+        else:
+            yh, x2, x3, x4 = eso_euler_substeps(yh, x2, x3, x4, u_eso, y, 0.0, ts, nsub, b0,
+                                                l1, l2, l3, l4, p1, p2, k1, k2,
+                                                k3)  # fmt: skip
+        u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2)
     end_wait = False
     if ab_on:
         now = 0
@@ -568,9 +593,9 @@ def adrc_law(
             ysat = y_sat_lo
             if now > 0:
                 ysat = y_sat
-            yh, x2, x3, x4 = anti_backoff_states(ysat, ref, u_eso, l1, l2, l3, l4, b0, kp,
+            yh, x2, x3, x4 = anti_backoff_states(ysat, r, u_eso, l1, l2, l3, l4, b0, kp,
                                                  kd1, kd2, p1, p2, k1, k2, k3)  # fmt: skip
-            u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
+            u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2)
             ab_wait = 0.0
         elif now == 0 and ab_sat != 0:
             ab_wait = tau_wait  # Y has left the saturation
@@ -587,8 +612,124 @@ def adrc_law(
         sat_next = 1
     elif u_raw < lo:
         sat_next = -1
-    return (clamp(u_raw, lo, hi), u_raw, yh, x2, x3, x4, ref, end_wait, sat_next, ab_sat,
+    return (clamp(u_raw, lo, hi), u_raw, yh, x2, x3, x4, ref, q, end_wait, sat_next, ab_sat,
             ab_wait)  # fmt: skip
+
+
+def handover_offset(
+    target: float,
+    ref: float,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    b0: float,
+    kp: float,
+    kd1: float,
+    kd2: float,
+) -> float:
+    """The offset ``q`` of the reference for which the law (4b) gives ``target`` on these states.
+
+    ``(kp (ref + q - Y_hat) - kd1 x2 - kd2 x3 - x4) / b0 = target`` gives
+    ``q = Y_hat - ref + (b0 target + kd1 x2 + kd2 x3 + x4) / kp`` (Nowak et al.
+    2018, (4b), solved for the reference instead of for x4 as in (11):
+    docs/blocks/adrc.md, "Modes and bumpless transfer").  At a steady state in
+    MAN the ESO holds ``Y_hat = y``, ``x2 = x3 = 0``, ``x4 = -b0 u``, so
+    ``ref + q = y``: the handover starts the reference at the measurement.
+    The caller checks ``kp != 0`` first (an underflowed bandwidth) and, where
+    ``q`` is not finite, re-solves x4 instead.
+    """
+    return yh - ref + (b0 * target + kd1 * x2 + kd2 * x3 + x4) / kp
+
+
+def eso_euler_substeps(
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_prev: float,
+    y: float,
+    w4: float,
+    ts: float,
+    nsub: float,
+    b0: float,
+    l1: float,
+    l2: float,
+    l3: float,
+    l4: float,
+    p1: float,
+    p2: float,
+    k1: float,
+    k2: float,
+    k3: float,
+) -> tuple[float, float, float, float]:
+    """The Euler ESO (4a) over a sample ``ts`` in ``nsub`` steps of ``ts/nsub`` (u and y held).
+
+    The Euler image of the observer is unstable beyond ``omega_o h = 0.828,
+    0.520, 0.378`` (n = 1, 2, 3; module docstring); a runtime that measures a
+    longer period than the block was designed for would make the block
+    diverge.  Sub-stepping keeps every step inside the trusted range
+    (:func:`euler_substeps`) for any period: the continuous ESO (2) driven by
+    the sample's held input and measurement, integrated more finely.
+    """
+    h = ts / nsub
+    for _k in range(int(nsub)):
+        yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, w4, h, b0, l1, l2, l3, l4,
+                                   p1, p2, k1, k2, k3)  # fmt: skip
+    return yh, x2, x3, x4
+
+
+def euler_sensitivities(
+    h: float, p1: float, p2: float, k1: float, k2: float, k3: float
+) -> tuple[float, float, float]:
+    """``(s_x3, s_x2, s_yh)``: how the states of one Euler step (4a) move with x4_i (for (11)).
+
+    The backward recursion passes x4_i on through ``aux_i``: ``s_x3 = h k3``,
+    ``s_x2 = h (p2 s_x3 + k2)``, ``s_yh = h (p1 s_x2 + k1)`` (:func:`solve_x4`).
+    """
+    s_x3 = h * k3
+    s_x2 = h * (p2 * s_x3 + k2)
+    s_yh = h * (p1 * s_x2 + k1)
+    return s_x3, s_x2, s_yh
+
+
+def handover_pole(omega_c: float, h: float) -> float:
+    """``exp(-omega_c h)``: the decay per sample of the handover offset of the reference.
+
+    The offset that made a transfer bumpless fades with the loop's own time
+    constant ``1/omega_c`` (docs/blocks/adrc.md, "Modes and bumpless transfer").
+    """
+    return math.exp(-omega_c * h)
+
+
+def euler_substeps(n: int, omega_o: float, h: float) -> float:
+    """Steps of the Euler ESO over a sample ``h``: 1 where ``omega_o h`` is trusted, else enough.
+
+    ``ceil(omega_o h / EULER_LIMIT[n+1])`` (the bound of the trusted range,
+    module docstring, for the chain of n+1 states), at least 1 -- so a block
+    configured inside the trusted range runs its one step at its ``ts`` and
+    sub-steps only for longer periods -- and at most 100: the observer is
+    stable for periods up to 100 trusted steps (at least 100 ``ts`` for a
+    block designed in the trusted range); beyond, the block keeps its
+    contract (a finite, limited output; an overflowing observer restarts) but
+    its observer is not guaranteed to converge.  A float (the PLC's REAL), whole.
+    """
+    lim = 1.477
+    if n == 1:
+        lim = 0.735
+    elif n == 2:
+        lim = 0.484
+    elif n == 3:
+        lim = 0.360
+    a = omega_o * h / lim
+    if not a > 1.0:
+        return 1.0
+    if not a < 100.0:
+        return 100.0  # the bound: periods up to 100 trusted steps (docs/blocks/adrc.md)
+    m = float(int(a))
+    if m < a:
+        m = m + 1.0
+    return m
 
 
 NO_EXACT: tuple[float, ...] = (0.0,) * 13
@@ -612,9 +753,10 @@ def adrc_step(
     x4: float,
     u_prev: float,
     ref: float,
+    q: float,
     prm: tuple[float, ...],
     awin: bool = False,
-) -> tuple[float, float, float, float, float, float, float, bool, int]:
+) -> tuple[float, float, float, float, float, float, float, float, bool, int]:
     """One whole cycle of the Euler ADRC with ``applied = u``: :func:`adrc_law` for the kernels.
 
     The compiled loops of :mod:`ctrlblocks.fast` run this function (numba
@@ -625,18 +767,19 @@ def adrc_step(
     is :class:`ADRCKernelParams`; ``awin`` the anti-windup input (a
     cascade's AW handshake, section 5: x4 frozen this cycle).
 
-    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next)``.
+    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, q, track_next, sat_next)``
+    (``q``: the handover offset of the reference).
     """
     lo = prm[18]
     hi = prm[19]
     target = clamp(u_prev, lo, hi)
     if manual:
         target = clamp(u_man, lo, hi)
-    u, u_raw, yh, x2, x3, x4, ref, end_wait, sat_next, _ab_sat, _ab_wait = adrc_law(
+    u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat_next, _ab_sat, _ab_wait = adrc_law(
         sp, y, manual, target, manual or track, started, sat, awin, False, False, yh, x2, x3,
-        x4, u_prev, u_prev, ref, 0, 0.0, prm, NO_EXACT, NO_ANTI_BACKOFF,
+        x4, u_prev, u_prev, ref, q, 0, 0.0, prm, NO_EXACT, NO_ANTI_BACKOFF,
     )  # fmt: skip
-    return u, u_raw, yh, x2, x3, x4, ref, manual or end_wait, sat_next
+    return u, u_raw, yh, x2, x3, x4, ref, q, manual or end_wait, sat_next
 
 
 # ---------------------------------------------------------------------------
@@ -991,7 +1134,7 @@ class ADRC(Block):
     _declared = (
         "error_id _config manual awin u_man _lean _started _pending _track _prm _sat "
         "_limits_bad _warn awout _eso _eso_coef _gains _law _sens out _h _ts _yh _x2 _x3 _x4 "
-        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist"
+        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist _q"
     )
 
     @property
@@ -1014,6 +1157,7 @@ class ADRC(Block):
     _track: bool
     _ab_sat: int  # the sensor's saturation side (+1, -1, 0) in the cycle's units
     _u_prev: float  # the u applied last
+    _q: float  # the handover offset of the reference (handover_offset)
     _nd: int  # input_delay in samples
     _u_hist: tuple[float, ...]  # the applied u of the last _nd samples before _u_prev, oldest first
     _state_fields = (
@@ -1037,6 +1181,7 @@ class ADRC(Block):
         "_ab_wait",
         "_plc_state",
         "_u_hist",
+        "_q",
     )
 
     # -- configuration -------------------------------------------------------
@@ -1103,11 +1248,11 @@ class ADRC(Block):
         pend = self._pending
         if pend is None:
             self._yh, self._x2, self._x3, self._x4 = -self._yh, -self._x2, -self._x3, -self._x4
-            self._ref, self._ab_sat = -self._ref, -self._ab_sat
+            self._ref, self._ab_sat, self._q = -self._ref, -self._ab_sat, -self._q
             self._track = True
         else:
-            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait = pend
-            self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait)
+            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait, q = pend
+            self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait, -q)
 
     def _retune(self, old_law: tuple[float, float, float, float]) -> None:
         """Bumpless retuning at the instant of the change (:func:`retune_x4`).
@@ -1127,12 +1272,13 @@ class ADRC(Block):
             started, track = self._started, self._track
         else:
             yh, x2, x3, x4, ref, started, track = pend[:7]
-        u_keep = control_law(ref, yh, x2, x3, x4, *old_law)
+        q = self._q if pend is None else pend[10]
+        u_keep = control_law(ref + q, yh, x2, x3, x4, *old_law)
         if self._n < 3:
             x3 = 0.0
         if self._n < 2:
             x2 = 0.0
-        x4_new = retune_x4(ref, yh, x2, x3, u_keep, *self._law)
+        x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, *self._law)
         if not started or track or self.manual or not _NINF < x4_new < _INF:
             track = True  # the next cycle re-solves x4 by (11)
         else:
@@ -1150,6 +1296,7 @@ class ADRC(Block):
         n, b0 = self._n, self._b0
         p1, p2, k1, k2, k3 = adrc_switches(n)
         l1, l2, l3, l4, kp, kd1, kd2 = adrc_gains(n, float(c.omega_c), float(c.omega_o))
+        nsub = 1.0
         if self._exact:
             coef, (kp, kd1, kd2) = _exact_coefficients(n, b0, float(c.omega_c), float(c.omega_o), h)
             self._eso = eso_exact
@@ -1158,14 +1305,16 @@ class ADRC(Block):
         else:
             self._eso = eso_euler
             self._eso_coef = (h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3)
-            s_x3 = h * k3
-            s_x2 = h * (p2 * s_x3 + k2)
-            s_yh = h * (p1 * s_x2 + k1)
+            nsub = euler_substeps(n, float(c.omega_o), h)
+            s_x3, s_x2, s_yh = euler_sensitivities(h / nsub if nsub > 1.0 else h, p1, p2, k1,
+                                                   k2, k3)  # fmt: skip
+        self._nsub = nsub
         self._gains = (l1, l2, l3, l4, kp, kd1, kd2)
         self._switches = (p1, p2, k1, k2, k3)
         self._law = (b0, kp, kd1, kd2)
         self._sens = (s_yh, s_x2, s_x3, -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0)
         self._a_ref = pt1_coefficient(float(c.t_ref), h, "exact")
+        self._a_q = handover_pole(float(c.omega_c), h)
         self._warn = not discretisation_trusted(
             n, float(c.omega_c), float(c.omega_o), h, c.discretisation
         )
@@ -1185,6 +1334,7 @@ class ADRC(Block):
         self._u_hist = (u0,) * self._nd
         self.u_man = u0
         self._ref = 0.0
+        self._q = 0.0
         self._started = False
         self._track = False
         self._sat = 0
@@ -1211,6 +1361,7 @@ class ADRC(Block):
         for name in ("e", "y", "y_ref", "_ref"):
             if not _NINF < getattr(self, name) < _INF:
                 setattr(self, name, 0.0)
+        self._q = 0.0
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = held
         self._u_hist = (held,) * self._nd
@@ -1225,7 +1376,7 @@ class ADRC(Block):
             # a two-phase cycle in progress: commit this cycle's reference (y_ref, made
             # finite above), as the per-call cycle, which committed it before the guard
             ref = self._sgn * self.y_ref  # in the cycle's units (reverse: -y_ref)
-            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0)
+            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0, 0.0)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped.
@@ -1235,6 +1386,8 @@ class ADRC(Block):
         """
         if "_u_hist" not in snapshot and "_u_prev" in snapshot:
             snapshot = {**snapshot, "_u_hist": ()}
+        if "_q" not in snapshot:  # a snapshot of before the handover offset
+            snapshot = {**snapshot, "_q": 0.0}
         super().restore(snapshot)
         self._u_hist = _resize_history(tuple(self._u_hist), self._nd, self._u_prev)
         self._pending = None
@@ -1395,19 +1548,21 @@ class ADRC(Block):
         if prm is None:
             prm = self._prm = self._kernel_params()
         u_prev = self._u_prev
-        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, _end, self._sat, _abs,
+        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, q, _end, self._sat, _abs,
          _abw) = adrc_law(
             sp, y, False, u_prev, False, True, self._sat, False, False, False, self._yh,
-            self._x2, self._x3, self._x4, u_prev, u_prev, self._ref, 0, 0.0, prm, NO_EXACT,
-            NO_ANTI_BACKOFF,
+            self._x2, self._x3, self._x4, u_prev, u_prev, self._ref, self._q, 0, 0.0, prm,
+            NO_EXACT, NO_ANTI_BACKOFF,
         )  # fmt: skip
+        self._q = q
         self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
         self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
         self.u_raw = u_raw
         self.awout = self._sat != 0
         self.y = y
         self.e = sp - y
-        self.y_ref = self._ref = ref
+        self._ref = ref
+        self.y_ref = ref + q  # the reference the law used (Fig. 2's Y_ref)
         self._u_prev = self.u_man = u
         return u
 
@@ -1421,7 +1576,8 @@ class ADRC(Block):
         return tuple(
             float(v)
             for v in (h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2,
-                      s_x3, s_u, self._u_lo, self._u_hi, self._rule, self._a_ref)
+                      s_x3, s_u, self._u_lo, self._u_hi, self._rule, self._a_ref, self._a_q,
+                      self._nsub)
         )  # fmt: skip
 
     def compute_output(
@@ -1477,7 +1633,7 @@ class ADRC(Block):
         yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
         # the u the ESO is fed: the applied u, input_delay samples older (Zhao & Gao 2014)
         u_eso = self._u_hist[0] if self._nd else self._u_prev
-        ref = self._ref
+        ref, q = self._ref, self._q
         started = self._started
         ab_sat, ab_wait = self._ab_sat, self._ab_wait
         if not y_valid:
@@ -1494,10 +1650,10 @@ class ADRC(Block):
             prm = self._prm
             if prm is None:
                 prm = self._prm = self._kernel_params()
-            (u, u_raw, yh, x2, x3, x4, ref, end_wait, sat, ab_sat, ab_wait) = adrc_law(
+            (u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat, ab_sat, ab_wait) = adrc_law(
                 r_in, yf, manual, target, manual or not sp_valid or self._track, started,
                 self._sat, bool(self.awin), self._exact, self._config.anti_backoff, yh, x2, x3,
-                x4, u_eso, self._u_prev, ref, ab_sat, ab_wait, prm,
+                x4, u_eso, self._u_prev, ref, q, ab_sat, ab_wait, prm,
                 self._eso_coef if self._exact else NO_EXACT, self._ab,
             )  # fmt: skip
             started = True
@@ -1511,7 +1667,7 @@ class ADRC(Block):
                 # re-solve by (11), the anti-backoff wait): it restarts at rest on the
                 # next valid measurement with x4 by (11), as after a failed cycle
                 # (_resume), and the cycle says so; the output of this cycle stands
-                yh = x2 = x3 = x4 = 0.0
+                yh = x2 = x3 = x4 = q = 0.0
                 started, track_next, sat, ab_sat, ab_wait = False, True, 0, 0, 0.0
                 err = ErrorCode.BAD_RESULT
         if err == ErrorCode.NO_ERROR and self._limits_bad:
@@ -1524,8 +1680,8 @@ class ADRC(Block):
         self.awout = sat != 0
         self.y = sgn * y_out
         self.e = sgn * e
-        self.y_ref = sgn * ref
-        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait)
+        self.y_ref = sgn * (ref + q)  # the reference the law used (Fig. 2's Y_ref)
+        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q)
         return u
 
     def update_state(self, applied: float) -> None:
@@ -1553,6 +1709,7 @@ class ADRC(Block):
             self._sat,
             self._ab_sat,
             self._ab_wait,
+            self._q,
         ) = self._pending
         if self._nd:
             self._u_hist = (*self._u_hist[1:], self._u_prev)
@@ -1599,6 +1756,7 @@ class ADRC(Block):
             self._started,
             self._track,
             self._sat,
+            self._q,
         )
 
     def load_kernel_state(self, state: ADRCKernelState) -> None:
@@ -1608,6 +1766,7 @@ class ADRC(Block):
         self._u_prev, self._ref = float(state.u_prev), float(state.ref)
         self._started, self._track = bool(state.started), bool(state.track)
         self._sat = int(state.sat)
+        self._q = float(state.q)
 
 
 class ADRCKernelParams(NamedTuple):
@@ -1635,6 +1794,8 @@ class ADRCKernelParams(NamedTuple):
     hi: float
     rule: float  # anti-windup rule
     a_ref: float  # PT1 coefficient of the reference filter
+    a_q: float  # decay per sample of the handover offset, exp(-omega_c ts)
+    nsub: float  # Euler steps of the ESO per sample (euler_substeps; 1 in the trusted range)
 
 
 class ADRCKernelState(NamedTuple):
@@ -1649,3 +1810,4 @@ class ADRCKernelState(NamedTuple):
     started: bool
     track: bool  # re-solve x4 at the next cycle (bumpless)
     sat: int  # the limit the output is at (-1, 0, 1)
+    q: float = 0.0  # the handover offset of the reference (handover_offset)

@@ -53,6 +53,9 @@ _adrc = _interpreted("adrc")
 EULER_LIMIT = _adrc.EULER_LIMIT
 EXACT_LIMIT = _adrc.EXACT_LIMIT
 adrc_law = _adrc.adrc_law
+euler_sensitivities = _adrc.euler_sensitivities
+euler_substeps = _adrc.euler_substeps
+handover_pole = _adrc.handover_pole
 adrc_step = _adrc.adrc_step
 adrc_switches = _adrc.adrc_switches
 anti_backoff_states = _adrc.anti_backoff_states
@@ -867,8 +870,10 @@ def pid_cycle(
 # ---------------------------------------------------------------------------
 
 ADRC_RESULTS = (
-    "mv", "error_id", "awout", "u_raw", "u_man", "x4_out",
-    "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "started", "track", "sat", "ab_sat",
+    "mv", "error_id", "awout", "u_raw", "u_man", "x4_out", "e_out", "y_out", "y_ref",
+    "x1_out", "x2_out", "x3_out",
+    "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "q", "e", "y_last", "started", "track",
+    "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
     "exact_prev", "rev_prev",
 )  # fmt: skip
@@ -1035,6 +1040,9 @@ def adrc_cycle(
     x4: float,
     u_prev: float,
     ref: float,
+    q: float,
+    e: float,
+    y_last: float,
     started: bool,
     track: bool,
     sat: int,
@@ -1085,7 +1093,7 @@ def adrc_cycle(
         # bumpless retuning (ADRC._retune): the old law's value on the last states
         kp_o, kd1_o, kd2_o = law_gains(order_prev, b0_prev, wc_prev, wo_prev, ts_prev,
                                        exact_prev)  # fmt: skip
-        u_keep = control_law(ref, yh, x2, x3, x4, b0_prev, kp_o, kd1_o, kd2_o)
+        u_keep = control_law(ref + q, yh, x2, x3, x4, b0_prev, kp_o, kd1_o, kd2_o)
         if order < 3:
             x3 = 0.0
         if order < 2:
@@ -1100,9 +1108,13 @@ def adrc_cycle(
     # coefficients of this cycle (ADRC._coefficients)
     p1, p2, k1, k2, k3 = adrc_switches(order)
     l1, l2, l3, l4, kp, kd1, kd2 = bandwidth_gains(order, omega_c, omega_o)
-    s_x3 = ts * k3
-    s_x2 = ts * (p2 * s_x3 + k2)
-    s_yh = ts * (p1 * s_x2 + k1)
+    nsub = 1.0
+    if not exact:
+        nsub = euler_substeps(order, omega_o, ts)
+    h_sub = ts
+    if nsub > 1.0:
+        h_sub = ts / nsub
+    s_x3, s_x2, s_yh = euler_sensitivities(h_sub, p1, p2, k1, k2, k3)
     if exact:
         (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1,
          kd2) = exact_coefficients(order, b0, omega_c, omega_o, ts)  # fmt: skip
@@ -1115,14 +1127,15 @@ def adrc_cycle(
     s_u = -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0
     if retuned:
         # x4 so that the new law gives u_keep on them (retune_x4); (11) where it cannot
-        x4_new = retune_x4(ref, yh, x2, x3, u_keep, b0, kp, kd1, kd2)
+        x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, b0, kp, kd1, kd2)
         if started and not track and not manual and is_real(x4_new):
             x4 = x4_new
         else:
             track = True
     a_ref = pt1_coefficient(t_ref, ts, "exact")
+    a_q = handover_pole(omega_c, ts)
     prm = (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3, s_u,
-           lo, hi, float(aw_rule), a_ref)  # fmt: skip
+           lo, hi, float(aw_rule), a_ref, a_q, nsub)  # fmt: skip
     ecoef = (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3)
     tau = tau_wait
     if tau_wait <= 0.0:
@@ -1137,6 +1150,7 @@ def adrc_cycle(
         x3 = -x3
         x4 = -x4
         ref = -ref
+        q = -q
         ab_sat = -ab_sat
         track = True
     rev_prev = reverse
@@ -1185,11 +1199,14 @@ def adrc_cycle(
         if manual:
             tgt = u_target
         # the ADRC's one cycle (adrc.adrc_law), as the block runs it
-        mv, u_raw, yh, x2, x3, x4, ref, track, sat, ab_sat, ab_wait = adrc_law(
+        mv, u_raw, yh, x2, x3, x4, ref, q, track, sat, ab_sat, ab_wait = adrc_law(
             r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, started, sat,
-            awin, exact, anti_backoff, yh, x2, x3, x4, u_prev, u_prev, ref, ab_sat, ab_wait,
+            awin, exact, anti_backoff, yh, x2, x3, x4, u_prev, u_prev, ref, q, ab_sat, ab_wait,
             prm, ecoef, ab,
         )  # fmt: skip
+        y_last = y
+        if sp_valid:
+            e = sp - y
         track = track or manual or not sp_valid
         started = True
         if not is_real(u_raw):
@@ -1205,6 +1222,7 @@ def adrc_cycle(
             ref = 0.0
             if is_real(ref_old):
                 ref = ref_old
+            q = 0.0
             started = False
             track = True
             sat = 0
@@ -1219,6 +1237,7 @@ def adrc_cycle(
             x2 = 0.0
             x3 = 0.0
             x4 = 0.0
+            q = 0.0
             started = False
             track = True
             sat = 0
@@ -1239,9 +1258,15 @@ def adrc_cycle(
     if not manual:
         u_man = u_prev  # In/Out: outside MAN the manual value follows the applied u
     out = mv
+    # the outputs of Fig. 2 (Nowak et al. 2018, section 5) in the units of PV: e, Y, Y_ref
+    # (the reference the law used, ref + q) and the ESO state (in the cycle's units)
+    sgn = 1.0
+    if reverse:
+        sgn = -1.0
     return (
-        mv, err, sat != 0, u_raw, u_man, x4,
-        out, yh, x2, x3, x4, u_prev, ref, started, track, sat, ab_sat, ab_wait, lo, hi,
+        mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * (ref + q), yh, x2, x3,
+        out, yh, x2, x3, x4, u_prev, ref, q, e, y_last, started, track, sat, ab_sat, ab_wait,
+        lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
     )  # fmt: skip
 
@@ -1437,9 +1462,10 @@ def adrc_state(config: Any) -> dict[str, Any]:
     u0 = clamp(float(config.u0), lo, hi)
     return {
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ref": 0.0,
-        "started": False, "track": False, "sat": 0, "ab_sat": 0, "ab_wait": 0.0, "lo": lo,
-        "hi": hi, "tuned": False, "order_prev": 0, "b0_prev": 0.0, "wc_prev": 0.0,
-        "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False, "rev_prev": bool(config.reverse),
+        "q": 0.0, "e": 0.0, "y_last": 0.0, "started": False, "track": False, "sat": 0,
+        "ab_sat": 0, "ab_wait": 0.0, "lo": lo, "hi": hi, "tuned": False, "order_prev": 0,
+        "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
+        "rev_prev": bool(config.reverse),
     }  # fmt: skip
 
 
@@ -1533,6 +1559,10 @@ def adrc_float32(
     adrc.awout = bool(res["awout"])
     adrc.u_raw = float(res["u_raw"])
     adrc.u_man = float(res["u_man"])
+    # the outputs of Fig. 2 as the exported FB has them (ADRC.e, y, y_ref, x)
+    adrc.e, adrc.y, adrc.y_ref = float(res["e_out"]), float(res["y_out"]), float(res["y_ref"])
+    adrc._yh, adrc._x2, adrc._x3 = (float(res[k]) for k in ("x1_out", "x2_out", "x3_out"))
+    adrc._x4 = float(res["x4_out"])
     return adrc.out
 
 

@@ -70,6 +70,8 @@ for _f in (
     _adrc.x4_update_allowed,
     _adrc.solve_x4,
     _adrc.anti_backoff_states,
+    _adrc.eso_euler_substeps,
+    _adrc.handover_offset,
     _adrc.adrc_law,
     _tt.threetank_rk4,
     _pid.pid_step,
