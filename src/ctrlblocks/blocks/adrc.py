@@ -1561,8 +1561,7 @@ class ADRC(Block):
         self.awout = self._sat != 0
         self.y = y
         self.e = sp - y
-        self._ref = ref
-        self.y_ref = ref + q  # the reference the law used (Fig. 2's Y_ref)
+        self.y_ref = self._ref = ref
         self._u_prev = self.u_man = u
         return u
 
@@ -1680,7 +1679,7 @@ class ADRC(Block):
         self.awout = sat != 0
         self.y = sgn * y_out
         self.e = sgn * e
-        self.y_ref = sgn * (ref + q)  # the reference the law used (Fig. 2's Y_ref)
+        self.y_ref = sgn * ref  # the reference trajectory (Fig. 2's Y_ref)
         self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q)
         return u
 

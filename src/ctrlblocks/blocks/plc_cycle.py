@@ -1259,12 +1259,12 @@ def adrc_cycle(
         u_man = u_prev  # In/Out: outside MAN the manual value follows the applied u
     out = mv
     # the outputs of Fig. 2 (Nowak et al. 2018, section 5) in the units of PV: e, Y, Y_ref
-    # (the reference the law used, ref + q) and the ESO state (in the cycle's units)
+    # (the reference trajectory) and the ESO state (in the cycle's units)
     sgn = 1.0
     if reverse:
         sgn = -1.0
     return (
-        mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * (ref + q), yh, x2, x3,
+        mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * ref, yh, x2, x3,
         out, yh, x2, x3, x4, u_prev, ref, q, e, y_last, started, track, sat, ab_sat, ab_wait,
         lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,

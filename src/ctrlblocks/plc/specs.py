@@ -193,7 +193,7 @@ u_raw    U_RAW       u of the control law (4b) before the limits
 x4_out   DISTURBANCE x4: estimate of the total disturbance h
 e_out    E           control error SP - PV (Fig. 2, e)
 y_out    Y           the measurement used (Fig. 2, Y)
-y_ref    Y_REF       the reference the law used: trajectory plus handover offset (Fig. 2, Y_ref)
+y_ref    Y_REF       the reference trajectory (Fig. 2, Y_ref; the law adds the handover offset Q)
 x1_out   X1          ESO state Y_hat (Fig. 2, observer state; with REVERSE in the units of -PV)
 x2_out   X2          ESO state x2 (the first derivative of Y in the model; 0 for n = 1)
 x3_out   X3          ESO state x3 (the second derivative of Y in the model; 0 for n < 3)
