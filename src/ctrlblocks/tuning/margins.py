@@ -72,6 +72,7 @@ __all__ = [
     "margins",
     "model_plant",
     "plant_ss",
+    "smith_ss",
 ]
 
 MS_FRAGILE = 2.0
@@ -240,6 +241,54 @@ def controller_ss(block: PID | ADRC) -> DiscreteSS:
     return DiscreteSS(a, b, c, d, float(cfg.ts), tuple(f in _MV_STATES for f in fields))
 
 
+def smith_ss(ctrl: DiscreteSS, model: Any) -> DiscreteSS:
+    """The controller ``ctrl`` inside a Smith predictor on ``model``: inputs ``[r, y]``, output u.
+
+    The structure of :class:`ctrlblocks.loops.structures.Smith` (Nowak et al.
+    2018, section 3.1), in the simulator's order: the block reads
+    ``y_f = y + y_M0 - y_M`` (``M`` the model sampled at the controller's
+    ``ts`` with its dead time, ``M0`` the same without the dead time; both
+    strictly proper, their outputs of this cycle from their states), computes
+    ``u``, then both models advance with ``u``.  States: the block's, then
+    ``M0``'s, then ``M``'s (with its input shift register).  ``model`` is the
+    predictor's model, which need not be the process the loop runs on.
+    """
+    import dataclasses
+
+    ts = ctrl.ts
+    fast_plant, fast = _sampled(dataclasses.replace(model, dead_time=0.0), ts)
+    slow_plant, slow = _sampled(model, ts)
+    nc, n0, nm = ctrl.a.shape[0], fast.a.shape[0], slow.a.shape[0]
+    n = nc + n0 + nm
+    # y_f = y + H x_models, H = [c0, -cm]
+    h = np.zeros((1, n))
+    h[0, nc : nc + n0] = fast.c[0]
+    h[0, nc + n0 :] = -slow.c[0]
+    ex = np.zeros((nc, n))
+    ex[:, :nc] = np.eye(nc)
+    by, dy = ctrl.b[:, 1:2], ctrl.d[0, 1]
+    c_u = ctrl.c[0] @ ex + dy * h[0]  # u = c_u X + d_r r + d_y y
+    d_u = ctrl.d[0].copy()
+    a = np.zeros((n, n))
+    b = np.zeros((n, 2))
+    a[:nc] = ctrl.a @ ex + by @ h
+    b[:nc] = ctrl.b
+    for lo, ss in ((nc, fast), (nc + n0, slow)):
+        k = ss.a.shape[0]
+        a[lo : lo + k, lo : lo + k] += ss.a
+        a[lo : lo + k] += ss.b @ c_u[None, :]
+        b[lo : lo + k] += ss.b @ d_u[None, :]
+    mv = list(ctrl.mv_states) + [False] * (nc - len(ctrl.mv_states))
+    mv += _register_flags(fast, fast_plant)
+    mv += _register_flags(slow, slow_plant)
+    return DiscreteSS(a, b, c_u[None, :], d_u[None, :], ts, tuple(mv))
+
+
+def _register_flags(ss: DiscreteSS, plant: LinearPlant) -> list[bool]:
+    """Which states of :func:`plant_ss` hold past MVs (the input shift register)."""
+    return [False] * plant.n_states + [True] * (ss.a.shape[0] - plant.n_states)
+
+
 # ---------------------------------------------------------------------------
 # The loop and its margins
 # ---------------------------------------------------------------------------
@@ -328,12 +377,14 @@ class Loop:
     ----------
     model : FOPDT, SOPDT, Integrating or LinearPlant
         The process model (dead time exact).
-    block : PID or ADRC
-        The configured controller; its ``ts`` is the loop's sample time.
+    block : PID, ADRC or DiscreteSS
+        The configured controller; its ``ts`` is the loop's sample time.  A
+        :class:`DiscreteSS` with inputs ``[r, y]`` is a whole controller
+        already (e.g. a block inside a Smith predictor, :func:`smith_ss`).
     """
 
-    def __init__(self, model: Any, block: PID | ADRC) -> None:
-        self.ctrl = controller_ss(block)
+    def __init__(self, model: Any, block: PID | ADRC | DiscreteSS) -> None:
+        self.ctrl = block if isinstance(block, DiscreteSS) else controller_ss(block)
         self.ts = self.ctrl.ts
         self.plant, self.pss = _sampled(model, self.ts)
 
