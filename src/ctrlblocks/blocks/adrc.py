@@ -175,6 +175,16 @@ _INF, _NINF = math.inf, -math.inf
 _NO_ERROR, _BAD_LIMITS = ErrorCode.NO_ERROR, ErrorCode.BAD_LIMITS
 _WARN = ErrorCode.WARN_DISCRETISATION
 
+#: Longest ``input_delay`` [samples of ts] (the history of u the ESO is fed from).
+MAX_DELAY_SAMPLES: int = 100_000
+
+
+def delay_samples(input_delay: float, ts: float) -> int:
+    """``input_delay`` [s] in whole samples of ``ts`` (rounded half to even, as ``round``)."""
+    d = float(input_delay) / float(ts)
+    return round(d) if d < 2.0 * MAX_DELAY_SAMPLES else 2 * MAX_DELAY_SAMPLES
+
+
 _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 
 
@@ -582,6 +592,15 @@ class ADRCConfig(BlockConfig):
         (``precision="float32"``) and the export have it (input ``REVERSE``);
         the compiled kernels (:mod:`ctrlblocks.fast`) do not, so the simulator
         runs such an ADRC on its Python path.
+    input_delay : float
+        Dead time [s] of the process input, rounded to whole samples of ``ts``
+        (default 0: off).  The ESO is fed the applied u of that many samples
+        ago, so that the input it sees is aligned with the output the process
+        shows: the delay-compensated ("predictive") observer of Zhao & Gao
+        (2014).  The control law is unchanged.  Refused beyond
+        :data:`MAX_DELAY_SAMPLES` samples.  Not covered by the compiled paths
+        and the PLC export yet (``fast_path_blockers``): the simulator runs
+        such an ADRC on its Python path.
     """
 
     order: int = 2
@@ -603,6 +622,7 @@ class ADRCConfig(BlockConfig):
     tau_wait: float = 0.0
     precision: str = "float64"
     reverse: bool = False
+    input_delay: float = 0.0
 
     def validate(self) -> None:
         if isinstance(self.order, bool) or self.order not in (1, 2, 3):
@@ -626,6 +646,13 @@ class ADRCConfig(BlockConfig):
         require_limits("y_sat_lo", self.y_sat_lo, "y_sat", self.y_sat)
         require_nonnegative("tau_wait", self.tau_wait, ErrorCode.BAD_TIME_CONSTANT)
         require_bool("reverse", self.reverse)
+        require_nonnegative("input_delay", self.input_delay, ErrorCode.BAD_TIME_CONSTANT)
+        if delay_samples(self.input_delay, self.ts) > MAX_DELAY_SAMPLES:
+            raise ParameterError(
+                ErrorCode.BAD_TIME_CONSTANT,
+                "input_delay",
+                f"at most {MAX_DELAY_SAMPLES} samples of ts, got {self.input_delay!r} s",
+            )
         if self.precision != "float64":
             _check_precision(self, "adrc")
 
@@ -761,6 +788,18 @@ def discretisation_trusted(
 # ---------------------------------------------------------------------------
 
 
+def _resize_history(hist: tuple[float, ...], nd: int, u_prev: float) -> tuple[float, ...]:
+    """The u history for a new ``input_delay`` of ``nd`` samples (the newest values kept).
+
+    A longer delay pads the history at its old end with its oldest value (the
+    last u when it was empty), as if u had rested there.
+    """
+    if nd <= len(hist):
+        return hist[len(hist) - nd :]
+    pad = hist[0] if hist else u_prev
+    return (pad,) * (nd - len(hist)) + hist
+
+
 class ADRC(Block):
     """ADRC function block of Nowak et al. 2018 for orders 1..3 (one code path).
 
@@ -839,7 +878,7 @@ class ADRC(Block):
     _declared = (
         "error_id _config manual awin u_man _lean _started _pending _track _prm _sat "
         "_limits_bad _warn awout _eso _eso_coef _gains _law _sens out _h _ts _yh _x2 _x3 _x4 "
-        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat"
+        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist"
     )
 
     @property
@@ -861,6 +900,9 @@ class ADRC(Block):
     _started: bool
     _track: bool
     _ab_sat: int  # the sensor's saturation side (+1, -1, 0) in the cycle's units
+    _u_prev: float  # the u applied last
+    _nd: int  # input_delay in samples
+    _u_hist: tuple[float, ...]  # the applied u of the last _nd samples before _u_prev, oldest first
     _state_fields = (
         "out",
         "u_man",
@@ -881,6 +923,7 @@ class ADRC(Block):
         "_ab_sat",
         "_ab_wait",
         "_plc_state",
+        "_u_hist",
     )
 
     # -- configuration -------------------------------------------------------
@@ -897,9 +940,16 @@ class ADRC(Block):
         c = self._config
         old_law = self._law if old is not None else (1.0, 0.0, 0.0, 0.0)
         self._prm: tuple[float, ...] | None = None
+        self._nd = delay_samples(c.input_delay, c.ts)
         self._lean = (
-            c.discretisation == "euler" and not c.u_real_on and not c.anti_backoff and not c.reverse
+            c.discretisation == "euler"
+            and not c.u_real_on
+            and not c.anti_backoff
+            and not c.reverse
+            and self._nd == 0
         )
+        if old is not None:
+            self._u_hist = _resize_history(self._u_hist, self._nd, self._u_prev)
         # reverse: the block works on -y and -sp (ADRCConfig.reverse); the sensor's
         # saturation in those units
         self._sgn = -1.0 if c.reverse else 1.0
@@ -1017,6 +1067,7 @@ class ADRC(Block):
         self.awout = False
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = u0
+        self._u_hist = (u0,) * self._nd
         self.u_man = u0
         self._ref = 0.0
         self._started = False
@@ -1047,6 +1098,7 @@ class ADRC(Block):
                 setattr(self, name, 0.0)
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = held
+        self._u_hist = (held,) * self._nd
         if not self.manual:
             self.u_man = held
         self._started = False
@@ -1061,8 +1113,15 @@ class ADRC(Block):
             self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
-        """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped."""
+        """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped.
+
+        A snapshot taken before ``input_delay`` existed (no ``_u_hist``) restores
+        with the history at rest on its last u; one of another delay is resized.
+        """
+        if "_u_hist" not in snapshot and "_u_prev" in snapshot:
+            snapshot = {**snapshot, "_u_hist": ()}
         super().restore(snapshot)
+        self._u_hist = _resize_history(tuple(self._u_hist), self._nd, self._u_prev)
         self._pending = None
 
     # -- inputs and outputs ----------------------------------------------------
@@ -1289,6 +1348,8 @@ class ADRC(Block):
             target = clamp(self._u_prev, lo, hi)
 
         yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
+        # the u the ESO is fed: the applied u, input_delay samples older (Zhao & Gao 2014)
+        u_eso = self._u_hist[0] if self._nd else self._u_prev
         ref = self._ref
         started = self._started
         ab_sat, ab_wait = self._ab_sat, self._ab_wait
@@ -1304,7 +1365,7 @@ class ADRC(Block):
             yf = float(y)
             if not started:
                 # first valid measurement: start the ESO at rest on it
-                yh, x2, x3, x4 = yf, 0.0, 0.0, -self._b0 * self._u_prev
+                yh, x2, x3, x4 = yf, 0.0, 0.0, -self._b0 * u_eso
                 ref = yf
                 started = True
             r_in = float(sp) if sp_valid else ref
@@ -1317,7 +1378,7 @@ class ADRC(Block):
             tracking = manual or not sp_valid or self._track
             b0, kp, kd1, kd2 = self._law
             s_yh, s_x2, s_x3, s_u = self._sens
-            z = self._eso(yh, x2, x3, x4, self._u_prev, yf, 1.0, *self._eso_coef)
+            z = self._eso(yh, x2, x3, x4, u_eso, yf, 1.0, *self._eso_coef)
             u_free = control_law(ref, *z, b0, kp, kd1, kd2)
             if tracking:
                 yh, x2, x3, x4 = solve_x4(target, u_free, *z, s_yh, s_x2, s_x3, s_u)
@@ -1331,9 +1392,7 @@ class ADRC(Block):
                     yh, x2, x3, x4 = z
                     u_raw = u_free
                 else:
-                    yh, x2, x3, x4 = self._eso(
-                        yh, x2, x3, x4, self._u_prev, yf, 0.0, *self._eso_coef
-                    )
+                    yh, x2, x3, x4 = self._eso(yh, x2, x3, x4, u_eso, yf, 0.0, *self._eso_coef)
                     u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
                 end_wait = False
                 if self._config.anti_backoff:
@@ -1343,7 +1402,7 @@ class ADRC(Block):
                         # Y has just reached the sensor saturation: (12a)/(12b)
                         ysat = y_hi if now > 0 else y_lo
                         yh, x2, x3, x4 = anti_backoff_states(
-                            ysat, ref, self._u_prev, *self._gains[:4], *self._law, *self._switches
+                            ysat, ref, u_eso, *self._gains[:4], *self._law, *self._switches
                         )
                         u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
                         ab_wait = 0.0
@@ -1403,6 +1462,8 @@ class ADRC(Block):
             self._ab_sat,
             self._ab_wait,
         ) = self._pending
+        if self._nd:
+            self._u_hist = (*self._u_hist[1:], self._u_prev)
         self._u_prev = a
         if not self.manual:
             self.u_man = a  # In/Out as in the PID: AUTO -> MAN holds the output

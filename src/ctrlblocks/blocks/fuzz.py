@@ -183,6 +183,8 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
     if r.random() < 0.15:  # single-precision PLC cycle: every option
         cfg["precision"] = "float32"
     cfg["reverse"] = r.random() < 0.3
+    if cfg["precision"] == "float64" and r.random() < 0.2:  # the ESO fed the delayed u
+        cfg["input_delay"] = cfg["ts"] * r.randint(1, 40)
     return cfg
 
 

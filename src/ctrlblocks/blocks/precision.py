@@ -66,6 +66,8 @@ def unsupported(config: Any, kind: str) -> list[str]:
         bad = [n for n in ("u_real_on", "anti_backoff", "reverse") if getattr(config, n, False)]
         if config.discretisation != "euler":
             bad.append("discretisation")
+        if getattr(config, "input_delay", 0.0) != 0.0:
+            bad.append("input_delay")
     return bad
 
 
@@ -82,6 +84,8 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
     """
     if kind == "pid" and round(config.t_stab / config.ts) > PLC_MAX_WINDOW:
         return ["t_stab"]
+    if kind == "adrc" and getattr(config, "input_delay", 0.0) != 0.0:
+        return ["input_delay"]  # the delay line of the ESO's input is not in the PLC cycle yet
     return []
 
 
