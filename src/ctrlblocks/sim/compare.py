@@ -56,9 +56,8 @@ from typing import Any
 
 import numpy as np
 
-from ..tuning.adrc import _nice_floor
 from ..tuning.bump import fopdt_of as _fopdt_of
-from ..tuning.design import MS_DEFAULT, MV_NOISE_FRACTION
+from ..tuning.design import MS_DEFAULT, MV_NOISE_FRACTION, default_ts
 from ..tuning.identify import SOPDT
 
 __all__ = ["BOX", "LEVELS", "TIE", "compare", "scenario_toml"]
@@ -365,13 +364,6 @@ def _check_ts(ts: float, T: float, L: float) -> None:
         )
 
 
-def default_ts(T: float, L: float) -> float:
-    """``compare``'s sample time: ``min(T, L)/40`` (``T/40`` without dead time), rounded down
-    to 1, 2 or 5 times a power of ten -- short enough that the ADRC's observer can be 3..10
-    times faster than its loop within ``omega_o ts <= 0.2``."""
-    return _nice_floor(max(min(T, L) if L > 0 else T, 1e-6) / 40.0)
-
-
 ModelRunner = Callable[[Path, list[dict[str, Any]], Callable[[int, int], None]], list[Any]]
 """``(scenario file, plant tables, progress(done, total)) -> metric rows`` (see :func:`compare`);
 each row a ``ScenarioResult.metrics`` entry, its ``windows`` included."""
@@ -411,7 +403,8 @@ def compare(
     u_min, u_max : float, optional
         MV limits [MV units]; default from the data.
     ts : float, optional
-        Controller sample time [s]; default :func:`default_ts` of the model's FOPDT.
+        Controller sample time [s]; default
+        :func:`~ctrlblocks.tuning.design.default_ts` of the model's FOPDT.
     ms : float
         The robustness target of every design (maximum sensitivity on the model).
     mv_noise : float, optional

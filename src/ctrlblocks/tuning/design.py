@@ -91,6 +91,7 @@ __all__ = [
     "MV_NOISE_FRACTION",
     "OBSERVER_RATIOS",
     "Design",
+    "default_ts",
     "design_adrc",
     "design_pid",
     "mv_noise_gain",
@@ -106,7 +107,7 @@ OBSERVER_RATIOS = (3.0, 5.0, 10.0)
 """The ``omega_o/omega_c`` searched (Nowak et al. 2018, section 3.3: 3..10)."""
 
 _MAX_OMEGA_O_TS = 0.2  # as tuning.adrc.MAX_OMEGA_O_TS
-_TD_FACTORS = (0.0, 0.1, 0.2, 0.35, 0.5, 0.75)  # td / (the model's lag + dead time scale)
+_TD_FACTORS = (0.15, 0.3, 0.5, 0.8, 1.2)  # td / the model's dead time (lags and delay)
 _N_GRID = (2.5, 5.0, 10.0)
 _B_GRID = tuple(i / 10 for i in range(11))
 _GRID_POINTS = 1500  # log grid of the Ms search, 5 decades below the Nyquist frequency
@@ -174,6 +175,16 @@ class Design:
         return float(np.sum(np.abs(y)) * self.ts)
 
 
+def default_ts(time_constant: float, dead_time: float) -> float:
+    """The designs' default sample time [s]: ``min(T, L)/40`` (``T/40`` without dead time),
+    rounded down to 1, 2 or 5 times a power of ten -- short enough that the ADRC's observer
+    can be 3..10 times faster than its loop within ``omega_o ts <= 0.2``."""
+    from .adrc import _nice_floor
+
+    T, L = time_constant, dead_time
+    return _nice_floor(max(min(T, L) if L > 0 else T, 1e-6) / 40.0)
+
+
 # ---------------------------------------------------------------------------
 # Frequency responses on the model, computed once per design
 # ---------------------------------------------------------------------------
@@ -213,15 +224,17 @@ class _Model:
             # C_eq = C / (1 + C (M0 - M)): the predictor's model is the model itself
             self.dm = tuple(fp.process(w) - p for w, p in zip(self.grids, self.p, strict=True))
 
-    def c_raw(self, ss: DiscreteSS) -> tuple[np.ndarray, ...]:
-        """The block's own ``C_y`` on the four grids (its transfer function evaluated there)."""
+    def c_raw(self, ss: DiscreteSS, grids: int = 4) -> tuple[np.ndarray, ...]:
+        """The block's own ``C_y`` on the first ``grids`` grids (its transfer function there)."""
         from scipy import signal
 
         if ss.a.shape[0] == 0:
-            return tuple(np.full(len(w), -ss.d[0, 1], complex) for w in self.grids)
+            return tuple(np.full(len(w), -ss.d[0, 1], complex) for w in self.grids[:grids])
+        if ss.delay is not None:  # a delay line: its structured response
+            return tuple(-ss.response(w)[:, 0, 1] for w in self.grids[:grids])
         num, den = signal.ss2tf(ss.a, ss.b[:, 1:2], ss.c, ss.d[:, 1:2])
         out = []
-        for w in self.grids:
+        for w in self.grids[:grids]:
             z = np.exp(1j * w * self.ts)
             out.append(-np.polyval(num[0], z) / np.polyval(den, z))
         return tuple(out)
@@ -232,9 +245,9 @@ class _Model:
             return tuple(ci / (1 + ci * d) for ci, d in zip(c, self.dm, strict=False))
         return c
 
-    def cy(self, ss: DiscreteSS) -> tuple[np.ndarray, ...]:
-        """The loop's feedback part of the controller ``ss`` on the three grids."""
-        return self.eq(*self.c_raw(ss))
+    def cy(self, ss: DiscreteSS, grids: int = 4) -> tuple[np.ndarray, ...]:
+        """The loop's feedback part of the controller ``ss`` on the first ``grids`` grids."""
+        return self.eq(*self.c_raw(ss, grids))
 
     def ms(self, c: tuple[np.ndarray, ...]) -> float:
         return float(np.max(np.abs(1.0 / (1.0 + c[0] * self.p[0]))))
@@ -262,10 +275,28 @@ class _Model:
         y_f = self.p[3] / (1.0 + c[3] * self.p[3]) / (1.0 - 1.0 / self.zf)
         y_f[0] = 1.0 / (ki * self.ts)
         y = np.fft.irfft(y_f, self.n_fft)
+        iae = float(np.sum(np.abs(y)) * self.ts)
         tail = float(np.max(np.abs(y[-self.n_fft // 8 :])))
         if tail > 1e-3 * float(np.max(np.abs(y))):
-            return math.inf  # not settled in the window: aliased, and too slow anyway
-        return float(np.sum(np.abs(y)) * self.ts)
+            # not settled in the window (aliased): a loop this slow is no contender; a finite
+            # value that grows with its slowness keeps the searches moving towards faster ones
+            iae += 10.0 / ki
+        return iae
+
+    def setpoint_iae(self, ss: DiscreteSS) -> float:
+        """IAE [PV s] of a unit set-point step, from the loop's frequency response:
+        ``e = (1 - P C_r/(1 + C_y P)) r``, ``E(z) = (1 - T_r)/(1 - 1/z)`` on the FFT grid,
+        inverted (the DC value extrapolated from the three lowest frequencies)."""
+        g = ss.response(self.wf)
+        cr, cy = g[:, 0, 0], -g[:, 0, 1]
+        if self.smith:
+            den = 1.0 + cy * self.dm[3]
+            cr, cy = cr / den, cy / den
+        p = self.p[3]
+        e_f = (1.0 - p * cr / (1.0 + cy * p)) / (1.0 - 1.0 / self.zf)
+        e_f[0] = (3.0 * e_f[1] - 3.0 * e_f[2] + e_f[3]).real
+        e = np.fft.irfft(e_f, self.n_fft)
+        return float(np.sum(np.abs(e)) * self.ts)
 
     def loop(self, block: Any) -> Loop:
         """The exact loop of ``block`` on the model (inside the predictor when ``smith``)."""
@@ -376,7 +407,8 @@ def design_pid(
     i_part = m.c_raw(controller_ss(PID(kp=1.0, ti=1.0, **unlimited)))
     p_only = m.c_raw(controller_ss(PID(kp=1.0, **unlimited)))
     ci = tuple(a - b_ for a, b_ in zip(i_part, p_only, strict=True))
-    tds = [0.0] if controller == "pi" else [f * tau for f in _TD_FACTORS]
+    td_scale = max(_L, 0.05 * tau)
+    tds = [0.0] if controller == "pi" else [0.0] + [f * td_scale for f in _TD_FACTORS]
     best: tuple[float, float, float, float, float] | None = None  # -IAE, kp, ki, td, n
     for td in tds:
         for n in (_N_GRID if td > 0 else (10.0,)):
@@ -457,24 +489,28 @@ def _best_kp(m: _Model, cp, ci, ms: float, gmax: float, k: float, tau: float):
         if x not in cache:
             kp = math.exp(x)
             ki = ki_max(kp)
-            cache[x] = (-m.load_iae(comb(kp, ki, 4)) if ki > 0 else -math.inf, kp, ki)
+            if ki > 0:
+                iae, ki = _golden_min(lambda v: m.load_iae(comb(kp, v, 4)), ki / 5.0, ki, 5)
+                cache[x] = (-iae, kp, ki)
+            else:
+                cache[x] = (-math.inf, kp, ki)
         return cache[x][0]
 
-    x = math.log(0.02 / k)
+    x = math.log(0.1 / k)
     xs: list[float] = []
     while x < math.log(1e4 / k):
         if ki_max(math.exp(x)) < 0:
             break
         xs.append(x)
-        x += math.log(1.25)
+        x += math.log(1.3)
     if not xs:
         return None
     i = max(range(len(xs)), key=lambda j: score(xs[j]))
     lo = xs[max(i - 1, 0)]
-    hi = xs[i + 1] if i + 1 < len(xs) else xs[i] + math.log(1.25)
+    hi = xs[i + 1] if i + 1 < len(xs) else xs[i] + math.log(1.3)
     g = (math.sqrt(5) - 1) / 2
     x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
-    for _ in range(12):
+    for _ in range(8):
         if score(x1) > score(x2):
             hi, x2 = x2, x1
             x1 = hi - g * (hi - lo)
@@ -483,6 +519,29 @@ def _best_kp(m: _Model, cp, ci, ms: float, gmax: float, k: float, tau: float):
             x2 = lo + g * (hi - lo)
     best = max(cache.values(), key=lambda v: v[0])
     return best if math.isfinite(best[0]) else None
+
+
+def _golden_min(f, lo: float, hi: float, steps: int = 8) -> tuple[float, float]:
+    """``(min f, argmin)`` over ``[lo, hi]`` in log scale: the end ``hi`` (the boundary) and a
+    golden-section search (the IAE is smallest inside when the boundary is poorly damped)."""
+    g = (math.sqrt(5) - 1) / 2
+    a, b = math.log(lo), math.log(hi)
+    best = (f(hi), hi)
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    f1, f2 = f(math.exp(x1)), f(math.exp(x2))
+    for _ in range(steps):
+        if f1 < f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - g * (b - a)
+            f1 = f(math.exp(x1))
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + g * (b - a)
+            f2 = f(math.exp(x2))
+    for fx, x in ((f1, x1), (f2, x2)):
+        if fx < best[0]:
+            best = (fx, math.exp(x))
+    return best
 
 
 def _polish(m: _Model, params: dict[str, Any], make, key: str, ms: float):
@@ -508,14 +567,9 @@ def _choose_b(m: _Model, params: dict[str, Any], unlimited: dict[str, Any]) -> f
     """The set-point weight of 0, 0.1, .., 1 with the smallest set-point IAE on the model."""
     from ..blocks.pid import PID
 
-    t_end = None
     best = (math.inf, 1.0)
     for b in _B_GRID:
-        lp = m.loop(PID(**params, b=b, **unlimited))
-        if t_end is None:
-            t_end = min(lp.response_time(), 20000 * m.ts)
-        _t, y, _u = lp.simulate(t_end)
-        iae = float(np.sum(np.abs(1.0 - y)) * m.ts)
+        iae = m.setpoint_iae(controller_ss(PID(**params, b=b, **unlimited)))
         if iae < best[0] * (1 - 1e-9):
             best = (iae, b)
     return best[1]
@@ -569,45 +623,52 @@ def design_adrc(
         return ADRC(order=order, b0=b0, omega_c=wc, omega_o=min(ratio * wc, wo_cap), ts=ts,
                     u_min=-math.inf, u_max=math.inf, **extra)  # fmt: skip
 
-    evals: dict[tuple[float, float, float], tuple[bool, float]] = {}
+    evals: dict[tuple[float, float, float], bool] = {}
 
-    def feasible(b0: float, wc: float, ratio: float) -> tuple[bool, float]:
+    def feasible(b0: float, wc: float, ratio: float) -> bool:
         key = (b0, wc, ratio)
         if key not in evals:
             try:
-                c = m.cy(controller_ss(make(b0, wc, ratio)))
+                c = m.cy(controller_ss(make(b0, wc, ratio)), 3)
             except ParameterError:
-                evals[key] = (False, math.nan)
+                evals[key] = False
             else:
-                ok = _feasible(m, c, ms, gmax)
-                evals[key] = (ok, -m.load_iae(c) if ok else -math.inf)
+                evals[key] = _feasible(m, c, ms, gmax)
         return evals[key]
+
+    last: dict[float, float] = {}  # ratio -> the boundary omega_c of the b0 before
 
     def fastest(b0: float, ratio: float) -> tuple[float, float]:
         """``(-IAE, omega_c)`` of the fastest feasible omega_c (-inf: none)."""
-        wc = min(0.05 / tau, wo_cap / ratio)
-        ok, ki = feasible(b0, wc, ratio)
-        if not ok:
-            return -math.inf, math.nan
-        lo, ki_lo, hi = wc, ki, math.inf
         wc_max = wo_cap / ratio  # the observer ratio kept: omega_o = ratio omega_c <= the cap
+        lo = min(0.05 / tau, wc_max)
+        if not feasible(b0, lo, ratio):
+            return -math.inf, math.nan
+        warm = 0.6 * last.get(ratio, 0.0)
+        if lo < warm < wc_max and feasible(b0, warm, ratio):
+            lo = warm  # start from the neighbouring b0's boundary
+        hi = math.inf
         while hi == math.inf:
             wc = min(lo * 1.5, wc_max)
-            ok, ki = feasible(b0, wc, ratio)
-            if ok:
-                lo, ki_lo = wc, ki
+            if feasible(b0, wc, ratio):
+                lo = wc
                 if wc >= wc_max:
-                    return ki_lo, lo
+                    break
             else:
                 hi = wc
-        while hi / lo > 1.01:
+        while hi < math.inf and hi / lo > 1.01:
             mid = math.sqrt(lo * hi)
-            ok, ki = feasible(b0, mid, ratio)
-            if ok:
-                lo, ki_lo = mid, ki
+            if feasible(b0, mid, ratio):
+                lo = mid
             else:
                 hi = mid
-        return ki_lo, lo
+        last[ratio] = lo
+
+        def iae(wc: float) -> float:
+            return m.load_iae(m.cy(controller_ss(make(b0, wc, ratio))))
+
+        v, wc = _golden_min(iae, lo / 3.0, lo, steps=5)
+        return -v, wc
 
     best: tuple[float, float, float, float] = (-math.inf, math.nan, math.nan, math.nan)
     for ratio in ratios:
