@@ -168,7 +168,8 @@ def _candidate(name: str, make: Callable[[], Any], say) -> dict[str, Any]:
     ok = bool(mg["stable"] and mg["ms"] <= d.ms_target * (1 + 2e-3))
     say(f"designed {name}: Ms {mg['ms']:.3f}, ki {d.ki:.4g}")
     return {"name": name, "type": d.family, "structure": d.structure, "params": dict(d.params),
-            "margins": mg, "eligible": ok, "design": list(d.warnings)}  # fmt: skip
+            "margins": mg, "eligible": ok, "design": list(d.warnings),
+            "_design": d}  # fmt: skip
 
 
 # ---------------------------------------------------------------------------
@@ -518,11 +519,12 @@ def compare(
         "load": -du / 2,
         "box": dict(BOX),
         "monte_carlo": {"n": int(monte_carlo), "seed": int(seed)} if monte_carlo else None,
-        "controllers": ctrls,
+        "controllers": [{k2: v for k2, v in c.items() if k2 != "_design"} for c in ctrls],
         "metrics": results,
     }
     say("trade-off: the best of each family at Ms " + ", ".join(f"{v:g}" for v in levels))
-    summary["tradeoff"] = tradeoff(model, summary, levels)
+    summary["tradeoff"] = tradeoff(model, summary, levels,
+                                   {c["name"]: c.get("_design") for c in ctrls})  # fmt: skip
     summary["winners"] = winners(summary)
     summary["verdict"] = verdict(summary)
     (out / "compare.json").write_text(json.dumps(jsonable(summary), indent=2), encoding="utf-8")

@@ -13,7 +13,8 @@ from .compare import BOX
 __all__ = ["report", "tradeoff"]
 
 
-def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float]) -> dict[str, Any]:
+def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float],
+             designs: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
     """The best candidate of each family designed again at each Ms of ``levels``.
 
     The family's best is its eligible candidate with the smallest load IAE on
@@ -22,7 +23,8 @@ def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float]) -> dict[str
     its load IAE (a step of the summary's load at the process input, the linear
     loop on the model: no noise, no limits) and MV noise are recorded.
     ``{"levels": [...], "PID": {"name", "ms", "iae_load", "mv_noise", "ki"}, "ADRC": ...}``;
-    a level where the design fails has None.
+    a level where the design fails has None.  ``designs``: the candidates' designs at
+    the summary's own Ms (not designed again).
     """
     from ..blocks.base import ParameterError
     from .compare import design_candidate
@@ -38,8 +40,9 @@ def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float]) -> dict[str
         row: dict[str, Any] = {"name": best, "ms": [], "iae_load": [], "mv_noise": [], "ki": []}
         for ms in lv:
             try:
-                d = design_candidate(best, model, s["ts"], ms=ms, noise_std=s["noise_std"],
-                                     mv_noise_max=s["mv_noise_max"])  # fmt: skip
+                d = (designs or {}).get(best) if ms == s["ms_target"] else None
+                d = d or design_candidate(best, model, s["ts"], ms=ms, noise_std=s["noise_std"],
+                                          mv_noise_max=s["mv_noise_max"])  # fmt: skip
             except (ParameterError, ValueError):
                 for k in ("ms", "iae_load", "mv_noise", "ki"):
                     row[k].append(None)

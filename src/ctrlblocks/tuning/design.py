@@ -230,13 +230,48 @@ class _Model:
 
         if ss.a.shape[0] == 0:
             return tuple(np.full(len(w), -ss.d[0, 1], complex) for w in self.grids[:grids])
-        if ss.delay is not None:  # a delay line: its structured response
-            return tuple(-ss.response(w)[:, 0, 1] for w in self.grids[:grids])
+        if ss.delay is not None:  # a delay line: the rest's transfer functions, closed by it
+            return self._c_delayed(ss, grids)
         num, den = signal.ss2tf(ss.a, ss.b[:, 1:2], ss.c, ss.d[:, 1:2])
         out = []
         for w in self.grids[:grids]:
             z = np.exp(1j * w * self.ts)
             out.append(-np.polyval(num[0], z) / np.polyval(den, z))
+        return tuple(out)
+
+    def _c_delayed(self, ss: DiscreteSS, grids: int) -> tuple[np.ndarray, ...]:
+        """``C_y`` of a controller with a history register (the ADRC's ``input_delay``).
+
+        With ``h`` the register's oldest value, ``s`` its source state and
+        ``w`` the PV input: ``s = G_sw w + G_sh h``, ``u = G_uw w + G_uh h`` (the
+        ``m`` other states, transfer functions of a small system), and
+        ``h = z^-lag s``: ``u/w = G_uw + G_uh z^-lag G_sw / (1 - z^-lag G_sh)``.
+        """
+        from scipy import signal
+
+        assert ss.delay is not None
+        src, m = ss.delay
+        n = ss.a.shape[0]
+        used = np.flatnonzero(np.any(ss.a[:m, m:] != 0.0, axis=0) | (ss.c[0, m:] != 0.0))
+        if len(used) != 1:  # pragma: no cover - the ADRC feeds its ESO the oldest value only
+            return tuple(-ss.response(w)[:, 0, 1] for w in self.grids[:grids])
+        j = int(used[0])
+        lag = n - m - j
+        a = ss.a[:m, :m]
+        bw, bh = ss.b[:m, 1:2], ss.a[:m, m + j : m + j + 1]
+        cs = np.zeros((1, m))
+        cs[0, src] = 1.0
+        cu = ss.c[:, :m]
+        parts = [signal.ss2tf(a, b_, c_, d_) for b_, c_, d_ in (
+            (bw, cs, np.zeros((1, 1))), (bh, cs, np.zeros((1, 1))),
+            (bw, cu, ss.d[:, 1:2]), (bh, cu, ss.c[:, m + j : m + j + 1]))]  # fmt: skip
+        out = []
+        for w in self.grids[:grids]:
+            z = np.exp(1j * w * self.ts)
+            den = np.polyval(parts[0][1], z)
+            g_sw, g_sh, g_uw, g_uh = (np.polyval(num[0], z) / den for num, _d in parts)
+            zd = np.exp(-1j * w * self.ts * lag)
+            out.append(-(g_uw + g_uh * zd * g_sw / (1.0 - zd * g_sh)))
         return tuple(out)
 
     def eq(self, *c: np.ndarray) -> tuple[np.ndarray, ...]:
