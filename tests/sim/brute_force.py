@@ -175,8 +175,11 @@ def best_pid(o: Oracle, *, fine: bool = True) -> dict[str, Best]:
             scored.sort()
             starts = [(kp, ti) for _v, kp, ti in scored[:2]]
             if fine:
-                starts = [_refine(o, lambda x: _pid(math.exp(x[0]), math.exp(x[1]), td, n, 1.0,
-                                                    rev, o.ts), smith, s) for s in starts]  # fmt: skip
+
+                def make(x, td=td, n=n):
+                    return _pid(math.exp(x[0]), math.exp(x[1]), td, n, 1.0, rev, o.ts)
+
+                starts = [_refine(o, make, smith, s) for s in starts]
             for kp, ti in starts:
                 lp = o.admissible(_pid(kp, ti, td, n, 1.0, rev, o.ts), smith)
                 if lp is None:
@@ -207,10 +210,10 @@ def _refine(o: Oracle, make, smith: bool, start: tuple[float, ...]) -> tuple[flo
         return math.inf if lp is None else o.iae(lp, "load")
 
     x0 = np.log(np.asarray(start, float))
+    simplex = [x0, x0 + np.array([0.15, 0.0]), x0 + np.array([0.0, 0.15])]
     r = optimize.minimize(cost, x0, method="Nelder-Mead",
                           options={"xatol": 0.01, "fatol": 1e-6, "maxfev": 60,
-                                   "initial_simplex": [x0, x0 + [0.15, 0.0], x0 + [0.0, 0.15]][
-                                       : len(x0) + 1]})  # fmt: skip
+                                   "initial_simplex": simplex})  # fmt: skip
     x = r.x if math.isfinite(r.fun) and r.fun <= cost(x0) else x0
     return tuple(float(v) for v in np.exp(x))
 
@@ -269,8 +272,8 @@ def _refine_adrc(o: Oracle, make, start, case: str, cap_wc: float) -> tuple[floa
     x0 = np.log(np.asarray(start, float))
     r = optimize.minimize(cost, x0, method="Nelder-Mead",
                           options={"xatol": 0.01, "fatol": 1e-6, "maxfev": 50,
-                                   "initial_simplex": [x0, x0 + [0.2, 0.0],
-                                                       x0 + [0.0, 0.1]]})  # fmt: skip
+                                   "initial_simplex": [x0, x0 + np.array([0.2, 0.0]),
+                                                       x0 + np.array([0.0, 0.1])]})  # fmt: skip
     x = r.x if math.isfinite(r.fun) and r.fun <= cost(x0) else x0
     return float(math.exp(x[0])), float(math.exp(x[1]))
 

@@ -34,7 +34,7 @@ class Process:
         else:
             plant = PlantFOPDT(m.gain, m.time_constant, m.dead_time, h)
         plant.reset(u0)
-        n = int(math.ceil(8.0 * tau / h))
+        n = math.ceil(8.0 * tau / h)
         t = np.arange(n) * h
         u = np.where(t >= 0.1 * n * h, u0 + du, u0)
         y = []

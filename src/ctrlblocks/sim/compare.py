@@ -14,9 +14,9 @@ The workflow (one function, :func:`compare`):
    ``PI`` and ``PID`` (MIGO; the derivative filter from the noise budget, the
    set-point weight ``b`` for tracking), ``PID + Smith`` (the same inside a
    Smith predictor on the model), ``ADRC n=1..3`` (``b0``, ``omega_c`` and the
-   observer ratio searched) and, when the ADRC block has ``input_delay``,
-   ``ADRC n=N + delayed ESO`` (the best order with its observer fed the MV
-   delayed by the model's dead time: predictive ADRC, Zhao & Gao 2014).  Each
+   observer ratio searched) and ``ADRC n=N + delayed ESO`` (its observer fed
+   the MV delayed by the model's dead time: predictive ADRC, Zhao & Gao 2014;
+   N the model's number of lags, the order of what the observer then sees).  Each
    with its exact margins on the model (predictor and delayed observer
    included), integral gain and MV noise; one whose design failed is listed
    with the reason and left out of the verdict;
@@ -129,12 +129,12 @@ def candidates(
     out = [_candidate(n, lambda n=n: design_candidate(n, model, ts, ms=ms, **kw), say)
            for n in names]  # fmt: skip
     if adrc_has_input_delay() and model.dead_time > 0.0:
-        adrcs = [c for c in out if c["type"] == "ADRC" and c["eligible"]]
-        if adrcs:
-            order = max(adrcs, key=lambda c: abs(c["margins"]["ki"]))["params"]["order"]
-            name = f"ADRC n={order} + delayed ESO"
-            out.append(_candidate(name, lambda: design_candidate(name, model, ts, ms=ms, **kw),
-                                  say))  # fmt: skip
+        # the observer fed the MV delayed by the model's dead time sees the delay-free
+        # part: its order is the model's number of lags
+        order = 2 if isinstance(model, SOPDT) else 1
+        name = f"ADRC n={order} + delayed ESO"
+        out.append(_candidate(name, lambda: design_candidate(name, model, ts, ms=ms, **kw),
+                              say))  # fmt: skip
     return out
 
 

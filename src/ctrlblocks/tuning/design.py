@@ -212,11 +212,11 @@ class _Model:
         self.step = max(1, self.n_fft // 2 // _NOISE_POINTS)  # noise on every step-th point
         self.wf = 2.0 * math.pi * np.arange(self.n_fft // 2 + 1) / self.n_fft / ts
         self.w = wn * np.logspace(-5.0, 0.0, _GRID_POINTS)
-        self.wf[0] = 1e-9 * wn  # the DC point itself is set from ki (load_iae)
         self.w0 = np.array([1e-7 * wn])
         self.wn_sub = self.wf[:: self.step][1:]
         self.grids = (self.w, self.wn_sub, self.w0, self.wf)
         self.p = tuple(probe.process(w) for w in self.grids)
+        self.wf[0] = 1e-9 * wn  # not z = 1 itself, where an integral action's C_y is infinite
         self.zf = np.exp(1j * self.wf * ts)
         if smith:
             fp = Loop(_without_dead_time(model), PID(kp=1.0, ts=ts, u_min=-math.inf,
@@ -298,40 +298,38 @@ class _Model:
 
     def load_iae(self, c: tuple[np.ndarray, ...]) -> float:
         """IAE [PV s] of a unit step load at the process input, from the loop's frequency
-        response: ``y = P S d``, ``Y(z) = P S / (1 - 1/z)`` on the FFT grid, inverted.
+        response: ``y = P S d``; the increments ``y[k] - y[k-1]`` have the transform
+        ``P S`` (no pole at z = 1), inverted on the FFT grid and summed.
 
-        The DC value is the integrated error ``sum y = 1/(ki ts)`` (final-value
-        theorem); ``n_fft`` covers 80 times the model's lags and dead time, so a
-        loop that settles does so within the inverted window (inf if it is slower).
+        ``n_fft`` covers 40 times the model's lags and dead time; a loop that has not
+        settled by then is no contender, and gets its IAE in the window plus a
+        penalty that grows with its slowness (``10/ki``), which keeps the searches
+        moving towards faster loops.
         """
-        ki = self.ki(c)
-        if not ki > 0.0:
-            return math.inf
-        y_f = self.p[3] / (1.0 + c[3] * self.p[3]) / (1.0 - 1.0 / self.zf)
-        y_f[0] = 1.0 / (ki * self.ts)
-        y = np.fft.irfft(y_f, self.n_fft)
-        iae = float(np.sum(np.abs(y)) * self.ts)
-        tail = float(np.max(np.abs(y[-self.n_fft // 8 :])))
-        if tail > 1e-3 * float(np.max(np.abs(y))):
-            # not settled in the window (aliased): a loop this slow is no contender; a finite
-            # value that grows with its slowness keeps the searches moving towards faster ones
-            iae += 10.0 / ki
-        return iae
+        ps = self.p[3] / (1.0 + c[3] * self.p[3])
+        y = np.cumsum(np.fft.irfft(ps, self.n_fft))
+        return self._iae(y, self.ki(c))
 
     def setpoint_iae(self, ss: DiscreteSS) -> float:
-        """IAE [PV s] of a unit set-point step, from the loop's frequency response:
-        ``e = (1 - P C_r/(1 + C_y P)) r``, ``E(z) = (1 - T_r)/(1 - 1/z)`` on the FFT grid,
-        inverted (the DC value extrapolated from the three lowest frequencies)."""
+        """IAE [PV s] of a unit set-point step: ``e = (1 - P C_r/(1 + C_y P)) r``, its
+        increments' transform ``1 - T_r`` inverted on the FFT grid and summed."""
         g = ss.response(self.wf)
         cr, cy = g[:, 0, 0], -g[:, 0, 1]
         if self.smith:
             den = 1.0 + cy * self.dm[3]
             cr, cy = cr / den, cy / den
         p = self.p[3]
-        e_f = (1.0 - p * cr / (1.0 + cy * p)) / (1.0 - 1.0 / self.zf)
-        e_f[0] = (3.0 * e_f[1] - 3.0 * e_f[2] + e_f[3]).real
-        e = np.fft.irfft(e_f, self.n_fft)
-        return float(np.sum(np.abs(e)) * self.ts)
+        e = np.cumsum(np.fft.irfft(1.0 - p * cr / (1.0 + cy * p), self.n_fft))
+        return self._iae(e, self.ki((np.array([]), np.array([]), -ss.response(self.w0)[:, 0, 1])))
+
+    def _iae(self, e: np.ndarray, ki: float) -> float:
+        iae = float(np.sum(np.abs(e)) * self.ts)
+        tail = float(np.max(np.abs(e[-self.n_fft // 8 :])))
+        if not ki > 0.0:
+            return math.inf
+        if tail > 1e-3 * float(np.max(np.abs(e))):
+            iae += 10.0 / ki
+        return iae
 
     def loop(self, block: Any) -> Loop:
         """The exact loop of ``block`` on the model (inside the predictor when ``smith``)."""
@@ -595,6 +593,12 @@ def _polish(m: _Model, params: dict[str, Any], make, key: str, ms: float):
         lp = m.loop(make(params))
         mg = lp.margins()
         tries += 1
+    if not mg.stable or mg.ms > ms * (1 + 1e-3):
+        raise ParameterError(
+            ErrorCode.BAD_PARAMETER, "ms",
+            f"the design's exact Ms on the model is {mg.ms:.3g}, above the target {ms:g} "
+            "(the search's frequency grid missed a peak); no tuning is offered",
+        )  # fmt: skip
     return params, mg, lp.integral_gain()
 
 
