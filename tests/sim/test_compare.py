@@ -131,7 +131,7 @@ def test_every_event_is_taken_in_auto_at_rest_after_the_release(result):
             ev["t"] = 3 * s["t_event"]
     r3 = run_scenario(parse_scenario_doc(early, file="compare.toml"))
     for run in r.runs:
-        before = run.t < s["t_event"] - 1e-9
+        before = run.signals["t"] < s["t_event"] - 1e-9
         assert np.all(run.signals["u"][before] == 0.0) and np.all(run.signals["y"][before] == 0.0)
     for name in {c.name for c in r.scenario.controllers}:
         for case in ("setpoint", "load"):

@@ -23,7 +23,7 @@ from tests.sim.processes import NAMED, Process, held_out
 
 def _judge(p: Process, tmp_path, *, fine: bool, ts: float | None = None) -> dict:
     t, u, y = p.bump()
-    s = compare(t, u, y, tmp_path, corners=False, ts=ts)
+    s = compare(t, u, y, tmp_path, corners=False, ts=ts, levels=())
     sigma = p.noise * abs(p.truth.gain)  # the true PV noise of the record (du = 1)
     o = bf.Oracle(p.truth, s["ts"], s["ms_target"], sigma, s["mv_noise_max"], s["step"],
                   abs(s["load"]))  # fmt: skip
@@ -32,6 +32,8 @@ def _judge(p: Process, tmp_path, *, fine: bool, ts: float | None = None) -> dict
     for case in ("setpoint", "load"):
         tp, ta = pid[case].iae, adrc[case].iae
         out["truth"][case] = (tp, ta, bf.winner(tp, ta, s["tie"]))
+        print(f"{p.name} {case}: compare {s['winners'][case]}, true process PID "
+              f"{pid[case].name} {tp:.4g}, ADRC {adrc[case].name} {ta:.4g}")
         said = s["winners"][case]
         assert bf.agrees(said, tp, ta, s["tie"]), (
             f"{p.name}, {case}: compare says {said} ({s['winners']['best'][case]}), the true "

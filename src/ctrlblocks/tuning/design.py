@@ -2,7 +2,8 @@
 
 ``ctrlblocks compare``, ``ctrlblocks tune pid`` (``--rule migo``, the default),
 ``ctrlblocks tune adrc`` (no ``--settling-time``), a scenario's
-``[controllers.tune]`` and the live tuning proposals all call the two
+``[controllers.tune]`` (``rule = "migo"``, and ``"adrc"`` without a settling
+time) and the live tuning proposals (``PID_MIGO``, ``ADRC_2``) all call the two
 functions of this module, so a tuning means the same everywhere.
 
 The design problem (both families alike)
@@ -11,53 +12,61 @@ On the process model, sampled exactly at the controller's ``ts`` with its
 dead time (:mod:`ctrlblocks.tuning.margins`), the controller being the block
 itself (its matrices read off the configured block):
 
-    maximise   ki                      (the integral gain of the feedback part C_y)
+    minimise   IAE of a unit step load at the process input
     subject to Ms = max |S| <= ms      (default 1.6)
                sigma_u <= mv_noise_max (when the PV noise sigma_y is given)
 
-``ki`` is the MIGO criterion of Åström & Hägglund (2006, section 7.3; the
-original paper Åström, Panagopoulos & Hägglund 1998): with a stable loop
-the integrated error of a unit step load at the process input is
-``IE = 1/ki`` (final-value theorem), and for a well-damped loop the IAE is
-close to it, so maximising ``ki`` under the robustness constraint gives the
-best load rejection that robustness allows.  ``sigma_u`` is the standard
-deviation of the MV caused by white PV noise of standard deviation
-``sigma_y`` (one value per sample, as the simulator's sensor noise) in the
-closed loop, ``u = -C_y S n``:
+This is the MIGO idea of Åström & Hägglund (2006, chapter 7; for the PI
+Åström, Panagopoulos & Hägglund 1998, for the PID Panagopoulos, Åström &
+Hägglund 2002): the best load rejection the robustness constraint allows.
+MIGO maximises the integral gain ``ki`` (``IE = 1/ki`` for a unit load, the
+final-value theorem), which equals the IAE only for a well-damped loop; on
+the Ms boundary a PID's load response is often poorly damped (IAE up to twice
+IE), so here the IAE itself is the objective, searched on and inside the
+boundary (for ``FOPDT(2, 30, 5)`` the largest-``ki`` PID has IAE 11.6 per unit
+load, the smallest-IAE one 8.3).  The IAE is computed from the loop's
+frequency response on an FFT grid (``y = P S d``: the transform of the
+increments of ``y`` is ``P S``, inverted and summed); a test checks it against
+the loop simulated in time.  ``sigma_u`` is the standard deviation of the MV
+caused by white PV noise of standard deviation ``sigma_y`` (one value per
+sample, as the simulator's sensor noise) in the closed loop, ``u = -C_y S n``:
 
     sigma_u^2 = sigma_y^2 (1/pi) integral_0^pi |C_y S|^2 (e^{j theta}) d theta
 
-(Parseval for a sampled stationary process, Åström & Wittenmark 1997,
-section 10.3), evaluated on a uniform grid of ``theta``; a test checks it
-against a simulation of the real block on noise.
+(Parseval's relation for a sampled stationary process, Åström & Wittenmark
+1997), evaluated on a uniform grid of ``theta``; tests check it against the
+closed loop's discrete Lyapunov equation and a simulation of the real block
+on noise.
 
 PID (:func:`design_pid`)
     ISA form of :class:`ctrlblocks.PID` (its own discretisation, derivative
     on the measurement, filter ``Tf = td/N``).  ``C_y = kp C_P(td, N) + ki
     C_I`` is linear in ``kp`` and ``ki`` for a fixed ``(td, N)``, so for each
-    ``(td, N)`` of a grid (``td = 0`` is the PI) the search runs over ``kp``
-    (ascending from a small gain until even ``ki -> 0`` breaks the Ms) and,
-    for each ``kp``, the largest ``ki`` that keeps both constraints (an
-    ascending scan, then a bisection: the feasible set is followed from the
-    origin, where the loop is stable, so no unstable island is entered).  The
-    derivative filter is therefore the one that keeps the MV noise within
-    the budget (a larger ``N`` is chosen only where the noise allows it), and
-    ``td = 0`` wins where the derivative buys nothing.  Then the set-point
-    weight ``b`` (Åström 1987, (2.2)) is chosen for tracking: the ``b`` of
-    0, 0.1, .., 1 with the smallest IAE of a set-point step on the model
-    (it does not change ``C_y``: Ms, noise and load response stay).
+    ``(td, N)`` of a grid (``td = 0`` is the PI; ``td`` 0.15..1.2 times the
+    model's dead time, ``N`` 2.5, 5, 10) the search runs over ``kp``
+    (ascending from a small gain until even ``ki -> 0`` breaks a constraint,
+    then a golden-section search of ``log kp``) and, for each ``kp``, over
+    ``ki``: the largest ``ki`` that keeps both constraints (an ascending scan
+    and a bisection, so the feasible set is followed from the origin, where
+    the loop is stable) and a golden-section search of the IAE below it.  The
+    derivative filter is therefore the one that keeps the MV noise within the
+    budget, and ``td = 0`` wins where the derivative buys nothing.  Then the
+    set-point weight ``b`` (Åström 1987, (2.2)) is chosen for tracking: the
+    ``b`` of 0, 0.1, .., 1 with the smallest IAE of a set-point step on the
+    model (it does not change ``C_y``: Ms, noise and load response stay).
 ADRC (:func:`design_adrc`)
     The block :class:`ctrlblocks.ADRC` of order n, its three tuning
     parameters searched: for each observer ratio ``omega_o/omega_c`` of
-    :data:`OBSERVER_RATIOS` (Nowak et al. 2018, section 3.3: 3..10; the
-    sample time caps ``omega_o ts <= 0.2``, and a lower ratio it forces is
-    reported) and each ``b0`` (a walk in factors of 1.5 from the inverse
-    half-rule's and two bisections of ``log b0``, as
-    :func:`~ctrlblocks.tuning.adrc.adrc_tuning` with ``b0_search``), the
-    fastest ``omega_c`` that keeps both constraints; the ``(b0, omega_c,
-    ratio)`` with the largest ``ki`` is kept.
+    :data:`OBSERVER_RATIOS` (Nowak et al. 2018, section 3.3, recommend 3..10;
+    the sample time caps ``omega_o ts <= 0.2``, and a ratio it forces below 3
+    is reported) and each ``b0`` (a walk in factors of 1.5 from the inverse
+    half-rule's and two bisections of ``log b0``), the fastest ``omega_c``
+    that keeps both constraints and a golden-section search of the IAE below
+    it; the ``(b0, omega_c, ratio)`` with the smallest load IAE is kept.
+    ``input_delay`` designs the ADRC whose observer is fed the MV delayed by
+    the model's dead time (the block's ``input_delay``; Zhao & Gao 2014).
 
-Dead-time compensation (``smith=True``)
+Dead-time compensation of the PID (``smith=True``)
     The PID inside a Smith predictor (Nowak et al. 2018, section 3.1; the
     structure :class:`ctrlblocks.loops.structures.Smith`): the controller sees
     ``y + M_0 u - M u``, ``M`` the model and ``M_0`` the model without its
@@ -65,14 +74,13 @@ Dead-time compensation (``smith=True``)
     ``C_y / (1 + C_y (M_0 - M))``; its Ms is that of the real loop (a Smith
     predictor with an exact model has ``S = 1 - T_0 e^{-sL}``, which reaches
     2 when the delay-free loop is fast: the Ms constraint is what keeps the
-    predictor robust), its ``ki`` the one the load sees
-    (``ki/(1 + ki k L)`` for an FOPDT).  :func:`ctrlblocks.tuning.margins.smith_ss`
-    gives the exact loop for the final margins.
+    predictor robust).  :func:`ctrlblocks.tuning.margins.smith_ss` gives the
+    exact loop for the final margins.
 
 Every design ends with the exact margins of the block on the model
-(:meth:`~ctrlblocks.tuning.margins.Loop.margins`); a design whose exact Ms
-is above the target (the search's grid missed a sharp peak) has its ``ki``
-lowered until it is not.
+(:meth:`~ctrlblocks.tuning.margins.Loop.margins`); a design whose exact Ms is
+above the target (the search's grid missed a sharp peak) has its integral
+action lowered until it is not, or is refused.
 """
 
 from __future__ import annotations
@@ -469,8 +477,8 @@ def design_pid(
     kind = "PI" if td == 0.0 else "PID"
     warnings.append(
         f"{kind}{' inside a Smith predictor' if smith else ''}: the smallest load IAE "
-        f"({m.load_iae(c):.4g} per unit load; IE = 1/ki = {1 / ki_loop:.4g}) on the boundary "
-        f"Ms = {ms:g}"
+        f"({m.load_iae(c):.4g} per unit load; IE = 1/ki = {1 / ki_loop:.4g}) with "
+        f"Ms <= {ms:g}"
         + (f", MV noise <= {budget:.3g}" if budget < math.inf and noise_std > 0 else "")
         + f"; b = {params['b']:g} for tracking"
     )
@@ -741,7 +749,7 @@ def design_adrc(
         f"b0 = {b0:.4g} ({b0 / b0_rule:.3g} times the inverse half-rule's {b0_rule:.4g}), "
         f"omega_c = {params['omega_c']:.4g} rad/s and omega_o = {eff:.3g} omega_c: the "
         f"smallest load IAE ({m.load_iae(c):.4g} per unit load; IE = 1/ki = {1 / ki_loop:.4g}) "
-        f"on the boundary Ms = {ms:g}"
+        f"with Ms <= {ms:g}"
         + (f", MV noise <= {budget:.3g}" if budget < math.inf and noise_std > 0 else "")
     )
     if reverse:
