@@ -17,7 +17,8 @@ process, and every candidate is judged by
 The PID family is PI, PID (derivative filter N of 2.5, 5, 10) and PI/PID in a
 Smith predictor on the true process (a perfect predictor: the family at its
 best); the ADRC family is the orders 1..3 with ``b0``, ``omega_c`` and the
-observer ratio 3, 5, 10 (``omega_o ts <= 0.2``).
+observer ratio 3, 5, 10 (``omega_o ts <= 0.2``), and the orders 1 and 2 with
+the observer fed the MV delayed by the true dead time (``input_delay``).
 """
 
 from __future__ import annotations
@@ -219,19 +220,24 @@ def _refine(o: Oracle, make, smith: bool, start: tuple[float, ...]) -> tuple[flo
 
 
 def best_adrc(o: Oracle, *, fine: bool = True, orders=(1, 2, 3)) -> dict[str, Best]:
-    """The ADRC family's best load and set-point IAE on the true process."""
+    """The ADRC family's best load and set-point IAE on the true process: the orders 1..3,
+    and 1..2 with the observer fed the MV delayed by the true dead time (the block's
+    ``input_delay``)."""
     k, tau, _L = _scales(o.model)
     rev = o.sign < 0
     out = {"load": Best(), "setpoint": Best()}
     cap = 0.2 / o.ts
-    for order in orders:
+    delays = [0.0] + ([o.model.dead_time] if o.model.dead_time > 0 else [])
+    kinds = [(n, 0.0) for n in orders] + [(n, d) for d in delays[1:] for n in orders if n < 3]
+    for order, delay in kinds:
         b0s = k / tau**order * np.geomspace(0.3, 300.0, 12 if fine else 8)
         for ratio in (3.0, 5.0, 10.0):
             wcs = np.geomspace(0.3 / tau, cap / ratio, 14 if fine else 9)
 
-            def make(b0: float, wc: float, ratio: float = ratio, order: int = order) -> ADRC:
+            def make(b0: float, wc: float, ratio: float = ratio, order: int = order,
+                     delay: float = delay) -> ADRC:  # fmt: skip
                 return ADRC(order=order, b0=b0, omega_c=wc, omega_o=ratio * wc, ts=o.ts,
-                            reverse=rev, **UNLIMITED)  # fmt: skip
+                            reverse=rev, input_delay=delay, **UNLIMITED)  # fmt: skip
 
             scored = []
             for b0 in b0s:
@@ -241,7 +247,7 @@ def best_adrc(o: Oracle, *, fine: bool = True, orders=(1, 2, 3)) -> dict[str, Be
                         scored.append((o.iae(lp, "load"), o.iae(lp, "setpoint"), b0, wc))
             if not scored:
                 continue
-            name = f"ADRC n={order}"
+            name = f"ADRC n={order}" + (" + delayed ESO" if delay else "")
             for key, idx in (("load", 0), ("setpoint", 1)):
                 ranked = sorted(scored, key=lambda s, i=idx: s[i])[:2]
                 for s in ranked:
@@ -253,8 +259,9 @@ def best_adrc(o: Oracle, *, fine: bool = True, orders=(1, 2, 3)) -> dict[str, Be
                         continue
                     v = o.iae(lp, key)
                     if v < out[key].iae:
-                        out[key] = Best(v, name, {"order": order, "b0": b0, "omega_c": wc,
-                                                  "ratio": ratio})  # fmt: skip
+                        found = {"order": order, "b0": b0, "omega_c": wc, "ratio": ratio,
+                                 "input_delay": delay}
+                        out[key] = Best(v, name, found)
     return out
 
 

@@ -54,6 +54,7 @@ def test_the_oracles_response_equals_the_loop_simulated_step_by_step():
                                           strict=True)) < 1e-6  # fmt: skip
 
 
+@pytest.mark.timeout(900)
 def test_the_verdict_agrees_with_the_true_process_on_a_dead_time_process(tmp_path):
     """The default run's one process (coarse oracle, a coarse sample time): FOPDT with the
     dead time as long as half the lag, 1 % noise."""
@@ -65,12 +66,14 @@ def test_the_verdict_agrees_with_the_true_process_on_a_dead_time_process(tmp_pat
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1800)
 @pytest.mark.parametrize("p", NAMED, ids=[p.name for p in NAMED])
 def test_the_verdict_agrees_with_the_true_process_on_the_named_kinds(p, tmp_path):
     _judge(p, tmp_path, fine=True)
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1800)
 @pytest.mark.parametrize("p", held_out(6), ids=lambda p: p.name)
 def test_the_verdict_agrees_with_the_true_process_on_held_out_processes(p, tmp_path):
     """Processes from a seeded generator (gain, lag, dead time, second lag, noise drawn)
