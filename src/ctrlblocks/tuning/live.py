@@ -213,6 +213,12 @@ class LiveTuner:
             return self.u0
         return u
 
+    def record(self) -> tuple[Any, Any, Any] | None:
+        """``(t, u, y)`` of a finished step test (what the model was fitted to); None otherwise."""
+        if isinstance(self._exp, StepExperiment) and not self.running:
+            return self._exp.record()
+        return None
+
     def abort(self, reason: str = "aborted by the operator") -> None:
         """End the experiment now; :meth:`step` returns ``u0`` from here on."""
         if self.running:
