@@ -153,6 +153,11 @@ def design_candidate(name: str, model: Any, ts: float, **kw: Any) -> Any:
     return design_adrc(model, order, ts, input_delay=delay, **kw)
 
 
+def _in_smith(c: dict[str, Any]) -> bool:
+    """The candidate runs inside a Smith predictor (``compare_smith.toml``)."""
+    return bool(c.get("structure") == "smith")
+
+
 def _candidate(name: str, make: Callable[[], Any], say) -> dict[str, Any]:
     from ..blocks.base import ParameterError
 
@@ -208,7 +213,7 @@ def scenario_toml(
     u_max: float,
     duration: float,
     t_event: float = 0.0,
-    structure: str = "single",
+    smith: bool = False,
     name: str = "compare",
     operating_point: tuple[float, float] | None = None,
     corner: tuple[float, float, float] = (1.0, 1.0, 1.0),
@@ -223,8 +228,9 @@ def scenario_toml(
     ``t_event``; case ``load``: the input load ``load`` comes at ``t_event``;
     each case lasts ``duration`` [s] from t = 0.  ``u_min``/``u_max`` are
     relative to the operating MV; ``corner`` scales gain, time constants and
-    dead time.  ``structure = "smith"`` writes the controllers of that
-    structure (``[controllers.main]``, ``[controllers.model]`` = the model).
+    dead time.  ``smith`` writes the Smith-predictor candidates in that
+    structure (``[controllers.main]``, ``[controllers.model]`` = the model); without
+    it the single-loop candidates.
     """
     g, tc, dt = corner
     plant = _plant_dict(model, g, (tc, tc), dt)
@@ -240,7 +246,7 @@ def scenario_toml(
                 f" (deviations from the operating point PV {operating_point[1]:.4g}, "
                 f"MV {operating_point[0]:.4g})")),
         'source = "ctrlblocks compare"',
-        *([f'structure = "{structure}"'] if structure != "single" else []),
+        *(['structure = "smith"'] if smith else []),
         f"ts = {ts!r}",
         f"duration = {duration!r}",
         f"quick_duration = {duration!r}",
@@ -263,12 +269,12 @@ def scenario_toml(
         "",
     ]
     for c in controllers:
-        if c["params"] is None or c.get("structure", "single") != structure:
+        if c["params"] is None or _in_smith(c) != smith:
             continue
         lines += ["[[controllers]]", f'name = "{c["name"]}"']
         params = [f"{k} = {_toml_value(v)}" for k, v in c["params"].items()]
         limits = [f"u_min = {u_min!r}", f"u_max = {u_max!r}"]
-        if structure == "smith":
+        if smith:
             pred = [f"{k} = {_toml_value(v)}" for k, v in _plant_dict(model).items()]
             lines += ["[controllers.main]", f'type = "{c["type"]}"', *params, *limits,
                       "[controllers.model]", *pred, ""]  # fmt: skip
@@ -470,11 +476,10 @@ def compare(
                   u_label=deviation_label(u_label),
                   operating_point=(u_op, float(model.y0)))  # fmt: skip
     files: list[tuple[Path, Any]] = []
-    for structure, fname in (("single", "compare.toml"), ("smith", "compare_smith.toml")):
-        if not any(c["params"] is not None and c["structure"] == structure for c in ctrls):
+    for smith, fname in ((False, "compare.toml"), (True, "compare_smith.toml")):
+        if not any(c["params"] is not None and _in_smith(c) == smith for c in ctrls):
             continue
-        text = scenario_toml(model, ctrls, structure=structure,
-                             name="compare" if structure == "single" else "compare_smith",
+        text = scenario_toml(model, ctrls, smith=smith, name=fname.removesuffix(".toml"),
                              **common)  # fmt: skip
         path = out / fname
         path.write_text(text, encoding="utf-8")
@@ -523,7 +528,7 @@ def compare(
         "metrics": results,
     }
     say("trade-off: the best of each family at Ms " + ", ".join(f"{v:g}" for v in levels))
-    summary["tradeoff"] = tradeoff(model, summary, levels,
+    summary["tradeoff"] = tradeoff(model, summary, levels, design_candidate,
                                    {c["name"]: c.get("_design") for c in ctrls})  # fmt: skip
     summary["winners"] = winners(summary)
     summary["verdict"] = verdict(summary)

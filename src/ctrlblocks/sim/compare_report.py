@@ -8,12 +8,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .compare import BOX
-
 __all__ = ["report", "tradeoff"]
 
 
-def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float],
+def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float], design: Any,
              designs: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
     """The best candidate of each family designed again at each Ms of ``levels``.
 
@@ -23,11 +21,11 @@ def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float],
     its load IAE (a step of the summary's load at the process input, the linear
     loop on the model: no noise, no limits) and MV noise are recorded.
     ``{"levels": [...], "PID": {"name", "ms", "iae_load", "mv_noise", "ki"}, "ADRC": ...}``;
-    a level where the design fails has None.  ``designs``: the candidates' designs at
-    the summary's own Ms (not designed again).
+    a level where the design fails has None.  ``design(name, model, ts, **kw)`` designs a
+    candidate (:func:`ctrlblocks.sim.compare.design_candidate`); ``designs``: the
+    candidates' designs at the summary's own Ms (not designed again).
     """
     from ..blocks.base import ParameterError
-    from .compare import design_candidate
 
     lv = sorted({*(float(v) for v in levels), float(s["ms_target"])})
     out: dict[str, Any] = {"levels": lv}
@@ -41,8 +39,8 @@ def tradeoff(model: Any, s: dict[str, Any], levels: Sequence[float],
         for ms in lv:
             try:
                 d = (designs or {}).get(best) if ms == s["ms_target"] else None
-                d = d or design_candidate(best, model, s["ts"], ms=ms, noise_std=s["noise_std"],
-                                          mv_noise_max=s["mv_noise_max"])  # fmt: skip
+                d = d or design(best, model, s["ts"], ms=ms, noise_std=s["noise_std"],
+                                mv_noise_max=s["mv_noise_max"])  # fmt: skip
             except (ParameterError, ValueError):
                 for k in ("ms", "iae_load", "mv_noise", "ki"):
                     row[k].append(None)
@@ -190,8 +188,9 @@ def report(out: Path, summary, t, u, y, model, results, y_label: str, u_label: s
             f"{_cell(v['settling_time'])} | {_cell(v['tv_u_tracking'])} | "
             f"{_cell(v['iae_load'])} | {_cell(v['peak_load'])} | {_cell(v['tv_u_load'])} |"
         )
-    box = (f"gain ±{100 * BOX['gain']:g} %, T ±{100 * BOX['time_constant']:g} %, "
-           f"L ±{100 * BOX['dead_time']:g} %")  # fmt: skip
+    box_ = summary["box"]
+    box = (f"gain ±{100 * box_['gain']:g} %, T ±{100 * box_['time_constant']:g} %, "
+           f"L ±{100 * box_['dead_time']:g} %")  # fmt: skip
     heads = (f"| controller | IAE step [{iae_u}] | overshoot [%] | IAE load [{iae_u}] | "
              f"MV travel load [{mv_u}] |")  # fmt: skip
     cols = (("iae_tracking", 1.0), ("overshoot", 100.0), ("iae_load", 1.0), ("tv_u_load", 1.0))

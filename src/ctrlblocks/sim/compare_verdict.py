@@ -15,8 +15,6 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from .compare import BOX
-
 __all__ = ["verdict", "winners"]
 
 _SIMILAR_TV = 0.2  # MV travels within 20 % are "similar"
@@ -116,7 +114,7 @@ def verdict(s: dict[str, Any]) -> list[dict[str, Any]]:
         for key, tv in (("iae_tracking", "tv_u_tracking"), ("iae_load", "tv_u_load")):
             said.append(_kind_sentence(s, key, tv))
     contenders = [min(kinds[k], key=lambda n: _val(res, n, "iae_load")) for k in kinds if kinds[k]]
-    said += _corner_overshoot(res, contenders)
+    said += _corner_overshoot(res, contenders, s["box"]["dead_time"])
     if s.get("monte_carlo"):
         said += _monte_carlo_sentences(s, res, contenders)
     said += _tradeoff_sentences(s)
@@ -173,10 +171,10 @@ def _kind_sentence(s: dict[str, Any], key: str, tv: str) -> dict[str, Any]:
     return {"text": text, "quotes": [qa, qp, qta, qtp]}
 
 
-def _corner_overshoot(res, contenders) -> list[dict[str, Any]]:
+def _corner_overshoot(res, contenders, dead_time: float) -> list[dict[str, Any]]:
     """The overshoot of the contenders under +30 % dead time (worst of those corners)."""
     out = []
-    pct = round(100 * BOX["dead_time"])
+    pct = round(100 * dead_time)
     for n in contenders:
         worst = res[n]["dead_time_plus"].get("overshoot")
         if worst is None:
