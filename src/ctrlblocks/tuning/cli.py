@@ -406,6 +406,22 @@ def _model(gain: float, time_constant: float, dead_time: float, time_constant_2:
     return FOPDT(gain, time_constant, dead_time)
 
 
+def _design_inputs(gain, time_constant, dead_time, time_constant_2, noise_std, u_noise_max,
+                   ts):  # fmt: skip
+    """``(model, ts)`` of a designed tuning: the options checked, ``ts`` by default
+    :func:`~ctrlblocks.tuning.design.default_ts` of the model's FOPDT (half rule)."""
+    from .design import default_ts
+
+    model = _model(gain, time_constant, dead_time, time_constant_2)
+    if (noise_std is None) != (u_noise_max is None):
+        raise click.UsageError("give both --noise-std and --u-noise-max, or neither")
+    t_lag = time_constant + time_constant_2 / 2
+    h = default_ts(t_lag, dead_time + time_constant_2 / 2) if ts is None else ts
+    if not (math.isfinite(h) and h > 0.0):
+        raise click.ClickException(f"--ts: must be a finite number > 0 [s], got {ts!r}")
+    return model, h
+
+
 def _design_out(d, model) -> dict:
     """The keys of a designed tuning: the block's, then the informational ones."""
     mg = d.margins
@@ -421,15 +437,10 @@ def _tune_adrc_designed(gain, time_constant, dead_time, order, time_constant_2, 
                         observer_ratio, discretisation, noise_std, u_noise_max, as_json,
                         plot_path) -> None:  # fmt: skip
     """``tune adrc`` without a settling time: :func:`~ctrlblocks.tuning.design.design_adrc`."""
-    from .design import OBSERVER_RATIOS, default_ts, design_adrc
+    from .design import OBSERVER_RATIOS, design_adrc
 
-    model = _model(gain, time_constant, dead_time, time_constant_2)
-    if (noise_std is None) != (u_noise_max is None):
-        raise click.UsageError("give both --noise-std and --u-noise-max, or neither")
-    t_lag = time_constant + time_constant_2 / 2
-    h = default_ts(t_lag, dead_time + time_constant_2 / 2) if ts is None else ts
-    if not (math.isfinite(h) and h > 0.0):
-        raise click.ClickException(f"--ts: must be a finite number > 0 [s], got {ts!r}")
+    model, h = _design_inputs(gain, time_constant, dead_time, time_constant_2, noise_std,
+                              u_noise_max, ts)  # fmt: skip
     ratios = OBSERVER_RATIOS if observer_ratio is None else (observer_ratio,)
     try:
         d = design_adrc(model, order, h, ms=ms, noise_std=noise_std, mv_noise_max=u_noise_max,
@@ -602,17 +613,12 @@ def tune_pid(
 def _tune_pid_designed(gain, time_constant, dead_time, time_constant_2, ms, noise_std,
                        u_noise_max, smith, controller, ts, as_json, plot_path) -> None:  # fmt: skip
     """``tune pid --rule migo``: :func:`~ctrlblocks.tuning.design.design_pid`."""
-    from .design import default_ts, design_pid
+    from .design import design_pid
 
     if gain is None:
         raise click.UsageError("--rule migo needs the model (--gain, --time-constant, --dead-time)")
-    model = _model(gain, time_constant, dead_time, time_constant_2)
-    if (noise_std is None) != (u_noise_max is None):
-        raise click.UsageError("give both --noise-std and --u-noise-max, or neither")
-    t_lag = time_constant + time_constant_2 / 2
-    h = default_ts(t_lag, dead_time + time_constant_2 / 2) if ts is None else ts
-    if not (math.isfinite(h) and h > 0.0):
-        raise click.ClickException(f"--ts: must be a finite number > 0 [s], got {ts!r}")
+    model, h = _design_inputs(gain, time_constant, dead_time, time_constant_2, noise_std,
+                              u_noise_max, ts)  # fmt: skip
     try:
         d = design_pid(model, h, ms=ms, noise_std=noise_std, mv_noise_max=u_noise_max,
                        controller=controller, smith=smith)  # fmt: skip
