@@ -125,7 +125,10 @@ def test_every_event_is_taken_in_auto_at_rest_after_the_release(result):
     )
     doc["sensor"]["noise"] = 0.0
     r = run_scenario(parse_scenario_doc(doc, file="compare.toml"))
-    early = dict(doc)
+    early = dict(doc)  # the event later, the run longer by as much: the same window length
+    early["scenario"] = {**doc["scenario"]}
+    for key in ("duration", "quick_duration"):
+        early["scenario"][key] = doc["scenario"][key] + 2 * s["t_event"]
     for case in early["cases"]:
         for ev in case["events"]:
             ev["t"] = 3 * s["t_event"]
@@ -407,9 +410,9 @@ def test_a_reverse_acting_process_gets_adrcs_with_reverse(tmp_path):
     """A negative process gain: the ADRCs are tuned with reverse = true (the block takes
     b0 > 0) on the mirrored process, with its margins, and stand in the verdict."""
     t, u, y = _bump(k=-1.2, t=12.0, L=3.0)
-    s = compare(t, u, y, tmp_path, corners=False)
+    s = compare(t, u, y, tmp_path, corners=False, ts=0.3, levels=())
     t2, u2, y2 = _bump(k=1.2, t=12.0, L=3.0)
-    mirror = compare(t2, u2, y2, tmp_path / "mirror", corners=False)
+    mirror = compare(t2, u2, y2, tmp_path / "mirror", corners=False, ts=0.3, levels=())
     adrcs = [c for c in s["controllers"] if c["type"] == "ADRC"]
     assert adrcs and all(c["params"]["reverse"] is True and c["params"]["b0"] > 0 for c in adrcs)
     for c, m in zip(adrcs, [c for c in mirror["controllers"] if c["type"] == "ADRC"], strict=True):
