@@ -74,7 +74,7 @@ def test_the_verdict_agrees_with_the_true_process_on_the_named_kinds(p, tmp_path
 
 @pytest.mark.slow
 @pytest.mark.timeout(1800)
-@pytest.mark.parametrize("p", held_out(6), ids=lambda p: p.name)
+@pytest.mark.parametrize("p", held_out(4), ids=lambda p: p.name)
 def test_the_verdict_agrees_with_the_true_process_on_held_out_processes(p, tmp_path):
     """Processes from a seeded generator (gain, lag, dead time, second lag, noise drawn)
     that no design choice was tuned on."""
