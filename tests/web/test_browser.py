@@ -118,6 +118,11 @@ def test_page_shows_the_loops_and_the_trend_moves(page: Any, tmp_path_factory: A
     assert [rows.nth(i).get_attribute("data-loop") for i in range(2)] == ["fast", "level"]
     assert page.text_content("#loops tr[data-loop=fast] td.mode") == "AUTO"
     assert page.text_content("#plate-title") == "fast"  # the first loop is shown
+    # the product's name once (the issue read "ctrlblocks — ctrlblocks demo")
+    assert page.text_content("#rt-name") == "ctrlblocks — faceplate test"
+    assert page.title() == "ctrlblocks — faceplate test · faceplate"
+    assert js(page, "faceplate.titles('ctrlblocks demo')") == [
+        "ctrlblocks demo", "ctrlblocks demo · faceplate"]  # fmt: skip
     n0 = js(page, "faceplate.data.fast.t.length")
     x0 = js(page, "faceplate.chart.scales.x.max")
     # 20 more samples (1 s at 20 Hz) arrive and the time axis follows them
@@ -172,6 +177,13 @@ def test_units_ranges_and_a_trend_axis_that_keeps_the_sp_in_view(page: Any) -> N
     assert page.text_content("#tunings tr[data-key=kp] td.range") == "0.1 … 10"
     # derived from the loop: 0 (no integral) or a tenth of ts = 0.05 s up to 10^4 ts
     assert page.text_content("#tunings tr[data-key=ti] td.range") == "0 or 0.005 … 500 s"
+    # the ADRC's order: its three values (the issue read "> 0")
+    page.click("#loops tr[data-loop=level]")
+    page.wait_for_function("() => document.querySelector('#plate-title').textContent === 'level'")
+    page.wait_for_selector("#tunings tr[data-key=order]")
+    assert page.text_content("#tunings tr[data-key=order] td.range") == "1, 2, 3"
+    page.click("#loops tr[data-loop=fast]")
+    page.wait_for_function("() => document.querySelector('#plate-title').textContent === 'fast'")
     # steady state SP = PV = 1 m: the axis shows the SP and at least 5 % of [0, 2] m
     wait_cycles(page, "fast", 5)
     lo, hi = js(page, "[faceplate.chart.scales.y.min, faceplate.chart.scales.y.max]")

@@ -28,11 +28,12 @@ absolute deadline, with the inputs it read):
 one of its connections and after a restart, the loop reads the MV back from
 the device (with the cycle's inputs) and starts from it as a PLC block
 leaves MAN for AUTO: for one cycle its MV blocks are in manual at that MV,
-so they track it (the ADRC re-solves its x_{n+1} by Nowak et al. 2018,
-(11)), then they go back to their mode; a loop in MAN takes it as its
-manual value.  Block states older than ``max_dt`` (a restart's retained
-snapshot, an observer frozen through an outage) are reset first, so the
-blocks start at rest on the present PV; the two steps after a start use
+so they track it (the ADRC solves its handover offset, docs/blocks/adrc.md),
+then they go back to their mode; a loop in MAN takes it as its manual
+value.  Block states older than ``max_dt`` (a restart's retained snapshot,
+an observer frozen through an outage) are replaced first: the blocks start
+at rest at that MV on the present PV (``Block.start_at``: an ADRC's
+observer with x4 = -b0 u, the plant held by the device's MV); the two steps after a start use
 ``ts`` as their dt (a start-up period is no process time).  Without a
 read-back: the retained MV, else ``initial_mv``, else the blocks' own start.
 
@@ -686,11 +687,12 @@ class ControlLoop:
             u0, source = self._retained_mv, "the retained MV"
         if u0 is None and self.config.initial_mv is not None:
             u0, source = self.config.initial_mv, "initial_mv"
-        if u0 is not None and not is_finite(u0):
-            u0 = None
+        if u0 is not None:
+            u0 = min(max(float(u0), float(self.block.u_min)), float(self.block.u_max))
+            u0 = u0 if is_finite(u0) else None
         self._init, self._init_mv = None, None
         if u0 is not None and self._init_age > self.config.dt_bound:
-            self._reset_blocks()  # stale: the tracking below starts them on the present PV
+            self._reset_blocks(u0)  # stale: at rest at u0 on the present PV, then track u0
         self._swing.reset()
         self._settle = 1  # this step and the next one use ts
         self._fault_since = None
@@ -698,8 +700,6 @@ class ControlLoop:
             u = self._step(t, ok, meas, None)
             what = "the blocks' own start (no MV read back, no initial_mv)"
         else:
-            lo, hi = float(self.block.u_min), float(self.block.u_max)
-            u0 = min(max(float(u0), lo), hi)
             manual, mval = self.side.manual, float(self.block.manual_value)
             if manual and not self.is_bound("manual_value"):
                 mval = u0  # MAN: the manual value is what the device has
@@ -723,13 +723,20 @@ class ControlLoop:
         self._init_age = math.inf
         return u
 
-    def _reset_blocks(self) -> None:
-        """Reset the controllers' dynamic state (stale); mode, manual value and limits stay."""
+    def _reset_blocks(self, u0: float) -> None:
+        """Start the controllers again at rest at the MV ``u0`` (their state is stale).
+
+        ``Block.start_at``: an ADRC's observer starts on the present PV with
+        x4 = -b0 u0 -- the plant at rest on the MV the device holds -- not on
+        the initial u0 of its configuration (whose x4 the observer would then
+        correct, moving the MV away from the set point first). Mode, manual
+        value and limits stay.
+        """
         for role in self.side.ctrls:
             b = self.side.blocks[role]
             manual = getattr(b, "manual", None)
             mval = getattr(b, "manual_value", None)
-            b.reset()
+            b.start_at(u0)
             if manual is not None:
                 b.manual = manual
             if mval is not None:

@@ -66,13 +66,18 @@ function fmtParam(x) {
 
 // ---------------------------------------------------------------- account
 
+// the heading and the window's title for a runtime's name: "ctrlblocks demo", not
+// "ctrlblocks — ctrlblocks demo" (the product's name once)
+function titles(name) {
+  const heading = /^ctrlblocks\b/i.test(name) ? name : "ctrlblocks — " + name;
+  return [heading, heading + " · faceplate"];
+}
+S.titles = titles;
+
 async function loadInfo() {
   const r = await fetch("api/info", { credentials: "same-origin" });
   S.info = await r.json();
-  // "ctrlblocks demo", not "ctrlblocks — ctrlblocks demo"
-  const own = /^ctrlblocks\b/i.test(S.info.name);
-  $("rt-name").textContent = own ? S.info.name : "ctrlblocks — " + S.info.name;
-  document.title = (own ? "" : "ctrlblocks — ") + S.info.name + " · faceplate";
+  [$("rt-name").textContent, document.title] = titles(S.info.name);
   setUser(S.info.user, S.info.role);
   $("login-needed").hidden = S.info.may_view;
   document.querySelector("main").hidden = !S.info.may_view;
