@@ -6,6 +6,8 @@ The issue: a PID without ``tuning_ranges`` accepted ``ti = 1e-300`` and
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -112,3 +114,37 @@ def test_with_an_identified_model_kp_stops_at_twice_the_ultimate_gain():
     kp = derived_tuning_range(pid, "kp", 0.1, model)
     assert kp.hi == pytest.approx(2.0 * ku) and "ultimate gain" in kp.why
     assert kp.refuses(2.1 * ku) and kp.refuses(1.9 * ku) is None
+
+
+@pytest.mark.parametrize(
+    "block",
+    [
+        PID(kp=2.0, ti=8.0, td=0.5, ts=0.1, u_min=0.0, u_max=100.0),
+        PID(kp=1.0, ti=0.0, ts=0.1),  # ti, td, ff_k 0: no magnitude to scale from
+        ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1),
+        ADRC(order=1, b0=2.0, omega_c=1.0, omega_o=5.0, ts=0.1, discretisation="exact"),
+    ],
+    ids=["pid", "pid-zeros", "adrc", "adrc-exact"],
+)
+def test_every_numeric_tuning_has_a_range_that_refuses_absurd_values(block):
+    """The issue: 'default engineering ranges for every tuning parameter'. Whatever
+    the block's fields are now or later, each number gets a range, and 1e300 (or its
+    negative) is outside it -- the block itself would accept most of them."""
+    from ctrlblocks.runtime.bounds import LoopBounds
+
+    class Loop:  # what LoopBounds reads of a runtime's loop
+        config = type("Cfg", (), {"ts": 0.1})()
+
+    Loop.block = block
+    ranges = LoopBounds(Loop()).tunings
+    numeric = [
+        f.name
+        for f in dataclasses.fields(block.config)
+        if isinstance(getattr(block.config, f.name), (int, float))
+        and not isinstance(getattr(block.config, f.name), bool)
+        and f.name not in ("ts", "u_min", "u_max", "safe_value", "u_sf")
+    ]
+    assert numeric and set(numeric) <= set(ranges), set(numeric) - set(ranges)
+    for name in numeric:
+        assert ranges[name].refuses(1e300) and ranges[name].refuses(-1e300), name
+        assert ranges[name].refuses(getattr(block.config, name)) is None, name  # in force: in
