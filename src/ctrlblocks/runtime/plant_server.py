@@ -64,7 +64,11 @@ state; the runtime's blocks start from their own initial state) and events of
 kind ``set`` (they act inside a controller).
 
 Fault injection for tests (attributes of :class:`PlantServer`): ``delay``
-(Modbus requests answered ``delay`` seconds late), ``force_nan`` (PV reads
+(Modbus requests answered ``delay`` seconds late; a delay beyond the
+client's timeout makes pymodbus's server answer out of step -- a request
+sent after a timed-out one can get the earlier request's response, which
+the runtime's adapter refuses and resets the connection for, as it would
+for a real device doing so), ``force_nan`` (PV reads
 NaN), ``reject_mv`` (Modbus MV writes refused; on OPC UA use
 :meth:`PlantServer.set_mv_writable`), ``stale`` (OPC UA PV with a source
 timestamp an hour old).
