@@ -1,4 +1,4 @@
-"""A Modbus answer that is not the answer to the request is refused, never decoded.
+"""An answer that is not the answer to the request is refused, never decoded (Modbus, OPC UA).
 
 Found by the slow-device benchmark (issue 36): with answers delayed beyond
 the connection's timeout, the plant server's Modbus device answered a read
@@ -8,7 +8,9 @@ adapter indexed the missing registers and the connection was dropped with
 another request's register count would have been decoded as this read's
 values.  Now every answer is checked against its request (function, register
 count; a write's echoed address and count), and a mismatch is an ``IOFault``
-that says so (the connection resets, which puts it back in step).
+that says so (the connection resets, which puts it back in step).  The same
+for an OPC UA server whose Read or Write gives another number of results
+than nodes asked (Part 4: one result per node).
 """
 
 from __future__ import annotations
@@ -112,4 +114,46 @@ def test_any_other_answer_is_an_io_fault_never_an_index_error_or_values(
         assert len(out) == 1
     else:
         with pytest.raises(IOFault, match=r"out of step"):
+            asyncio.run(call)
+
+
+class UaServer:
+    """An asyncua ``uaclient`` stand-in answering ``drop`` results fewer than asked."""
+
+    def __init__(self, drop: int) -> None:
+        self.drop = drop
+
+    async def read_attributes(self, nodes, attribute):
+        from asyncua import ua
+
+        n = max(len(nodes) - self.drop, 0)
+        if attribute == ua.AttributeIds.DataType:
+            return [ua.DataValue(ua.Variant(ua.NodeId(11, 0)))] * n  # Double
+        return [ua.DataValue(ua.Variant(1.5, ua.VariantType.Double))] * n
+
+    async def write_attributes(self, nodes, values, attribute):
+        from asyncua import ua
+
+        return [ua.StatusCode(0)] * max(len(nodes) - self.drop, 0)
+
+
+@pytest.mark.parametrize("drop", [0, 1])
+@pytest.mark.parametrize("write", [False, True])
+def test_an_opcua_answer_with_another_number_of_results_is_an_io_fault(drop, write):
+    from ctrlblocks.runtime.opcua import OpcUaAdapter
+
+    a = OpcUaAdapter(ConnectionConfig(name="ua", protocol="opcua", url="opc.tcp://x:4840"))
+    a._client = type("Client", (), {"uaclient": UaServer(drop)})()
+    nodes = ["ns=2;s=a", "ns=2;s=b"]
+    if write:  # the data types known: the Write's own results are what is checked
+        from asyncua import ua
+
+        a._types = dict.fromkeys(nodes, ua.VariantType.Double)
+    call = a.write([(n, 1.0) for n in nodes]) if write else a.read(nodes)
+    if drop == 0:
+        out = asyncio.run(call)
+        assert out == ([None, None] if write else out) and len(out) == 2
+    else:
+        what = "write" if write else "read"
+        with pytest.raises(IOFault, match=rf"OPC UA {what}: the server answered 1 results to 2"):
             asyncio.run(call)
