@@ -13,6 +13,7 @@ from .jumprate import JumpAndRate
 from .leadlag import LeadLag
 from .manual import ManualStation
 from .monitor import CycleMonitor
+from .onoff import ThreePoint, TwoPoint
 from .pid import PID, AntiWindup, Bumpless
 from .pid_forms import (
     isa_to_parallel,
@@ -38,6 +39,7 @@ from .signals import (
     scale,
 )
 from .stepper import StepController
+from .transfer import TransferFunction
 
 __all__ = [
     "ADRC",
@@ -68,6 +70,9 @@ __all__ = [
     "Scale",
     "SteadyStateDetector",
     "StepController",
+    "ThreePoint",
+    "TransferFunction",
+    "TwoPoint",
     "deadband",
     "isa_to_parallel",
     "isa_to_series",
