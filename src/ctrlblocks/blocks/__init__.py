@@ -25,6 +25,7 @@ from .pid_forms import (
 )
 from .pwm import PulseWidth
 from .schedule import GainSchedule, GainScheduleConfig
+from .setpoint import SetpointProgram
 from .signals import (
     PT1,
     DeadBand,
@@ -68,6 +69,7 @@ __all__ = [
     "RateLimiter",
     "Saturation",
     "Scale",
+    "SetpointProgram",
     "SteadyStateDetector",
     "StepController",
     "ThreePoint",

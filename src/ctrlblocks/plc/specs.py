@@ -337,7 +337,33 @@ error_id ERROR_ID
     {"y": "unlimited output of the last valid sample", "z1": "memory s1 of each section",
      "z2": "memory s2 of each section"},
 )
+_SETPOINT = (
+    "CB_SETPOINT", "setpoint programmer: ramp/soak segments with guaranteed ramp and soak",
+    _table("""
+pv            PV            process value [PV units] (holdback and start at PV)
+pv_ok         PV_OK         quality of PV; FALSE holds the program while a holdback band is on
+run           RUN           TRUE: the program runs; FALSE: it holds where it is
+reset         RESET         TRUE: back to the start (START or PV, segment 0)
+target        TARGET        target of each segment [PV units]
+rate          RATE          ramp rate of each segment [PV units/s]; 0 = a step
+soak          SOAK          soak time of each segment [s]
+start         START         setpoint at the start [PV units]
+start_at_pv   START_AT_PV   TRUE: start at the PV instead (when it is valid)
+repeat        CYCLIC        TRUE: after the last segment start again with the first
+holdback_ramp HOLDBACK_RAMP guaranteed ramp: hold while |PV - SP| exceeds it; 0 = off
+holdback_soak HOLDBACK_SOAK guaranteed soak: hold while |PV - SP| exceeds it; 0 = off
+ts            TS
+"""),
+    _table("""
+out      OUT      setpoint [PV units]
+error_id ERROR_ID
+held     HELD     a holdback band holds the program
+"""),
+    {"seg": "segment (0-based)", "phase": "0 ramp, 1 soak", "done": "the program has ended",
+     "sp": "setpoint", "t_soak": "soak time spent [s]", "started": "the program has started"},
+)
 _CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] = {
+    "SetpointProgram": _SETPOINT,
     "TwoPoint": _TWO_POINT,
     "ThreePoint": _THREE_POINT,
     "TransferFunction": _TRANSFER,
