@@ -68,11 +68,15 @@ def test_zero_length_segments_with_repeat_do_not_loop_forever() -> None:
     assert all(v in (1.0, 2.0) for v in outs)
 
 
-@pytest.mark.parametrize("bad, code", [({"segments": ((1.0, -1.0, 0.0),)}, ErrorCode.BAD_RATE),
-                                       ({"segments": ((1.0, 1.0, -2.0),)},
-                                        ErrorCode.BAD_TIME_CONSTANT),
-                                       ({"segments": ()}, ErrorCode.BAD_PARAMETER),
-                                       ({"holdback_soak": -1.0}, ErrorCode.BAD_LIMITS)])  # fmt: skip
+BAD = [
+    ({"segments": ((1.0, -1.0, 0.0),)}, ErrorCode.BAD_RATE),
+    ({"segments": ((1.0, 1.0, -2.0),)}, ErrorCode.BAD_TIME_CONSTANT),
+    ({"segments": ()}, ErrorCode.BAD_PARAMETER),
+    ({"holdback_soak": -1.0}, ErrorCode.BAD_LIMITS),
+]
+
+
+@pytest.mark.parametrize("bad, code", BAD)
 def test_bad_programs_are_refused_and_the_old_one_stays(bad: dict, code: ErrorCode) -> None:
     prog = SetpointProgram(segments=((1.0, 1.0, 1.0),))
     with pytest.raises(ParameterError) as e:

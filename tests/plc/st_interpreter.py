@@ -110,8 +110,9 @@ def split_pous(source: str) -> list[str]:
 
 
 _INIT = re.compile(r"^(\s+)(\w+) : (REAL|DINT|BOOL) := ([^;]+);", re.M)
-_ARRAY_INIT = re.compile(r"^(\s+)(\w+) : (ARRAY\[\d+\.\.\d+\] OF (?:REAL|DINT|BOOL)) := (\[[^\]]*\]);",
-                         re.M)
+_ARRAY_INIT = re.compile(
+    r"^(\s+)(\w+) : (ARRAY\[\d+\.\.\d+\] OF (?:REAL|DINT|BOOL)) := (\[[^\]]*\]);", re.M
+)
 
 
 def strip_initial_values(chunk: str) -> tuple[str, dict[str, str]]:

@@ -45,7 +45,8 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def _check(block: Any, fb_name: str, inputs: list[dict[str, Any]],
-           call: Callable[[Any, dict[str, Any]], Any], outs: dict[str, Callable[[Any], Any]]) -> None:  # fmt: skip
+           call: Callable[[Any, dict[str, Any]], Any],
+           outs: dict[str, Callable[[Any], Any]]) -> None:  # fmt: skip
     fb = Interpreter(plc.export(block, "codesys")).instance(fb_name)
     for k, inp in enumerate(inputs):
         call(block, inp)

@@ -135,10 +135,9 @@ def setpoint_cycle(
         band = holdback_soak
     held = False
     if band > 0.0:
-        if not good:
-            held = True
-        elif abs(pv - sp) > band:
-            held = True
+        held = not good  # an invalid PV holds; a valid one is compared (no NaN compared)
+        if good:
+            held = abs(pv - sp) > band
     if band <= 0.0 and not good:
         err = NO_ERROR  # the PV is not used
     n = len(target)
@@ -356,8 +355,9 @@ class SetpointProgram(CycleBlock):
         h = self._sample_time(dt)
         if h is None:
             return self.out
-        res = self._run({"pv": as_input(pv), "pv_ok": as_flag(pv_ok, False),
-                         "run": as_flag(run, False), "reset": as_flag(reset, False)}, h)  # fmt: skip
+        inputs = {"pv": as_input(pv), "pv_ok": as_flag(pv_ok, False), "run": as_flag(run, False),
+                  "reset": as_flag(reset, False)}  # fmt: skip
+        res = self._run(inputs, h)
         self._held = bool(res["held"])
         self.out = float(res["out"])
         return self.out
