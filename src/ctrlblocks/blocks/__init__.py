@@ -9,6 +9,7 @@ from . import plc_cycle  # noqa: F401  (registers the precision="float32" cycles
 from .adrc import ADRC
 from .alarms import Alarm, LoopAlarms
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
+from .heatcool import HeatCoolPID
 from .jumprate import JumpAndRate
 from .leadlag import LeadLag
 from .manual import ManualStation
@@ -56,6 +57,7 @@ __all__ = [
     "ErrorCode",
     "GainSchedule",
     "GainScheduleConfig",
+    "HeatCoolPID",
     "JumpAndRate",
     "LeadLag",
     "LoopAlarms",
