@@ -31,6 +31,7 @@ VERDICTS: dict[str, list[bool]] = {
     "nowak_table2_b0": [True, False, False, True, True, True],
     "nowak_smith": [True, True, True],
     "gain_schedule_three_tank": [True, True, True, True, True],
+    "heat_cool_pid_temp": [True, True, True, True, True],
     "pulse_width_heater": [True, True, True, True],
     "ratio_blend": [True, True, True, True, True],
     "split_range_heat_cool": [True, True, True, True, True],

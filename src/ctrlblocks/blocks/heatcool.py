@@ -74,6 +74,7 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .composite import CompositeBlock
 from .pid import PID
 from .pwm import PulseWidth
 
@@ -180,7 +181,7 @@ class HeatCoolPIDConfig(BlockConfig):
                 "u_min": -(100.0 / self.factor() + half), "u_max": 100.0 + half}  # fmt: skip
 
 
-class HeatCoolPID(Block):
+class HeatCoolPID(CompositeBlock):
     """Heating/cooling controller like Siemens PID_Temp (see the module docstring).
 
     ``out = hc(sp, pv)`` runs one sample and returns ``heat - cool`` [%].
@@ -197,7 +198,7 @@ class HeatCoolPID(Block):
     """
 
     Config = HeatCoolPIDConfig
-    _state_fields = ("out", "heat", "cool", "cooling", "_sub")
+    _state_fields = ("out", "heat", "cool", "cooling")
     config: HeatCoolPIDConfig
     _config: HeatCoolPIDConfig
 
@@ -229,26 +230,12 @@ class HeatCoolPID(Block):
         self.heat = 0.0
         self.cool = 0.0
         self.cooling = False
-        self._sub = None
 
-    # -- the state of the sub-blocks travels in the snapshot --------------------------------
-
-    def snapshot(self) -> dict[str, Any]:
-        self._sub = (self.pid.snapshot(),
-                     None if self._pwm is None else tuple(p.snapshot() for p in self._pwm))  # fmt: skip
-        snap = super().snapshot()
-        self._sub = None
-        return snap
-
-    def restore(self, snapshot: dict[str, Any]) -> None:
-        super().restore(snapshot)
-        sub = self._sub
-        self._sub = None
-        if sub is not None:
-            self.pid.restore(sub[0])
-            if self._pwm is not None and sub[1] is not None:
-                for p, s in zip(self._pwm, sub[1], strict=True):
-                    p.restore(s)
+    def parts(self) -> dict[str, Block]:
+        """The PID and, with PWM outputs, the two PulseWidth blocks."""
+        if self._pwm is None:
+            return {"pid": self.pid}
+        return {"pid": self.pid, "pwm_heat": self._pwm[0], "pwm_cool": self._pwm[1]}
 
     def output_limits(self) -> tuple[float, float]:
         """``(-100, 100)``: full cooling .. full heating."""
