@@ -25,6 +25,7 @@ from .pid_forms import (
     series_to_parallel,
 )
 from .pwm import PulseWidth
+from .regulator import Regulator
 from .schedule import GainSchedule, GainScheduleConfig
 from .setpoint import SetpointProgram
 from .signals import (
@@ -69,6 +70,7 @@ __all__ = [
     "ParameterError",
     "PulseWidth",
     "RateLimiter",
+    "Regulator",
     "Saturation",
     "Scale",
     "SetpointProgram",
