@@ -21,6 +21,13 @@ class CompositeBlock(Block):
         """The sub-blocks by name (override)."""
         return {}
 
+    def _reconfigure_parts(self) -> None:
+        """Configure the parts for the block's restored state, before their states come back.
+
+        (Override where the block configures its parts at run time: the HeatCoolPID's
+        parameter set follows its ``cooling`` state.)
+        """
+
     def snapshot(self) -> dict[str, Any]:
         snap = super().snapshot()
         snap["parts"] = {name: b.snapshot() for name, b in self.parts().items()}
@@ -28,6 +35,7 @@ class CompositeBlock(Block):
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         super().restore(snapshot)
+        self._reconfigure_parts()
         saved = snapshot.get("parts") or {}
         for name, b in self.parts().items():
             if name in saved:

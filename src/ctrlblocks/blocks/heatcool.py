@@ -222,6 +222,8 @@ class HeatCoolPID(CompositeBlock):
             self._pwm = None
 
     def _reset_state(self) -> None:
+        self.cooling = False
+        self._reconfigure_parts()  # the heating parameter set
         self.pid.reset()
         if self._pwm is not None:
             for p in self._pwm:
@@ -236,6 +238,12 @@ class HeatCoolPID(CompositeBlock):
         if self._pwm is None:
             return {"pid": self.pid}
         return {"pid": self.pid, "pwm_heat": self._pwm[0], "pwm_cool": self._pwm[1]}
+
+    def _reconfigure_parts(self) -> None:
+        c = self._config
+        params = c.pid_params(cooling=self.cooling)
+        if any(getattr(self.pid.config, k) != v for k, v in params.items()):
+            self.pid.configure(**params)
 
     def output_limits(self) -> tuple[float, float]:
         """``(-100, 100)``: full cooling .. full heating."""
