@@ -39,6 +39,7 @@ VERDICTS: dict[str, list[bool]] = {
     # the safe default ADRC, tuned on the SOPDT fit with b0 searched, is offset-free in the
     # 80 s windows (with the inverse half-rule b0 on the FOPDT fit its two claims failed)
     "tuned_three_tank": [True, True, True, True],
+    "two_point_thermostat": [True, True, True, True],
 }
 
 
