@@ -122,3 +122,20 @@ def test_a_bad_measurement_is_the_pids_business() -> None:
     u = hc(25.0, 20.0)
     assert hc(25.0, math.nan) == u and hc.error_id == ErrorCode.BAD_INPUT
     assert hc(25.0, 20.0, pv_ok=False) == u and hc.error_id == ErrorCode.BAD_MEASUREMENT
+
+
+def test_float32_lane_follows_the_float64_block() -> None:
+    def run(precision: str) -> np.ndarray:
+        proc = HeatCool(k_heat=0.6, k_cool=0.2, t=60.0, t_amb=20.0, ts=1.0)
+        hc = HeatCoolPID(kp=4.0, ti=40.0, cool_factor=3.0, ts=1.0, precision=precision)
+        ys = []
+        for k in range(400):
+            u = hc(30.0 if k < 200 else 10.0, proc.y)
+            proc.set_second(max(0.0, u))
+            proc.step(max(0.0, -u))
+            ys.append(proc.y)
+        return np.array(ys)
+
+    y64, y32 = run("float64"), run("float32")
+    assert np.max(np.abs(y64 - y32)) < 1e-3  # single-precision rounding only
+    assert np.max(np.abs(y64 - y32)) > 0.0

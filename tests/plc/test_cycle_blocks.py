@@ -105,3 +105,23 @@ def test_setpoint_fb_equals_the_float32_block() -> None:
 
     _check(b, "CB_SETPOINT", inputs, call,
            {"OUT": lambda blk: blk.out, "HELD": lambda blk: blk.held})  # fmt: skip
+
+
+def test_heat_cool_stage_fb_equals_the_float32_block() -> None:
+    """CB_HEATCOOL fed with the float32 PID's demand gives the float32 block's outputs."""
+    from ctrlblocks import HeatCoolPID
+
+    b = HeatCoolPID(kp=6.0, ti=20.0, cool_method="parameters", kp_cool=12.0, ti_cool=10.0,
+                    deadzone=2.0, pwm_period=2.0, t_min_on=0.3, ts=0.1,
+                    precision="float32")  # fmt: skip
+    pvs = _values(800, 5, 4.0)
+    inputs = []
+    for k, pv in enumerate(pvs):
+        inputs.append({"sp": 20.0 if (k // 200) % 2 else -20.0, "pv": pv})
+    fb = Interpreter(plc.export(b, "codesys")).instance("CB_HEATCOOL")
+    for k, i in enumerate(inputs):
+        b(i["sp"], i["pv"])
+        fb(V=b.demand)
+        for name, ref in (("OUT", b.out), ("HEAT", b.heat), ("COOL", b.cool)):
+            assert _same(fb[name], ref), f"sample {k}: {name} {fb[name]!r} vs {ref!r}"
+        assert bool(fb["COOLING"]) == bool(b.snapshot()["_mem"]["cooling"]), k

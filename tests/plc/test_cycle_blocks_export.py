@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from ctrlblocks import SetpointProgram, ThreePoint, TransferFunction, TwoPoint, plc
+from ctrlblocks import HeatCoolPID, SetpointProgram, ThreePoint, TransferFunction, TwoPoint, plc
 from ctrlblocks.blocks.transfer import lowpass
 
 BLOCKS = {
@@ -12,6 +12,7 @@ BLOCKS = {
     "CB_THREEPOINT": lambda: ThreePoint(),
     "CB_TRANSFER": lambda: TransferFunction(sections=lowpass(1.0, 0.1, 3), ts=0.1),
     "CB_SETPOINT": lambda: SetpointProgram(segments=((1.0, 1.0, 1.0), (0.0, 0.0, 0.0))),
+    "CB_HEATCOOL": lambda: HeatCoolPID(kp=2.0, ti=30.0, pwm_period=4.0),
 }
 
 

@@ -41,7 +41,7 @@ from typing import Any, ClassVar
 from .base import Block, BlockConfig, ErrorCode
 from .plc_cycle import REAL_MAX, run_float32, to_real
 
-__all__ = ["TIME_CAP", "CycleBlock", "real_limit", "time_add"]
+__all__ = ["TIME_CAP", "CycleBlock", "real_limit", "run_cycle", "time_add"]
 
 TIME_CAP = 1e30
 """The largest time [s] a cycle accumulates (3e22 years; a REAL holds it)."""
@@ -141,13 +141,7 @@ class CycleBlock(Block):
         arithmetic (:func:`.plc_cycle.run_float32`).
         """
         prm = self._prm if h == self._prm.get("ts", h) else {**self._prm, "ts": h}
-        if self._f32:
-            args = {k: _real(v) for k, v in {**inputs, **prm}.items()}
-            args.update({k: _real(v) for k, v in self._mem.items()})
-            res = dict(zip(self._results, run_float32(type(self)._cycle, **args), strict=True))
-        else:
-            fn = type(self)._cycle
-            res = dict(zip(self._results, fn(**inputs, **prm, **self._mem), strict=True))
+        res = run_cycle(type(self)._cycle, self._results, {**inputs, **prm}, self._mem, self._f32)
         self._mem = {k: res[k] for k in self._mem}
         err = int(res["error_id"])
         self.error_id = ErrorCode(err) if err in _CODES else err
@@ -180,6 +174,24 @@ class CycleBlock(Block):
 
 
 _CODES = {int(c) for c in ErrorCode}
+
+
+def run_cycle(
+    fn: Callable[..., tuple[Any, ...]],
+    results: tuple[str, ...],
+    inputs: dict[str, Any],
+    memory: dict[str, Any],
+    float32: bool,
+) -> dict[str, Any]:
+    """Run the cycle ``fn`` once on ``inputs`` (process values and parameters) and ``memory``.
+
+    Returns every result by name.  ``float32``: the values as REALs and the
+    function with float32 arithmetic (:func:`.plc_cycle.run_float32`).
+    """
+    if float32:
+        args = {k: _real(v) for k, v in {**inputs, **memory}.items()}
+        return dict(zip(results, run_float32(fn, **args), strict=True))
+    return dict(zip(results, fn(**inputs, **memory), strict=True))
 
 
 def _real(v: Any) -> Any:

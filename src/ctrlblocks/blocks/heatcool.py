@@ -75,10 +75,22 @@ from .base import (
     require_positive,
 )
 from .composite import CompositeBlock
+from .cycleblock import run_cycle
 from .pid import PID
-from .pwm import PulseWidth
+from .plc_cycle import REAL_MAX, is_real
+from .precision import PRECISIONS
+from .pwm import PulseWidth, pwm_cycle
 
-__all__ = ["HeatCoolPID", "HeatCoolPIDConfig", "heat_cool_split"]
+__all__ = [
+    "HEAT_COOL_RESULTS",
+    "HeatCoolPID",
+    "HeatCoolPIDConfig",
+    "heat_cool_cycle",
+    "heat_cool_split",
+]
+
+NO_ERROR = int(ErrorCode.NO_ERROR)
+BAD_INPUT = int(ErrorCode.BAD_INPUT)
 
 
 def heat_cool_split(v: float, deadzone: float, factor: float) -> tuple[float, float]:
@@ -87,6 +99,112 @@ def heat_cool_split(v: float, deadzone: float, factor: float) -> tuple[float, fl
     heat = v - half if v > half else 0.0
     cool = factor * (-v - half) if v < -half else 0.0
     return min(heat, 100.0), min(cool, 100.0)
+
+
+HEAT_COOL_RESULTS = (
+    "out", "error_id", "heat", "cool", "cooling_out", "cooling", "h_on", "h_t_in", "h_t_on",
+    "h_applied", "h_asked", "h_carry", "h_duty", "h_started", "c_on", "c_t_in", "c_t_on",
+    "c_applied", "c_asked", "c_carry", "c_duty", "c_started",
+)  # fmt: skip
+"""Names of the values :func:`heat_cool_cycle` returns: outputs, then the new memory."""
+
+
+def heat_cool_cycle(
+    v: float,
+    deadzone: float,
+    factor: float,
+    switching: bool,
+    switch_hysteresis: float,
+    pwm: bool,
+    period: float,
+    t_min_on: float,
+    t_min_off: float,
+    ts: float,
+    cooling: bool,
+    h_on: bool,
+    h_t_in: float,
+    h_t_on: float,
+    h_applied: float,
+    h_asked: float,
+    h_carry: float,
+    h_duty: float,
+    h_started: bool,
+    c_on: bool,
+    c_t_in: float,
+    c_t_on: float,
+    c_applied: float,
+    c_asked: float,
+    c_carry: float,
+    c_duty: float,
+    c_started: bool,
+) -> tuple[Any, ...]:
+    """One sample of the heat/cool output stage (module docstring) for the PID's demand ``v``.
+
+    The split into ``heat`` and ``cool`` (:func:`heat_cool_split`), the parameter
+    set for the next sample (``cooling``, with ``switching``: to cooling below
+    ``-switch_hysteresis``, back above ``+switch_hysteresis``) and, with ``pwm``,
+    the two pulse-width outputs (:func:`.pwm.pwm_cycle`, memories ``h_*`` and
+    ``c_*``; an output whose demand falls to 0 is off at once and starts a new
+    period when it returns).  A ``v`` that is no finite REAL switches both off
+    (``BAD_INPUT``).  Returns :data:`HEAT_COOL_RESULTS`.
+    """
+    err = NO_ERROR
+    heat = 0.0
+    cool = 0.0
+    if is_real(v):
+        if switching:
+            if not cooling and v < -switch_hysteresis:
+                cooling = True
+            elif cooling and v > switch_hysteresis:
+                cooling = False
+        heat, cool = heat_cool_split(v, deadzone, factor)
+    else:
+        err = BAD_INPUT
+    if pwm:
+        if heat <= 0.0:
+            if h_on or h_duty > 0.0:
+                # off at once; a new period starts when the demand returns
+                h_t_in, h_t_on, h_applied, h_asked, h_carry, h_duty = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+                h_started = False
+            h_on = False
+        else:
+            (on, _e1, h_t_in, h_t_on, h_applied, h_asked, h_carry, h_duty,
+             h_started) = pwm_cycle(heat, period, t_min_on, t_min_off, 0.0, 100.0, ts, h_t_in,
+                                    h_t_on, h_applied, h_asked, h_carry, h_duty,
+                                    h_started)  # fmt: skip
+            h_on = on > 0.5
+        if cool <= 0.0:
+            if c_on or c_duty > 0.0:
+                c_t_in, c_t_on, c_applied, c_asked, c_carry, c_duty = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+                c_started = False
+            c_on = False
+        else:
+            (on, _e2, c_t_in, c_t_on, c_applied, c_asked, c_carry, c_duty,
+             c_started) = pwm_cycle(cool, period, t_min_on, t_min_off, 0.0, 100.0, ts, c_t_in,
+                                    c_t_on, c_applied, c_asked, c_carry, c_duty,
+                                    c_started)  # fmt: skip
+            c_on = on > 0.5
+        heat = 0.0
+        if h_on:
+            heat = 100.0
+        cool = 0.0
+        if c_on:
+            cool = 100.0
+    return (
+        heat - cool, err, heat, cool, cooling, cooling, h_on, h_t_in, h_t_on, h_applied,
+        h_asked, h_carry, h_duty, h_started, c_on, c_t_in, c_t_on, c_applied, c_asked, c_carry,
+        c_duty, c_started,
+    )  # fmt: skip
+
+
+def _stage_memory() -> dict[str, Any]:
+    """The stage's memory after a reset (both PWMs at rest, the heating set)."""
+    mem: dict[str, Any] = {"cooling": False}
+    for p in ("h", "c"):
+        mem.update({f"{p}_on": False, f"{p}_t_in": 0.0, f"{p}_t_on": 0.0, f"{p}_applied": 0.0,
+                    f"{p}_asked": 0.0, f"{p}_carry": 0.0, f"{p}_duty": 0.0,
+                    f"{p}_started": False})  # fmt: skip
+    return mem
 
 
 @dataclasses.dataclass(frozen=True)
@@ -116,6 +234,9 @@ class HeatCoolPIDConfig(BlockConfig):
         Minimum pulse and pause [s] of the PWM outputs.
     ts : float
         Sample time [s] > 0.
+    precision : str
+        ``"float64"`` or ``"float32"``: the PID and the output stage computed as a
+        PLC's REAL does.
     """
 
     kp: float = 1.0
@@ -134,8 +255,10 @@ class HeatCoolPIDConfig(BlockConfig):
     t_min_on: float = 0.0
     t_min_off: float = 0.0
     ts: float = 1.0
+    precision: str = "float64"
 
     def validate(self) -> None:
+        require_choice("precision", self.precision, PRECISIONS)
         require_choice("cool_method", self.cool_method, ("factor", "parameters"))
         f = require_positive("cool_factor", self.cool_factor)
         if not 1e-3 <= f <= 1e3:
@@ -178,7 +301,8 @@ class HeatCoolPIDConfig(BlockConfig):
             kp, ti, td = self.kp_cool, self.ti_cool, self.td_cool
         half = 0.5 * self.deadzone
         return {"kp": kp, "ti": ti, "td": td, "n": self.n, "b": self.b, "ts": self.ts,
-                "u_min": -(100.0 / self.factor() + half), "u_max": 100.0 + half}  # fmt: skip
+                "u_min": -(100.0 / self.factor() + half), "u_max": 100.0 + half,
+                "precision": self.precision}  # fmt: skip
 
 
 class HeatCoolPID(CompositeBlock):
@@ -198,46 +322,44 @@ class HeatCoolPID(CompositeBlock):
     """
 
     Config = HeatCoolPIDConfig
-    _state_fields = ("out", "heat", "cool", "cooling")
+    _state_fields = ("out", "heat", "cool", "cooling", "_mem")
     config: HeatCoolPIDConfig
     _config: HeatCoolPIDConfig
+    _mem: dict[str, Any]
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
         self._f = c.factor()
+        self._f32 = c.precision == "float32"
+        self._prm = self._parameters()
         if old is None:
             self.pid = PID(**c.pid_params(cooling=False))
-            self._pwm = (PulseWidth(**c.pwm_params()), PulseWidth(**c.pwm_params())) \
-                if c.pwm_period > 0.0 else None  # fmt: skip
             return
-        cooling = getattr(self, "cooling", False)
-        self.pid.configure(**c.pid_params(cooling=cooling))  # bumpless retune, new limits
-        if c.pwm_period > 0.0:
-            if self._pwm is None:
-                self._pwm = (PulseWidth(**c.pwm_params()), PulseWidth(**c.pwm_params()))
-            else:
-                for p in self._pwm:
-                    p.configure(**c.pwm_params())
-        else:
-            self._pwm = None
+        self.pid.configure(**c.pid_params(cooling=self.cooling))  # bumpless retune, new limits
+        if c.pwm_period <= 0.0:
+            self._mem = {**self._mem, **{k: v for k, v in _stage_memory().items()
+                                         if k != "cooling"}}  # fmt: skip
+
+    def _parameters(self) -> dict[str, Any]:
+        c = self._config
+        return {"deadzone": float(c.deadzone), "factor": self._f,
+                "switching": c.cool_method == "parameters",
+                "switch_hysteresis": float(c.switch_hysteresis), "pwm": c.pwm_period > 0.0,
+                "period": float(c.pwm_period), "t_min_on": float(c.t_min_on),
+                "t_min_off": float(c.t_min_off), "ts": float(c.ts)}  # fmt: skip
 
     def _reset_state(self) -> None:
         self.cooling = False
         self._reconfigure_parts()  # the heating parameter set
         self.pid.reset()
-        if self._pwm is not None:
-            for p in self._pwm:
-                p.reset()
         self.out = 0.0
         self.heat = 0.0
         self.cool = 0.0
-        self.cooling = False
+        self._mem = _stage_memory()
 
     def parts(self) -> dict[str, Block]:
-        """The PID and, with PWM outputs, the two PulseWidth blocks."""
-        if self._pwm is None:
-            return {"pid": self.pid}
-        return {"pid": self.pid, "pwm_heat": self._pwm[0], "pwm_cool": self._pwm[1]}
+        """The PID."""
+        return {"pid": self.pid}
 
     def _reconfigure_parts(self) -> None:
         c = self._config
@@ -290,35 +412,41 @@ class HeatCoolPID(CompositeBlock):
     ) -> float:
         """One sample: setpoint, measurement -> ``heat - cool`` [%]."""
         c = self._config
-        if c.cool_method == "parameters":
-            self._switch(c)
-        v = self.pid(sp, pv, pv_ok=pv_ok, dt=dt)
-        self.error_id = self.pid.error_id
-        heat, cool = heat_cool_split(v, c.deadzone, self._f)
-        if self._pwm is not None:
-            heat = self._pulse(self._pwm[0], heat, dt)
-            cool = self._pulse(self._pwm[1], cool, dt)
-        self.heat, self.cool = heat, cool
-        self.out = heat - cool
-        return self.out
-
-    def _switch(self, c: HeatCoolPIDConfig) -> None:
-        """Change the parameter set when the demand crosses the hysteresis (bumplessly)."""
-        v = self.pid.out
-        want = self.cooling
-        if not self.cooling and v < -c.switch_hysteresis:
-            want = True
-        elif self.cooling and v > c.switch_hysteresis:
-            want = False
-        if want != self.cooling:
+        want = bool(self._mem["cooling"])
+        if want != self.cooling:  # the set the stage chose on the last demand (bumpless)
             self.cooling = want
             self.pid.configure(**c.pid_params(cooling=want))
+        v = self.pid(sp, pv, pv_ok=pv_ok, dt=dt)
+        self.error_id = self.pid.error_id
+        h = self._cycle_time(dt, float(c.ts))
+        if h is None or (self._f32 and not h <= REAL_MAX):
+            return self.out  # the PID held too (NO_CYCLE)
+        prm = self._prm if h == self._prm["ts"] else {**self._prm, "ts": h}
+        res = run_cycle(heat_cool_cycle, HEAT_COOL_RESULTS, {"v": v, **prm}, self._mem, self._f32)
+        self._mem = {k: res[k] for k in self._mem}
+        self.heat, self.cool = float(res["heat"]), float(res["cool"])
+        self.out = float(res["out"])
+        return self.out
+
+    # -- the export's view (the output stage CB_HEATCOOL; the PID is CB_PID) -----------------
+
+    def plc_values(self) -> dict[str, Any]:
+        """Initial values of every parameter and result of the stage's cycle."""
+        return {"v": 0.0, **self._parameters(), **_stage_memory(), "out": 0.0, "error_id": 0,
+                "heat": 0.0, "cool": 0.0, "cooling_out": False}  # fmt: skip
 
     @staticmethod
-    def _pulse(pwm: PulseWidth, demand: float, dt: float | None) -> float:
-        if demand <= 0.0:
-            if pwm.on or pwm.duty > 0.0:
-                pwm.reset()  # off at once; a new period starts when the demand returns
-            return 0.0
-        return 100.0 * pwm(demand, dt)
+    def cycle_function() -> Any:
+        """The stage's pure cycle (what the PLC export translates, as ``CB_HEATCOOL``)."""
+        return heat_cool_cycle
+
+    @staticmethod
+    def cycle_results() -> tuple[str, ...]:
+        """The names of the values the stage's cycle returns."""
+        return HEAT_COOL_RESULTS
+
+    @staticmethod
+    def memory_names() -> tuple[str, ...]:
+        """The stage's memory (the FB's state variables)."""
+        return tuple(_stage_memory())
 

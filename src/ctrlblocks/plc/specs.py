@@ -18,6 +18,7 @@ from typing import Any
 from ..blocks import ADRC, PID, LeadLag
 from ..blocks import plc_cycle as pc
 from ..blocks.cycleblock import CycleBlock
+from ..blocks.heatcool import HeatCoolPID
 from ..blocks.precision import plc_unsupported
 
 __all__ = ["BlockSpec", "UnsupportedBlock", "spec_for"]
@@ -362,7 +363,33 @@ held     HELD     a holdback band holds the program
     {"seg": "segment (0-based)", "phase": "0 ramp, 1 soak", "done": "the program has ended",
      "sp": "setpoint", "t_soak": "soak time spent [s]", "started": "the program has started"},
 )
+_HEAT_COOL = (
+    "CB_HEATCOOL", "heat/cool output stage of HeatCoolPID: split, parameter set, PWM on both "
+    "outputs (wire CB_PID.MV to V)",
+    _table("""
+v                 V                 the PID's demand [%] (CB_PID.MV): > 0 heats, < 0 cools
+deadzone          DEADZONE          neutral zone [%] between heating and cooling
+factor            COOL_FACTOR       cooling factor: heating actuator gain / cooling actuator gain
+switching         SWITCHING         TRUE: own cooling tunings, chosen by COOLING
+switch_hysteresis SWITCH_HYSTERESIS hysteresis [%] of the switch between the parameter sets
+pwm               PWM               TRUE: both outputs pulse-width modulated (0 or 100 %)
+period            PERIOD            PWM period [s]
+t_min_on          T_MIN_ON          shortest PWM pulse [s]
+t_min_off         T_MIN_OFF         shortest PWM pause [s]
+ts                TS
+"""),
+    _table("""
+out         OUT      HEAT - COOL [%]
+error_id    ERROR_ID
+heat        HEAT     heating output [%] (0 or 100 with PWM)
+cool        COOL     cooling output [%] (0 or 100 with PWM)
+cooling_out COOLING  TRUE: give CB_PID the cooling tunings in the next cycle
+"""),
+    {"cooling": "the parameter set chosen (cooling)", "h_on": "heating PWM on",
+     "c_on": "cooling PWM on"},
+)
 _CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] = {
+    "HeatCoolPID": _HEAT_COOL,
     "SetpointProgram": _SETPOINT,
     "TwoPoint": _TWO_POINT,
     "ThreePoint": _THREE_POINT,
@@ -374,7 +401,7 @@ _CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] 
 def _cycle_block_spec(block: Any) -> BlockSpec | None:
     """The :class:`BlockSpec` of a block run by one cycle function, or None."""
     entry = _CYCLE_BLOCKS.get(type(block).__name__)
-    if entry is None or not isinstance(block, CycleBlock):
+    if entry is None or not isinstance(block, CycleBlock | HeatCoolPID):
         return None
     fb_name, title, inputs, outputs, comments = entry
     values = block.plc_values()
