@@ -63,3 +63,19 @@ def test_memory_stays_finite_under_hostile_sequences(steps: list, precision: str
         _check(tf)
         sp(b, pv_ok=f1, run=f2, dt=dt)
         _check(sp)
+
+
+def test_float32_refuses_numbers_no_real_holds_and_keeps_the_old_config() -> None:
+    import pytest
+
+    from ctrlblocks import ErrorCode, ParameterError
+
+    tp = TwoPoint(ts=1.0, precision="float32")
+    for bad in ({"ts": 1e300}, {"hysteresis": 1e-50}):
+        with pytest.raises(ParameterError) as e:
+            tp.configure(**bad)
+        assert e.value.code == ErrorCode.BAD_PARAMETER
+    assert tp.config.ts == 1.0
+    TwoPoint(ts=1e300)  # float64 takes it
+    with pytest.raises(ParameterError):
+        TransferFunction(sections=((1e-50, 0.0, 0.0, 0.0, 0.0),), precision="float32")

@@ -38,10 +38,19 @@ import numbers
 from collections.abc import Callable
 from typing import Any, ClassVar
 
-from .base import Block, BlockConfig, ErrorCode
+from .base import Block, BlockConfig, ErrorCode, ParameterError, require_choice
 from .plc_cycle import REAL_MAX, run_float32, to_real
+from .precision import PRECISIONS
 
-__all__ = ["TIME_CAP", "CycleBlock", "real_limit", "run_cycle", "time_add"]
+__all__ = [
+    "TIME_CAP",
+    "CycleBlock",
+    "float_rows",
+    "real_limit",
+    "require_precision",
+    "run_cycle",
+    "time_add",
+]
 
 TIME_CAP = 1e30
 """The largest time [s] a cycle accumulates (3e22 years; a REAL holds it)."""
@@ -62,6 +71,47 @@ def real_limit(x: float) -> float:
     if x < -REAL_MAX:
         return -REAL_MAX
     return float(x)
+
+
+def float_rows(rows: Any) -> Any:
+    """A configuration's table of numbers (``((a, b, c), ...)``) as tuples of floats.
+
+    Anything else (a string, a bool, 10**400) is left as given, for ``validate`` to refuse.
+    """
+    if not (isinstance(rows, tuple | list) and all(isinstance(r, tuple | list) for r in rows)):
+        return rows
+    out = []
+    for r in rows:
+        ok = all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in r)
+        try:
+            out.append(tuple(float(v) for v in r) if ok else tuple(r))
+        except OverflowError:
+            out.append(tuple(r))
+    return tuple(out)
+
+
+def require_precision(config: Any) -> None:
+    """Refuse an unknown ``precision``; with ``"float32"`` a finite number no REAL holds.
+
+    A PLC's REAL (and the float32 cycle) would turn 1e300 into inf and 1e-50 into 0;
+    infinite limits stay allowed (the cycle takes them as +-REAL_MAX).
+    """
+    require_choice("precision", config.precision, PRECISIONS)
+    if config.precision != "float32":
+        return
+    for name, value in vars(config).items():
+        values = value if isinstance(value, tuple) else (value,)
+        flat = [x for v in values for x in (v if isinstance(v, tuple) else (v,))]
+        for x in flat:
+            if isinstance(x, bool) or not isinstance(x, int | float):
+                continue
+            a = abs(float(x))
+            if a != float("inf") and (a > REAL_MAX or 0.0 < a < 7.006e-46):
+                raise ParameterError(
+                    ErrorCode.BAD_PARAMETER,
+                    name,
+                    f'{x!r} is outside the range of REAL, which precision="float32" computes in',
+                )
 
 
 class CycleBlock(Block):

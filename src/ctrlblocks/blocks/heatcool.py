@@ -161,29 +161,14 @@ def heat_cool_cycle(
     else:
         err = BAD_INPUT
     if pwm:
-        if heat <= 0.0:
-            if h_on or h_duty > 0.0:
-                # off at once; a new period starts when the demand returns
-                h_t_in, h_t_on, h_applied, h_asked, h_carry, h_duty = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-                h_started = False
-            h_on = False
-        else:
-            (on, _e1, h_t_in, h_t_on, h_applied, h_asked, h_carry, h_duty,
-             h_started) = pwm_cycle(heat, period, t_min_on, t_min_off, 0.0, 100.0, ts, h_t_in,
-                                    h_t_on, h_applied, h_asked, h_carry, h_duty,
-                                    h_started)  # fmt: skip
-            h_on = on > 0.5
-        if cool <= 0.0:
-            if c_on or c_duty > 0.0:
-                c_t_in, c_t_on, c_applied, c_asked, c_carry, c_duty = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-                c_started = False
-            c_on = False
-        else:
-            (on, _e2, c_t_in, c_t_on, c_applied, c_asked, c_carry, c_duty,
-             c_started) = pwm_cycle(cool, period, t_min_on, t_min_off, 0.0, 100.0, ts, c_t_in,
-                                    c_t_on, c_applied, c_asked, c_carry, c_duty,
-                                    c_started)  # fmt: skip
-            c_on = on > 0.5
+        h_on, h_t_in, h_t_on, h_applied, h_asked, h_carry, h_duty, h_started = pwm_output(
+            heat, period, t_min_on, t_min_off, ts, h_on, h_t_in, h_t_on, h_applied, h_asked,
+            h_carry, h_duty, h_started,
+        )  # fmt: skip
+        c_on, c_t_in, c_t_on, c_applied, c_asked, c_carry, c_duty, c_started = pwm_output(
+            cool, period, t_min_on, t_min_off, ts, c_on, c_t_in, c_t_on, c_applied, c_asked,
+            c_carry, c_duty, c_started,
+        )  # fmt: skip
         heat = 0.0
         if h_on:
             heat = 100.0
@@ -195,6 +180,40 @@ def heat_cool_cycle(
         h_asked, h_carry, h_duty, h_started, c_on, c_t_in, c_t_on, c_applied, c_asked, c_carry,
         c_duty, c_started,
     )  # fmt: skip
+
+
+def pwm_output(
+    demand: float,
+    period: float,
+    t_min_on: float,
+    t_min_off: float,
+    ts: float,
+    on: bool,
+    t_in: float,
+    t_on: float,
+    applied: float,
+    asked: float,
+    carry: float,
+    duty: float,
+    started: bool,
+) -> tuple[bool, float, float, float, float, float, float, bool]:
+    """One output's PWM (:func:`.pwm.pwm_cycle`, 0..100 %) for ``demand``; its new memory.
+
+    A demand of 0 switches the output off at once (a pulse in progress ends) and
+    the next demand starts a new period.  Returns ``(on, t_in, t_on, applied,
+    asked, carry, duty, started)``.
+    """
+    if demand <= 0.0:
+        if on or duty > 0.0:
+            # off at once; a new period starts when the demand returns
+            t_in, t_on, applied, asked, carry, duty = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            started = False
+        return False, t_in, t_on, applied, asked, carry, duty, started
+    out, _err, t_in, t_on, applied, asked, carry, duty, started = pwm_cycle(
+        demand, period, t_min_on, t_min_off, 0.0, 100.0, ts, t_in, t_on, applied, asked, carry,
+        duty, started,
+    )  # fmt: skip
+    return out > 0.5, t_in, t_on, applied, asked, carry, duty, started
 
 
 def _stage_memory() -> dict[str, Any]:

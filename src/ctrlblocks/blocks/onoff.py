@@ -68,9 +68,8 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
-from .cycleblock import TIME_CAP, CycleBlock, time_add
+from .cycleblock import TIME_CAP, CycleBlock, require_precision, time_add
 from .plc_cycle import is_real
-from .precision import PRECISIONS
 
 __all__ = [
     "THREE_POINT_RESULTS",
@@ -230,12 +229,7 @@ def _require_times(c: Any) -> None:
             )
     require_positive("ts", c.ts, ErrorCode.NO_CYCLE)
     require_bool("reverse", c.reverse)
-    if c.precision not in PRECISIONS:
-        raise ParameterError(
-            ErrorCode.BAD_PARAMETER,
-            "precision",
-            f"must be one of {', '.join(PRECISIONS)}; got {c.precision!r}",
-        )
+    require_precision(c)
 
 
 def _require_band(name: str, value: Any) -> float:
@@ -243,6 +237,25 @@ def _require_band(name: str, value: Any) -> float:
     if x > 1e37:
         raise ParameterError(ErrorCode.BAD_LIMITS, name, f"must be <= 1e37, got {value!r}")
     return x
+
+
+class _OnOff(CycleBlock):
+    """What the two on/off controllers share: the inputs of a sample."""
+
+    _process: ClassVar[dict[str, Any]] = {"sp": 0.0, "pv": 0.0, "pv_ok": True, "enable": True}
+
+    def __call__(
+        self, sp: float, pv: float, *, pv_ok: Any = True, enable: Any = True,
+        dt: float | None = None,
+    ) -> float:  # fmt: skip
+        """One sample: setpoint ``sp``, measurement ``pv`` -> the output (module docstring)."""
+        h = self._sample_time(dt)
+        if h is None:
+            return self.out
+        res = self._run({"sp": as_input(sp), "pv": as_input(pv), "pv_ok": as_flag(pv_ok, False),
+                         "enable": as_flag(enable, False)}, h)  # fmt: skip
+        self.out = float(res["out"])
+        return self.out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -276,7 +289,7 @@ class TwoPointConfig(BlockConfig):
         _require_times(self)
 
 
-class TwoPoint(CycleBlock):
+class TwoPoint(_OnOff):
     """Two-point (on/off) controller with hysteresis and minimum on/off times.
 
     ``out = tp(sp, pv)`` returns 1.0 (on) or 0.0 (off); :attr:`on` is the same
@@ -296,7 +309,6 @@ class TwoPoint(CycleBlock):
     _config: TwoPointConfig
     _cycle = staticmethod(two_point_cycle)
     _results = TWO_POINT_RESULTS
-    _process: ClassVar[dict[str, Any]] = {"sp": 0.0, "pv": 0.0, "pv_ok": True, "enable": True}
     _outputs: ClassVar[dict[str, Any]] = {"out": 0.0, "error_id": 0}
 
     def _parameters(self) -> dict[str, Any]:
@@ -317,18 +329,6 @@ class TwoPoint(CycleBlock):
         """The output of the last sample."""
         return bool(self._mem["on"])
 
-    def __call__(
-        self, sp: float, pv: float, *, pv_ok: Any = True, enable: Any = True,
-        dt: float | None = None,
-    ) -> float:  # fmt: skip
-        """One sample: setpoint ``sp``, measurement ``pv`` -> 1.0 (on) or 0.0 (off)."""
-        h = self._sample_time(dt)
-        if h is None:
-            return self.out
-        res = self._run({"sp": as_input(sp), "pv": as_input(pv), "pv_ok": as_flag(pv_ok, False),
-                         "enable": as_flag(enable, False)}, h)  # fmt: skip
-        self.out = float(res["out"])
-        return self.out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -372,7 +372,7 @@ class ThreePointConfig(BlockConfig):
         _require_times(self)
 
 
-class ThreePoint(CycleBlock):
+class ThreePoint(_OnOff):
     """Three-point controller: raise (+1), stop (0), lower (-1), with a neutral zone.
 
     ``out = c(sp, pv)`` returns +1.0, 0.0 or -1.0; :attr:`raise_out` and
@@ -390,7 +390,6 @@ class ThreePoint(CycleBlock):
     _config: ThreePointConfig
     _cycle = staticmethod(three_point_cycle)
     _results = THREE_POINT_RESULTS
-    _process: ClassVar[dict[str, Any]] = {"sp": 0.0, "pv": 0.0, "pv_ok": True, "enable": True}
     _outputs: ClassVar[dict[str, Any]] = {
         "out": 0.0,
         "error_id": 0,
@@ -421,15 +420,3 @@ class ThreePoint(CycleBlock):
         """The lower (-1) relay of the last sample."""
         return int(self._mem["state"]) == -1
 
-    def __call__(
-        self, sp: float, pv: float, *, pv_ok: Any = True, enable: Any = True,
-        dt: float | None = None,
-    ) -> float:  # fmt: skip
-        """One sample: setpoint ``sp``, measurement ``pv`` -> +1.0, 0.0 or -1.0."""
-        h = self._sample_time(dt)
-        if h is None:
-            return self.out
-        res = self._run({"sp": as_input(sp), "pv": as_input(pv), "pv_ok": as_flag(pv_ok, False),
-                         "enable": as_flag(enable, False)}, h)  # fmt: skip
-        self.out = float(res["out"])
-        return self.out

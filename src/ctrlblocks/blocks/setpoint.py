@@ -55,9 +55,8 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
-from .cycleblock import CycleBlock
+from .cycleblock import CycleBlock, float_rows, require_precision
 from .plc_cycle import is_real
-from .precision import PRECISIONS
 
 __all__ = [
     "MAX_SEGMENTS",
@@ -224,16 +223,7 @@ class SetpointProgramConfig(BlockConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        s = self.segments
-        if isinstance(s, (tuple, list)) and all(isinstance(r, (tuple, list)) for r in s):
-            rows = []
-            for r in s:
-                ok = all(isinstance(v, int | float) and not isinstance(v, bool) for v in r)
-                try:
-                    rows.append(tuple(float(v) for v in r) if ok else tuple(r))
-                except OverflowError:
-                    rows.append(tuple(r))
-            object.__setattr__(self, "segments", tuple(rows))
+        object.__setattr__(self, "segments", float_rows(self.segments))
 
     def validate(self) -> None:
         s = self.segments
@@ -259,12 +249,7 @@ class SetpointProgramConfig(BlockConfig):
         for name in ("holdback_ramp", "holdback_soak"):
             _real_range(name, require_nonnegative(name, getattr(self, name), ErrorCode.BAD_LIMITS))
         _real_range("ts", require_positive("ts", self.ts, ErrorCode.NO_CYCLE))
-        if self.precision not in PRECISIONS:
-            raise ParameterError(
-                ErrorCode.BAD_PARAMETER,
-                "precision",
-                f"must be one of {', '.join(PRECISIONS)}; got {self.precision!r}",
-            )
+        require_precision(self)
 
 
 def _real_range(field: str, x: float) -> None:

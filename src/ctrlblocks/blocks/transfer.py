@@ -83,9 +83,8 @@ from .base import (
     require_limits,
     require_positive,
 )
-from .cycleblock import CycleBlock, real_limit
+from .cycleblock import CycleBlock, float_rows, real_limit, require_precision
 from .plc_cycle import is_real
-from .precision import PRECISIONS
 
 __all__ = [
     "MAX_SECTIONS",
@@ -327,15 +326,7 @@ class TransferFunctionConfig(BlockConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        s = self.sections
-        if isinstance(s, (tuple, list)) and all(isinstance(r, (tuple, list)) for r in s):
-            rows = []
-            for r in s:
-                try:
-                    rows.append(tuple(float(v) if _number(v) else v for v in r))
-                except OverflowError:
-                    rows.append(tuple(r))
-            object.__setattr__(self, "sections", tuple(rows))
+        object.__setattr__(self, "sections", float_rows(self.sections))
 
     def validate(self) -> None:
         s = self.sections
@@ -366,17 +357,7 @@ class TransferFunctionConfig(BlockConfig):
                 )  # fmt: skip
         require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
         require_limits("out_min", self.out_min, "out_max", self.out_max)
-        if self.precision not in PRECISIONS:
-            raise ParameterError(
-                ErrorCode.BAD_PARAMETER, "precision",
-                f"must be one of {', '.join(PRECISIONS)}; got {self.precision!r}",
-            )  # fmt: skip
-
-
-def _number(v: Any) -> bool:
-    if isinstance(v, bool):
-        return False
-    return isinstance(v, int | float) or type(v).__module__ == "numpy"
+        require_precision(self)
 
 
 class TransferFunction(CycleBlock):
