@@ -366,7 +366,7 @@ class ThreePointConfig(BlockConfig):
             raise ParameterError(
                 ErrorCode.BAD_LIMITS,
                 "hysteresis",
-                f"must be <= 2 deadband = {2.0 * d!r} (the release points would cross), "
+                f"must be <= 2 deadband = {2.0 * d:.6g} (the release points would cross), "
                 f"got {self.hysteresis!r}",
             )
         _require_times(self)

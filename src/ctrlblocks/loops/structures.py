@@ -1127,6 +1127,7 @@ class HeatCoolStructure(Structure):
     roles = ("main",)
     actuators = 2
     tuned_roles = ()
+    runtime = False  # the runtime's loops run PID or ADRC blocks (runtime/config.py)
 
     def parse(self, r, e, key, ts, tune):
         r.check_keys(e, {*_ENTRY_KEYS, "main"}, key)
