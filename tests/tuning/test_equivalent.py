@@ -27,7 +27,7 @@ def _continuous_ladrc(n: int, b0: float, wc: float, wo: float):
     k[n] = 1.0  # u = (kp r - k x)/b0: the disturbance estimate x_{n+1} cancelled
     bu = np.zeros(m)
     bu[n - 1] = b0
-    lv = np.array([l1, l2, l3][:n] + [l4])
+    lv = np.array([*[l1, l2, l3][:n], l4])
     c1 = np.zeros(m)
     c1[0] = 1.0
     acl = a - np.outer(bu, k) / b0 - np.outer(lv, c1)
@@ -63,7 +63,8 @@ def test_the_expansion_equals_that_of_python_controls_transfer_function(n, b0, w
     c = np.zeros(3)
     rem = np.pad(f_num, (0, 6))
     for j in range(3):  # c_j = (rem_j - sum c_i den_{j-i}) / den_0
-        c[j] = (rem[j] - sum(c[i] * f_den[j - i] for i in range(j) if j - i < len(f_den))) / f_den[0]
+        known = sum(c[i] * f_den[j - i] for i in range(j) if j - i < len(f_den))
+        c[j] = (rem[j] - known) / f_den[0]
     assert eq.ki == pytest.approx(c[0], rel=5e-3)
     assert eq.kp == pytest.approx(c[1], rel=5e-3)
     assert eq.kd == pytest.approx(c[2], rel=2e-2)

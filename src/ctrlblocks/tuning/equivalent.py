@@ -79,7 +79,7 @@ class EquivalentPID:
 
 
 def _series(ss: DiscreteSS, column: int, radius: float) -> np.ndarray:
-    """Coefficients ``c0, c1, c2`` of ``s C(e^{s h}) = c0 + c1 s + c2 s^2 + ...`` (input ``column``)."""
+    """``c0, c1, c2`` of ``s C(e^{s h}) = c0 + c1 s + c2 s^2 + ...`` for input ``column``."""
     h = ss.ts
     n = ss.a.shape[0]
     k = 16  # even: no node at s = 0, where the integrator's pole z = 1 is
