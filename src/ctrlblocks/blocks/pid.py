@@ -165,7 +165,7 @@ def derivative_coefficients(kd: float, tf: float, h: float, method: int) -> tupl
         return 0.0, 0.0
     if method == _FORWARD and h < 2.0 * tf:
         return 1.0 - h / tf, kd / tf
-    if method == _FORWARD or method == _BACKWARD:
+    if method != _TUSTIN:  # forward beyond 2 Tf, or backward
         return tf / (tf + h), kd / (tf + h)
     return (2.0 * tf - h) / (2.0 * tf + h), 2.0 * kd / (2.0 * tf + h)
 
