@@ -31,7 +31,8 @@ medians or worst cases of one run).
 * ``kill``: ``ctrlblocks serve`` with its faceplate and a plant server as
   processes; a set point and a tuning are changed through the faceplate's
   API and the process is killed (SIGKILL) 0.1 s after the confirmation, 20
-  times; after each restart the state is read back.
+  times; after each restart the state is read back, and the samples the
+  historian's writer reported lost by each kill (its audit rows) are listed.
 * ``browsers``: 200 PID loops (in-memory I/O, ts 100 ms) with the
   faceplate on the runtime's event loop, as ``ctrlblocks serve`` runs them;
   60 s each with no browser, one and two headless Chromium pages watching
