@@ -291,6 +291,11 @@ class Scan:
             for lp, _ in items:
                 lp.written(f"no connection {conn_name!r}")
             return
+        if conn.reconnects != self._reconnects.get(conn_name, conn.reconnects):
+            # the device came back during this cycle: its loops' MVs were computed without
+            # it (a safe value, a held MV); the next cycle reads its MV back and starts
+            # from it, so nothing is written over the MV it holds (issue 36, point 3)
+            items = []
         hb = self.heartbeats.get(conn_name)
         batch: list[tuple[ControlLoop | None, str, float]] = [
             (lp, a, v) for lp, u in items for a, v in lp.writes(u)
