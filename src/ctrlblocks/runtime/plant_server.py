@@ -301,6 +301,11 @@ class PlantServer:
 
     # -- the device watchdog (module docstring) ------------------------------------------
 
+    @property
+    def heartbeat_at(self) -> float:
+        """The event loop's time [s] of the last change of the heartbeat (the watchdog's start)."""
+        return self._hb_at
+
     def _heartbeat(self, value: float) -> None:
         """A write of ``hb``: a new value feeds the watchdog (and releases a trip)."""
         if value == self.hb:
