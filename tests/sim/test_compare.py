@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 from ctrlblocks.blocks.adrc import ADRC
 from ctrlblocks.cli import main
-from ctrlblocks.fast.sweep import apply_key
+from ctrlblocks.sim.sweep import apply_key
 from ctrlblocks.loops.toml import read_toml
 from ctrlblocks.plants.linear import FOPDT as PlantFOPDT
 from ctrlblocks.sim.compare import BOX, _box_models, compare, scenario_toml

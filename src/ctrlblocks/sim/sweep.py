@@ -24,7 +24,7 @@ Executors
 
 Example
 -------
->>> from ctrlblocks.fast import sweep
+>>> from ctrlblocks.sim import sweep
 >>> rows = sweep("nowak_fig7", {"controllers[2].kp": [5.0, 6.31]},
 ...              duration=20.0, executor="serial")                  # doctest: +SKIP
 >>> sorted({r["controllers[2].kp"] for r in rows})                   # doctest: +SKIP
@@ -61,7 +61,7 @@ __all__ = [
     "write_rows",
 ]
 
-log = logging.getLogger("ctrlblocks.fast")
+log = logging.getLogger("ctrlblocks.sim.sweep")
 
 _KEY_RE = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)")
 
@@ -75,7 +75,7 @@ def read_scenario_text(scenario: str | Path) -> tuple[str, str]:
     p = Path(scenario)
     if p.is_file():
         from ..loops.toml import read_text
-        from ..sim.scenario import ScenarioError
+        from .scenario import ScenarioError
 
         return read_text(p, ScenarioError), str(p)  # not UTF-8: file, line and byte
     name = p.name[:-5] if p.name.endswith(".toml") else p.name
@@ -133,7 +133,7 @@ def parameter_sets(vary: Mapping[str, Sequence[Any]]) -> list[dict[str, Any]]:
 def _document(text: str, file: str) -> dict[str, Any]:
     """The TOML document of a scenario, read once per process (never modified: copied)."""
     from ..loops.toml import read_toml
-    from ..sim.scenario import ScenarioError
+    from .scenario import ScenarioError
 
     return read_toml(text, file, ScenarioError)
 
@@ -146,7 +146,7 @@ def _scenario(text: str, file: str, params: Mapping[str, Any]) -> Any:
     again in the worker), each set works on a deep copy of it.  The text is
     scanned for the line of a key path only when a set is refused.
     """
-    from ..sim.scenario import parse_scenario_doc
+    from .scenario import parse_scenario_doc
 
     doc = copy.deepcopy(_document(text, file))
     for k, v in params.items():
@@ -167,7 +167,7 @@ def run_one(
     A module-level function of plain arguments, so that any executor (process
     pool, Dask) can ship it to a worker.
     """
-    from ..sim.runner import run_scenario
+    from .runner import run_scenario
 
     sc = _checked(text, file, params)
     result = run_scenario(sc, quick=quick, duration=duration, engine=engine)
@@ -225,7 +225,7 @@ def sweep(
         :func:`parameter_sets`: the varied values, ``controller``, ``case``,
         every metric and ``claim i`` (True/False/None).
     """
-    from ..sim.runner import check_duration
+    from .runner import check_duration
 
     try:
         check_duration(duration)
@@ -265,7 +265,7 @@ def _probes(sets: list[dict[str, Any]], vary: Mapping[str, Sequence[Any]]) -> li
 
 def _checked(text: str, file: str, params: Mapping[str, Any]) -> Any:
     """:func:`_scenario`, a refusal as a :class:`SweepError` naming the set's values."""
-    from ..sim.scenario import ScenarioError
+    from .scenario import ScenarioError
 
     try:
         return _scenario(text, file, params)
