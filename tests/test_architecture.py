@@ -6,7 +6,7 @@ a higher layer, and peers of one layer import each other only where
 
     0 blocks (and ctrlblocks._lazy, the packages' lazy re-exports, and
       ctrlblocks.compiled, the loader of the optional compiled blocks)
-    1 plants, tuning
+    1 plants, tuning, testing
     2 loops
     3 sim, runtime, fast, plc
     4 web, cli (ctrlblocks.cli and every sub-command module ``*.cli`` / ``__main__``)
@@ -30,6 +30,7 @@ LAYERS: dict[str, int] = {
     "blocks": 0,
     "plants": 1,
     "tuning": 1,
+    "testing": 1,  # the fuzz campaign of the block contract, for any block (imports blocks)
     "loops": 2,
     "health": 2,  # loop performance assessment: data -> figures and findings (numpy, tuning)
     "sim": 3,

@@ -99,7 +99,8 @@ def test_the_cascade_wiring_says_follow_and_handshake_once() -> None:
     assert off.wiring.loops[0].awin is None
     # the warm-up: the primary holds y2, the secondary the MV
     side.kind.hold_for_warmup(side, 0.7, 0.4)
-    assert side.blocks["primary"].manual_value == 0.4 and side.blocks["secondary"].manual_value == 0.7
+    prim, sec = side.blocks["primary"], side.blocks["secondary"]
+    assert prim.manual_value == 0.4 and sec.manual_value == 0.7
 
 
 def test_one_call_is_the_single_loop_only() -> None:

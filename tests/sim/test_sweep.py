@@ -12,6 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from ctrlblocks.cli import main
+from ctrlblocks.sim import parse_scenario, run_scenario
 from ctrlblocks.sim.sweep import (
     SweepError,
     apply_key,
@@ -20,7 +21,6 @@ from ctrlblocks.sim.sweep import (
     sweep,
     write_rows,
 )
-from ctrlblocks.sim import parse_scenario, run_scenario
 
 VARY = {"controllers[2].kp": [5.0, 6.31], "sensor.noise": [0.0, 0.002]}
 DURATION = 4.0
