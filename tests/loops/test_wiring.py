@@ -19,6 +19,8 @@ from ctrlblocks import ADRC, PID
 from ctrlblocks.blocks.protocols import Controller, Tracking
 from ctrlblocks.loops import STRUCTURES, ControllerSide, parse_controller
 from ctrlblocks.loops.controller import Wired, set_manual
+from ctrlblocks.loops.registry import read_controller
+from ctrlblocks.loops.spec import SpecReader
 from ctrlblocks.loops.structure import Structure
 from ctrlblocks.loops.wiring import Loop, Wiring
 
@@ -42,10 +44,14 @@ ENTRIES = {
     "three_step": {"name": "t", "main": PI, "stepper": {"travel_time": 10.0, "span": 100.0}},
     "scheduled": {"name": "g", "main": PI,
                   "schedule": {"on": "sp", "breakpoints": [0.0, 1.0], "kp": [1.0, 2.0]}},
+    "heat_cool": {"name": "h", "main": {"type": "HeatCoolPID", "kp": 2.0, "ti": 5.0}},
 }  # fmt: skip
 
 
 def _side(structure: str) -> ControllerSide:
+    if not STRUCTURES[structure].runtime:  # a simulator-only structure (heat_cool)
+        spec = read_controller(SpecReader("<string>"), ENTRIES[structure], "c", structure, 0.1)
+        return ControllerSide(structure, spec, 0.1)
     spec = parse_controller(ENTRIES[structure], structure, 0.1, key="c")
     return ControllerSide(structure, spec, 0.1)
 
@@ -153,3 +159,14 @@ def test_the_structures_never_probe_a_block_for_attributes() -> None:
             ):
                 found.append(f"{path.name}:{node.lineno}")
     assert found == []
+
+
+def test_the_heat_cool_warmup_holds_the_demand_and_the_end_of_it_releases_the_block() -> None:
+    side = _side("heat_cool")
+    block = side.blocks["main"]
+    side.kind.hold_for_warmup(side, -30.0, math.nan)  # 30 % cooling, cool_factor 1
+    assert block.manual and block.manual_value == -30.0
+    assert side.step(20.0, 20.0) == -30.0 and (block.heat, block.cool) == (0.0, 30.0)
+    assert side.kind.actuator_values(side.spec, -30.0) == (30.0, 0.0)
+    side.set_modes(manual=False)  # a one-call block with a manual mode (ManualMode)
+    assert not block.manual

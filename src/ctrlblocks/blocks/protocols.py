@@ -42,7 +42,7 @@ from typing import Protocol, runtime_checkable
 
 from .base import Mode
 
-__all__ = ["ActuatorFeedback", "Controller", "MeasuredMVConfig", "Tracking"]
+__all__ = ["ActuatorFeedback", "Controller", "ManualMode", "MeasuredMVConfig", "Tracking"]
 
 
 @runtime_checkable
@@ -100,6 +100,17 @@ class Controller(Protocol):
     def set_limits(self, u_min: float, u_max: float) -> None:
         """Output limits at run time; a bad pair is a status, never an exception."""
         ...
+
+
+@runtime_checkable
+class ManualMode(Protocol):
+    """A block with a manual mode (every :class:`Controller`; also a one-call block such
+    as :class:`~ctrlblocks.HeatCoolPID`, whose manual value is its demand)."""
+
+    manual: bool
+    """True: the output follows ``manual_value`` (bumpless back to auto)."""
+    manual_value: float
+    """The manual value (In/Out: it follows the block in auto)."""
 
 
 @runtime_checkable

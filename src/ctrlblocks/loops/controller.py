@@ -25,7 +25,13 @@ import math
 from typing import Any, NamedTuple
 
 from ..blocks.base import Block, Mode
-from ..blocks.protocols import ActuatorFeedback, Controller, MeasuredMVConfig, Tracking
+from ..blocks.protocols import (
+    ActuatorFeedback,
+    Controller,
+    ManualMode,
+    MeasuredMVConfig,
+    Tracking,
+)
 
 __all__ = ["Wired", "is_controller", "set_manual", "takes_ff"]
 
@@ -38,6 +44,7 @@ class _Abilities(NamedTuple):
     tracks: bool  # a TRACK mode (Tracking)
     feedback: bool  # a measured actuator position input (ActuatorFeedback)
     measured_mv: bool  # its configuration may apply the measured MV (MeasuredMVConfig)
+    manual_mode: bool  # a manual mode (ManualMode; every Controller has one)
 
 
 _KNOWN: dict[type, _Abilities] = {}
@@ -60,6 +67,7 @@ def _abilities(block: Any) -> _Abilities:
             two_phase and isinstance(block, Tracking),
             two_phase and isinstance(block, ActuatorFeedback),
             two_phase and isinstance(block, Block) and isinstance(block.config, MeasuredMVConfig),
+            two_phase or isinstance(block, ManualMode),
         )
     return found
 
@@ -85,10 +93,10 @@ def _has_ff(fn: Any) -> bool:
 def set_manual(block: Any, on: bool, value: float | None = None) -> None:
     """Switch ``block`` to manual (``on``) or auto, with a new manual value when given.
 
-    A block that is not a :class:`~ctrlblocks.blocks.protocols.Controller`
-    has no mode: nothing happens.
+    A block without a manual mode (:class:`~ctrlblocks.blocks.protocols.ManualMode`;
+    every :class:`~ctrlblocks.blocks.protocols.Controller` has one): nothing happens.
     """
-    if not is_controller(block):
+    if not _abilities(block).manual_mode:
         return
     if value is not None:
         block.manual_value = value

@@ -11,6 +11,7 @@ from typing import Any
 
 from .cascade import Cascade
 from .feedforward import FeedForward
+from .heatcool import HeatCoolStructure
 from .output import PulseWidthStructure, ThreeStepStructure
 from .override import Override
 from .ratio import RatioStructure
@@ -37,6 +38,7 @@ STRUCTURES: dict[str, Structure] = {
         PulseWidthStructure(),
         ThreeStepStructure(),
         ScheduledStructure(),
+        HeatCoolStructure(),
         OpenLoop(),
     )
 }

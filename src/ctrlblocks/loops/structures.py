@@ -17,7 +17,8 @@ concept each):
 * one module per structure: :mod:`.single` (``single``, ``open_loop``),
   :mod:`.cascade`, :mod:`.override`, :mod:`.feedforward`, :mod:`.smith`,
   :mod:`.split` (``split_range``), :mod:`.ratio`, :mod:`.output`
-  (``pulse_width``, ``three_step``), :mod:`.schedule` (``scheduled``).
+  (``pulse_width``, ``three_step``), :mod:`.schedule` (``scheduled``),
+  :mod:`.heatcool` (``heat_cool``).
 
 Structures and what they read (``structure`` -> measurements):
 
@@ -34,11 +35,12 @@ Structures and what they read (``structure`` -> measurements):
 ``three_step``  ``y``, ``y2`` (the valve position: end switches, feedback);
                a step controller's OPEN/CLOSE commands are the MV
 ``scheduled``  ``y``; the controller's parameters follow the setpoint or ``y``
+``heat_cool``  ``y``; a HeatCoolPID's heat and cool outputs on two actuators
 ``open_loop``  none (the block is driven by the setpoint)
 =============  ==========================================================
 
-Actuators: a structure writes one MV, except ``split_range``, which writes
-two (:attr:`Structure.actuators`; :meth:`ControllerSide.actuator_values`
+Actuators: a structure writes one MV, except ``split_range`` and
+``heat_cool``, which write two (:attr:`Structure.actuators`; :meth:`ControllerSide.actuator_values`
 maps the controller output to them).
 """
 
@@ -47,6 +49,7 @@ from __future__ import annotations
 from .cascade import Cascade
 from .controller import Wired, set_manual
 from .feedforward import FeedForward, FeedForwardStage
+from .heatcool import HeatCoolOutput, HeatCoolStructure
 from .output import PulseWidthStructure, ThreeStepStructure
 from .override import Override
 from .ratio import RatioStructure
@@ -65,6 +68,8 @@ __all__ = [
     "ControllerSide",
     "FeedForward",
     "FeedForwardStage",
+    "HeatCoolOutput",
+    "HeatCoolStructure",
     "Loop",
     "Measured",
     "OpenLoop",

@@ -204,7 +204,100 @@ def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
             "ts": ts,
         }
 
+    def two_point(r: random.Random) -> dict[str, Any]:
+        return {
+            "hysteresis": _maybe(r, 0.8, _lu(r, 1e-3, 10.0), 0.0),
+            "reverse": r.random() < 0.5,
+            "t_min_on": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "t_min_off": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "ts": _ts(r),
+            "precision": _maybe(r, 0.2, "float32", "float64"),
+        }
+
+    def three_point(r: random.Random) -> dict[str, Any]:
+        d = _maybe(r, 0.9, _lu(r, 1e-3, 10.0), 0.0)
+        return {**two_point(r), "deadband": d, "hysteresis": r.uniform(0.0, 2.0 * d)}
+
+    def transfer(r: random.Random) -> dict[str, Any]:
+        from ..blocks.transfer import lowpass, notch, tustin
+
+        ts = _ts(r)
+        nyq = math.pi / ts
+        sections: list[Any] = []
+        while not sections or (len(sections) < 6 and r.random() < 0.4):
+            kind = r.random()
+            if kind < 0.4:
+                sections += lowpass(nyq * r.uniform(1e-3, 0.95), ts, r.randint(1, 4))
+            elif kind < 0.7:
+                sections.append(notch(nyq * r.uniform(1e-3, 0.95), _lu(r, 0.5, 50.0), ts,
+                                      _maybe(r, 0.5, r.uniform(0.0, 0.9), 0.0)))  # fmt: skip
+            else:
+                k, t = r.uniform(-100.0, 100.0), _lu(r, 1e-3, 1e3)
+                sections.append(tustin([k], [t, 1.0], ts))
+        lo, hi = _limits(r)
+        return {"sections": tuple(sections[:8]), "ts": ts, "out_min": lo, "out_max": hi,
+                "precision": _maybe(r, 0.2, "float32", "float64")}  # fmt: skip
+
+    def setpoint(r: random.Random) -> dict[str, Any]:
+        segs = tuple(
+            (r.uniform(-100, 100), _maybe(r, 0.8, _lu(r, 1e-3, 1e2), 0.0),
+             _maybe(r, 0.6, _lu(r, 1e-3, 1e2), 0.0))
+            for _ in range(r.randint(1, 6))
+        )  # fmt: skip
+        return {
+            "segments": segs,
+            "start": r.uniform(-100, 100),
+            "start_at_pv": r.random() < 0.3,
+            "repeat": r.random() < 0.4,
+            "holdback_ramp": _maybe(r, 0.4, _lu(r, 1e-2, 1e2), 0.0),
+            "holdback_soak": _maybe(r, 0.4, _lu(r, 1e-2, 1e2), 0.0),
+            "ts": _ts(r),
+            "precision": _maybe(r, 0.2, "float32", "float64"),
+        }
+
+    def heat_cool(r: random.Random) -> dict[str, Any]:
+        ts = _lu(r, 1e-2, 1.0)
+        method = r.choice(("factor", "parameters"))
+        return {
+            "kp": _lu(r, 1e-2, 1e2),
+            "ti": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
+            "td": _maybe(r, 0.3, _lu(r, 1e-2, 10.0), 0.0),
+            "cool_method": method,
+            "cool_factor": _lu(r, 1e-2, 1e2),
+            "kp_cool": _maybe(r, 0.8, _lu(r, 1e-2, 1e2), 0.0),
+            "ti_cool": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
+            "switch_hysteresis": r.uniform(0.0, 10.0),
+            "deadzone": _maybe(r, 0.5, r.uniform(0.0, 20.0), 0.0),
+            "pwm_period": _maybe(r, 0.4, ts * r.uniform(1.0, 50.0), 0.0),
+            "ts": ts,
+        }
+
+    def regulator(r: random.Random) -> dict[str, Any]:
+        lo = r.uniform(-100, 100)
+        slo = r.uniform(-100, 100)
+        return {
+            "kp": _lu(r, 1e-2, 1e2),
+            "ti": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
+            "td": _maybe(r, 0.3, _lu(r, 1e-2, 10.0), 0.0),
+            "u_min": lo,
+            "u_max": lo + _lu(r, 1e-2, 1e3),
+            "sp_min": slo,
+            "sp_max": slo + _lu(r, 1e-2, 1e3),
+            "tm_sp": _lu(r, 1e-1, 1e3),
+            "tm_out": _lu(r, 1e-1, 1e3),
+            "tr": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "sp0": r.uniform(-100, 100),
+            "u0": r.uniform(-100, 100),
+            "ts": _ts(r),
+        }
+
     return {
+        "TwoPoint": two_point,
+        "ThreePoint": three_point,
+        "TransferFunction": transfer,
+        "SetpointProgram": setpoint,
+        "HeatCoolPID": heat_cool,
+        "Regulator": regulator,
         "PT1": lambda r: {
             "t": _maybe(r, 0.8, _lu(r, 1e-3, 1e3), 0.0),
             "ts": _ts(r),
@@ -366,6 +459,22 @@ def _make_schedule(cfg: dict[str, Any]) -> Any:
     return b.GainSchedule(b.PID(**cfg["_pid"]), breakpoints=(0.0, 100.0), kp=cfg["kp"])
 
 
+def _heat_cool_step(blk: Any, vals: list[Any], dt: Any, flags: list[Any]) -> Any:
+    blk.manual = flags[2]
+    return blk(0.0 if vals[1] is None else vals[1], vals[0], pv_ok=flags[0], dt=dt)
+
+
+def _regulator_step(blk: Any, vals: list[Any], dt: Any, flags: list[Any]) -> Any:
+    blk.auto, blk.remote = flags[1], flags[2]
+    sp = 0.0 if vals[1] is None else vals[1]
+    return blk(vals[0], sp, sp_inc=flags[0], out_dec=flags[1], pv_ok=flags[0], dt=dt)
+
+
+def _on_off_step(blk: Any, vals: list[Any], dt: Any, flags: list[Any]) -> Any:
+    return blk(0.0 if vals[1] is None else vals[1], vals[0], pv_ok=flags[0], enable=flags[1],
+               dt=dt)  # fmt: skip
+
+
 _PID_MODES = ("manual", "track", "hold", "reset_active", "awin")
 _PID_VALUES = {"manual": "manual_value", "track": "track_value"}
 
@@ -406,6 +515,20 @@ def register_shipped() -> None:
                  oracle=_moving_average_oracle, nonfinite_state=("_sum", "_err", "_mag")),
         FuzzSpec("PulseWidth", b.PulseWidth, configs["PulseWidth"], limit_fields=("in_lo", "in_hi"),
                  nonfinite_state=("t_in",)),
+        FuzzSpec("TwoPoint", b.TwoPoint, configs["TwoPoint"], step=_step(_on_off_step),
+                 controller=False),
+        FuzzSpec("ThreePoint", b.ThreePoint, configs["ThreePoint"], step=_step(_on_off_step),
+                 controller=False),
+        FuzzSpec("TransferFunction", b.TransferFunction, configs["TransferFunction"],
+                 step=_step(lambda blk, v, dt, f: blk(v[0], init=f[0])),
+                 limit_fields=("out_min", "out_max")),
+        FuzzSpec("SetpointProgram", b.SetpointProgram, configs["SetpointProgram"], step=_step(
+            lambda blk, v, dt, f: blk(v[0], pv_ok=f[0], run=f[1], reset=f[2], dt=dt)),
+            controller=False),
+        FuzzSpec("HeatCoolPID", b.HeatCoolPID, configs["HeatCoolPID"],
+                 step=_step(_heat_cool_step), controller=False),
+        FuzzSpec("Regulator", b.Regulator, configs["Regulator"], step=_step(_regulator_step),
+                 controller=False, limit_fields=("u_min", "u_max")),
         FuzzSpec("Saturation", b.Saturation, configs["Saturation"], limit_fields=("lo", "hi")),
         FuzzSpec("Scale", b.Scale, configs["Scale"], limit_fields=("out_lo", "out_hi")),
         *(FuzzSpec(n, getattr(b, n), configs[n]) for n in (
