@@ -223,3 +223,54 @@ def fresh(th: ServerThread, server, process):
 
     th.call(reset())
     return server
+
+
+class ClockedPlant:
+    """A first-order plant on a bus that moves on the clock, whatever the runtime does.
+
+    ``y[k+1] = a y[k] + (1 - a) k u[k]`` every ``ts`` of the (fake) clock, ``u``
+    the MV the device holds (``bus.values[mv]``): the plant moves meanwhile --
+    while the runtime is stopped, its connection down or its inputs late.
+    ``hold`` pins the device's MV (a device watchdog's safe value).
+    """
+
+    def __init__(
+        self,
+        bus: MemoryBus,
+        clock: Any,
+        ts: float,
+        *,
+        a: float = 0.9,
+        gain: float = 1.0,
+        pv: str = "pv",
+        mv: str = "mv",
+        u0: float = 0.0,
+    ) -> None:
+        self.bus, self.clock, self.ts, self.a, self.gain = bus, clock, ts, a, gain
+        self.pv, self.mv = pv, mv
+        bus.values[mv] = u0
+        bus.values[pv] = gain * u0  # at rest
+        self.hold: float | None = None
+        self.task: asyncio.Task[None] | None = None
+
+    def step(self) -> None:
+        if self.hold is not None:
+            self.bus.values[self.mv] = self.hold
+        u = self.bus.values[self.mv]
+        y = self.bus.values[self.pv]
+        self.bus.values[self.pv] = self.a * y + (1.0 - self.a) * self.gain * u
+
+    async def _run(self) -> None:
+        t = self.clock.now()
+        while True:
+            t += self.ts
+            await self.clock.sleep_until(t)
+            self.step()
+
+    def start(self) -> None:
+        """Run on the clock (call inside the event loop)."""
+        self.task = asyncio.ensure_future(self._run())
+
+    def device_writes(self) -> list[float]:
+        """The MVs the device took, in order."""
+        return [v for a, v in self.bus.writes if a == self.mv]

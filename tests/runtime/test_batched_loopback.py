@@ -23,6 +23,9 @@ N = 20
 
 
 def pair_config(conn: str, pv, mv, n: int = N, ts: float = 0.05) -> str:
+    # a generous input deadline: a loaded machine must not make a read late (a late
+    # read holds its cycle, which sends no new read: the counts below would differ)
+    conn += "deadline = 5.0\n"
     loops = "".join(
         f"""
 [[loops]]

@@ -7,9 +7,12 @@ writer process and count the rows that reach the database.
 
 from __future__ import annotations
 
+import contextlib
+import json
 import logging
 import os
 import signal
+import sqlite3
 import subprocess
 import sys
 import textwrap
@@ -142,6 +145,48 @@ def test_the_writer_commits_what_it_got_and_ends_when_the_runtime_process_dies(t
         cycles, runs = stored(db)
     assert cycles == list(range(50))
     assert runs == [(1, 0)]  # no stop time: the run ended in a crash
+
+
+def test_a_runtime_killed_with_samples_in_memory_leaves_the_count_it_lost_in_the_audit(
+    tmp_path,
+):
+    """SIGKILL with 30 samples recorded after the last hand-over: the writer commits the 50
+    it received and writes ``lost`` = 30 (of 80 recorded) to the audit table."""
+    db = tmp_path / "h.sqlite"
+    script = textwrap.dedent(
+        f"""
+        import os, signal
+        from ctrlblocks.runtime.config import HistorianConfig
+        from ctrlblocks.runtime.loop import Sample
+        from ctrlblocks.runtime.writer import ProcessHistorian
+        h = ProcessHistorian(HistorianConfig(path={str(db)!r}))
+        h.open()
+        def s(k):
+            return Sample("x", k, 1.0, 0.0, 0.1, 1.0, 0.5, 0.2, "auto", 0, True, True, False)
+        for k in range(50):
+            h.record(s(k))
+        h.send()
+        assert h.pending == 0
+        for k in range(50, 80):
+            h.record(s(k))  # recorded, never handed over
+        os.kill(os.getpid(), signal.SIGKILL)
+        """
+    )
+    subprocess.run([sys.executable, "-c", script], timeout=120)
+    t_end = time.monotonic() + 60.0
+    lost: list[dict] = []
+    while time.monotonic() < t_end and not lost:
+        time.sleep(0.1)
+        with (
+            contextlib.suppress(sqlite3.OperationalError, HistoryError),
+            SQLiteHistorian(db).reading() as h,
+        ):
+            lost = [r for r in h.audit_rows() if r["action"] == "lost"]
+    cycles, _ = stored(db)
+    assert cycles == list(range(50))
+    (row,) = lost
+    assert row["who"] == "historian" and json.loads(row["new"]) == {"lost": 30, "recorded": 80}
+    assert "30 of its 80 recorded sample(s)" in row["message"]
 
 
 def test_a_database_that_cannot_be_opened_says_which_and_why(tmp_path):

@@ -150,6 +150,7 @@ def _tables(sc, extra: str) -> str:
         'sp = "io:sp"',
         "safe_value = 0.0",
         f"u0 = {PlantProcess(sc).u0!r}",
+        'start = "block"',  # the blocks' own initial state, as the simulator's
         "[loops.main]",
         'type = "PID"',
         *(f"{k} = {v!r}" for k, v in main.items()),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import sqlite3
 
@@ -222,3 +223,67 @@ def test_a_failing_retain_save_logs_one_line_per_streak_and_its_recovery(tmp_pat
     assert errors[0].exc_info is None  # one line, no traceback
     assert not any(r.exc_info for r in caplog.records)
     assert sum("saved again after 5 failed saves" in r.getMessage() for r in caplog.records) == 1
+
+
+def retained_sp(path) -> float:
+    import json
+
+    with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as c:
+        (state,) = c.execute("SELECT state FROM loops WHERE name = 'loop'").fetchone()
+    return json.loads(state)["sp"]
+
+
+def test_a_command_is_in_the_retain_file_when_execute_returns_and_survives_a_kill(tmp_path):
+    """A set point confirmed 0.1 s before a kill: no periodic save came (5 s interval), yet
+    the new runtime has it.  (The issue: changes 0.3 s and 1.0 s before kill -9 were lost.)"""
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    path = tmp_path / "retain.sqlite"
+    rt, clock, _ = runtime(bus, path)
+
+    async def first():
+        await rt.start()
+        await clock.run_until(1.0)
+        old = await rt.execute("loop", user="op", sp=2.5)
+        on_disk = await asyncio.to_thread(retained_sp, path)
+        rt.command("loop", user="op", tunings={"kp": 1.7})  # the plain call retains too
+        await rt.durable("loop")
+        await clock.run_until(1.1)  # 0.1 s later: killed (no stop, no final save)
+        for t in rt._tasks:
+            t.cancel()
+        return old, on_disk
+
+    old, on_disk = bounded(first())
+    assert old == {"sp": 1.0} and on_disk == 2.5
+    rt2, _clock2, _ = runtime(bus, path)
+
+    async def second():
+        await rt2.start()
+        st = rt2.state("loop")
+        await rt2.stop()
+        return st
+
+    st = bounded(second())
+    assert st["sp"] == 2.5 and st["tunings"]["kp"] == 1.7
+
+
+def test_a_retain_file_that_fails_makes_execute_raise_with_the_change_in_force(tmp_path):
+    bus = MemoryBus()
+    bus.on_write = FirstOrder(bus)
+    rt, clock, _ = runtime(bus, tmp_path / "retain.sqlite")
+
+    def full_disk(name, state):
+        raise OSError(28, "No space left on device")
+
+    async def main():
+        await rt.start()
+        await clock.run_until(0.5)
+        rt.retain.save_loop = full_disk
+        with pytest.raises(OSError, match="No space left"):
+            await rt.execute("loop", user="op", sp=2.5)
+        st = rt.state("loop")
+        await rt.stop()
+        return st
+
+    st = bounded(main())
+    assert st["sp"] == 2.5  # in force, and the caller was told it is not retained

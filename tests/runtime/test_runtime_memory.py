@@ -42,12 +42,25 @@ def test_cycles_run_on_absolute_deadlines():
     assert all(not s.overrun and s.dt == 0.1 for s in samples)
 
 
-def test_loop_equals_the_block_called_by_hand():
-    """The runtime's loop is exactly PID(sp, pv) per cycle on the plant's samples."""
+def handover(block, u0: float) -> None:
+    """The bumpless start by hand: the block tracks ``u0`` in manual for its first call."""
+    block.manual, block.manual_value = True, u0
+
+
+@pytest.mark.parametrize("start", ["read_back", "block"])
+def test_loop_equals_the_block_called_by_hand(start):
+    """The runtime's loop is exactly PID(sp, pv) per cycle on the plant's samples.
+
+    Its first cycle is the MAN->AUTO handover at the MV read back from the
+    device (0.3 here); with ``start = "block"`` the block's own first step.
+    """
     bus = MemoryBus()
     plant = FirstOrder(bus)
     bus.on_write = plant
-    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus})
+    bus.values["mv"] = 0.3
+    rt, clock, samples = make(
+        loop_toml(ts=0.1, sp="1.0", extra=f'start = "{start}"'), {"io": bus}
+    )
 
     async def main():
         await run(rt, clock, 2.0)
@@ -55,13 +68,17 @@ def test_loop_equals_the_block_called_by_hand():
 
     asyncio.run(main())
     ref = PID(kp=1.0, ti=1.0, u_min=-10.0, u_max=10.0, ts=0.1, safe_value=0.0)
+    if start == "read_back":
+        handover(ref, 0.3)
     y = 0.0
     for s in samples:
         assert s.pv == y
         u = ref(1.0, y)
+        ref.manual = False
         assert s.mv == u
         y = 0.9 * y + (1.0 - 0.9) * u
     assert len(samples) == 21
+    assert samples[0].mv == (0.3 if start == "read_back" else 1.0)
 
 
 def test_bad_pv_gives_adrc_safe_value_in_the_same_cycle_and_recovers_bumplessly():
@@ -128,11 +145,14 @@ def test_pid_holds_or_goes_to_safe_value_on_nan_pv(on_bad, expected):
     assert by[9].mv != pytest.approx(want, abs=1e-9)
 
 
-def test_overrun_is_flagged_and_the_next_cycle_uses_the_measured_period():
+def test_a_late_read_holds_the_loop_and_the_next_step_gets_the_stretched_period_as_dt():
+    """Cycle 5's read takes 0.25 s (its deadline is ts/2 = 0.05 s): the loop holds in
+    cycle 5 (nothing written, dt 0 in its sample), the read is cycle 6's input, and
+    the block's step in cycle 6 gets the 0.4 s since its last step as dt."""
     bus = MemoryBus()
     plant = FirstOrder(bus)
     bus.on_write = plant
-    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0"), {"io": bus})
+    rt, clock, samples = make(loop_toml(ts=0.1, sp="1.0", extra='start = "block"'), {"io": bus})
     reads = {"n": 0}
 
     def slow_read():
@@ -144,19 +164,24 @@ def test_overrun_is_flagged_and_the_next_cycle_uses_the_measured_period():
 
     async def main():
         await run(rt, clock, 1.2)
+        st = rt.state("loop")
         await rt.stop()
+        return st
 
-    asyncio.run(main())
+    st = asyncio.run(main())
     by = {s.cycle: s for s in samples}
+    assert by[5].dt == 0.0 and by[5].mv == by[4].mv  # held
     assert by[6].t == pytest.approx(0.8)  # phase kept: next deadline after 0.75
-    assert by[6].overrun and by[6].dt == pytest.approx(0.3)
+    assert by[6].overrun and by[6].dt == pytest.approx(0.4)
     assert not by[7].overrun and by[7].dt == 0.1
     assert rt.loops["loop"].monitor.overruns == 1
-    # replay: the block saw dt = 0.3 in cycle 6 and ts elsewhere
+    assert st["late_cycles"] == 1 and st["stretched"] == 1
+    assert {"late_io", "overrun", "stretched"} <= set(st["status"])  # still (off-delay)
+    # replay: the block saw dt = 0.4 in cycle 6, nothing in cycle 5 and ts elsewhere
     ref = PID(kp=1.0, ti=1.0, u_min=-10.0, u_max=10.0, ts=0.1, safe_value=0.0)
     for k in range(len(samples)):
-        s = by[k]
-        assert ref(1.0, s.pv, dt=0.3 if k == 6 else None) == s.mv
+        if k != 5:
+            assert ref(1.0, by[k].pv, dt=0.4 if k == 6 else None) == by[k].mv
 
 
 def test_rejected_write_is_retried_reported_and_other_loops_keep_running():
@@ -322,8 +347,10 @@ def test_adrc_block_call_matches_a_replay():
 
     asyncio.run(main())
     ref = ADRC(order=1, b0=1.0, omega_c=2.0, omega_o=8.0, u_min=-5.0, u_max=5.0, ts=0.1)
+    handover(ref, 0.0)  # the MV read back at the cold start (the plant's 0.0)
     for s in samples:
         assert ref(1.0, s.pv) == s.mv
+        ref.manual = False
 
 
 def test_read_timeout_gives_safe_value_in_that_cycle_and_three_drop_the_connection():
@@ -343,10 +370,10 @@ def test_read_timeout_gives_safe_value_in_that_cycle_and_three_drop_the_connecti
 
     bus.on_read = maybe_hang
 
-    async def step_to(t):  # a timeout takes real time: let each cycle finish
+    async def step_to(t):  # a timeout takes real time: let it come before the deadline
         while clock.now() < t - 1e-9:
-            await clock.run_until(min(t, clock.now() + 0.1))
-            await asyncio.sleep(0.05)
+            await clock.run_until(min(t, clock.now() + 0.01))
+            await asyncio.sleep(0.03)  # the 20 ms timeout within 10 ms of virtual time
             await clock.settle()
 
     async def main():

@@ -106,7 +106,7 @@ ok = true
 """
 )
 
-GENEROUS = "timeout = 5.0\n"
+GENEROUS = "timeout = 5.0\ndeadline = 5.0\n"
 
 
 def _opcua(name: str) -> str:

@@ -254,6 +254,8 @@ def loop_tables(sc, *, pv="pv", pv2="pv2", dv="dv", conn="io", sp='"io:sp"') -> 
         lines += [f"main = {_table(b['main'])}", f"model = {_table(b['model'])}"]
         lines += [f'pv = "{conn}:{pv}"', f"u0 = {PlantProcess(sc).u0!r}"]
     lines += [f'mv = "{conn}:mv"', f"sp = {sp}", "safe_value = 0.0"]
+    # the blocks start from their own initial state, as the simulator's do (no read-back)
+    lines.append('start = "block"')
     return "[[loops]]\n" + "\n".join(lines) + "\n"
 
 
@@ -375,9 +377,11 @@ def test_bad_secondary_pv_gives_the_safe_value_in_the_same_cycle_and_recovers_bu
     assert np.all(mv[start:stop] == 0.0)
     assert all(r["error_id"] == 0x8102 for r in rows[start:stop])  # BAD_MEASUREMENT
     # bumpless: the first good cycle continues from the applied safe value (no jump back
-    # to the pre-fault output); afterwards the loop regulates again
+    # to the pre-fault output) -- after an outage longer than max_dt (10 ts) as a fresh
+    # start from the MV written: the secondary tracks it, the primary tracks pv2 -- and
+    # afterwards the loop regulates again
     assert mv[stop] == pytest.approx(0.0, abs=1e-9)
-    assert 0.0 < mv[stop + 1] < 0.5 * mv[start - 1]
+    assert 0.0 <= mv[stop + 1] < 0.5 * mv[start - 1] and mv[stop + 5] > 0.0
     assert mv[stop + 30] > 0.3
     st = rt.state("loop")
     assert st["pv_ok"] is True
@@ -464,6 +468,7 @@ def test_cascade_over_opcua_equals_the_simulator_exactly(tmp_path, opcua_plant):
 protocol = "opcua"
 url = "{server.opcua_url}"
 timeout = 5.0
+deadline = 5.0
 {loop}warn_limit = {50 * sc.ts}
 alarm_limit = {100 * sc.ts}
 [historian]
@@ -519,6 +524,7 @@ protocol = "modbus"
 host = "127.0.0.1"
 port = {server.modbus_port}
 timeout = 5.0
+deadline = 5.0
 {loop}warn_limit = {50 * sc.ts}
 alarm_limit = {100 * sc.ts}
 [historian]
@@ -645,5 +651,8 @@ def test_cascade_state_shows_what_the_primary_tracks(monkeypatch):
     assert tracking[man:auto] == ({"primary": "y2"},) * (auto - man)
     assert tracking[auto:start] == ({},) * (start - auto)
     assert tracking[start:stop] == ({"primary": "hold"},) * (stop - start)
-    assert tracking[stop:] == ({},) * (n - stop)
+    # pv2 back after more than max_dt (10 ts): one cycle of the bumpless start, in which
+    # the secondary tracks the MV written and the primary pv2, then the closed cascade
+    assert tracking[stop] == {"primary": "y2"}
+    assert tracking[stop + 1 :] == ({},) * (n - stop - 1)
     assert set(sp2[start:stop]) == {sp2[start - 1]}  # held through the bad pv2

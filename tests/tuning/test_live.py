@@ -104,7 +104,9 @@ def test_a_pv_bound_aborts_and_the_mv_returns_to_its_value_before_the_test() -> 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, None, "x", 10**400])
 def test_bad_pv_aborts(bad) -> None:
-    tuner = LiveTuner("relay", ts=0.1, u0=1.0, amplitude=0.5, mv_min=0.0, mv_max=5.0)
+    tuner = LiveTuner(
+        "relay", ts=0.1, u0=1.0, amplitude=0.5, mv_min=0.0, mv_max=5.0, hysteresis=0.0
+    )
     assert tuner.step(1.0) == 1.5
     assert tuner.step(bad) == 1.0
     assert tuner.state is TunerState.ABORTED and "PV not valid" in tuner.reason

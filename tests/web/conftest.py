@@ -147,15 +147,21 @@ def login(client: Any, user: str = OPERATOR[0], password: str | None = None) -> 
 def wait_push(client: Any, until: Any, limit: int = 400) -> dict[str, Any]:
     """Read WebSocket pushes until ``until(update)`` is true; return that update.
 
+    A push carries only what changed; ``update["loops"]`` here is the list of
+    the loops' whole states, the pushes so far merged (as the page keeps them).
     Fails after ``limit`` pushes (40 s at 10 Hz): the condition never came.
     """
+    known: dict[str, dict[str, Any]] = {}
     with client.websocket_connect("/ws") as ws:
         hello = ws.receive_json()
         assert hello["type"] == "hello"
         for _ in range(limit):
             msg = ws.receive_json()
-            if until(msg):
-                return msg
+            for name, diff in msg["loops"].items():
+                known.setdefault(name, {}).update(diff)
+            view = {**msg, "loops": [dict(known[n]) for n in hello["loops"] if n in known]}
+            if until(view):
+                return view
     raise AssertionError(f"condition not reached in {limit} pushes")
 
 

@@ -8,6 +8,7 @@ into the repository.
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from pathlib import Path
@@ -117,6 +118,11 @@ def test_page_shows_the_loops_and_the_trend_moves(page: Any, tmp_path_factory: A
     assert [rows.nth(i).get_attribute("data-loop") for i in range(2)] == ["fast", "level"]
     assert page.text_content("#loops tr[data-loop=fast] td.mode") == "AUTO"
     assert page.text_content("#plate-title") == "fast"  # the first loop is shown
+    # the product's name once (the issue read "ctrlblocks — ctrlblocks demo")
+    assert page.text_content("#rt-name") == "ctrlblocks — faceplate test"
+    assert page.title() == "ctrlblocks — faceplate test · faceplate"
+    assert js(page, "faceplate.titles('ctrlblocks demo')") == [
+        "ctrlblocks demo", "ctrlblocks demo · faceplate"]  # fmt: skip
     n0 = js(page, "faceplate.data.fast.t.length")
     x0 = js(page, "faceplate.chart.scales.x.max")
     # 20 more samples (1 s at 20 Hz) arrive and the time axis follows them
@@ -169,7 +175,15 @@ def test_units_ranges_and_a_trend_axis_that_keeps_the_sp_in_view(page: Any) -> N
     assert page.text_content("#r-manual") == "0 … 5 %"  # the block's limits: no mv_range given
     assert page.text_content("#r-limits") == "within 0 … 5 %"
     assert page.text_content("#tunings tr[data-key=kp] td.range") == "0.1 … 10"
-    assert page.text_content("#tunings tr[data-key=ti] td.range") == "≥ 0"  # from the block
+    # derived from the loop: 0 (no integral) or a tenth of ts = 0.05 s up to 10^4 ts
+    assert page.text_content("#tunings tr[data-key=ti] td.range") == "0 or 0.005 … 500 s"
+    # the ADRC's order: its three values (the issue read "> 0")
+    page.click("#loops tr[data-loop=level]")
+    page.wait_for_function("() => document.querySelector('#plate-title').textContent === 'level'")
+    page.wait_for_selector("#tunings tr[data-key=order]")
+    assert page.text_content("#tunings tr[data-key=order] td.range") == "1, 2, 3"
+    page.click("#loops tr[data-loop=fast]")
+    page.wait_for_function("() => document.querySelector('#plate-title').textContent === 'fast'")
     # steady state SP = PV = 1 m: the axis shows the SP and at least 5 % of [0, 2] m
     wait_cycles(page, "fast", 5)
     lo, hi = js(page, "[faceplate.chart.scales.y.min, faceplate.chart.scales.y.max]")
@@ -373,3 +387,80 @@ def test_an_engineer_runs_a_live_tuning_from_the_panel_and_rejects_it(page: Any)
     wait_message(page, "reject accepted")
     assert page.text_content("#tune-status") == "step test rejected by alice"
     assert rows.first.locator("button").count() == 0  # nothing left to accept
+
+
+def _background(page: Any, selector: str) -> str:
+    return js(page, f"getComputedStyle(document.querySelector({selector!r})).backgroundColor")
+
+
+@pytest.mark.parametrize("size", [(1280, 800), (390, 844)])
+def test_a_loop_in_trouble_shows_its_state_in_words_and_colour(
+    browser: Any, tmp_path: Path, size: tuple[int, int]
+) -> None:
+    """The issue: a loop on its safe value showed green "AUTO", its alarm one technical
+    string, off-screen at phone width.  Now: the mode turns red, the words "bad PV" and
+    "on safe value" stand in the row (and on the faceplate), on a desktop and a phone."""
+    rt = make_runtime(tmp_path)
+    bus = rt.connections["sim"].adapter.bus
+    with running_server(rt, make_users(tmp_path)) as url:
+        p = browser.new_page()
+        p.set_viewport_size({"width": size[0], "height": size[1]})
+        p.set_default_timeout(20_000)
+        try:
+            p.goto(url)
+            p.wait_for_function("() => window.faceplate && window.faceplate.updates > 2")
+            row = "#loops tr[data-loop=fast]"
+            assert p.text_content(f"{row} td.mode") == "AUTO"
+            # all well: green (a loaded machine may stretch a period: amber, a warning)
+            assert _background(p, f"{row} td.mode") in ("rgb(211, 249, 216)", "rgb(255, 243, 191)")
+            assert not js(p, f"document.querySelector({row!r}).classList.contains('alarm')")
+            bus.bad.add("fast.pv")  # the sensor fails: the PID writes its safe value
+            p.wait_for_function(
+                "() => document.querySelector('#loops tr[data-loop=fast]')"
+                ".classList.contains('alarm')"
+            )
+            words = p.locator(f"{row} td.state .st").all_text_contents()
+            assert {"bad PV", "on safe value"} <= set(words)
+            assert p.text_content(f"{row} td.mode") == "AUTO"  # the mode it is in, in red
+            assert _background(p, f"{row} td.mode") == "rgb(255, 227, 227)"
+            assert _background(p, f"{row} td.state .st.alarm") == "rgb(201, 42, 42)"
+            # the words are on the screen, at phone width too, and on the faceplate
+            box = p.locator(f"{row} td.state").bounding_box()
+            assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= size[0]
+            assert js(p, "document.documentElement.scrollWidth") <= size[0]
+            items = p.locator("#plate-alarms li").all_text_contents()
+            assert any(t.startswith("bad PV: PV bad: bad quality") for t in items), items
+            bus.bad.discard("fast.pv")  # back: the words go
+            p.wait_for_function(
+                "() => !document.querySelector('#loops tr[data-loop=fast] td.state')"
+                ".textContent.includes('bad PV')"
+            )
+        finally:
+            p.close()
+
+
+def test_the_time_axis_labels_do_not_overlap(page: Any) -> None:
+    """The issue saw '12/3/26 7:13pm7:14pm': labels drawn into each other."""
+    for window in ("30", "120", "300"):
+        page.select_option("#trend-window", window)
+        page.wait_for_function("() => faceplate.chart.axes[0]._values")
+        boxes = js(
+            page,
+            """(() => {
+                const u = faceplate.chart, ax = u.axes[0];
+                const ctx = document.createElement('canvas').getContext('2d');
+                ctx.font = ax.font[0];
+                return ax._splits.map((v, i) => {
+                  const x = u.valToPos(v, 'x');
+                  const w = Math.max(...String(ax._values[i]).split('\\n')
+                                          .map((l) => ctx.measureText(l).width));
+                  return [x - w / 2, x + w / 2];
+                });
+              })()""",
+        )
+        assert len(boxes) >= 2
+        for (_, right), (left, _) in itertools.pairwise(boxes):
+            assert right < left, (window, boxes)
+    labels = js(page, "faceplate.timeLabels(null, [0, 3600, 90000], 0, 0, 60)")
+    assert labels[0].count("\n") == 1 and "\n" not in labels[1]  # the date once, then per day
+    assert labels[2].count("\n") == 1

@@ -51,8 +51,13 @@ class FakeClock:
 
 
 def rows(app: Any, loop: str | None = None) -> list[dict[str, Any]]:
-    """The audit trail, newest first (straight from the historian)."""
+    """The audit trail of the requests, newest first (straight from the historian).
+
+    The runtime's own rows about its loops (an alarm of a late cycle on a busy
+    machine) are left out.
+    """
     out = app.state.runtime.historian.audit_rows(loop, 1000)[::-1]
+    out = [d for d in out if d["action"] not in ("alarm", "alarm-cleared")]
     for d in out:
         d["new"] = json.loads(d["new"]) if d["new"] is not None else None
     return out
@@ -296,6 +301,11 @@ def test_roles_are_enforced_by_the_server(client, app, user, body, status):
     assert (row["who"], bool(row["ok"])) == (user, status == 200)
     if status == 403:
         assert r.json()["error"]["field"] in body and "may not change" in row["message"]
+        # in English: "an operator", "a viewer" (the issue read "a operator may not ...")
+        role = USERS[user][0]
+        who = {"operator": "an operator", "viewer": "a viewer"}[role]
+        assert r.json()["error"]["message"].startswith(f"{who} may not change ")
+        assert row["message"].startswith(f"refused: {who} may not change ")
 
 
 # -- sessions end when the users file changes -------------------------------------------------
@@ -384,18 +394,16 @@ def test_ranges_and_units_are_in_the_info(client):
     assert fast["units"] == {"pv": "m", "sp": "m", "mv": "%"}
     assert (fast["sp_range"]["lo"], fast["sp_range"]["hi"]) == (0.0, 2.0)
     assert (fast["mv_range"]["lo"], fast["mv_range"]["hi"]) == (0.0, 5.0)  # the block's limits
-    assert fast["tuning_ranges"]["kp"] == {
-        "lo": 0.1,
-        "hi": 10.0,
-        "lo_open": False,
-        "inf_ok": False,
-        "derived": False,
-    }
-    # derived from the block's validation: b0 > 0 (ADRC refuses 0), ti >= 0 (PID takes 0)
+    kp = fast["tuning_ranges"]["kp"]
+    assert (kp["lo"], kp["hi"], kp["derived"]) == (0.1, 10.0, False)  # configured
+    # derived from the loop: b0 within 1/100 .. 100 times the configured 2.0; ti 0 (the
+    # PID takes 0: no integral) or from a tenth of ts = 0.05 s; the ADRC's order 1, 2, 3
     b0 = level["tuning_ranges"]["b0"]
-    assert (b0["lo"], b0["lo_open"], b0["hi"], b0["derived"]) == (0.0, True, TUNING_MAGNITUDE, True)
+    assert (b0["lo"], b0["hi"], b0["derived"], b0["generic"]) == (0.02, 200.0, True, False)
     ti = fast["tuning_ranges"]["ti"]
-    assert (ti["lo"], ti["lo_open"]) == (0.0, False)
+    assert (ti["lo"], ti["zero_ok"], ti["unit"]) == (0.005, True, "s")
+    order = level["tuning_ranges"]["order"]
+    assert (order["lo"], order["hi"], order["integer"]) == (1.0, 3.0, True)
     assert level["sp_range"] is None and fast["confirm_step"] == 0.1
 
 
@@ -533,3 +541,95 @@ def test_a_removed_users_live_view_closes_within_a_push(private, clock):
             for _ in range(50):  # 5 s of pushes at most
                 ws.receive_json()
         assert closed.value.code == 1008
+
+
+# -- refusals of any role are bounded; X-Forwarded-For only from a trusted proxy ---------------
+
+
+@pytest.mark.parametrize(
+    ("user", "body"),
+    [
+        ("vera", {"sp": 1.2, "tunings": {"kp": 2.0, **{f"x{i}": "y" * 300 for i in range(9)}}}),
+        ("alice", {"tunings": {"kp": "9" * 3000}}),  # refused by the loop, not the role
+        ("alice", {"sp": 50.0}),  # outside sp_range
+    ],
+    ids=["viewer-role", "engineer-block", "engineer-range"],
+)
+def test_a_logged_in_users_refusals_are_bounded_like_anonymous_ones(timed, clock, user, body):
+    """30 refused commands of one user: at most AUDIT_REFUSALS rows per window, each small.
+
+    The issue measured 1.29 GB/day of refused bodies stored from one viewer."""
+    app = timed.app
+    limit, window = AUDIT_REFUSALS
+    app.state.runtime.refusals.window.clock = lambda: clock.t  # the runtime's, per user
+    assert login(timed, user).status_code == 200
+    for _ in range(3 * limit):
+        clock.t += window / (10 * limit)  # 30 requests in 3/10 of the window, under the rate
+        r = timed.post(CMD, json=body)
+        assert r.status_code in (403, 422), r.text
+    refused = [r for r in rows(app, "fast") if not r["ok"]]
+    assert len(refused) == limit
+    assert all(len(json.dumps(r["new"])) + len(r["message"]) < 1500 for r in refused)
+    clock.t += window
+    timed.post(CMD, json=body)
+    assert f"({2 * limit} more not recorded)" in rows(app, "fast")[0]["message"]
+
+
+def _xff_app(tmp_path: Path, users: Any, clock: FakeClock, proxies: tuple[str, ...]) -> Any:
+    return create_app(make_runtime(tmp_path), users=users, clock=clock, trusted_proxies=proxies)
+
+
+@pytest.mark.parametrize("proxies", [(), ("127.0.0.1",), ("10.0.0.0/8",)])
+def test_x_forwarded_for_counts_only_from_a_trusted_proxy(tmp_path, users, clock, proxies):
+    """A different X-Forwarded-For on every request from 127.0.0.1 bypassed every
+    per-address limit (the issue: 7.3 GB/day); now only a configured proxy's counts."""
+    from fastapi.testclient import TestClient
+
+    app = _xff_app(tmp_path, users, clock, proxies)
+    limit, _window = COMMAND_REQUESTS
+    with TestClient(app, client=("127.0.0.1", 50000)) as c:
+        codes = [
+            c.post(CMD, json={"sp": 1.0}, headers={"X-Forwarded-For": f"198.51.100.{k}"})
+            for k in range(limit + 5)
+        ]
+    codes = [r.status_code for r in codes]
+    trusted = "127.0.0.1" in proxies
+    # one address: the budget runs out; a trusted proxy's clients: each its own budget
+    assert codes.count(429) == (0 if trusted else 5)
+    clients = {r["new"]["client"] for r in rows(app) if r["who"] == "anonymous"}
+    assert clients == ({f"198.51.100.{k}" for k in range(limit + 5)} if trusted else {"127.0.0.1"})
+
+
+def test_a_client_cannot_hide_behind_addresses_it_prepends(tmp_path, users, clock):
+    """Behind a trusted proxy the client is the right-most untrusted hop of the chain."""
+    from fastapi.testclient import TestClient
+
+    app = _xff_app(tmp_path, users, clock, ("127.0.0.1", "10.0.0.0/8"))
+    with TestClient(app, client=("127.0.0.1", 50000)) as c:
+        c.post(CMD, json={"sp": 1.0},
+               headers={"X-Forwarded-For": "1.2.3.4, 203.0.113.9, 10.1.2.3"})  # fmt: skip
+    (row,) = [r for r in rows(app) if r["who"] == "anonymous"]
+    assert row["new"]["client"] == "203.0.113.9"
+
+
+def test_the_server_leaves_x_forwarded_for_to_the_application():
+    """uvicorn believes X-Forwarded-For from 127.0.0.1 by default: switched off."""
+    from ctrlblocks.web import make_server
+
+    config = type("C", (), {"web": None, "name": "x"})()
+    rt = type("R", (), {"config": config, "loop_names": lambda self: [], "loops": {},
+                        "on_sample": None})()  # fmt: skip
+    server = make_server(rt, port=0)
+    assert server.config.proxy_headers is False
+
+
+def test_the_web_table_refuses_a_trusted_proxy_that_is_not_an_address():
+    from ctrlblocks.runtime import RuntimeConfigError, parse_config
+
+    text = (
+        '[connections.io]\nprotocol = "memory"\n[[loops]]\nname = "l"\nts = 0.1\n'
+        'block = { type = "PID", kp = 1.0, ti = 1.0 }\npv = "io:pv"\nmv = "io:mv"\nsp = 1.0\n'
+        'safe_value = 0.0\n[web]\ntrusted_proxies = ["proxy.local"]\n'
+    )
+    with pytest.raises(RuntimeConfigError, match=r"web\.trusted_proxies\[0\]: not an IP"):
+        parse_config(text)

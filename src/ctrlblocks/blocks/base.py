@@ -551,6 +551,24 @@ class Block:
     def _reset_state(self) -> None:
         """Set every state attribute to its initial value (override)."""
 
+    def start_at(self, out: float) -> None:
+        """Start again at rest from the output ``out``: :meth:`reset`, then the next
+        valid cycle continues from ``out`` without a bump.
+
+        For a runtime that finds its device's MV after a restart or an outage,
+        when the block's own state is too old to continue from: the block
+        starts as if ``out`` had been applied for ever -- an ADRC's observer at
+        rest on the next measurement with ``x4 = -b0 out`` (then its handover
+        gives ``out``), a PID's integrator at ``out`` -- the restart a failed
+        cycle makes from its held output (:meth:`_resume`), limited to
+        :meth:`output_limits`.  A non-finite ``out`` is a plain :meth:`reset`.
+        """
+        self.reset()
+        if _NINF < out < _INF:
+            lo, hi = self.output_limits()
+            self.out = held = lo if out < lo else hi if out > hi else float(out)
+            self._resume(held)
+
     def snapshot(self, *, copy: bool = True) -> dict[str, Any]:
         """A copy of the block's state; :meth:`restore` puts it back.
 

@@ -157,12 +157,15 @@ def derivative_coefficients(kd: float, tf: float, h: float, method: int) -> tupl
 
     ``method`` 0 forward (2.10), 1 backward (2.11), 2 Tustin (2.12);
     ``kd = K Td``, ``Tf = Td/N``.  ``kd == 0`` gives ``(0, 0)`` (no derivative).
+    The forward difference's pole ``1 - h/Tf`` leaves the unit circle for
+    ``h >= 2 Tf`` (the configuration refuses such a ``ts``); a measured period
+    that long gets the backward difference (2.11), stable for any ``h``.
     """
     if kd == 0.0:
         return 0.0, 0.0
-    if method == _FORWARD:
+    if method == _FORWARD and h < 2.0 * tf:
         return 1.0 - h / tf, kd / tf
-    if method == _BACKWARD:
+    if method != _TUSTIN:  # forward beyond 2 Tf, or backward
         return tf / (tf + h), kd / (tf + h)
     return (2.0 * tf - h) / (2.0 * tf + h), 2.0 * kd / (2.0 * tf + h)
 

@@ -1,26 +1,24 @@
 """The adapter factory: the :class:`~ctrlblocks.runtime.io.Adapter` for a connection's protocol.
 
-It lives above :mod:`.io`, :mod:`.opcua` and :mod:`.modbus` (which build on
-:mod:`.io`), so none of them imports another in a circle.  The OPC UA and
-Modbus adapters import their libraries only when connected.
+The protocol registry (:mod:`ctrlblocks.runtime.config.protocols`) says where
+each protocol's adapter lives; its module is imported here, when a runtime
+makes its connections (the OPC UA and Modbus adapters import their libraries
+only when they connect).
 """
 
 from __future__ import annotations
 
-from .config import ConnectionConfig
-from .io import Adapter, MemoryAdapter
-from .modbus import ModbusAdapter
-from .opcua import OpcUaAdapter
+from .config import PROTOCOLS, ConnectionConfig
+from .io import Adapter
 
 __all__ = ["make_adapter"]
 
 
 def make_adapter(config: ConnectionConfig) -> Adapter:
-    """The adapter for ``config.protocol`` (``memory``, ``opcua`` or ``modbus``)."""
-    if config.protocol == "memory":
-        return MemoryAdapter()
-    if config.protocol == "opcua":
-        return OpcUaAdapter(config)
-    if config.protocol == "modbus":
-        return ModbusAdapter(config)
-    raise ValueError(f"unknown protocol {config.protocol!r}")
+    """The adapter for ``config.protocol`` (any registered protocol)."""
+    try:
+        protocol = PROTOCOLS[config.protocol]
+    except KeyError:
+        raise ValueError(f"unknown protocol {config.protocol!r}") from None
+    adapter: Adapter = protocol.make_adapter(config)
+    return adapter

@@ -31,8 +31,9 @@ What it guarantees:
   GM, PM of each proposal on the identified model where there is one,
   :func:`~ctrlblocks.tuning.margins.margins`); :meth:`LiveTuning.accept`
   applies one through :meth:`Runtime.command <ctrlblocks.runtime.Runtime.command>`
-  (validated by the block, bumpless by the block's own retuning rules) and
-  writes the retain file at once, so the tuning survives a restart.
+  (validated by the block, bumpless by the block's own retuning rules), which
+  writes the retain file at once, so the tuning survives a restart (the
+  faceplate confirms after :meth:`Runtime.durable <ctrlblocks.runtime.Runtime.durable>`).
 * **Audited.** ``tune-start`` (who, method, bounds), ``tune-abort`` (who or
   what, and why), ``tune-result`` (the model and the proposals, or why it
   failed), ``tune-accept`` / ``tune-reject`` (who, which proposal) go to the
@@ -237,7 +238,7 @@ class LiveTuning:
         pv_min: float | None = None,
         pv_max: float | None = None,
         max_time: float = 3600.0,
-        hysteresis: float = 0.0,
+        hysteresis: float | None = None,
         pre_time: float = 1.0,
     ) -> dict[str, Any]:
         """Start a ``method`` test on ``loop`` as ``user``; its status.
@@ -254,8 +255,9 @@ class LiveTuning:
             PV bounds; leaving them aborts the test (default: none).
         max_time : float
             Longest test [s].
-        hysteresis : float
-            Relay hysteresis [PV unit] (just above the noise band).
+        hysteresis : float, optional
+            Relay hysteresis [PV unit]; default: sized from the noise the relay
+            measures first (:mod:`ctrlblocks.tuning.relay`, "Noisy plants").
         pre_time : float
             Step: time held at the present MV before the step [s].
 
@@ -274,7 +276,7 @@ class LiveTuning:
             tu = self._new(lp, user, options)
         except CommandError as exc:
             self.runtime.audit(user, "tune-start", loop=loop, new=_plain(options), ok=False,
-                               message=str(exc))  # fmt: skip
+                               message=str(exc), bound=True)  # fmt: skip
             raise
         self.tunings[loop] = tu
         self.runtime.audit(user, "tune-start", loop=loop, old={"mode": tu.mode0, "mv": tu.u0},
@@ -306,6 +308,8 @@ class LiveTuning:
             opts[k] = default if v is None else v
         for k in _OPTIONS:
             v = opts[k]
+            if v is None and k == "hysteresis":
+                continue  # sized from the noise
             if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
                 raise CommandError(k, f"must be a number, got {v!r}")
             opts[k] = float(v)
@@ -421,6 +425,9 @@ class LiveTuning:
         tu.margins_ready = True
         tu.changed()
         st = tu.status()
+        model = st.get("model") or {}
+        if model.get("kind") == "FOPDT":  # the loop's derived ranges follow the process
+            tu.loop.bounds.set_model(model)
         self.runtime.audit(
             "runtime", "tune-result", loop=tu.loop.name, ok=True,
             new=_plain({k: st.get(k) for k in ("method", "model", "proposals", "margins",
@@ -451,21 +458,20 @@ class LiveTuning:
             msg = f"{proposal} {why} on the identified model: accept it with force"
         if msg:
             self.runtime.audit(user, "tune-accept", loop=loop, ok=False, message=msg,
-                               new={"proposal": proposal})  # fmt: skip
+                               new={"proposal": proposal}, bound=True)  # fmt: skip
             raise CommandError("proposal", msg)
         try:
             tunings = block_tunings(tu.loop, proposals[proposal])
             old = self.runtime.command(loop, user=user, tunings=tunings)
         except CommandError as exc:
-            self.runtime.audit(user, "tune-accept", loop=loop, ok=False,
+            self.runtime.audit(user, "tune-accept", loop=loop, ok=False, bound=True,
                                new={"proposal": proposal}, message=str(exc))  # fmt: skip
             raise
         tu.decision, tu.decided_by, tu.accepted = "accepted", user, proposal
         tu.changed()
         self.runtime.audit(user, "tune-accept", loop=loop, old=_plain(old.get("tunings")),
                            new=_plain({"proposal": proposal, "tunings": tunings}))  # fmt: skip
-        self._retain_now()
-        return old
+        return old  # (the command has started writing the retain file: Runtime.durable)
 
     def reject(self, loop: str, *, user: str) -> dict[str, Any]:
         """Reject the result of the finished test of ``loop`` (nothing changes); its status."""
@@ -480,7 +486,7 @@ class LiveTuning:
         tu = self.tunings.get(loop)
         if tu is None or not tu.running:
             msg = "no test is running on this loop"
-            self.runtime.audit(user, action, loop=loop, ok=False, message=msg)
+            self.runtime.audit(user, action, loop=loop, ok=False, message=msg, bound=True)
             raise CommandError("tune", msg)
         return tu
 
@@ -493,20 +499,9 @@ class LiveTuning:
                 if tu is not None and tu.active
                 else "no test result waits for a decision"
             )
-            self.runtime.audit(user, action, loop=loop, ok=False, message=msg)
+            self.runtime.audit(user, action, loop=loop, ok=False, message=msg, bound=True)
             raise CommandError("tune", msg)
         return tu
-
-    def _retain_now(self) -> None:
-        if self.runtime.retain is None:
-            return
-        try:
-            loop = asyncio.get_running_loop()
-        except RuntimeError:  # no event loop here: the next periodic save retains it
-            return
-        task = loop.create_task(self.runtime.save_retained())
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
 
 
 def fragile(margins: Mapping[str, Any] | None) -> str:

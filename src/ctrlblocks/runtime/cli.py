@@ -143,6 +143,19 @@ def describe_files(cfg: Any) -> None:
 @click.option("--private-key", type=click.Path(exists=True, dir_okay=False), default=None)
 @click.option("--trust", multiple=True, type=click.Path(exists=True), help="Trusted client cert.")
 @click.option("--user", "users", multiple=True, help="USER:PASSWORD (with security).")
+@click.option(
+    "--watchdog",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    help="Seconds without a new heartbeat (variable hb) before the plant's safe MV applies.",
+)
+@click.option(
+    "--watchdog-mv",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="The plant's own safe MV while the watchdog is tripped.",
+)
 def plant_server(
     scenario: Path,
     case: str | None,
@@ -156,13 +169,18 @@ def plant_server(
     private_key: str | None,
     trust: tuple[str, ...],
     users: tuple[str, ...],
+    watchdog: float | None,
+    watchdog_mv: float,
 ) -> None:
     """Serve the plant of SCENARIO over OPC UA and Modbus TCP until SIGINT/SIGTERM.
 
     Variables: pv, mv (written by the controller), sp, mode, manual_value,
     u_min, u_max, k, pv2 (inner plant output), dv (input load), mv2 (a split
-    range's actuator B, written), wild (a ratio loop's wild flow) -- OPC UA
-    ns=2;s=NAME, Modbus holding registers 0, 2, 4, ..., 22 (FLOAT32).  See
+    range's actuator B, written), wild (a ratio loop's wild flow), hb (the
+    runtime's heartbeat, written), tripped (1 while the watchdog holds the
+    safe MV) -- OPC UA ns=2;s=NAME, Modbus holding registers 0, 2, 4, ..., 26
+    (FLOAT32).  With --watchdog, no new hb value for that many seconds puts
+    the plant on --watchdog-mv until the heartbeat moves again.  See
     docs/runtime.md.
     """
     from ..sim import ScenarioError, load_scenario
@@ -208,6 +226,8 @@ def plant_server(
             private_key=private_key,
             trusted=trust,
             users=user_map,
+            watchdog=watchdog,
+            watchdog_mv=watchdog_mv,
         )
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
@@ -233,6 +253,8 @@ def plant_server(
             click.echo(f"OPC UA: {server.opcua_url}")
         if server.modbus_port:
             click.echo(f"Modbus TCP: {host}:{server.modbus_port}")
+        if watchdog is not None:
+            click.echo(f"watchdog: {watchdog:g} s without a heartbeat (hb) -> MV {watchdog_mv:g}")
         try:
             await stop.wait()
         finally:

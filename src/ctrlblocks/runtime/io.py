@@ -344,6 +344,11 @@ class MemoryAdapter(Adapter):
         self.bus = bus if bus is not None else MemoryBus()
         self.open = False
 
+    @classmethod
+    def from_config(cls, config: ConnectionConfig) -> MemoryAdapter:
+        """An adapter on a bus of its own (the ``memory`` protocol of a configuration)."""
+        return cls()
+
     async def connect(self) -> None:
         if self.bus.down:
             raise IOFault("memory bus is down")

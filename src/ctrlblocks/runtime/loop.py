@@ -1,23 +1,41 @@
 """One control loop of the runtime: a block, its I/O bindings, its cycle and its commands.
 
-Each cycle (called by the scheduler at an absolute deadline):
+Each cycle (called by the scan, :mod:`ctrlblocks.runtime.scan`, at an
+absolute deadline, with the inputs it read):
 
 1. the :class:`~ctrlblocks.blocks.monitor.CycleMonitor` records the measured
-   period; a period above the warning limit is an *overrun*: the loop's
-   ``overrun`` status is set and this cycle's block call uses the measured
-   period as ``dt`` (otherwise the configured ``ts``);
-2. read the bound inputs (PV, and SP, mode, manual value, limits where they
-   are bound to I/O), one request per connection, concurrently;
+   period of the cycle; a period above the warning limit is an *overrun*
+   (``overrun`` in the state, an alarm);
+2. inputs late (the read was not back within the connection's deadline):
+   the loop holds -- the block does not run, nothing is written -- or, with
+   ``on_late = "last_good"``, runs on its last good inputs, flagged ``late``;
 3. apply mode / manual value / limits from I/O (a bound value that cannot
    be read leaves the one in force);
-4. run the block: ``block(sp, pv, y_ok=/pv_ok=quality, dt=...)``.  A PV that
-   failed, timed out, was stale, NaN or of bad quality sets the quality flag
-   false *in this cycle*: ADRC goes to its safe value ``u_sf``, PID to its
-   ``safe_value`` or holds (``on_bad_pv``); both recover without a bump when
-   the PV returns (the blocks' own rules);
+4. run the block: ``block(sp, pv, y_ok=/pv_ok=quality, dt=...)`` with
+   **the dt the blocks can take**: ``ts`` while the time since the block's
+   last step is within the warning limit (jitter), that time when it is
+   longer (a *stretched period*, an alarm), and never more than ``max_dt``
+   (default 10 ts): beyond it the loop re-initialises its blocks from the MV
+   and the present PV, as after a restart.  A PV that failed, timed out, was
+   stale, NaN or of bad quality sets the quality flag false *in this cycle*:
+   ADRC goes to its safe value ``u_sf``, PID to its ``safe_value`` or holds
+   (``on_bad_pv``); both recover without a bump when the PV returns;
 5. write the MV; a failed write is retried ``write_retries`` times at once,
    then reported (``write_ok`` false, ``write_error``) and the next cycle
    writes again.
+
+**Bumpless on every transition.** At a cold start, after a reconnection of
+one of its connections and after a restart, the loop reads the MV back from
+the device (with the cycle's inputs) and starts from it as a PLC block
+leaves MAN for AUTO: for one cycle its MV blocks are in manual at that MV,
+so they track it (the ADRC solves its handover offset, docs/blocks/adrc.md),
+then they go back to their mode; a loop in MAN takes it as its manual
+value.  Block states older than ``max_dt`` (a restart's retained snapshot,
+an observer frozen through an outage) are replaced first: the blocks start
+at rest at that MV on the present PV (``Block.start_at``: an ADRC's
+observer with x4 = -b0 u, the plant held by the device's MV); the two steps after a start use
+``ts`` as their dt (a start-up period is no process time).  Without a
+read-back: the retained MV, else ``initial_mv``, else the blocks' own start.
 
 Structures with more I/O: a ``split_range`` loop writes two MVs (``mv``:
 actuator A, ``mv2``: actuator B, both the split of the controller output
@@ -25,6 +43,10 @@ actuator A, ``mv2``: actuator B, both the split of the controller output
 the wild flow (``wild``): a bad wild flow does not make the loop's
 measurement bad -- the ratio station holds the last good flow setpoint
 (``signals.wild_hold``) and the flow controller goes on.
+
+What the operator sees at a glance is :attr:`ControlLoop.conditions`
+(:mod:`ctrlblocks.runtime.status`): bad PV, on safe value, holding, late
+I/O, stretched period, overrun, oscillating MV, MV at a limit, ...
 
 A loop never raises out of its cycle; faults only change its status.
 """
@@ -44,6 +66,7 @@ from ..loops.structures import ControllerSide
 from .bounds import LoopBounds
 from .config import MEASUREMENTS, MODES, Binding, LoopConfig
 from .io import Connection, Reading
+from .status import OFF_DELAY, Conditions, SwingDetector
 
 __all__ = ["CommandError", "ControlLoop", "Sample"]
 
@@ -129,12 +152,29 @@ class ControlLoop:
         self.input_errors: dict[str, str] = {}
         self.last_exception = ""
         self.mv_alarm = ""
-        self.alarms: list[str] = []  # new alarm messages; the runtime audits and clears them
         self.holding = False
+        self.late = False  # this cycle's inputs were late
+        self.has_inputs = False  # a cycle has had inputs (the first samples wait for them)
+        self.late_cycles = 0
+        self.stretched = 0  # steps with a stretched period (dt > ts)
+        self.initialisations = 0  # bumpless (re)starts: start, reconnect, restart, held
+        self.last_start = ""  # how the last one went
+        self.conditions = Conditions()  # what the faceplate shows at a glance (.status)
+        self._swing = SwingDetector()
+        self._stretched_now = False
+        self._held_long = False
         self._fault_since: float | None = None
         self._last_good_mv: float | None = None
         self._t = 0.0
-        self._restart_mv: float | None = None  # set by restore_retained
+        self._t_step: float | None = None  # cycle time of the last block step
+        self._t_good: float | None = None  # ... of the last step on a good PV
+        self._settle = 0  # steps after a start that use ts as dt
+        # a pending bumpless start: why ("start", "reconnect", "restart", "held"), the MV
+        # to start from (read back, retained, initial) and the age of the blocks' state [s]
+        self._init: str | None = "start" if config.start == "read_back" else None
+        self._init_mv: float | None = None
+        self._init_age = math.inf
+        self._retained_mv: float | None = None  # set by restore_retained
         self.tuning: Any = None  # a live tuning (ctrlblocks.runtime.autotune.LoopTuning)
         # the engineering ranges every command is checked against (runtime.bounds)
         self.bounds = LoopBounds(self)
@@ -144,6 +184,7 @@ class ControlLoop:
         self._inputs = {n: b for n, b in config.bindings().items() if b.is_io and n not in written}
         # an output stage (PWM, step controller) has a fixed off state (Structure.off_mv)
         self._off_mv = self.side.kind.off_mv(self.side.spec)
+        self._want_readback = self._init is not None and self._readback_possible()
         self.sp = float(config.sp.value) if not config.sp.is_io else math.nan
         mode = config.mode.value if not config.mode.is_io else "auto"
         self._set_mode(mode)
@@ -209,56 +250,133 @@ class ControlLoop:
         """The I/O inputs read each cycle: signal -> binding (PV, and SP, mode, ... if bound)."""
         return self._inputs
 
-    def compute(self, t: float, period: float, inputs: Mapping[str, Reading]) -> float | None:
-        """Steps 1, 3 and 4 of the module docstring on this cycle's ``inputs``: the MV to write.
+    def cycle(
+        self, t: float, period: float, inputs: Mapping[str, Reading] | None, *, late: bool = False
+    ) -> float | None:
+        """Steps 1-4 of the module docstring at cycle time ``t`` [s]: the MV to write.
 
-        The MV is checked before it goes out: a non-finite value (a block
-        defect) becomes the loop's ``safe_value``, with ``mv_alarm`` set in the
-        state and an entry in :attr:`alarms` (the runtime audits and logs it).
-        None when the cycle failed with an exception (nothing is written).
+        ``inputs`` are this cycle's readings (None: they are late and the loop
+        holds; ``late`` with readings: the last good ones, ``on_late =
+        "last_good"``).  The MV is checked before it goes out: a non-finite
+        value (a block defect) becomes the loop's ``safe_value``, with
+        ``mv_alarm`` set in the state and the ``safe_value`` condition (the
+        runtime audits it).  None when nothing is to be written: the
+        loop held, or the cycle failed with an exception.
         """
         first = self.cycle_count == 0
-        dt: float | None = None
-        overrun = False
-        if not first:
-            overrun = bool(self.monitor(period))
-            if overrun:
-                dt = period
-        self.overrun = overrun
-        self.dt = self.ts if dt is None else dt
+        self.overrun = not first and bool(self.monitor(period))
         self._t = t
+        self.dt = self.ts
+        self.late = late
+        if late:
+            self.late_cycles += 1
+        if inputs is None:
+            self.dt = 0.0  # the block did not run
+            self._status(t)
+            return None
+        self.has_inputs = True
         try:
             self._apply_inputs(inputs)
-            # every measurement the structure needs must be good, else the MV
-            # blocks see a bad measurement in this cycle (their safe value)
-            ok = True
-            reasons = []
-            meas: dict[str, float] = {}
-            for sig, name in MEASUREMENTS.items():
-                if sig in inputs:
-                    r = inputs[sig]
-                    meas[name] = r.value if r.ok else math.nan
-                    self.measurements[sig] = r.value
-                    if sig == "wild":  # the ratio station's own fault rule (module docstring)
-                        meas["w_ok"] = float(r.ok)
-                    elif not r.ok:
-                        ok = False
-                        reasons.append(r.reason if sig == "pv" else f"{sig}: {r.reason}")
-            pv = inputs["pv"] if "pv" in inputs else inputs["pv2"]
-            self.pv, self.pv_ok, self.pv_reason = pv.value, ok, "; ".join(reasons)
-            if self._restart_mv is not None:
-                u = self._bumpless_restart(t, ok, meas, dt)
-            elif self.tuning is not None and self.tuning.active:
-                u = self.tuning.cycle(ok, meas, dt)
-            else:
-                u = self._step(t, ok, meas, dt)
+            ok, meas = self._measurements(inputs)
+            u = self._run(t, ok, meas)
+            if u is None:  # a start waits for the MV read back (bounded by the read's timeout)
+                self.dt = 0.0
+                self._status(t)
+                return None
             u = self._guard(u)
             self.mv = u
+            self._status(t)
             return u
         except Exception as exc:  # a loop never stops the runtime
             log.exception("loop %s: cycle failed", self.name)
             self.last_exception = f"{type(exc).__name__}: {exc}"
             return None
+
+    def _run(self, t: float, ok: bool, meas: Mapping[str, float]) -> float | None:
+        """This cycle's MV: a bumpless start, a live test's step or the structure's step.
+
+        A start (pending in ``_init``) waits for a good PV -- until then the
+        blocks' fault rule runs and the MV is read back every cycle, so the
+        start takes the device's MV of the cycle the PV returns -- and for the
+        MV read back (None: hold this cycle).  A good PV after more than
+        ``max_dt`` without a step on a good PV (a long hold, an outage) starts
+        again from the MV last written (module docstring).
+        """
+        bound = self.config.dt_bound
+        if self._init is None and ok and self._t_good is not None and t - self._t_good > bound:
+            held = self._t_step is None or t - self._t_step > bound
+            self._begin("held" if held else "pv back", t - self._t_good)
+            self._init_mv = self.mv if self.write_ok and is_finite(self.mv) else None
+            self._want_readback = self._init_mv is None and self._readback_possible()
+        if self._init is not None:
+            if not ok:  # the fault rule now; the start when the PV is back
+                self._want_readback = self._readback_possible()
+                u = self._step(t, ok, meas, None)
+                self._stepped(t, ok)
+                return u
+            if self._want_readback:
+                return None
+            return self._initialise(t, ok, meas)
+        dt = self._dt(t)
+        if self.tuning is not None and self.tuning.active:
+            u = self.tuning.cycle(ok, meas, dt)
+        else:
+            u = self._step(t, ok, meas, dt)
+        self._stepped(t, ok)
+        return u
+
+    def compute(self, t: float, period: float, inputs: Mapping[str, Reading]) -> float | None:
+        """:meth:`cycle` with inputs that are on time (the MV to write, or None)."""
+        return self.cycle(t, period, inputs)
+
+    def _measurements(self, inputs: Mapping[str, Reading]) -> tuple[bool, dict[str, float]]:
+        """The structure's measurements and whether all of them are good (``pv_ok``).
+
+        Every measurement the structure needs must be good, else the MV blocks
+        see a bad measurement in this cycle (their safe value).
+        """
+        ok = True
+        reasons = []
+        meas: dict[str, float] = {}
+        for sig, name in MEASUREMENTS.items():
+            if sig in inputs:
+                r = inputs[sig]
+                meas[name] = r.value if r.ok else math.nan
+                self.measurements[sig] = r.value
+                if sig == "wild":  # the ratio station's own fault rule (module docstring)
+                    meas["w_ok"] = float(r.ok)
+                elif not r.ok:
+                    ok = False
+                    reasons.append(r.reason if sig == "pv" else f"{sig}: {r.reason}")
+        pv = inputs["pv"] if "pv" in inputs else inputs["pv2"]
+        self.pv, self.pv_ok, self.pv_reason = pv.value, ok, "; ".join(reasons)
+        return ok, meas
+
+    def _dt(self, t: float) -> float | None:
+        """The dt of this step (module docstring, step 4): None (ts) or the stretched period.
+
+        Beyond ``max_dt`` only a step on a bad PV comes here (a good one starts
+        again, :meth:`_run`): its blocks run their fault rule, dt None.
+        """
+        if self._t_step is None or self._settle > 0:
+            self._settle = max(0, self._settle - 1)
+            return None
+        gap = t - self._t_step
+        if gap <= self.monitor.warn_limit + 1e-9 or gap > self.config.dt_bound + 1e-9:
+            return None
+        self.stretched += 1
+        self._stretched_now = True
+        self.conditions.set(
+            "stretched", True, f"the block ran on a period of {gap:.3g} s ({gap / self.ts:.2g} ts)",
+            t, off_delay=OFF_DELAY,
+        )  # fmt: skip
+        self.dt = gap
+        return gap
+
+    def _stepped(self, t: float, ok: bool) -> None:
+        self._t_step = t
+        if ok:
+            self._t_good = t
 
     def _step(self, t: float, ok: bool, meas: Mapping[str, float], dt: float | None) -> float:
         """The structure's step; with ``on_fault = "hold"`` the last good MV while it may hold."""
@@ -298,6 +416,62 @@ class ControlLoop:
         self.side.values["v"] = held
         return held
 
+    def _status(self, t: float) -> None:
+        """Update :attr:`conditions` after this cycle (:mod:`~ctrlblocks.runtime.status`)."""
+        c, blk, cfg = self.conditions, self.block, self.config
+        manual = self.side.manual
+        c.set("late_io", self.late, "inputs not back within the deadline" + (
+            ": the MV is held" if self.dt == 0.0 else ": running on the last good inputs"
+        ), t, off_delay=OFF_DELAY)  # fmt: skip
+        c.set("overrun", self.overrun,
+              f"cycle period {self.monitor.out:.3g} s, ts {self.ts:g} s", t,
+              off_delay=OFF_DELAY)  # fmt: skip
+        c.set("stretched", self._stretched_now, t=t, off_delay=OFF_DELAY)
+        c.set("held_long", self._held_long, t=t,
+              off_delay=OFF_DELAY + math.ceil(cfg.dt_bound / self.ts))  # fmt: skip
+        self._held_long = False
+        self._stretched_now = False
+        bad = self.cycle_count > 0 or self.dt != 0.0
+        bad = bad and not self.pv_ok and self.pv_reason != "no cycle yet"
+        c.set("bad_pv", bad, f"PV bad: {self.pv_reason}", t)
+        fault_safe = bad and not self.holding and not manual and (
+            cfg.block_type == "ADRC" or cfg.on_bad_pv == "safe")
+        safe = fault_safe or bool(self.mv_alarm)
+        c.set("safe_value", safe, self.mv_alarm or
+              f"PV bad: the safe value {cfg.safe_value:g} is written", t)  # fmt: skip
+        held = self.holding or (self.dt == 0.0 and self._t_step is not None)
+        c.set("holding", held, "the last good MV is held" if self.holding
+              else "inputs late: the MV is held", t)  # fmt: skip
+        errs = self.input_errors
+        c.set("input_error", bool(errs), "; ".join(f"{k}: {v}" for k, v in errs.items()), t)
+        code = int(blk.error_id)
+        block_err = code != 0 and not bad and self.dt != 0.0
+        c.set("block_error", block_err, f"16#{code:04X} {blk.error_name}", t,
+              severity="alarm" if blk.error else "info")  # fmt: skip
+        lo, hi = float(blk.u_min), float(blk.u_max)
+        mv = self.mv
+        at = not manual and not safe and not held and is_finite(mv) and (
+            (math.isfinite(hi) and mv >= hi - 1e-9 * max(1.0, abs(hi)))
+            or (math.isfinite(lo) and mv <= lo + 1e-9 * max(1.0, abs(lo))))  # fmt: skip
+        c.set("mv_limit", at, f"MV {mv:.6g} at its {'upper' if mv >= hi else 'lower'} limit", t)
+        if manual or self.dt == 0.0:
+            swinging = False
+            if manual:
+                self._swing.reset()
+        else:
+            span = hi - lo
+            if not math.isfinite(span) and self.bounds.mv is not None:
+                span = self.bounds.mv.hi - self.bounds.mv.lo
+            swinging = self._swing.update(mv, span)
+        c.set("oscillating", swinging,
+              "the MV swings: it reversed by more than 10 % of its range "
+              f"{self._swing.recent} times in {self._swing.window} cycles", t)  # fmt: skip
+        testing = self.tuning is not None and self.tuning.active
+        c.set("tuning", testing, "a live tuning test runs", t)
+        down = sorted(n for n in cfg.connections() if not self.connections[n].connected)
+        c.set("connection_down", bool(down), "; ".join(
+            f"{n}: {self.connections[n].last_error}" for n in down), t)  # fmt: skip
+
     def _guard(self, u: float) -> float:
         """A non-finite MV never leaves the loop: the safe value, an alarm and an audit entry."""
         if isinstance(u, (int, float)) and math.isfinite(u):
@@ -305,9 +479,8 @@ class ControlLoop:
             return float(u)
         safe = self.config.safe_value if self._off_mv is None else self._off_mv
         msg = f"the block gave a non-finite MV ({u!r}): the safe value {safe!r} is written"
-        if self.mv_alarm != msg:  # once per episode
+        if self.mv_alarm != msg:  # once per episode (the safe_value condition is audited)
             log.error("loop %s: %s", self.name, msg)
-            self.alarms.append(msg)
         self.mv_alarm = msg
         return safe
 
@@ -331,6 +504,7 @@ class ControlLoop:
     def written(self, err: str | None) -> None:
         """Record the outcome of this cycle's MV write (None: accepted; else the failure)."""
         self.write_ok = err is None
+        self.conditions.set("write_failed", err is not None, f"MV write: {err}", self._t)
         if err is not None:
             self.write_failures += 1
             if self.write_error != err:
@@ -383,6 +557,7 @@ class ControlLoop:
             "file_tunings": dict(self.config.block_params),
             "mv": self.mv,
             "snapshots": {role: b.snapshot() for role, b in self.side.blocks.items()},
+            "t_wall": time.time(),  # the snapshots' age at a restart
         }
         if self.tuning is not None and self.tuning.active:  # a stop during a live test
             st = self.tuning.retained(st)
@@ -451,32 +626,121 @@ class ControlLoop:
             self._set_mode(st["mode"], preset=False)
         # the bumpless restart sets the controller's output; an output stage's MV (on/off,
         # motor commands) is not one: the restored snapshot continues the controller
-        self._restart_mv = finite_or_none(st.get("mv")) if self._off_mv is None else None
+        self._retained_mv = finite_or_none(st.get("mv")) if self._off_mv is None else None
+        saved = finite_or_none(st.get("t_wall"))
+        self._begin("restart", math.inf if saved is None else max(0.0, time.time() - saved))
+        self._init_mv = None
+        self._want_readback = self._readback_possible()
         log.info("loop %s: retained state restored", self.name)
 
-    def restart_from(self, reading: Reading | None) -> None:
-        """The MV read back from the device before the first cycle (bad or None: the retained).
+    # -- bumpless starts (module docstring) -------------------------------------------
 
-        A split-range loop restarts from its retained controller output: one
-        actuator's value does not give it back (in the gap every output maps
-        to the same values).
+    def _readback_possible(self) -> bool:
+        """The MV can be read back: one actuator that holds a controller output.
+
+        A split range's two actuators do not give the controller output back
+        (in the gap every output maps to the same values), nor does an output
+        stage's MV (on/off, motor commands).
         """
-        # an output stage's MV (on/off, motor commands) is not the controller's output either
-        ok = reading is not None and reading.ok
-        if ok and self.config.mv2 is None and self._off_mv is None:
-            self._restart_mv = reading.value  # type: ignore[union-attr]
+        return self.config.mv2 is None and self._off_mv is None and self.config.mv.is_io
 
-    def _bumpless_restart(self, t: float, ok: bool, meas: Mapping[str, float], dt: float | None):
-        """The first cycle after a restart: output the read-back MV, the blocks track it."""
-        u0 = self._restart_mv
-        self._restart_mv = None
-        manual, mval = self.side.manual, float(self.block.manual_value)
-        self.side.set_manual(True, u0)
-        u = self._step(t, ok, meas, dt)
-        self.side.set_manual(manual, mval if manual else None)
-        if not manual:
-            self._set_manual_value(mval)
+    def _begin(self, reason: str, age: float) -> None:
+        """Start a bumpless (re)start at the next cycle with inputs (module docstring)."""
+        self._init = reason
+        self._init_age = age
+
+    def resync(self, reason: str) -> None:
+        """Start again bumplessly from the device's MV (a reconnection: ``reason``).
+
+        The next read of the MV's connection reads the MV back; the blocks'
+        state is reset when the last good step is older than ``max_dt``.
+        """
+        age = math.inf if self._t_good is None else self._t - self._t_good
+        self._begin(reason, age)
+        self._init_mv = None
+        self._want_readback = self._readback_possible()
+
+    def readback_address(self) -> str | None:
+        """The MV's address while a read-back is wanted (the scan reads it with the inputs)."""
+        return self.config.mv.address if self._want_readback else None
+
+    def read_back(self, reading: Reading | None) -> None:
+        """The MV read back from the device (bad or None: the retained or initial MV)."""
+        self._want_readback = False
+        if reading is not None and reading.ok:
+            self._init_mv = reading.value
+        else:
+            self._init_mv = None
+            if reading is not None:
+                log.debug("loop %s: the MV could not be read back (%s)", self.name, reading.reason)
+
+    def restart_from(self, reading: Reading | None) -> None:
+        """The MV read back from the device before the first cycle (see :meth:`read_back`)."""
+        self.read_back(reading)
+
+    def _initialise(self, t: float, ok: bool, meas: Mapping[str, float]) -> float:
+        """The bumpless start (module docstring): the MV blocks track the start MV for a step."""
+        reason = self._init or "start"
+        u0 = self._init_mv
+        source = "the device's MV" if reason != "held" else "the MV last written"
+        if u0 is None and reason == "restart":
+            u0, source = self._retained_mv, "the retained MV"
+        if u0 is None and self.config.initial_mv is not None:
+            u0, source = self.config.initial_mv, "initial_mv"
+        if u0 is not None:
+            u0 = min(max(float(u0), float(self.block.u_min)), float(self.block.u_max))
+            u0 = u0 if is_finite(u0) else None
+        self._init, self._init_mv = None, None
+        if u0 is not None and self._init_age > self.config.dt_bound:
+            self._reset_blocks(u0)  # stale: at rest at u0 on the present PV, then track u0
+        self._swing.reset()
+        self._settle = 1  # this step and the next one use ts
+        self._fault_since = None
+        if u0 is None:  # nothing to start from: the blocks' own start
+            u = self._step(t, ok, meas, None)
+            what = "the blocks' own start (no MV read back, no initial_mv)"
+        else:
+            manual, mval = self.side.manual, float(self.block.manual_value)
+            if manual and not self.is_bound("manual_value"):
+                mval = u0  # MAN: the manual value is what the device has
+            self.side.set_manual(True, u0)
+            u = self._step(t, ok, meas, None)
+            self.side.set_manual(manual, mval if manual else None)
+            if not manual:
+                self._set_manual_value(mval)
+            what = f"{source} {u0:.6g}"
+        self._stepped(t, ok)
+        self.initialisations += 1
+        age = "" if math.isinf(self._init_age) else f", block state {self._init_age:.3g} s old"
+        self.last_start = f"{reason}: bumpless from {what}{age}"
+        log.debug("loop %s: %s", self.name, self.last_start)
+        if reason == "held":  # a warning (audited once per episode), kept over the next holds
+            span = OFF_DELAY + math.ceil(self.config.dt_bound / self.ts)
+            self.conditions.set("held_long", True, f"no step on good inputs for more than "
+                                f"max_dt = {self.config.dt_bound:g} s: {self.last_start}",
+                                t, off_delay=span)  # fmt: skip
+            self._held_long = True
+        self._init_age = math.inf
         return u
+
+    def _reset_blocks(self, u0: float) -> None:
+        """Start the controllers again at rest at the MV ``u0`` (their state is stale).
+
+        ``Block.start_at``: an ADRC's observer starts on the present PV with
+        x4 = -b0 u0 -- the plant at rest on the MV the device holds -- not on
+        the initial u0 of its configuration (whose x4 the observer would then
+        correct, moving the MV away from the set point first). Mode, manual
+        value and limits stay.
+        """
+        for role in self.side.ctrls:
+            b = self.side.blocks[role]
+            manual = getattr(b, "manual", None)
+            mval = getattr(b, "manual_value", None)
+            b.start_at(u0)
+            if manual is not None:
+                b.manual = manual
+            if mval is not None:
+                b.manual_value = mval
 
     # -- state and commands ---------------------------------------------------------
 
@@ -517,6 +781,16 @@ class ControlLoop:
             "bound": {s: str(b) for s, b in self.config.bindings().items() if b.is_io},
             "overrun": self.overrun,
             "dt": self.dt,
+            "late": self.late,
+            "late_cycles": self.late_cycles,
+            "on_late": self.config.on_late,
+            "max_dt": self.config.dt_bound,
+            "stretched": self.stretched,
+            "initialisations": self.initialisations,
+            "last_start": self.last_start,
+            # what an operator sees at a glance (runtime.status): codes, and each with its text
+            "status": self.conditions.codes(),
+            "conditions": self.conditions.as_json(),
             "measurements": dict(self.measurements),
             "signals": dict(self.side.values),
             "blocks": self.side.inner_states(),

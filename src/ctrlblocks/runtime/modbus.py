@@ -137,6 +137,8 @@ class ModbusAdapter(Adapter):
                     rr = await fn(start, count=count, device_id=self.config.unit)
                 except Exception as exc:
                     raise IOFault(f"Modbus read {where}: {describe(exc)}") from exc
+                if why := _mismatch(rr, 3 if kind == "hr" else 4, count=count):
+                    raise IOFault(f"Modbus read {where}: {why}")
                 for r in regs:
                     if start <= r < start + count:
                         if rr.isError():
@@ -174,10 +176,42 @@ class ModbusAdapter(Adapter):
                 rr = await client.write_registers(start, words, device_id=self.config.unit)
             except Exception as exc:
                 raise IOFault(f"Modbus write hr:{start}: {describe(exc)}") from exc
+            if why := _mismatch(rr, 16, count=count, address=start):
+                raise IOFault(f"Modbus write hr:{start}..{start + count - 1}: {why}")
             for r in inside:
                 for i in where[r]:
                     res[i] = _exception(rr, items[i][0]) if rr.isError() else None
         return res
+
+
+def _mismatch(response: Any, function: int, count: int, address: int | None = None) -> str:
+    """Why ``response`` is not the answer to the request (function ``function`` on ``count``
+    registers from ``address``); "" when it is.
+
+    The transaction identifier matches (the client checks it), but a device
+    can still answer out of step -- the plant server's own did, a read
+    answered with a write's response, when a request had timed out while the
+    device still worked on it -- and a register count or function of
+    another request must never be decoded as this one's values.  Function 3
+    and 4 answers carry their byte count (so their register count), function
+    16 answers echo the address and count written.  A mismatch is a
+    connection fault (the connection is reset, which puts it back in step).
+    """
+    fc = int(getattr(response, "function_code", -1))
+    if response.isError():  # an exception response: of this function, or out of step
+        if fc & 0x7F == function:
+            return ""
+        return f"the device answered function {fc & 0x7F} to function {function} (out of step)"
+    if fc != function:
+        return f"the device answered function {fc} to function {function} (out of step)"
+    if function in (3, 4):
+        n = len(getattr(response, "registers", ()) or ())
+        if n != count:
+            return f"the device answered {n} registers to a read of {count} (out of step)"
+    elif (getattr(response, "address", None), getattr(response, "count", None)) != (address, count):
+        got = f"{getattr(response, 'count', '?')} at {getattr(response, 'address', '?')}"
+        return f"the device confirmed {got} for a write of {count} at {address} (out of step)"
+    return ""
 
 
 def _exception(response: Any, address: str) -> str:

@@ -75,6 +75,15 @@ def _faults(what: str) -> Iterator[None]:
         raise IOFault(f"OPC UA {what}: {describe(exc)}") from exc
 
 
+def _answered(results: Sequence[Any], nodes: Sequence[Any], what: str) -> None:
+    """Raise :class:`IOFault` unless the server gave one result per node (OPC UA Part 4,
+    Read and Write: ``Results`` has the length of the request's list); results of
+    another length are never matched to the nodes."""
+    if len(results) != len(nodes):
+        raise IOFault(f"OPC UA {what}: the server answered {len(results)} results to "
+                      f"{len(nodes)} nodes")  # fmt: skip
+
+
 class OpcUaAdapter(Adapter):
     """OPC UA client (see the module docstring)."""
 
@@ -176,7 +185,9 @@ class OpcUaAdapter(Adapter):
         dvs = []
         for chunk in _chunks([self._nodeid(a) for a in new], self.max_nodes["read"]):
             self.count("read")
-            dvs += await client.uaclient.read_attributes(chunk, ua.AttributeIds.DataType)
+            got = await client.uaclient.read_attributes(chunk, ua.AttributeIds.DataType)
+            _answered(got, chunk, "read of the data types")
+            dvs += got
         for a, dv in zip(new, dvs, strict=True):
             vt = None
             if dv.StatusCode is None or dv.StatusCode.is_good():
@@ -197,7 +208,9 @@ class OpcUaAdapter(Adapter):
         with _faults("read"):
             for chunk in _chunks(nodeids, self.max_nodes["read"]):
                 self.count("read")
-                dvs += await client.uaclient.read_attributes(chunk, ua.AttributeIds.Value)
+                got = await client.uaclient.read_attributes(chunk, ua.AttributeIds.Value)
+                _answered(got, chunk, "read")
+                dvs += got
         now = _dt.datetime.now(_dt.timezone.utc)
         out = []
         for dv in dvs:
@@ -244,7 +257,9 @@ class OpcUaAdapter(Adapter):
         with _faults("write"):
             for ids, values in zip(_chunks(nodeids, n), _chunks(dvs, n), strict=True):
                 self.count("write")
-                codes += await client.uaclient.write_attributes(ids, values, ua.AttributeIds.Value)
+                got = await client.uaclient.write_attributes(ids, values, ua.AttributeIds.Value)
+                _answered(got, ids, "write")
+                codes += got
         it = iter(codes)
         return [
             r

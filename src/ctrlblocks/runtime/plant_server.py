@@ -32,7 +32,22 @@ mv2       20        a split range's second actuator (actuator B;     read/write
                     otherwise)
 wild      22        a ratio loop's wild flow (NaN while a ``wild``   read
                     event flags it bad or NaN)
+hb        24        the runtime's heartbeat counter (the watchdog)   read/write
+tripped   26        1 while the watchdog holds the safe MV, else 0   read
 ========  ========  ==============================================  =========
+
+``mv`` (and ``mv2``) read back the MV the process applies: the last one
+written, or the watchdog's safe MV while it is tripped.
+
+**Device watchdog** (``watchdog`` seconds, the pattern of a real PLC): the
+runtime writes a counter to ``hb`` every cycle (``heartbeat = "...:hb"`` on
+the connection); when ``hb`` has not changed for ``watchdog`` seconds -- the
+runtime died, hangs, or lost the connection -- the server applies its own
+safe MV (``watchdog_mv``; a split range's actuators both) and ignores MV
+writes until the counter moves again, then the runtime's writes apply again
+(the runtime starts from the MV it reads back: bumpless).  The watchdog is
+armed from the start: without heartbeats the plant runs on its safe MV after
+``watchdog`` seconds.  ``tripped`` and :attr:`PlantServer.trips` tell.
 
 ``sync = "write"`` (lock-step, for tests and hardware-in-the-loop checks):
 each write of ``mv`` steps the plant once, so a runtime that reads PV,
@@ -49,7 +64,11 @@ state; the runtime's blocks start from their own initial state) and events of
 kind ``set`` (they act inside a controller).
 
 Fault injection for tests (attributes of :class:`PlantServer`): ``delay``
-(Modbus requests answered ``delay`` seconds late), ``force_nan`` (PV reads
+(Modbus requests answered ``delay`` seconds late; a delay beyond the
+client's timeout makes pymodbus's server answer out of step -- a request
+sent after a timed-out one can get the earlier request's response, which
+the runtime's adapter refuses and resets the connection for, as it would
+for a real device doing so), ``force_nan`` (PV reads
 NaN), ``reject_mv`` (Modbus MV writes refused; on OPC UA use
 :meth:`PlantServer.set_mv_writable`), ``stale`` (OPC UA PV with a source
 timestamp an hour old).
@@ -75,6 +94,7 @@ log = logging.getLogger(__name__)
 
 SIGNALS = (
     "pv", "mv", "sp", "mode", "manual_value", "u_min", "u_max", "k", "pv2", "dv", "mv2", "wild",
+    "hb", "tripped",
 )  # fmt: skip
 """Variables of the plant server, in register order."""
 
@@ -142,6 +162,11 @@ class PlantServer:
         empty = none (never any certificate by default).
     users : dict, optional
         ``{user: password}``; required with security (no anonymous login).
+    watchdog : float, optional
+        Seconds without a new heartbeat value after which the server applies
+        ``watchdog_mv`` (module docstring); None: no watchdog.
+    watchdog_mv : float
+        The plant's own safe MV while the watchdog is tripped.
     """
 
     def __init__(
@@ -158,6 +183,8 @@ class PlantServer:
         private_key: str | Path | None = None,
         trusted: Iterable[str | Path] = (),
         users: dict[str, str] | None = None,
+        watchdog: float | None = None,
+        watchdog_mv: float = 0.0,
     ) -> None:
         if sync not in ("write", "clock"):
             raise ValueError(f"sync must be 'write' or 'clock', got {sync!r}")
@@ -165,6 +192,10 @@ class PlantServer:
             raise ValueError("give both the server certificate and its private key")
         if certificate is not None and not users:
             raise ValueError("a secured server needs users (no anonymous login)")
+        if watchdog is not None and not (math.isfinite(watchdog) and watchdog > 0):
+            raise ValueError(f"the watchdog timeout must be seconds > 0, got {watchdog!r}")
+        if not math.isfinite(watchdog_mv):
+            raise ValueError(f"the watchdog's safe MV must be finite, got {watchdog_mv!r}")
         self.process = process
         self.host = host
         self.opcua_port = opcua_port
@@ -193,6 +224,14 @@ class PlantServer:
         self._modbus: Any = None
         self._clock_task: asyncio.Task[None] | None = None
         self.opcua_url = ""
+        # the device watchdog (module docstring)
+        self.watchdog, self.watchdog_mv = watchdog, float(watchdog_mv)
+        self.hb = math.nan  # the last heartbeat value received
+        self.tripped = False
+        self.trips = 0  # times the watchdog tripped
+        self.tripped_at: float | None = None  # loop time of the last trip
+        self._hb_at = 0.0  # loop time of the last change of the heartbeat
+        self._wd_task: asyncio.Task[None] | None = None
 
     # -- life cycle -------------------------------------------------------------------
 
@@ -210,14 +249,19 @@ class PlantServer:
             await self._start_modbus()
         if self.sync == "clock":
             self._clock_task = asyncio.create_task(self._run_clock())
+        if self.watchdog is not None:
+            self._hb_at = asyncio.get_running_loop().time()
+            self._wd_task = asyncio.create_task(self._run_watchdog())
 
     async def stop(self) -> None:
         """Stop every server (clients see the connection drop)."""
-        if self._clock_task is not None:
-            self._clock_task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._clock_task
-            self._clock_task = None
+        for name in ("_clock_task", "_wd_task"):
+            task = getattr(self, name)
+            if task is not None:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
+                setattr(self, name, None)
         await self.kill()
         self._killed_opcua = None
 
@@ -255,9 +299,48 @@ class PlantServer:
             await asyncio.sleep(max(0.0, t0 + k * self.process.ts - loop.time()))
             self.process.step(self.process.mv)
 
+    # -- the device watchdog (module docstring) ------------------------------------------
+
+    @property
+    def heartbeat_at(self) -> float:
+        """The event loop's time [s] of the last change of the heartbeat (the watchdog's start)."""
+        return self._hb_at
+
+    def _heartbeat(self, value: float) -> None:
+        """A write of ``hb``: a new value feeds the watchdog (and releases a trip)."""
+        if value == self.hb:
+            return
+        self.hb = value
+        self._hb_at = asyncio.get_running_loop().time()
+        if self.tripped:
+            self.tripped = False
+            log.warning("watchdog: the heartbeat is back; the runtime's MV writes apply again")
+
+    async def _run_watchdog(self) -> None:
+        assert self.watchdog is not None
+        loop = asyncio.get_running_loop()
+        poll = min(0.05, self.watchdog / 4.0)
+        while True:
+            await asyncio.sleep(poll)
+            if not self.tripped and loop.time() - self._hb_at > self.watchdog:
+                self.tripped, self.trips, self.tripped_at = True, self.trips + 1, loop.time()
+                self._apply_safe_mv()
+                log.warning(
+                    "watchdog: no new heartbeat for %g s: the plant's safe MV %g applies",
+                    self.watchdog, self.watchdog_mv,
+                )  # fmt: skip
+
+    def _apply_safe_mv(self) -> None:
+        self.process.mv = self.watchdog_mv
+        if "mv2" in self._mvs:
+            self.process.mv2 = self.watchdog_mv
+        self._written.clear()
+
     def _mv_written(self, u: float, name: str = "mv") -> None:
         """A write of ``mv`` (or ``mv2``): the lock-step sample steps once all MVs are in."""
         self.mv_writes += 1
+        if self.tripped:  # the watchdog holds the safe MV; a lock-step sample goes on with it
+            u = self.watchdog_mv
         if name == "mv2":
             self.process.mv2 = u  # held: PlantProcess.step applies the last one written
         if self.sync != "write":
@@ -274,6 +357,8 @@ class PlantServer:
         v = self.process.values()
         for name in ("mv2", "wild", "pv2", "dv"):  # a process without them serves NaN
             v.setdefault(name, math.nan)
+        v["hb"] = 0.0 if math.isnan(self.hb) else self.hb
+        v["tripped"] = 1.0 if self.tripped else 0.0
         if self.force_nan:
             v["pv"] = math.nan
         return v
@@ -321,11 +406,11 @@ class PlantServer:
             vt = ua.VariantType.Float if name in self.float_signals else ua.VariantType.Double
             nodeid = ua.NodeId(name, idx)
             var = await obj.add_variable(nodeid, name, ua.Variant(self._values()[name], vt))
-            if name in self._mvs:
+            if name in self._mvs or name == "hb":
                 await var.set_writable(True)
                 server.set_attribute_value_setter(nodeid, self._opcua_mv_setter(name))
-            else:
-                server.set_attribute_value_callback(nodeid, self._opcua_reader(name, vt))
+            # every read serves the process's value (an MV: the one it applies)
+            server.set_attribute_value_callback(nodeid, self._opcua_reader(name, vt))
         await server.start()
         self._opcua = server
 
@@ -356,7 +441,10 @@ class PlantServer:
                 u = float(value.Value.Value)
             except (TypeError, ValueError, AttributeError):
                 return
-            self._mv_written(u, name)
+            if name == "hb":
+                self._heartbeat(u)
+            else:
+                self._mv_written(u, name)
 
         return write
 
@@ -395,15 +483,19 @@ class PlantServer:
         written = None
         if set_values:
             lo, hi = address, address + len(set_values)
+            writable = (*self._mvs, "hb")
             written = next(
-                (n for n in self._mvs if lo == MODBUS_REGISTERS[n] and hi == lo + 2), None
+                (n for n in writable if lo == MODBUS_REGISTERS[n] and hi == lo + 2), None
             )
-            if written is None:
-                return ExcCodes.ILLEGAL_ADDRESS  # only an MV (both registers) is writable
-            if self.reject_mv:
-                return ExcCodes.ILLEGAL_VALUE
+            if written is None:  # only an MV or the heartbeat (both registers) is writable
+                return ExcCodes.ILLEGAL_ADDRESS
             u = registers_to_float32([int(v) for v in set_values], self.word_order)
-            self._mv_written(u, written)
+            if written == "hb":
+                self._heartbeat(u)
+            elif self.reject_mv:
+                return ExcCodes.ILLEGAL_VALUE
+            else:
+                self._mv_written(u, written)
         values = self._values()
         if not self.process.sensor_ok:
             values["pv"] = math.nan

@@ -7,11 +7,22 @@ every ``interval`` seconds and on stop, all loops in one SQLite transaction
 (atomic: a crash leaves the previous complete set), to a file with a schema
 version (``[retain]`` in the configuration; default beside the historian).
 
+**Durable commands.**  An operator's or engineer's change is written at once
+(:meth:`RetainStore.save_loop`: that loop's row, in a transaction of its own,
+``synchronous = FULL``: on the disk, fsync'd, when the call returns), and
+:meth:`Runtime.execute <ctrlblocks.runtime.Runtime.execute>` -- the faceplate's
+and :meth:`~ctrlblocks.runtime.Runtime.submit`'s path -- confirms a change only
+after that; a ``kill -9`` right after the confirmation keeps it.  The periodic
+snapshot stays for the integrator and observer states.  One thread writes the
+file (:meth:`Runtime.retain_call <ctrlblocks.runtime.Runtime.retain_call>`), so
+a periodic save never overtakes a command's row.
+
 On restart the runtime restores each loop's state and reads the MVs back
 from the devices; the first cycle outputs the read-back MV (the retained
 one if it cannot be read) and the blocks track it, so the loop continues
-without a bump.  A tuning whose value in the configuration file changed
-since it was retained comes from the file, with a log line saying which.
+without a bump (:mod:`ctrlblocks.runtime.loop`).  A tuning whose value in the
+configuration file changed since it was retained comes from the file, with a
+log line saying which.
 """
 
 from __future__ import annotations
@@ -64,6 +75,7 @@ class RetainStore:
 
     def _connect(self) -> sqlite3.Connection:
         conn = sqlite3.connect(self.path, timeout=10.0)
+        conn.execute("PRAGMA synchronous = FULL")  # a commit is on the disk (fsync)
         conn.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT)")
         conn.execute(
             "CREATE TABLE IF NOT EXISTS loops (name TEXT PRIMARY KEY, t_wall REAL, state TEXT)"
@@ -104,6 +116,26 @@ class RetainStore:
                 )
                 conn.execute("DELETE FROM loops")
                 conn.executemany("INSERT INTO loops VALUES (?, ?, ?)", rows)
+        finally:
+            conn.close()
+
+    def save_loop(self, name: str, state: Mapping[str, Any] | str) -> None:
+        """Write one loop's state now, in a transaction of its own (a command's durability).
+
+        The other loops' rows stay as they are; the call returns when the row
+        is on the disk.
+        """
+        text = state if isinstance(state, str) else encode_state(state)
+        conn = self._connect()
+        try:
+            with conn:
+                conn.execute(
+                    "INSERT OR REPLACE INTO meta VALUES ('schema_version', ?)",
+                    (str(SCHEMA_VERSION),),
+                )
+                conn.execute(
+                    "INSERT OR REPLACE INTO loops VALUES (?, ?, ?)", (name, time.time(), text)
+                )
         finally:
             conn.close()
 

@@ -1,14 +1,22 @@
 """The soft-controller runtime: loops on absolute deadlines, I/O supervision, historian, stop.
 
-Scheduling: loops with the same sample time share one asyncio task; the
-task's k-th cycle is due at ``t0 + k ts`` (absolute deadlines, so delays do
-not accumulate), and runs a :class:`~ctrlblocks.runtime.scan.Scan` -- one
-I/O image per connection: one batched read of every input, the loops
-compute, one batched write of every MV (and the connection's heartbeat).  A cycle that
-ends after the next deadline skips the missed deadlines (the phase is kept);
-the loop's :class:`~ctrlblocks.blocks.monitor.CycleMonitor` sees the long
-period, flags the overrun, and the next block call uses the measured period
-as ``dt``.
+Scheduling: the loops of one sample time that share connections form a
+:class:`~ctrlblocks.runtime.scan.Scan` (:func:`~ctrlblocks.runtime.scan.scan_groups`),
+and each scan runs on an asyncio task of its own: loops on different
+connections never wait for each other, so a slow or dead device delays only
+the loops that use it.  The task's k-th cycle is due at ``t0 + k ts``
+(absolute deadlines, so delays do not accumulate) and runs the scan -- one
+I/O image per connection: one batched read of every input, waited for until
+the connection's input deadline (later inputs are *late*: their loops hold
+or run on their last good inputs), the loops compute, one batched write of
+every MV (and the connection's heartbeat).  A cycle that ends after the next
+deadline skips the missed deadlines (the phase is kept); the loop's
+:class:`~ctrlblocks.blocks.monitor.CycleMonitor` sees the long period and
+flags the overrun, and the block gets the time since its last step as ``dt``
+(within ``max_dt``; :mod:`ctrlblocks.runtime.loop`).  Overruns, late inputs,
+stretched periods and the loops' other conditions are alarms: in the state,
+on the faceplate and in the audit table (one row when one comes, one when it
+goes).
 
 In-process API (for a faceplate, a test, a notebook; all on the event loop
 of the runtime):
@@ -18,8 +26,11 @@ of the runtime):
   :meth:`Runtime.states`;
 * :meth:`Runtime.command` -- mode, manual value, setpoint, limits, tunings,
   validated by the loop and the block (refused changes leave everything as it
-  was), each one written to the historian's audit table with who sent it;
-* :meth:`Runtime.submit` -- the same from another thread
+  was), each one written to the historian's audit table with who sent it,
+  and to the retain file at once;
+* :meth:`Runtime.execute` -- a command that returns once the change is in
+  the retain file, fsync'd (what a front end confirms; :mod:`.retain`);
+* :meth:`Runtime.submit` -- :meth:`execute` from another thread
   (:attr:`Runtime.event_loop` tells which loop the runtime runs on);
 * :meth:`Runtime.audit` -- an audit row for what a front end does (logins,
   logouts, refused attempts), next to the commands;
@@ -55,6 +66,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from .adapters import make_adapter
+from .audit import RefusalBudget, bounded
 from .autotune import LiveTuning
 from .clock import Clock, MonotonicClock
 from .config import RuntimeConfig, RuntimeConfigError, require_packages
@@ -63,12 +75,20 @@ from .historian import Historian
 from .io import Adapter, Connection
 from .loop import CommandError, ControlLoop, Sample
 from .retain import RetainStore, encode_state
-from .scan import Heartbeat, Scan
+from .scan import Heartbeat, Scan, scan_groups
 from .writer import ProcessHistorian, open_historian
 
-__all__ = ["Runtime"]
+__all__ = ["AUDIT_REFUSALS", "Runtime"]
 
 log = logging.getLogger(__name__)
+
+AUDIT_REFUSALS = (10, 60.0)
+"""Audit rows of refused commands per user and window [s]: beyond them a refusal is counted,
+and the count is written with the next row let through; a refused command's values are
+cut (:func:`ctrlblocks.runtime.audit.bounded`)."""
+
+_SYSTEM = ("runtime", "historian")
+"""Writers of audit rows about the runtime itself (never bounded)."""
 
 
 class Runtime:
@@ -122,6 +142,9 @@ class Runtime:
             retain = RetainStore(rc.path) if rc.enabled else None
         self.retain: RetainStore | None = retain  # type: ignore[assignment]
         self.retain_failures = 0  # consecutive failed saves of the retain file (0: it is saved)
+        self._retain_pool: concurrent.futures.ThreadPoolExecutor | None = None  # one writer
+        self._retained: dict[str, str] = {}  # the newest encoded state of every loop
+        self._commanded: dict[str, asyncio.Future[None]] = {}  # loop -> its durable save
         self.historian: Historian | None = None
         self.on_sample = on_sample
         self._stop = asyncio.Event()
@@ -131,12 +154,14 @@ class Runtime:
         self.running = False
         self.stopped = asyncio.Event()
         self.heartbeats: dict[str, Heartbeat] = {}
+        self.scans: list[Scan] = []
         self.gc_freeze = True  # see the module docstring; a benchmark turns it off to compare
         # True: the historian flushes right after a cycle's writes, in the idle rest of the
         # period, instead of at any time (a benchmark's switch, docs/performance.md)
         self.flush_after_cycle = False
         self._gc_thresholds: tuple[int, int, int] | None = None
         self.stop_failures: dict[str, str] = {}  # loop -> why its stop value was not written
+        self.refusals = RefusalBudget(*AUDIT_REFUSALS)  # refusal rows per user (bounded)
         self.tuning = LiveTuning(self)  # live auto-tuning of the loops (runtime.autotune)
         # alarms and live assessment of the loops with [loops.alarms] / [loops.assess]
         self.health = HealthMonitor(
@@ -171,9 +196,10 @@ class Runtime:
         await asyncio.gather(*(c.start() for c in self.connections.values()))
         if self.retain is not None:
             await self._restore_retained()
+        self.scans = self._scans()
         self._tasks = [
-            asyncio.create_task(self._cycles(ts, scan), name=f"ctrlblocks-ts-{ts:g}")
-            for ts, scan in self._scans().items()
+            asyncio.create_task(self._cycles(scan.ts, scan), name=f"ctrlblocks-scan-{i}")
+            for i, scan in enumerate(self.scans)
         ]
         if self.historian is not None:
             self._tasks.append(asyncio.create_task(self._flusher(), name="ctrlblocks-historian"))
@@ -184,24 +210,26 @@ class Runtime:
             self._gc_thresholds = freeze_garbage_collector()
         log.info("runtime %s: %d loop(s) started", self.config.name, len(self.loops))
 
-    def _scans(self) -> dict[float, Scan]:
-        """One :class:`Scan` per sample time; a heartbeat goes with the fastest loops using it."""
-        groups: dict[float, list[ControlLoop]] = {}
+    def _scans(self) -> list[Scan]:
+        """One :class:`Scan` per sample time and group of connections (:func:`scan_groups`).
+
+        A connection's heartbeat goes with the fastest scan that uses it.
+        """
+        by_ts: dict[float, list[ControlLoop]] = {}
         for lp in self.loops.values():
-            groups.setdefault(lp.ts, []).append(lp)
-        hb_of: dict[float, dict[str, Heartbeat]] = {ts: {} for ts in groups}
+            by_ts.setdefault(lp.ts, []).append(lp)
+        scans = [
+            Scan(group, self.connections, clock=self.clock, ts=ts)
+            for ts in sorted(by_ts)
+            for group in scan_groups(by_ts[ts])
+        ]
         for name, conn in self.connections.items():
-            if conn.config.heartbeat is None or not groups:
+            if conn.config.heartbeat is None or not scans:
                 continue
-            using = [
-                ts
-                for ts, lps in groups.items()
-                if any(b.connection == name for lp in lps for b in lp.config.bindings().values())
-            ]
-            ts = min(using or groups)
-            self.heartbeats[name] = Heartbeat(conn.config.heartbeat, conn.config.heartbeat_max)
-            hb_of[ts][name] = self.heartbeats[name]
-        return {ts: Scan(groups[ts], self.connections, hb_of[ts]) for ts in sorted(groups)}
+            using = [sc for sc in scans if any(name in lp.config.connections() for lp in sc.loops)]
+            hb = self.heartbeats[name] = Heartbeat(conn.config.heartbeat, conn.config.heartbeat_max)
+            (using or scans)[0].heartbeats[name] = hb  # sorted by ts: the fastest first
+        return scans
 
     def request_stop(self) -> None:
         """Ask the runtime to stop after the current cycle (safe to call from a signal handler)."""
@@ -211,6 +239,8 @@ class Runtime:
         """Stop: end the cycles, write stop values, flush the historian, close connections."""
         self._stop.set()
         self._cycle_end.set()  # a flusher waiting for the end of a cycle goes on
+        for scan in self.scans:
+            scan.cancel_reads()  # a cycle waiting for a late read ends now
         for t in self._tasks:
             try:
                 await t
@@ -224,6 +254,9 @@ class Runtime:
         if self._gc_thresholds is not None:
             thaw_garbage_collector(self._gc_thresholds)
             self._gc_thresholds = None
+        if self._retain_pool is not None:
+            self._retain_pool.shutdown(wait=True)
+            self._retain_pool = None
         self.running = False
         self.stopped.set()
 
@@ -241,7 +274,7 @@ class Runtime:
         """Refuse to start when the retain file cannot be written (closing what is open)."""
         assert self.retain is not None
         try:
-            await asyncio.to_thread(self.retain.check)
+            await self.retain_call(self.retain.check)
         except (OSError, sqlite3.OperationalError) as exc:
             if self.historian is not None and self._historian_arg == "config":
                 await asyncio.to_thread(self.historian.close)
@@ -251,36 +284,54 @@ class Runtime:
             ) from None
 
     async def _restore_retained(self) -> None:
-        """Restore the retained loops and read their MVs back (one batched read per connection)."""
+        """Restore the retained loops; their first cycle reads the MV back (bumpless restart)."""
         assert self.retain is not None
-        states = await asyncio.to_thread(self.retain.load)
+        states = await self.retain_call(self.retain.load)
         restored = [lp for n, lp in self.loops.items() if n in states]
         for lp in restored:
             lp.restore_retained(states[lp.name])
-        by_conn: dict[str, list[ControlLoop]] = {}
-        for lp in restored:
-            by_conn.setdefault(lp.config.mv.connection or "", []).append(lp)
-        for name, lps in by_conn.items():
-            conn = self.connections.get(name)
-            if conn is None:
-                continue
-            readings = await conn.read([lp.config.mv.address for lp in lps])
-            for lp, r in zip(lps, readings, strict=True):
-                lp.restart_from(r)
         if restored:
             log.info("runtime %s: %d loop(s) restored from %s", self.config.name,
                      len(restored), self.retain.path)  # fmt: skip
+
+    async def retain_call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """Run ``fn(*args)`` on the retain file's one writer thread (in order) and await it."""
+        if self._retain_pool is None:
+            self._retain_pool = concurrent.futures.ThreadPoolExecutor(1, "ctrlblocks-retain")
+        return await asyncio.get_running_loop().run_in_executor(self._retain_pool, fn, *args)
 
     async def save_retained(self) -> None:
         """Write every loop's retentive state now (also done every interval and on stop)."""
         if self.retain is None:
             return
-        await self._save_retained({n: encode_state(lp.retained()) for n, lp in self.loops.items()})
+        self._retained = {n: encode_state(lp.retained()) for n, lp in self.loops.items()}
+        await self._save_retained(dict(self._retained))
+
+    def _retain_loop(self, name: str) -> asyncio.Future[None] | None:
+        """Start writing loop ``name``'s state to the retain file now (a command's change)."""
+        if self.retain is None or self._loop is None:
+            return None
+        text = self._retained[name] = encode_state(self.loops[name].retained())
+        fut = asyncio.ensure_future(self.retain_call(self.retain.save_loop, name, text))
+        self._commanded[name] = fut
+        fut.add_done_callback(lambda f: f.cancelled() or f.exception())  # never unretrieved
+        return fut
+
+    async def durable(self, loop: str) -> bool:
+        """Wait until the last change to ``loop`` is in the retain file (False: no retain file).
+
+        Raises the write's error (``OSError``, ``sqlite3.Error``) when it failed.
+        """
+        fut = self._commanded.get(loop)
+        if fut is None:
+            return self.retain is not None
+        await asyncio.shield(fut)
+        return True
 
     async def _save_retained(self, states: dict[str, str]) -> None:
         assert self.retain is not None
         try:
-            await asyncio.to_thread(self.retain.save, states)
+            await self.retain_call(self.retain.save, states)
         except Exception as exc:  # the loops go on; the next save retries
             # one line and one audit entry per streak of failures (a full disk fails every
             # interval: a traceback each time would bury the log), one when it recovers
@@ -313,7 +364,7 @@ class Runtime:
         loops = list(self.loops.values())
         chunks = [loops[i : i + 10] for i in range(0, len(loops), 10)] or [[]]
         step = interval / len(chunks)
-        states: dict[str, str] = {}
+        states = self._retained  # (a command updates its loop's entry at once)
         t = self.clock.now()
         while True:
             for chunk in chunks:
@@ -412,12 +463,23 @@ class Runtime:
                 self._record(s)
             self._cycle_end.set()  # a flush may run now (_flusher, flush_after_cycle)
             for lp in scan.loops:
-                while lp.alarms:
-                    self._audit("runtime", lp.name, "alarm", None, None, False, lp.alarms.pop(0))
+                self._report(lp)
             k += 1
             late = clock.now() - (t0 + k * ts)
             if late >= 0.0:  # overrun: skip the missed deadlines, keep the phase
                 k += math.floor(late / ts) + 1
+
+    def _report(self, lp: ControlLoop) -> None:
+        """Audit what the loop's last cycle raised: the conditions that came or went."""
+        events = lp.conditions.events
+        while events:
+            raised, c = events.pop(0)
+            action = "alarm" if raised else "alarm-cleared"
+            msg = f"{c.code}: {c.text}"
+            if raised and c.severity == "alarm":
+                log.warning("loop %s: %s", lp.name, msg)
+            self._audit("runtime", lp.name, action, None, {"code": c.code,
+                        "severity": c.severity}, not raised, msg)  # fmt: skip
 
     def _record(self, s: Sample) -> None:
         if self.historian is not None:
@@ -506,20 +568,32 @@ class Runtime:
         try:
             old = self.tuning.command(lp, user, changes)  # a command ends a live test
         except CommandError as exc:
-            self._audit(user, loop, action, None, changes, False, str(exc))
+            self._audit(user, loop, action, None, changes, False, str(exc), bound=True)
             raise
         self._audit(user, loop, action, old, changes, True, "")
+        self._retain_loop(loop)
+        return old
+
+    async def execute(self, loop: str, *, user: str, **changes: Any) -> dict[str, Any]:
+        """:meth:`command`, returning once the change is durable (in the retain file, fsync'd).
+
+        What a front end confirms to a person: a ``kill -9`` after the return
+        keeps the change.  Raises :class:`~ctrlblocks.runtime.loop.CommandError`
+        (refused, nothing changed) or the retain file's error (``OSError``,
+        ``sqlite3.Error``: the change is in force but not retained).  Call it
+        on the runtime's event loop.
+        """
+        old = self.command(loop, user=user, **changes)
+        await self.durable(loop)
         return old
 
     def submit(self, loop: str, *, user: str, **changes: Any) -> concurrent.futures.Future:
-        """:meth:`command` from another thread; returns a future with its result."""
+        """:meth:`execute` from another thread; returns a future with its result."""
         if self._loop is None:
             raise RuntimeError("the runtime is not started")
-
-        async def call() -> dict[str, Any]:
-            return self.command(loop, user=user, **changes)
-
-        return asyncio.run_coroutine_threadsafe(call(), self._loop)
+        return asyncio.run_coroutine_threadsafe(
+            self.execute(loop, user=user, **changes), self._loop
+        )
 
     def audit(
         self,
@@ -531,20 +605,41 @@ class Runtime:
         new: Any = None,
         ok: bool = True,
         message: str = "",
+        bound: bool = False,
     ) -> None:
         """Write one row to the historian's audit table (nothing without a historian).
 
         For what happens around the commands, e.g. a faceplate's logins
         (``action="login"``, ``ok`` False for a wrong password), logouts and
-        refused attempts.  A failed write is logged, never raised.
+        refused attempts.  ``bound``: a refusal of ``who``'s request, bounded
+        as the runtime bounds refused commands (:data:`AUDIT_REFUSALS`); a
+        front end that bounds its own rows (per client address) leaves it off.
+        A failed write is logged, never raised.
         """
-        self._audit(who, loop, action, old, new, ok, message)
+        self._audit(who, loop, action, old, new, ok, message, bound=bound)
 
-    def _audit(self, *args: Any) -> None:
+    def _audit(
+        self,
+        who: str,
+        loop: str,
+        action: str,
+        old: Any,
+        new: Any,
+        ok: bool,
+        message: str = "",
+        *,
+        bound: bool = False,
+    ) -> None:
+        """One audit row; ``bound``: a user's refusal, bounded in size and number."""
         if self.historian is None:
             return
+        if bound and not ok and who not in _SYSTEM:
+            suffix = self.refusals.admit(who)
+            if suffix is None:
+                return
+            old, new, message = bounded(old), bounded(new), str(message)[:300] + suffix
         try:
-            self.historian.audit(*args)
+            self.historian.audit(who, loop, action, old, new, ok, message)
         except Exception:  # the audit must not break a command
             log.exception("audit write failed")
 

@@ -30,6 +30,12 @@ connection of their own), and:
   ``flush_interval`` seconds) is lost, as in a crash of the runtime;
 * :meth:`~ProcessHistorian.flush` waits until the writer has committed
   everything recorded before the call (the faceplate's trends call it);
+* the runtime's process killed (SIGKILL, out of memory): the samples it had
+  recorded but not yet handed over are lost.  Both processes keep a tally in a
+  small shared file (samples recorded, samples handed over, updated as they
+  happen); the writer, finding the end of its pipe without a close, commits
+  what it received and writes how many were lost to the audit table
+  (``who = "historian"``, ``action = "lost"``) and to its standard error;
 * :meth:`~ProcessHistorian.close` (a clean stop) hands over everything,
   waits for the writer to commit it and to mark the run stopped, then
   collects the writer's statistics (:attr:`ProcessHistorian.writer_stats`:
@@ -67,6 +73,7 @@ import collections
 import contextlib
 import json
 import logging
+import mmap
 import os
 import select
 import signal
@@ -74,6 +81,7 @@ import site
 import struct
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Iterator
@@ -106,6 +114,32 @@ _WRITER_MAIN = (  # nice + 5 before the imports: the cycles first, also while it
 )
 _CODE = struct.Struct("<I")
 _TOKEN = struct.Struct("<Q")
+_TALLY = struct.Struct("<QQ")  # samples recorded, samples handed over to the writer
+
+
+class _Tally:
+    """The shared tally file (module docstring): mapped by the runtime and by the writer."""
+
+    def __init__(self, path: str, create: bool = False) -> None:
+        self.path = path
+        if create:
+            with open(path, "wb") as f:
+                f.write(bytes(_TALLY.size))
+        with open(path, "r+b") as f:
+            self.map = mmap.mmap(f.fileno(), _TALLY.size)
+        self.recorded = self.handed = 0
+
+    def write(self) -> None:
+        _TALLY.pack_into(self.map, 0, self.recorded, self.handed)
+
+    def read(self) -> tuple[int, int]:
+        return _TALLY.unpack_from(self.map, 0)
+
+    def remove(self) -> None:
+        with contextlib.suppress(OSError, ValueError):
+            self.map.close()
+        with contextlib.suppress(OSError):
+            os.unlink(self.path)
 
 
 def _frame(kind: bytes, payload: bytes) -> bytes:
@@ -185,6 +219,10 @@ class ProcessHistorian(Historian):
         self._closed = False
         self._open_error = ""
         self._reader: Historian | None = None
+        fd, tally = tempfile.mkstemp(prefix="ctrlblocks-historian-", suffix=".tally")
+        os.close(fd)
+        self._tally = _Tally(tally, create=True)
+        self.settings["tally"] = tally
 
     # -- the writer process ------------------------------------------------------------
 
@@ -200,6 +238,7 @@ class ProcessHistorian(Historian):
                     with contextlib.suppress(subprocess.TimeoutExpired):
                         self.process.wait(10.0)  # it ends by itself after the answer
                     self._writer_gone("")
+                self._tally.remove()
             raise HistoryError(f"historian: {self._open_error}")
 
     def _start_writer(self) -> None:
@@ -329,6 +368,7 @@ class ProcessHistorian(Historian):
                 keep.append(f)
             first = False
         self._frames.extendleft(reversed(keep))
+        self._tally.handed += lost  # counted in rows_lost (logged), not lost again at a kill
         if lost:
             if not self.rows_lost:
                 log.error(
@@ -359,6 +399,9 @@ class ProcessHistorian(Historian):
                 lc, mc, s.cycle, s.t_wall, s.t, s.dt, s.sp, s.pv, s.mv,
                 s.error_id, s.pv_ok, s.write_ok, s.overrun,
             )  # fmt: skip
+            tally = self._tally
+            tally.recorded += 1
+            tally.write()
 
     @property
     def pending(self) -> int:
@@ -407,6 +450,9 @@ class ProcessHistorian(Historian):
             self._frames.popleft()
             self._queued -= len(f)
             self._sent = 0
+            if f[:1] == b"S":
+                self._tally.handed += (len(f) - _HEAD.size) // RECORD.size
+                self._tally.write()
 
     def _wait(self, done: Any, what: str) -> None:
         """Send and read answers until ``done()`` (blocking: never on the event loop)."""
@@ -465,6 +511,7 @@ class ProcessHistorian(Historian):
                     self._writer_gone("")
                 self._frames.clear()
                 self._queued = 0
+                self._tally.remove()
             self._close_reader()
 
     # -- reading (a connection of its own) -------------------------------------------------
@@ -547,8 +594,9 @@ def serve_writer() -> None:
         ready, _, _ = select.select([fd], [], [], wait)
         if ready:
             chunk = os.read(fd, 1 << 20)
-            if not chunk:  # the runtime's process is gone: keep what came, end
+            if not chunk:  # the runtime's process is gone: keep what came, say what was lost
                 if w is not None:
+                    w.lost_at_the_end()
                     w.commit()
                     w.db.close_connection()
                 return
@@ -581,7 +629,7 @@ class _Writer:
     """The writer's state: names, rows to commit, statistics."""
 
     def __init__(self, db: Historian, settings: dict[str, Any], answer: Any) -> None:
-        self.db, self.answer = db, answer
+        self.db, self.answer, self.settings = db, answer, settings
         self.interval = settings["flush_interval"]
         self.batch = settings["batch"]
         self.max_bytes = int(settings.get("max_pending_bytes", 256 << 20))
@@ -593,6 +641,32 @@ class _Writer:
         self.rows = self.commits = 0
         self.commit_max = 0.0
         self.error = ""
+
+    def lost_at_the_end(self) -> None:
+        """The runtime died without a close: count what it recorded and never handed over.
+
+        Written as an audit row (committed with the rest) and to standard error.
+        """
+        path = self.settings.get("tally")
+        if not path:
+            return
+        try:
+            tally = _Tally(path)
+            recorded, handed = tally.read()
+        except (OSError, ValueError) as exc:
+            log.error("historian writer: the runtime ended without a stop; the tally of lost "
+                      "samples cannot be read (%s)", exc)  # fmt: skip
+            return
+        lost = max(0, recorded - handed)
+        msg = (f"the runtime ended without a stop: {lost} of its {recorded} recorded "
+               "sample(s) were not handed over to the historian and are lost")  # fmt: skip
+        log.error("historian writer: %s", msg)
+        from .historian import audit_row
+
+        new = {"lost": lost, "recorded": recorded}
+        self.audits.append(audit_row("historian", "", "lost", None, new, lost == 0, msg))
+        self.pending += 1
+        tally.remove()
 
     def due(self) -> float:
         """Seconds until the next commit is due."""

@@ -57,7 +57,7 @@ from ..blocks.base import (
 )
 from .identify import fit_fopdt
 from .pid_rules import amigo, simc, tyreus_luyben, ziegler_nichols_closed
-from .relay import RelayExperiment, StepExperiment
+from .relay import RelayExperiment, StepExperiment, noise_samples
 
 __all__ = ["LiveTuner", "TunerState", "TuningResult"]
 
@@ -114,8 +114,10 @@ class LiveTuner:
         PV bounds; leaving them aborts (default: none).
     max_time : float
         Longest experiment [s].
-    hysteresis : float
-        Relay hysteresis [PV unit] (just above the noise band).
+    hysteresis : float or None
+        Relay hysteresis [PV unit]; None (default): sized from the noise, which
+        the relay measures first for ``noise_time``
+        (:mod:`ctrlblocks.tuning.relay`, "Noisy plants"); a number: at least that.
     gain_sign : {1, -1}
         Relay: sign of the process gain.
     pre_time : float
@@ -135,9 +137,10 @@ class LiveTuner:
         pv_min: float = -math.inf,
         pv_max: float = math.inf,
         max_time: float = 3600.0,
-        hysteresis: float = 0.0,
+        hysteresis: float | None = None,
         gain_sign: int = 1,
         pre_time: float = 1.0,
+        noise_time: float = 2.0,
     ) -> None:
         self.method = require_choice("method", method, ("step", "relay"))
         self.ts = require_positive("ts", ts, ErrorCode.NO_CYCLE)
@@ -168,7 +171,8 @@ class LiveTuner:
                 raise ParameterError(ErrorCode.BAD_PARAMETER, "gain_sign", "must be 1 or -1")
             used = (self.u0 - amp, self.u0 + amp)
             self._exp = None  # made at the first sample, around its PV
-            self._relay = (amp, require_nonnegative("hysteresis", hysteresis), gain_sign)
+            eps = None if hysteresis is None else require_nonnegative("hysteresis", hysteresis)
+            self._relay = (amp, eps, gain_sign, noise_samples(noise_time, self.ts))
         if min(used) < lo or max(used) > hi:
             raise ParameterError(
                 ErrorCode.BAD_LIMITS,
@@ -200,11 +204,11 @@ class LiveTuner:
                 f"PV {pv:g} left the bounds {self.pv_min:g}..{self.pv_max:g}",
             )
         if self._exp is None:  # relay: switch around the set point or the first PV
-            d, eps, sign = self._relay
+            d, eps, sign, n_noise = self._relay
             sp = pv if self._sp is None else self._sp
             self._exp = RelayExperiment(
                 d, u0=self.u0, setpoint=sp, ts=self.ts, max_samples=self.max_samples,
-                hysteresis=eps, gain_sign=sign,
+                hysteresis=eps, gain_sign=sign, noise_samples=n_noise,
             )  # fmt: skip
         u = self._exp.step(pv)
         self._k += 1

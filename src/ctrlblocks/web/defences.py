@@ -6,7 +6,8 @@
 * :func:`json_problem` -- JSON nesting depth and item count limits;
 * :class:`SlidingWindow` -- at most ``limit`` events per ``window`` seconds per
   key (client address, user name), with a bounded number of keys, so a flood
-  of new keys cannot grow the memory;
+  of new keys cannot grow the memory (:mod:`ctrlblocks.runtime.audit`, where
+  the runtime bounds each user's refusals with it);
 * :class:`LoginGuard` -- the lockout: a password check is *admitted* (counted)
   before the hash is computed, atomically (no ``await`` between the check and
   the count), at most ``per_user`` per user name and ``per_client`` per client
@@ -18,10 +19,11 @@
 
 from __future__ import annotations
 
-import collections
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
+
+from ..runtime.audit import SlidingWindow
 
 __all__ = [
     "MAX_BODY",
@@ -103,75 +105,6 @@ def summary(client: str, endpoint: str, body: Any) -> dict[str, Any]:
     if len(names) > MAX_FIELDS:
         out["more_fields"] = len(names) - MAX_FIELDS
     return out
-
-
-class SlidingWindow:
-    """At most ``limit`` events per ``window`` seconds per key.
-
-    Parameters
-    ----------
-    limit : int
-        Events admitted per key and window.
-    window : float
-        Length of the window [s].
-    clock : callable
-        Time source [s] (default :func:`time.monotonic`; tests inject one).
-    max_keys : int
-        Keys remembered at most; when full, keys with no event in the window
-        are forgotten first, then the oldest key.
-    """
-
-    def __init__(
-        self,
-        limit: int,
-        window: float,
-        clock: Callable[[], float] = time.monotonic,
-        max_keys: int = 10_000,
-    ) -> None:
-        self.limit, self.window = int(limit), float(window)
-        self.clock, self.max_keys = clock, max_keys
-        self._events: dict[str, collections.deque[float]] = {}
-
-    def _recent(self, key: str, now: float) -> collections.deque[float]:
-        q = self._events.get(key)
-        if q is None:
-            if len(self._events) >= self.max_keys:
-                self._forget(now)
-            q = self._events[key] = collections.deque()
-        while q and now - q[0] >= self.window:
-            q.popleft()
-        return q
-
-    def _forget(self, now: float) -> None:
-        for k in [k for k, q in self._events.items() if not q or now - q[-1] >= self.window]:
-            del self._events[k]
-        while len(self._events) >= self.max_keys:
-            del self._events[next(iter(self._events))]
-
-    def full(self, key: str) -> bool:
-        """True when ``key`` has used its ``limit`` in the current window."""
-        return len(self._recent(key, self.clock())) >= self.limit
-
-    def hit(self, key: str) -> bool:
-        """Count one event of ``key``; False (and not counted) when its limit is used up."""
-        q = self._recent(key, self.clock())
-        if len(q) >= self.limit:
-            return False
-        q.append(self.clock())
-        return True
-
-    def give_back(self, key: str) -> None:
-        """Undo the newest event of ``key`` (a check that turned out to be a good login)."""
-        q = self._events.get(key)
-        if q:
-            q.pop()
-
-    def clear(self, key: str) -> None:
-        """Forget every event of ``key``."""
-        self._events.pop(key, None)
-
-    def __len__(self) -> int:
-        return len(self._events)
 
 
 class LoginGuard:

@@ -26,7 +26,14 @@ from typing import Any
 
 from ..plants import PT2, Noise, Plant, ThreeTank, process
 
-__all__ = ["DEMO_TOML", "SimulatedIO", "demo_plants", "demo_runtime", "simulated_runtime"]
+__all__ = [
+    "DEMO_MVS",
+    "DEMO_TOML",
+    "SimulatedIO",
+    "demo_plants",
+    "demo_runtime",
+    "simulated_runtime",
+]
 
 DEMO_TOML = """
 [runtime]
@@ -98,13 +105,17 @@ class SimulatedIO:
         Loop name -> plant (a :class:`~ctrlblocks.plants.Plant`, usually
         wrapped by :func:`~ctrlblocks.plants.process`), already at its initial
         state.
+    mvs : mapping, optional
+        Loop name -> the MV the device holds at the start (what the runtime
+        reads back for its bumpless start); without one the MV cannot be read.
     """
 
-    def __init__(self, plants: Mapping[str, Plant]) -> None:
+    def __init__(self, plants: Mapping[str, Plant], mvs: Mapping[str, float] | None = None) -> None:
         from ..runtime import MemoryAdapter, MemoryBus
 
         self.plants = dict(plants)
         self.bus = MemoryBus({f"{n}.pv": float(p.y) for n, p in self.plants.items()})
+        self.bus.values.update({f"{n}.mv": float(u) for n, u in (mvs or {}).items()})
         self.bus.on_write = self._on_write
         self.adapter = MemoryAdapter(self.bus)
         self.steps = dict.fromkeys(self.plants, 0)
@@ -118,26 +129,33 @@ class SimulatedIO:
         self.steps[name] += 1
 
 
+DEMO_MVS = {"pressure": ThreeTank(ts=0.1).u_for_y(1.5), "flow": 40.0}
+"""The MVs the demo's devices hold at the start (their steady states)."""
+
+
 def demo_plants() -> dict[str, Plant]:
     """The demo's process models at their initial steady states (see the module docstring)."""
     tank = ThreeTank(ts=0.1)
     pressure = process(tank, u_min=0.0, u_max=5.0, noise=Noise(0.001, kind="gaussian", seed=1))
-    pressure.reset(tank.u_for_y(1.5))  # steady state p3 = 1.5 bar
+    pressure.reset(DEMO_MVS["pressure"])  # steady state p3 = 1.5 bar
     lag = PT2(k=1.0, t1=1.0, t2=0.3, ts=0.05)
     flow = process(lag, u_min=0.0, u_max=100.0, noise=Noise(0.2, kind="gaussian", seed=2))
-    flow.reset(40.0)
+    flow.reset(DEMO_MVS["flow"])
     return {"pressure": pressure, "flow": flow}
 
 
 def simulated_runtime(
-    toml_text: str, plants: Mapping[str, Plant], **runtime_kw: Any
+    toml_text: str,
+    plants: Mapping[str, Plant],
+    mvs: Mapping[str, float] | None = None,
+    **runtime_kw: Any,
 ) -> tuple[Any, SimulatedIO]:
     """A :class:`~ctrlblocks.runtime.Runtime` for ``toml_text`` whose connection ``sim``
     (protocol ``memory``) is served by ``plants`` (see :class:`SimulatedIO`)."""
     from ..runtime import Runtime, parse_config
 
     cfg = parse_config(toml_text, file="<faceplate demo>")
-    sim = SimulatedIO(plants)
+    sim = SimulatedIO(plants, mvs)
     rt = Runtime(cfg, adapters={"sim": sim.adapter}, **runtime_kw)
     return rt, sim
 
@@ -145,4 +163,4 @@ def simulated_runtime(
 def demo_runtime(history: str | Path, **runtime_kw: Any) -> tuple[Any, SimulatedIO]:
     """The runtime of :data:`DEMO_TOML`, recording into the SQLite file ``history``."""
     text = DEMO_TOML.replace('"@HISTORY@"', json.dumps(str(history)))
-    return simulated_runtime(text, demo_plants(), **runtime_kw)
+    return simulated_runtime(text, demo_plants(), DEMO_MVS, **runtime_kw)

@@ -5,8 +5,14 @@ keeps a callback that was already there and calls it first).  Every sample of
 every loop goes into the loop's ring buffer (the last ``seconds`` of the
 trend); each WebSocket client keeps a cursor per loop and gets, at every push,
 the samples it has not seen yet (so a 20 Hz loop shows every one of its
-samples, whatever the push period) together with the current state of every
-loop.
+samples, whatever the push period).
+
+What a push costs the runtime: a loop's view -- its table row
+(:data:`ROW_FIELDS`, :meth:`LiveHub.row`) or its whole state
+(:meth:`LiveHub.state`) -- is made at most once per push period, whoever asks,
+and only for the loops some client watches (:mod:`ctrlblocks.web.routes.push`:
+the rows on screen and the selected loop); each client is sent only the
+fields that changed since its last push.
 
 Everything sent is plain JSON: NaN and infinities become ``null``
 (:func:`json_safe`), because JSON has no NaN.
@@ -17,9 +23,15 @@ from __future__ import annotations
 import collections
 import math
 import threading
+import time
+from collections.abc import Callable, Iterable
 from typing import Any
 
-__all__ = ["LiveHub", "alarms", "json_safe"]
+__all__ = ["ROW_FIELDS", "LiveHub", "alarms", "json_safe"]
+
+ROW_FIELDS = ("name", "block", "mode", "sp", "pv", "mv", "status", "conditions")
+"""What a loop's row in the loop table shows (its state words: ``status``, with the
+texts in ``conditions``, :mod:`ctrlblocks.runtime.status`)."""
 
 SAMPLE_FIELDS = ("seq", "t", "sp", "pv", "mv", "manual", "error_id")
 """Columns of a trend batch: a sequence number per loop, wall-clock time [s since
@@ -49,24 +61,12 @@ def _tuning_value(v: Any) -> Any:
 
 
 def alarms(state: dict[str, Any]) -> list[str]:
-    """What an operator must see at a glance for one loop state (empty list: all is well)."""
-    out = []
-    if state.get("error"):
-        out.append(f"block 16#{int(state['error_id']):04X} {state.get('error_name', '')}")
-    elif state.get("error_id"):
-        out.append(f"warning 16#{int(state['error_id']):04X} {state.get('error_name', '')}")
-    if not state.get("pv_ok", True) and state.get("cycle", 0):
-        out.append(f"PV bad: {state.get('pv_reason', '')}")
-    if not state.get("write_ok", True):
-        out.append(f"MV write: {state.get('write_error', '')}")
-    for sig, why in (state.get("input_errors") or {}).items():
-        out.append(f"{sig} input: {why}")
-    if state.get("overrun"):
-        out.append("cycle overrun")
-    for name, c in (state.get("connections") or {}).items():
-        if not c.get("connected", True):
-            out.append(f"connection {name} down: {c.get('last_error', '')}")
-    return out
+    """The texts of the loop's conditions of severity alarm and warning (empty: all is well).
+
+    The conditions themselves (code, severity, words) are the state's ``status``
+    and ``conditions`` (:mod:`ctrlblocks.runtime.status`).
+    """
+    return [c["text"] for c in state.get("conditions") or () if c["severity"] != "info"]
 
 
 class LiveHub:
@@ -80,9 +80,20 @@ class LiveHub:
         Length of the trend buffer [s] (per loop, at its sample time).
     """
 
-    def __init__(self, runtime: Any, seconds: float = 300.0) -> None:
+    def __init__(
+        self,
+        runtime: Any,
+        seconds: float = 300.0,
+        period: float = 0.1,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.runtime = runtime
         self.seconds = float(seconds)
+        self.period = float(period)  # a view is made at most once per period
+        self.clock = clock
+        self._rows: dict[str, tuple[float, dict[str, Any]]] = {}
+        self._states: dict[str, tuple[float, dict[str, Any]]] = {}
+        self.made = 0  # views made (a benchmark counts them)
         self._lock = threading.Lock()
         self._buf: dict[str, collections.deque[tuple[Any, ...]]] = {}
         self._seq: dict[str, int] = {}
@@ -123,11 +134,19 @@ class LiveHub:
         """A cursor that has seen nothing yet (the next :meth:`since` sends the whole buffer)."""
         return dict.fromkeys(self._buf, 0)
 
-    def since(self, cursor: dict[str, int]) -> dict[str, dict[str, list[Any]]]:
-        """Samples newer than ``cursor`` per loop, as columns; advances ``cursor`` in place."""
+    def since(
+        self, cursor: dict[str, int], names: Iterable[str] | None = None
+    ) -> dict[str, dict[str, list[Any]]]:
+        """Samples newer than ``cursor`` of the loops ``names`` (default all), as columns.
+
+        Advances ``cursor`` in place.
+        """
         out: dict[str, dict[str, list[Any]]] = {}
         with self._lock:
-            for name, buf in self._buf.items():
+            for name in self._buf if names is None else names:
+                buf = self._buf.get(name)
+                if buf is None:
+                    continue
                 last = cursor.get(name, 0)
                 if not buf or buf[-1][0] <= last:
                     continue
@@ -145,11 +164,42 @@ class LiveHub:
 
     def states(self) -> list[dict[str, Any]]:
         """Every loop's :meth:`state`."""
-        return [_view(st) for st in self.runtime.states()]
+        return [self.state(n) for n in self.runtime.loop_names()]
 
-    def state(self, loop: str) -> dict[str, Any]:
-        """The runtime's ``state`` of ``loop`` with its ``alarms``, JSON-safe."""
-        return _view(self.runtime.state(loop))
+    def state(self, loop: str, *, fresh: bool = True) -> dict[str, Any]:
+        """The runtime's ``state`` of ``loop`` with its ``alarms``, JSON-safe.
+
+        ``fresh`` False: one made within the last push period will do (the push).
+        """
+        return self._cached(self._states, loop, fresh, lambda: _view(self.runtime.state(loop)))
+
+    def row(self, loop: str) -> dict[str, Any]:
+        """The loop's table row (:data:`ROW_FIELDS`), made at most once per push period."""
+
+        def make() -> dict[str, Any]:
+            lp = self.runtime.loops[loop]
+            return json_safe({
+                "name": loop,
+                "block": lp.config.block_type,
+                "mode": lp.mode,
+                "sp": lp.sp,
+                "pv": lp.pv,
+                "mv": lp.mv,
+                "status": lp.conditions.codes(),
+                "conditions": lp.conditions.as_json(),
+            })  # fmt: skip
+
+        return self._cached(self._rows, loop, False, make)
+
+    def _cached(self, cache: dict[str, Any], loop: str, fresh: bool, make: Any) -> dict[str, Any]:
+        now = self.clock()
+        hit = cache.get(loop)
+        if hit is not None and not fresh and now - hit[0] < 0.5 * self.period:
+            return hit[1]  # type: ignore[no-any-return]
+        view = make()
+        self.made += 1
+        cache[loop] = (now, view)
+        return view
 
 
 def _view(state: dict[str, Any]) -> dict[str, Any]:

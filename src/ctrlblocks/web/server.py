@@ -82,6 +82,9 @@ def make_server(
         ws="auto",
         ssl_certfile=certfile,
         ssl_keyfile=keyfile,
+        # the application reads X-Forwarded-For itself, only from [web] trusted_proxies
+        # (uvicorn would believe it from 127.0.0.1 by default)
+        proxy_headers=False,
     )
     return uvicorn.Server(config)
 

@@ -1,15 +1,18 @@
 // ctrlblocks faceplate: loop list, live trend (uPlot), operator actions, history, audit.
-// Plain JS, no build step. Live data arrives over the WebSocket /ws; actions are
-// POST api/loops/NAME/command (the server and the block validate them, and the server
-// enforces the roles and the engineering ranges; the page only shows them and asks
-// before a large step).
+// Plain JS, no build step. Live data arrives over the WebSocket /ws: the page tells the
+// server which loops it shows (the table rows on screen and the open faceplate) and gets
+// only what changed of them; actions are POST api/loops/NAME/command (the server and the
+// block validate them, and the server enforces the roles and the engineering ranges; the
+// page only shows them and asks before a large step).
 "use strict";
 
 const S = {
   info: null,            // GET api/info
   user: null,            // user name or null (not logged in)
   ws: null,              // the live WebSocket (null: not connected)
-  states: {},            // loop name -> state (from the push)
+  states: {},            // loop name -> state (the pushes merged: a row, or the whole state)
+  words: {},             // state code -> [severity, words] (from the server's hello)
+  visible: new Set(),    // loops whose table rows are on screen
   data: {},              // loop name -> {t, sp, pv, mv, man} columns (live trend)
   order: [],             // loop names in configuration order
   selected: null,
@@ -63,10 +66,18 @@ function fmtParam(x) {
 
 // ---------------------------------------------------------------- account
 
+// the heading and the window's title for a runtime's name: "ctrlblocks demo", not
+// "ctrlblocks — ctrlblocks demo" (the product's name once)
+function titles(name) {
+  const heading = /^ctrlblocks\b/i.test(name) ? name : "ctrlblocks — " + name;
+  return [heading, heading + " · faceplate"];
+}
+S.titles = titles;
+
 async function loadInfo() {
   const r = await fetch("api/info", { credentials: "same-origin" });
   S.info = await r.json();
-  $("rt-name").textContent = "— " + S.info.name;
+  [$("rt-name").textContent, document.title] = titles(S.info.name);
   setUser(S.info.user, S.info.role);
   $("login-needed").hidden = S.info.may_view;
   document.querySelector("main").hidden = !S.info.may_view;
@@ -163,14 +174,39 @@ function connect() {
   };
   ws.onmessage = (ev) => {
     const msg = JSON.parse(ev.data);
-    if (msg.type === "update") onUpdate(msg);
+    if (msg.type === "hello") onHello(msg);
+    else if (msg.type === "update") onUpdate(msg);
   };
+}
+
+// tell the server what is on screen: the visible rows and the open faceplate
+let watchTimer = null;
+function sendWatch() {
+  if (watchTimer) return;
+  watchTimer = setTimeout(() => {
+    watchTimer = null;
+    if (S.ws && S.ws.readyState === WebSocket.OPEN) {
+      S.ws.send(JSON.stringify({ type: "watch", rows: [...S.visible], plate: S.selected }));
+    }
+  }, 50);
+}
+
+function onHello(msg) {
+  S.order = msg.loops;
+  S.words = msg.words || {};
+  S.states = {};  // a new socket sends everything once
+  buildTable();
+  if (!S.selected && S.order.length) {
+    select(decodeURIComponent(location.hash.slice(1)) || S.order[0]);
+  }
+  sendWatch();
 }
 
 function onUpdate(msg) {
   S.updates += 1;
-  S.order = msg.loops.map((s) => s.name);
-  for (const st of msg.loops) S.states[st.name] = st;
+  for (const [name, diff] of Object.entries(msg.loops)) {
+    S.states[name] = Object.assign(S.states[name] || { name }, diff);
+  }
   const keep = (S.info && S.info.trend_seconds) || 300;
   for (const [name, cols] of Object.entries(msg.samples)) {
     const d = S.data[name] || (S.data[name] = { t: [], sp: [], pv: [], mv: [], man: [] });
@@ -181,68 +217,133 @@ function onUpdate(msg) {
     while (cut < d.t.length && d.t[cut] < tmin) cut++;
     if (cut > 0) for (const k of Object.keys(d)) d[k].splice(0, cut);
   }
-  renderTable();
-  if (!S.selected && S.order.length) select(decodeURIComponent(location.hash.slice(1)) || S.order[0]);
-  if (S.selected) renderPlate();
+  renderTable(msg.loops);
+  if (S.selected && msg.loops[S.selected]) renderPlate();
+  else if (S.selected && msg.samples[S.selected]) updateChart();
 }
 
 // ---------------------------------------------------------------- loop list
 
-function renderTable() {
+// the loop's worst condition: "alarm", "warning", "info" or "" (nothing to say)
+function worst(st) {
+  const sev = (st.conditions || []).map((c) => c.severity);
+  return ["alarm", "warning", "info"].find((x) => sev.includes(x)) || "";
+}
+
+// the state words of a loop, as coloured badges (the texts in their titles)
+function stateBadges(el, st) {
+  el.replaceChildren();
+  for (const c of st.conditions || []) {
+    const b = document.createElement("span");
+    b.className = "st " + c.severity;
+    b.dataset.code = c.code;
+    b.textContent = (S.words[c.code] || [c.severity, c.code])[1];
+    b.title = c.text;
+    el.appendChild(b);
+  }
+  if (!el.childElementCount) {
+    const b = document.createElement("span");
+    b.className = "st ok";
+    b.textContent = "ok";
+    el.appendChild(b);
+  }
+}
+
+function modeBadge(el, st) {
+  el.textContent = st.mode === "manual" ? "MAN" : "AUTO";
+  const w = worst(st);
+  el.className = "mode " + st.mode + (w && w !== "info" ? " " + w : "");
+}
+
+const rowObserver = new IntersectionObserver((entries) => {
+  for (const e of entries) {
+    if (e.isIntersecting) S.visible.add(e.target.dataset.loop);
+    else S.visible.delete(e.target.dataset.loop);
+  }
+  sendWatch();
+});
+
+function buildTable() {
   const tbody = $("loops").tBodies[0];
+  rowObserver.disconnect();
+  tbody.replaceChildren();
+  S.visible.clear();
   for (const name of S.order) {
-    const st = S.states[name];
-    let tr = tbody.querySelector(`tr[data-loop="${CSS.escape(name)}"]`);
-    if (!tr) {
-      tr = document.createElement("tr");
-      tr.dataset.loop = name;
-      for (const c of ["name", "block", "mode", "sp", "pv", "mv", "alarms"]) {
-        const td = document.createElement("td");
-        td.className = c;
-        tr.appendChild(td);
-      }
-      tr.addEventListener("click", () => select(name));
-      tbody.appendChild(tr);
+    const tr = document.createElement("tr");
+    tr.dataset.loop = name;
+    for (const c of ["name", "mode", "state", "pv", "sp", "mv", "block"]) {
+      const td = document.createElement("td");
+      td.className = c;
+      tr.appendChild(td);
     }
-    tr.classList.toggle("selected", name === S.selected);
-    tr.classList.toggle("alarm", st.alarms.length > 0);
     tr.querySelector(".name").textContent = name;
-    tr.querySelector(".block").textContent = st.block;
-    const m = tr.querySelector(".mode");
-    m.textContent = st.mode === "manual" ? "MAN" : "AUTO";
-    m.className = "mode " + st.mode;
-    tr.querySelector(".sp").textContent = withUnit(st.sp, "sp", name);
-    tr.querySelector(".pv").textContent = withUnit(st.pv, "pv", name);
-    tr.querySelector(".mv").textContent = withUnit(st.mv, "mv", name);
-    tr.querySelector(".alarms").textContent = st.alarms.join("; ") || "ok";
+    tr.addEventListener("click", () => select(name));
+    tbody.appendChild(tr);
+    rowObserver.observe(tr);
+  }
+}
+
+// the rows of the loops in ``diffs`` (name -> the fields that changed; all rows without it):
+// only the cells whose fields changed are touched
+function renderTable(diffs) {
+  const tbody = $("loops").tBodies[0];
+  for (const name of diffs ? Object.keys(diffs) : S.order) {
+    const st = S.states[name];
+    const tr = tbody.querySelector(`tr[data-loop="${CSS.escape(name)}"]`);
+    if (!st || !tr) continue;
+    const d = diffs ? diffs[name] : st;
+    if ("conditions" in d || "mode" in d) {
+      const w = worst(st);
+      tr.classList.toggle("alarm", w === "alarm");
+      tr.classList.toggle("warning", w === "warning");
+      modeBadge(tr.querySelector(".mode"), st);
+      stateBadges(tr.querySelector(".state"), st);
+    }
+    if ("block" in d) tr.querySelector(".block").textContent = st.block;
+    for (const sig of ["sp", "pv", "mv"]) {
+      if (sig in d) tr.querySelector("." + sig).textContent = withUnit(st[sig], sig, name);
+    }
   }
 }
 
 // ---------------------------------------------------------------- faceplate
 
 function select(name) {
-  if (!S.states[name]) name = S.order[0];
+  if (!S.order.includes(name)) name = S.order[0];
+  const before = S.selected;
   S.selected = name;
   history.replaceState(null, "", "#" + encodeURIComponent(name));
+  for (const tr of $("loops").tBodies[0].rows) tr.classList.toggle("selected", tr.dataset.loop === name);
   $("plate").hidden = false;
   $("plate-title").textContent = name;
   S.follow = true;
   S.dirty.clear();
-  fillInputs(true);
-  buildTunings();
-  showRanges();
+  S.tunedFor = null;
   makeChart();
-  renderTable();
-  renderPlate();
   setHistoryDefaults();
+  if (before !== name) {
+    delete S.data[name];  // its whole trend comes with the next push
+    sendWatch();
+  }
+  if (S.states[name] && S.states[name].tunings) renderPlate();
   loadAudit();
 }
 
 function rangeText(r, u) {
   if (!r) return "";
+  u = u || r.unit || "";
   const tail = u ? ` ${u}` : "";
-  if (r.derived) return (r.lo_open ? "> 0" : r.lo === 0 ? "≥ 0" : "any") + (r.inf_ok ? ", inf" : "");
-  return `${fmtParam(r.lo)} … ${fmtParam(r.hi)}${tail}`;
+  const inf = r.inf_ok ? " or inf" : "";
+  if (r.generic) return (r.lo_open ? "> 0" : r.lo === 0 ? "≥ 0" : "any") + inf;
+  const zero = r.zero_ok && r.lo > 0 ? "0 or " : "";
+  const pm = r.symmetric ? "±" : "";
+  if (r.integer) {
+    const n = [];
+    for (let k = r.lo; k <= r.hi && n.length < 6; k++) n.push(k);
+    return n.length && n[n.length - 1] === r.hi ? n.join(", ") : `${r.lo} … ${r.hi}`;
+  }
+  const num = (x) => String(Number(x.toPrecision(4)));
+  return `${zero}${pm}${num(r.lo)} … ${num(r.hi)}${tail}${inf}`;
 }
 
 function showRanges() {
@@ -287,18 +388,34 @@ for (const id of ["manual-value", "sp-input", "umin", "umax"]) {
 
 function renderPlate() {
   const st = S.states[S.selected];
-  if (!st) return;
+  if (!st || !st.tunings) return;  // the whole state comes with the next push
+  if (S.tunedFor !== S.selected) {  // first whole state of this loop: build its controls
+    S.tunedFor = S.selected;
+    fillInputs(true);
+    buildTunings();
+    showRanges();
+  }
   $("v-sp").textContent = fmt(st.sp);
   $("v-pv").textContent = fmt(st.pv);
   $("v-mv").textContent = fmt(st.mv);
   const m = $("plate-mode");
+  modeBadge(m, st);
   // a cascade's primary that tracks y2 or holds (the inner loop open): its mode stays AUTO
   const tracks = Object.entries(st.tracking || {})
     .map(([role, what]) => what === "hold" ? `${role} holds` : `${role} tracks ${what}`);
-  m.textContent = (st.mode === "manual" ? "MAN" : "AUTO") +
-    (tracks.length ? ` (${tracks.join(", ")})` : "");
-  m.className = "mode " + st.mode;
-  $("plate-alarms").textContent = st.alarms.join("; ");
+  if (tracks.length) m.textContent += ` (${tracks.join(", ")})`;
+  stateBadges($("plate-state"), st);
+  const list = $("plate-alarms");
+  list.replaceChildren();
+  for (const c of st.conditions || []) {
+    if (c.severity === "info") continue;
+    const li = document.createElement("li");
+    li.className = c.severity;
+    const b = document.createElement("b");
+    b.textContent = (S.words[c.code] || [c.severity, c.code])[1] + ": ";
+    li.append(b, c.text);
+    list.appendChild(li);
+  }
   $("block-type").textContent = st.block;
   fillInputs(false);
   for (const row of $("tunings").tBodies[0].rows) {
@@ -484,6 +601,25 @@ function yRange(lo, hi, which) {
 }
 S.yRange = yRange;
 
+// time axis labels that do not overlap: the time of day (with seconds when the ticks are
+// less than a minute apart), the date only under the first tick and where the day changes
+const pad2 = (x) => String(x).padStart(2, "0");
+function timeLabels(u, splits, axisIdx, foundSpace, foundIncr) {
+  let day = null;
+  return splits.map((t) => {
+    const d = new Date(t * 1000);
+    let s = `${pad2(d.getHours())}:${pad2(d.getMinutes())}`;
+    if (foundIncr < 60) s += `:${pad2(d.getSeconds())}`;
+    const today = d.toDateString();
+    if (today !== day) {
+      s += `\n${d.getFullYear()}-${pad2(d.getMonth() + 1)}-${pad2(d.getDate())}`;
+      day = today;
+    }
+    return s;
+  });
+}
+S.timeLabels = timeLabels;
+
 function chartOpts(el, title) {
   const label = (txt, sig) => (unit(sig) ? `${txt} [${unit(sig)}]` : txt);
   return {
@@ -503,7 +639,7 @@ function chartOpts(el, title) {
       { label: "MV", stroke: "#e8590c", width: 1.5, scale: "mv" },
     ],
     axes: [
-      {},
+      { space: 90, values: timeLabels },
       { label: label("SP, PV", "pv") },
       { label: label("MV", "mv"), side: 1, scale: "mv", grid: { show: false } },
     ],
