@@ -35,6 +35,8 @@ import numpy as np
 from blark import parse_source_code
 from blark import transform as tf
 
+from ctrlblocks.blocks.precision import real_exp, real_ln, real_sqrt
+
 REAL, DINT, BOOL = "REAL", "DINT", "BOOL"
 
 
@@ -326,9 +328,10 @@ def _dint_to_real(x: Any) -> np.float32:
 
 _STD: dict[str, Callable[..., Any]] = {
     "abs": lambda x: abs(x),
-    "exp": lambda x: _f32(np.exp(_real("exp", x))),
-    "ln": lambda x: _f32(np.log(_real("ln", x))),
-    "sqrt": lambda x: _f32(np.sqrt(_real("sqrt", x))),
+    # EXP, LN, SQRT as the float32 cycle defines them (ctrlblocks.blocks.precision.real_exp)
+    "exp": lambda x: real_exp(_real("exp", x)),
+    "ln": lambda x: real_ln(_real("ln", x)),
+    "sqrt": lambda x: real_sqrt(_real("sqrt", x)),
     "expt": lambda x, y: _f32(np.power(_real("expt", x), _real("expt", y))),
     "trunc": lambda x: int(_real("trunc", x)),
     "dint_to_real": _dint_to_real,

@@ -10,9 +10,10 @@ Bound: at most 1 ulp per sample is the requirement; what is reached is 0 ulp
 (bit-identical).  Both sides round every +, -, *, / of the same operands in
 the same order to the nearest float32 (IEEE 754), the translator keeps
 Python's evaluation order (left-associative, explicit parentheses), and the
-one transcendental function (EXP, for the ADRC reference filter) is numpy's
-float32 exp on both sides.  On a real PLC, EXP/LN/SQRT of the vendor's
-library may differ from numpy's by an ulp; only ``T_REF > 0`` uses them.
+one transcendental function (EXP, for the ADRC reference filter) is the one
+defined for the float32 cycle on both sides, ``float32(exp(float64(x)))``
+(``ctrlblocks.blocks.precision.real_exp``).  On a real PLC, EXP/LN/SQRT of the
+vendor's library may differ from it by an ulp; only ``T_REF > 0`` uses them.
 """
 
 from __future__ import annotations

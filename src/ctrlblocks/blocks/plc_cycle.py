@@ -45,7 +45,7 @@ import numpy as np
 
 from ..compiled import interpreted as _interpreted
 from .base import ErrorCode, Mode, as_input
-from .precision import CYCLES
+from .precision import CYCLES, real_exp, real_ln, real_sqrt
 
 # the law functions as Python functions even when the compiled blocks are loaded: the
 # float32 cycle rebuilds them with float32 math and the PLC export reads their source
@@ -1392,23 +1392,17 @@ def leadlag_cycle(
 # ---------------------------------------------------------------------------
 
 
-def _f32_unary(fn: Callable[[Any], Any]) -> Callable[[float], np.float32]:
-    def f(x: float) -> np.float32:
-        return np.float32(fn(np.float32(x)))
-
-    return f
-
-
 _MATH32 = types.SimpleNamespace(
-    exp=_f32_unary(np.exp),
-    sqrt=_f32_unary(np.sqrt),
-    log=_f32_unary(np.log),
+    exp=real_exp,
+    sqrt=real_sqrt,
+    log=real_ln,
     isfinite=lambda x: bool(np.isfinite(x)),
     inf=np.float32(np.inf),
     nan=np.float32(np.nan),
     pi=np.float32(math.pi),
 )
-"""The ``math`` functions the cycles use, computed in float32 (as a PLC's REAL EXP, SQRT, LN)."""
+"""The ``math`` functions the cycles use, as a PLC's REAL EXP, SQRT, LN: each DEFINED as the
+float64 function rounded once to float32 (:func:`.precision.real_exp`)."""
 
 
 @functools.cache
