@@ -11,7 +11,7 @@ cycle function itself (:mod:`.translate`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,6 +49,8 @@ class BlockSpec:
     state: list[Var]
     values: dict[str, Any]
     config: Any
+    process: frozenset[str] = frozenset()
+    """PLC names of the inputs the process writes (the others are the configuration's)."""
 
     def names(self) -> dict[str, str]:
         """python name -> PLC name for every parameter and result of the cycle."""
@@ -79,30 +81,31 @@ def _table(text: str) -> list[Var]:
 
 
 _PID_PROCESS = _table("""
-sp           SP           setpoint [eng. units]
-pv           PV           process value [eng. units]
-ff           FF           feed-forward / offset added before the limits [%]
+sp           SP           setpoint [{pv}]
+pv           PV           process value [{pv}]
+ff           FF           feed-forward / offset added before the limits [{mv}]
 pv_ok        PV_OK        quality of PV; FALSE = invalid measurement (16#8102)
 manual       MANUAL       manual mode: MV := MAN_VALUE (limited), bumpless back to AUTO
-man_value    MAN_VALUE    manual value [%]; outside MANUAL it follows MV (In/Out)
+man_value    MAN_VALUE    manual value [{mv}]; outside MANUAL it follows MV (In/Out)
 rst          RST          reset: MV := RESET_VALUE (limited), integrator set to match
 dv           DV           input of the lead-lag feed-forward path (FF_K <> 0)
 track        TRACK        tracking mode: MV := TRACK_VALUE (limited), bumpless back
-track_value  TRACK_VALUE  output in TRACK [%]
+track_value  TRACK_VALUE  output in TRACK [{mv}]
 hold         HOLD         hold mode: MV stays, bumpless back
 awin         AWIN         freeze the integrator (anti-windup from a secondary in cascade)
-actuator_pos ACTUATOR_POS measured actuator position [%] for ANTI_WINDUP = 2 (write it every cycle)
+actuator_pos ACTUATOR_POS measured actuator position [{mv}] for ANTI_WINDUP = 2
+                          (write it every cycle)
 """)
 _PID_TUNING = _table("""
-k           K              gain K [%/%] (ISA form, Åström 1987 (2.1))
+k           K              gain K [{mv}/{e}] (ISA form, Åström 1987 (2.1))
 ti          TI             integral time Ti [s]; 0 = no integral action
 td          TD             derivative time Td [s]; 0 = no derivative action
 n           N              derivative filter Tf = Td/N
 b           B              setpoint weight of P (Åström 1987 (2.2))
 c           C              setpoint weight of D (0 = derivative on PV)
 ts          TS
-u_min       U_MIN          output low limit [%]
-u_max       U_MAX          output high limit [%]
+u_min       U_MIN          output low limit [{mv}]
+u_max       U_MAX          output high limit [{mv}]
 tt          TT             tracking time constant Tt [s]; 0 = Ti/5 (ts without I)
 reverse     REVERSE        reverse action
 i_method    I_METHOD       integral discretisation: 0 forward (2.8), 1 backward, 2 Tustin
@@ -111,91 +114,93 @@ aw          ANTI_WINDUP    0 clamping (conditional integration), 1 back-calculat
                            2 on ACTUATOR_POS
 velocity    VELOCITY       TRUE: velocity (incremental) algorithm, Åström 1987 Fig. 2.5
 scale_pv    SCALE_PV       TRUE: SP and PV scaled from PV_LO..PV_HI to 0..100 %
-pv_lo       PV_LO          PV range low [eng. units] (SCALE_PV)
-pv_hi       PV_HI          PV range high [eng. units] (SCALE_PV)
+pv_lo       PV_LO          PV range low [{pv}] (SCALE_PV)
+pv_hi       PV_HI          PV range high [{pv}] (SCALE_PV)
 sp_filter   SP_FILTER      SP filter time constant [s] (PT1, exp(-TS/T)); 0 = off
 pv_filter   PV_FILTER      PV filter time constant [s] (PT1, exp(-TS/T)); 0 = off
-sp_rate     SP_RATE        setpoint ramp [%/s]; 0 = off
-out_rate    OUT_RATE       output ramp [%/s], in every mode but RST; 0 = off
-ff_k        FF_K           lead-lag feed-forward gain on DV; 0 = off (Bonde et al. 2021)
+sp_rate     SP_RATE        setpoint ramp [{e}/s]; 0 = off
+out_rate    OUT_RATE       output ramp [{mv}/s], in every mode but RST; 0 = off
+ff_k        FF_K           lead-lag feed-forward gain on DV [{mv} per DV unit]; 0 = off
+                           (Bonde et al. 2021)
 ff_t_lead   FF_T_LEAD      feed-forward lead time constant [s]
 ff_t_lag    FF_T_LAG       feed-forward lag time constant [s] (> 0, Tustin)
 bumpless    BUMPLESS       to AUTO: 0 integrator, 1 track setpoint (SP ramp),
                            2 suppress P until |e| <= DEV_TOL
-dev_tol     DEV_TOL        deviation tolerance [%] of BUMPLESS = 2
-reset_value RESET_VALUE    output while RST [%]
-safe_value  SAFE_VALUE     output while SP/PV/FF are bad, if USE_SAFE_VALUE [%]
+dev_tol     DEV_TOL        deviation tolerance [{e}] of BUMPLESS = 2
+reset_value RESET_VALUE    output while RST [{mv}]
+safe_value  SAFE_VALUE     output while SP/PV/FF are bad, if USE_SAFE_VALUE [{mv}]
 use_safe    USE_SAFE_VALUE TRUE: SAFE_VALUE on bad inputs; FALSE: hold MV
-db_width    DEADBAND       adaptive dead band half-width [%] (controltheplant 2024, 2.3.10); 0 = off
+db_width    DEADBAND       adaptive dead band half-width [{e}] (controltheplant 2024,
+                           2.3.10); 0 = off
 t_stab      T_STAB         stabilisation time [s] of the dead band: the error inside the band
                            for T_STAB holds MV at its mean over T_STAB/TS samples (<= the
                            exported array; a longer one: 16#8209, the window in force stays)
 """)
 _PID_OUT = _table("""
-mv            MV            manipulated variable [%] (limited)
+mv            MV            manipulated variable [{mv}] (limited)
 error_id      ERROR_ID
 limits_active LIMITS_ACTIVE the output is at a limit (= AWOUT for a cascade)
-p             P             proportional term of this cycle [%]
-i_term        I_TERM        integral term of this cycle [%]
-d_term        D_TERM        derivative term of this cycle [%]
+p             P             proportional term of this cycle [{mv}]
+i_term        I_TERM        integral term of this cycle [{mv}]
+d_term        D_TERM        derivative term of this cycle [{mv}]
 """)
 _PID_STATE_COMMENTS = {
-    "out": "output of the last cycle [%]", "i": "integrator for the next cycle [%]",
+    "out": "output of the last cycle [{mv}]", "i": "integrator for the next cycle [{mv}]",
     "d": "derivative state D[k-1]", "w_prev": "c r - y of the last cycle",
     "e_prev": "control error of the last cycle", "lo": "low limit in force",
     "hi": "high limit in force", "mode_prev": "mode of the last cycle (-1 none, 0 auto)",
     "cold": "first cycle after a (re)start", "reinit": "re-initialise the integrator",
     "reinit_d": "re-initialise the derivative histories",
-    "x": "output integrator of the velocity algorithm [%]",
+    "x": "output integrator of the velocity algorithm [{mv}]",
     "bias": "bias of the velocity algorithm without I (Åström 1987, Fig. 2.4)",
     "p_prev": "P of the last cycle (velocity)", "d_prev": "D of the last cycle (velocity)",
     "ff_prev": "FF of the last cycle (velocity)", "sp_f": "filtered SP", "pv_f": "filtered PV",
     "sp_w": "working setpoint after the ramp", "ll_x": "DV of the last cycle",
     "ll_out": "output of the lead-lag feed-forward", "suppressed": "P action suppressed",
-    "ramp_out": "output ramp's last value [%]",
-    "db_active": "the dead band holds the output", "db_hold": "output held by the dead band [%]",
+    "ramp_out": "output ramp's last value [{mv}]",
+    "db_active": "the dead band holds the output", "db_hold": "output held by the dead band [{mv}]",
     "db_win": "moving-average window in force [samples]", "db_t": "T_STAB in force [s]",
 }  # fmt: skip
 
 _ADRC_PROCESS = _table("""
-sp     SP        setpoint Y_sp [units of Y]
-y      PV        process value Y
+sp     SP        setpoint Y_sp [{pv}]
+y      PV        process value Y [{pv}]
 y_ok   PV_OK     quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF
 manual MANUAL    MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)
-u_man  MAN_VALUE manual value; outside MANUAL it follows the applied u (In/Out)
+u_man  MAN_VALUE manual value [{mv}]; outside MANUAL it follows the applied u (In/Out)
 awin   AWIN      freeze x4 (anti-windup from a secondary in cascade, section 5)
-u_real U_REAL    measured actuator value u_real (U_REAL_ON; NaN: u, 16#8101)
+u_real U_REAL    measured actuator value u_real [{mv}] (U_REAL_ON; NaN: u, 16#8101)
 """)
 _ADRC_TUNING = _table("""
 order        ORDER        ADRC order n = 1, 2, 3 (one body for all, section 3.2)
-b0           B0           scaling parameter b0 > 0
+b0           B0           scaling parameter b0 > 0 [{pv}/s^n per {mv}] (n = ORDER)
 omega_c      OMEGA_C      controller bandwidth [rad/s]
 omega_o      OMEGA_O      observer bandwidth [rad/s]
 ts           TS
-u_min        U_MIN        lower limit of MV
-u_max        U_MAX        upper limit of MV
+u_min        U_MIN        lower limit of MV [{mv}]
+u_max        U_MAX        upper limit of MV [{mv}]
 t_ref        T_REF        time constant of the reference trajectory [s]; 0 = off
-u_sf         U_SF         safe value while PV is invalid
+u_sf         U_SF         safe value while PV is invalid [{mv}]
 aw_rule      ANTI_WINDUP  x4 anti-windup: 0 off, 1 freeze, 2 directional (section 4.1)
 exact        EXACT        TRUE: exact (ZOH) current observer, FALSE: Euler ESO (4a)
 u_real_on    U_REAL_ON    TRUE: U_REAL drives the ESO (section 5)
 anti_backoff ANTI_BACKOFF anti-backoff action (12a)/(12b) at a sensor limit (4.3)
-y_sat        Y_SAT        upper saturation of the sensor [units of Y] (ANTI_BACKOFF)
-y_sat_lo     Y_SAT_LO     lower saturation of the sensor [units of Y] (ANTI_BACKOFF)
+y_sat        Y_SAT        upper saturation of the sensor [{pv}] (ANTI_BACKOFF)
+y_sat_lo     Y_SAT_LO     lower saturation of the sensor [{pv}] (ANTI_BACKOFF)
 tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
 reverse      REVERSE      reverse-acting process (negative gain): the ESO and law run on -SP, -Y
 """)
 _ADRC_OUT = _table("""
-mv       MV          manipulated variable u (limited)
+mv       MV          manipulated variable u [{mv}] (limited)
 error_id ERROR_ID
 awout    AWOUT       u_raw beyond a limit (for a primary controller in cascade)
-u_raw    U_RAW       u of the control law (4b) before the limits
-x4_out   DISTURBANCE x4: estimate of the total disturbance h
+u_raw    U_RAW       u of the control law (4b) before the limits [{mv}]
+x4_out   DISTURBANCE x4: estimate of the total disturbance h [{pv}/s^n]
 """)
 _ADRC_STATE_COMMENTS = {
-    "out": "u of the last cycle", "yh": "ESO state Y_hat", "x2": "ESO state x2",
+    "out": "u of the last cycle [{mv}]", "yh": "ESO state Y_hat [{pv}]", "x2": "ESO state x2",
     "x3": "ESO state x3", "x4": "ESO state x4 (total disturbance)",
-    "u_prev": "applied u of the last cycle", "ref": "reference trajectory",
+    "u_prev": "applied u of the last cycle [{mv}]", "ref": "reference trajectory [{pv}]",
     "started": "the ESO has been started on a valid PV", "track": "re-solve x4 by (11)",
     "sat": "+1/-1: last u_raw above/below the limits", "lo": "low limit in force",
     "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
@@ -204,20 +209,20 @@ _ADRC_STATE_COMMENTS = {
 }  # fmt: skip
 
 _LL_PROCESS = _table("""
-x      IN     input (setpoint or measured disturbance)
+x      IN     input (setpoint or measured disturbance) [{pv}]
 enable ENABLE FALSE: OUT := 0, the input follows IN (Bonde et al. 2021, Fig. 10)
 """)
 _LL_TUNING = _table("""
-k       K       gain K
+k       K       gain K [{mv}/{pv}]
 t_lead  T_LEAD  lead time constant Tt [s] (numerator)
 t_lag   T_LAG   lag time constant Tn [s] (denominator)
 ts      TS
 tustin  TUSTIN  TRUE Tustin (Bonde et al. 2021, Fig. 10), FALSE backward Euler
-out_min OUT_MIN output low limit
-out_max OUT_MAX output high limit
+out_min OUT_MIN output low limit [{mv}]
+out_max OUT_MAX output high limit [{mv}]
 """)
 _LL_OUT = _table("""
-out      OUT      output K (1 + Tt s)/(1 + Tn s), limited
+out      OUT      output K (1 + Tt s)/(1 + Tn s), limited [{mv}]
 error_id ERROR_ID
 """)
 
@@ -227,8 +232,37 @@ def _state(values: dict[str, Any], comments: dict[str, str], skip: set[str]) -> 
             for k in values if k not in skip]  # fmt: skip
 
 
-def spec_for(block: Any) -> BlockSpec:
-    """The :class:`BlockSpec` of a configured PID, ADRC or LeadLag."""
+def _units(kind: str, config: Any, units: Mapping[str, str] | None) -> dict[str, str]:
+    """The unit texts of the comments: ``pv`` (SP, PV), ``mv`` (the output), ``e`` (the
+    control error: % of the PV range when the PID scales PV, else PV's unit).  Unknown units
+    are named, not guessed (``[MV unit/PV unit]``)."""
+    given = {k: v for k, v in (units or {}).items() if v}
+    if kind == "leadlag":
+        return {"pv": given.get("pv", "IN unit"), "mv": given.get("mv", "OUT unit")}
+    pv = given.get("pv", given.get("sp", "PV unit"))
+    scaled = kind == "pid" and config.pv_range is not None
+    return {"pv": pv, "mv": given.get("mv", "MV unit"), "e": "% of PV range" if scaled else pv}
+
+
+def _with_units(spec: BlockSpec, units: dict[str, str]) -> BlockSpec:
+    def fill(vs: list[Var]) -> list[Var]:
+        return [Var(v.py, v.st, v.comment.format_map(units)) for v in vs]
+
+    spec.inputs, spec.outputs, spec.state = fill(spec.inputs), fill(spec.outputs), fill(spec.state)
+    return spec
+
+
+def spec_for(block: Any, units: Mapping[str, str] | None = None) -> BlockSpec:
+    """The :class:`BlockSpec` of a configured PID, ADRC or LeadLag.
+
+    ``units``: the unit of ``"pv"`` (SP and PV) and ``"mv"`` (the output) for the comments
+    (a runtime TOML's ``unit`` table); unknown units are written as ``PV unit``, ``MV unit``.
+    """
+    spec = _spec_for(block)
+    return _with_units(spec, _units(spec.kind, block.config, units))
+
+
+def _spec_for(block: Any) -> BlockSpec:
     c = block.config
     if isinstance(block, PID):
         bad = plc_unsupported(c, "pid")
@@ -244,7 +278,8 @@ def spec_for(block: Any) -> BlockSpec:
         values = {**process, **pc.pid_inputs(c), **state, **outputs}
         return BlockSpec("pid", "CB_PID", "PID (ISA form, positional or velocity)", pc.pid_cycle,
                          pc.PID_RESULTS, _PID_PROCESS + _PID_TUNING, _PID_OUT,
-                         _state(state, _PID_STATE_COMMENTS, set()), values, c)  # fmt: skip
+                         _state(state, _PID_STATE_COMMENTS, set()), values, c,
+                         frozenset(v.st for v in _PID_PROCESS))  # fmt: skip
     if isinstance(block, ADRC):
         bad = plc_unsupported(c, "adrc")
         if bad:
@@ -256,7 +291,8 @@ def spec_for(block: Any) -> BlockSpec:
                   "awout": False, "u_raw": state["out"], "x4_out": 0.0}  # fmt: skip
         return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler or exact ESO, orders 1..3)", pc.adrc_cycle,
                          pc.ADRC_RESULTS, _ADRC_PROCESS + _ADRC_TUNING, _ADRC_OUT,
-                         _state(state, _ADRC_STATE_COMMENTS, set()), values, c)  # fmt: skip
+                         _state(state, _ADRC_STATE_COMMENTS, set()), values, c,
+                         frozenset(v.st for v in _ADRC_PROCESS))  # fmt: skip
     if isinstance(block, LeadLag):
         state = pc.leadlag_state(c)
         values = {"x": 0.0, "enable": True, **pc.leadlag_inputs(c), **state, "error_id": 0}
@@ -265,7 +301,7 @@ def spec_for(block: Any) -> BlockSpec:
                          _LL_OUT, _state(state, {"x_prev": "input of the last sample",
                                                  "lo": "low limit in force",
                                                  "hi": "high limit in force"}, {"out"}),
-                         values, c)  # fmt: skip
+                         values, c, frozenset(v.st for v in _LL_PROCESS))  # fmt: skip
     raise UnsupportedBlock(
         f"no PLC export for {type(block).__name__}; blocks exported: PID, ADRC, LeadLag"
     )
