@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Build MATIEC (iec2c, the IEC 61131-3 compiler of Beremiz and OpenPLC) for tests/plc/test_matiec.py.
+#
+# MATIEC is GPL-3: a test tool only. It is built from a source archive OUTSIDE this repository
+# (default: ../shared/tools/matiec/matiec-*.tar.gz beside the repository) into a cache directory
+# (default: ~/.cache/ctrlblocks/matiec-<archive name>), never copied into the project.
+#
+#   tests/plc/build_matiec.sh [ARCHIVE] [CACHE_DIR]
+#
+# Prints the directory that holds iec2c and lib/ (what CTRLBLOCKS_MATIEC names) on stdout; the
+# build's own output goes to CACHE_DIR/build.log. A second run with the same archive is a no-op.
+# Needs gcc, make, flex, bison, autoconf, automake, libtool (Debian packages of those names).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+archive="${1:-}"
+if [ -z "$archive" ]; then
+    # beside the repository; for a git worktree also beside its main checkout
+    main="$(cd "$root" && git rev-parse --path-format=absolute --git-common-dir 2>/dev/null || true)"
+    for dir in "$root/.." ${main:+"$(dirname "$main")/.."}; do
+        archive="$(ls "$dir"/shared/tools/matiec/matiec-*.tar.gz 2>/dev/null | head -n 1 || true)"
+        [ -n "$archive" ] && break
+    done
+fi
+if [ -z "$archive" ] || [ ! -f "$archive" ]; then
+    echo "build_matiec: no MATIEC source archive (looked for ../shared/tools/matiec/matiec-*.tar.gz)" >&2
+    exit 2
+fi
+name="$(basename "$archive" .tar.gz)"
+cache="${2:-${XDG_CACHE_HOME:-$HOME/.cache}/ctrlblocks/$name}"
+if [ -x "$cache/matiec/iec2c" ] && [ -f "$cache/matiec/lib/C/iec_std_lib.h" ]; then
+    echo "$cache/matiec"
+    exit 0
+fi
+for tool in gcc make flex bison autoreconf automake libtoolize; do
+    command -v "$tool" >/dev/null || { echo "build_matiec: $tool is missing" >&2; exit 3; }
+done
+rm -rf "$cache.tmp" && mkdir -p "$cache.tmp"
+tar -xzf "$archive" -C "$cache.tmp"
+(
+    cd "$cache.tmp/matiec"
+    autoreconf -i && ./configure && make -j"$(nproc 2>/dev/null || echo 2)"
+) >"$cache.tmp/build.log" 2>&1 || { tail -n 30 "$cache.tmp/build.log" >&2; exit 4; }
+rm -rf "$cache" && mv "$cache.tmp" "$cache"
+echo "$cache/matiec"
