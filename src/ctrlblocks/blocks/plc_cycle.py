@@ -115,8 +115,15 @@ NO_MODE = -1
 
 
 def is_real(x: float) -> bool:
-    """True for a finite REAL: NaN fails every comparison, inf exceeds REAL_MAX."""
-    return abs(x) <= REAL_MAX
+    """True for a finite REAL: NaN fails every comparison, inf exceeds REAL_MAX.
+
+    The NaN is caught by ``x == x`` first, a *quiet* comparison (IEEE 754: no invalid-operation
+    exception for a quiet NaN), so that a runtime that traps floating-point exceptions does not
+    stop at a NaN input in the ordered comparison ``abs(x) <= REAL_MAX`` (docs/plc.md, "Traps").
+    """
+    if x == x:  # the NaN test
+        return abs(x) <= REAL_MAX
+    return False
 
 
 def cycle_time_ok(ts: float) -> bool:
