@@ -138,8 +138,9 @@ def pous(header: str) -> dict[str, Pou]:
 
 def _harness(units: dict[str, Pou]) -> str:
     lines = [
-        "#define _GNU_SOURCE", "#include <fenv.h>", "#include <setjmp.h>", "#include <signal.h>",
-        "#include <stdint.h>", "#include <string.h>",
+        "#define _GNU_SOURCE", "#include <dlfcn.h>", "#include <fenv.h>", "#include <setjmp.h>",
+        "#include <signal.h>",
+        "#include <stdint.h>", "#include <stdlib.h>", "#include <string.h>",
         '#include "iec_std_lib.h"', '#include "accessor.h"', '#include "POUS.h"',
         "TIME __CURRENT_TIME;", "BOOL __DEBUG;",
         "#define H_FE (FE_INVALID | FE_DIVBYZERO | FE_OVERFLOW)",
@@ -147,34 +148,39 @@ def _harness(units: dict[str, Pou]) -> str:
         "int h_fe_divbyzero(void) { return FE_DIVBYZERO; }",
         "int h_fe_overflow(void) { return FE_OVERFLOW; }",
         # a trapped cycle: SIGFPE's handler jumps back out of the body with the si_code
-        "static sigjmp_buf h_jmp; static volatile int h_code;",
+        "static sigjmp_buf h_jmp; static volatile int h_code; static void *volatile h_addr;",
         "static void h_on_fpe(int s, siginfo_t *si, void *u) { (void)s; (void)u;",
-        "  h_code = si->si_code; siglongjmp(h_jmp, 1); }",
+        "  h_code = si->si_code; h_addr = si->si_addr; siglongjmp(h_jmp, 1); }",
+        # where the last trap happened: the offset in this library (for addr2line)
+        "long h_trap_offset(void) { Dl_info i; if (!h_addr || !dladdr(h_addr, &i)) return -1;",
+        "  return (long)((char *)h_addr - (char *)i.dli_fbase); }",
     ]  # fmt: skip
     for p in units.values():
         n = p.name
         lines += [
-            f"static {n} v_{n};",
-            f"void {n}_h_init(void) {{ memset(&v_{n}, 0, sizeof v_{n}); {n}_init__(&v_{n}, 0); }}",
+            # each instance its own memory (calloc'd, freed by the Python object)
+            f"void *{n}_h_new(void) {{ {n} *p = calloc(1, sizeof *p); if (p) {n}_init__(p, 0);",
+            "  return p; }",
+            f"void {n}_h_free(void *p) {{ free(p); }}",
             # the FB's code is in another translation unit: the flags are those of its body.
             # trap: with the exceptions unmasked, -si_code of the SIGFPE that stopped the body
-            f"int {n}_h_step(int trap) {{ int f; struct sigaction sa, old;",
+            f"int {n}_h_step({n} *p, int trap) {{ int f; struct sigaction sa, old;",
             "  feclearexcept(FE_ALL_EXCEPT);",
-            f"  if (!trap) {{ {n}_body__(&v_{n}); f = fetestexcept(H_FE);",
+            f"  if (!trap) {{ {n}_body__(p); f = fetestexcept(H_FE);",
             "    feclearexcept(FE_ALL_EXCEPT); return f; }",
             "  memset(&sa, 0, sizeof sa); sa.sa_sigaction = h_on_fpe; sa.sa_flags = SA_SIGINFO;",
             "  sigaction(SIGFPE, &sa, &old);",
             "  if (sigsetjmp(h_jmp, 1)) { fedisableexcept(FE_ALL_EXCEPT);",
             "    feclearexcept(FE_ALL_EXCEPT); sigaction(SIGFPE, &old, 0); return -h_code; }",
-            f"  feenableexcept(H_FE); {n}_body__(&v_{n}); fedisableexcept(FE_ALL_EXCEPT);",
+            f"  feenableexcept(H_FE); {n}_body__(p); fedisableexcept(FE_ALL_EXCEPT);",
             "  feclearexcept(FE_ALL_EXCEPT); sigaction(SIGFPE, &old, 0); return 0; }",
         ]
         for f, t in p.fields.items():
             c = _SCALARS[t]
             lines += [
-                f"void {n}_h_set_{f}({c} x) {{ {t} v; memcpy(&v, &x, sizeof v); "
-                f"__SET_VAR(v_{n}., {f}, , v); }}",
-                f"{c} {n}_h_get_{f}(void) {{ {t} v = __GET_VAR(v_{n}.{f}); {c} x; "
+                f"void {n}_h_set_{f}({n} *p, {c} x) {{ {t} v; memcpy(&v, &x, sizeof v); "
+                f"__SET_VAR(p->, {f}, , v); }}",
+                f"{c} {n}_h_get_{f}({n} *p) {{ {t} v = __GET_VAR(p->{f}); {c} x; "
                 f"memcpy(&x, &v, sizeof x); return x; }}",
             ]
     return "\n".join(lines) + "\n"
@@ -190,10 +196,23 @@ class Library:
     """The generated C of one ST source, compiled and loaded (:func:`build`)."""
 
     def __init__(self, path: Path, units: dict[str, Pou]) -> None:
+        self.path = path
         self.dll = ctypes.CDLL(str(path))
         self.units = units
         fe = (self.dll.h_fe_invalid(), self.dll.h_fe_divbyzero(), self.dll.h_fe_overflow())
         assert fe == (FE_INVALID, FE_DIVBYZERO, FE_OVERFLOW), fe
+
+    def trap_site(self) -> str:
+        """``function at file:line`` of the instruction the last trapped cycle stopped at."""
+        fn = self.dll.h_trap_offset
+        fn.restype = ctypes.c_long
+        off = fn()
+        if off < 0:
+            return "?"
+        r = subprocess.run(["addr2line", "-f", "-e", str(self.path), hex(off)],
+                           capture_output=True, text=True, check=False)  # fmt: skip
+        func, _, line = r.stdout.strip().partition("\n")
+        return f"{func} at {line}"
 
     def instance(self, name: str) -> Instance:
         """A fresh instance of the FB or PROGRAM ``name`` (its VAR at their initial values)."""
@@ -205,7 +224,8 @@ def build(source: str, cache: Path, types: list[str], programs: list[str] = ()) 
     ``programs``) with iec2c strictly and the C with gcc; cached in ``cache`` by content."""
     m = require_matiec()
     text = source + configuration(types, programs)
-    key = hashlib.sha256((text + " ".join(CFLAGS)).encode()).hexdigest()[:16]
+    # the key: the source, the flags and this module (the harness it writes)
+    key = hashlib.sha256(text.encode() + Path(__file__).read_bytes()).hexdigest()[:16]
     out = cache / key
     lib = out / "fb.so"
     if not lib.is_file():
@@ -216,9 +236,9 @@ def build(source: str, cache: Path, types: list[str], programs: list[str] = ()) 
         (out / "harness.c").write_text(_harness(units))
         inc = ["-I", str(m / "lib" / "C"), "-I", str(out)]
         for unit in ("fbs", "harness"):  # two translation units: nothing moves across the call
-            _run(["gcc", *CFLAGS, "-fPIC", "-w", *inc, "-c", f"{unit}.c", "-o", f"{unit}.o"],
+            _run(["gcc", *CFLAGS, "-g", "-fPIC", "-w", *inc, "-c", f"{unit}.c", "-o", f"{unit}.o"],
                  out)  # fmt: skip
-        _run(["gcc", "-shared", "fbs.o", "harness.o", "-o", "fb.tmp.so", "-lm"], out)
+        _run(["gcc", "-shared", "fbs.o", "harness.o", "-o", "fb.tmp.so", "-lm", "-ldl"], out)
         os.replace(out / "fb.tmp.so", lib)
     units = pous((out / "POUS.h").read_text(encoding="utf-8"))
     return Library(lib, units)
@@ -232,41 +252,52 @@ class Instance:
         self.pou = pou
         self.trap = False
         d, n = lib.dll, pou.name
+        new, self._free = getattr(d, f"{n}_h_new"), getattr(d, f"{n}_h_free")
+        new.restype, new.argtypes = ctypes.c_void_p, []
+        self._free.restype, self._free.argtypes = None, [ctypes.c_void_p]
+        self._p = ctypes.c_void_p(new())
+        if not self._p.value:
+            raise MemoryError(f"no memory for an instance of {n}")
         self._step = getattr(d, f"{n}_h_step")
         self._step.restype = ctypes.c_int
-        self._step.argtypes = [ctypes.c_int]
+        self._step.argtypes = [ctypes.c_void_p, ctypes.c_int]
         ctype = {"REAL": ctypes.c_uint32, "DINT": ctypes.c_int32, "BOOL": ctypes.c_uint8}
         self._set: dict[str, Any] = {}
         self._get: dict[str, Any] = {}
         for f, t in pou.fields.items():
             s, g = getattr(d, f"{n}_h_set_{f}"), getattr(d, f"{n}_h_get_{f}")
-            s.argtypes, s.restype = [ctype[t]], None
-            g.argtypes, g.restype = [], ctype[t]
+            s.argtypes, s.restype = [ctypes.c_void_p, ctype[t]], None
+            g.argtypes, g.restype = [ctypes.c_void_p], ctype[t]
             self._set[f], self._get[f] = s, g
-        getattr(d, f"{n}_h_init")()
+
+    def __del__(self) -> None:
+        p = getattr(self, "_p", None)
+        if p is not None and p.value:
+            self._free(p)
+            p.value = None
 
     def set(self, name: str, value: Any) -> None:
         f = name.upper()
         t = self.pou.fields[f]
         if t == "REAL":
             with np.errstate(over="ignore"):  # 1.7e308 is inf as a REAL
-                self._set[f](int(np.array(value, dtype=np.float32).view(np.uint32)))
+                self._set[f](self._p, int(np.array(value, dtype=np.float32).view(np.uint32)))
         elif t == "BOOL":
-            self._set[f](1 if value else 0)
+            self._set[f](self._p, 1 if value else 0)
         else:
-            self._set[f](int(value))
+            self._set[f](self._p, int(value))
 
     def __call__(self, **inputs: Any) -> int:
         """Write ``inputs``, run one cycle: the FP exception flags it raised, or with
         :attr:`trap` (exceptions unmasked) ``-si_code`` of the SIGFPE that stopped it."""
         for k, v in inputs.items():
             self.set(k, v)
-        return int(self._step(1 if self.trap else 0))
+        return int(self._step(self._p, 1 if self.trap else 0))
 
     def __getitem__(self, name: str) -> Any:
         f = name.upper()
         t = self.pou.fields[f]
-        v = self._get[f]()
+        v = self._get[f](self._p)
         if t == "REAL":
             return np.array(v, dtype=np.uint32).view(np.float32)[()]
         return bool(v) if t == "BOOL" else int(v)

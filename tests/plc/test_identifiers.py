@@ -31,7 +31,8 @@ from .traces import ADRC_OPTIONS, DB_OPTIONS, PID_OPTIONS
 _PIECES = st.one_of(
     st.sampled_from(sorted(RESERVED)).map(lambda w: w.lower()),
     st.sampled_from(sorted(RESERVED)),
-    st.sampled_from(["_", "__", "___", "x", "r", "q", "ref", "step", "v", "v_2", "1", "9", "ω", "é"]),
+    st.sampled_from(["_", "__", "___", "x", "r", "q", "ref", "step", "v", "v_2", "1", "9", "ω",
+                     "é"]),
     st.text(alphabet="abcXYZ_019", min_size=1, max_size=4),
 )
 HOSTILE_NAMES = st.lists(_PIECES, min_size=1, max_size=4).map("".join)
@@ -108,7 +109,7 @@ _ST_WORDS = {"IF", "THEN", "ELSIF", "ELSE", "END_IF", "AND", "OR", "XOR", "NOT",
              "SQRT", "BEGIN", "REGION", "END_REGION", "VERSION", "EXTENDS", "TEST",
              "TEST_FINISHED", "ASSERTEQUALS_REAL", "ASSERTEQUALS_DINT", "ASSERTEQUALS_BOOL",
              "EXPECTED", "ACTUAL", "DELTA", "MESSAGE", "RUN", "S7_OPTIMIZED_ACCESS", "VOID",
-             "DINT", "INT", "BOOL", "DINT"}  # fmt: skip
+             "INT"}  # fmt: skip
 
 
 def _tokens_are_identifiers(text: str) -> set[str]:
