@@ -492,7 +492,9 @@ class _Translator:
                 if unpack is None:
                     raise self.err(self.node, f"parameter {pname!r} needs a type annotation")
                 body.remove(unpack)
-                names = [e.id for e in unpack.targets[0].elts if isinstance(e, ast.Name)]
+                target = unpack.targets[0]
+                assert isinstance(target, ast.Tuple)
+                names = [e.id for e in target.elts if isinstance(e, ast.Name)]
                 st_names = []
                 for n in names:
                     st_names.append(self.declare(n, REAL, unpack))
@@ -567,7 +569,8 @@ class _Translator:
             elt_types = [_ANN.get(t.strip()) for t in ann[6:-1].split(",")]
         outs: list[tuple[str, str]] = []
         for j, e in enumerate(last.elts):
-            typ = elt_types[j] if j < len(elt_types) and elt_types[j] else REAL
+            typ = elt_types[j] if j < len(elt_types) else None
+            typ = typ or REAL
             nm = e.id if isinstance(e, ast.Name) else ""
             own = j > 0 and bool(nm) and nm not in params and nm not in self.st
             oname = iec_name(nm if nm else f"r{j}", self.taken())
@@ -578,7 +581,7 @@ class _Translator:
             outs.append((oname, typ))
         return outs
 
-    def translate_fb(self) -> tuple[list[str], dict[str, str], dict[str, str]]:
+    def translate_fb(self) -> tuple[list[str], dict[str, str], dict[str, str], dict[str, str]]:
         assert self.fb is not None
         results, names = self.fb
         params = self._params()
@@ -699,7 +702,7 @@ class _Translator:
         lo = self.coerce(it.args[0], DINT) if len(it.args) == 2 else "0"
         hi = it.args[-1]
         if isinstance(hi, ast.Constant):
-            top = str(int(hi.value) - 1)
+            top = str(int(hi.value) - 1)  # type: ignore[arg-type]
         else:
             top = f"{self.wrap(self.expr(hi), PREC_ADD + 1)} - 1"
             if self.expr(hi)[2] != DINT:
@@ -1058,7 +1061,7 @@ class _Translator:
                 return f"NOT {self.wrap(sub, PREC_UNARY)}", PREC_UNARY, BOOL
             if isinstance(e.op, ast.USub):
                 if isinstance(e.operand, ast.Constant):
-                    return self.expr(ast.Constant(-e.operand.value), want)
+                    return self.expr(ast.Constant(-e.operand.value), want)  # type: ignore[operator]
                 sub = self.expr(e.operand, want)
                 return f"-{self.wrap(sub, PREC_ATOM)}", PREC_UNARY, sub[2]
             raise self.err(e, "unary operator")
@@ -1093,7 +1096,8 @@ class _Translator:
             left = self.expr(e.left)
             if left[2] != DINT:
                 raise self.err(e, ">> needs an integer")
-            return f"{self.wrap(left, PREC_MUL)} / {2 ** int(e.right.value)}", PREC_MUL, DINT
+            shift = int(e.right.value)  # type: ignore[arg-type]
+            return f"{self.wrap(left, PREC_MUL)} / {2**shift}", PREC_MUL, DINT
         if (
             isinstance(e.op, ast.BitAnd)
             and isinstance(e.right, ast.Constant)
@@ -1188,8 +1192,8 @@ class _Translator:
         if name == "float":
             return self.coerce(c.args[0], REAL), PREC_ATOM, REAL
         if name == "len":
-            a = c.args[0]
-            info = array_info(self.types.get(a.id, "")) if isinstance(a, ast.Name) else None
+            arg = c.args[0]
+            info = array_info(self.types.get(arg.id, "")) if isinstance(arg, ast.Name) else None
             if info is None:
                 raise self.err(c, "len() of something other than an array")
             return str(info[0]), PREC_ATOM, DINT  # the bounds are fixed at export
@@ -1212,4 +1216,4 @@ class _Translator:
         if sig.pou not in self.calls:
             self.calls.append(sig.pou)
         args = self.call_args(c, sig)
-        return f"{pou_ref(sig.pou)}({', '.join(args)})", PREC_ATOM, sig.ret_type
+        return f"{pou_ref(sig.pou)}({', '.join(args)})", PREC_ATOM, sig.ret_type or REAL
