@@ -39,13 +39,15 @@ def _wrap_cdata(xml: str) -> str:
     return re.sub(r"(?:]]>)(?!</xhtml:p>)", "]]></xhtml:p>", xml)
 
 
-def formatted_text(el: ET.Element | None, where: str) -> str:
-    """The text of a formattedText element as Beremiz reads it: its first ``xhtml:p``."""
+def formatted_text(el: ET.Element | None, where: str, form: str = "beremiz") -> str:
+    """The text of a formattedText element as Beremiz reads it: its first ``xhtml:p``
+    (``form="codesys"``: the text of its ``<xhtml>`` element, as CODESYS writes it)."""
     if el is None:
         raise BeremizReadError(f"{where}: no text element")
-    ps = el.findall("xhtml:p", NS)
+    tag = "xhtml:p" if form == "beremiz" else "xhtml:xhtml"
+    ps = el.findall(tag, NS)
     if not ps:
-        raise BeremizReadError(f"{where}: no <xhtml:p> (Beremiz reads nothing else)")
+        raise BeremizReadError(f"{where}: no <{tag}> (Beremiz reads nothing else)")
     return ps[0].text or ""
 
 
@@ -64,9 +66,10 @@ def _type(t: ET.Element, where: str) -> str:
     return tag.upper()
 
 
-def st_from_plcopen(xml: str) -> str:
-    """The ST of every POU of a PLCopen XML project, as Beremiz generates it for MATIEC."""
-    root = ET.fromstring(_wrap_cdata(xml))
+def st_from_plcopen(xml: str, form: str = "beremiz") -> str:
+    """The ST of every POU of a PLCopen XML project, as Beremiz generates it for MATIEC
+    (``form="codesys"``: the texts read from the CODESYS form instead)."""
+    root = ET.fromstring(_wrap_cdata(xml) if form == "beremiz" else xml)
     out: list[str] = []
     for pou in root.iterfind("p:types/p:pous/p:pou", NS):
         name, kind = pou.get("name", ""), _KINDS[pou.get("pouType", "")]
@@ -92,17 +95,17 @@ def st_from_plcopen(xml: str) -> str:
                 ini = f" := {init.get('value')}" if init is not None else ""
                 vdoc = v.find("p:documentation", NS)
                 if vdoc is not None:
-                    formatted_text(vdoc, f"{name}.{v.get('name')} documentation")
+                    formatted_text(vdoc, f"{name}.{v.get('name')} documentation", form)
                 lines.append(f"    {v.get('name')} : {_type(t, name)}{ini};")
             lines.append("  END_VAR")
         if len(lines) == 1:
             raise BeremizReadError(f'No variable defined in "{name}" POU')
         body = pou.find("p:body/p:ST", NS)
-        text = formatted_text(body, f"{name} body")
+        text = formatted_text(body, f"{name} body", form)
         if not text.strip():
             raise BeremizReadError(f'No body defined in "{name}" POU')
         doc = pou.find("p:documentation", NS)
         if doc is not None:
-            formatted_text(doc, f"{name} documentation")
+            formatted_text(doc, f"{name} documentation", form)
         out += [*lines, "", text, f"END_{kind}", ""]
     return "\n".join(out)
