@@ -199,7 +199,7 @@ def export_command(
     tcpou: bool,
     out: str | None,
 ) -> None:
-    """Export tuned PIDs, ADRCs or LeadLags as PLC code (IEC 61131-3 ST, TIA SCL, PLCopen XML).
+    """Export a tuned PID, ADRC or LeadLag as PLC code (IEC 61131-3 ST, TIA SCL, PLCopen XML).
 
     The code is translated from the block's own per-cycle Python and computes
     what the block computes with precision="float32" (docs/plc.md).
