@@ -138,14 +138,11 @@ CONFIGS = [
 ]  # fmt: skip
 
 
-@pytest.mark.parametrize("target", ["codesys", "tia"])
-def test_every_identifier_of_every_export_is_an_iec_identifier(target):
-    """All configurations the tests use, one by one, and all in one project with their test
-    benches (both forms)."""
-    for block in CONFIGS:
-        _tokens_are_identifiers(plc.export(block, target))
-    for test in ("plain", "tcunit"):
-        _tokens_are_identifiers(plc.export(CONFIGS, target, test=test))
+@pytest.mark.parametrize(("target", "test"), [("codesys", "plain"), ("codesys", "tcunit"),
+                                              ("tia", "plain")])  # fmt: skip
+def test_every_identifier_of_every_export_is_an_iec_identifier(target, test):
+    """All configurations the tests use in one project, with their test benches."""
+    _tokens_are_identifiers(plc.export(CONFIGS, target, test=test))
 
 
 def test_function_and_fb_names_and_all_declared_names_are_iec_identifiers():

@@ -19,8 +19,8 @@ equal bits are required.  The exported test bench (a plain ST PROGRAM)
 is compiled and run the same way, and the PLCopen XML is read back to ST as
 Beremiz reads it and compiled.
 
-The default run keeps a strict-compile smoke test and one short bench; the
-campaigns are ``@pytest.mark.slow``.  Without a MATIEC build the tests skip
+The default run keeps a strict-compile smoke test (iec2c only); the runs
+(gcc, the campaigns) are ``@pytest.mark.slow``.  Without a MATIEC build the tests skip
 with a message (they fail instead under ``CTRLBLOCKS_REQUIRE_MATIEC=1``, as
 in ``.ci/run``).
 """
@@ -75,7 +75,7 @@ def _same(got: Any, ref: Any) -> bool:
 
 
 # ---------------------------------------------------------------------------
-# default run: strict compile of every block and target, and one short bench
+# default run: a strict compile of every block kind with its test bench
 # ---------------------------------------------------------------------------
 
 
@@ -97,6 +97,7 @@ def test_pid_adrc_and_leadlag_in_one_project_with_test_benches_compile_strictly(
     matiec.iec2c(src + matiec.configuration([f"CB_{k.upper()}" for k in SMOKE]), tmp_path)
 
 
+@pytest.mark.slow
 def test_the_exported_test_bench_passes_on_the_compiled_fb(tmp_path):
     """The plain test program (the recorded trace, 120 samples) compiled by MATIEC and gcc:
     every sample's MV, ERROR_ID and LIMITS_ACTIVE equal the recorded ones."""
@@ -235,6 +236,7 @@ def test_every_test_bench_passes_on_its_compiled_fb(name, cache):
     assert prog["SAMPLES"] == 120
 
 
+@pytest.mark.slow
 def test_a_wrong_expectation_makes_the_test_bench_fail(tmp_path):
     """The bench can fail: one recorded MV changed by one ulp is found at its sample."""
     block = SMOKE["leadlag"]
