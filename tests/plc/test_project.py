@@ -177,3 +177,14 @@ def test_export_of_several_tunings_and_a_test_bench_from_the_command_line(tmp_pa
     assert r.output.count('pou name="CB_CLAMP"') == 1 and "setpoint [bar]" in r.output
     r = _run("export", "--from-json", str(pid), "--from-json", str(adrc), "--name", "X")
     assert r.exit_code == 2 and "--name names one block" in r.output
+
+
+def test_a_unit_test_framework_suite_only_where_the_dialect_can_extend_its_base_fb():
+    assert "EXTENDS TcUnit.FB_TestSuite" in plc.export(LeadLag(), "twincat", test=True)
+    assert "EXTENDS CfUnit.FB_TestSuite" in plc.export(LeadLag(), "codesys", test=True)
+    assert 'pouType="program"' in plc.export(LeadLag(), "plcopen", test=True)
+    for target in ("tia", "plcopen", "beremiz"):
+        with pytest.raises(ValueError, match="plain test program"):
+            plc.export(LeadLag(), target, test="tcunit")
+    with pytest.raises(ValueError, match="unknown test framework"):
+        plc.export(LeadLag(), "codesys", test="pytest")

@@ -698,6 +698,10 @@ def _project(blocks: Any, d: Dialect, units: Mapping[str, str] | None, test: boo
     framework = (d.test_framework if test is True else test) if test else ""
     if framework and framework not in ("plain", "tcunit", "cfunit"):
         raise ValueError(f"unknown test framework {framework!r}; choose plain, tcunit or cfunit")
+    if framework in ("tcunit", "cfunit") and not isinstance(d, Codesys):
+        # a test suite EXTENDS the framework's FB: neither SCL nor PLCopen XML can say so
+        raise ValueError(f"the {framework} test suite is CODESYS/TwinCAT ST; the {d.name} "
+                         "target takes the plain test program (test=True or 'plain')")  # fmt: skip
     proj = project(blocks, units, bool(test), trace)
     return _with_tests(proj, framework) if framework else proj
 
