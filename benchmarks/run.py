@@ -6,6 +6,8 @@ Usage (from the repository root, with the ``bench`` extra installed:
     python benchmarks/run.py            # full run, about a minute
     python benchmarks/run.py --quick    # fewer repeats, about 30 s
     python benchmarks/run.py --markdown docs/performance-table.md
+    python benchmarks/run.py --readme   # only the README's table, printed as it stands there
+    python benchmarks/run.py --readme --update README.md   # ... and written into README.md
 
 Timings on a shared machine jump between levels, so every comparison runs
 both sides *interleaved* (A, B, A, B, ...) and reports the ratio of the
@@ -553,11 +555,89 @@ def markdown(rows: list[Row]) -> str:
     return "\n".join(lines)
 
 
+README_BEGIN = "<!-- benchmarks/run.py --readme: begin -->"
+README_END = "<!-- benchmarks/run.py --readme: end -->"
+README_ROWS = (
+    ("compiled closed loop, PID + 3rd-order plant", "per sample"),
+    ("compiled closed loop, ADRC n=2 + 3rd-order plant", "per sample"),
+    ("bank of 1,000,000 PID loops, per loop-step", "per loop-step, one core"),
+)
+"""The README's table: (benchmark row, what one time is), in this order."""
+
+
+def readme_table(rows: list[Row], conditions: str) -> str:
+    """The README's performance table (between its markers) from benchmark rows.
+
+    One row per :data:`README_ROWS`: the medians of ctrlblocks and of the C
+    reference over the interleaved rounds and the ratio of the medians (the
+    ratio holds better than the times on a shared machine), then the
+    conditions of the run.
+    """
+    by_name = {str(r["comparison"]): r for r in rows}
+    lines = [
+        README_BEGIN,
+        "| compiled by numba | time | C -O2, the same loop | ratio |",
+        "|---|---|---|---|",
+    ]
+    for name, unit in README_ROWS:
+        r = by_name[name]
+        ours = str(r["ctrlblocks"]).split(" / ")[1]  # "min / median unit": the median
+        peer_name, peer = str(r["peer"]).rsplit(": ", 1)
+        peer_median = peer.split(" / ")[1]
+        what = name.replace("compiled closed loop, ", "closed loop, ").replace(
+            ", per loop-step", ""
+        )
+        lines.append(
+            f"| {what} ({unit}) | {ours} | {peer_median} ({peer_name}) | "
+            f"{float(r['ratio med/med']):.2f}x |"
+        )
+    lines += ["", conditions, README_END]
+    return "\n".join(lines)
+
+
+def update_readme(path: Path, table: str) -> None:
+    """Replace the table between the markers of ``path`` with ``table``."""
+    text = path.read_text(encoding="utf-8")
+    i, j = text.index(README_BEGIN), text.index(README_END) + len(README_END)
+    path.write_text(text[:i] + table + text[j:], encoding="utf-8")
+
+
+def _conditions(load_before: float, load_after: float, repeats: int) -> str:
+    return (
+        f"Medians of {repeats} interleaved rounds, measured "
+        f"{time.strftime('%Y-%m-%d')} on {machine()}; 1-minute load average "
+        f"{load_before:.1f} before and {load_after:.1f} after the run "
+        f"(`python benchmarks/run.py --readme`)."
+    )
+
+
+def _load() -> float:
+    try:
+        return os.getloadavg()[0]
+    except OSError:  # pragma: no cover - not on every platform
+        return float("nan")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats and samples")
     ap.add_argument("--markdown", type=Path, help="also write the table to this file")
+    ap.add_argument(
+        "--readme",
+        action="store_true",
+        help="run only the README's comparisons and print its table",
+    )
+    ap.add_argument(
+        "--update",
+        type=Path,
+        metavar="README",
+        help="with --readme: write the table into this file, between its markers",
+    )
     args = ap.parse_args(argv)
+    if args.update and not args.readme:
+        ap.error("--update goes with --readme")
+    if args.readme:
+        return _readme(args)
     reps = 7 if args.quick else 15
     n_loop = 200_000 if args.quick else 1_000_000
     sizes = [10_000, 100_000] if args.quick else [10_000, 100_000, 1_000_000]
@@ -582,6 +662,28 @@ def main(argv: list[str] | None = None) -> int:
     print(table)
     if args.markdown:
         args.markdown.write_text(f"Machine: {machine()}\n\n{table}\n", encoding="utf-8")
+    return 0
+
+
+def _readme(args: argparse.Namespace) -> int:
+    """``--readme``: the compiled loops and the million-loop bank, then the README's table."""
+    reps = 7 if args.quick else 15
+    load0 = _load()
+    print(f"machine: {machine()}; load average {load0:.1f}", file=sys.stderr, flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = build_c(Path(tmp))
+        t0 = time.perf_counter()
+        rows = bench_loops(exe, reps, 200_000 if args.quick else 1_000_000)[0]
+        print(f"  compiled loops: done in {time.perf_counter() - t0:.0f} s", file=sys.stderr,
+              flush=True)  # fmt: skip
+        t0 = time.perf_counter()
+        rows += bench_bank(exe, max(3, reps // 3), [1_000_000], 4_000_000)
+        print(f"  bank: done in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+    table = readme_table(rows, _conditions(load0, _load(), reps))
+    print(table)
+    if args.update:
+        update_readme(args.update, table)
+        print(f"wrote the table into {args.update}", file=sys.stderr)
     return 0
 
 

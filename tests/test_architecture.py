@@ -31,6 +31,7 @@ LAYERS: dict[str, int] = {
     "plants": 1,
     "tuning": 1,
     "loops": 2,
+    "health": 2,  # loop performance assessment: data -> figures and findings (numpy, tuning)
     "sim": 3,
     "runtime": 3,
     "fast": 3,

@@ -1,7 +1,8 @@
 """Every number option of every command, given hostile values: an error line, never a traceback.
 
 The contract (README): the CLI never shows a traceback for a user mistake, and
-no option can make it exhaust the machine.  For each command with number
+no option can make it exhaust the machine; and what it prints has no number
+written with all of its float digits (``tests/text_checks.py``).  For each command with number
 options (found by walking the command tree, so a new option is covered the day
 it is added), each option is given ``nan``, ``inf``, ``-inf``, ``0``, ``-1``,
 ``1e308``, ``1e-320`` and ``abc`` in an otherwise valid command line.  The
@@ -25,6 +26,8 @@ from click.testing import CliRunner
 
 from ctrlblocks.cli import main
 
+from .text_checks import long_floats
+
 ROOT = Path(__file__).resolve().parents[1]
 CSV = str(ROOT / "docs" / "examples" / "bump_k2.csv")
 HOSTILE = ("nan", "inf", "-inf", "0", "-1", "1e308", "1e-320", "abc")
@@ -39,6 +42,8 @@ BASE: dict[tuple[str, ...], list[str]] = {
                    "--no-corners", "--out", "{tmp}/compare"],
     ("sweep",): ["nowak_fig7", "--vary", "controllers[2].kp=5", "--duration", "2", "--serial",
                  "--out", "{tmp}/sweep.csv"],
+    ("assess",): [CSV, "--time", "time_s", "--sp", "p3_bar", "--y", "p3_bar", "--u",
+                  "p_supply_bar", "--no-plots", "--out", "{tmp}/assess"],
     ("compile",): ["--status"],  # no hostile --jobs is a valid count: nothing is built
 }  # fmt: skip
 # commands that start a server or act on a running one: their start-up numbers are
@@ -97,6 +102,8 @@ def test_a_hostile_number_gives_an_error_line_not_a_traceback(tmp_path, path, op
             raise AssertionError(f"{' '.join(path)} {option} {value}: {r.exception!r}")
         if r.exit_code != 0:
             assert r.exit_code in (1, 2) and "Error" in r.output, (option, value, r.output)
+        # what the command printed: no number with all its float digits (55.349999999999994)
+        assert long_floats(r.output, allowed=args) == [], (option, value, r.output)
 
 
 def test_sweep_never_starts_more_processes_than_parameter_sets():
@@ -106,3 +113,48 @@ def test_sweep_never_starts_more_processes_than_parameter_sets():
         assert pool._max_workers == 3
     with process_pool(None, 1) as pool:
         assert pool._max_workers == 1
+
+
+# the reading options of every command that reads a CSV record (tuning/csv_options.py): text
+# a user might type, right or absurd; the command may run or refuse, in one line
+READING_HOSTILE = ("", " ", "nan", "1e308", "-1", "abc", "%", "%Q%Q", "2024-13-45 25:61:61",
+                   "Europe/Berlin", "UTC", "+99:99", "../../etc/passwd", "x" * 5000)  # fmt: skip
+
+
+def _reading_options() -> list[tuple[tuple[str, ...], str]]:
+    from ctrlblocks.tuning.csv_options import _NAMES
+
+    names = {"--" + n.replace("_", "-") for n in _NAMES} - {"--delimiter", "--decimal"}
+    ctx = click.Context(main)
+    out = []
+    for name in main.list_commands(ctx):
+        cmd = main.get_command(ctx, name)
+        for p in getattr(cmd, "params", []):
+            if isinstance(p, click.Option) and p.opts[-1] in names and not isinstance(
+                p.type, click.Choice
+            ):
+                out.append(((name,), p.opts[-1]))
+    return out
+
+
+def test_identify_and_compare_take_the_reading_options():
+    found = {(path, opt) for path, opt in _reading_options()}
+    for cmd in (("identify",), ("compare",)):
+        for opt in ("--tz", "--time-format", "--start", "--end", "--encoding"):
+            assert (cmd, opt) in found
+
+
+@pytest.mark.parametrize(
+    ("path", "option"), _reading_options(), ids=lambda x: " ".join(x) if isinstance(x, tuple) else x
+)
+@pytest.mark.slow  # a campaign over every reading option (pytest -m slow)
+def test_a_hostile_reading_option_gives_an_error_line_not_a_traceback(tmp_path, path, option):
+    base = [a.replace("{tmp}", str(tmp_path)) for a in BASE[path]]
+    for value in READING_HOSTILE:
+        r = CliRunner().invoke(main, [*path, *base, option, value])
+        if r.exception is not None and not isinstance(r.exception, SystemExit):
+            raise AssertionError(f"{' '.join(path)} {option} {value[:40]}: {r.exception!r}")
+        if r.exit_code != 0:
+            last = r.output.strip().splitlines()[-1]
+            assert r.exit_code in (1, 2) and last.startswith("Error"), (option, value, r.output)
+            assert len(last) < 2000, (option, len(last))  # a 5000-character value is not echoed

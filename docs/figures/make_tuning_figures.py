@@ -13,6 +13,10 @@ Writes
   seed 4;
 * docs/figures/tuning_identify.png: the record against the least-squares FOPDT
   and SOPDT models;
+* docs/examples/bump_dst.csv: a bump test recorded as WinCC writes it, in local
+  time (Europe/Berlin) across the spring daylight-saving jump: the FOPDT
+  2 e^{-9 s}/(20 s + 1), MV 50 -> 60 % at 90 s, samples every 0.5 s, no noise,
+  stamps dd.mm.yyyy hh:mm:ss,fff from 2024-03-31 01:58 CET;
 * docs/figures/tuning_deadtime_adrc.png and tuning_deadtime_pid.png: the worked
   dead-time example of docs/tuning.md (k = 2, T = 30 s, L = 5 s), the default
   ADRC n = 2 and the AMIGO PID with their margins, as ``tune ... --plot`` draws
@@ -55,6 +59,25 @@ def write_csv(path: Path, t, u, y) -> None:
         w.writerow(["time_s", "p_supply_bar", "p3_bar"])
         for row in zip(t, u, y, strict=True):
             w.writerow([f"{row[0]:.1f}", f"{row[1]:.3f}", f"{row[2]:.5f}"])
+
+
+def write_dst_example(path: Path) -> None:
+    """docs/examples/bump_dst.csv (the module docstring): the case of docs/tuning.md."""
+    import datetime
+    import zoneinfo
+
+    berlin = zoneinfo.ZoneInfo("Europe/Berlin")
+    start = datetime.datetime(2024, 3, 31, 0, 58, tzinfo=datetime.timezone.utc)
+    t = np.arange(600) * 0.5
+    u = np.where(t >= 90.0, 60.0, 50.0)
+    s = t - 90.0 - 9.0
+    y = 40.0 + np.where(s > 0.0, 20.0 * -np.expm1(-np.maximum(s, 0.0) / 20.0), 0.0)
+    lines = ["Zeit;MV [%];PV [degC]"]
+    for ti, ui, yi in zip(t, u, y, strict=True):
+        d = (start + datetime.timedelta(seconds=float(ti))).astimezone(berlin)
+        stamp = d.strftime("%d.%m.%Y %H:%M:%S,") + f"{d.microsecond // 1000:03d}"
+        lines.append(f"{stamp};{ui:.4f};{yi:.6f}".replace(".", ",").replace(",", ".", 2))
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
 def figure(t, u, y, path: Path) -> None:
@@ -139,6 +162,7 @@ def main() -> None:
     for p in (ROOT / "docs/examples/bump_k2.csv", ROOT / "tests/tuning/data/bump_k2.csv"):
         write_csv(p, t, u, y)
     figure(t, u, y, ROOT / "docs/figures/tuning_identify.png")
+    write_dst_example(ROOT / "docs/examples/bump_dst.csv")
 
 
 if __name__ == "__main__":

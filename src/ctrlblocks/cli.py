@@ -17,6 +17,10 @@ import click
 # command name -> ("module:attribute", the first sentence of its docstring);
 # each module owns its command.
 _COMMANDS: dict[str, tuple[str, str]] = {
+    "assess": (
+        "ctrlblocks.health.cli:assess_command",
+        "Assess the performance of loops from a historian file or a CSV; write a report.",
+    ),
     "compare": (
         "ctrlblocks.sim.cli:compare_command",
         "Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).",

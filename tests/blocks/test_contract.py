@@ -57,6 +57,19 @@ CASES: dict[str, Case] = {
         {"alarm_limit": 0.11},
         ErrorCode.BAD_LIMITS,
     ),
+    "Alarm": Case(
+        lambda: ctrlblocks.Alarm(limit=0.5, deadband=0.2, on_delay=0.2, off_delay=0.3, ts=0.1),
+        lambda b, k: b(_wave(k), suppress=k % 31 < 3),
+        {"on_delay": -1.0},
+        ErrorCode.BAD_TIME_CONSTANT,
+    ),
+    "LoopAlarms": Case(
+        lambda: ctrlblocks.LoopAlarms(hh=1.5, h=0.8, l=-0.3, ll=-1.0, dev=0.7, roc=5.0,
+                                      roc_period=0.3, deadband=0.1, on_delay=0.2, ts=0.1),
+        lambda b, k: b(0.5, _wave(k), manual=k % 37 < 5, pv_ok=k % 23 != 4),
+        {"h": 2.0},
+        ErrorCode.BAD_LIMITS,
+    ),
     "DeadBand": Case(
         lambda: ctrlblocks.DeadBand(width=0.1),
         lambda b, k: b(_wave(k)),

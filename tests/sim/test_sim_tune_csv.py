@@ -86,3 +86,28 @@ def test_a_missing_or_bad_record_is_named_at_the_file_key(tmp_path) -> None:
     with pytest.raises(ScenarioError) as info:
         load_scenario(scn)
     assert info.value.key == "controllers[0].tune.file"
+
+
+def test_the_tune_table_takes_every_reading_option_of_identify() -> None:
+    from ctrlblocks.sim.scenario import _CSV_KEYS
+    from ctrlblocks.tuning.records import CSV_OPTIONS
+
+    assert set(CSV_OPTIONS) <= set(_CSV_KEYS)
+
+
+def test_a_historian_export_with_bad_cells_and_a_window_is_read_with_the_options(tmp_path):
+    _bump(tmp_path / "bump.csv")
+    lines = (tmp_path / "bump.csv").read_text().splitlines()
+    lines[100] = lines[100].rsplit(",", 1)[0] + ",I/O Timeout"
+    (tmp_path / "bump.csv").write_text("\n".join(lines) + "\n")
+    scn = tmp_path / "scenario.toml"
+    scn.write_text(SCENARIO.format(file="bump.csv", extra=""))
+    with pytest.raises(ScenarioError, match=r"line 101, column 'y': 'I/O Timeout' is not a num"):
+        load_scenario(scn)
+    scn.write_text(SCENARIO.format(file="bump.csv", extra='bad_rows = "skip"\nstart = 2.0'))
+    info = load_scenario(scn).controllers[0].blocks["main"].extra["tuned"]
+    assert info["gain"] == pytest.approx(2.0, rel=1e-3)
+    assert info["dead_time"] == pytest.approx(2.0, abs=0.1)
+    scn.write_text(SCENARIO.format(file="bump.csv", extra='bad_rows = "drop"'))
+    with pytest.raises(ScenarioError, match=r"controllers\[0\]\.tune: bad_rows must be one of"):
+        load_scenario(scn)

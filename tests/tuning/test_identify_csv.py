@@ -103,7 +103,11 @@ def test_mixed_time_zones_and_bad_timestamps_name_the_line(tmp_path) -> None:
     assert (e.value.line, e.value.column) == (3, "t") and "time zone are mixed" in str(e.value)
     rows[1] = ("yesterday", 1, 0)
     p = write(tmp_path / "bad.csv", "t,u,y", rows)
-    with pytest.raises(DataFileError, match=r"line 3, column 't': 'yesterday' is not an ISO 8601"):
+    with pytest.raises(
+        DataFileError,
+        match=r"line 3, column 't': 'yesterday' is not a time in the format of the rows above "
+        r"\(ISO 8601",
+    ):
         read_step_csv(p)
 
 

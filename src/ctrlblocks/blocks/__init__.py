@@ -7,6 +7,7 @@ _install_compiled()  # the compiled PID and ADRC, when built (ctrlblocks compile
 
 from . import plc_cycle  # noqa: F401  (registers the precision="float32" cycles)
 from .adrc import ADRC
+from .alarms import Alarm, LoopAlarms
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
 from .jumprate import JumpAndRate
 from .leadlag import LeadLag
@@ -42,6 +43,7 @@ __all__ = [
     "ADRC",
     "PID",
     "PT1",
+    "Alarm",
     "AntiWindup",
     "Block",
     "BlockConfig",
@@ -53,6 +55,7 @@ __all__ = [
     "GainScheduleConfig",
     "JumpAndRate",
     "LeadLag",
+    "LoopAlarms",
     "ManualStation",
     "MaxSelector",
     "MinSelector",

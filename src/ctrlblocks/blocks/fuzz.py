@@ -230,6 +230,30 @@ def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
             "y0": r.uniform(-100, 100),
         }
 
+    def alarm(r: random.Random) -> dict[str, Any]:
+        return {
+            "limit": r.uniform(-100, 100),
+            "kind": r.choice(("high", "low")),
+            "deadband": _maybe(r, 0.6, _lu(r, 1e-3, 10.0), 0.0),
+            "on_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "off_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "ts": _ts(r),
+        }
+
+    def loop_alarms(r: random.Random) -> dict[str, Any]:
+        values = sorted(r.uniform(-100, 100) for _ in range(4))
+        lims = zip(("ll", "l", "h", "hh"), values, strict=True)
+        return {
+            **{k: _maybe(r, 0.7, v, None) for k, v in lims},
+            "dev": _maybe(r, 0.6, _lu(r, 1e-2, 1e2), None),
+            "roc": _maybe(r, 0.6, _lu(r, 1e-2, 1e2), None),
+            "roc_period": _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0),
+            "deadband": _maybe(r, 0.6, _lu(r, 1e-3, 10.0), 0.0),
+            "on_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "off_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "ts": _ts(r),
+        }
+
     def monitor(r: random.Random) -> dict[str, Any]:
         ts = _ts(r)
         warn = _maybe(r, 0.5, ts * r.uniform(1.0, 3.0), None)
@@ -288,6 +312,8 @@ def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
         },
         "ManualStation": manual,
         "CycleMonitor": monitor,
+        "Alarm": alarm,
+        "LoopAlarms": loop_alarms,
         "PulseWidth": pwm,
         "StepController": lambda r: {
             "travel_time": _lu(r, 1e-1, 1e3),
@@ -541,6 +567,10 @@ class Driver:
             return b(inc=flags[0], dec=flags[1], track=v if flags[2] else None, dt=dt)
         if n == "CycleMonitor":
             return b(dt if dt is not None else v)
+        if n == "Alarm":
+            return b(v, ok=flags[0], suppress=flags[1], dt=dt)
+        if n == "LoopAlarms":
+            return b(0.0 if vals[1] is None else vals[1], v, pv_ok=flags[0], manual=flags[1], dt=dt)
         if n == "StepController":
             fb = vals[1] if flags[2] else None
             return b(v, dt=dt, open_limit=flags[0], close_limit=flags[1], feedback=fb)

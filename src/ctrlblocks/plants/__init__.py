@@ -9,7 +9,8 @@ range limits), :class:`Sensor` (output load, :class:`Noise`, saturation),
 :func:`process` (both).  The pneumatic three-tank process of Nowak et al. 2018,
 section 6 (:mod:`.threetank`): :class:`ThreeTank`.  Two-input plants: the
 heat/cool thermal process :class:`HeatCool` (:mod:`.heatcool`, a split-range
-loop's process).  See docs/plants.md.
+loop's process).  A sticky control valve
+(:mod:`.stiction`, Choudhury et al. 2005): :class:`StictionValve`.  See docs/plants.md.
 
 Note: ``ctrlblocks.plants.PT1`` (a process model) is not the filter block
 ``ctrlblocks.PT1`` (``ctrlblocks.blocks.signals.PT1``).
@@ -29,6 +30,7 @@ from .linear import (
     PTn,
     split_dead_time,
 )
+from .stiction import StictionValve
 from .threetank import ThreeTank
 from .valve import MotorValve
 from .wrappers import Actuator, Noise, Sensor, process
@@ -49,6 +51,7 @@ __all__ = [
     "PTn",
     "Plant",
     "Sensor",
+    "StictionValve",
     "ThreeTank",
     "process",
     "split_dead_time",

@@ -49,6 +49,7 @@ from ..loops.toml import (
     read_toml,
     type_name,
 )
+from .health import check_health_tables
 
 __all__ = [
     "PROTOCOLS",
@@ -191,6 +192,8 @@ class LoopConfig:
     mv_range: tuple[float, float] | None = None
     tuning_ranges: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     units: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    # -- loop health (runtime.health): the checked ``alarms`` and ``assess`` tables --
+    health: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
     def bindings(self) -> dict[str, Binding]:
         """The signal bindings by name (only those that are set)."""
@@ -522,6 +525,8 @@ class _Parser(TableReader):
             "alarm_limit",
             "write_retries",
             "u0",
+            "alarms",
+            "assess",
             *_FAULT_LOOP_KEYS,
             *ENGINEERING_KEYS,
             *STRUCTURES[structure],
@@ -663,6 +668,7 @@ class _Parser(TableReader):
             mv2=mv2,
             wild=meas.get("wild"),
             outputs=outputs,
+            health=check_health_tables(raw, key, ts, self.fail),
             **self.fault_action(raw, key),
             **_engineering(self, raw, key, sp, opt["manual_value"]),
         )

@@ -58,6 +58,7 @@ from .adapters import make_adapter
 from .autotune import LiveTuning
 from .clock import Clock, MonotonicClock
 from .config import RuntimeConfig, RuntimeConfigError, require_packages
+from .health import HealthMonitor
 from .historian import Historian
 from .io import Adapter, Connection
 from .loop import CommandError, ControlLoop, Sample
@@ -137,6 +138,10 @@ class Runtime:
         self._gc_thresholds: tuple[int, int, int] | None = None
         self.stop_failures: dict[str, str] = {}  # loop -> why its stop value was not written
         self.tuning = LiveTuning(self)  # live auto-tuning of the loops (runtime.autotune)
+        # alarms and live assessment of the loops with [loops.alarms] / [loops.assess]
+        self.health = HealthMonitor(
+            ((lc.name, lc.ts, lc.health) for lc in config.loops), self._audit
+        )
 
     @property
     def event_loop(self) -> asyncio.AbstractEventLoop | None:
@@ -417,6 +422,11 @@ class Runtime:
     def _record(self, s: Sample) -> None:
         if self.historian is not None:
             self.historian.record(s)
+        if self.health:
+            try:
+                self.health.observe(s)
+            except Exception:  # the alarms never stop the loops
+                log.exception("alarm or assessment of loop %s failed", s.loop)
         if self.on_sample is not None:
             try:
                 self.on_sample(s)

@@ -14,6 +14,8 @@ from typing import IO, TYPE_CHECKING, Any
 
 import click
 
+from ..tuning.csv_options import csv_options, echo_notes
+
 if TYPE_CHECKING:  # pragma: no cover
     from .runner import ScenarioResult
     from .scenario import Scenario
@@ -136,7 +138,7 @@ def output_dir(path: Path, what: str = "--out") -> Path:
 def _echo_claims(result: ScenarioResult) -> None:
     for c in result.claims:
         mark = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c.holds]
-        click.echo(f"  [{mark}] {c.claim.text}: {c.detail}")
+        click.echo(f"  [{mark}] {result.quoted(c.claim.text)}: {c.detail}")
 
 
 @click.command()
@@ -359,17 +361,13 @@ def _sweep_runner(jobs: int) -> Any:
               help="Worker processes for the uncertain models.")  # fmt: skip
 @click.option("--u-before", type=float, default=None,
               help="The MV before the record (as for identify).")  # fmt: skip
-@click.option("--delimiter", type=click.Choice([",", ";", "tab"]), default=None,
-              help="Column delimiter (default: detected, as for identify).")  # fmt: skip
-@click.option("--decimal", type=click.Choice([".", ","]), default=None,
-              help="Decimal mark (default: detected, as for identify).")  # fmt: skip
-@click.option("--encoding", default=None, help="Text encoding (as for identify).")
+@csv_options
 @click.option("--y-unit", default=None, help="PV unit (default: from a header 'pv [degC]').")
 @click.option("--u-unit", default=None, help="MV unit (default: from a header 'mv [%]').")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
 def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_corners,
-                    monte_carlo, seed, jobs, u_before, delimiter, decimal, encoding, y_unit,
-                    u_unit, as_json) -> None:  # fmt: skip
+                    monte_carlo, seed, jobs, u_before, csv, y_unit, u_unit,
+                    as_json) -> None:  # fmt: skip
     """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).
 
     Identifies FOPDT and SOPDT models, tunes PID and ADRC on the better one,
@@ -383,11 +381,8 @@ def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_
     from .compare import compare, jsonable
 
     try:
-        data = read_step_csv(
-            file, time=time_col, u=u_col, y=y_col, u_before=u_before,
-            delimiter="\t" if delimiter == "tab" else delimiter, decimal=decimal,
-            encoding=encoding,
-        )  # fmt: skip
+        data = read_step_csv(file, time=time_col, u=u_col, y=y_col, u_before=u_before, **csv)
+        echo_notes(file, data.notes)
         yl = _axis_label("PV", y_col, y_unit if y_unit is not None else data.y_unit)
         ul = _axis_label("MV", u_col, u_unit if u_unit is not None else data.u_unit)
         summary = compare(

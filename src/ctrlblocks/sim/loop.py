@@ -316,6 +316,10 @@ class _Simulation:
         )
 
 
-def event_times(events: Iterable[Event]) -> list[tuple[float, str]]:
-    """``(t, label)`` of events, for :func:`~ctrlblocks.sim.metrics.windows_from_events`."""
-    return [(e.t, e.label) for e in events]
+def event_times(events: Iterable[Event]) -> list[tuple[float, str, bool]]:
+    """``(t, label, switch)`` of events, for :func:`~ctrlblocks.sim.metrics.windows_from_events`.
+
+    ``switch``: the event puts the loop in control (a switch to AUTO), so a
+    distance to the setpoint after it is a step the loop is asked to make.
+    """
+    return [(e.t, e.label, e.kind == "mode" and e.fields.get("mode") == "auto") for e in events]

@@ -20,10 +20,16 @@ Definitions (``k`` runs over the samples of the window, ``n`` of them):
     the size of the step the window asks for, ``Δ = r_end - y_0``: final
     setpoint minus the first value of ``y`` in the window [PV units].  A
     window is a *step window* when the setpoint changes at its start
-    (``r_end`` differs from the setpoint of the sample before the window) or
-    when ``|Δ| > step_tol · max(|r_end|, |y_0|)`` (default 1 %: the loop is
-    far from the setpoint, e.g. at a MAN -> AUTO switch); otherwise it is a
-    regulation (load) window and the step-response metrics below are NaN.
+    (``r_end`` differs from the setpoint of the sample before the window), or
+    when the window opens with the loop taking control -- the start of the
+    data, or a switch to AUTO (``Window.switch``) -- while it is far from the
+    setpoint, ``|Δ| > step_tol · max(|r_end|, |y_0|)`` (default 1 %).
+    Otherwise it is a regulation window (a load, a plant change, a sensor
+    fault, ripple at steady state: the loop was not asked to move, however
+    far it happens to be from the setpoint) and the step-response metrics
+    below (overshoot, rise time) are NaN: a percentage of a step that was not
+    asked for has no meaning.  The whole run of several windows is no step
+    either.
 ``overshoot``
     step windows only: ``max(0, max_k s (y_k - r_end)) / |Δ|`` with
     ``s = sign(Δ)``, a fraction of the step (0.25 = 25 %).
@@ -189,11 +195,17 @@ def max_rate(u: np.ndarray, h: float) -> float:
 
 @dataclass(frozen=True)
 class Window:
-    """A time window ``t0 <= t < t1`` with a label (the event that opens it)."""
+    """A time window ``t0 <= t < t1`` with a label (the event that opens it).
+
+    ``switch``: the window opens with the loop taking control (the start of
+    the run, a switch to AUTO), so a distance to the setpoint is a step it is
+    asked to make (module docstring, ``step``).
+    """
 
     label: str
     t0: float
     t1: float
+    switch: bool = False
 
 
 def compute_metrics(
@@ -207,6 +219,7 @@ def compute_metrics(
     t1: float | None = None,
     band: float = 0.02,
     step_tol: float = 0.01,
+    switch: bool | None = None,
 ) -> dict[str, float]:
     """All metrics of the module docstring over the window ``t0 <= t < t1``.
 
@@ -224,7 +237,10 @@ def compute_metrics(
         Settling band as a fraction (default 2 %).
     step_tol : float
         Relative size below which ``|r_end - y_0|`` counts as no step when the
-        setpoint did not change at the window start (default 1 %).
+        loop takes control at the window start (default 1 %).
+    switch : bool, optional
+        The window opens with the loop taking control (:attr:`Window.switch`);
+        default: when it starts at the first sample.
 
     Returns
     -------
@@ -235,7 +251,9 @@ def compute_metrics(
     idx = window_index(run.t, h, t0, t1)
     if len(idx) == 0:
         return dict.fromkeys(METRIC_NAMES, math.nan)
-    return run.metrics(int(idx[0]), int(idx[-1]) + 1, h, band, step_tol)
+    i0 = int(idx[0])
+    start = i0 == 0 if switch is None else switch
+    return run.metrics(i0, int(idx[-1]) + 1, h, band, step_tol, switch=start)
 
 
 def run_metrics(
@@ -255,17 +273,22 @@ def run_metrics(
     same operations on the same values), with what every window uses
     computed once for the run: ``e``, ``|e|``, ``e**2``, ``|du|``.  ``t``
     must increase (a run's time): a window's samples are then found by
-    bisection.  Returns ``(whole run, [window, ...])``.
+    bisection.  A run with more than one step window has no overshoot or rise
+    time of its own (NaN).  Returns ``(whole run, [window, ...])``.
     """
     run = _Run(t, r, y, u)
     n = len(run.t)
     nan = dict.fromkeys(METRIC_NAMES, math.nan)
-    whole = run.metrics(0, n, h, band, step_tol) if n else dict(nan)
     out = []
+    steps = 0
     for w in windows:
         i0 = int(np.searchsorted(run.t, w.t0 - 0.5 * h, "left"))
         i1 = int(np.searchsorted(run.t, w.t1 - 0.5 * h, "left"))
-        out.append(run.metrics(i0, i1, h, band, step_tol) if i1 > i0 else dict(nan))
+        out.append(run.metrics(i0, i1, h, band, step_tol, w.switch) if i1 > i0 else dict(nan))
+        steps += i1 > i0 and run.step(i0, i1, step_tol, w.switch) != 0.0
+    whole = run.metrics(0, n, h, band, step_tol, switch=True) if n else dict(nan)
+    if steps > 1:  # the run asks for several steps: one overshoot of them all means nothing
+        whole["overshoot"] = whole["rise_time"] = math.nan
     return whole, out
 
 
@@ -282,20 +305,32 @@ class _Run:
             self.e2 = self.e * self.e
             self.du = np.abs(np.diff(self.u))
 
-    def metrics(self, i0: int, i1: int, h: float, band: float, step_tol: float) -> dict:
-        """Every metric of the samples ``i0 <= k < i1`` (not empty; module docstring)."""
-        with _beyond_range():
-            return self._metrics(i0, i1, h, band, step_tol)
+    def metrics(
+        self, i0: int, i1: int, h: float, band: float, step_tol: float, switch: bool = False
+    ) -> dict:
+        """Every metric of the samples ``i0 <= k < i1`` (not empty; module docstring).
 
-    def _metrics(self, i0: int, i1: int, h: float, band: float, step_tol: float) -> dict:
-        r = self.r
-        tw, yw, ae = self.t[i0:i1], self.y[i0:i1], self.ae[i0:i1]
-        r_end = float(r[i1 - 1])
-        y0 = float(yw[0])
+        ``switch``: the window opens with the loop taking control (``Window.switch``).
+        """
+        with _beyond_range():
+            return self._metrics(i0, i1, h, band, step_tol, switch)
+
+    def step(self, i0: int, i1: int, step_tol: float, switch: bool) -> float:
+        """The step ``Δ`` the window ``i0 <= k < i1`` asks for; 0 for a regulation window."""
+        r_end = float(self.r[i1 - 1])
+        y0 = float(self.y[i0])
         step = r_end - y0
-        sp_changed = i0 > 0 and abs(r_end - float(r[i0 - 1])) > 0.0
-        if not sp_changed and abs(step) <= step_tol * max(abs(r_end), abs(y0)):
-            step = 0.0
+        sp_changed = i0 > 0 and abs(r_end - float(self.r[i0 - 1])) > 0.0
+        far = abs(step) > step_tol * max(abs(r_end), abs(y0))
+        return step if sp_changed or (switch and far) else 0.0
+
+    def _metrics(
+        self, i0: int, i1: int, h: float, band: float, step_tol: float, switch: bool
+    ) -> dict:
+        tw, yw, ae = self.t[i0:i1], self.y[i0:i1], self.ae[i0:i1]
+        r_end = float(self.r[i1 - 1])
+        y0 = float(yw[0])
+        step = self.step(i0, i1, step_tol, switch)
         peak = float(_max(ae))
         if step != 0.0:
             band_abs = band * abs(step)
@@ -344,18 +379,29 @@ def window_index(
 
 
 def windows_from_events(
-    events: Sequence[tuple[float, str]], t_end: float, *, first_label: str = "start"
+    events: Sequence[tuple[float, str] | tuple[float, str, bool]],
+    t_end: float,
+    *,
+    first_label: str = "start",
+    start_switch: bool = True,
 ) -> list[Window]:
     """Split ``[0, t_end)`` at the event times.
 
-    ``events`` are ``(time, label)`` pairs; events at the same time share one
-    window (labels joined with ``"; "``); an event at t = 0 labels the first
-    window.
+    ``events`` are ``(time, label)`` pairs, or ``(time, label, switch)`` with
+    ``switch`` True for an event that puts the loop in control (a switch to
+    AUTO: :attr:`Window.switch`); events at the same time share one window
+    (labels joined with ``"; "``); an event at t = 0 labels the first window,
+    which opens with the start of the run (``switch`` unless ``start_switch``
+    is False: a run that starts in MAN).
     """
     times: dict[float, list[str]] = {}
-    for te, label in sorted(events, key=lambda p: p[0]):
+    switches: set[float] = set()
+    for ev in sorted(events, key=lambda p: p[0]):
+        te, label = ev[0], ev[1]
         if 0.0 <= te < t_end:
             times.setdefault(round(te, 9), []).append(label)
+            if len(ev) > 2 and ev[2]:
+                switches.add(round(te, 9))
     starts = sorted(times)
     if not starts or starts[0] > 0.0:
         starts = [0.0, *starts]
@@ -363,5 +409,6 @@ def windows_from_events(
     out = []
     for i, ts in enumerate(starts):
         te = starts[i + 1] if i + 1 < len(starts) else t_end
-        out.append(Window("; ".join(times[ts]), ts, te))
+        first = ts == 0.0 and start_switch
+        out.append(Window("; ".join(times[ts]), ts, te, switch=first or ts in switches))
     return out

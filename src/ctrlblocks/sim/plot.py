@@ -6,8 +6,9 @@ controller with the setpoint, the lower axes the manipulated variable
 lower – manipulating variable"; Åström's (1987) Simnon plots likewise).  One colour
 per controller; dotted vertical lines mark the events, each labelled (the
 event's ``label``) in a strip above the upper axes, where no label hides a trace or
-another label.  ``[plot]`` in the
-scenario chooses the signals (``upper``, ``lower``) and the axis labels.
+another label; the legends sit right of the axes, where they hide no data either.
+``[plot]`` in the scenario chooses the signals (``upper``, ``lower``), the axis
+labels, and ``lower_per_controller`` (one lower axes per controller).
 
 matplotlib is used with the non-interactive Agg backend, so plotting works
 without a display.  Long traces are drawn decimated (:func:`decimate`: the
@@ -28,7 +29,7 @@ import numpy as np
 from .names import plot_names
 from .runner import ScenarioResult
 
-__all__ = ["decimate", "label_rows", "plot_result"]
+__all__ = ["case_figure", "decimate", "label_rows", "plot_result"]
 
 PLOT_POINTS = 1500
 """Points drawn per line at most (the figures are 750 pixels wide at 100 dpi)."""
@@ -57,6 +58,7 @@ def decimate(
     return t[idx], x[idx]
 
 
+_STYLES = ["-", "--", "-.", ":"]
 _COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"]
 _SIGNAL_STYLE = {
     "sp": {"color": "black", "linestyle": "--", "linewidth": 1.0},
@@ -83,56 +85,109 @@ def plot_result(result: ScenarioResult, out_dir: Path, *, dpi: int = 100) -> lis
     import matplotlib.pyplot as plt
 
     sc = result.scenario
-    cfg: dict[str, Any] = dict(sc.plot)
-    upper = list(cfg.get("upper", ["sp", "y"]))
-    lower = list(cfg.get("lower", ["u"]))
     files = []
     case_names = [c.name for c in sc.cases]
     names_png = dict(zip(case_names, plot_names(case_names), strict=True))
     for case in sc.cases:
-        runs = [r for r in result.runs if r.case == case.name]
-        if not runs:
+        fig = case_figure(result, case.name)
+        if fig is None:
             continue
-        n_axes = 2 if lower else 1
-        fig, axes = plt.subplots(
-            n_axes, 1, sharex=True, figsize=(7.5, 5.2 if n_axes == 2 else 3.4), squeeze=False
-        )
-        ax_list = [a[0] for a in axes]
-        colors = {
-            c.name: (c.options.get("color") or _COLORS[i % len(_COLORS)])
-            for i, c in enumerate(sc.controllers)
-        }
-        for ax, names, label_key in zip(
-            ax_list, (upper, lower), ("upper_label", "lower_label"), strict=False
-        ):
-            _draw(ax, runs, names, colors, single=len(runs) == 1, legend=cfg.get("legend", {}))
-            ax.set_ylabel(cfg.get(label_key, _default_label(names)))
-            ax.grid(True, alpha=0.3)
-            for ev in runs[0].events:
-                if ev.t > 0:
-                    ax.axvline(ev.t, color="0.6", linestyle=":", linewidth=0.8)
-            ax.legend(fontsize=7, loc="best")
-        if "ylim_upper" in cfg:
-            ax_list[0].set_ylim(*cfg["ylim_upper"])
-        if "ylim_lower" in cfg and len(ax_list) > 1:
-            ax_list[1].set_ylim(*cfg["ylim_lower"])
-        ax_list[-1].set_xlabel("t [s]")
-        ax_list[-1].set_xlim(0.0, runs[0].duration)
-        label_rows_used = _label_events(ax_list[0], runs[0].events)
-        title = cfg.get("title", sc.title)
-        if len(sc.cases) > 1:
-            title += f" — {case.name}"
-        if result.quick:
-            title += " (quick)"
-        ax_list[0].set_title(
-            f"{title}\n{sc.source}", fontsize=9, pad=6.0 + label_rows_used * _ROW_PT
-        )
-        fig.tight_layout()
         path = out_dir / f"{names_png[case.name]}.png"
         fig.savefig(path, dpi=dpi)
         plt.close(fig)
         files.append(path)
     return files
+
+
+LEGEND_WIDTH = 1.9
+"""Width of the legend column right of the axes [inch]: legends sit outside the data."""
+
+
+def case_figure(result: ScenarioResult, case: str) -> Any:
+    """The matplotlib figure of one case (None when the case has no run).
+
+    The upper axes show ``[plot] upper`` (default set point and ``y``), the
+    lower ones ``lower`` (default ``u``) -- with ``lower_per_controller`` one
+    lower axes per controller, so that an MV held flat is not hidden inside
+    another controller's noisy one.  Legends sit right of the axes, never on
+    the data; with several controllers and several signals the colour names
+    the controller and the line style the signal.
+    """
+    import matplotlib.pyplot as plt
+
+    sc = result.scenario
+    cfg: dict[str, Any] = dict(sc.plot)
+    upper = list(cfg.get("upper", ["sp", "y"]))
+    lower = list(cfg.get("lower", ["u"]))
+    runs = [r for r in result.runs if r.case == case]
+    if not runs:
+        return None
+    per_ctrl = bool(cfg.get("lower_per_controller")) and lower and len(runs) > 1
+    groups: list[tuple[list[str], list[Any], str]] = [(upper, runs, "upper_label")]
+    if per_ctrl:
+        groups += [(lower, [r], "lower_label") for r in runs]
+    elif lower:
+        groups.append((lower, runs, "lower_label"))
+    heights = [2.4 if i == 0 else (2.0 if not per_ctrl else 1.35) for i in range(len(groups))]
+    fig, axes = plt.subplots(
+        len(groups), 1, sharex=True, figsize=(7.5 + LEGEND_WIDTH, 0.8 + sum(heights)),
+        squeeze=False, height_ratios=heights,
+    )  # fmt: skip
+    ax_list = [a[0] for a in axes]
+    colors = {
+        c.name: (c.options.get("color") or _COLORS[i % len(_COLORS)])
+        for i, c in enumerate(sc.controllers)
+    }
+    for ax, (names, group, label_key) in zip(ax_list, groups, strict=True):
+        single = len(runs) == 1
+        _draw(ax, group, names, colors, single=single, legend=cfg.get("legend", {}))
+        ax.set_ylabel(cfg.get(label_key, _default_label(names)), fontsize=8 if per_ctrl else None)
+        ax.grid(True, alpha=0.3)
+        for ev in runs[0].events:
+            if ev.t > 0:
+                ax.axvline(ev.t, color="0.6", linestyle=":", linewidth=0.8)
+        _legend(ax, group, names, colors, single, cfg.get("legend", {}))
+    if "ylim_upper" in cfg:
+        ax_list[0].set_ylim(*cfg["ylim_upper"])
+    if "ylim_lower" in cfg:
+        for ax in ax_list[1:]:
+            ax.set_ylim(*cfg["ylim_lower"])
+    ax_list[-1].set_xlabel("t [s]")
+    ax_list[-1].set_xlim(0.0, runs[0].duration)
+    fig.tight_layout()
+    label_rows_used = _label_events(ax_list[0], runs[0].events)
+    title = cfg.get("title", sc.title)
+    if len(sc.cases) > 1:
+        title += f" — {case}"
+    if result.quick:
+        title += " (quick)"
+    ax_list[0].set_title(f"{title}\n{sc.source}", fontsize=9, pad=6.0 + label_rows_used * _ROW_PT)
+    fig.tight_layout()
+    return fig
+
+
+def _legend(ax: Any, runs: list, names: list[str], colors: dict[str, str], single: bool,
+            legend: dict[str, str]) -> None:  # fmt: skip
+    """The legend of ``ax``, right of it (outside the data).
+
+    Several controllers with several signals each: one entry per controller
+    (its colour) and one per signal (its line style), instead of one per line.
+    """
+    from matplotlib.lines import Line2D
+
+    kw = {"fontsize": 7, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}
+    drawn = [n for n in names if n != "sp" and any(n in r.signals for r in runs)]
+    if single or len(drawn) <= 1:
+        ax.legend(**kw)
+        return
+    labels = _LABELS | dict(legend)
+    handles = [h for h in ax.get_lines() if h.get_label() == labels["sp"]][:1]
+    handles += [Line2D([], [], color=colors[r.controller], label=r.controller) for r in runs]
+    handles += [
+        Line2D([], [], color="0.25", linestyle=_STYLES[k % len(_STYLES)], label=labels.get(n, n))
+        for k, n in enumerate(drawn)
+    ]
+    ax.legend(handles=handles, **kw)
 
 
 EVENT_FONT = 6.0
@@ -216,7 +271,6 @@ def _draw(
     legend: dict[str, str],
 ) -> None:
     labels = _LABELS | dict(legend)
-    styles = ["-", "--", "-.", ":"]
     sp_drawn = False
     for run in runs:
         t = run.signals["t"]
@@ -237,7 +291,7 @@ def _draw(
             else:
                 color = colors[run.controller]
                 label = run.controller if k == 0 else f"{run.controller}: {labels.get(name, name)}"
-                ls = styles[k % len(styles)]
+                ls = _STYLES[k % len(_STYLES)]
             lw = 1.2 if single or name not in ("u", "u_act", "v") else 0.9
             ax.plot(
                 *decimate(t, run.signals[name]),

@@ -289,17 +289,18 @@ def render_report(
         "Metrics (definitions in `docs/simulator.md`): IAE, ISE, ITAE of the error "
         "e = SP − y; overshoot in % of the step (in every table); settling time to the "
         "2 % band; "
-        "total variation (tv_u) and largest rate of the MV.  A dash means undefined "
-        "(e.g. no setpoint step).",
+        "total variation (tv_u) and largest rate of the MV.  A dash means undefined: "
+        "an overshoot only where the loop was asked to step (a setpoint change, the "
+        "switch to AUTO), not after a load or at steady state.",
     ]
     for r in results:
         sc = r.scenario
         lines += ["", f'<a id="{slug(sc.name).lower()}"></a>', "", f"## {sc.title}", ""]
         lines.append(f"*Source:* {sc.source}  ·  *scenario:* `{sc.name}`")
         if sc.description:
-            lines += ["", " ".join(sc.description.split())]
+            lines += ["", r.quoted(" ".join(sc.description.split()))]
         if sc.notes:
-            lines += ["", "*Notes:* " + " ".join(sc.notes.split())]
+            lines += ["", "*Notes:* " + r.quoted(" ".join(sc.notes.split()))]
         tuned = _tuned_lines(sc)
         if tuned:
             lines += ["", "Tuned from a simulated bump test when the scenario was loaded:", ""]
@@ -322,7 +323,7 @@ def render_report(
             for c in r.claims:
                 mark = {True: "✅ holds", False: "❌ does not hold", None: "❔ undecided"}[c.holds]
                 src = f" ({c.claim.source})" if c.claim.source else ""
-                lines.append(f"- {mark}: {c.claim.text}{src} — {c.detail}")
+                lines.append(f"- {mark}: {r.quoted(c.claim.text)}{src} — {c.detail}")
     if table_checks:
         lines += [
             "",

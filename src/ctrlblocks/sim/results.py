@@ -82,7 +82,7 @@ def write_claims(result: ScenarioResult, path: Path) -> Path:
     """Write the checked claims of ``result`` as a JSON list to ``path``."""
     doc = [
         {
-            "text": c.claim.text,
+            "text": result.quoted(c.claim.text),
             "source": c.claim.source,
             "metric": c.claim.metric,
             "case": c.claim.case,

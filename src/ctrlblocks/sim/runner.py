@@ -16,7 +16,7 @@ import numpy as np
 
 from .dispatch import simulate
 from .loop import Run, event_times
-from .metrics import METRIC_NAMES, run_metrics, window_index, windows_from_events
+from .metrics import METRIC_NAMES, Window, run_metrics, window_index, windows_from_events
 from .scenario import Claim, Scenario
 
 __all__ = ["ClaimResult", "ScenarioResult", "check_claim", "run_scenario"]
@@ -56,6 +56,17 @@ class ScenarioResult:
                 v = src[name]
                 return math.nan if v is None else float(v)
         raise KeyError((controller, case))
+
+    def quoted(self, text: str) -> str:
+        """``text`` with its quotes of this run's numbers filled in (:mod:`.quotes`)."""
+        from .quotes import fill
+
+        def value(metric: str, case: str, ctrl: str, window: int | None, signal: str | None):
+            if signal is not None:
+                return signal_stat(self, ctrl, case, signal, metric, window)
+            return self.metric(ctrl, case, metric, window)
+
+        return fill(text, value)
 
     @property
     def all_claims_hold(self) -> bool:
@@ -115,7 +126,7 @@ def run_scenario(
             # the whole run and every event window in one pass (metrics.run_metrics)
             wins = []
             if want_windows:
-                wins = windows_from_events(event_times(run.events), run.duration)
+                wins = _windows(scenario, run)
             whole, per_window = run_metrics(s["t"], s["sp"], s["y"], s["u"], run.ts, wins,
                                             band=band)  # fmt: skip
             row: dict[str, Any] = {
@@ -152,7 +163,7 @@ def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
     def val(name: str) -> float:
         try:
             if signal is not None:
-                return _signal_stat(result, name, case, signal, claim.metric, claim.window)
+                return signal_stat(result, name, case, signal, claim.metric, claim.window)
             return result.metric(name, case, claim.metric, claim.window)
         except (IndexError, KeyError):
             return math.nan
@@ -195,7 +206,7 @@ def check_claim(result: ScenarioResult, claim: Claim) -> ClaimResult:
     )
 
 
-def _signal_stat(
+def signal_stat(
     result: ScenarioResult, controller: str, case: str, signal: str, stat: str, window: int | None
 ) -> float:
     """``max``/``min``/``final``/``mean``/``max_step`` of a trace signal (run or event window)."""
@@ -203,7 +214,7 @@ def _signal_stat(
     x = run.signals[signal]
     t = run.signals["t"]
     if window is not None:
-        w = windows_from_events(event_times(run.events), run.duration)[window]
+        w = _windows(result.scenario, run)[window]
         idx = window_index(t, run.ts, w.t0, w.t1)
         if stat == "max_step" and len(idx) and idx[0] > 0:
             idx = np.concatenate(([idx[0] - 1], idx))  # the step into the window counts
@@ -219,6 +230,13 @@ def _signal_stat(
     if stat == "max_step":
         return float(np.max(np.abs(np.diff(x)))) if len(x) > 1 else 0.0
     return float(np.mean(x))
+
+
+def _windows(scenario: Scenario, run: Run) -> list[Window]:
+    """The event windows of a run (the first opens with the loop in control unless it
+    starts in MAN)."""
+    auto = scenario.initial.get("mode", "auto") == "auto"
+    return windows_from_events(event_times(run.events), run.duration, start_switch=auto)
 
 
 TABLE_UNITS: dict[str, tuple[str, float]] = {"overshoot": ("overshoot [%]", 100.0)}

@@ -114,8 +114,10 @@ the step into the window's first sample included)."""
 _CLAIM_KINDS = ("less", "below", "above", "between", "best", "approx")
 
 
-_CSV_KEYS = ("file", "time", "u", "y", "u_before", "delimiter", "decimal", "encoding")
-"""The keys of a ``[controllers.tune]`` table that read a recorded bump test."""
+_CSV_KEYS = ("file", "time", "u", "y", "u_before", "delimiter", "decimal", "encoding", "tz",
+             "time_format", "bad_rows", "gaps", "start", "end")  # fmt: skip
+"""The keys of a ``[controllers.tune]`` table that read a recorded bump test (the reading
+options are those of ``ctrlblocks.tuning.records.CSV_OPTIONS``; a test keeps them equal)."""
 
 
 class ScenarioError(KeyPathError):
@@ -337,6 +339,7 @@ class _Parser(SpecReader):
         self.controller_events(structure, ts, controllers, cases)
         self.structure_inputs(doc, structure, initial, cases)
         claims = self.claims(doc, controllers, cases)
+        self.quotes(head, claims, controllers, cases)
         plot = self.table(doc, "plot", "plot", False)
         self.check_keys(
             plot,
@@ -349,9 +352,12 @@ class _Parser(SpecReader):
                 "ylim_upper",
                 "ylim_lower",
                 "legend",
+                "lower_per_controller",
             },
             "plot",
         )
+        if not isinstance(plot.get("lower_per_controller", False), bool):
+            raise self.fail("plot.lower_per_controller", "must be true or false")
         if "legend" in plot and not (
             isinstance(plot["legend"], dict)
             and all(isinstance(v, str) for v in plot["legend"].values())
@@ -570,8 +576,10 @@ class _Parser(SpecReader):
 
         With ``file = "bump.csv"`` the recorded bump test of the real process
         is fitted instead (path relative to the scenario file; the keys
-        ``time``, ``u``, ``y``, ``u_before``, ``delimiter``, ``decimal`` and
-        ``encoding`` are those of ``ctrlblocks identify``, read by
+        ``time``, ``u``, ``y``, ``u_before`` and the reading options
+        ``delimiter``, ``decimal``, ``encoding``, ``tz``, ``time_format``,
+        ``bad_rows``, ``gaps``, ``start``, ``end`` are those of ``ctrlblocks
+        identify``, read by
         :func:`ctrlblocks.tuning.identify.read_step_csv`); ``du`` is then the
         record's.
         """
@@ -620,8 +628,13 @@ class _Parser(SpecReader):
         from ..tuning.identify import DataFileError, read_step_csv
 
         strings = {}
-        for name in ("file", "time", "u", "y", "delimiter", "decimal", "encoding"):
-            if name in d:
+        for name in _CSV_KEYS:
+            if name in d and name not in ("u_before", "start", "end"):
+                strings[name] = self.string(d, name, f"{key}.{name}")
+        for name in ("start", "end"):  # a stamp, or a number as in the time column
+            if name in d and not isinstance(d[name], str):
+                strings[name] = self.number(d, name, f"{key}.{name}")
+            elif name in d:
                 strings[name] = self.string(d, name, f"{key}.{name}")
         u_before = self.number(d, "u_before", f"{key}.u_before", default=None)
         path = Path(strings.pop("file"))
@@ -634,6 +647,8 @@ class _Parser(SpecReader):
             )  # fmt: skip
         except (DataFileError, OSError) as exc:
             raise self.fail(f"{key}.file", str(exc)) from None
+        except ValueError as exc:  # a reading option out of its range (tz, gaps, ...)
+            raise self.fail(key, str(exc)) from None
         return data.t, data.u, data.y
 
     # -- time line ---------------------------------------------------------------
@@ -776,6 +791,30 @@ class _Parser(SpecReader):
             raise self.fail(f"{ev.key}.attr", f"the {what} has no parameter or input {attr!r}")
 
     # -- claims -------------------------------------------------------------------
+
+    def quotes(
+        self,
+        head: dict[str, Any],
+        claims: list[Claim],
+        controllers: list[ControllerSpec],
+        cases: list[Case],
+    ) -> None:
+        """Every quote of a run's number in the texts names a metric, case, controller and
+        window that exist (:mod:`ctrlblocks.sim.quotes`)."""
+        from .metrics import windows_from_events
+        from .quotes import check_quotes
+
+        count = {
+            c.name: len(windows_from_events([(e.t, e.label) for e in c.events], c.duration))
+            for c in cases
+        }
+        names = [c.name for c in controllers]
+        texts = [(f"scenario.{k}", head.get(k, "")) for k in ("description", "notes")]
+        texts += [(f"claims[{i}].text", c.text) for i, c in enumerate(claims)]
+        for key, text in texts:
+            problem = check_quotes(str(text), names, list(count), count.get)
+            if problem:
+                raise self.fail(key, problem)
 
     def claims(
         self, doc: dict[str, Any], controllers: list[ControllerSpec], cases: list[Case]

@@ -1,7 +1,9 @@
 """Tuning: from a bump test to PID and ADRC settings.
 
 * :mod:`.identify` -- FOPDT/SOPDT/integrating models from step-response
-  records (two-point methods, least squares) and the CSV reader;
+  records (two-point methods, least squares);
+* :mod:`.records` -- records from CSV files as historians and spreadsheets
+  export them (time formats, local time, bad cells, gaps, a time window);
 * :mod:`.halfrule` -- Skogestad's half rule and the inverse half-rule of
   Nowak et al. 2018 for the ADRC ``b0``;
 * :mod:`.adrc` -- ADRC bandwidth tuning and a ready ``ctrlblocks.ADRC``
@@ -26,13 +28,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from .identify import (
         FOPDT,
         SOPDT,
-        DataFileError,
         Integrating,
-        StepData,
         fit_fopdt,
         fit_integrating,
         fit_sopdt,
-        read_step_csv,
         sundaresan_krishnaswamy,
         two_point,
     )
@@ -46,6 +45,7 @@ if TYPE_CHECKING:  # pragma: no cover
         ziegler_nichols_closed,
         ziegler_nichols_open,
     )
+    from .records import DataFileError, Record, StepData, read_record, read_step_csv
     from .relay import BumpTestResult, RelayResult, bump_test, relay_autotune, step_pretune
 
 # imported on first use (PEP 562): ``ctrlblocks <command> --help`` imports none of them
@@ -55,16 +55,14 @@ _WHERE = {
     ".identify": (
         "FOPDT",
         "SOPDT",
-        "DataFileError",
         "Integrating",
-        "StepData",
         "fit_fopdt",
         "fit_integrating",
         "fit_sopdt",
-        "read_step_csv",
         "sundaresan_krishnaswamy",
         "two_point",
     ),
+    ".records": ("DataFileError", "Record", "StepData", "read_record", "read_step_csv"),
     ".pid_rules": (
         "PIDTuning",
         "amigo",
@@ -87,6 +85,7 @@ __all__ = [
     "Integrating",
     "InverseHalfRule",
     "PIDTuning",
+    "Record",
     "RelayResult",
     "StepData",
     "adrc_bandwidth",
@@ -101,6 +100,7 @@ __all__ = [
     "inverse_half_rule",
     "lambda_tuning",
     "pid_from_model",
+    "read_record",
     "read_step_csv",
     "relay_autotune",
     "simc",

@@ -3,8 +3,8 @@
 ::
 
     ctrlblocks identify bump.csv --time t --u mv --y pv [--method lsq] [--json] [--plot fit.png]
-        [--u-before U] [--delimiter ';'] [--decimal ','] [--encoding cp1252]
-        [--y-unit bar] [--u-unit %]
+        [--u-before U] [--y-unit bar] [--u-unit %] [the CSV options of .csv_options:
+        --delimiter --decimal --encoding --time-format --tz --bad-rows --gaps --start --end]
     ctrlblocks tune adrc --gain K --time-constant T --dead-time L --order N [--settling-time S]
     ctrlblocks tune pid  --gain K --time-constant T --dead-time L --rule simc|amigo|zn|lambda
     ctrlblocks tune pid  --ku KU --pu PU --rule zn|tyreus-luyben
@@ -25,6 +25,8 @@ import os
 from pathlib import Path
 
 import click
+
+from .csv_options import csv_options, echo_notes
 
 _METHODS = ("two-point", "sk", "lsq", "lsq-sopdt", "integrating")
 
@@ -82,23 +84,7 @@ def _finite(d: dict) -> dict:
     help="The MV before the record, when the step is at the first sample "
     "(MV constant from t = 0, PV at rest there).",
 )
-@click.option(
-    "--delimiter",
-    type=click.Choice([",", ";", "tab"]),
-    default=None,
-    help="Column delimiter (default: detected from the header).",
-)
-@click.option(
-    "--decimal",
-    type=click.Choice([".", ","]),
-    default=None,
-    help="Decimal mark (default: ',' when the delimiter is not ',' and the cells use commas).",
-)
-@click.option(
-    "--encoding",
-    default=None,
-    help="Text encoding, e.g. cp1252 (default: UTF-8, else Windows-1252, with a note).",
-)
+@csv_options
 @click.option("--y-unit", default=None, help="PV unit (default: from a header like 'pv [degC]').")
 @click.option("--u-unit", default=None, help="MV unit (default: from a header like 'mv [%]').")
 def identify(
@@ -110,17 +96,17 @@ def identify(
     as_json: bool,
     plot_path: str | None,
     u_before: float | None,
-    delimiter: str | None,
-    decimal: str | None,
-    encoding: str | None,
+    csv: dict,
     y_unit: str | None,
     u_unit: str | None,
 ) -> None:
     """Identify a process model from a bump test in FILE (CSV with a header row).
 
-    Time in seconds (or ISO 8601 timestamps); ',' ';' or tab delimiters and
+    Time in seconds or as historians write stamps (ISO 8601, dd.mm.yyyy,
+    mm/dd/yyyy AM/PM, PI, Excel, epoch); ',' ';' or tab delimiters and
     decimal commas are detected; a unit in a header cell ('pv [degC]') labels
-    the plot and the JSON.
+    the plot and the JSON.  Local-time stamps, bad cells, gaps and a window:
+    --tz, --bad-rows, --gaps, --start/--end (docs/tuning.md).
     """
     from . import identify as ident
 
@@ -133,9 +119,7 @@ def identify(
             u=u_col,
             y=y_col,
             u_before=u_before,
-            delimiter="\t" if delimiter == "tab" else delimiter,
-            decimal=decimal,
-            encoding=encoding,
+            **csv,
         )
         fitter = {
             "two-point": ident.two_point,
@@ -147,8 +131,7 @@ def identify(
         model = fitter(data.t, data.u, data.y)
     except ValueError as exc:  # DataFileError, or a record the method cannot use
         raise click.ClickException(str(exc)) from None
-    for note in data.notes:
-        click.echo(f"note: {file}: {note}", err=True)
+    echo_notes(file, data.notes)
     y_unit = y_unit if y_unit is not None else data.y_unit
     u_unit = u_unit if u_unit is not None else data.u_unit
     result = model.as_dict()
@@ -454,8 +437,10 @@ def tune_pid(
                     f"this model (Ms > 2): detune (SIMC --tau-c, lambda) or check the model"
                 )
             if plot_path:
-                _write_plot(lp, mg, plot_path, f"{title.split(';')[0]}: kp = {tun.kp:.4g}, "
-                            f"ti = {tun.ti:.4g} s, td = {tun.td:.4g} s, ts = {h:g} s")  # fmt: skip
+                reverse = ", reverse" if out.get("reverse") else ""  # kp as printed: |kp|
+                _write_plot(lp, mg, plot_path, f"{title.split(';')[0]}: kp = {out['kp']:.4g}"
+                            f"{reverse}, ti = {tun.ti:.4g} s, td = {tun.td:.4g} s, "
+                            f"ts = {h:g} s")  # fmt: skip
                 out["plot"] = plot_path
         else:
             warnings.append("no model given: margins need --gain, --time-constant, --dead-time")

@@ -149,11 +149,12 @@ def inverse_half_rule(k: float, T: float, T0: float, order: int) -> InverseHalfR
             raise ParameterError(
                 ErrorCode.BAD_TIME_CONSTANT,
                 "T0",
-                f"T0 = {T0} >= T = {T}: no second-order lag has this FOPDT (T1 = T - T0 <= 0)",
+                f"T0 = {T0:.4g} >= T = {T:.4g}: no second-order lag has this FOPDT "
+                "(T1 = T - T0 <= 0)",
             )
         if T1 < T2:
             warnings.append(
-                f"T < 3 T0 ({T} < {3 * T0}): T1 = T - T0 = {T1:.4g} is smaller than "
+                f"T < 3 T0 ({T:.4g} < {3 * T0:.4g}): T1 = T - T0 = {T1:.4g} is smaller than "
                 f"T2 = 2 T0 = {T2:.4g}; the half rule would pair them the other way round"
             )
         b0 = k / (T1 * T2)
@@ -163,7 +164,7 @@ def inverse_half_rule(k: float, T: float, T0: float, order: int) -> InverseHalfR
         raise ParameterError(
             ErrorCode.BAD_TIME_CONSTANT,
             "T0",
-            f"T0 = {T0} > T = {T}: no third-order lag T1 >= T2 >= T3 has this FOPDT",
+            f"T0 = {T0:.4g} > T = {T:.4g}: no third-order lag T1 >= T2 >= T3 has this FOPDT",
         )
     # (8): stationary point = maximum of T1 T2 T3 -> b0_min
     T1max = ((2.0 * T - T0) + math.sqrt((T - T0) ** 2 + T * T0)) / 3.0

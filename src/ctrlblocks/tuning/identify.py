@@ -38,27 +38,32 @@ deviation sigma on a step of size A alone gives about sigma/A), and a list of
 ``warnings`` (record too short to reach steady state, poor fit, noisy record
 for a two-point method).
 
-Reading files: :func:`read_step_csv` reads a CSV with a header row and picks
-the columns by name, as people export them: ``,``/``;``/tab delimiters and
-decimal commas detected, units in the header (``pv [degC]``), ISO 8601
-timestamps, Windows-1252 files, a step at the first sample (``u_before``);
-every problem raises one :class:`DataFileError` naming the file, line and
-column.
+Reading files is :mod:`ctrlblocks.tuning.records` (historian and spreadsheet
+CSV exports: :func:`~ctrlblocks.tuning.records.read_step_csv`); its names
+``read_step_csv``, ``StepData``, ``DataFileError``, ``split_unit`` and
+``MAX_MAGNITUDE`` are also importable from here.
 """
 
 from __future__ import annotations
 
-import csv
-import datetime
 import logging
 import math
-import re
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import interpolate, optimize
+
+from .records import BEYOND as _BEYOND
+from .records import (
+    MAX_MAGNITUDE,
+    MIN_SAMPLES,
+    DataFileError,
+    StepData,
+    read_step_csv,
+    split_unit,
+)
+from .records import constant as _constant
 
 __all__ = [
     "FOPDT",
@@ -76,9 +81,6 @@ __all__ = [
 ]
 
 _log = logging.getLogger(__name__)
-
-MIN_SAMPLES = 10
-"""Fewest samples a record must have."""
 
 _MAX_CHANGES = 400
 """Above this many MV changes (a noisy measured MV) the MV is simplified, see :func:`_changes`."""
@@ -218,333 +220,6 @@ def _model_dict(m: Model, kind: str, params: tuple[str, ...]) -> dict[str, objec
         "method": m.method,
         "warnings": list(m.warnings),
     }
-
-
-# ---------------------------------------------------------------------------
-# Reading records
-# ---------------------------------------------------------------------------
-
-
-MAX_MAGNITUDE = 1e150
-"""The largest magnitude of a recorded time, MV or PV value: the fits square deviations of
-the data, and a square beyond the float range (~1.8e308) is no fit."""
-_BEYOND = "+-1e150 (ctrlblocks.tuning.identify.MAX_MAGNITUDE: the fits square the data)"
-
-
-class DataFileError(ValueError):
-    """A bump-test file cannot be used; names the file, line and column.
-
-    Attributes
-    ----------
-    path : str
-        The file.
-    line : int or None
-        1-based line number in the file (the header is line 1), if the
-        problem is on one line.
-    column : str or None
-        Column name, if the problem is in one column.
-    reason : str
-        What is wrong.
-    """
-
-    def __init__(self, path: str | Path, line: int | None, column: str | None, reason: str) -> None:
-        self.path = str(path)
-        self.line = line
-        self.column = column
-        self.reason = reason
-        where = self.path
-        if line is not None:
-            where += f", line {line}"
-        if column is not None:
-            where += f", column '{column}'"
-        super().__init__(f"{where}: {reason}")
-
-
-@dataclass(frozen=True)
-class StepData:
-    """A bump-test record: time [s], MV and PV as float arrays.
-
-    ``u_unit``/``y_unit`` are the units from the header (``pv [degC]``) or
-    None; ``encoding``, ``delimiter`` and ``decimal`` say how the file was
-    read; ``start`` is the first ISO 8601 timestamp when the time column held
-    timestamps ("" otherwise; ``t`` then counts seconds from it); ``notes``
-    are remarks for the user (a fallback encoding, an added sample for
-    ``u_before``).
-    """
-
-    t: NDArray[np.float64]
-    u: NDArray[np.float64]
-    y: NDArray[np.float64]
-    path: str = ""
-    u_unit: str | None = None
-    y_unit: str | None = None
-    encoding: str = "utf-8"
-    delimiter: str = ","
-    decimal: str = "."
-    start: str = ""
-    notes: tuple[str, ...] = ()
-
-
-_UNIT_RE = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\[\]()]*)[\])]\s*$")
-_TIME_UNITS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0}
-FALLBACK_ENCODING = "cp1252"
-"""Encoding tried when a file is not UTF-8 (Windows-1252, what Excel writes on Western systems)."""
-
-
-def split_unit(header_name: str) -> tuple[str, str | None]:
-    """``"pv [degC]"`` -> ``("pv", "degC")``; ``"pv"`` -> ``("pv", None)``."""
-    m = _UNIT_RE.match(header_name)
-    if m is None or not m.group("name"):
-        return header_name, None
-    return m.group("name"), m.group("unit").strip() or None
-
-
-def _decode(path: Path, encoding: str | None) -> tuple[str, str, tuple[str, ...]]:
-    """``(text, encoding used, notes)``; UTF-8 (with or without BOM) first, else Windows-1252."""
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise DataFileError(
-            path, None, None, f"cannot read the file ({exc.strerror or exc})"
-        ) from None
-    if encoding is not None:
-        try:
-            return raw.decode(encoding), encoding, ()
-        except LookupError:
-            raise DataFileError(path, None, None, f"unknown encoding {encoding!r}") from None
-        except UnicodeDecodeError as exc:
-            line = raw[: exc.start].count(b"\n") + 1
-            raise DataFileError(
-                path, line, None, f"not valid {encoding} (byte {raw[exc.start]:#04x})"
-            ) from None
-    try:
-        return raw.decode("utf-8-sig"), "utf-8", ()
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-    note = (
-        f"not UTF-8 (first non-UTF-8 byte on line {line}): read as Windows-1252 "
-        f"({FALLBACK_ENCODING}); give the encoding to choose another"
-    )
-    _log.info("%s: %s", path, note)
-    return raw.decode(FALLBACK_ENCODING, errors="replace"), FALLBACK_ENCODING, (note,)
-
-
-def _parse_time(cell: str) -> datetime.datetime | None:
-    """An ISO 8601 timestamp (``2024-05-01T12:00:00.5``, ``... 12:00:00Z``, ``+02:00``) or None."""
-    s = cell.strip()
-    if s.endswith(("Z", "z")):
-        s = s[:-1] + "+00:00"
-    try:
-        return datetime.datetime.fromisoformat(s)
-    except ValueError:
-        return None
-
-
-def read_step_csv(
-    path: str | Path,
-    time: str = "t",
-    u: str = "u",
-    y: str = "y",
-    *,
-    u_before: float | None = None,
-    delimiter: str | None = None,
-    decimal: str | None = None,
-    encoding: str | None = None,
-) -> StepData:
-    """Read a bump test from a CSV file with a header row, as people export them.
-
-    Parameters
-    ----------
-    path : str or Path
-        The file.  Lines starting with ``#`` and blank lines are skipped;
-        extra columns are ignored.
-    time, u, y : str
-        Names of the time, MV and PV columns (surrounding spaces ignored).  A
-        header cell may carry a unit, ``pv [degC]`` or ``pv (degC)``: it is
-        then found as ``pv`` (or by its full text) and the unit is returned
-        in ``StepData.y_unit``/``u_unit``.  The time column holds seconds
-        (a unit ``ms``, ``min`` or ``h`` in its header converts to seconds)
-        or ISO 8601 timestamps, with or without a time zone (all rows alike),
-        converted to seconds from the first one.
-    u_before : float, optional
-        The MV before the record.  For a record whose step is at the first
-        sample (the MV constant from t = 0, the PV at rest there): a sample
-        ``(t0 - h, u_before, y[0])`` is put in front (``h`` the first sample
-        interval), so the MV steps at ``t0``.
-    delimiter : str, optional
-        ``,``, ``;`` or tab; default: detected from the header.
-    decimal : str, optional
-        ``.`` or ``,``; default: ``,`` when the delimiter is not a comma and
-        the data cells use decimal commas (``1,25``), else ``.``.  With a
-        decimal comma a ``.`` is a thousands separator.
-    encoding : str, optional
-        The file's text encoding; default: UTF-8 (with or without BOM), and
-        Windows-1252 when the file is not UTF-8 (said in ``StepData.notes``
-        and logged).
-
-    Returns
-    -------
-    StepData
-
-    Raises
-    ------
-    DataFileError
-        Unreadable file, no header, missing column, non-numeric or non-finite
-        cell, bad timestamp, time not strictly increasing, fewer than
-        ``MIN_SAMPLES`` rows, or no change in the MV column.  The message
-        names file, line and column.
-    """
-    path = Path(path)
-    if delimiter is not None and delimiter not in (",", ";", "\t"):
-        raise ValueError(f"delimiter must be ',', ';' or a tab, got {delimiter!r}")
-    if decimal is not None and decimal not in (".", ","):
-        raise ValueError(f"decimal must be '.' or ',', got {decimal!r}")
-    if decimal == "," and delimiter == ",":
-        raise ValueError("a decimal comma needs another delimiter (';' or a tab)")
-    text, used_encoding, notes = _decode(path, encoding)
-    lines = [
-        (i + 1, ln)
-        for i, ln in enumerate(text.splitlines())
-        if ln.strip() and not ln.lstrip().startswith("#")
-    ]
-    if not lines:
-        raise DataFileError(
-            path, None, None, "the file is empty (a header row with column names is needed)"
-        )
-    header_no, header = lines[0]
-    if delimiter is None:
-        delimiter = max(",;\t", key=header.count)
-    names = [c.strip() for c in next(csv.reader([header], delimiter=delimiter))]
-    bare = [split_unit(n) for n in names]
-    cols: dict[str, int] = {}
-    units: dict[str, str | None] = {}
-    for want in (time, u, y):
-        w = want.strip()
-        idx = next((i for i, n in enumerate(names) if n == w), None)
-        if idx is None:
-            idx = next((i for i, (n, _) in enumerate(bare) if n == w), None)
-        if idx is None:
-            raise DataFileError(
-                path, header_no, want, f"no such column; the header has: {', '.join(names)}"
-            )
-        cols[want] = idx
-        units[want] = bare[idx][1]
-    rows = list(
-        zip(
-            (n for n, _ in lines[1:]),
-            csv.reader((ln for _, ln in lines[1:]), delimiter=delimiter),
-            strict=True,
-        )
-    )
-    if decimal is None:
-        decimal = "."
-        if delimiter != ",":
-            sample = [r[i].strip() for _, r in rows[:50] for i in cols.values() if i < len(r)]
-            if any(re.fullmatch(r"[-+]?\d*,\d+(?:[eE][-+]?\d+)?", c) for c in sample):
-                decimal = ","
-    if decimal == "," and delimiter == ",":
-        raise ValueError("a decimal comma needs another delimiter (';' or a tab)")
-    time_scale = _TIME_UNITS.get((units[time] or "s").lower())
-    values: dict[str, list[float]] = {time: [], u: [], y: []}
-    stamps: list[datetime.datetime] = []
-    line_of: list[int] = []
-    for line_no, row in rows:
-        for name, idx in cols.items():
-            if idx >= len(row) or not row[idx].strip():
-                raise DataFileError(path, line_no, name, "empty cell")
-            cell = row[idx].strip()
-            num = cell.replace(".", "").replace(",", ".") if decimal == "," else cell
-            try:
-                x = float(num)
-            except ValueError:
-                if name == time and not values[time]:
-                    stamp = _parse_time(cell)
-                    if stamp is not None:
-                        stamps.append(stamp)
-                        values[name].append(0.0)
-                        continue
-                if name == time and stamps:
-                    stamp = _parse_time(cell)
-                    if stamp is None:
-                        raise DataFileError(
-                            path, line_no, name, f"{cell!r} is not an ISO 8601 time"
-                        ) from None
-                    if (stamp.tzinfo is None) != (stamps[0].tzinfo is None):
-                        raise DataFileError(
-                            path, line_no, name,
-                            f"{cell!r}: timestamps with and without a time zone are mixed",
-                        ) from None  # fmt: skip
-                    stamps.append(stamp)
-                    values[name].append((stamp - stamps[0]).total_seconds())
-                    continue
-                raise DataFileError(path, line_no, name, f"{cell!r} is not a number") from None
-            if name == time and stamps:
-                raise DataFileError(
-                    path, line_no, name, f"{cell!r} is a number; the rows above have timestamps"
-                )
-            if not math.isfinite(x):
-                raise DataFileError(path, line_no, name, f"{cell!r} is not a finite number")
-            if abs(x) > MAX_MAGNITUDE:
-                raise DataFileError(path, line_no, name, f"{cell!r} is beyond {_BEYOND}")
-            values[name].append(x)
-        line_of.append(line_no)
-        tv = values[time]
-        if len(tv) > 1 and tv[-1] <= tv[-2]:
-            raise DataFileError(
-                path,
-                line_no,
-                time,
-                f"time {tv[-1]:g} is not after {tv[-2]:g} on line {line_of[-2]} "
-                "(time must increase strictly)",
-            )
-    n = len(line_of)
-    if n < MIN_SAMPLES:
-        raise DataFileError(
-            path,
-            line_of[-1] if line_of else header_no,
-            None,
-            f"only {n} data row(s); at least {MIN_SAMPLES} are needed",
-        )
-    tv = np.asarray(values[time])
-    if not stamps and time_scale is not None:
-        tv = tv * time_scale
-    uv, yv = np.asarray(values[u]), np.asarray(values[y])
-    if u_before is not None:
-        if not math.isfinite(u_before):
-            raise ValueError(f"u_before must be finite, got {u_before!r}")
-        if abs(u_before) > MAX_MAGNITUDE:
-            raise ValueError(f"u_before = {u_before!r} is beyond {_BEYOND}")
-        h = float(tv[1] - tv[0])
-        tv = np.concatenate(([tv[0] - h], tv))
-        uv = np.concatenate(([float(u_before)], uv))
-        yv = np.concatenate(([yv[0]], yv))
-        notes = (*notes, f"MV {u_before:g} before the record: a sample added at t = {tv[0]:g} s")
-    if _constant(uv):
-        raise DataFileError(
-            path,
-            None,
-            u,
-            f"the MV never changes (constant {uv[0]:g}): there is no step to identify from"
-            + (
-                "; if the step is at the first sample, give the MV before it "
-                "(--u-before, u_before=)"
-                if u_before is None
-                else ""
-            ),
-        )
-    return StepData(
-        tv,
-        uv,
-        yv,
-        str(path),
-        u_unit=units[u],
-        y_unit=units[y],
-        encoding=used_encoding,
-        delimiter=delimiter,
-        decimal=decimal,
-        start=stamps[0].isoformat() if stamps else "",
-        notes=tuple(notes),
-    )
 
 
 # ---------------------------------------------------------------------------
@@ -933,11 +608,6 @@ def _check_record(t, u, y) -> tuple[NDArray, NDArray, NDArray]:
     if _constant(u):
         raise ValueError("the MV never changes: there is no step to identify from")
     return t, u, y
-
-
-def _constant(u: NDArray) -> bool:
-    """True when the MV record never changes (within rounding): nothing to identify."""
-    return bool(np.ptp(u) <= 1e-12 * max(1.0, float(np.max(np.abs(u)))))
 
 
 def _time_scales(t: NDArray) -> tuple[float, float]:

@@ -104,22 +104,25 @@ def plot_loop(loop: Any, margins: Any, path: str | Path, *, title: str = "") -> 
     S, T = loop.sensitivity(w)
     fig, axes = plt.subplots(2, 2, figsize=(10.0, 7.5))
     ax_n, ax_b, ax_y, ax_u = axes[0, 0], axes[0, 1], axes[1, 0], axes[1, 1]
-    ax_n.plot(L.real, L.imag, color="C0", lw=1.4, label="L(e^{jωh})")
+    # no legend: on the Nyquist plane any corner can hold the curve; the title names the lines
+    ax_n.plot(L.real, L.imag, color="C0", lw=1.4)
     ax_n.plot(L.real, -L.imag, color="C0", lw=0.8, ls=":")
     ax_n.plot([-1], [0], "x", color="C3", ms=8)
+    circle = ""
     if margins.stable and math.isfinite(margins.ms):
         r = 1.0 / margins.ms
         th = np.linspace(0, 2 * np.pi, 200)
-        ax_n.plot(-1 + r * np.cos(th), r * np.sin(th), color="C3", lw=1.0,
-                  label=f"Ms circle, radius 1/Ms = {r:.3f}")  # fmt: skip
+        ax_n.plot(-1 + r * np.cos(th), r * np.sin(th), color="C3", lw=1.0)
+        circle = f"\nred: the Ms circle around -1, radius 1/Ms = {r:.3f}"
     ax_n.set_xlim(-2.5, 1.0)
     ax_n.set_ylim(-2.0, 1.5)
     ax_n.set_aspect("equal")
     ax_n.set_xlabel("Re L")
     ax_n.set_ylabel("Im L")
     ax_n.grid(alpha=0.3)
-    ax_n.legend(loc="lower right", fontsize=8)
-    ax_n.set_title("Nyquist curve", fontsize=10)
+    ax_n.set_title(
+        r"Nyquist curve of $L(e^{j\omega h})$ (dotted: $\omega < 0$)" + circle, fontsize=9
+    )
     ax_b.semilogx(w, 20 * np.log10(np.abs(S)), color="C3", label="|S|")
     ax_b.semilogx(w, 20 * np.log10(np.abs(T)), color="C0", label="|T|")
     if math.isfinite(margins.ms):

@@ -19,6 +19,11 @@ route                                   who       what
 ``GET /api/loops/NAME/history.csv``     login     the same as a CSV download (every sample)
 ``GET /api/audit``                      login     the audit trail (who changed what, when)
 ``POST /api/login``, ``/api/logout``    anyone    ``{"user": .., "password": ..}``; a cookie
+``GET /api/alarms``                     live      every loop's alarm state and its annunciated
+                                                  alarms (:mod:`ctrlblocks.runtime.health`)
+``POST /api/loops/NAME/alarms/ACTION``  operator  ``ack`` (``{"alarm": "H"}``, or all),
+                                                  ``shelve`` (``{"alarm": "H", "seconds": 600}``),
+                                                  ``unshelve``; audited with the user (engineer too)
 ``POST /api/loops/NAME/command``        role      ``{"mode": "manual", "manual_value": 40}``,
                                                   ``{"sp": 2.0}`` (operator, engineer);
                                                   ``{"u_min": 0, "u_max": 80}``,
@@ -93,6 +98,7 @@ from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from starlette.websockets import WebSocketDisconnect
 
+from ..blocks.alarms import ALARM_NAMES
 from ..blocks.base import ErrorCode, ParameterError
 from ..runtime.bounds import LoopBounds
 from ..runtime.historian import SAMPLE_COLUMNS
@@ -100,6 +106,9 @@ from ..runtime.loop import CommandError
 from .auth import NAME_RE, PERMISSIONS, SessionStore, UserStore
 from .defences import LoginGuard, SlidingWindow, json_problem, read_body, summary
 from .live import LiveHub, json_safe
+
+ALARM_ROLES = frozenset({"operator", "engineer"})
+"""The roles that may acknowledge, shelve and unshelve process alarms (a viewer may not)."""
 
 __all__ = ["COOKIE", "create_app"]
 
@@ -719,6 +728,59 @@ def create_app(
             runtime.audit(s.user, action, loop=name, new=json_safe(changes), ok=False, message=msg)
             return _error(422, msg, str(field), code)
         return {"ok": True, "old": json_safe(old), "state": loop_state(name)}
+
+    # -- process alarms (ctrlblocks.runtime.health) ------------------------------------
+
+    @app.get("/api/alarms", response_model=None)
+    async def alarms_all(request: Request) -> Any:
+        """Every loop's alarm state at a glance and its annunciated alarms."""
+        if not may_view(request):
+            return not_logged_in()
+        out = {}
+        for name in runtime.health.loops:
+            st = runtime.health.status(name)
+            st["alarms"] = [a for a in st["alarms"] if a["state"] != "NORMAL"]
+            out[name] = json_safe(st)
+        return {"loops": out}
+
+    @app.post("/api/loops/{name}/alarms/{action}", response_model=None)
+    async def alarm_action(name: str, action: str, request: Request) -> Any:
+        """Acknowledge (``{"alarm": "H"}``, or all without it), shelve or unshelve an alarm."""
+        if action not in ("ack", "shelve", "unshelve"):
+            return _error(404, f"unknown alarm action {action[:32]!r}", "action")
+        audit_action = f"alarm-{action}"
+        got = await admitted(name, request, audit_action, f"alarms/{action}",
+                             "an operator to acknowledge alarms")  # fmt: skip
+        if isinstance(got, JSONResponse):
+            return got
+        s, body = got
+        if s.role not in ALARM_ROLES:
+            msg = f"refused: a {s.role} may not {action} alarms"
+            runtime.audit(s.user, audit_action, loop=name, new=json_safe(body), ok=False,
+                          message=msg)  # fmt: skip
+            return _error(403, f"a {s.role} may not {action} alarms (operators may)", "alarm")
+        alarm = body.get("alarm")
+        if alarm is not None and (not isinstance(alarm, str) or alarm not in ALARM_NAMES):
+            return _error(422, f"alarm must be one of {', '.join(ALARM_NAMES)}", "alarm")
+        try:
+            if action == "ack":
+                changed = runtime.health.acknowledge(name, alarm, s.user)
+            elif alarm is None:
+                return _error(422, "name the alarm to shelve or unshelve", "alarm")
+            elif action == "shelve":
+                seconds = body.get("seconds")
+                if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
+                    return _error(422, "seconds must be a number", "seconds")
+                runtime.health.shelve(name, alarm, float(seconds), s.user)
+                changed = [alarm]
+            else:
+                runtime.health.unshelve(name, alarm, s.user)
+                changed = [alarm]
+        except KeyError:
+            return _error(404, f"loop {name[:64]!r} has no alarms", "loop")
+        except ParameterError as exc:
+            return _error(422, exc.message, "seconds", exc.code)
+        return {"ok": True, "changed": changed, "status": json_safe(runtime.health.status(name))}
 
     # -- live auto-tuning (engineer) ---------------------------------------------------
 
