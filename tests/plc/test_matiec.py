@@ -281,3 +281,17 @@ def test_with_fp_exceptions_unmasked_only_a_law_beyond_real_stops_the_compiled_f
     trapped.trap = True
     codes = [trapped(**inp) for inp in trace.inputs[: first + 1]]
     assert codes[:-1] == [0] * first and codes[-1] == -FPE_FLTOVF, lib.trap_site()
+
+
+def test_the_alarm_blocks_translate_to_st_that_compiles_strictly(tmp_path):
+    """CB_ALARM and CB_ROC (blocks/alarms.py, small blocks in the translator's subset)."""
+    from ctrlblocks.blocks import alarms
+    from ctrlblocks.plc.export import DIALECTS, _small_block
+    from ctrlblocks.plc.translate import Program
+
+    prog = Program()
+    fbs = [prog.fb_type(fn).pou for fn in (alarms.alarm_cycle, alarms.rate_cycle)]
+    st = DIALECTS["codesys"]
+    lines = [ln for p in prog.ordered() for ln in st.function_text(p)]
+    lines += [ln for name in fbs for ln in st.fb_text(_small_block(prog.fbs[name]))]
+    matiec.iec2c("\n".join(lines) + "\n" + matiec.configuration(fbs), tmp_path)
