@@ -128,5 +128,5 @@ def test_adrc_bank_equals_the_blocks_loop_by_loop(engine):
         r = reference_loop(ADRC(**spec, ts=0.1), plant, np.full(STEPS, sp[j]))
         assert res.y[j] == pytest.approx(plant.y, abs=1e-12)
         assert res.u[j] == pytest.approx(r.u[-1], abs=1e-12)
-    assert bank.state_bytes == 104
+    assert bank.state_bytes == 112  # 9 + the handover offset q, and 4 plant floats
     assert np.any(res.u == [s["u_max"] for s in specs])  # some loops end at their limit

@@ -33,7 +33,7 @@ def test_parameter_names_are_the_named_tuples_fields():
     assert PID_PARAMS == ("k", "sgn", "b", "c", "ad", "bd", "ki_h", "alpha", "beta",
                           "lo", "hi", "aw", "g")  # fmt: skip
     assert PIDKernelParams._fields == PID_PARAMS and ADRCKernelParams._fields == ADRC_PARAMS
-    assert len(ADRC_PARAMS) == 22
+    assert len(ADRC_PARAMS) == 24  # with a_q (handover) and nsub (Euler sub-steps)
 
 
 def test_pid_kernel_params_are_the_isa_numbers():
@@ -90,10 +90,11 @@ def test_adrc_continues_exactly_after_kernel_cycles_through_load_kernel_state():
     for k in range(10):
         y = 0.5 + 0.01 * k
         ref(1.0, y)
-        u, _raw, yh, x2, x3, x4, r, track, sat = adrc_step(
-            1.0, y, False, 0.0, state[6], state[7], state[8], *state[:5], state[5], prm
+        u, _raw, yh, x2, x3, x4, r, q, track, sat = adrc_step(
+            1.0, y, False, 0.0, state[6], state[7], state[8], *state[:5], state[5], state[9],
+            prm,
         )
-        state = [yh, x2, x3, x4, u, r, True, track, sat]
+        state = [yh, x2, x3, x4, u, r, True, track, sat, q]
     blk.load_kernel_state(ADRCKernelState(*state))
     for k in range(20):
         assert blk(1.0, 0.6 - 0.01 * k) == ref(1.0, 0.6 - 0.01 * k)

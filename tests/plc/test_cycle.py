@@ -311,14 +311,15 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
     kind = "pid" if isinstance(block, PID) else "adrc"
     seen = []
-    kernel = getattr(pc, f"{kind}_step")
+    name = "pid_step" if kind == "pid" else "adrc_law"  # the ADRC's one cycle
+    kernel = getattr(pc, name)
 
     def spy(*args):
         bound = inspect.signature(kernel).bind(*args).arguments
         seen.append(bound["prm"])
         return kernel(*args)
 
-    monkeypatch.setattr(pc, f"{kind}_step", spy)
+    monkeypatch.setattr(pc, name, spy)
     inputs = getattr(pc, f"{kind}_inputs")(block.config)
     state = getattr(pc, f"{kind}_state")(block.config)
     process = ({**PID_PROCESS, "sp": 1.0} if kind == "pid"

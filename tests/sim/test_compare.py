@@ -21,9 +21,10 @@ from ctrlblocks.plants.linear import FOPDT as PlantFOPDT
 from ctrlblocks.sim.compare import BOX, _box_models, compare, scenario_toml
 from ctrlblocks.sim.runner import run_scenario
 from ctrlblocks.sim.scenario import ScenarioError, load_scenario, parse_scenario, parse_scenario_doc
-from ctrlblocks.tuning import adrc_tuning, amigo, fit_fopdt, fit_sopdt
+from ctrlblocks.tuning import fit_fopdt, fit_sopdt
 from ctrlblocks.tuning.bump import block_margins
-from ctrlblocks.tuning.margins import Loop, margins
+from ctrlblocks.tuning.design import design_adrc, design_pid
+from ctrlblocks.tuning.margins import margins
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -66,42 +67,80 @@ def readme_run(tmp_path_factory):
     return cmd, res, out, json.loads((out / "compare.json").read_text())
 
 
-def test_compare_identifies_tunes_and_margins_as_by_hand(result):
+def test_compare_designs_every_candidate_to_one_ms_and_one_noise_budget(result):
+    """Equal footing: PI, PID, PID + Smith and ADRC n=1..3 are the designs of
+    ctrlblocks.tuning.design on the chosen model, each with Ms <= the target and the MV
+    noise (from the record's PV noise) within the budget, all numbers as by hand."""
     _out, (t, u, y), s = result
     fo = fit_fopdt(t, u, y)
-    assert s["model_used"] == "fopdt" and "FOPDT" in s["why"]
+    assert s["model_used"] == "fopdt" and "BIC" in s["why"]
     assert s["fopdt"]["gain"] == pytest.approx(fo.gain, rel=1e-9)
     ctrls = {c["name"]: c for c in s["controllers"]}
-    am = amigo(fo.gain, fo.time_constant, fo.dead_time)
-    assert ctrls["PID AMIGO"]["params"]["kp"] == pytest.approx(am.kp, rel=1e-9)
-    a2 = adrc_tuning(fo.gain, fo.time_constant, fo.dead_time, 2, ts=s["ts"], model=fo,
-                     b0_search=True)  # fmt: skip
-    p2 = ctrls["ADRC n=2"]["params"]
-    assert p2["omega_c"] == pytest.approx(a2.omega_c, rel=1e-9)
-    assert p2["b0"] == pytest.approx(a2.b0, rel=1e-9)
-    assert ctrls["ADRC n=2"]["b0_rule"] == pytest.approx(a2.b0_rule, rel=1e-9)
-    mg = block_margins(fo, "ADRC", p2, s["ts"])
+    assert {"PI", "PID", "PID + Smith", "ADRC n=1", "ADRC n=2", "ADRC n=3"} <= set(ctrls)
+    kw = {"noise_std": s["noise_std"], "mv_noise_max": s["mv_noise_max"]}
+    assert s["mv_noise_max"] == pytest.approx(0.05 * 0.5)  # 5 % of the bump
+    pid = design_pid(fo, s["ts"], **kw)
+    for key in ("kp", "ti", "td", "n", "b"):
+        assert ctrls["PID"]["params"][key] == pytest.approx(pid.params[key], rel=1e-12)
+    a2 = design_adrc(fo, 2, s["ts"], **kw)
+    for key in ("b0", "omega_c", "omega_o"):
+        assert ctrls["ADRC n=2"]["params"][key] == pytest.approx(a2.params[key], rel=1e-12)
+    mg = block_margins(fo, "ADRC", ctrls["ADRC n=2"]["params"], s["ts"])
     assert ctrls["ADRC n=2"]["margins"]["ms"] == pytest.approx(mg["ms"], rel=1e-9)
-    ki = Loop(fo, ADRC(**p2, ts=s["ts"])).integral_gain()
-    assert ctrls["ADRC n=2"]["margins"]["ki"] == pytest.approx(ki, rel=1e-9)
     for c in ctrls.values():
         m = c["margins"]
-        assert c["eligible"] == bool(m and m["stable"] and m["ms"] <= 2.0)
+        if c["params"] is None:
+            continue
+        assert c["eligible"] == bool(m["stable"] and m["ms"] <= 1.6 * 1.002)
+        assert m["ms"] <= 1.6 * 1.002 and m["mv_noise"] <= s["mv_noise_max"] * 1.01, c
 
 
-def test_compare_metrics_equal_running_the_written_scenario_by_hand(result):
+def test_compare_metrics_equal_running_the_written_scenarios_by_hand(result):
+    """The metrics are those of the event's window (window 1), in both scenarios."""
     out, _, s = result
-    r = run_scenario(load_scenario(out / "compare.toml"))
+    runs = [run_scenario(load_scenario(out / f)) for f in ("compare.toml", "compare_smith.toml")]
     for name, m in s["metrics"].items():
+        (r,) = [r for r in runs if name in {c.name for c in r.scenario.controllers}]
         for key, case, metric in (("iae_tracking", "setpoint", "iae"),
                                   ("overshoot", "setpoint", "overshoot"),
                                   ("tv_u_tracking", "setpoint", "tv_u"),
                                   ("iae_load", "load", "iae"),
                                   ("tv_u_load", "load", "tv_u")):  # fmt: skip
-            assert m["model"][key] == pytest.approx(r.metric(name, case, metric), rel=1e-9)
+            want = r.metric(name, case, metric, window=1)
+            assert m["model"][key] == pytest.approx(want, rel=1e-9)
     assert (out / "compare.md").read_text().count("|") > 40
-    for png in ("fit.png", "setpoint.png", "load.png"):
+    for png in ("fit.png", "setpoint.png", "load.png", "tradeoff.png"):
         assert (out / png).stat().st_size > 10000
+
+
+def test_every_event_is_taken_in_auto_at_rest_after_the_release(result):
+    """The experiment a plant runs: MANUAL during the warm-up, AUTO from t = 0 with SP = PV,
+    the event at t_event > 0; before it the MV has not moved (no bump, no noise-free drift),
+    and the step response is the same as for a loop that was in AUTO long before."""
+    out, _, s = result
+    assert s["t_event"] >= 10 * s["ts"]
+    doc = read_toml((out / "compare.toml").read_text(), "compare.toml", ScenarioError)
+    assert doc["initial"]["warmup"] > 0 and all(
+        ev["t"] == s["t_event"] for case in doc["cases"] for ev in case["events"]
+    )
+    doc["sensor"]["noise"] = 0.0
+    r = run_scenario(parse_scenario_doc(doc, file="compare.toml"))
+    early = dict(doc)  # the event later, the run longer by as much: the same window length
+    early["scenario"] = {**doc["scenario"]}
+    for key in ("duration", "quick_duration"):
+        early["scenario"][key] = doc["scenario"][key] + 2 * s["t_event"]
+    for case in early["cases"]:
+        for ev in case["events"]:
+            ev["t"] = 3 * s["t_event"]
+    r3 = run_scenario(parse_scenario_doc(early, file="compare.toml"))
+    for run in r.runs:
+        before = run.signals["t"] < s["t_event"] - 1e-9
+        assert np.all(run.signals["u"][before] == 0.0) and np.all(run.signals["y"][before] == 0.0)
+    for name in {c.name for c in r.scenario.controllers}:
+        for case in ("setpoint", "load"):
+            # the same response, but for the rounding of a longer rest (3e-6 measured)
+            assert r.metric(name, case, "iae", window=1) == pytest.approx(
+                r3.metric(name, case, "iae", window=1), rel=1e-4, abs=1e-12)
 
 
 def test_monte_carlo_models_are_seeded_draws_from_the_box():
@@ -119,25 +158,28 @@ def test_monte_carlo_spread_equals_running_each_drawn_model_by_hand(result):
     out, (t, u, y), s = result
     assert s["monte_carlo"] == {"n": 3, "seed": 7}
     fo = fit_fopdt(t, u, y)
-    text = (out / "compare.toml").read_text()
-    runs = []
-    for plant in _box_models(fo, 3, 7):
-        doc = read_toml(text, "compare.toml", ScenarioError)
-        apply_key(doc, "plant", plant)
-        runs.append(run_scenario(parse_scenario_doc(doc, file="compare.toml")))
+    runs: dict[str, list] = {}
+    for f in ("compare.toml", "compare_smith.toml"):
+        text = (out / f).read_text()
+        for plant in _box_models(fo, 3, 7):
+            doc = read_toml(text, f, ScenarioError)
+            apply_key(doc, "plant", plant)
+            r = run_scenario(parse_scenario_doc(doc, file=f))
+            for c in r.scenario.controllers:
+                runs.setdefault(c.name, []).append(r)
     for name, m in s["metrics"].items():
-        vals = [r.metric(name, "load", "iae") for r in runs]
+        vals = [r.metric(name, "load", "iae", window=1) for r in runs[name]]
         mc = m["monte_carlo"]["iae_load"]
         assert mc["median"] == pytest.approx(float(np.median(vals)), rel=1e-9)
         assert mc["worst"] == pytest.approx(max(vals), rel=1e-9) and mc["not_finite"] == 0
 
 
-def test_the_commands_sweep_gives_the_numbers_of_the_serial_runs(result, tmp_path):
-    """``ctrlblocks compare`` runs the uncertain models as one fast.sweep over ``plant``."""
-    from ctrlblocks.sim.cli import _sweep_runner
+def test_the_commands_pool_gives_the_numbers_of_the_serial_runs(result, tmp_path):
+    """``ctrlblocks compare --jobs 2`` runs the uncertain models on a process pool."""
+    from ctrlblocks.sim.cli import _models_runner
 
     _out, (t, u, y), s = result
-    swept = compare(t, u, y, tmp_path, monte_carlo=3, seed=7, run_models=_sweep_runner(1))
+    swept = compare(t, u, y, tmp_path, monte_carlo=3, seed=7, run_models=_models_runner(2))
     for name, m in s["metrics"].items():
         for key in ("iae_tracking", "iae_load", "tv_u_load"):
             assert swept["metrics"][name]["monte_carlo"][key] == m["monte_carlo"][key]
@@ -181,17 +223,35 @@ def test_the_verdict_speaks_of_mv_travel_and_of_the_overshoot_under_longer_dead_
         assert _resolve(data, st["quotes"][0]["path"]) == pytest.approx(worst, rel=1e-12)
 
 
-def test_a_process_where_pid_clearly_wins_says_so(result):
-    """Dead time as long as the lag: no ADRC reaches the AMIGO PID's load rejection."""
-    _, _, s = result
-    texts = [x["text"] for x in s["verdict"]]
-    assert any(x.startswith("PID wins the load rejection (iae_load)") for x in texts), texts
-    ms = s["metrics"]
-    kind = {c["name"]: c["type"] for c in s["controllers"] if c["eligible"]}
-    best_pid = min(ms[n]["model"]["iae_load"] for n in kind if kind[n] == "PID")
-    best_adrc = min(ms[n]["model"]["iae_load"] for n in kind if kind[n] == "ADRC")
-    assert best_pid < 0.9 * best_adrc
-    assert not any(x.startswith("ADRC wins") for x in texts)
+def test_the_winners_and_the_verdict_say_the_same_with_the_tie_band(result, readme_run):
+    """winners = {"setpoint", "load"}: PID, ADRC or tie by the best of each family on the
+    model within the 10 % band; the sentence says the same and quotes both numbers."""
+    for s in (result[2], readme_run[3]):
+        w = s["winners"]
+        assert w["band"] == 0.1 and set(w) >= {"setpoint", "load"}
+        for case, key, what in (("setpoint", "iae_tracking", "the set-point step"),
+                                ("load", "iae_load", "the load rejection")):  # fmt: skip
+            best = w["best"][case]
+            p = s["metrics"][best["PID"]]["model"][key]
+            a = s["metrics"][best["ADRC"]]["model"][key]
+            fams = {c["name"]: c["type"] for c in s["controllers"] if c["eligible"]}
+            assert p == min(s["metrics"][n]["model"][key] for n in fams if fams[n] == "PID")
+            assert a == min(s["metrics"][n]["model"][key] for n in fams if fams[n] == "ADRC")
+            want = "tie" if abs(p - a) <= 0.1 * max(p, a) else ("PID" if p < a else "ADRC")
+            assert w[case] == want
+            texts = [x["text"] for x in s["verdict"]]
+            start = (f"PID and ADRC tie on {what}" if want == "tie" else f"{want} wins {what}")
+            assert sum(x.startswith(start) for x in texts) == 1, texts
+        first = s["verdict"][0]["text"]
+        assert first.startswith("Every candidate is designed to Ms <= 1.6") and "tie" in first
+
+
+def test_a_tie_band_of_zero_names_a_winner_and_a_wide_one_ties(result, tmp_path):
+    from ctrlblocks.sim.compare_verdict import winners
+
+    s = dict(result[2])
+    assert winners({**s, "tie": 0.0})["load"] in ("PID", "ADRC")
+    assert winners({**s, "tie": 0.99})["load"] == "tie"
 
 
 def test_corner_scenarios_change_the_plant_by_the_factors():
@@ -210,10 +270,11 @@ def test_the_readmes_compare_command_runs_verbatim_on_the_shipped_example(readme
     assert cmd.startswith("ctrlblocks compare docs/examples/bump_k2.csv")
     assert res.exit_code == 0, res.output
     assert res.stdout.splitlines()[-1] == "report: compare/compare.md"
-    assert "compare: uncertain models: 8/8 run" in res.stderr  # progress, not on a terminal
+    assert "compare: uncertain models (compare.toml): 8/8 run" in res.stderr  # not a terminal
     assert d["model_used"] == "sopdt" and d["verdict"]
     assert all(math.isfinite(c["margins"]["ms"]) for c in d["controllers"] if c["eligible"])
-    for f in ("compare.md", "compare.toml", "fit.png", "setpoint.png", "load.png"):
+    for f in ("compare.md", "compare.toml", "compare_smith.toml", "fit.png", "setpoint.png",
+              "load.png", "tradeoff.png"):
         assert (out / f).is_file()
     # docs/tuning.md shows this run's output (shortened with "...")
     from tests.test_docs_outputs import _matches
@@ -223,8 +284,9 @@ def test_the_readmes_compare_command_runs_verbatim_on_the_shipped_example(readme
     assert _matches(res.stdout.splitlines(), [ln for ln in block.splitlines() if ln.strip()])
 
 
-def test_adrc_is_tuned_and_analysed_on_the_chosen_sopdt(readme_run):
-    """The paper's Table 2 ADRC: unstable on the FOPDT fit, stable on the better SOPDT fit."""
+def test_adrc_is_designed_and_analysed_on_the_chosen_sopdt(readme_run):
+    """The paper's Table 2 ADRC: unstable on the FOPDT fit, stable on the SOPDT fit that the
+    BIC chooses; every ADRC is designed and analysed on that SOPDT."""
     d = readme_run[3]
     from ctrlblocks.tuning import read_step_csv
 
@@ -233,26 +295,27 @@ def test_adrc_is_tuned_and_analysed_on_the_chosen_sopdt(readme_run):
     table2 = ADRC(order=2, b0=0.05, omega_c=0.35, omega_o=1.75, ts=0.1)
     assert not margins(fo, table2).stable
     assert margins(so, table2).ms == pytest.approx(2.2, abs=0.05)
+    mc = d["model_choice"]
+    assert mc["sopdt"]["bic"] < mc["fopdt"]["bic"] and d["model_used"] == "sopdt"
+    n = mc["n"]
+    for kind, p in (("fopdt", 4), ("sopdt", 5)):  # BIC = N ln(RSS/N) + p ln N, by hand
+        assert mc[kind]["bic"] == pytest.approx(n * np.log(mc[kind]["rss"] / n) + p * np.log(n))
     ctrls = {c["name"]: c for c in d["controllers"]}
     for n in (1, 2, 3):
         c = ctrls[f"ADRC n={n}"]
         assert c["margins"]["ms"] == pytest.approx(
             block_margins(so, "ADRC", c["params"], d["ts"])["ms"], rel=1e-9
         )
-        assert c["margins"]["ms"] <= 1.6 * (1 + 1e-6)
-    # searching b0 with the bandwidth beats the rule's b0 on the load (integral gain)
-    half = so.time_constant_2 / 2
-    rule = adrc_tuning(so.gain, so.time_constant + half, so.dead_time + half, 2, ts=d["ts"],
-                       model=so)  # fmt: skip
-    assert ctrls["ADRC n=2"]["margins"]["ki"] > 5 * rule.integral_gain
-    assert ctrls["ADRC n=2"]["b0_rule"] == pytest.approx(rule.b0, rel=1e-12)
+        assert c["margins"]["ms"] <= 1.6 * (1 + 2e-3)
 
 
 def test_every_plot_axis_has_units(readme_run, tmp_path, monkeypatch):
     _cmd, _res, out, _d = readme_run
     doc = read_toml((out / "compare.toml").read_text(), "compare.toml", ScenarioError)
-    assert doc["plot"]["upper_label"] == "PV: p3_bar (units of the data)"
-    assert doc["plot"]["lower_label"] == "MV: p_supply_bar (units of the data)"
+    # deviation variables: labelled as such, the operating point in the title
+    assert doc["plot"]["upper_label"] == "ΔPV: p3_bar (units of the data)"
+    assert doc["plot"]["lower_label"] == "ΔMV: p_supply_bar (units of the data)"
+    assert "deviations from the operating point PV 1.46" in doc["scenario"]["title"]
     # a header with units ("pv [degC]") puts them on the axes and in the tables
     import ctrlblocks.tuning.plot as tplot
 
@@ -272,7 +335,7 @@ def test_every_plot_axis_has_units(readme_run, tmp_path, monkeypatch):
     assert seen["gain_unit"] == "degC/%"
     doc = read_toml((tmp_path / "o" / "compare.toml").read_text(), "c.toml", ScenarioError)
     labels = (doc["plot"]["upper_label"], doc["plot"]["lower_label"])
-    assert labels == ("PV: pv [degC]", "MV: mv [%]")
+    assert labels == ("ΔPV: pv [degC]", "ΔMV: mv [%]")
     md = (tmp_path / "o" / "compare.md").read_text()
     assert "IAE load [degC·s]" in md and "MV travel load [%]" in md and "ki [%/(degC·s)]" in md
 
@@ -347,9 +410,9 @@ def test_a_reverse_acting_process_gets_adrcs_with_reverse(tmp_path):
     """A negative process gain: the ADRCs are tuned with reverse = true (the block takes
     b0 > 0) on the mirrored process, with its margins, and stand in the verdict."""
     t, u, y = _bump(k=-1.2, t=12.0, L=3.0)
-    s = compare(t, u, y, tmp_path, corners=False)
+    s = compare(t, u, y, tmp_path, corners=False, ts=0.3, levels=())
     t2, u2, y2 = _bump(k=1.2, t=12.0, L=3.0)
-    mirror = compare(t2, u2, y2, tmp_path / "mirror", corners=False)
+    mirror = compare(t2, u2, y2, tmp_path / "mirror", corners=False, ts=0.3, levels=())
     adrcs = [c for c in s["controllers"] if c["type"] == "ADRC"]
     assert adrcs and all(c["params"]["reverse"] is True and c["params"]["b0"] > 0 for c in adrcs)
     for c, m in zip(adrcs, [c for c in mirror["controllers"] if c["type"] == "ADRC"], strict=True):

@@ -327,7 +327,8 @@ ok = true
     t = s["t"]
     bad = (t >= 3.0 - 1e-9) & (t < 5.0 - 1e-9)
     assert np.all(s["u"][bad] == 0.25)  # the safe value u_sf while y_ok is false
-    assert s["u"][29] == pytest.approx(1.0, abs=1e-9)  # steady before the fault
+    assert s["u"][29] == pytest.approx(1.0, abs=3e-4)  # steady before the fault (the handover
+    # offset of the warm-up, 1.5e-4 of u here, fades with 1/omega_c: docs/blocks/adrc.md)
     assert s["u"][-1] == pytest.approx(1.0, abs=0.05)  # recovers
     assert math.isfinite(s["ym"][40])
 

@@ -105,17 +105,75 @@ def test_tune_adrc_table1_k2_json():
 
 
 def test_tune_adrc_second_order_has_b0_range_collapsed():
+    """The paper's rule (a settling time): Table 1's b0 for K1, one value."""
     r = run("tune", "adrc", "--gain", 0.56, "--time-constant", 11, "--dead-time", 3.3, "--order", 2,
-            "--json")  # fmt: skip
+            "--settling-time", 60, "--force", "--json")  # fmt: skip
     d = json.loads(r.output)
     assert round(d["b0"], 3) == 0.011 and d["b0_min"] == d["b0_max"] == d["b0"]
 
 
 def test_tune_adrc_unbounded_b0_max_is_null_in_json():
     r = run("tune", "adrc", "--gain", 1, "--time-constant", 30, "--dead-time", 3, "--order", 3,
-            "--json")  # fmt: skip
+            "--settling-time", 200, "--force", "--json")  # fmt: skip
     assert r.exit_code == 0
     assert json.loads(r.output)["b0_max"] is None
+
+
+def test_tune_adrc_without_settling_time_is_the_design_of_compare():
+    """One design path: tune adrc gives what ctrlblocks.tuning.design (compare's) gives."""
+    from ctrlblocks.tuning.design import design_adrc
+    from ctrlblocks.tuning.identify import SOPDT
+
+    r = run("tune", "adrc", "--gain", 0.73, "--time-constant", 7.1, "--time-constant-2", 2.9,
+            "--dead-time", 0.9, "--order", 2, "--ts", 0.05, "--json")  # fmt: skip
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    ref = design_adrc(SOPDT(0.73, 7.1, 0.9, 2.9), 2, 0.05)
+    for key in ("b0", "omega_c", "omega_o"):
+        assert d[key] == pytest.approx(ref.params[key], rel=1e-12)
+    assert d["ms"] == pytest.approx(ref.margins.ms, rel=1e-12) and d["ms"] <= 1.6 * 1.001
+    assert d["model"] == "sopdt" and 3.0 <= d["omega_o"] / d["omega_c"] <= 10.0
+
+
+def test_tune_pid_migo_is_the_design_of_compare_and_round_trips_into_the_block():
+    from ctrlblocks import PID
+    from ctrlblocks.tuning.cli import PID_INFO_KEYS
+    from ctrlblocks.tuning.design import design_pid
+    from ctrlblocks.tuning.identify import FOPDT
+    from ctrlblocks.tuning.margins import margins
+
+    r = run("tune", "pid", "--gain", 2, "--time-constant", 30, "--dead-time", 5, "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    ref = design_pid(FOPDT(2.0, 30.0, 5.0), d["margins_ts"])
+    for key in ("kp", "ti", "td", "n", "b"):
+        assert d[key] == pytest.approx(ref.params[key], rel=1e-12)
+    rest = {k: v for k, v in d.items() if k not in PID_INFO_KEYS}
+    block = PID(**rest, ts=d["margins_ts"], u_min=-1e9, u_max=1e9)
+    assert margins(FOPDT(2.0, 30.0, 5.0), block).ms == pytest.approx(d["ms"], rel=1e-9)
+
+
+@pytest.mark.parametrize("rule", ["amigo", "zn", "lambda"])
+def test_every_pid_rule_uses_the_second_time_constant(rule):
+    """AMIGO, ZN and lambda take the SOPDT's half-rule FOPDT (and say so), not the FOPDT
+    the first time constant alone would be; the margins are on the SOPDT."""
+    from ctrlblocks.tuning import pid_rules
+
+    fn = {"amigo": pid_rules.amigo, "zn": pid_rules.ziegler_nichols_open,
+          "lambda": pid_rules.lambda_tuning}[rule]  # fmt: skip
+    args = ["tune", "pid", "--gain", 1.5, "--time-constant", 10, "--dead-time", 1, "--rule", rule,
+            "--controller", "pid", "--json"]  # fmt: skip
+    plain = json.loads(run(*args).output)
+    with_t2 = json.loads(run(*args, "--time-constant-2", 4).output)
+    ref = fn(1.5, 10 + 2.0, 1 + 2.0, controller="pid")
+    assert (with_t2["kp"], with_t2["ti"], with_t2["td"]) == pytest.approx((ref.kp, ref.ti, ref.td))
+    assert (with_t2["kp"], with_t2["ti"]) != pytest.approx((plain["kp"], plain["ti"]))
+    assert "half-rule" in with_t2["note"]
+
+
+def test_the_ultimate_point_rules_refuse_a_second_time_constant():
+    r = run("tune", "pid", "--ku", 3, "--pu", 10, "--rule", "zn", "--time-constant-2", 2)
+    assert r.exit_code == 2 and "--time-constant-2" in r.output and "Traceback" not in r.output
 
 
 @pytest.mark.parametrize(
@@ -135,7 +193,9 @@ def test_tune_pid_json_equals_the_rule(rule, expected):
     "args",
     [
         ["tune", "adrc", "--gain", "1", "--time-constant", "5", "--dead-time", "1", "--order", "4"],
-        ["tune", "adrc", "--gain", "1", "--time-constant", "2", "--dead-time", "3", "--order", "2"],
+        ["tune", "adrc", "--gain", "1", "--time-constant", "2", "--dead-time", "3", "--order", "2",
+         "--settling-time", "10"],
+        ["tune", "pid", "--gain", "0", "--time-constant", "5", "--dead-time", "1"],
         [
             "tune",
             "pid",
@@ -174,11 +234,23 @@ def test_tune_unknown_rule_is_a_usage_error():
 
 
 def test_tune_adrc_noise_options_lower_omega_o():
+    """The paper's rule (a settling time): the observer slowed for the noise."""
     base = ["tune", "adrc", "--gain", 0.73, "--time-constant", 8.3, "--dead-time", 3, "--order", 2,
-            "--ts", 0.1, "--json"]  # fmt: skip
+            "--ts", 0.1, "--settling-time", 30, "--force", "--json"]  # fmt: skip
     free = json.loads(run(*base).output)
     limited = json.loads(run(*base, "--noise-std", 0.002, "--u-noise-max", 0.0006).output)
     assert limited["omega_o"] < free["omega_o"]
     assert limited["omega_c"] == free["omega_c"]
     r = run(*base, "--noise-std", 0.002)
     assert r.exit_code == 1 and "give both or neither" in r.output
+
+
+def test_tune_adrc_design_keeps_the_mv_noise_budget():
+    base = ["tune", "adrc", "--gain", 0.73, "--time-constant", 8.3, "--dead-time", 3, "--order", 2,
+            "--ts", 0.1, "--json"]  # fmt: skip
+    free = json.loads(run(*base).output)
+    limited = json.loads(run(*base, "--noise-std", 0.002, "--u-noise-max", 0.0006).output)
+    assert limited["mv_noise"] <= 0.0006 * (1 + 1e-6)
+    assert limited["ki"] < free["ki"] and limited["ms"] <= 1.6 * 1.001
+    r = run(*base, "--noise-std", 0.002)
+    assert r.exit_code == 2 and "give both --noise-std and --u-noise-max" in r.output

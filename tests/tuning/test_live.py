@@ -38,9 +38,36 @@ def test_a_live_step_test_on_the_three_tank_process_equals_the_offline_pretune()
     pid = tuner.result.proposals["PID_AMIGO"]
     assert pid["kp"] == pytest.approx(offline.pid.kp, rel=0.05)
     assert pid["ti"] == pytest.approx(offline.pid.ti, rel=0.05)
-    assert set(tuner.result.proposals) >= {"PID_AMIGO", "PI_SIMC", "ADRC_2"}
+    assert set(tuner.result.proposals) >= {"PID_AMIGO", "PI_SIMC", "PID_MIGO", "ADRC_2"}
     # every proposal builds a block as it stands
     PID(**{k: v for k, v in pid.items() if k != "type"}, ts=0.1)
+    # one design path: PID_MIGO and ADRC_2 are compare's designs on the identified FOPDT
+    import numpy as np
+
+    from ctrlblocks.tuning.design import design_adrc, design_pid
+    from ctrlblocks.tuning.identify import FOPDT
+
+    fo = FOPDT(m["gain"], m["time_constant"], m["dead_time"])
+    assert "PID_MIGO" in tuner.result.proposals
+    kw = tuner.result.proposals["PID_MIGO"]
+    # the budget: 5 % of the step; the noise: none on this simulated plant (fit residuals)
+    ref = design_pid(fo, 0.1, noise_std=kw_noise(tuner), mv_noise_max=0.025)
+    for key in ("kp", "ti", "td", "n", "b"):
+        assert kw[key] == pytest.approx(ref.params[key], rel=1e-9)
+    ref2 = design_adrc(fo, 2, 0.1, noise_std=kw_noise(tuner), mv_noise_max=0.025)
+    for key in ("b0", "omega_c", "omega_o"):
+        assert tuner.result.proposals["ADRC_2"][key] == pytest.approx(ref2.params[key], rel=1e-9)
+    assert np.isfinite(ref.margins.ms) and ref.margins.ms <= 1.6 * 1.001
+
+
+def kw_noise(tuner: LiveTuner) -> float:
+    """The PV noise the live proposals were designed for: the FOPDT fit's residuals."""
+    import numpy as np
+
+    from ctrlblocks.tuning.identify import fit_fopdt
+
+    t, u, y = tuner.record()  # the experiment's record, as the tuner fitted it
+    return float(np.std(np.asarray(y) - fit_fopdt(t, u, y).response(t, u)))
 
 
 def test_a_live_relay_test_on_the_three_tank_process_equals_the_offline_relay() -> None:

@@ -127,7 +127,7 @@ def test_a_proposal_outside_the_engineering_range_is_refused_and_the_result_reje
     r = client.post("/api/loops/fast/tune/accept", json={"proposal": "PID_AMIGO", "force": True})
     assert r.status_code == 422 and r.json()["error"]["field"] == "tunings.kp"
     r = client.post("/api/loops/fast/tune/accept", json={"proposal": "PID_X"})
-    assert r.status_code == 422 and "proposals: ['PID_AMIGO', 'PI_SIMC']" in r.text
+    assert r.status_code == 422 and "proposals: ['PID_AMIGO', 'PID_MIGO', 'PI_SIMC']" in r.text
     r = client.post("/api/loops/fast/tune/reject", json={})
     assert r.status_code == 200 and r.json()["tuning"]["state"] == "rejected"
     assert r.json()["state"]["tunings"]["kp"] == 1.0

@@ -126,6 +126,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .base import (
+    MAX_TIME,
     Block,
     BlockConfig,
     ErrorCode,
@@ -153,6 +154,7 @@ __all__ = [
     "ADRCKernelParams",
     "ADRCKernelState",
     "adrc_gains",
+    "adrc_law",
     "adrc_step",
     "adrc_switches",
     "anti_backoff_states",
@@ -160,6 +162,8 @@ __all__ = [
     "eso_euler",
     "eso_exact",
     "euler_pole_polynomial",
+    "euler_substeps",
+    "handover_offset",
     "retune_x4",
 ]
 
@@ -174,6 +178,16 @@ EXACT_LIMIT: float = math.pi / 2.0
 _INF, _NINF = math.inf, -math.inf
 _NO_ERROR, _BAD_LIMITS = ErrorCode.NO_ERROR, ErrorCode.BAD_LIMITS
 _WARN = ErrorCode.WARN_DISCRETISATION
+
+#: Longest ``input_delay`` [samples of ts] (the history of u the ESO is fed from).
+MAX_DELAY_SAMPLES: int = 100_000
+
+
+def delay_samples(input_delay: float, ts: float) -> int:
+    """``input_delay`` [s] in whole samples of ``ts`` (rounded half to even, as ``round``)."""
+    d = float(input_delay) / float(ts)
+    return round(d) if d < 2.0 * MAX_DELAY_SAMPLES else 2 * MAX_DELAY_SAMPLES
+
 
 _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 
@@ -450,6 +464,281 @@ def anti_backoff_states(
     return yh, x2, x3, x4
 
 
+def adrc_law(
+    r_in: float,
+    y: float,
+    manual: bool,
+    target: float,
+    tracking: bool,
+    started: bool,
+    sat: int,
+    awin: bool,
+    exact: bool,
+    ab_on: bool,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_eso: float,
+    u_prev: float,
+    ref: float,
+    q: float,
+    ab_sat: int,
+    ab_wait: float,
+    prm: tuple[float, ...],
+    ecoef: tuple[float, ...],
+    ab: tuple[float, ...],
+) -> tuple[float, float, float, float, float, float, float, float, bool, int, int, float]:
+    """The ADRC's cycle on a valid measurement ``y``, every option: the one cycle of every executor.
+
+    The block (:meth:`ADRC.compute_output`), its per-call fast lane, the
+    compiled kernels (:func:`adrc_step`, numba and Cython), the float32 cycle
+    and the exported function block (:mod:`.plc_cycle`) all run this function
+    -- written once, in the subset the PLC translator accepts (no lists, no
+    exceptions).  In Åström's (1987, section 6) computational order it is the
+    ``compute`` half: from the committed state to this cycle's output and the
+    state to commit; the caller commits it with the value actually applied.
+
+    * ``started`` False: the first valid measurement starts the ESO at rest on
+      it (``Y_hat = y``, ``x2 = x3 = 0``, ``x4 = -b0 u_eso``, reference ``y``);
+    * the reference trajectory (section 5): the exact PT1 ``a_ref`` of the
+      setpoint ``r_in``; in MAN with a filter it follows ``y``;
+    * the ESO (4a) by :func:`eso_euler`, or the exact current observer by
+      :func:`eso_exact` (``exact``, coefficients ``ecoef``), fed ``u_eso`` --
+      the applied u, or that of ``input_delay`` ago (Zhao & Gao 2014);
+    * ``tracking`` (MAN, a bad setpoint, the cycle after MAN or a bad
+      measurement): the output is ``target`` (limited by the caller).  The ESO
+      runs on, undisturbed, and the *handover offset* ``q`` of the reference
+      is solved so that (4b) gives ``target`` (:func:`handover_offset`); only
+      where that cannot be done (``kp`` underflowed) x4 is re-solved by (11)
+      with :func:`solve_x4`;
+    * else ``q`` decays by ``a_q = exp(-omega_c h)`` and the law (4b) runs on
+      the reference ``ref + q`` (docs/blocks/adrc.md, "Modes and bumpless
+      transfer": the output continues without a bump and its first move goes
+      toward the setpoint), by :func:`control_law`, the x4 anti-windup rule
+      (section 4.1, :func:`x4_update_allowed`; ``awin`` freezes x4, section 5)
+      and, with ``ab_on``, the anti-backoff action (12a)/(12b) of section 4.3
+      (``ab = (y_sat, y_sat_lo, tau_wait)``): the states of
+      :func:`anti_backoff_states` when y reaches the sensor's saturation, u
+      held for ``tau_wait`` after it leaves (``u_prev``, the applied u).
+
+    ``prm`` is :class:`ADRCKernelParams` (sample time, gains, switches,
+    sensitivities, limits, anti-windup rule, reference pole, handover pole,
+    Euler sub-steps: the Euler ESO runs ``nsub`` steps of ``ts/nsub`` with u
+    and y held, :func:`euler_substeps`).  Returns ``(u, u_raw, Y_hat, x2,
+    x3, x4, ref, q, track_next, sat_next, ab_sat, ab_wait)``: ``track_next``
+    asks the next cycle to track (the end of the anti-backoff wait); the
+    caller adds its own reasons (MAN, bad data).
+    """
+    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
+     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref, a_q, nsub) = prm  # fmt: skip
+    f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3 = ecoef
+    y_sat, y_sat_lo, tau_wait = ab
+    if not started:
+        yh = y
+        x2 = 0.0
+        x3 = 0.0
+        x4 = -b0 * u_eso
+        ref = y
+    # in manual with a reference filter the reference follows y
+    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * r_in
+    if exact:
+        z0, z1, z2, z3 = eso_exact(yh, x2, x3, x4, u_eso, y, 1.0, f01, f02, f03, f12, f13,
+                                   f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
+    elif nsub == 1.0:
+        z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_eso, y, 1.0, ts, b0, l1, l2, l3, l4,
+                                   p1, p2, k1, k2, k3)  # fmt: skip
+    else:
+        z0, z1, z2, z3 = eso_euler_substeps(yh, x2, x3, x4, u_eso, y, 1.0, ts, nsub, b0, l1,
+                                            l2, l3, l4, p1, p2, k1, k2, k3)  # fmt: skip
+    if tracking:
+        if kp != 0.0:
+            q = handover_offset(target, ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+            if q - q == 0.0:  # finite: the ESO runs on, the reference takes the offset
+                return target, target, z0, z1, z2, z3, ref, q, False, 0, ab_sat, ab_wait
+        u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
+        return target, target, yh, x2, x3, x4, ref, 0.0, False, 0, ab_sat, ab_wait
+    q = a_q * q
+    r = ref + q
+    u_free = control_law(r, z0, z1, z2, z3, b0, kp, kd1, kd2)
+    du = s_u * (z3 - x4)
+    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
+        yh = z0
+        x2 = z1
+        x3 = z2
+        x4 = z3
+        u_raw = u_free
+    else:
+        if exact:
+            yh, x2, x3, x4 = eso_exact(yh, x2, x3, x4, u_eso, y, 0.0, f01, f02, f03, f12,
+                                       f13, f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
+        elif nsub == 1.0:
+            yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_eso, y, 0.0, ts, b0, l1, l2, l3, l4,
+                                       p1, p2, k1, k2, k3)  # fmt: skip
+        else:
+            yh, x2, x3, x4 = eso_euler_substeps(yh, x2, x3, x4, u_eso, y, 0.0, ts, nsub, b0,
+                                                l1, l2, l3, l4, p1, p2, k1, k2,
+                                                k3)  # fmt: skip
+        u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2)
+    end_wait = False
+    if ab_on:
+        now = 0
+        if y >= y_sat:
+            now = 1
+        elif y <= y_sat_lo:
+            now = -1
+        if now != 0 and ab_sat == 0:
+            # Y has just reached the sensor saturation: (12a)/(12b)
+            ysat = y_sat_lo
+            if now > 0:
+                ysat = y_sat
+            yh, x2, x3, x4 = anti_backoff_states(ysat, r, u_eso, l1, l2, l3, l4, b0, kp,
+                                                 kd1, kd2, p1, p2, k1, k2, k3)  # fmt: skip
+            u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2)
+            ab_wait = 0.0
+        elif now == 0 and ab_sat != 0:
+            ab_wait = tau_wait  # Y has left the saturation
+        ab_sat = now
+        if ab_wait > 0.0:
+            # hold u for tau_wait while the ESO converges (section 4.3)
+            u_raw = clamp(u_prev, lo, hi)
+            ab_wait = max(ab_wait - ts, 0.0)
+            if ab_wait < 1e-9 * ts:
+                ab_wait = 0.0
+                end_wait = True  # leave the wait bumplessly, x4 by (11)
+    sat_next = 0
+    if u_raw > hi:
+        sat_next = 1
+    elif u_raw < lo:
+        sat_next = -1
+    return (clamp(u_raw, lo, hi), u_raw, yh, x2, x3, x4, ref, q, end_wait, sat_next, ab_sat,
+            ab_wait)  # fmt: skip
+
+
+def handover_offset(
+    target: float,
+    ref: float,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    b0: float,
+    kp: float,
+    kd1: float,
+    kd2: float,
+) -> float:
+    """The offset ``q`` of the reference for which the law (4b) gives ``target`` on these states.
+
+    ``(kp (ref + q - Y_hat) - kd1 x2 - kd2 x3 - x4) / b0 = target`` gives
+    ``q = Y_hat - ref + (b0 target + kd1 x2 + kd2 x3 + x4) / kp`` (Nowak et al.
+    2018, (4b), solved for the reference instead of for x4 as in (11):
+    docs/blocks/adrc.md, "Modes and bumpless transfer").  At a steady state in
+    MAN the ESO holds ``Y_hat = y``, ``x2 = x3 = 0``, ``x4 = -b0 u``, so
+    ``ref + q = y``: the handover starts the reference at the measurement.
+    The caller checks ``kp != 0`` first (an underflowed bandwidth) and, where
+    ``q`` is not finite, re-solves x4 instead.
+    """
+    return yh - ref + (b0 * target + kd1 * x2 + kd2 * x3 + x4) / kp
+
+
+def eso_euler_substeps(
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    u_prev: float,
+    y: float,
+    w4: float,
+    ts: float,
+    nsub: float,
+    b0: float,
+    l1: float,
+    l2: float,
+    l3: float,
+    l4: float,
+    p1: float,
+    p2: float,
+    k1: float,
+    k2: float,
+    k3: float,
+) -> tuple[float, float, float, float]:
+    """The Euler ESO (4a) over a sample ``ts`` in ``nsub`` steps of ``ts/nsub`` (u and y held).
+
+    The Euler image of the observer is unstable beyond ``omega_o h = 0.828,
+    0.520, 0.378`` (n = 1, 2, 3; module docstring); a runtime that measures a
+    longer period than the block was designed for would make the block
+    diverge.  Sub-stepping keeps every step inside the trusted range
+    (:func:`euler_substeps`) for any period: the continuous ESO (2) driven by
+    the sample's held input and measurement, integrated more finely.
+    """
+    h = ts / nsub
+    for _k in range(int(nsub)):
+        yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, w4, h, b0, l1, l2, l3, l4,
+                                   p1, p2, k1, k2, k3)  # fmt: skip
+    return yh, x2, x3, x4
+
+
+def euler_sensitivities(
+    h: float, p1: float, p2: float, k1: float, k2: float, k3: float
+) -> tuple[float, float, float]:
+    """``(s_x3, s_x2, s_yh)``: how the states of one Euler step (4a) move with x4_i (for (11)).
+
+    The backward recursion passes x4_i on through ``aux_i``: ``s_x3 = h k3``,
+    ``s_x2 = h (p2 s_x3 + k2)``, ``s_yh = h (p1 s_x2 + k1)`` (:func:`solve_x4`).
+    """
+    s_x3 = h * k3
+    s_x2 = h * (p2 * s_x3 + k2)
+    s_yh = h * (p1 * s_x2 + k1)
+    return s_x3, s_x2, s_yh
+
+
+def handover_pole(omega_c: float, h: float) -> float:
+    """``exp(-omega_c h)``: the decay per sample of the handover offset of the reference.
+
+    The offset that made a transfer bumpless fades with the loop's own time
+    constant ``1/omega_c`` (docs/blocks/adrc.md, "Modes and bumpless transfer").
+    """
+    return math.exp(-omega_c * h)
+
+
+def euler_substeps(n: int, omega_o: float, h: float) -> float:
+    """Steps of the Euler ESO over a sample ``h``: 1 where ``omega_o h`` is trusted, else enough.
+
+    ``ceil(omega_o h / EULER_LIMIT[n+1])`` (the bound of the trusted range,
+    module docstring, for the chain of n+1 states), at least 1 -- so a block
+    configured inside the trusted range runs its one step at its ``ts`` and
+    sub-steps only for longer periods -- and at most 100: the observer is
+    stable for periods up to 100 trusted steps (at least 100 ``ts`` for a
+    block designed in the trusted range); beyond, the block keeps its
+    contract (a finite, limited output; an overflowing observer restarts) but
+    its observer is not guaranteed to converge.  A float (the PLC's REAL), whole.
+    """
+    lim = 1.477
+    if n == 1:
+        lim = 0.735
+    elif n == 2:
+        lim = 0.484
+    elif n == 3:
+        lim = 0.360
+    a = omega_o * h / lim
+    if not a > 1.0:
+        return 1.0
+    if not a < 100.0:
+        return 100.0  # the bound: periods up to 100 trusted steps (docs/blocks/adrc.md)
+    m = float(int(a))
+    if m < a:
+        m = m + 1.0
+    return m
+
+
+NO_EXACT: tuple[float, ...] = (0.0,) * 13
+"""The ``ecoef`` of :func:`adrc_law` for the Euler ESO (not read)."""
+
+NO_ANTI_BACKOFF: tuple[float, float, float] = (math.inf, -math.inf, 0.0)
+"""The ``ab`` of :func:`adrc_law` without the anti-backoff action (not read)."""
+
+
 def adrc_step(
     sp: float,
     y: float,
@@ -464,56 +753,33 @@ def adrc_step(
     x4: float,
     u_prev: float,
     ref: float,
+    q: float,
     prm: tuple[float, ...],
     awin: bool = False,
-) -> tuple[float, float, float, float, float, float, float, bool, int]:
-    """One whole cycle of the Euler ADRC with ``applied = u``, from the functions above.
+) -> tuple[float, float, float, float, float, float, float, float, bool, int]:
+    """One whole cycle of the Euler ADRC with ``applied = u``: :func:`adrc_law` for the kernels.
 
-    The per-call fast lane of :class:`ADRC` (auto mode, Euler, no ``u_real``,
-    no anti-backoff) and the compiled loops of :mod:`ctrlblocks.fast` run this
-    one function; it is :meth:`ADRC.compute_output` followed by
-    :meth:`ADRC.update_state` for that configuration: reference filter, ESO
-    (4a) by :func:`eso_euler`, law (4b) by :func:`control_law`, the x4
-    anti-windup rule (section 4.1) by :func:`x4_update_allowed`, limits, and
-    in manual mode (or on the first auto cycle after it, ``track``) x4 solved
-    by (11) with :func:`solve_x4`.  ``started`` is False before the first
-    measurement (the ESO then starts at rest on it); ``sat`` is +1/-1/0 when
-    the previous raw output was above/below/inside the limits.  ``prm = (ts,
-    b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3,
-    s_u, u_min, u_max, rule, a_ref)`` (``a_ref``: pole of the reference filter);
-    ``awin`` is the anti-windup input (a cascade's AW handshake, section 5:
-    x4 frozen this cycle).
+    The compiled loops of :mod:`ctrlblocks.fast` run this function (numba
+    inlines it): :func:`adrc_law` with the Euler ESO, no anti-backoff and no
+    input delay, the target of (11) the manual value (MAN) or the last u.
+    ``started`` is False before the first measurement; ``sat`` is +1/-1/0
+    when the previous raw output was above/below/inside the limits; ``prm``
+    is :class:`ADRCKernelParams`; ``awin`` the anti-windup input (a
+    cascade's AW handshake, section 5: x4 frozen this cycle).
 
-    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next)``.
+    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, q, track_next, sat_next)``
+    (``q``: the handover offset of the reference).
     """
-    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
-     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
-    target = clamp(u_man, lo, hi) if manual else clamp(u_prev, lo, hi)
-    if not started:
-        yh = y
-        x2 = 0.0
-        x3 = 0.0
-        x4 = -b0 * u_prev
-        ref = y
-    # in manual with a reference filter the reference follows y (ADRC.compute_output)
-    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * sp
-    z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
-                               p1, p2, k1, k2, k3)  # fmt: skip
-    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
-    if manual or track:
-        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
-        return target, target, yh, x2, x3, x4, ref, manual, 0
-    du = s_u * (z3 - x4)
-    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
-        yh, x2, x3, x4 = z0, z1, z2, z3
-        u_raw = u_free
-    else:
-        yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
-                                   p1, p2, k1, k2, k3)  # fmt: skip
-        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-    u = clamp(u_raw, lo, hi)
-    sat_next = 1 if u_raw > hi else -1 if u_raw < lo else 0
-    return u, u_raw, yh, x2, x3, x4, ref, False, sat_next
+    lo = prm[18]
+    hi = prm[19]
+    target = clamp(u_prev, lo, hi)
+    if manual:
+        target = clamp(u_man, lo, hi)
+    u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat_next, _ab_sat, _ab_wait = adrc_law(
+        sp, y, manual, target, manual or track, started, sat, awin, False, False, yh, x2, x3,
+        x4, u_prev, u_prev, ref, q, 0, 0.0, prm, NO_EXACT, NO_ANTI_BACKOFF,
+    )  # fmt: skip
+    return u, u_raw, yh, x2, x3, x4, ref, q, manual or end_wait, sat_next
 
 
 # ---------------------------------------------------------------------------
@@ -582,6 +848,15 @@ class ADRCConfig(BlockConfig):
         (``precision="float32"``) and the export have it (input ``REVERSE``);
         the compiled kernels (:mod:`ctrlblocks.fast`) do not, so the simulator
         runs such an ADRC on its Python path.
+    input_delay : float
+        Dead time [s] of the process input, rounded to whole samples of ``ts``
+        (default 0: off).  The ESO is fed the applied u of that many samples
+        ago, so that the input it sees is aligned with the output the process
+        shows: the delay-compensated ("predictive") observer of Zhao & Gao
+        (2014).  The control law is unchanged.  Refused beyond
+        :data:`MAX_DELAY_SAMPLES` samples.  Not covered by the compiled paths
+        and the PLC export yet (``fast_path_blockers``): the simulator runs
+        such an ADRC on its Python path.
     """
 
     order: int = 2
@@ -603,6 +878,7 @@ class ADRCConfig(BlockConfig):
     tau_wait: float = 0.0
     precision: str = "float64"
     reverse: bool = False
+    input_delay: float = 0.0
 
     def validate(self) -> None:
         if isinstance(self.order, bool) or self.order not in (1, 2, 3):
@@ -626,6 +902,13 @@ class ADRCConfig(BlockConfig):
         require_limits("y_sat_lo", self.y_sat_lo, "y_sat", self.y_sat)
         require_nonnegative("tau_wait", self.tau_wait, ErrorCode.BAD_TIME_CONSTANT)
         require_bool("reverse", self.reverse)
+        require_nonnegative("input_delay", self.input_delay, ErrorCode.BAD_TIME_CONSTANT)
+        if delay_samples(self.input_delay, self.ts) > MAX_DELAY_SAMPLES:
+            raise ParameterError(
+                ErrorCode.BAD_TIME_CONSTANT,
+                "input_delay",
+                f"at most {MAX_DELAY_SAMPLES} samples of ts, got {self.input_delay!r} s",
+            )
         if self.precision != "float64":
             _check_precision(self, "adrc")
 
@@ -761,6 +1044,18 @@ def discretisation_trusted(
 # ---------------------------------------------------------------------------
 
 
+def _resize_history(hist: tuple[float, ...], nd: int, u_prev: float) -> tuple[float, ...]:
+    """The u history for a new ``input_delay`` of ``nd`` samples (the newest values kept).
+
+    A longer delay pads the history at its old end with its oldest value (the
+    last u when it was empty), as if u had rested there.
+    """
+    if nd <= len(hist):
+        return hist[len(hist) - nd :]
+    pad = hist[0] if hist else u_prev
+    return (pad,) * (nd - len(hist)) + hist
+
+
 class ADRC(Block):
     """ADRC function block of Nowak et al. 2018 for orders 1..3 (one code path).
 
@@ -839,7 +1134,7 @@ class ADRC(Block):
     _declared = (
         "error_id _config manual awin u_man _lean _started _pending _track _prm _sat "
         "_limits_bad _warn awout _eso _eso_coef _gains _law _sens out _h _ts _yh _x2 _x3 _x4 "
-        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat"
+        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist _q"
     )
 
     @property
@@ -861,6 +1156,10 @@ class ADRC(Block):
     _started: bool
     _track: bool
     _ab_sat: int  # the sensor's saturation side (+1, -1, 0) in the cycle's units
+    _u_prev: float  # the u applied last
+    _q: float  # the handover offset of the reference (handover_offset)
+    _nd: int  # input_delay in samples
+    _u_hist: tuple[float, ...]  # the applied u of the last _nd samples before _u_prev, oldest first
     _state_fields = (
         "out",
         "u_man",
@@ -881,6 +1180,8 @@ class ADRC(Block):
         "_ab_sat",
         "_ab_wait",
         "_plc_state",
+        "_u_hist",
+        "_q",
     )
 
     # -- configuration -------------------------------------------------------
@@ -897,9 +1198,16 @@ class ADRC(Block):
         c = self._config
         old_law = self._law if old is not None else (1.0, 0.0, 0.0, 0.0)
         self._prm: tuple[float, ...] | None = None
+        self._nd = delay_samples(c.input_delay, c.ts)
         self._lean = (
-            c.discretisation == "euler" and not c.u_real_on and not c.anti_backoff and not c.reverse
+            c.discretisation == "euler"
+            and not c.u_real_on
+            and not c.anti_backoff
+            and not c.reverse
+            and self._nd == 0
         )
+        if old is not None:
+            self._u_hist = _resize_history(self._u_hist, self._nd, self._u_prev)
         # reverse: the block works on -y and -sp (ADRCConfig.reverse); the sensor's
         # saturation in those units
         self._sgn = -1.0 if c.reverse else 1.0
@@ -919,7 +1227,9 @@ class ADRC(Block):
         if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):  # type: ignore[attr-defined]
             self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
             self._limits_bad = False
-        self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else 3.5 / float(c.omega_o)
+        # (the default saturates: omega_o = 5e-324 would make the wait +inf)
+        self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else min(3.5 / c.omega_o, MAX_TIME)
+        self._ab = (self._ysat_hi, self._ysat_lo, self._tau_wait)  # adrc_law's ab
         if old is not None:
             assert isinstance(old, ADRCConfig)
             tuning = ("order", "b0", "omega_c", "omega_o", "ts", "discretisation")
@@ -938,11 +1248,11 @@ class ADRC(Block):
         pend = self._pending
         if pend is None:
             self._yh, self._x2, self._x3, self._x4 = -self._yh, -self._x2, -self._x3, -self._x4
-            self._ref, self._ab_sat = -self._ref, -self._ab_sat
+            self._ref, self._ab_sat, self._q = -self._ref, -self._ab_sat, -self._q
             self._track = True
         else:
-            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait = pend
-            self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait)
+            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait, q = pend
+            self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait, -q)
 
     def _retune(self, old_law: tuple[float, float, float, float]) -> None:
         """Bumpless retuning at the instant of the change (:func:`retune_x4`).
@@ -962,12 +1272,13 @@ class ADRC(Block):
             started, track = self._started, self._track
         else:
             yh, x2, x3, x4, ref, started, track = pend[:7]
-        u_keep = control_law(ref, yh, x2, x3, x4, *old_law)
+        q = self._q if pend is None else pend[10]
+        u_keep = control_law(ref + q, yh, x2, x3, x4, *old_law)
         if self._n < 3:
             x3 = 0.0
         if self._n < 2:
             x2 = 0.0
-        x4_new = retune_x4(ref, yh, x2, x3, u_keep, *self._law)
+        x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, *self._law)
         if not started or track or self.manual or not _NINF < x4_new < _INF:
             track = True  # the next cycle re-solves x4 by (11)
         else:
@@ -985,6 +1296,7 @@ class ADRC(Block):
         n, b0 = self._n, self._b0
         p1, p2, k1, k2, k3 = adrc_switches(n)
         l1, l2, l3, l4, kp, kd1, kd2 = adrc_gains(n, float(c.omega_c), float(c.omega_o))
+        nsub = 1.0
         if self._exact:
             coef, (kp, kd1, kd2) = _exact_coefficients(n, b0, float(c.omega_c), float(c.omega_o), h)
             self._eso = eso_exact
@@ -993,14 +1305,16 @@ class ADRC(Block):
         else:
             self._eso = eso_euler
             self._eso_coef = (h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3)
-            s_x3 = h * k3
-            s_x2 = h * (p2 * s_x3 + k2)
-            s_yh = h * (p1 * s_x2 + k1)
+            nsub = euler_substeps(n, float(c.omega_o), h)
+            s_x3, s_x2, s_yh = euler_sensitivities(h / nsub if nsub > 1.0 else h, p1, p2, k1,
+                                                   k2, k3)  # fmt: skip
+        self._nsub = nsub
         self._gains = (l1, l2, l3, l4, kp, kd1, kd2)
         self._switches = (p1, p2, k1, k2, k3)
         self._law = (b0, kp, kd1, kd2)
         self._sens = (s_yh, s_x2, s_x3, -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0)
         self._a_ref = pt1_coefficient(float(c.t_ref), h, "exact")
+        self._a_q = handover_pole(float(c.omega_c), h)
         self._warn = not discretisation_trusted(
             n, float(c.omega_c), float(c.omega_o), h, c.discretisation
         )
@@ -1017,8 +1331,10 @@ class ADRC(Block):
         self.awout = False
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = u0
+        self._u_hist = (u0,) * self._nd
         self.u_man = u0
         self._ref = 0.0
+        self._q = 0.0
         self._started = False
         self._track = False
         self._sat = 0
@@ -1045,8 +1361,10 @@ class ADRC(Block):
         for name in ("e", "y", "y_ref", "_ref"):
             if not _NINF < getattr(self, name) < _INF:
                 setattr(self, name, 0.0)
+        self._q = 0.0
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = held
+        self._u_hist = (held,) * self._nd
         if not self.manual:
             self.u_man = held
         self._started = False
@@ -1058,11 +1376,20 @@ class ADRC(Block):
             # a two-phase cycle in progress: commit this cycle's reference (y_ref, made
             # finite above), as the per-call cycle, which committed it before the guard
             ref = self._sgn * self.y_ref  # in the cycle's units (reverse: -y_ref)
-            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0)
+            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0, 0.0)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
-        """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped."""
+        """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped.
+
+        A snapshot taken before ``input_delay`` existed (no ``_u_hist``) restores
+        with the history at rest on its last u; one of another delay is resized.
+        """
+        if "_u_hist" not in snapshot and "_u_prev" in snapshot:
+            snapshot = {**snapshot, "_u_hist": ()}
+        if "_q" not in snapshot:  # a snapshot of before the handover offset
+            snapshot = {**snapshot, "_q": 0.0}
         super().restore(snapshot)
+        self._u_hist = _resize_history(tuple(self._u_hist), self._nd, self._u_prev)
         self._pending = None
 
     # -- inputs and outputs ----------------------------------------------------
@@ -1168,9 +1495,16 @@ class ADRC(Block):
         """
         # the output guard (Block._checked) around the body, with the inputs converted
         # first: the compiled build's _call takes C doubles (docs/performance.md)
-        return self._checked(
-            self.out, self._call(as_input(sp), as_input(y), pv_ok, y_ok, u_real, dt)
-        )
+        if type(sp) is not float:
+            sp = as_input(sp)
+        if type(y) is not float:
+            y = as_input(y)
+        prev = self.out
+        v = self._call(sp, y, pv_ok, y_ok, u_real, dt)
+        u = self.out
+        if self._u_lo <= u <= self._u_hi and _NINF < u < _INF:
+            return v  # the guard's test inline: no call on the usual path
+        return self._checked(prev, v)
 
     def _call(
         self, sp: float, y: float, pv_ok: Any, y_ok: Any, u_real: Any, dt: float | None
@@ -1213,10 +1547,14 @@ class ADRC(Block):
         prm = self._prm
         if prm is None:
             prm = self._prm = self._kernel_params()
-        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, _track, self._sat) = adrc_step(
-            sp, y, False, 0.0, True, False, self._sat, self._yh, self._x2, self._x3, self._x4,
-            self._u_prev, self._ref, prm,
+        u_prev = self._u_prev
+        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, q, _end, self._sat, _abs,
+         _abw) = adrc_law(
+            sp, y, False, u_prev, False, True, self._sat, False, False, False, self._yh,
+            self._x2, self._x3, self._x4, u_prev, u_prev, self._ref, self._q, 0, 0.0, prm,
+            NO_EXACT, NO_ANTI_BACKOFF,
         )  # fmt: skip
+        self._q = q
         self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
         self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
         self.u_raw = u_raw
@@ -1229,13 +1567,16 @@ class ADRC(Block):
 
     def _kernel_params(self) -> tuple[float, ...]:
         """The ``prm`` tuple of :func:`adrc_step` for the coefficients and limits in force."""
-        h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3 = self._eso_coef
+        h, b0 = self._h, self._b0
+        l1, l2, l3, l4 = self._gains[:4]
+        p1, p2, k1, k2, k3 = self._switches
         _b0, kp, kd1, kd2 = self._law
         s_yh, s_x2, s_x3, s_u = self._sens
         return tuple(
             float(v)
             for v in (h, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2,
-                      s_x3, s_u, self._u_lo, self._u_hi, self._rule, self._a_ref)
+                      s_x3, s_u, self._u_lo, self._u_hi, self._rule, self._a_ref, self._a_q,
+                      self._nsub)
         )  # fmt: skip
 
     def compute_output(
@@ -1289,7 +1630,9 @@ class ADRC(Block):
             target = clamp(self._u_prev, lo, hi)
 
         yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
-        ref = self._ref
+        # the u the ESO is fed: the applied u, input_delay samples older (Zhao & Gao 2014)
+        u_eso = self._u_hist[0] if self._nd else self._u_prev
+        ref, q = self._ref, self._q
         started = self._started
         ab_sat, ab_wait = self._ab_sat, self._ab_wait
         if not y_valid:
@@ -1302,67 +1645,30 @@ class ADRC(Block):
             e = sgn * self.e
         else:
             yf = float(y)
-            if not started:
-                # first valid measurement: start the ESO at rest on it
-                yh, x2, x3, x4 = yf, 0.0, 0.0, -self._b0 * self._u_prev
-                ref = yf
-                started = True
-            r_in = float(sp) if sp_valid else ref
-            # reference trajectory (Nowak et al. 2018, section 5): exact PT1 of the setpoint
-            # (.signals.pt1_coefficient), as in adrc_step; in MAN it follows Y
-            if manual and self._a_ref != 0.0:
-                ref = yf
-            else:
-                ref = self._a_ref * ref + (1.0 - self._a_ref) * r_in
-            tracking = manual or not sp_valid or self._track
-            b0, kp, kd1, kd2 = self._law
-            s_yh, s_x2, s_x3, s_u = self._sens
-            z = self._eso(yh, x2, x3, x4, self._u_prev, yf, 1.0, *self._eso_coef)
-            u_free = control_law(ref, *z, b0, kp, kd1, kd2)
-            if tracking:
-                yh, x2, x3, x4 = solve_x4(target, u_free, *z, s_yh, s_x2, s_x3, s_u)
-                u_raw = target
-                u = target
-                track_next = manual or not sp_valid
-            else:
-                du = s_u * (z[3] - x4)
-                w4 = x4_update_allowed(self._rule, bool(self.awin), self._sat, du)
-                if w4 == 1.0:
-                    yh, x2, x3, x4 = z
-                    u_raw = u_free
-                else:
-                    yh, x2, x3, x4 = self._eso(
-                        yh, x2, x3, x4, self._u_prev, yf, 0.0, *self._eso_coef
-                    )
-                    u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-                end_wait = False
-                if self._config.anti_backoff:
-                    y_hi, y_lo = self._ysat_hi, self._ysat_lo
-                    now = 1 if yf >= y_hi else -1 if yf <= y_lo else 0
-                    if now != 0 and ab_sat == 0:
-                        # Y has just reached the sensor saturation: (12a)/(12b)
-                        ysat = y_hi if now > 0 else y_lo
-                        yh, x2, x3, x4 = anti_backoff_states(
-                            ysat, ref, self._u_prev, *self._gains[:4], *self._law, *self._switches
-                        )
-                        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-                        ab_wait = 0.0
-                    elif now == 0 and ab_sat != 0:
-                        ab_wait = self._tau_wait  # Y has left the saturation
-                    ab_sat = now
-                    if ab_wait > 0.0:
-                        # hold u for tau_wait while the ESO converges (section 4.3)
-                        u_raw = clamp(self._u_prev, lo, hi)
-                        ab_wait = max(ab_wait - h, 0.0)
-                        if ab_wait < 1e-9 * h:
-                            ab_wait = 0.0
-                            end_wait = True
-                u = clamp(u_raw, lo, hi)
-                track_next = end_wait  # leave the wait bumplessly, x4 by (11)
-            # (tracking: u_raw is the limited target, so sat = 0)
-            sat = 1 if u_raw > hi else -1 if u_raw < lo else 0
+            r_in = float(sp) if sp_valid else ref if started else yf
+            prm = self._prm
+            if prm is None:
+                prm = self._prm = self._kernel_params()
+            (u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat, ab_sat, ab_wait) = adrc_law(
+                r_in, yf, manual, target, manual or not sp_valid or self._track, started,
+                self._sat, bool(self.awin), self._exact, self._config.anti_backoff, yh, x2, x3,
+                x4, u_eso, self._u_prev, ref, q, ab_sat, ab_wait, prm,
+                self._eso_coef if self._exact else NO_EXACT, self._ab,
+            )  # fmt: skip
+            started = True
+            # x4 by (11) next cycle: after MAN or a bad setpoint, at the end of the wait
+            track_next = manual or not sp_valid or end_wait
             y_out = yf
             e = float(sp) - yf if sp_valid else self.e
+            if not (_NINF < yh < _INF and _NINF < x2 < _INF and _NINF < x3 < _INF
+                    and _NINF < x4 < _INF):  # fmt: skip
+                # the ESO overflowed behind an output that did not need it (MAN, the
+                # re-solve by (11), the anti-backoff wait): it restarts at rest on the
+                # next valid measurement with x4 by (11), as after a failed cycle
+                # (_resume), and the cycle says so; the output of this cycle stands
+                yh = x2 = x3 = x4 = q = 0.0
+                started, track_next, sat, ab_sat, ab_wait = False, True, 0, 0, 0.0
+                err = ErrorCode.BAD_RESULT
         if err == ErrorCode.NO_ERROR and self._limits_bad:
             err = ErrorCode.BAD_LIMITS
         if err == ErrorCode.NO_ERROR and self._warn:
@@ -1373,8 +1679,8 @@ class ADRC(Block):
         self.awout = sat != 0
         self.y = sgn * y_out
         self.e = sgn * e
-        self.y_ref = sgn * ref
-        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait)
+        self.y_ref = sgn * ref  # the reference trajectory (Fig. 2's Y_ref)
+        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q)
         return u
 
     def update_state(self, applied: float) -> None:
@@ -1402,7 +1708,10 @@ class ADRC(Block):
             self._sat,
             self._ab_sat,
             self._ab_wait,
+            self._q,
         ) = self._pending
+        if self._nd:
+            self._u_hist = (*self._u_hist[1:], self._u_prev)
         self._u_prev = a
         if not self.manual:
             self.u_man = a  # In/Out as in the PID: AUTO -> MAN holds the output
@@ -1446,6 +1755,7 @@ class ADRC(Block):
             self._started,
             self._track,
             self._sat,
+            self._q,
         )
 
     def load_kernel_state(self, state: ADRCKernelState) -> None:
@@ -1455,6 +1765,7 @@ class ADRC(Block):
         self._u_prev, self._ref = float(state.u_prev), float(state.ref)
         self._started, self._track = bool(state.started), bool(state.track)
         self._sat = int(state.sat)
+        self._q = float(state.q)
 
 
 class ADRCKernelParams(NamedTuple):
@@ -1482,6 +1793,8 @@ class ADRCKernelParams(NamedTuple):
     hi: float
     rule: float  # anti-windup rule
     a_ref: float  # PT1 coefficient of the reference filter
+    a_q: float  # decay per sample of the handover offset, exp(-omega_c ts)
+    nsub: float  # Euler steps of the ESO per sample (euler_substeps; 1 in the trusted range)
 
 
 class ADRCKernelState(NamedTuple):
@@ -1496,3 +1809,4 @@ class ADRCKernelState(NamedTuple):
     started: bool
     track: bool  # re-solve x4 at the next cycle (bumpless)
     sat: int  # the limit the output is at (-1, 0, 1)
+    q: float = 0.0  # the handover offset of the reference (handover_offset)

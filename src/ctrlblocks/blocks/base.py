@@ -61,6 +61,7 @@ import dataclasses
 import functools
 import math
 import numbers
+import sys
 from collections.abc import Callable, Iterator
 from enum import IntEnum
 from typing import Any, ClassVar
@@ -325,6 +326,21 @@ def as_flag(x: Any, default: bool) -> bool:
         except (TypeError, ValueError):
             return default
     return default
+
+
+MAX_TIME = sys.float_info.max
+"""The largest time an accumulating block keeps [s] (:func:`add_time`)."""
+
+
+def add_time(t: float, h: float) -> float:
+    """``t + h`` for a time accumulated over samples, saturating at :data:`MAX_TIME`.
+
+    A clock a block keeps (time held, run time, time steady) grows by the
+    sample time each cycle; an absurd but finite ``dt`` (1e308) must not make
+    it +inf, which then turns into NaN in the first difference or product.
+    """
+    s = t + h
+    return s if s <= MAX_TIME else MAX_TIME
 
 
 def is_finite(x: Any) -> bool:

@@ -30,7 +30,17 @@ The checks after every action (:class:`Breach` names the broken promise):
 5. PID and ADRC: the first AUTO cycle after MANUAL/TRACK/HOLD/RESET, and the
    first good cycle after a bad input (``BAD_INPUT``, ``BAD_MEASUREMENT``,
    ``BAD_RESULT``), continue from the last output within :data:`BUMP_TOL`;
-6. ``restore(snapshot())`` then the same step gives the same output and status.
+6. ``restore(snapshot())`` then the same step gives the same output and status;
+7. the state stays finite: every float of ``snapshot()`` (and of the
+   statistics a block reports, such as ``CycleMonitor.jitter_std``) is finite
+   after every action -- a state that overflowed behind a finite output (an
+   accumulator of an absurd ``dt``, an observer in MAN) is a breach even when
+   the output is held;
+8. a block's own oracle where it has one: the moving average is the mean of the
+   window it holds (:func:`math.fsum`, to ``1e-9`` of the largest value in the
+   window: a running sum that lost the small values after one huge sample
+   left is a breach); the cycle monitor's flags follow the live condition
+   unless latched, and ``acknowledge()`` sets them back to it.
 """
 
 from __future__ import annotations
@@ -183,6 +193,8 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
     if r.random() < 0.15:  # single-precision PLC cycle: every option
         cfg["precision"] = "float32"
     cfg["reverse"] = r.random() < 0.3
+    if cfg["precision"] == "float64" and r.random() < 0.2:  # the ESO fed the delayed u
+        cfg["input_delay"] = cfg["ts"] * r.randint(1, 40)
     return cfg
 
 
@@ -394,6 +406,78 @@ BLOCKS: dict[str, Spec] = _specs()
 # ---------------------------------------------------------------------------
 
 
+_USER_INPUTS = {"u_man", "manual_value", "track_value"}
+"""Inputs a user writes that the snapshot keeps (the manual and track values): a NaN
+there is a bad input the block reports and holds against, not a state it computed."""
+
+
+def _non_finite(x: Any, path: str = "") -> str | None:
+    """The path of the first non-finite float in a snapshot (dicts, sequences, arrays), or None.
+
+    The float32 cycle's state (``_plc_state``) holds infinite limits as +-REAL_MAX,
+    so it is finite too; ``None`` (no state yet) is fine.
+    """
+    if isinstance(x, float | np.floating):
+        return None if -math.inf < x < math.inf else path or "value"
+    if isinstance(x, dict):
+        for k, v in x.items():
+            if k in _USER_INPUTS:
+                continue
+            bad = _non_finite(v, f"{path}.{k}" if path else str(k))
+            if bad:
+                return bad
+    elif isinstance(x, list | tuple):
+        for i, v in enumerate(x):
+            bad = _non_finite(v, f"{path}[{i}]")
+            if bad:
+                return bad
+    elif isinstance(x, np.ndarray) and x.dtype.kind == "f" and not np.isfinite(x).all():
+        return path
+    return None
+
+
+def _moving_average_oracle(b: Any) -> str | None:
+    n = b.config.n
+    count = b._count
+    if count == 0:
+        return None
+    window = [b._buf[(b._idx - count + j) % n] for j in range(count)]
+    exact = math.fsum(v / count for v in window)
+    big = max(abs(v) for v in window)
+    if not abs(b.out - exact) <= 1e-9 * big:
+        return f"out {b.out!r} is not the mean {exact!r} of its window (largest |value| {big:.3g})"
+    return None
+
+
+def _cycle_monitor_oracle(b: Any) -> str | None:
+    if not -math.inf < b.jitter_std < math.inf:
+        return f"jitter_std = {b.jitter_std!r}"
+    live = b.count > 0 and b.out > b.warn_limit, b.count > 0 and b.out > b.alarm_limit
+    flags = (b.warning, b.alarm)
+    missed = any(now and not f for f, now in zip(flags, live, strict=True))
+    if (not b.config.latch and flags != live) or missed:
+        return f"flags (warning, alarm) = {flags} against the live condition {live}"
+    return None
+
+
+_NON_FINITE_BY_DESIGN: dict[str, tuple[str, ...]] = {
+    "MovingAverage": ("_sum", "_err", "_mag"),
+    "PulseWidth": ("t_in",),
+}
+
+_RECORDS_INPUTS = {"Alarm", "LoopAlarms"}
+"""Blocks whose state records the process values as they came (the alarm blocks' last
+value and transition log, NaN included): promise 6 (finite state) does not apply to them."""
+"""State that is +inf by design: the moving average's running sums while the window's sum
+exceeds the float range (its mean, finite, then comes from the window itself; promise 8
+checks it), and the PWM's time in the period, +inf for "a period starts now"."""
+
+_ORACLES: dict[str, Callable[[Any], str | None]] = {
+    "MovingAverage": _moving_average_oracle,
+    "CycleMonitor": _cycle_monitor_oracle,
+}
+
+
 def _same(a: float, b: float, tol: float) -> bool:
     if a == b:
         return True
@@ -499,6 +583,32 @@ class Driver:
         if not isinstance(b.error_id, int):
             raise Breach(f"{self.spec.name}: error_id {b.error_id!r} is not an int")
 
+    def _check_state(self, b: Block, what: str) -> None:
+        """Promises 7 and 8: a finite state, and the block's own oracle."""
+        with live_snapshots():
+            snap = {} if self.spec.name in _RECORDS_INPUTS else b.snapshot()
+            sentinels = _NON_FINITE_BY_DESIGN.get(self.spec.name, ())
+            bad = _non_finite({k: v for k, v in snap.items() if k not in sentinels})
+        if bad:
+            raise Breach(f"{self.spec.name}: state {bad} is not finite after {what}")
+        oracle = _ORACLES.get(self.spec.name)
+        why = oracle(b) if oracle is not None else None
+        if why:
+            raise Breach(f"{self.spec.name}: {why} after {what}")
+
+    def act_acknowledge(self) -> None:
+        """``acknowledge()`` of a block with alarm flags (the cycle monitor)."""
+        self.log.append(("acknowledge",))
+        self._both("acknowledge", lambda b: b.acknowledge())
+        self._check_state(self.block, "acknowledge")
+        b: Any = self.block
+        live = b.count > 0 and b.out > b.warn_limit, b.count > 0 and b.out > b.alarm_limit
+        if (b.warning, b.alarm) != live:
+            raise Breach(
+                f"{self.spec.name}: acknowledge() left (warning, alarm) = "
+                f"{(b.warning, b.alarm)} against the live condition {live}"
+            )
+
     def _guarded(self, what: str, fn: Callable[[], Any]) -> Any:
         try:
             return fn()
@@ -587,6 +697,7 @@ class Driver:
         scale = self._scale(ctl) if bump else 1.0
         self._guarded("step", lambda: self._call(a, False, vals, dt, flags))
         self._check_out(a, "step")
+        self._check_state(a, "step")
         if self.twin is not None:
             self._guarded("two-phase step", lambda: self._call(self.twin, True, vals, dt, flags))
             self._check_out(self.twin, "two-phase step")
@@ -753,6 +864,8 @@ class Driver:
                 lines.append(f"limits {args[0]!r}, {args[1]!r}")
             elif kind == "configure":
                 lines.append(f"b.configure(**{args[0]!r})")
+            elif kind == "acknowledge":
+                lines.append("b.acknowledge()")
             else:
                 lines.append(f"b.{kind}()")
         return "\n".join(line if len(line) < 400 else line[:400] + " ..." for line in lines)
@@ -845,7 +958,10 @@ class RandomRun:
             vals, dt, flags = self._inputs()
             d.act_snapshot_restore(vals, dt, flags)
         elif x < 0.99:
-            d.act_reset()
+            if self.spec.name == "CycleMonitor" and r.random() < 0.5:
+                d.act_acknowledge()
+            else:
+                d.act_reset()
         elif x < 0.9905:
             self.driver = self._new_driver()  # a fresh random configuration
         else:

@@ -75,12 +75,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 
 from .base import (
     Block,
     BlockConfig,
     ErrorCode,
     ParameterError,
+    add_time,
     as_flag,
     as_input,
     is_finite,
@@ -91,8 +93,16 @@ from .base import (
 )
 from .signals import clamp
 
-__all__ = ["ManualStation", "ManualStationConfig", "manual_station_update", "manual_travel"]
+__all__ = [
+    "ManualStation",
+    "ManualStationConfig",
+    "manual_increment",
+    "manual_station_update",
+    "manual_travel",
+]
 
+
+_MAX_TIME = sys.float_info.max
 
 # ---------------------------------------------------------------------------
 # The module's law: pure functions over floats
@@ -108,6 +118,27 @@ def manual_travel(tau: float, t_accel: float, accel_max: float) -> float:
     if tau <= t_cap:
         return tau + tau * tau / (2.0 * t_accel)
     return t_cap + t_cap * t_cap / (2.0 * t_accel) + accel_max * (tau - t_cap)
+
+
+def manual_increment(tau: float, h: float, t_accel: float, accel_max: float) -> float:
+    """``A(tau + h) - A(tau)``: the travel of one sample [s at the base rate], without cancellation.
+
+    The integral over ``[tau, tau + h]`` of ``min(1 + t/t_accel, accel_max)``,
+    split at ``t_cap = t_accel (accel_max - 1)``: the ramp part in closed form,
+    ``accel_max`` times the rest.  Computed so (and not as the difference of
+    two travels) it stays exact however long the button has been held: a
+    difference of two travels of 1e300 s loses the sample entirely, and of
+    ``inf`` is NaN (a button held through one absurd ``dt``).
+    """
+    t_cap = t_accel * (accel_max - 1.0)
+    if tau >= t_cap:
+        return accel_max * h
+    end = tau + h
+    b = end if end < t_cap else t_cap
+    ramp = (b - tau) * (1.0 + (b + tau) / (2.0 * t_accel))
+    if end <= t_cap:
+        return ramp
+    return ramp + accel_max * (end - t_cap)
 
 
 def manual_station_update(
@@ -139,6 +170,11 @@ def manual_station_update(
     lo, hi : float
         Output limits.
     """
+    if not -_MAX_TIME <= delta <= _MAX_TIME:
+        # a travel beyond any range in one sample (a button held through an absurd dt):
+        # the output goes to the limit it travels to (and holds where there is none)
+        bound = hi if delta > 0.0 else lo
+        return bound if -_MAX_TIME <= bound <= _MAX_TIME else v
     if not tracking:
         v = v + delta
     elif tr <= 0.0:
@@ -312,9 +348,10 @@ class ManualStation(Block):
         s = (1 if as_flag(inc, False) else 0) - (1 if as_flag(dec, False) else 0)
         tau = self.held if s != 0 and s == self.direction else 0.0
         if s != 0:
-            ta, am = self._t_accel, self._accel_max
-            delta = s * self._rate * (manual_travel(tau + h, ta, am) - manual_travel(tau, ta, am))
-            self.held = tau + h
+            delta = s * self._rate * manual_increment(tau, h, self._t_accel, self._accel_max)
+            # the time held saturates at the largest float: a button held through an
+            # absurd dt keeps the station running at its top rate, never inf
+            self.held = add_time(tau, h)
         else:
             delta = 0.0
             self.held = 0.0

@@ -22,12 +22,16 @@ Outputs (all in seconds unless said otherwise), over the valid cycles since
   (0 until the first valid cycle);
 * ``jitter_std``: population standard deviation of the cycle time,
   ``sqrt(sum((dt_i - mean)^2) / count)`` (Welford's running update, so no
-  history is kept);
+  history is kept, with the sum of squares kept scaled so that it stays finite
+  for any finite cycle time: :func:`welford_scaled_update`);
 * ``jitter_max``: largest deviation from the configured cycle time,
   ``max |dt_i - ts|``;
 * ``warning``: the last cycle time was above ``warn_limit``; ``alarm``: above
   ``alarm_limit`` (``alarm_limit >= warn_limit``, so every alarm is also a
-  warning).  With ``latch=True`` both stay set until :meth:`CycleMonitor.acknowledge`;
+  warning).  With ``latch=True`` both stay set until :meth:`CycleMonitor.acknowledge`,
+  which sets them back to the live condition (the last valid cycle time against
+  the limits in force): a flag whose cause is still present stays set, and
+  without ``latch`` it changes nothing;
 * ``overruns``: number of cycles above ``warn_limit``; ``alarms``: number of
   cycles above ``alarm_limit``;
 * ``invalid``: number of calls with an unusable measurement (see below).
@@ -45,6 +49,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 from .base import (
     Block,
@@ -56,7 +61,31 @@ from .base import (
     require_positive,
 )
 
-__all__ = ["CycleMonitor", "CycleMonitorConfig", "welford_update"]
+__all__ = ["CycleMonitor", "CycleMonitorConfig", "welford_scaled_update", "welford_update"]
+
+
+def welford_scaled_update(
+    n: int, mean: float, scale: float, q: float, x: float
+) -> tuple[int, float, float, float]:
+    """Welford's update (:func:`welford_update`) with ``m2`` kept as ``scale**2 * q``.
+
+    ``scale`` is the largest ``|x - mean_{n-1}|`` seen, ``q = m2 / scale**2``:
+    the squares are never formed unscaled, so ``m2`` cannot overflow however
+    large the values (the scaled sum of squares of LAPACK's ``dnrm2``; a plain
+    ``m2`` is +inf from deviations of ~1.3e154 on, and the standard deviation
+    with it).  The population standard deviation after ``n`` values is
+    ``scale * sqrt(q / n)``.
+    """
+    n += 1
+    d = x - mean
+    mean += d / n
+    ad = abs(d)
+    if ad > scale:
+        q = q * (scale / ad) * (scale / ad)
+        scale = ad
+    if scale > 0.0:
+        q += (d / scale) * ((x - mean) / scale)
+    return n, mean, scale, q
 
 
 def welford_update(n: int, mean: float, m2: float, x: float) -> tuple[int, float, float]:
@@ -139,7 +168,8 @@ class CycleMonitor(Block):
         "out",
         "count",
         "mean",
-        "_m2",
+        "_scale",
+        "_q",
         "min",
         "max",
         "jitter_max",
@@ -151,6 +181,9 @@ class CycleMonitor(Block):
     )
     config: CycleMonitorConfig
     _config: CycleMonitorConfig
+    warning: bool
+    alarm: bool
+    count: int
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         c = self._config
@@ -158,12 +191,28 @@ class CycleMonitor(Block):
         warn, alarm = c.limits()
         self._warn, self._alarm = float(warn), float(alarm)
         self._latch = c.latch
+        if old is not None:  # new limits: the flags follow the last cycle time against them
+            self._flag(*self._live())
+
+    def _live(self) -> tuple[bool, bool]:
+        """The live condition: the last valid cycle time against the limits in force."""
+        seen = self.count > 0
+        return seen and self.out > self._warn, seen and self.out > self._alarm
+
+    def _flag(self, warning: bool, alarm: bool) -> None:
+        """Set the flags to a condition (latched: a set flag stays set)."""
+        if self._latch:
+            self.warning = self.warning or warning
+            self.alarm = self.alarm or alarm
+        else:
+            self.warning, self.alarm = warning, alarm
 
     def _reset_state(self) -> None:
         self.out = 0.0
         self.count = 0
         self.mean = 0.0
-        self._m2 = 0.0
+        self._scale = 0.0  # m2 = _scale**2 * _q (welford_scaled_update)
+        self._q = 0.0
         self.min = 0.0
         self.max = 0.0
         self.jitter_max = 0.0
@@ -186,11 +235,24 @@ class CycleMonitor(Block):
     @property
     def jitter_std(self) -> float:
         """Population standard deviation of the valid cycle times [s] (0 before two cycles)."""
-        return math.sqrt(self._m2 / self.count) if self.count else 0.0
+        return self._scale * math.sqrt(self._q / self.count) if self.count else 0.0
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Restore a :meth:`snapshot`; one of before the scaled sum (``_m2``) is converted."""
+        if "_m2" in snapshot and "_q" not in snapshot:
+            m2 = float(snapshot["_m2"])
+            root = math.sqrt(m2) if m2 > 0.0 else 0.0
+            snapshot = {**snapshot, "_scale": root, "_q": 1.0 if root > 0.0 else 0.0}
+        super().restore(snapshot)
 
     def acknowledge(self) -> None:
-        """Clear latched ``warning``/``alarm`` flags (statistics are kept)."""
-        self.warning = self.alarm = False
+        """Clear latched ``warning``/``alarm`` flags whose cause is gone (statistics are kept).
+
+        The flags take the live condition: the last valid cycle time against
+        the limits in force.  A flag that is still true stays set; without
+        ``latch`` the flags already are the live condition and do not change.
+        """
+        self.warning, self.alarm = self._live()
 
     def __call__(self, dt_measured: float) -> bool:
         """Record one measured cycle time [s]; return ``warning``."""
@@ -201,17 +263,15 @@ class CycleMonitor(Block):
             return self.warning
         self.error_id = ErrorCode.NO_ERROR
         first = self.count == 0
-        self.count, self.mean, self._m2 = welford_update(self.count, self.mean, self._m2, dt)
+        self.count, self.mean, self._scale, self._q = welford_scaled_update(
+            self.count, self.mean, self._scale, self._q, dt
+        )
         self.min = dt if first else min(self.min, dt)
         self.max = dt if first else max(self.max, dt)
         self.jitter_max = max(self.jitter_max, abs(dt - self._ts))
         warning, alarm = dt > self._warn, dt > self._alarm
         self.overruns += warning
         self.alarms += alarm
-        if self._latch:
-            self.warning = self.warning or warning
-            self.alarm = self.alarm or alarm
-        else:
-            self.warning, self.alarm = warning, alarm
+        self._flag(warning, alarm)
         self.out = dt
         return self.warning

@@ -1149,10 +1149,20 @@ class PID(Block):
         """
         # the output guard (Block._checked) around the body, with the inputs converted
         # first: the compiled build's _call takes C doubles (docs/performance.md)
-        return self._checked(
-            self.out,
-            self._call(as_input(sp), as_input(pv), as_input(ff), as_input(dv), dt, pv_ok),
-        )
+        if type(sp) is not float:
+            sp = as_input(sp)
+        if type(pv) is not float:
+            pv = as_input(pv)
+        if type(ff) is not float:
+            ff = as_input(ff)
+        if type(dv) is not float:
+            dv = as_input(dv)
+        prev = self.out
+        v = self._call(sp, pv, ff, dv, dt, pv_ok)
+        u = self.out
+        if self._lo <= u <= self._hi and _NINF < u < _INF:
+            return v  # the guard's test inline: no call on the usual path
+        return self._checked(prev, v)
 
     def _call(
         self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool
@@ -1245,6 +1255,15 @@ class PID(Block):
         cycle = self._compute(sp, pv, ff, dv, dt, pv_ok, out_prev)
         self._pending = _with_subs(cycle, subs.take())
         subs.put(committed)
+        if cycle.kind == _LAW and not (
+            _NINF < cycle.d < _INF and _NINF < cycle.w < _INF and _NINF < self.i < _INF
+        ):
+            # the law's memory overflowed behind an output that did not need it (a mode's
+            # target, the dead band's hold: a forward-Euler derivative over an absurd dt):
+            # as a failed cycle, the memory is made finite and re-initialised bumplessly
+            # from the output on recovery (_resume); the output of this cycle stands
+            self.error_id = ErrorCode.BAD_RESULT
+            self._resume(self.out)
         return self.out
 
     def _compute(

@@ -52,6 +52,10 @@ from .precision import CYCLES, real_exp, real_ln, real_sqrt
 _adrc = _interpreted("adrc")
 EULER_LIMIT = _adrc.EULER_LIMIT
 EXACT_LIMIT = _adrc.EXACT_LIMIT
+adrc_law = _adrc.adrc_law
+euler_sensitivities = _adrc.euler_sensitivities
+euler_substeps = _adrc.euler_substeps
+handover_pole = _adrc.handover_pole
 adrc_step = _adrc.adrc_step
 adrc_switches = _adrc.adrc_switches
 anti_backoff_states = _adrc.anti_backoff_states
@@ -882,8 +886,10 @@ def pid_cycle(
 # ---------------------------------------------------------------------------
 
 ADRC_RESULTS = (
-    "mv", "error_id", "awout", "u_raw", "u_man", "x4_out",
-    "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "started", "track", "sat", "ab_sat",
+    "mv", "error_id", "awout", "u_raw", "u_man", "x4_out", "e_out", "y_out", "y_ref",
+    "x1_out", "x2_out", "x3_out",
+    "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "q", "e", "y_last", "started", "track",
+    "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
     "exact_prev", "rev_prev",
 )  # fmt: skip
@@ -1018,105 +1024,6 @@ def discretisation_ok(n: int, omega_c: float, omega_o: float, ts: float, exact: 
     return omega_o * ts <= lim_o and omega_c * ts <= lim_c
 
 
-def adrc_general_step(
-    r_in: float,
-    y: float,
-    manual: bool,
-    target: float,
-    tracking: bool,
-    sat: int,
-    awin: bool,
-    exact: bool,
-    yh: float,
-    x2: float,
-    x3: float,
-    x4: float,
-    u_prev: float,
-    ref: float,
-    ab_sat: int,
-    ab_wait: float,
-    prm: tuple[float, ...],
-    ecoef: tuple[float, ...],
-    ab: tuple[float, ...],
-) -> tuple[float, float, float, float, float, float, float, bool, int, int, float]:
-    """One valid-measurement cycle of the ADRC in every option (:meth:`ADRC.compute_output`).
-
-    What :func:`.adrc.adrc_step` does not cover: the exact (ZOH) current
-    observer :func:`.adrc.eso_exact` (``exact``, coefficients ``ecoef`` from
-    :func:`exact_coefficients`), the cascade input ``awin`` and the
-    anti-backoff action (12a)/(12b) of Nowak et al. 2018, section 4.3 by
-    :func:`.adrc.anti_backoff_states` (``ab = (on, y_sat, y_sat_lo,
-    tau_wait)``), with the same functions in the block's order.  The ESO has
-    been started on ``y`` by the caller; ``tracking`` re-solves x4 by (11).
-    Returns ``(u, u_raw, Y_hat, x2, x3, x4, ref, track_next, sat_next,
-    ab_sat, ab_wait)``.
-    """
-    (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2,
-     s_yh, s_x2, s_x3, s_u, lo, hi, rule, a_ref) = prm  # fmt: skip
-    f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3 = ecoef
-    ab_on, y_sat, y_sat_lo, tau_wait = ab
-    # in manual with a reference filter the reference follows y (ADRC.compute_output)
-    ref = y if manual and a_ref != 0.0 else a_ref * ref + (1.0 - a_ref) * r_in
-    if exact:
-        z0, z1, z2, z3 = eso_exact(yh, x2, x3, x4, u_prev, y, 1.0, f01, f02, f03, f12, f13,
-                                   f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
-    else:
-        z0, z1, z2, z3 = eso_euler(yh, x2, x3, x4, u_prev, y, 1.0, ts, b0, l1, l2, l3, l4,
-                                   p1, p2, k1, k2, k3)  # fmt: skip
-    u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
-    if tracking:
-        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
-        return target, target, yh, x2, x3, x4, ref, False, 0, ab_sat, ab_wait
-    du = s_u * (z3 - x4)
-    if x4_update_allowed(int(rule), awin, sat, du) == 1.0:
-        yh = z0
-        x2 = z1
-        x3 = z2
-        x4 = z3
-        u_raw = u_free
-    else:
-        if exact:
-            yh, x2, x3, x4 = eso_exact(yh, x2, x3, x4, u_prev, y, 0.0, f01, f02, f03, f12,
-                                       f13, f23, g0, g1, g2, c0, c1, c2, c3)  # fmt: skip
-        else:
-            yh, x2, x3, x4 = eso_euler(yh, x2, x3, x4, u_prev, y, 0.0, ts, b0, l1, l2, l3, l4,
-                                       p1, p2, k1, k2, k3)  # fmt: skip
-        u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-    end_wait = False
-    if ab_on != 0.0:
-        now = 0
-        if y >= y_sat:
-            now = 1
-        elif y <= y_sat_lo:
-            now = -1
-        if now != 0 and ab_sat == 0:
-            # Y has just reached the sensor saturation: (12a)/(12b)
-            ysat = y_sat_lo
-            if now > 0:
-                ysat = y_sat
-            yh, x2, x3, x4 = anti_backoff_states(ysat, ref, u_prev, l1, l2, l3, l4, b0, kp,
-                                                 kd1, kd2, p1, p2, k1, k2, k3)  # fmt: skip
-            u_raw = control_law(ref, yh, x2, x3, x4, b0, kp, kd1, kd2)
-            ab_wait = 0.0
-        elif now == 0 and ab_sat != 0:
-            ab_wait = tau_wait  # Y has left the saturation
-        ab_sat = now
-        if ab_wait > 0.0:
-            # hold u for tau_wait while the ESO converges (section 4.3)
-            u_raw = clamp(u_prev, lo, hi)
-            ab_wait = max(ab_wait - ts, 0.0)
-            if ab_wait < 1e-9 * ts:
-                ab_wait = 0.0
-                end_wait = True  # leave the wait bumplessly, x4 by (11)
-    sat_next = 0
-    if u_raw > hi:
-        sat_next = 1
-    elif u_raw < lo:
-        sat_next = -1
-    return (clamp(u_raw, lo, hi), u_raw, yh, x2, x3, x4, ref, end_wait, sat_next, ab_sat,
-            ab_wait)  # fmt: skip
-
-
 def adrc_cycle(
     sp: float,
     y: float,
@@ -1149,6 +1056,9 @@ def adrc_cycle(
     x4: float,
     u_prev: float,
     ref: float,
+    q: float,
+    e: float,
+    y_last: float,
     started: bool,
     track: bool,
     sat: int,
@@ -1199,7 +1109,7 @@ def adrc_cycle(
         # bumpless retuning (ADRC._retune): the old law's value on the last states
         kp_o, kd1_o, kd2_o = law_gains(order_prev, b0_prev, wc_prev, wo_prev, ts_prev,
                                        exact_prev)  # fmt: skip
-        u_keep = control_law(ref, yh, x2, x3, x4, b0_prev, kp_o, kd1_o, kd2_o)
+        u_keep = control_law(ref + q, yh, x2, x3, x4, b0_prev, kp_o, kd1_o, kd2_o)
         if order < 3:
             x3 = 0.0
         if order < 2:
@@ -1214,9 +1124,13 @@ def adrc_cycle(
     # coefficients of this cycle (ADRC._coefficients)
     p1, p2, k1, k2, k3 = adrc_switches(order)
     l1, l2, l3, l4, kp, kd1, kd2 = bandwidth_gains(order, omega_c, omega_o)
-    s_x3 = ts * k3
-    s_x2 = ts * (p2 * s_x3 + k2)
-    s_yh = ts * (p1 * s_x2 + k1)
+    nsub = 1.0
+    if not exact:
+        nsub = euler_substeps(order, omega_o, ts)
+    h_sub = ts
+    if nsub > 1.0:
+        h_sub = ts / nsub
+    s_x3, s_x2, s_yh = euler_sensitivities(h_sub, p1, p2, k1, k2, k3)
     if exact:
         (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1,
          kd2) = exact_coefficients(order, b0, omega_c, omega_o, ts)  # fmt: skip
@@ -1229,21 +1143,21 @@ def adrc_cycle(
     s_u = -(1.0 + kp * s_yh + kd1 * s_x2 + kd2 * s_x3) / b0
     if retuned:
         # x4 so that the new law gives u_keep on them (retune_x4); (11) where it cannot
-        x4_new = retune_x4(ref, yh, x2, x3, u_keep, b0, kp, kd1, kd2)
+        x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, b0, kp, kd1, kd2)
         if started and not track and not manual and is_real(x4_new):
             x4 = x4_new
         else:
             track = True
     a_ref = pt1_coefficient(t_ref, ts, "exact")
+    a_q = handover_pole(omega_c, ts)
     prm = (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3, s_u,
-           lo, hi, float(aw_rule), a_ref)  # fmt: skip
+           lo, hi, float(aw_rule), a_ref, a_q, nsub)  # fmt: skip
     ecoef = (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3)
     tau = tau_wait
     if tau_wait <= 0.0:
         tau = 3.5 / omega_o
-    ab_on = 0.0
-    if anti_backoff:
-        ab_on = 1.0
+        if not is_real(tau):
+            tau = REAL_MAX  # omega_o of a subnormal: the wait saturates
     if reverse != rev_prev:
         # reverse changed (ADRC._reverse_states): the states in the units of y change sign,
         # x4 is re-solved by (11) in this cycle, so u continues from the last one
@@ -1252,6 +1166,7 @@ def adrc_cycle(
         x3 = -x3
         x4 = -x4
         ref = -ref
+        q = -q
         ab_sat = -ab_sat
         track = True
     rev_prev = reverse
@@ -1263,7 +1178,7 @@ def adrc_cycle(
         y = -y
         sat_hi = -y_sat_lo
         sat_lo = -y_sat
-    ab = (ab_on, sat_hi, sat_lo, tau)
+    ab = (sat_hi, sat_lo, tau)
     # process data
     err = NO_ERROR
     y_valid = y_ok and is_real(y)
@@ -1299,23 +1214,15 @@ def adrc_cycle(
         tgt = u_prev
         if manual:
             tgt = u_target
-        if exact or anti_backoff or awin:
-            if not started:
-                # first valid measurement: start the ESO at rest on it
-                yh = y
-                x2 = 0.0
-                x3 = 0.0
-                x4 = -b0 * u_prev
-                ref = y
-            mv, u_raw, yh, x2, x3, x4, ref, track, sat, ab_sat, ab_wait = adrc_general_step(
-                r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, sat,
-                awin, exact, yh, x2, x3, x4, u_prev, ref, ab_sat, ab_wait, prm, ecoef, ab,
-            )  # fmt: skip
-        else:
-            mv, u_raw, yh, x2, x3, x4, ref, track, sat = adrc_step(
-                r_in, y, manual, u_target, started, track or not sp_valid, sat,
-                yh, x2, x3, x4, u_prev, ref, prm, awin,
-            )  # fmt: skip
+        # the ADRC's one cycle (adrc.adrc_law), as the block runs it
+        mv, u_raw, yh, x2, x3, x4, ref, q, track, sat, ab_sat, ab_wait = adrc_law(
+            r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, started, sat,
+            awin, exact, anti_backoff, yh, x2, x3, x4, u_prev, u_prev, ref, q, ab_sat, ab_wait,
+            prm, ecoef, ab,
+        )  # fmt: skip
+        y_last = y
+        if sp_valid:
+            e = sp - y
         track = track or manual or not sp_valid
         started = True
         if not is_real(u_raw):
@@ -1331,6 +1238,22 @@ def adrc_cycle(
             ref = 0.0
             if is_real(ref_old):
                 ref = ref_old
+            q = 0.0
+            started = False
+            track = True
+            sat = 0
+            ab_sat = 0
+            ab_wait = 0.0
+        elif not (is_real(yh) and is_real(x2) and is_real(x3) and is_real(x4)):
+            # the ESO overflowed REAL behind an output that did not need it (MAN, the
+            # re-solve by (11), the anti-backoff wait): it restarts at rest on the next
+            # valid PV with x4 by (11), as ADRC.compute_output; this cycle's MV stands
+            overflow = True
+            yh = 0.0
+            x2 = 0.0
+            x3 = 0.0
+            x4 = 0.0
+            q = 0.0
             started = False
             track = True
             sat = 0
@@ -1351,9 +1274,15 @@ def adrc_cycle(
     if not manual:
         u_man = u_prev  # In/Out: outside MAN the manual value follows the applied u
     out = mv
+    # the outputs of Fig. 2 (Nowak et al. 2018, section 5) in the units of PV: e, Y, Y_ref
+    # (the reference trajectory) and the ESO state (in the cycle's units)
+    sgn = 1.0
+    if reverse:
+        sgn = -1.0
     return (
-        mv, err, sat != 0, u_raw, u_man, x4,
-        out, yh, x2, x3, x4, u_prev, ref, started, track, sat, ab_sat, ab_wait, lo, hi,
+        mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * ref, yh, x2, x3,
+        out, yh, x2, x3, x4, u_prev, ref, q, e, y_last, started, track, sat, ab_sat, ab_wait,
+        lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
     )  # fmt: skip
 
@@ -1550,9 +1479,10 @@ def adrc_state(config: Any) -> dict[str, Any]:
     u0 = clamp(float(config.u0), lo, hi)
     return {
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ref": 0.0,
-        "started": False, "track": False, "sat": 0, "ab_sat": 0, "ab_wait": 0.0, "lo": lo,
-        "hi": hi, "tuned": False, "order_prev": 0, "b0_prev": 0.0, "wc_prev": 0.0,
-        "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False, "rev_prev": bool(config.reverse),
+        "q": 0.0, "e": 0.0, "y_last": 0.0, "started": False, "track": False, "sat": 0,
+        "ab_sat": 0, "ab_wait": 0.0, "lo": lo, "hi": hi, "tuned": False, "order_prev": 0,
+        "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
+        "rev_prev": bool(config.reverse),
     }  # fmt: skip
 
 
@@ -1602,12 +1532,20 @@ def _lane(
     return res
 
 
+def _no_cycle(block: Any) -> float:
+    """A cycle time beyond REAL's range (a PLC's TS cannot carry it): hold, ``NO_CYCLE``."""
+    block.error_id = ErrorCode.NO_CYCLE
+    return float(block.out)
+
+
 def pid_float32(
     pid: Any, sp: float, pv: float, ff: float, pv_ok: bool, dt: float | None, dv: float = 0.0
 ) -> float:
     """The cycle of a PID with ``precision="float32"``: :func:`pid_cycle` in REAL."""
     prm = pid_inputs(pid.config)
     if dt is not None:
+        if not float(dt) <= REAL_MAX:
+            return _no_cycle(pid)
         prm["ts"] = float(dt)
     res = _lane(pid, pid_cycle, PID_RESULTS, {
         "sp": sp, "pv": pv, "ff": ff, "dv": dv, "pv_ok": bool(pv_ok), "manual": bool(pid.manual),
@@ -1632,6 +1570,8 @@ def adrc_float32(
     prm = adrc_inputs(adrc.config)
     prm["u_min"], prm["u_max"] = adrc.u_min, adrc.u_max  # as written by set_limits
     if dt is not None:
+        if not float(dt) <= REAL_MAX:
+            return _no_cycle(adrc)
         prm["ts"] = float(dt)
     res = _lane(adrc, adrc_cycle, ADRC_RESULTS, {
         "sp": sp, "y": y, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
@@ -1645,6 +1585,10 @@ def adrc_float32(
     adrc.awout = bool(res["awout"])
     adrc.u_raw = float(res["u_raw"])
     adrc.u_man = float(res["u_man"])
+    # the outputs of Fig. 2 as the exported FB has them (ADRC.e, y, y_ref, x)
+    adrc.e, adrc.y, adrc.y_ref = float(res["e_out"]), float(res["y_out"]), float(res["y_ref"])
+    adrc._yh, adrc._x2, adrc._x3 = (float(res[k]) for k in ("x1_out", "x2_out", "x3_out"))
+    adrc._x4 = float(res["x4_out"])
     return adrc.out
 
 
@@ -1652,6 +1596,8 @@ def leadlag_float32(ll: Any, x: float, enable: bool, dt: float | None) -> float:
     """The sample of a LeadLag with ``precision="float32"``: :func:`leadlag_cycle` in REAL."""
     prm = leadlag_inputs(ll.config)
     if dt is not None:
+        if not float(dt) <= REAL_MAX:
+            return _no_cycle(ll)
         prm["ts"] = float(dt)
     res = _lane(
         ll, leadlag_cycle, LEADLAG_RESULTS, {"x": x, "enable": bool(enable)}, prm, leadlag_state

@@ -9,6 +9,7 @@ configuration is made.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from typing import Any
@@ -132,6 +133,8 @@ def unsupported(config: Any, kind: str) -> list[str]:
         bad = [n for n in ("u_real_on", "anti_backoff", "reverse") if getattr(config, n, False)]
         if config.discretisation != "euler":
             bad.append("discretisation")
+        if getattr(config, "input_delay", 0.0) != 0.0:
+            bad.append("input_delay")
     return bad
 
 
@@ -148,12 +151,39 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
     """
     if kind == "pid" and round(config.t_stab / config.ts) > PLC_MAX_WINDOW:
         return ["t_stab"]
+    if kind == "adrc" and getattr(config, "input_delay", 0.0) != 0.0:
+        return ["input_delay"]  # the delay line of the ESO's input is not in the PLC cycle yet
     return []
+
+
+_REAL_MAX = 3.4028234663852886e38  # the largest float32
+_REAL_MIN = 1.401298464324817e-45  # the smallest positive float32 (subnormal)
+
+
+def _check_real_range(config: Any) -> None:
+    """Refuse a finite parameter a REAL cannot hold: beyond its range, or non-zero but below it.
+
+    A PLC's REAL (and the float32 cycle) would turn 1e300 into inf and 1e-50 into
+    0 (a b0 of 0 divides by zero); infinite limits stay allowed (they are +-REAL_MAX).
+    """
+    for f in dataclasses.fields(config):
+        v = getattr(config, f.name)
+        if isinstance(v, bool) or not isinstance(v, float | int):
+            continue
+        x = abs(float(v))
+        if x != math.inf and (x > _REAL_MAX or 0.0 < x < _REAL_MIN / 2.0):
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER,
+                f.name,
+                f'{v!r} is outside the range of REAL, which precision="float32" computes in',
+            )
 
 
 def check_precision(config: Any, kind: str) -> None:
     """Refuse an unknown precision, or ``"float32"`` with options its cycle does not cover."""
     require_choice("precision", config.precision, PRECISIONS)
+    if config.precision == "float32":
+        _check_real_range(config)
     bad = plc_unsupported(config, kind) if config.precision == "float32" else []
     if bad:
         raise ParameterError(

@@ -56,6 +56,7 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
+    add_time,
     is_finite,
     require_limits,
     require_nonnegative,
@@ -162,7 +163,7 @@ class PulseWidth(Block):
             self._start_period(c, float(v) if good else None)
         on = self.t_in + 0.5 * h <= self.t_on + _EPS
         if on:
-            self.applied += h
+            self.applied = add_time(self.applied, h)
         self.t_in += h
         self.out = 1.0 if on else 0.0
         return self.out

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from typing import Any, ClassVar
 
 from .base import (
@@ -41,6 +42,7 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
+    add_time,
     as_input,
     is_finite,
     require_bool,
@@ -431,12 +433,19 @@ class MovingAverage(Block):
     """Mean of the last ``n`` inputs (controltheplant 2024, ``MovingAverage``).
 
     Until ``n`` values have arrived, the mean of those received.  The sum is
-    recomputed exactly once per window so that rounding cannot drift.
-    NaN/inf input: not stored, output held, ``BAD_INPUT``.
+    recomputed exactly once per window so that rounding cannot drift, and at
+    once when the running sum may have lost what the window holds: the block
+    keeps a bound of the running sum's rounding error (``_err``, the unit
+    roundoff times each partial result) and the running sum of the magnitudes
+    (``_mag``); when the bound exceeds 2^-30 of the magnitudes -- after one
+    1e300 sample left a window of small values, say, which a plain running sum
+    forgets until the window wraps -- the sums are recomputed (``math.fsum``).
+    On ordinary data the bound stays near ``n`` unit roundoffs and nothing
+    changes.  NaN/inf input: not stored, output held, ``BAD_INPUT``.
     """
 
     Config = MovingAverageConfig
-    _state_fields = ("out", "_buf", "_idx", "_count", "_sum")
+    _state_fields = ("out", "_buf", "_idx", "_count", "_sum", "_err", "_mag")
     config: MovingAverageConfig
     _config: MovingAverageConfig
     _buf: list[float]
@@ -453,9 +462,24 @@ class MovingAverage(Block):
         self._buf = keep + [0.0] * (n - len(keep))
         self._count = len(keep)
         self._idx = self._count % n
-        self._sum = _window_sum(self._buf)
+        self._exact_sums()
         if self._count:
             self.out = self._mean()
+
+    def _exact_sums(self) -> None:
+        """The running sums afresh from the window (``math.fsum``): no rounding error carried."""
+        self._sum = _window_sum(self._buf)
+        self._mag = _window_sum([abs(v) for v in self._buf])
+        self._err = _EPS * abs(self._sum)
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Restore a :meth:`snapshot`; one of before the error bound (no ``_err``) sums afresh."""
+        fresh = "_err" not in snapshot
+        if fresh:
+            snapshot = {**snapshot, "_err": 0.0, "_mag": 0.0}
+        super().restore(snapshot)
+        if fresh:
+            self._exact_sums()
 
     def _mean(self) -> float:
         s = self._sum
@@ -465,7 +489,7 @@ class MovingAverage(Block):
         return math.fsum(v / self._count for v in self._buf)
 
     def _resume(self, held: float) -> None:
-        self._sum = _window_sum(self._buf)
+        self._exact_sums()
         self.out = held
 
     def _reset_state(self) -> None:
@@ -474,6 +498,8 @@ class MovingAverage(Block):
         self._idx = 0
         self._count = 0
         self._sum = 0.0
+        self._err = 0.0
+        self._mag = 0.0
 
     def preset(self, value: float) -> None:
         """Fill the whole window with ``value``."""
@@ -482,6 +508,8 @@ class MovingAverage(Block):
             self._buf = [float(value)] * n
             self._idx, self._count = 0, n
             self._sum = float(value) * n
+            self._mag = abs(self._sum)
+            self._err = _EPS * self._mag
             self.out = float(value)
 
     def __call__(self, u: float) -> float:
@@ -492,15 +520,25 @@ class MovingAverage(Block):
         self.error_id = ErrorCode.NO_ERROR
         n = self._config.n
         i = self._idx
-        self._sum += u - self._buf[i]
+        old = self._buf[i]
+        s = self._sum + (u - old)
+        self._sum = s
         self._buf[i] = u
         self._idx = i + 1 if i + 1 < n else 0
-        if self._idx == 0:
-            self._sum = _window_sum(self._buf)
+        # the rounding error the running sum may carry (two roundings: u - old, the sum)
+        self._err += _EPS * (abs(u - old) + abs(s))
+        self._mag += abs(u) - abs(old)
+        if self._idx == 0 or not self._err <= _LOSS * self._mag < _INF:
+            self._exact_sums()
         if self._count < n:
             self._count += 1
         self.out = self._mean()
         return self.out
+
+
+_EPS = sys.float_info.epsilon / 2.0  # unit roundoff of float64
+_LOSS = 2.0**-30  # the error bound, relative to the magnitudes, that asks for an exact sum
+_INF = math.inf
 
 
 def _window_sum(buf: list[float]) -> float:
@@ -582,7 +620,7 @@ class SteadyStateDetector(Block):
             self._elapsed = 0.0
             self._started = True
         else:
-            self._elapsed += h
+            self._elapsed = add_time(self._elapsed, h)
         # a small slack so that t_stab = k*ts is reached after exactly k samples
         self.steady = self._elapsed >= self._config.t_stab - 1e-9 * h
         self.out = 1.0 if self.steady else 0.0

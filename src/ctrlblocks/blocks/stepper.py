@@ -81,10 +81,12 @@ import dataclasses
 from typing import Any
 
 from .base import (
+    MAX_TIME,
     Block,
     BlockConfig,
     ErrorCode,
     Mode,
+    add_time,
     is_finite,
     require_nonnegative,
     require_positive,
@@ -226,7 +228,9 @@ class StepController(Block):
             self.error_id = ErrorCode.BAD_MEASUREMENT
             return self._stop()
         self.error_id = ErrorCode.NO_ERROR
-        s = h * c.span / c.travel_time  # travel of one running sample [%]
+        # travel of one running sample [%]; a sample longer than the travel time moves
+        # the whole span at most (and an absurd dt gives no inf in the pending travel)
+        s = min(h * c.span / c.travel_time, c.span)
 
         if feedback is not None:
             self.position = clamp(float(feedback), 0.0, c.span)
@@ -238,7 +242,8 @@ class StepController(Block):
             self.pending = 0.0
             direction = int(self.manual_command > 0) - int(self.manual_command < 0)
         else:
-            self.pending = u - self.position
+            # a demand near the float range apart from the position: saturated, not inf
+            self.pending = clamp(u - self.position, -MAX_TIME, MAX_TIME)
             run_on = 0  # a demand at a range end drives on to that stop
             if feedback is None:
                 run_on = int(u >= c.span and not open_limit) - int(u <= 0.0 and not close_limit)
@@ -290,8 +295,8 @@ class StepController(Block):
         if direction != 0:
             self.position = clamp(self.position + direction * s, 0.0, c.span)
             if not self.manual:
-                self.pending -= direction * s
-            self.run_time += h
+                self.pending = clamp(self.pending - direction * s, -MAX_TIME, MAX_TIME)
+            self.run_time = add_time(self.run_time, h)
         self.out = float(direction)
         return self.out
 

@@ -473,14 +473,15 @@ def _run_adrc_chunk(prm, pp, st, x, sp, n_steps, c0, c1, iae, h):
             r = (prm[j, 0], prm[j, 1], prm[j, 2], prm[j, 3], prm[j, 4], prm[j, 5],
                  prm[j, 6], prm[j, 7], prm[j, 8], prm[j, 9], prm[j, 10], prm[j, 11],
                  prm[j, 12], prm[j, 13], prm[j, 14], prm[j, 15], prm[j, 16], prm[j, 17],
-                 prm[j, 18], prm[j, 19], prm[j, 20], prm[j, 21])  # fmt: skip
+                 prm[j, 18], prm[j, 19], prm[j, 20], prm[j, 21], prm[j, 22],
+                 prm[j, 23])  # fmt: skip
             q = (pp[j, 0], pp[j, 1], pp[j, 2], pp[j, 3], pp[j, 4], pp[j, 5], pp[j, 6],
                  pp[j, 7], pp[j, 8], pp[j, 9], pp[j, 10], pp[j, 11], 0.0, 0.0, 0.0,
                  pp[j, 12], pp[j, 13], pp[j, 14])  # fmt: skip
             y = x[j, 3]
-            u, _ur, yh, e2, e3, e4, ref, track, sat = adrc_step(
+            u, _ur, yh, e2, e3, e4, ref, q_ref, track, sat = adrc_step(
                 sp[j], y, False, 0.0, st[j, 6] != 0.0, st[j, 7] != 0.0, int(st[j, 8]),
-                st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], st[j, 5], r,
+                st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], st[j, 5], st[j, 9], r,
             )  # fmt: skip
             st[j, 0] = yh
             st[j, 1] = e2
@@ -491,6 +492,7 @@ def _run_adrc_chunk(prm, pp, st, x, sp, n_steps, c0, c1, iae, h):
             st[j, 6] = 1.0
             st[j, 7] = 1.0 if track else 0.0
             st[j, 8] = sat
+            st[j, 9] = q_ref
             iae[j] += abs(sp[j] - y) * h
             x0, x1, x2, yn = lti3_step(x[j, 0], x[j, 1], x[j, 2], u, 0.0, q)
             x[j, 0] = x0
@@ -510,8 +512,8 @@ class ADRCBank:
     """N independent loops ADRC (Euler, auto) + linear plant, built from block objects.
 
     Each loop has its own order, b0, bandwidths, limits and plant; the state
-    per loop is ``(Y_hat, x2, x3, x4, u_prev, ref, started, track, sat)`` and
-    the plant's ``(x0, x1, x2, y)``: 104 bytes.  The kernel is
+    per loop is ``(Y_hat, x2, x3, x4, u_prev, ref, started, track, sat, q)`` (``q``: the
+    handover offset of the reference) and the plant's ``(x0, x1, x2, y)``: 112 bytes.  The kernel is
     :func:`ctrlblocks.blocks.adrc.adrc_step`, the ADRC's own fast lane.
     """
 

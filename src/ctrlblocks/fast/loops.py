@@ -209,8 +209,8 @@ def _pid_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_o
 
 @jit
 def _adrc_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_out, u_out):
-    """ADRC + plant; ``cs = (yh, x2, x3, x4, u_prev, ref, started, track, sat)``."""
-    yh, e2, e3, e4, u_prev, ref = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
+    """ADRC + plant; ``cs = (yh, x2, x3, x4, u_prev, ref, started, track, sat, q)``."""
+    yh, e2, e3, e4, u_prev, ref, q = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5], cs[9]
     started = cs[6] != 0.0
     track = cs[7] != 0.0
     sat = int(cs[8])
@@ -234,8 +234,8 @@ def _adrc_loop(prm, cs, kind, pp, ps, buf, pos, ev_k, ev_kind, ev_val, noise, y_
             )
             ev += 1
         ym = y + noise[k] if has_noise else y
-        u, _ur, yh, e2, e3, e4, ref, track, sat = adrc_step(
-            sp, ym, man, um, started, track, sat, yh, e2, e3, e4, u_prev, ref, prm
+        u, _ur, yh, e2, e3, e4, ref, q, track, sat = adrc_step(
+            sp, ym, man, um, started, track, sat, yh, e2, e3, e4, u_prev, ref, q, prm
         )
         started = True
         u_prev = u
@@ -410,7 +410,7 @@ def _controller_arrays(controller: Any) -> tuple[Any, tuple[float, ...], np.ndar
         prm = adrc_params(controller)
         a = controller.kernel_state()
         cs = np.array([a.yh, a.x2, a.x3, a.x4, a.u_prev, a.ref,
-                       float(a.started), float(a.track), float(a.sat)])  # fmt: skip
+                       float(a.started), float(a.track), float(a.sat), a.q])  # fmt: skip
         return _adrc_loop, prm, cs
     raise UnsupportedConfig(f"no compiled kernel for {type(controller).__name__}")
 

@@ -95,7 +95,7 @@ WIRINGS = ("single", "feedforward", "smith", "cascade", "override")
 
 _FF, _SMITH, _CASCADE, _OVERRIDE = 1, 2, 3, 4
 _PID, _ADRC = 0, 1
-_N_PID, _N_ADRC, _N_STATE = 13, 22, 10
+_N_PID, _N_ADRC, _N_STATE = 13, 24, 11
 
 jitable(leadlag_step)
 
@@ -117,6 +117,17 @@ def _row10(a, j):
 
 
 @jitable
+def _row11(a, j):
+    return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
+            a[j, 8], a[j, 9], a[j, 10])  # fmt: skip
+
+
+@jitable
+def _row9(a, j):
+    return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7], a[j, 8])
+
+
+@jitable
 def _row13(a, j):
     return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
             a[j, 8], a[j, 9], a[j, 10], a[j, 11], a[j, 12])  # fmt: skip
@@ -130,16 +141,17 @@ def _row18(a, j):
 
 
 @jitable
-def _row22(a, j):
+def _row24(a, j):
     return (a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4], a[j, 5], a[j, 6], a[j, 7],
             a[j, 8], a[j, 9], a[j, 10], a[j, 11], a[j, 12], a[j, 13], a[j, 14],
-            a[j, 15], a[j, 16], a[j, 17], a[j, 18], a[j, 19], a[j, 20], a[j, 21])  # fmt: skip
+            a[j, 15], a[j, 16], a[j, 17], a[j, 18], a[j, 19], a[j, 20], a[j, 21],
+            a[j, 22], a[j, 23])  # fmt: skip
 
 
 @jitable
 def _with_um(s, um):
     """The controller state ``s`` with the manual value ``um``."""
-    return (s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], um)
+    return (s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], um, s[10])
 
 
 @jitable
@@ -152,7 +164,7 @@ def _pid_limits(p, lo, hi):
 def _adrc_limits(a, lo, hi):
     """The ADRC parameters ``a`` (:func:`adrc_step`'s) with the limits ``lo``, ``hi``."""
     return (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12],
-            a[13], a[14], a[15], a[16], a[17], lo, hi, a[20], a[21])  # fmt: skip
+            a[13], a[14], a[15], a[16], a[17], lo, hi, a[20], a[21], a[22], a[23])  # fmt: skip
 
 
 @jitable
@@ -170,7 +182,8 @@ def _set_limits(kind, p, a, s, lo, hi, out_lo, out_hi):
     the ESO does not read).
     """
     if kind == _PID:
-        s = (s[0], s[1], s[2], s[3], clamp(s[4], out_lo, out_hi), s[5], s[6], s[7], s[8], s[9])
+        s = (s[0], s[1], s[2], s[3], clamp(s[4], out_lo, out_hi), s[5], s[6], s[7], s[8], s[9],
+             s[10])  # fmt: skip
     return _pid_limits(p, lo, hi), _adrc_limits(a, lo, hi), s
 
 
@@ -186,7 +199,7 @@ def _compute(kind, p, a, s, sp, y, ff, man, awin):
     PID state ``s = (i, d, w_prev, e_prev, out, cold, was_manual, -, -, u_man)``;
     ``awin`` freezes the integrator as ``PID.compute_output`` does (it then
     takes the branch of ``K h/Ti = 0``).  ADRC state ``s = (yh, x2, x3, x4,
-    u_prev, ref, started, track, sat, u_man)``; ``awin`` freezes x4 as
+    u_prev, ref, started, track, sat, u_man, q)`` (``q``: handover offset); ``awin`` freezes x4 as
     ``ADRC.compute_output`` does (``adrc_step``'s own ``awin`` input,
     Nowak et al. 2018, section 5).
     """
@@ -201,14 +214,14 @@ def _compute(kind, p, a, s, sp, y, ff, man, awin):
         awout = v_raw > p[10] or v_raw < p[9]  # limits_active (PID._finish)
         if not math.isfinite(v_raw):  # the block's output guard (BAD_RESULT): not here
             out = math.nan
-        return out, awout, (out, v_raw, pt, i_k, dn, w, e, ff)
-    u, u_raw, yh, x2, x3, x4, ref, track, sat = adrc_step(
+        return out, awout, (out, v_raw, pt, i_k, dn, w, e, ff, 0.0)
+    u, u_raw, yh, x2, x3, x4, ref, q, track, sat = adrc_step(
         sp, y, man, s[9], s[6] != 0.0, s[7] != 0.0, int(s[8]), s[0], s[1], s[2], s[3],
-        s[4], s[5], a, awin,
+        s[4], s[5], s[10], a, awin,
     )  # fmt: skip
     if not math.isfinite(u_raw):  # the block's output guard (BAD_RESULT): not here
         u = math.nan
-    return u, sat != 0, (u, yh, x2, x3, x4, ref, 1.0 if track else 0.0, sat * 1.0)
+    return u, sat != 0, (u, yh, x2, x3, x4, ref, 1.0 if track else 0.0, sat * 1.0, q)
 
 
 @jitable
@@ -237,8 +250,8 @@ def _commit(kind, p, s, pend, man, applied, track):
             i = i_k + p[12] * (u - (out if p[11] == 0.0 else v_raw))
         else:
             i = i_k
-        return (i, dn, w, e, out, 0.0, 1.0 if man else 0.0, 0.0, 0.0, um)
-    return (pend[1], pend[2], pend[3], pend[4], u, pend[5], 1.0, pend[6], pend[7], um)
+        return (i, dn, w, e, out, 0.0, 1.0 if man else 0.0, 0.0, 0.0, um, 0.0)
+    return (pend[1], pend[2], pend[3], pend[4], u, pend[5], 1.0, pend[6], pend[7], um, pend[8])
 
 
 @jitable
@@ -252,7 +265,7 @@ def _bad_pid(p, s, man, safe, applied, track):
     u = applied if math.isfinite(applied) else out
     um = s[9] if man and not track else u
     return out, target > hi or target < lo, (s[0], s[1], s[2], s[3], out, 1.0, 1.0, 0.0, 0.0,
-                                             um)  # fmt: skip
+                                             um, 0.0)  # fmt: skip
 
 
 @jitable
@@ -263,7 +276,7 @@ def _bad_adrc(a, s, man, safe, applied, track):
     u = clamp(target, lo, hi)
     ua = applied if math.isfinite(applied) else u
     um = s[9] if man and not track else ua
-    return u, False, (s[0], s[1], s[2], s[3], ua, s[5], s[6], 1.0, 0.0, um)
+    return u, False, (s[0], s[1], s[2], s[3], ua, s[5], s[6], 1.0, 0.0, um, s[10])
 
 
 @jitable
@@ -318,7 +331,7 @@ def _control(cascade, hs, kinds, p0, a0, s0, p1, a1, s1, sp, yc, y2, ok2, safe1,
         b0 = s0
     else:  # committed with its own output (v1 is what the structure applies of it)
         v1, _aw0, b0 = _bad(kinds[0], p0, a0, c0, m0 or track, safe0, math.nan, track)
-        pd0 = (v1, v1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        pd0 = (v1, v1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     u, ok = v1, math.isfinite(v1)
     if cascade:  # the secondary on y2, its setpoint the primary's output, writes the MV
         if good2:
@@ -389,8 +402,8 @@ def _lane(cfg, kinds, pprm, aprm, cst, pk, pp, ps, pos, buf0, buf1, buf2, buf3, 
     hs = cfg[1] != 0.0
     mv0, mv1 = cfg[7] != 0.0, cfg[8] != 0.0
     p0, p1 = _row13(pprm, 0), _row13(pprm, 1)
-    a0, a1 = _row22(aprm, 0), _row22(aprm, 1)
-    s0, s1 = _row10(cst, 0), _row10(cst, 1)
+    a0, a1 = _row24(aprm, 0), _row24(aprm, 1)
+    s0, s1 = _row11(cst, 0), _row11(cst, 1)
     awin = False
     smith = wiring == _SMITH
     fx0, st0 = _plant(pk, pp, ps, pos, buf0, 0)
@@ -504,6 +517,7 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
     # track, sat; both: the last output u
     c0, c1, c2, c3, u, c5 = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
     on, track, sat = cs[6] != 0.0, cs[7] != 0.0, int(cs[8])
+    cq = cs[10]  # ADRC: the handover offset of the reference
     cold = c5 != 0.0
     ua = act[3]
     pl, al = p, a  # the parameters with the limits in force (p and a stay for the pruning)
@@ -535,20 +549,20 @@ def _single(p, a, cs, um, nw, sp_w, y_w, pk, pp, ps, pos, buf, act, sig, noise, 
                 cold = False
                 on = m  # the mode of the last cycle (bumpless return to auto)
             else:  # the integrator and histories stay; the next good cycle re-initialises
-                u, _aw, _s = _bad_pid(pl, (c0, c1, c2, c3, u, 1.0, 1.0, 0.0, 0.0, um), m, safe,
-                                      math.nan, False)  # fmt: skip
+                u, _aw, _s = _bad_pid(pl, (c0, c1, c2, c3, u, 1.0, 1.0, 0.0, 0.0, um, 0.0), m,
+                                      safe, math.nan, False)  # fmt: skip
                 cold = on = True
         if a is not None:
             if k < 0 or good:
-                u, u_raw, c0, c1, c2, c3, c5, track, sat = adrc_step(
-                    sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, al
+                u, u_raw, c0, c1, c2, c3, c5, cq, track, sat = adrc_step(
+                    sp, ym, m, um, on, track, sat, c0, c1, c2, c3, u, c5, cq, al
                 )
                 if not math.isfinite(u_raw):  # the block's output guard: not on the lane
                     u = math.nan
                 on = True  # started
             else:  # the ESO frozen; x4 re-solved at the next good cycle
-                u, _aw, _s = _bad_adrc(al, (c0, c1, c2, c3, u, c5, 1.0, 0.0, 0.0, um), m, safe,
-                                       math.nan, False)  # fmt: skip
+                u, _aw, _s = _bad_adrc(al, (c0, c1, c2, c3, u, c5, 1.0, 0.0, 0.0, um, cq), m,
+                                       safe, math.nan, False)  # fmt: skip
                 track, sat = True, 0
         if k < 0:
             continue
@@ -582,7 +596,7 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
     nb = kinds.shape[0]
     fx0, st0 = _plant(pk, pp, ps, pos, buf0, 0)
     fx1, st1 = _plant(pk, pp, ps, pos, buf1, 1)
-    pend = np.empty((nb, 8))
+    pend = np.empty((nb, 9))
     v = np.empty(nb)
     ua, um = act[3], math.nan
     for k in range(-nw, out.shape[1]):  # k < 0: the warm-up, manual, plants held
@@ -609,13 +623,13 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
             m = k < 0 or man[j, k] != 0.0
             r = sp if math.isnan(sp_fix[j]) else sp_fix[j]
             if good:
-                vj, _aw, pd = _compute(kinds[j], _row13(pprm, j), _row22(aprm, j),
-                                       _row10(cst, j), r, y2 if on_y2[j] else ym, 0.0, m,
+                vj, _aw, pd = _compute(kinds[j], _row13(pprm, j), _row24(aprm, j),
+                                       _row11(cst, j), r, y2 if on_y2[j] else ym, 0.0, m,
                                        False)  # fmt: skip
-                for i in range(8):
+                for i in range(9):
                     pend[j, i] = pd[i]
             else:  # committed below with the selected MV
-                vj, _aw, _s = _bad(kinds[j], _row13(pprm, j), _row22(aprm, j), _row10(cst, j),
+                vj, _aw, _s = _bad(kinds[j], _row13(pprm, j), _row24(aprm, j), _row11(cst, j),
                                    m, safe[j], math.nan, False)  # fmt: skip
             v[j] = vj
             ok = ok and math.isfinite(vj)
@@ -624,12 +638,12 @@ def _override(kinds, pprm, aprm, cst, on_y2, sp_fix, sel_max, nw, sp_w, y_w, y2_
         for j in range(nb):
             m = k < 0 or man[j, k] != 0.0
             if good:
-                s = _commit(kinds[j], _row13(pprm, j), _row10(cst, j), _row8(pend, j), m, u,
+                s = _commit(kinds[j], _row13(pprm, j), _row11(cst, j), _row9(pend, j), m, u,
                             False)  # fmt: skip
             else:
-                _v, _aw, s = _bad(kinds[j], _row13(pprm, j), _row22(aprm, j), _row10(cst, j), m,
+                _v, _aw, s = _bad(kinds[j], _row13(pprm, j), _row24(aprm, j), _row11(cst, j), m,
                                   safe[j], u, False)  # fmt: skip
-            for i in range(10):
+            for i in range(11):
                 cst[j, i] = s[i]
         if k < 0:
             continue
@@ -678,7 +692,9 @@ def _slot(block: Any, u_man: float) -> tuple[int, np.ndarray, np.ndarray, np.nda
     pid = np.zeros(_N_PID)
     adrc = np.zeros(_N_ADRC)
     st = np.zeros(_N_STATE)
-    st[: cs.shape[0]] = cs
+    st[: min(cs.shape[0], 9)] = cs[:9]
+    if cs.shape[0] > 9:
+        st[10] = cs[9]  # the ADRC's handover offset
     st[9] = u_man
     if len(prm) == _N_PID:
         pid[:] = prm

@@ -196,11 +196,24 @@ error_id ERROR_ID
 awout    AWOUT       u_raw beyond a limit (for a primary controller in cascade)
 u_raw    U_RAW       u of the control law (4b) before the limits [{mv}]
 x4_out   DISTURBANCE x4: estimate of the total disturbance h [{pv}/s^n]
+e_out    E           control error SP - PV [{pv}] (Fig. 2, e)
+y_out    Y           the measurement used [{pv}] (Fig. 2, Y)
+y_ref    Y_REF       the reference trajectory [{pv}] (Fig. 2, Y_ref; the law adds the handover
+                     offset Q)
+x1_out   X1          ESO state Y_hat [{pv}] (Fig. 2, observer state; with REVERSE in the units
+                     of -PV)
+x2_out   X2          ESO state x2 [{pv}/s] (the first derivative of Y in the model; 0 for n = 1)
+x3_out   X3          ESO state x3 [{pv}/s^2] (the second derivative of Y in the model; 0 for
+                     n < 3)
 """)
 _ADRC_STATE_COMMENTS = {
     "out": "u of the last cycle [{mv}]", "yh": "ESO state Y_hat [{pv}]", "x2": "ESO state x2",
     "x3": "ESO state x3", "x4": "ESO state x4 (total disturbance)",
     "u_prev": "applied u of the last cycle [{mv}]", "ref": "reference trajectory [{pv}]",
+    "q": "handover offset of the reference [{pv}] (bumpless transfer, decays by "
+         "EXP(-OMEGA_C TS))",
+    "e": "control error of the last valid cycle [{pv}]",
+    "y_last": "PV of the last valid cycle [{pv}]",
     "started": "the ESO has been started on a valid PV", "track": "re-solve x4 by (11)",
     "sat": "+1/-1: last u_raw above/below the limits", "lo": "low limit in force",
     "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
@@ -288,7 +301,9 @@ def _spec_for(block: Any) -> BlockSpec:
         process = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": state["out"],
                    "awin": False, "u_real": 0.0}  # fmt: skip
         values = {**process, **pc.adrc_inputs(c), **state, "mv": state["out"], "error_id": 0,
-                  "awout": False, "u_raw": state["out"], "x4_out": 0.0}  # fmt: skip
+                  "awout": False, "u_raw": state["out"], "x4_out": 0.0, "e_out": 0.0,
+                  "y_out": 0.0, "y_ref": 0.0, "x1_out": 0.0, "x2_out": 0.0,
+                  "x3_out": 0.0}  # fmt: skip
         return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler or exact ESO, orders 1..3)", pc.adrc_cycle,
                          pc.ADRC_RESULTS, _ADRC_PROCESS + _ADRC_TUNING, _ADRC_OUT,
                          _state(state, _ADRC_STATE_COMMENTS, set()), values, c,

@@ -326,18 +326,26 @@ def _work(sc: Scenario, quick: bool) -> float:
     return len(sc.controllers) * samples / sc.ts + 3000.0 * len(sc.cases)
 
 
-def _sweep_runner(jobs: int) -> Any:
-    """``run_models`` of :func:`ctrlblocks.sim.compare.compare`: one sweep over ``plant``.
+def _models_runner(jobs: int) -> Any:
+    """``run_models`` of :func:`ctrlblocks.sim.compare.compare`: the scenario with each plant.
 
-    Serial for ``jobs = 1``, else on a process pool of ``jobs`` workers.
+    Serial for ``jobs = 1``, else on a process pool of ``jobs`` workers (never
+    more than models); each worker runs :func:`ctrlblocks.sim.compare.model_rows`.
     """
-    from ..fast.sweep import process_pool, sweep
+    from ..fast.sweep import process_pool
+    from .compare import _serial_models, model_rows
 
     def run(path: Path, tables: list[dict[str, Any]], progress: Any) -> list[dict[str, Any]]:
         if jobs <= 1:
-            return sweep(path, {"plant": tables}, executor="serial", progress=progress)
-        with process_pool(jobs, len(tables)) as ex:  # never more workers than models
-            return sweep(path, {"plant": tables}, executor=ex, progress=progress)
+            return _serial_models(path, tables, progress)
+        text = path.read_text(encoding="utf-8")
+        rows: list[list[dict[str, Any]]] = [[] for _ in tables]
+        with process_pool(jobs, len(tables)) as ex:
+            futures = {ex.submit(model_rows, text, str(path), p): i for i, p in enumerate(tables)}
+            for done, fut in enumerate(cf.as_completed(futures), 1):
+                rows[futures[fut]] = fut.result()
+                progress(done, len(tables))
+        return [r for rs in rows for r in rs]
 
     return run
 
@@ -351,7 +359,15 @@ def _sweep_runner(jobs: int) -> Any:
               type=click.Path(file_okay=False), help="Output folder.")  # fmt: skip
 @click.option("--u-min", type=float, help="MV low limit; default from the data.")
 @click.option("--u-max", type=float, help="MV high limit; default from the data.")
-@click.option("--ts", type=float, help="Controller sample time [s]; default min(T, L)/10.")
+@click.option("--ts", type=float, help="Controller sample time [s]; default min(T, L)/40.")
+@click.option("--ms", type=float, default=1.6, show_default=True,
+              help="Robustness target of every design: maximum sensitivity on the model "
+              "(1.4 robust, 2 aggressive).")  # fmt: skip
+@click.option("--mv-noise", type=float, default=None,
+              help="MV-noise budget of every design [MV units, standard deviation]; default "
+              "5 % of the bump.")  # fmt: skip
+@click.option("--tie", type=float, default=0.1, show_default=True,
+              help="Tie band of the verdict (0.1: within 10 % is a tie).")  # fmt: skip
 @click.option("--no-corners", is_flag=True, help="Skip the 8 uncertainty corners.")
 @click.option("--monte-carlo", type=click.IntRange(0, 100000), default=0,
               help="Also run N models drawn from the uncertainty box.")  # fmt: skip
@@ -365,14 +381,16 @@ def _sweep_runner(jobs: int) -> Any:
 @click.option("--y-unit", default=None, help="PV unit (default: from a header 'pv [degC]').")
 @click.option("--u-unit", default=None, help="MV unit (default: from a header 'mv [%]').")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON summary.")
-def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_corners,
-                    monte_carlo, seed, jobs, u_before, csv, y_unit, u_unit,
+def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, ms, mv_noise, tie,
+                    no_corners, monte_carlo, seed, jobs, u_before, csv, y_unit, u_unit,
                     as_json) -> None:  # fmt: skip
     """Compare ADRC and PID tunings on the process of a bump test in FILE (CSV).
 
-    Identifies FOPDT and SOPDT models, tunes PID and ADRC on the better one,
-    simulates them on it, on its uncertainty corners and on --monte-carlo N
-    drawn models, and writes compare.md/json/toml and plots to --out
+    Identifies FOPDT and SOPDT models (the one with the smaller BIC is used),
+    designs PI, PID, PID + Smith predictor and ADRC n = 1..3 to the same
+    robustness (--ms) and MV-noise budget (--mv-noise), simulates set-point
+    and load steps taken in AUTO on the model, its uncertainty corners and on
+    --monte-carlo N drawn models, and writes compare.md/json/toml and plots to --out
     (``ctrlblocks.sim.compare``).  Progress lines go to stderr; the verdict
     (or with --json the summary) to stdout.
     """
@@ -386,12 +404,12 @@ def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_
         yl = _axis_label("PV", y_col, y_unit if y_unit is not None else data.y_unit)
         ul = _axis_label("MV", u_col, u_unit if u_unit is not None else data.u_unit)
         summary = compare(
-            data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts,
-            corners=not no_corners, monte_carlo=monte_carlo, seed=seed,
+            data.t, data.u, data.y, out_dir, u_min=u_min, u_max=u_max, ts=ts, ms=ms,
+            mv_noise=mv_noise, tie=tie, corners=not no_corners, monte_carlo=monte_carlo, seed=seed,
             y_label=yl if yl.endswith("]") else yl + " (units of the data)",
             u_label=ul if ul.endswith("]") else ul + " (units of the data)",
             progress=lambda msg: click.echo(f"compare: {msg}", err=True),
-            run_models=_sweep_runner(jobs),
+            run_models=_models_runner(jobs),
         )  # fmt: skip
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
@@ -401,6 +419,9 @@ def compare_command(file, time_col, u_col, y_col, out_dir, u_min, u_max, ts, no_
         click.echo(json.dumps(jsonable(summary), indent=2))
         return
     click.echo(f"{file}: {summary['why']}")
+    w = summary["winners"]
+    click.echo(f"  winners (tie within {100 * w['band']:g} %): set-point step {w['setpoint']}, "
+               f"load {w['load']}")
     for s in summary["verdict"]:
         click.echo(f"  {s['text']}")
     click.echo(f"report: {Path(out_dir) / 'compare.md'}")

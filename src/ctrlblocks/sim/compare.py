@@ -2,40 +2,47 @@
 
 The workflow (one function, :func:`compare`):
 
-1. **identify** an FOPDT and an SOPDT by least squares
-   (:func:`ctrlblocks.tuning.fit_fopdt`, :func:`~ctrlblocks.tuning.fit_sopdt`);
-   the SOPDT is used when its normalised RMS error is below 0.8 times the
-   FOPDT's (the second lag explains the record, not only the noise), else
-   the FOPDT; the reason is reported.  That model is the one everything
-   below is tuned, analysed and simulated on;
-2. **tune** on that model: PID by SIMC and AMIGO, the PID_Compact-like
-   pre-tuning (AMIGO PI on the FOPDT, as :func:`~ctrlblocks.tuning.step_pretune`
-   applies it), ADRC of orders 1, 2 and 3 by the safe default of
-   :func:`~ctrlblocks.tuning.adrc_tuning` with ``b0`` searched jointly with
-   the bandwidths (``b0_search``: the largest integral gain with
-   ``Ms <= 1.6`` on the model, the inverse half-rule's b0 as the start; an
-   order the rule refuses is listed with the reason); every tuning with its
-   margins and integral gain on the model (:mod:`ctrlblocks.tuning.margins`);
-   one with ``Ms > 2`` or unstable is shown, marked and left out of the verdict;
-3. **simulate** them in a generated scenario (the exact TOML is written, so it
-   can be edited and re-run with ``ctrlblocks run``) of two cases, in
-   deviation variables around the operating point: ``setpoint``, a set-point
-   step of the size of the bump's PV change at t = 0, and ``load``, an input
-   load of half the bump at t = 0; PV noise of the standard deviation of the
-   fit's residuals, MV limits from the data (the recorded MV range widened by
-   twice the bump on each side) or given.  On the model, on its 8 uncertainty
-   corners (gain +-20 %, time constants +-30 %, dead time +-30 %) and,
-   optionally, on ``monte_carlo`` models drawn uniformly from that box
-   (seeded; each time constant drawn on its own).  Corners and Monte-Carlo
-   models are run by ``run_models``: the command passes one
-   :func:`ctrlblocks.fast.sweep` over the ``plant`` table (serial, or on a
-   process pool with ``--jobs``);
-4. **report**: ``compare.md`` with the fit plot, the margins table, the
-   metrics (IAE, overshoot, settling time and MV travel of the step; IAE,
-   peak error and MV travel of the load), the spread over the corners and the
-   Monte-Carlo models (median, worst) and a verdict whose every sentence
-   lists the numbers of ``compare.json`` it quotes (``quotes``: the JSON path,
-   scale and format of each).
+1. **identify** an FOPDT and an SOPDT by least squares and keep the one with
+   the smaller Bayesian information criterion on the residuals
+   (:func:`ctrlblocks.tuning.select.select_model`; the numbers are reported).
+   That model is the one everything below is designed, analysed and
+   simulated on;
+2. **design** every candidate to the same robustness target and the same
+   MV-noise budget (:mod:`ctrlblocks.tuning.design`: the largest integral gain
+   with ``Ms <= ms``, default 1.6, and an MV noise standard deviation from the
+   record's PV noise of at most ``mv_noise``, default 5 % of the bump):
+   ``PI`` and ``PID`` (MIGO; the derivative filter from the noise budget, the
+   set-point weight ``b`` for tracking), ``PID + Smith`` (the same inside a
+   Smith predictor on the model), ``ADRC n=1..3`` (``b0``, ``omega_c`` and the
+   observer ratio searched) and ``ADRC n=N + delayed ESO`` (its observer fed
+   the MV delayed by the model's dead time: predictive ADRC, Zhao & Gao 2014;
+   N the model's number of lags, the order of what the observer then sees).  Each
+   with its exact margins on the model (predictor and delayed observer
+   included), integral gain and MV noise; one whose design failed is listed
+   with the reason and left out of the verdict;
+3. **simulate** them as a plant runs the experiment: a generated scenario
+   (the exact TOML is written: ``compare.toml``, and ``compare_smith.toml``
+   for the Smith-predictor candidates; edit and re-run with ``ctrlblocks run``)
+   in deviation variables around the operating point, the loop held in MANUAL
+   at steady state during the warm-up, released to AUTO at t = 0 with
+   ``SP = PV`` and left at rest in AUTO until the event at ``t_event``: case
+   ``setpoint``, a set-point step of the bump's PV change, case ``load``, an
+   input load of half the bump.  The metrics are those of the event's window
+   (from ``t_event`` on), so the MAN->AUTO release never coincides with an
+   event.  PV noise of the standard deviation of the fit's residuals, MV limits
+   from the data (the recorded range widened by twice the bump on each side)
+   or given.  On the model, on its 8 uncertainty corners (gain +-20 %, time
+   constants +-30 %, dead time +-30 %; the predictor's and the delayed
+   observer's model stay the nominal one) and, optionally, on ``monte_carlo``
+   models drawn uniformly from that box (seeded);
+4. **trade-off**: the best PID-family and the best ADRC-family candidate
+   designed again at Ms 1.3 and 2.0 (``levels``), their load IAE on the model
+   (linear loop, no noise, no limits) and MV noise against Ms: ``tradeoff.png``;
+5. **verdict**: ``winners = {"setpoint": ..., "load": ...}``, each
+   ``"PID"``, ``"ADRC"`` or ``"tie"`` (the best of each family on the model
+   within ``tie``, default 10 %, of each other), and sentences each listing
+   the numbers of ``compare.json`` it quotes (``quotes``: JSON path, scale
+   and format), starting with the robustness and noise level they hold at.
 """
 
 from __future__ import annotations
@@ -49,21 +56,22 @@ from typing import Any
 
 import numpy as np
 
-from ..tuning import adrc_tuning, amigo, simc
-from ..tuning.adrc import _nice_floor
-from ..tuning.bump import SOPDT_GAIN, better_model
 from ..tuning.bump import fopdt_of as _fopdt_of
+from ..tuning.design import MS_DEFAULT, MV_NOISE_FRACTION, default_ts
 from ..tuning.identify import SOPDT
 
-__all__ = ["BOX", "MS_LIMIT", "SOPDT_GAIN", "compare", "scenario_toml"]
+__all__ = ["BOX", "LEVELS", "TIE", "compare", "scenario_toml"]
 
 log = logging.getLogger("ctrlblocks.compare")
 
-MS_LIMIT = 2.0
-"""A tuning with a larger maximum sensitivity on the model is left out of the verdict."""
-
 BOX = {"gain": 0.2, "time_constant": 0.3, "dead_time": 0.3}
 """The uncertainty box: relative half-widths of gain, time constants and dead time."""
+
+TIE = 0.10
+"""Default tie band: the best PID and the best ADRC within this fraction of each other tie."""
+
+LEVELS = (1.3, 1.6, 2.0)
+"""The robustness levels (Ms) of the trade-off picture (the design's own ``ms`` is added)."""
 
 _CORNERS = [
     (1 + g * BOX["gain"], 1 + t * BOX["time_constant"], 1 + d * BOX["dead_time"])
@@ -71,13 +79,7 @@ _CORNERS = [
     for t in (-1, 1)
     for d in (-1, 1)
 ]
-_TIE = 0.05  # relative difference below which two numbers are called the same
-_SIMILAR_TV = 0.2  # MV travels within 20 % are "similar"
 
-_EXPERIMENTS = {
-    "setpoint": ("iae_tracking", "overshoot", "settling_time", "tv_u_tracking"),
-    "load": ("iae_load", "peak_load", "tv_u_load"),
-}
 _FROM_ROW = {  # summary metric -> (case, metric of the simulator)
     "iae_tracking": ("setpoint", "iae"),
     "overshoot": ("setpoint", "overshoot"),
@@ -90,53 +92,94 @@ _FROM_ROW = {  # summary metric -> (case, metric of the simulator)
 METRICS = tuple(_FROM_ROW)
 
 
-def _loop_numbers(model: Any, block_type: str, params: dict[str, Any], ts: float):
-    """Margins (``Margins.as_dict()``) and integral gain ``ki`` on ``model``; None if refused."""
-    from ..blocks.adrc import ADRC
-    from ..blocks.base import ParameterError
-    from ..blocks.pid import PID
-    from ..tuning.margins import Loop
-
-    try:
-        lp = Loop(model, {"PID": PID, "ADRC": ADRC}[block_type](**{**params, "ts": ts}))
-        mg: dict[str, Any] = dict(lp.margins().as_dict())
-    except (ParameterError, TypeError):
-        return None
-    mg["ki"] = lp.integral_gain() if mg["stable"] else math.nan
-    return mg
+# ---------------------------------------------------------------------------
+# The candidates
+# ---------------------------------------------------------------------------
 
 
-def _tunings(model: Any, ts: float) -> list[dict[str, Any]]:
-    k, T, L = _fopdt_of(model)
-    out: list[dict[str, Any]] = []
-    t2 = getattr(model, "time_constant_2", 0.0)
-    for name, tun in (
-        ("PID SIMC", simc(k, model.time_constant, model.dead_time, time_constant_2=t2)
-         if isinstance(model, SOPDT) else simc(k, T, L)),
-        ("PID AMIGO", amigo(k, T, L)),
-        ("PI pretune (AMIGO PI)", amigo(k, T, L, controller="pi")),
-    ):  # fmt: skip
-        params = {**tun.as_kwargs(), "n": 10.0}
-        out.append({"name": name, "type": "PID", "params": params, "rule": tun.rule})
-    for order in (1, 2, 3):
-        try:
-            r = adrc_tuning(k, T, L, order, ts=ts, model=model, b0_search=True)
-        except ValueError as exc:
-            out.append({"name": f"ADRC n={order}", "type": "ADRC", "params": None,
-                        "rule": "adrc", "error": str(exc)})  # fmt: skip
-            continue
-        params = r.settings()
-        out.append({"name": f"ADRC n={order}", "type": "ADRC", "params": params,
-                    "rule": "adrc, b0 searched", "b0_rule": r.b0_rule,
-                    "warnings": r.warnings})  # fmt: skip
-    for c in out:
-        if c["params"] is not None:
-            c["margins"] = _loop_numbers(model, c["type"], c["params"], ts)
-            mg = c["margins"]
-            c["eligible"] = bool(mg and mg["stable"] and mg["ms"] <= MS_LIMIT)
-        else:
-            c["margins"], c["eligible"] = None, False
+def adrc_has_input_delay() -> bool:
+    """True when the ADRC block takes ``input_delay`` (the delay-compensated observer)."""
+    import dataclasses
+
+    from ..blocks.adrc import ADRCConfig
+
+    return any(f.name == "input_delay" for f in dataclasses.fields(ADRCConfig))
+
+
+def candidates(
+    model: Any,
+    ts: float,
+    *,
+    ms: float = MS_DEFAULT,
+    noise_std: float = 0.0,
+    mv_noise_max: float | None = None,
+    say: Callable[[str], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Every candidate of ``compare``, designed to ``ms`` and the noise budget (module docstring).
+
+    Each a dict: ``name``, ``type`` (``"PID"``/``"ADRC"``, the family),
+    ``structure`` (``"single"``/``"smith"``), ``params`` (block keywords, None
+    when the design failed, then ``error``), ``margins`` (``ms, gm, pm,
+    wc_crossover, stable``, ``ki`` and ``mv_noise``), ``design`` (the design's
+    remarks) and ``eligible``.
+    """
+    say = say or (lambda _msg: None)
+    kw = {"noise_std": noise_std, "mv_noise_max": mv_noise_max}
+    names = ["PI", "PID", "PID + Smith", "ADRC n=1", "ADRC n=2", "ADRC n=3"]
+    out = [_candidate(n, lambda n=n: design_candidate(n, model, ts, ms=ms, **kw), say)
+           for n in names]  # fmt: skip
+    if adrc_has_input_delay() and model.dead_time > 0.0:
+        # the observer fed the MV delayed by the model's dead time sees the delay-free
+        # part: its order is the model's number of lags
+        order = 2 if isinstance(model, SOPDT) else 1
+        name = f"ADRC n={order} + delayed ESO"
+        out.append(_candidate(name, lambda: design_candidate(name, model, ts, ms=ms, **kw),
+                              say))  # fmt: skip
     return out
+
+
+def design_candidate(name: str, model: Any, ts: float, **kw: Any) -> Any:
+    """The :class:`~ctrlblocks.tuning.design.Design` of the candidate called ``name``."""
+    from ..tuning.design import design_adrc, design_pid
+
+    if name == "PI":
+        return design_pid(model, ts, controller="pi", **kw)
+    if name == "PID":
+        return design_pid(model, ts, **kw)
+    if name == "PID + Smith":
+        return design_pid(model, ts, smith=True, **kw)
+    order = int(name.split("=")[1][0])
+    delay = model.dead_time if name.endswith("delayed ESO") else 0.0
+    return design_adrc(model, order, ts, input_delay=delay, **kw)
+
+
+def _in_smith(c: dict[str, Any]) -> bool:
+    """The candidate runs inside a Smith predictor (``compare_smith.toml``)."""
+    return bool(c.get("structure") == "smith")
+
+
+def _candidate(name: str, make: Callable[[], Any], say) -> dict[str, Any]:
+    from ..blocks.base import ParameterError
+
+    kind = "ADRC" if name.startswith("ADRC") else "PID"
+    try:
+        d = make()
+    except (ParameterError, ValueError) as exc:
+        say(f"designed {name}: {exc}")
+        return {"name": name, "type": kind, "structure": "single", "params": None,
+                "margins": None, "eligible": False, "error": str(exc), "design": []}  # fmt: skip
+    mg: dict[str, Any] = dict(d.margins.as_dict())
+    mg["ki"], mg["mv_noise"] = d.ki, d.mv_noise
+    ok = bool(mg["stable"] and mg["ms"] <= d.ms_target * (1 + 2e-3))
+    say(f"designed {name}: Ms {mg['ms']:.3f}, ki {d.ki:.4g}")
+    return {"name": name, "type": d.family, "structure": d.structure, "params": dict(d.params),
+            "margins": mg, "eligible": ok, "design": list(d.warnings),
+            "_design": d}  # fmt: skip
+
+
+# ---------------------------------------------------------------------------
+# The scenarios
+# ---------------------------------------------------------------------------
 
 
 def _plant_dict(model: Any, gain: float = 1.0, tc: Sequence[float] = (1.0, 1.0),
@@ -147,6 +190,15 @@ def _plant_dict(model: Any, gain: float = 1.0, tc: Sequence[float] = (1.0, 1.0),
                 "t2": model.time_constant_2 * tc[1], "dead_time": model.dead_time * dt}  # fmt: skip
     return {"type": "FOPDT", "k": model.gain * gain, "t": model.time_constant * tc[0],
             "dead_time": model.dead_time * dt}  # fmt: skip
+
+
+def event_time(ts: float, T: float, L: float) -> float:
+    """When the event comes [s]: the loop rests in AUTO from t = 0 until then.
+
+    ``max(10 ts, 0.1 (T + L))`` rounded up to a whole sample: long enough to
+    see that the released loop stays where it is, short against the run.
+    """
+    return ts * math.ceil(max(10.0, 0.1 * (T + L) / ts) - 1e-9)
 
 
 def scenario_toml(
@@ -160,7 +212,10 @@ def scenario_toml(
     u_min: float,
     u_max: float,
     duration: float,
+    t_event: float = 0.0,
+    smith: bool = False,
     name: str = "compare",
+    operating_point: tuple[float, float] | None = None,
     corner: tuple[float, float, float] = (1.0, 1.0, 1.0),
     y_label: str = "PV (units of the data)",
     u_label: str = "MV (units of the data)",
@@ -168,20 +223,30 @@ def scenario_toml(
     """The scenario TOML ``compare`` runs (``ctrlblocks run`` takes it as it is).
 
     In deviation variables around the bump test's operating point: MV and PV
-    start at 0; case ``setpoint``: the set point steps by ``step`` at t = 0;
-    case ``load``: the input load ``load`` comes at t = 0; each case lasts
-    ``duration`` [s].  ``u_min``/``u_max`` are relative to the operating MV;
-    ``corner`` scales gain, time constants and dead time.
+    start at 0, the loop held in MANUAL there during the warm-up and released
+    to AUTO at t = 0; case ``setpoint``: the set point steps by ``step`` at
+    ``t_event``; case ``load``: the input load ``load`` comes at ``t_event``;
+    each case lasts ``duration`` [s] from t = 0.  ``u_min``/``u_max`` are
+    relative to the operating MV; ``corner`` scales gain, time constants and
+    dead time.  ``smith`` writes the Smith-predictor candidates in that
+    structure (``[controllers.main]``, ``[controllers.model]`` = the model); without
+    it the single-loop candidates.
     """
     g, tc, dt = corner
     plant = _plant_dict(model, g, (tc, tc), dt)
     lines = [
         "# written by `ctrlblocks compare`: edit and re-run with `ctrlblocks run FILE`",
-        "# (deviation variables around the operating point of the bump test)",
+        "# (deviation variables around the operating point of the bump test; the loop is",
+        f"# released to AUTO at t = 0 and rests there until the event at t = {t_event:g} s)",
         "[scenario]",
         f'name = "{name}"',
-        'title = "ADRC or PID on the identified process"',
+        "title = " + json.dumps(
+            "ADRC or PID on the identified process" + (
+                "" if operating_point is None else
+                f" (deviations from the operating point PV {operating_point[1]:.4g}, "
+                f"MV {operating_point[0]:.4g})")),
         'source = "ctrlblocks compare"',
+        *(['structure = "smith"'] if smith else []),
         f"ts = {ts!r}",
         f"duration = {duration!r}",
         f"quick_duration = {duration!r}",
@@ -204,15 +269,21 @@ def scenario_toml(
         "",
     ]
     for c in controllers:
-        if c["params"] is None:
+        if c["params"] is None or _in_smith(c) != smith:
             continue
-        lines += ["[[controllers]]", f'name = "{c["name"]}"', f'type = "{c["type"]}"']
-        lines += [f"{k} = {_toml_value(v)}" for k, v in c["params"].items()]
-        lines += [f"u_min = {u_min!r}", f"u_max = {u_max!r}", ""]
+        lines += ["[[controllers]]", f'name = "{c["name"]}"']
+        params = [f"{k} = {_toml_value(v)}" for k, v in c["params"].items()]
+        limits = [f"u_min = {u_min!r}", f"u_max = {u_max!r}"]
+        if smith:
+            pred = [f"{k} = {_toml_value(v)}" for k, v in _plant_dict(model).items()]
+            lines += ["[controllers.main]", f'type = "{c["type"]}"', *params, *limits,
+                      "[controllers.model]", *pred, ""]  # fmt: skip
+        else:
+            lines += [f'type = "{c["type"]}"', *params, *limits, ""]
     lines += [
-        "[[cases]]", 'name = "setpoint"', "", "[[cases.events]]", "t = 0.0", 'do = "setpoint"',
-        f"value = {step!r}", "",
-        "[[cases]]", 'name = "load"', "", "[[cases.events]]", "t = 0.0", 'do = "load"',
+        "[[cases]]", 'name = "setpoint"', "", "[[cases.events]]", f"t = {t_event!r}",
+        'do = "setpoint"', f"value = {step!r}", "",
+        "[[cases]]", 'name = "load"', "", "[[cases.events]]", f"t = {t_event!r}", 'do = "load"',
         f"value = {load!r}", 'label = "input load"', "",
         "[plot]", 'upper = ["sp", "y"]', 'lower = ["u"]', f"upper_label = {json.dumps(y_label)}",
         f"lower_label = {json.dumps(u_label)}", "",
@@ -230,6 +301,12 @@ def _toml_value(v: Any) -> str:
     return repr(float(v))
 
 
+def deviation_label(label: str) -> str:
+    """``"PV: p3 [bar]"`` -> ``"ΔPV: p3 [bar]"``: the plots show deviations from the operating
+    point (the scenario's title says which)."""
+    return "Δ" + label
+
+
 def _box_models(model: Any, n: int, seed: int) -> list[dict[str, Any]]:
     """``n`` plant tables drawn uniformly from the uncertainty box (:data:`BOX`), seeded."""
     rng = np.random.default_rng(seed)
@@ -243,10 +320,14 @@ def _box_models(model: Any, n: int, seed: int) -> list[dict[str, Any]]:
 
 
 def _row_metrics(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, float]]:
-    """``{controller: {summary metric: value}}`` from rows of one model (both cases)."""
-    by = {(r["controller"], r["case"]): r for r in rows}
+    """``{controller: {summary metric: value}}`` from the rows of one model (both cases).
+
+    The numbers of the event's window (the last window: the loop rested in
+    AUTO before it), so the release to AUTO is not part of any experiment.
+    """
+    by = {(r["controller"], r["case"]): r["windows"][-1] for r in rows}
     out: dict[str, dict[str, float]] = {}
-    for (ctrl, _case), _r in by.items():
+    for ctrl, _case in by:
         out.setdefault(ctrl, {})
     for ctrl, per in out.items():
         for key, (case, m) in _FROM_ROW.items():
@@ -255,8 +336,9 @@ def _row_metrics(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, float]]:
     return out
 
 
-def _check_options(u_min: float | None, u_max: float | None, ts: float | None) -> None:
-    """Refuse MV limits and a sample time that no comparison can use (ValueError)."""
+def _check_options(u_min: float | None, u_max: float | None, ts: float | None, ms: float,
+                   tie: float, mv_noise: float | None) -> None:  # fmt: skip
+    """Refuse options that no comparison can use (ValueError)."""
     for name, v in (("u_min", u_min), ("u_max", u_max)):
         if v is not None and not math.isfinite(v):
             raise ValueError(f"{name}: must be a finite number [MV units], got {v!r}")
@@ -264,6 +346,12 @@ def _check_options(u_min: float | None, u_max: float | None, ts: float | None) -
         raise ValueError(f"u_min = {u_min!r} must be below u_max = {u_max!r}")
     if ts is not None and not (math.isfinite(ts) and ts > 0.0):
         raise ValueError(f"ts: must be a finite number > 0 [s], got {ts!r}")
+    if not (math.isfinite(ms) and 1.1 <= ms <= 3.0):
+        raise ValueError(f"ms: must be 1.1..3 (1.4 robust, 2 aggressive), got {ms!r}")
+    if not (math.isfinite(tie) and 0.0 <= tie < 1.0):
+        raise ValueError(f"tie: must be a fraction 0..1 (0.1 = 10 %), got {tie!r}")
+    if mv_noise is not None and not (math.isfinite(mv_noise) and mv_noise > 0.0):
+        raise ValueError(f"mv_noise: must be a finite number > 0 [MV units], got {mv_noise!r}")
 
 
 def _check_ts(ts: float, T: float, L: float) -> None:
@@ -283,6 +371,11 @@ def _check_ts(ts: float, T: float, L: float) -> None:
         )
 
 
+ModelRunner = Callable[[Path, list[dict[str, Any]], Callable[[int, int], None]], list[Any]]
+"""``(scenario file, plant tables, progress(done, total)) -> metric rows`` (see :func:`compare`);
+each row a ``ScenarioResult.metrics`` entry, its ``windows`` included."""
+
+
 def compare(
     t: Any,
     u: Any,
@@ -292,6 +385,10 @@ def compare(
     u_min: float | None = None,
     u_max: float | None = None,
     ts: float | None = None,
+    ms: float = MS_DEFAULT,
+    mv_noise: float | None = None,
+    tie: float = TIE,
+    levels: Sequence[float] = LEVELS,
     corners: bool = True,
     monte_carlo: int = 0,
     seed: int = 1,
@@ -300,8 +397,9 @@ def compare(
     progress: Callable[[str], None] | None = None,
     run_models: ModelRunner | None = None,
 ) -> dict[str, Any]:
-    """Identify, tune, simulate and judge; writes ``compare.md``, ``compare.json``,
-    ``compare.toml`` and PNGs to ``out_dir``; returns the JSON summary (module docstring).
+    """Identify, design, simulate and judge; writes ``compare.md``, ``compare.json``,
+    ``compare.toml`` (and ``compare_smith.toml``) and PNGs to ``out_dir``; returns the JSON
+    summary (module docstring).
 
     Parameters
     ----------
@@ -312,7 +410,16 @@ def compare(
     u_min, u_max : float, optional
         MV limits [MV units]; default from the data.
     ts : float, optional
-        Controller sample time [s]; default ``min(T, L)/10`` of the model's FOPDT.
+        Controller sample time [s]; default
+        :func:`~ctrlblocks.tuning.design.default_ts` of the model's FOPDT.
+    ms : float
+        The robustness target of every design (maximum sensitivity on the model).
+    mv_noise : float, optional
+        The MV-noise budget [MV units, standard deviation]; default 5 % of the bump.
+    tie : float
+        The tie band of the verdict (0.1: within 10 % is a tie).
+    levels : sequence of float
+        The Ms of the trade-off picture.
     corners : bool
         Also run the 8 corners of the uncertainty box.
     monte_carlo, seed : int
@@ -323,21 +430,24 @@ def compare(
         Called with one line of text per step (also when not on a terminal).
     run_models : callable, optional
         ``run_models(scenario_file, plant_tables, progress)`` returns the
-        metric rows (controller, case, metrics) of the scenario run with each
-        ``[plant]`` table, in order; ``ctrlblocks compare`` passes a
-        :func:`ctrlblocks.fast.sweep` over the ``plant`` key.  Default: one
-        run after the other in this process (the same numbers).
+        metric rows of the scenario run with each ``[plant]`` table, in order
+        (``ctrlblocks compare --jobs`` passes a process pool's).  Default:
+        one run after the other in this process (the same numbers).
     """
+    from ..tuning.select import select_model
+    from .compare_report import report, tradeoff
+    from .compare_verdict import verdict, winners
     from .runner import run_scenario
     from .scenario import parse_scenario
 
     say = progress or (lambda msg: log.info("%s", msg))
-    _check_options(u_min, u_max, ts)  # before any work: a mistake is named as the user wrote it
+    _check_options(u_min, u_max, ts, ms, tie, mv_noise)  # before any work
     t, u, y = (np.asarray(v, float) for v in (t, u, y))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    fo, so, model, why = better_model(t, u, y)
-    say(f"identified: {why}")
+    choice = select_model(t, u, y)
+    model = choice.model
+    say(f"identified: {choice.why}")
     k, T, L = _fopdt_of(model)
     if ts is not None:
         _check_ts(ts, T, L)
@@ -347,28 +457,39 @@ def compare(
     lo = float(np.min(u) - 2 * span) if u_min is None else float(u_min)
     hi = float(np.max(u) + 2 * span) if u_max is None else float(u_max)
     if ts is None:
-        ts = _nice_floor(max(min(T, L) if L > 0 else T, 1e-6) / 10.0)
-    ctrls = _tunings(model, ts)
-    say(f"tuned: {sum(c['params'] is not None for c in ctrls)} tunings with their margins "
-        f"({sum(c['eligible'] for c in ctrls)} with Ms <= {MS_LIMIT:g})")  # fmt: skip
-    duration = float(max(10.0 * (T + L), 50.0 * ts))
+        ts = default_ts(T, L)
     step = float(k * du) if du != 0 else 1.0
+    budget = float(mv_noise) if mv_noise is not None else MV_NOISE_FRACTION * abs(du or 1.0)
     u_op = float(model.u0)
     if not lo < u_op < hi:
         raise ValueError(
             f"the MV limits {lo:g} .. {hi:g} do not contain the operating point of the bump "
             f"test (the MV before the step, {u_op:g}): no controller could hold the process there"
         )
-    common = dict(ts=ts, step=step, load=-du / 2, noise=noise, u_min=lo - u_op,
-                  u_max=hi - u_op, duration=duration, y_label=y_label, u_label=u_label)  # fmt: skip
-    text = scenario_toml(model, ctrls, **common)
-    path = out / "compare.toml"
-    path.write_text(text, encoding="utf-8")
-    nominal = run_scenario(parse_scenario(text, file=str(path)))
+    ctrls = candidates(model, ts, ms=ms, noise_std=noise, mv_noise_max=budget, say=say)
+    say(f"designed: {sum(c['eligible'] for c in ctrls)} of {len(ctrls)} candidates with "
+        f"Ms <= {ms:g} and MV noise <= {budget:.3g}")  # fmt: skip
+    t_ev = event_time(ts, T, L)
+    duration = float(t_ev + max(10.0 * (T + L), 50.0 * ts))
+    common = dict(ts=ts, step=step, load=-du / 2, noise=noise, u_min=lo - u_op, u_max=hi - u_op,
+                  duration=duration, t_event=t_ev, y_label=deviation_label(y_label),
+                  u_label=deviation_label(u_label),
+                  operating_point=(u_op, float(model.y0)))  # fmt: skip
+    files: list[tuple[Path, Any]] = []
+    for smith, fname in ((False, "compare.toml"), (True, "compare_smith.toml")):
+        if not any(c["params"] is not None and _in_smith(c) == smith for c in ctrls):
+            continue
+        text = scenario_toml(model, ctrls, smith=smith, name=fname.removesuffix(".toml"),
+                             **common)  # fmt: skip
+        path = out / fname
+        path.write_text(text, encoding="utf-8")
+        files.append((path, run_scenario(parse_scenario(text, file=str(path)))))
     say("simulated on the model")
-    per_model = {"model": _row_metrics(nominal.metrics)}
-    tables = []
-    labels = []
+    per_model: dict[str, dict[str, Any]] = {"model": {}}
+    for _path, res in files:
+        per_model["model"].update(_row_metrics(res.metrics))
+    tables: list[dict[str, Any]] = []
+    labels: list[str] = []
     if corners:
         tables += [_plant_dict(model, g, (tc, tc), dt) for g, tc, dt in _CORNERS]
         labels += [f"gain x{g:g}, T x{tc:g}, L x{dt:g}" for g, tc, dt in _CORNERS]
@@ -377,50 +498,70 @@ def compare(
         labels += [f"monte carlo {i}" for i in range(int(monte_carlo))]
     if tables:
         runner = run_models or _serial_models
-        per_model.update(zip(labels, _run_models(path, tables, runner, say), strict=True))
+        for lab in labels:
+            per_model[lab] = {}
+        for path, _res in files:
+            got = _run_models(path, tables, runner, say)
+            for lab, m in zip(labels, got, strict=True):
+                per_model[lab].update(m)
     results = _metrics(ctrls, per_model, corners, int(monte_carlo))
-    summary = {
-        "fopdt": fo.as_dict(),
-        "sopdt": None if so is None else so.as_dict(),
-        "model_used": "sopdt" if model is so else "fopdt",
-        "why": why,
+    summary: dict[str, Any] = {
+        "fopdt": choice.fopdt.as_dict(),
+        "sopdt": None if choice.sopdt is None else choice.sopdt.as_dict(),
+        "model_used": "sopdt" if model is choice.sopdt else "fopdt",
+        "why": choice.why,
+        "model_choice": choice.criterion,
+        "ms_target": ms,
         "noise_std": noise,
+        "mv_noise_max": budget,
+        "tie": tie,
         "ts": ts,
+        "t_event": t_ev,
         "u_min": lo,
         "u_max": hi,
+        "operating_point": {"u": u_op, "y": float(model.y0)},
         "step": step,
         "load": -du / 2,
         "box": dict(BOX),
         "monte_carlo": {"n": int(monte_carlo), "seed": int(seed)} if monte_carlo else None,
-        "controllers": [{k2: v for k2, v in c.items() if k2 != "warnings"} for c in ctrls],
+        "controllers": [{k2: v for k2, v in c.items() if k2 != "_design"} for c in ctrls],
         "metrics": results,
     }
-    summary["verdict"] = _verdict(summary)
+    say("trade-off: the best of each family at Ms " + ", ".join(f"{v:g}" for v in levels))
+    summary["tradeoff"] = tradeoff(model, summary, levels, design_candidate,
+                                   {c["name"]: c.get("_design") for c in ctrls})  # fmt: skip
+    summary["winners"] = winners(summary)
+    summary["verdict"] = verdict(summary)
     (out / "compare.json").write_text(json.dumps(jsonable(summary), indent=2), encoding="utf-8")
-    _report(out, summary, t, u, y, model, nominal, y_label, u_label)
+    report(out, summary, t, u, y, model, [res for _p, res in files], y_label, u_label)
     say(f"report: {out / 'compare.md'}")
     return summary
-
-
-ModelRunner = Callable[[Path, list[dict[str, Any]], Callable[[int, int], None]], list[Any]]
-"""``(scenario file, plant tables, progress(done, total)) -> metric rows`` (see :func:`compare`)."""
 
 
 def _serial_models(path: Path, tables: list[dict[str, Any]],
                    progress: Callable[[int, int], None]) -> list[dict[str, Any]]:  # fmt: skip
     """The metric rows of the scenario at ``path`` with each plant table, one after the other."""
+    text = path.read_text(encoding="utf-8")
+    rows: list[dict[str, Any]] = []
+    for i, plant in enumerate(tables):
+        rows += model_rows(text, str(path), plant)
+        progress(i + 1, len(tables))
+    return rows
+
+
+def model_rows(text: str, file: str, plant: dict[str, Any]) -> list[dict[str, Any]]:
+    """The metric rows (windows included) of the scenario ``text`` run with ``plant``.
+
+    A module-level function of plain arguments: a process pool can ship it.
+    """
     from ..loops.toml import read_toml
     from .runner import run_scenario
     from .scenario import ScenarioError, parse_scenario_doc
 
-    text = path.read_text(encoding="utf-8")
-    rows: list[dict[str, Any]] = []
-    for i, plant in enumerate(tables):
-        doc = read_toml(text, str(path), ScenarioError)
-        doc["plant"] = plant
-        rows += run_scenario(parse_scenario_doc(doc, file=str(path))).metrics
-        progress(i + 1, len(tables))
-    return rows
+    doc = read_toml(text, file, ScenarioError)
+    doc["plant"] = plant
+    return [{k: v for k, v in m.items() if k != "scenario"}
+            for m in run_scenario(parse_scenario_doc(doc, file=file)).metrics]  # fmt: skip
 
 
 def _run_models(path: Path, tables: list[dict[str, Any]], runner: ModelRunner,
@@ -430,7 +571,7 @@ def _run_models(path: Path, tables: list[dict[str, Any]], runner: ModelRunner,
 
     def progress(done: int, total: int) -> None:
         if done in marks:
-            say(f"uncertain models: {done}/{total} run")
+            say(f"uncertain models ({path.name}): {done}/{total} run")
 
     rows = runner(path, tables, progress)
     per = len(rows) // len(tables)
@@ -480,163 +621,6 @@ def _metrics(ctrls, per_model, corners: bool, n_mc: int) -> dict[str, Any]:
     return out
 
 
-# ---------------------------------------------------------------------------
-# The verdict: sentences, each with the numbers of compare.json it quotes
-# ---------------------------------------------------------------------------
-
-
-def _q(path: Sequence[Any], value: float, scale: float = 1.0, fmt: str = ".4g") -> dict[str, Any]:
-    return {"path": list(path), "scale": scale, "fmt": fmt, "shown": _num(value, scale, fmt)}
-
-
-def _num(value: float, scale: float = 1.0, fmt: str = ".4g") -> str:
-    if value is None or not math.isfinite(value):
-        return "not finite"
-    return format(scale * value, fmt)
-
-
-def _less(a: float, b: float) -> float:
-    """``100 (1 - a/b)``: how many per cent ``a`` is below ``b``."""
-    return 100.0 * (1.0 - a / b) if b > 0 else 0.0
-
-
-_WORDS = {
-    "iae_tracking": ("tracks the set-point step", "the set-point step", "IAE"),
-    "iae_load": ("rejects the load", "the load rejection", "IAE"),
-}
-
-
-def _verdict(s: dict[str, Any]) -> list[dict[str, Any]]:
-    """Plain-words sentences; each lists the JSON paths of the numbers it quotes."""
-    ctrls, res = s["controllers"], s["metrics"]
-    said: list[dict[str, Any]] = []
-    for i, c in enumerate(ctrls):
-        if c["params"] is not None and not c["eligible"]:
-            mg = c["margins"]
-            if mg and mg["stable"]:
-                q = [_q(["controllers", i, "margins", "ms"], mg["ms"], fmt=".3g")]
-                text = f"{c['name']} is left out: Ms = {q[0]['shown']} > {MS_LIMIT:g} on the model."
-            else:
-                q, text = [], f"{c['name']} is left out: {'unstable' if mg else 'no margins'} "
-                text += "on the model."
-            said.append({"text": text, "quotes": q})
-        elif c["params"] is None:
-            said.append({"text": f"{c['name']} is not tuned: {c['error']}", "quotes": []})
-    ok = [c["name"] for c in ctrls if c["eligible"]]
-    kinds = {t: [c["name"] for c in ctrls if c["eligible"] and c["type"] == t]
-             for t in ("PID", "ADRC")}  # fmt: skip
-    if not ok:
-        said.append({"text": "No tuning is stable with Ms <= 2 on the model: no verdict.",
-                     "quotes": []})  # fmt: skip
-        return said
-
-    def val(name: str, m: str, where: str = "model") -> float:
-        v = res[name][where][m]
-        return math.inf if v is None or not math.isfinite(v) else v
-
-    for key, (does, _what, iae) in _WORDS.items():
-        best = min(ok, key=lambda n: val(n, key))
-        q = [_q(["metrics", best, "model", key], val(best, key))]
-        text = f"{best} {does} best on the model ({iae} {q[0]['shown']}"
-        others = [n for n in ok if n != best]
-        if others:
-            nxt = min(others, key=lambda n: val(n, key))
-            q.append(_q(["metrics", nxt, "model", key], val(nxt, key)))
-            text += f"; {_less(val(best, key), val(nxt, key)):.0f} % less than {nxt}, "
-            text += q[1]["shown"]
-        said.append({"text": text + ").", "quotes": q})
-        spread = res[best]["corners"].get(key)
-        if spread:
-            q = [_q(["metrics", best, "corners", key, j], spread[j]) for j in (0, 1)]
-            said.append({"text": f"Over the uncertainty corners its {iae} ranges "
-                         f"{q[0]['shown']}..{q[1]['shown']}.", "quotes": q})  # fmt: skip
-    for kind in ("PID", "ADRC"):
-        if not kinds[kind]:
-            tuned = [c for c in ctrls if c["type"] == kind and c["params"] is not None]
-            why = (f"none is stable with Ms <= {MS_LIMIT:g} on the model" if tuned
-                   else "none could be tuned, as said above")  # fmt: skip
-            said.append({"text": f"No {kind} tuning is in the verdict ({why}).", "quotes": []})
-    if kinds["ADRC"] and kinds["PID"]:
-        for key, tv in (("iae_tracking", "tv_u_tracking"), ("iae_load", "tv_u_load")):
-            said.append(_kind_sentence(res, kinds, key, tv, val))
-    contenders = [min(kinds[k], key=lambda n: val(n, "iae_load")) for k in kinds if kinds[k]]
-    said += _corner_overshoot(res, contenders, val)
-    if s.get("monte_carlo"):
-        said += _monte_carlo_sentences(s, res, contenders)
-    return said
-
-
-def _kind_sentence(res, kinds, key: str, tv: str, val) -> dict[str, Any]:
-    """Best ADRC against best PID on one experiment, with their MV travel."""
-    _does, what, iae = _WORDS[key]
-    a = min(kinds["ADRC"], key=lambda n: val(n, key))
-    p = min(kinds["PID"], key=lambda n: val(n, key))
-    va, vp, ta, tp = val(a, key), val(p, key), val(a, tv), val(p, tv)
-    qa, qp = _q(["metrics", a, "model", key], va), _q(["metrics", p, "model", key], vp)
-    qta, qtp = _q(["metrics", a, "model", tv], ta), _q(["metrics", p, "model", tv], tp)
-    if abs(va - vp) <= _TIE * max(va, vp):
-        text = (f"PID and ADRC tie on {what} ({key}): {a} {iae} {qa['shown']}, {p} "
-                f"{qp['shown']}")  # fmt: skip
-        win_t, lose_t, win_q, lose_q = ta, tp, qta, qtp
-    else:
-        (w, vw, qw, win_t, win_q), (lo, vl, ql, lose_t, lose_q) = sorted(
-            [(a, va, qa, ta, qta), (p, vp, qp, tp, qtp)], key=lambda x: x[1]
-        )
-        kind = "ADRC" if w == a else "PID"
-        text = (f"{kind} wins {what} ({key}): {w} has {_less(vw, vl):.0f} % less {iae} than "
-                f"{lo} ({qw['shown']} against {ql['shown']})")  # fmt: skip
-    first = "ADRC" if win_q is qta else "PID"
-    if abs(win_t - lose_t) <= _SIMILAR_TV * max(win_t, lose_t):
-        how = "at similar MV travel"
-    elif win_t < lose_t:
-        how = f"with {_less(win_t, lose_t):.0f} % less MV travel"
-    elif win_t < 2.0 * lose_t:
-        how = f"with {100.0 * (win_t / lose_t - 1.0):.0f} % more MV travel"
-    elif lose_t > 0.0:
-        how = f"with {win_t / lose_t:.2g} times the MV travel"
-    else:  # the other controller did not move the MV at all in these windows
-        how = "moving the MV where the other does not"
-    text += f", {how} ({first} {win_q['shown']} against {lose_q['shown']})."
-    return {"text": text, "quotes": [qa, qp, qta, qtp]}
-
-
-def _corner_overshoot(res, contenders, val) -> list[dict[str, Any]]:
-    """The overshoot of the contenders under +30 % dead time (worst of those corners)."""
-    out = []
-    pct = round(100 * BOX["dead_time"])
-    for n in contenders:
-        worst = res[n]["dead_time_plus"].get("overshoot")
-        if worst is None:
-            continue
-        q = [
-            _q(["metrics", n, "dead_time_plus", "overshoot"], worst, 100.0, ".3g"),
-            _q(["metrics", n, "model", "overshoot"], val(n, "overshoot"), 100.0, ".3g"),
-        ]
-        verb = "grows to" if worst > val(n, "overshoot") else "stays at"
-        out.append({"text": f"Under +{pct} % dead time (the worst of the corners with it) the "
-                    f"set-point overshoot of {n} {verb} {q[0]['shown']} % ({q[1]['shown']} % on "
-                    "the model).", "quotes": q})  # fmt: skip
-    return out
-
-
-def _monte_carlo_sentences(s, res, contenders) -> list[dict[str, Any]]:
-    mc = s["monte_carlo"]
-    out = []
-    for key in ("iae_load", "iae_tracking"):
-        _does, what, iae = _WORDS[key]
-        parts, q = [], []
-        for n in contenders:
-            st = res[n]["monte_carlo"][key]
-            qm = _q(["metrics", n, "monte_carlo", key, "median"], st["median"])
-            qw = _q(["metrics", n, "monte_carlo", key, "worst"], st["worst"])
-            q += [qm, qw]
-            parts.append(f"{n} median {qm['shown']}, worst {qw['shown']}")
-        out.append({"text": f"Over {mc['n']} models drawn from the uncertainty box (seed "
-                    f"{mc['seed']}) the {iae} of {what}: " + "; ".join(parts) + ".",
-                    "quotes": q})  # fmt: skip
-    return out
-
-
 def jsonable(x: Any) -> Any:
     if isinstance(x, dict):
         return {k: jsonable(v) for k, v in x.items()}
@@ -647,104 +631,3 @@ def jsonable(x: Any) -> Any:
     if isinstance(x, np.floating):
         return jsonable(float(x))
     return x
-
-
-# ---------------------------------------------------------------------------
-# The report
-# ---------------------------------------------------------------------------
-
-
-def _range(v: Any, scale: float) -> str:
-    return "–" if not v else f"{_cell(v[0], '.4g', scale)} .. {_cell(v[1], '.4g', scale)}"
-
-
-def _cell(x: Any, fmt: str = ".4g", scale: float = 1.0) -> str:
-    return "–" if x is None or not math.isfinite(x) else format(scale * x, fmt)
-
-
-def _unit(label: str, role: str) -> str:
-    """``"PV: p3 [bar]"`` -> ``"bar"``; no unit -> ``role`` (``"PV"``: in the units of the data)."""
-    return label[label.rindex("[") + 1 : -1] if label.endswith("]") else role
-
-
-def _report(out: Path, summary, t, u, y, model, nominal, y_label: str, u_label: str) -> None:
-    from ..tuning.plot import plot_identification
-    from .plot import plot_result
-
-    yu, uu = _unit(y_label, "PV"), _unit(u_label, "MV")
-    known = (yu, uu) != ("PV", "MV")
-    plot_identification(t, u, y, model, out / "fit.png", y_label=y_label, u_label=u_label,
-                        gain_unit=f"{yu}/{uu}" if known else None)  # fmt: skip
-    pngs = plot_result(nominal, out)
-    iae_u, mv_u, ki_u = f"{yu}·s", uu, f"{uu}/({yu}·s)"
-    units = "" if known else " PV and MV in the units of the data."
-    lines = [
-        "# ctrlblocks compare: ADRC or PID on the identified process",
-        "",
-        f"Model used: {summary['why']}; tunings, margins and simulations are all on it.{units}",
-        "",
-        "![fit](fit.png)",
-        "",
-        "## Tunings and margins on the model",
-        "",
-        f"| controller | parameters | Ms | GM | PM [deg] | ki [{ki_u}] | in the verdict |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for c in summary["controllers"]:
-        mg = c.get("margins") or {}
-        params = ", ".join(f"{k} = {v:.4g}" for k, v in (c["params"] or {}).items()
-                           if not isinstance(v, bool))  # fmt: skip
-        if c.get("b0_rule"):
-            params += f" (inverse half-rule b0 {c['b0_rule']:.4g})"
-        lines.append(
-            f"| {c['name']} | {params or c.get('error', '')} | {_cell(mg.get('ms'), '.3f')} | "
-            f"{_cell(mg.get('gm'), '.3g')} | {_cell(mg.get('pm'), '.1f')} | "
-            f"{_cell(mg.get('ki'), '.4g')} | {'yes' if c['eligible'] else '**no**'} |"
-        )
-    lines += [
-        "",
-        f"## Metrics on the model (set-point step {summary['step']:.4g} {yu}, input load "
-        f"{summary['load']:.4g} {uu})",
-        "",
-        f"| controller | IAE step [{iae_u}] | overshoot [%] | settling [s] | MV travel step "
-        f"[{mv_u}] | IAE load [{iae_u}] | peak error load [{yu}] | MV travel load [{mv_u}] |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for name, m in summary["metrics"].items():
-        v = m["model"]
-        lines.append(
-            f"| {name} | {_cell(v['iae_tracking'])} | {_cell(v['overshoot'], '.3g', 100)} | "
-            f"{_cell(v['settling_time'])} | {_cell(v['tv_u_tracking'])} | "
-            f"{_cell(v['iae_load'])} | {_cell(v['peak_load'])} | {_cell(v['tv_u_load'])} |"
-        )
-    box = (f"gain ±{100 * BOX['gain']:g} %, T ±{100 * BOX['time_constant']:g} %, "
-           f"L ±{100 * BOX['dead_time']:g} %")  # fmt: skip
-    heads = (f"| controller | IAE step [{iae_u}] | overshoot [%] | IAE load [{iae_u}] | "
-             f"MV travel load [{mv_u}] |")  # fmt: skip
-    cols = (("iae_tracking", 1.0), ("overshoot", 100.0), ("iae_load", 1.0), ("tv_u_load", 1.0))
-    if any(m["corners"] for m in summary["metrics"].values()):
-        lines += ["", f"## Spread over the 8 uncertainty corners ({box}): min .. max", "",
-                  heads, "|---|---|---|---|---|"]  # fmt: skip
-        for name, m in summary["metrics"].items():
-            cells = [_range(m["corners"].get(k), scale) for k, scale in cols]
-            lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    mc = summary.get("monte_carlo")
-    if mc:
-        lines += ["", f"## Over {mc['n']} models drawn uniformly from the box (seed "
-                  f"{mc['seed']}): median / worst", "", heads, "|---|---|---|---|---|"]  # fmt: skip
-        for name, m in summary["metrics"].items():
-            cells = []
-            for k, scale in cols:
-                st = m["monte_carlo"][k]
-                cell = f"{_cell(st['median'], '.4g', scale)} / {_cell(st['worst'], '.4g', scale)}"
-                if st["not_finite"]:
-                    cell += f" ({st['not_finite']} not finite)"
-                cells.append(cell)
-            lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    lines += [""]
-    lines += [f"![{p.stem} on the model]({p.name})" for p in pngs]
-    lines += ["", "## Verdict", ""]
-    lines += [f"- {s['text']}" for s in summary["verdict"]]
-    lines += ["", "The scenario that was run: `compare.toml` (edit it and run `ctrlblocks run "
-              "compare.toml`); all numbers: `compare.json`.", ""]  # fmt: skip
-    (out / "compare.md").write_text("\n".join(lines), encoding="utf-8")

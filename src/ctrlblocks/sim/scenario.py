@@ -566,10 +566,11 @@ class _Parser(SpecReader):
 
         The keys are checked here; the bump test (the plant without actuator
         and sensor, stepped by ``du`` from the initial MV), the FOPDT fit, the
-        rule (``amigo``, ``simc``, ``zn``, ``lambda``, or ``adrc``: Nowak et
-        al. 2018's inverse half-rule and bandwidths with ``settling_time``;
-        without it the safe default by Ms on the better of the FOPDT and SOPDT
-        fits, b0 searched) and the margins of the tuned parameters on the fit
+        rule (``migo``: the PID design of ``ctrlblocks compare``; ``amigo``,
+        ``simc``, ``zn``, ``lambda``; or ``adrc``: Nowak et al. 2018's inverse
+        half-rule and bandwidths with ``settling_time``, without it the ADRC
+        design of ``ctrlblocks compare``, both designs to ``ms`` on the FOPDT or
+        SOPDT fit with the smaller BIC) and the margins of the tuned parameters on the fit
         are :func:`ctrlblocks.tuning.bump.tune_from_bump_test` (the
         report recomputes them for the whole block table).  The parameters
         found replace those of the block table.

@@ -95,6 +95,7 @@ __all__ = [
     "adrc_bandwidth",
     "adrc_config",
     "adrc_tuning",
+    "log_walk",
     "mv_noise",
 ]
 
@@ -465,29 +466,9 @@ def _search_b0(
                 found[b0] = (ki, s, bw, w)
         return found[b0][0]
 
-    lo_f, hi_f = (math.log(f) / math.log(_B0_STEP) for f in _B0_FACTORS)
-    steps = range(math.floor(lo_f), math.ceil(hi_f) + 1)
-    grid = [rule.b0 * _B0_STEP**j for j in steps]
-    j0 = grid.index(rule.b0)
-    # walk up and down from the rule's b0 while ki grows (one maximum: Ms binds the b0 that
-    # is too small through a slow omega_c, the sample time the b0 that is too large)
-    best = j0
-    for direction in (1, -1):
-        j = j0 + direction
-        while 0 <= j < len(grid) and score(grid[j]) > score(grid[j - direction]):
-            j += direction
-        if 0 <= j - direction < len(grid) and score(grid[j - direction]) > score(grid[best]):
-            best = j - direction
-    score(grid[best])
-    if not math.isfinite(found[grid[best]][0]):
+    best_b0 = log_walk(score, rule.b0, _B0_FACTORS, step=_B0_STEP)
+    if not math.isfinite(score(best_b0)):
         rule.safe(target, ts, factor)  # raises the rule's own "no ADRC of order n" error
-    lo = grid[max(best - 1, 0)]
-    hi = grid[min(best + 1, len(grid) - 1)]
-    mid = grid[best]
-    for _ in range(2):  # bisections of log b0 around the best point
-        pts = [lo, math.sqrt(lo * mid), mid, math.sqrt(mid * hi), hi]
-        i = max(range(5), key=lambda k: score(pts[k]))
-        lo, mid, hi = pts[max(i - 1, 0)], pts[i], pts[min(i + 1, 4)]
     s = found[max(found, key=lambda b: found[b][0])][1]
     s.tol = rule.tol
     bw, w = s.safe(target, ts, factor)
@@ -703,3 +684,35 @@ def _nice_floor(x: float) -> float:
         if m * 10.0**e <= x * (1 + 1e-12):
             return float(f"{m * 10.0**e:.12g}")
     return float(f"{10.0 ** (e - 1) * 5.0:.12g}")  # pragma: no cover - unreachable
+
+
+def log_walk(score, start: float, factors: tuple[float, float], *, step: float = 1.5,
+             scan: bool = False) -> float:  # fmt: skip
+    """The ``x`` with the largest ``score(x)`` in ``start * factors``: a walk in factors of
+    ``step`` from ``start`` up and down while the score grows (one maximum), then two
+    bisections of ``log x`` around the best point.  ``scan``: when the walk finds no
+    finite score, every grid point is tried (else ``start`` is returned, its score
+    not finite).  ``score`` should cache: points are asked again."""
+    lo_j = math.floor(math.log(factors[0]) / math.log(step))
+    hi_j = math.ceil(math.log(factors[1]) / math.log(step))
+    grid = [start * step**j for j in range(lo_j, hi_j + 1)]
+    j0 = grid.index(start)
+    best = j0
+    for direction in (1, -1):
+        j = j0 + direction
+        while 0 <= j < len(grid) and score(grid[j]) > score(grid[j - direction]):
+            j += direction
+        if 0 <= j - direction < len(grid) and score(grid[j - direction]) > score(grid[best]):
+            best = j - direction
+    if not math.isfinite(score(grid[best])):
+        if not scan:
+            return start
+        best = max(range(len(grid)), key=lambda i: score(grid[i]))
+        if not math.isfinite(score(grid[best])):
+            return start
+    lo, mid, hi = grid[max(best - 1, 0)], grid[best], grid[min(best + 1, len(grid) - 1)]
+    for _ in range(2):
+        pts = [lo, math.sqrt(lo * mid), mid, math.sqrt(mid * hi), hi]
+        i = max(range(5), key=lambda q: score(pts[q]))
+        lo, mid, hi = pts[max(i - 1, 0)], pts[i], pts[min(i + 1, 4)]
+    return mid

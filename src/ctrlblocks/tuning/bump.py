@@ -9,12 +9,14 @@ of :func:`~ctrlblocks.tuning.pid_rules.pid_from_model` or the ADRC tuning of
 block as configured (the scenario table's parameters with the tuned ones) on
 the fitted model (:mod:`ctrlblocks.tuning.margins`).
 
-The ADRC's safe default (no settling time) is tuned as ``ctrlblocks compare``
-tunes it: on the better of the FOPDT and SOPDT fits (:func:`better_model`: the
-SOPDT when its fit error is below :data:`SOPDT_GAIN` times the FOPDT's) with
-``b0`` searched jointly with the bandwidths (``adrc_tuning(b0_search=True)``),
-and its margins are those on that model.  With a settling time the paper's
-rule is applied as written: inverse half-rule b0 and bandwidths on the FOPDT.
+The ADRC without a settling time and the PID rule ``migo`` are designed as
+``ctrlblocks compare`` designs them (:mod:`ctrlblocks.tuning.design`: the
+smallest load IAE with ``Ms <= ms``, default 1.6, and the MV noise from the
+record's PV noise within 5 % of the bump) on the FOPDT or SOPDT fit with the
+smaller BIC (:func:`ctrlblocks.tuning.select.select_model`), and their margins
+are those on that model.  With a settling time the paper's rule is applied as
+written: inverse half-rule b0 and bandwidths on the FOPDT; the other PID rules
+work on the FOPDT fit.
 The scenario parser checks the table's keys and calls this function; every
 tuning failure is a ``ValueError``.
 """
@@ -26,40 +28,20 @@ from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError
 
-__all__ = ["PID_RULES", "SOPDT_GAIN", "better_model", "fopdt_of", "tune_from_bump_test"]
+__all__ = ["PID_RULES", "better_model", "fopdt_of", "tune_from_bump_test"]
 
-SOPDT_GAIN = 0.8
-"""The SOPDT is used when its fit error is below this fraction of the FOPDT's."""
-
-PID_RULES = ("amigo", "simc", "zn", "lambda")
-"""The PID rules of ``[controllers.tune]`` (``rule = "adrc"`` for an ADRC)."""
+PID_RULES = ("migo", "amigo", "simc", "zn", "lambda")
+"""The PID rules of ``[controllers.tune]`` (``rule = "adrc"`` for an ADRC); ``migo`` is
+the design of ``ctrlblocks compare``."""
 
 
 def better_model(t: Any, u: Any, y: Any, fopdt: Any = None) -> tuple[Any, Any, Any, str]:
-    """``(fopdt, sopdt or None, the model used, why)`` of a bump test ``(t, u, y)``.
+    """``(fopdt, sopdt or None, the model used, why)`` of a bump test ``(t, u, y)``:
+    the fit with the smaller BIC (:func:`ctrlblocks.tuning.select.select_model`)."""
+    from .select import select_model
 
-    Both least-squares fits (``fopdt`` if already fitted); the SOPDT is used
-    when its normalised RMS error is below :data:`SOPDT_GAIN` times the
-    FOPDT's (the second lag explains the record, not only the noise).
-    """
-    from .identify import fit_fopdt, fit_sopdt
-
-    fo = fit_fopdt(t, u, y) if fopdt is None else fopdt
-    try:
-        so = fit_sopdt(t, u, y)
-    except ValueError:
-        so = None
-    if so is not None and so.fit < SOPDT_GAIN * fo.fit:
-        why = (f"SOPDT: its fit error {100 * so.fit:.3g} % is below {SOPDT_GAIN:g} times the "
-               f"FOPDT's {100 * fo.fit:.3g} %")  # fmt: skip
-        return fo, so, so, why
-    why = "FOPDT: " + (
-        "the SOPDT fit failed"
-        if so is None
-        else f"the SOPDT's fit error {100 * so.fit:.3g} % is not below {SOPDT_GAIN:g} times "
-        f"the FOPDT's {100 * fo.fit:.3g} %"
-    )
-    return fo, so, fo, why
+    c = select_model(t, u, y, fopdt)
+    return c.fopdt, c.sopdt, c.model, c.why
 
 
 def fopdt_of(model: Any) -> tuple[float, float, float]:
@@ -146,7 +128,10 @@ def tune_from_bump_test(
         or None when the block's configuration has no linear margins, e.g. a
         PID with a PV filter) and ``warnings``.
     """
+    import numpy as np
+
     from .adrc import MS_DEFAULT, adrc_tuning
+    from .design import MV_NOISE_FRACTION, design_adrc, design_pid
     from .identify import fit_fopdt
     from .pid_rules import pid_from_model
     from .relay import bump_test
@@ -159,8 +144,13 @@ def tune_from_bump_test(
         t, u, y = record
     model = fit_fopdt(t, u, y)
     tuned_on, why = model, "FOPDT"
-    if block_type == "ADRC" and settling_time is None:
+    designed = rule == "migo" or (block_type == "ADRC" and settling_time is None)
+    if designed:
         _fo, _so, tuned_on, why = better_model(t, u, y, model)
+    t_arr, u_arr, y_arr = (np.asarray(v, float) for v in (t, u, y))
+    noise = float(np.std(y_arr - tuned_on.response(t_arr, u_arr)))
+    budget = MV_NOISE_FRACTION * abs(float(u_arr[-1] - u_arr[0]) or 1.0)
+    target = MS_DEFAULT if ms is None else ms
     info: dict[str, Any] = {
         "rule": rule,
         "du": du if record is None else float(u[-1] - u[0]),
@@ -176,14 +166,24 @@ def tune_from_bump_test(
     if block_type == "ADRC":
         if rule != "adrc":
             raise ParameterError(ErrorCode.BAD_PARAMETER, "rule", "an ADRC is tuned by 'adrc'")
-        res = adrc_tuning(
-            *fopdt_of(tuned_on), order,
-            settling_time=settling_time, ts=ts, ms=MS_DEFAULT if ms is None else ms,
-            discretisation=str(params.get("discretisation", "euler")),
-            model=tuned_on, b0_search=settling_time is None,
-        )  # fmt: skip
-        tuned: dict[str, Any] = res.settings()  # reverse = True for a negative gain
-        warnings += res.warnings
+        disc = str(params.get("discretisation", "euler"))
+        if settling_time is None:
+            d = design_adrc(tuned_on, order, ts, ms=target, noise_std=noise,
+                            mv_noise_max=budget, discretisation=disc)  # fmt: skip
+            tuned: dict[str, Any] = dict(d.params)
+            warnings += d.warnings
+        else:
+            res = adrc_tuning(
+                *fopdt_of(tuned_on), order, settling_time=settling_time, ts=ts, ms=target,
+                discretisation=disc, model=tuned_on,
+            )  # fmt: skip
+            tuned = res.settings()  # reverse = True for a negative gain
+            warnings += res.warnings
+    elif rule == "migo":
+        dp = design_pid(tuned_on, ts, ms=target, noise_std=noise, mv_noise_max=budget,
+                        controller=controller)  # fmt: skip
+        tuned = dict(dp.params)
+        warnings += dp.warnings
     else:
         res_pid = pid_from_model(model, rule, controller=controller)
         tuned = {"kp": abs(res_pid.kp), "ti": res_pid.ti, "td": res_pid.td}

@@ -6,8 +6,14 @@
         [--u-before U] [--y-unit bar] [--u-unit %] [the CSV options of .csv_options:
         --delimiter --decimal --encoding --time-format --tz --bad-rows --gaps --start --end]
     ctrlblocks tune adrc --gain K --time-constant T --dead-time L --order N [--settling-time S]
-    ctrlblocks tune pid  --gain K --time-constant T --dead-time L --rule simc|amigo|zn|lambda
+    ctrlblocks tune pid  --gain K --time-constant T --dead-time L [--rule migo|simc|amigo|zn|lambda]
     ctrlblocks tune pid  --ku KU --pu PU --rule zn|tyreus-luyben
+
+Without ``--settling-time`` (ADRC) and with ``--rule migo`` (PID, the default)
+the tunings are the designs of ``ctrlblocks compare``
+(:mod:`ctrlblocks.tuning.design`): the smallest load IAE with ``Ms <= --ms``
+and, with ``--noise-std`` and ``--u-noise-max``, the MV noise within that
+budget, on the FOPDT (or with ``--time-constant-2`` the SOPDT) model.
 
 ``tune`` prints the margins of the tuning on its model (``ms``, ``gm``,
 ``pm`` [deg], ``wc_crossover`` [rad/s], ``stable``; :mod:`.margins`).
@@ -19,6 +25,7 @@ clear message; bad option syntax exits with status 2 (click's usage error).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -198,12 +205,13 @@ def tune() -> None:
 ADRC_INFO_KEYS = (
     "b0_min", "b0_max", "settling_time", "settling_time_model", "settling_time_loop",
     "fastest_settling_time", "ms_target", "ms", "gm", "pm", "wc_crossover", "stable",
-    "warnings", "plot",
+    "ki", "mv_noise", "model", "warnings", "plot",
 )  # fmt: skip
 """Informational keys of ``tune adrc --json``: drop them and ``ADRC(**rest, u_min=, u_max=)``."""
 
 PID_INFO_KEYS = (
-    "rule", "note", "margins_ts", "ms", "gm", "pm", "wc_crossover", "stable", "warnings", "plot",
+    "rule", "note", "margins_ts", "ms_target", "ms", "gm", "pm", "wc_crossover", "stable", "ki",
+    "mv_noise", "model", "warnings", "plot",
 )  # fmt: skip
 """Informational keys of ``tune pid --json``: drop them and ``PID(**rest, ts=, u_min=, u_max=)``."""
 
@@ -251,10 +259,16 @@ def _write_plot(lp, mg, path: str, title: str) -> None:
 @_model_options(True)
 @click.option("--order", type=int, required=True, help="ADRC order n (1, 2 or 3).")
 @click.option(
+    "--time-constant-2", type=float, default=0.0,
+    help="SOPDT second time constant [s]: the design and the margins are on the SOPDT.",
+)  # fmt: skip
+@click.option(
     "--settling-time",
     type=float,
-    help="Desired settling time [s] (the rule's tau_set); refused when the loop on the model "
-    "is unstable or has Ms > 2 (see --force). Default: the fastest with Ms <= --ms.",
+    help="Desired settling time [s] (the rule's tau_set, Nowak et al. 2018); refused when the "
+    "loop on the model is unstable or has Ms > 2 (see --force). Default: the design of "
+    "ctrlblocks compare (b0, omega_c and omega_o searched for the smallest load IAE with "
+    "Ms <= --ms).",
 )
 @click.option(
     "--ms", "ms", type=float, default=1.6, show_default=True,
@@ -263,8 +277,9 @@ def _write_plot(lp, mg, path: str, title: str) -> None:
 @click.option("--force", is_flag=True, help="Keep a fragile or unstable --settling-time.")
 @click.option("--ts", type=float, help="Controller sample time [s]; suggested if not given.")
 @click.option(
-    "--observer-ratio", type=float, default=5.0, show_default=True, help="omega_o / omega_c."
-)
+    "--observer-ratio", type=float, default=None,
+    help="omega_o / omega_c (default: 3, 5 and 10 searched; with --settling-time 5).",
+)  # fmt: skip
 @click.option(
     "--discretisation", type=click.Choice(("euler", "exact")), default="euler",
     show_default=True, help="The ADRC block's discretisation the margins are computed for.",
@@ -278,29 +293,41 @@ def tune_adrc(
     time_constant: float,
     dead_time: float,
     order: int,
+    time_constant_2: float,
     settling_time: float | None,
     ms: float,
     force: bool,
     ts: float | None,
-    observer_ratio: float,
+    observer_ratio: float | None,
     discretisation: str,
     noise_std: float | None,
     u_noise_max: float | None,
     as_json: bool,
     plot_path: str | None,
 ) -> None:
-    """ADRC: b0 by the inverse half-rule, omega_c and omega_o with margins on the model.
+    """ADRC: the design of ctrlblocks compare, or the paper's bandwidth rule with --settling-time.
 
     The margins (Ms, gain margin, phase margin [deg], crossover [rad/s],
-    closed-loop stability) are those of the sampled loop on the FOPDT,
-    dead time exact.
+    closed-loop stability) are those of the sampled loop on the model
+    (FOPDT, or SOPDT with --time-constant-2), dead time exact.
     """
     from .adrc import adrc_tuning
 
+    if settling_time is None:
+        _tune_adrc_designed(gain, time_constant, dead_time, order, time_constant_2, ms, ts,
+                            observer_ratio, discretisation, noise_std, u_noise_max, as_json,
+                            plot_path)  # fmt: skip
+        return
+    if time_constant_2:
+        raise click.UsageError(
+            "--time-constant-2 goes with the designed tuning (no --settling-time): the paper's "
+            "rule works on the FOPDT"
+        )
     try:
         r = adrc_tuning(
             gain, time_constant, dead_time, order,
-            settling_time=settling_time, ts=ts, observer_ratio=observer_ratio,
+            settling_time=settling_time, ts=ts,
+            observer_ratio=5.0 if observer_ratio is None else observer_ratio,
             noise_std=noise_std, u_noise_max=u_noise_max, ms=ms, force=force,
             discretisation=discretisation,
         )  # fmt: skip
@@ -341,7 +368,82 @@ def tune_adrc(
           f"margins on the model: {r.margins.summary()}")  # fmt: skip
 
 
-_PID_RULES = ("simc", "amigo", "zn", "lambda", "tyreus-luyben")
+def _model(gain: float, time_constant: float, dead_time: float, time_constant_2: float):
+    """The FOPDT, or with a second time constant the SOPDT (refused as a ClickException)."""
+    from .identify import FOPDT, SOPDT
+
+    given = {"--gain": gain, "--time-constant": time_constant, "--dead-time": dead_time,
+             "--time-constant-2": time_constant_2}  # fmt: skip
+    for name, v in given.items():
+        if not math.isfinite(v):
+            raise click.ClickException(f"{name}: must be a finite number, got {v!r}")
+    if gain == 0.0:
+        raise click.ClickException("--gain: must be non-zero")
+    if time_constant <= 0.0 or dead_time < 0.0 or time_constant_2 < 0.0:
+        raise click.ClickException(
+            "--time-constant must be > 0, --dead-time and --time-constant-2 >= 0 [s]"
+        )
+    if time_constant_2 > 0.0:
+        t1, t2 = max(time_constant, time_constant_2), min(time_constant, time_constant_2)
+        return SOPDT(gain, t1, dead_time, t2)
+    return FOPDT(gain, time_constant, dead_time)
+
+
+def _design_inputs(gain, time_constant, dead_time, time_constant_2, noise_std, u_noise_max,
+                   ts):  # fmt: skip
+    """``(model, ts)`` of a designed tuning: the options checked, ``ts`` by default
+    :func:`~ctrlblocks.tuning.design.default_ts` of the model's FOPDT (half rule)."""
+    from .design import default_ts
+
+    model = _model(gain, time_constant, dead_time, time_constant_2)
+    if (noise_std is None) != (u_noise_max is None):
+        raise click.UsageError("give both --noise-std and --u-noise-max, or neither")
+    t_lag = time_constant + time_constant_2 / 2
+    h = default_ts(t_lag, dead_time + time_constant_2 / 2) if ts is None else ts
+    if not (math.isfinite(h) and h > 0.0):
+        raise click.ClickException(f"--ts: must be a finite number > 0 [s], got {ts!r}")
+    return model, h
+
+
+def _design_out(d, model) -> dict:
+    """The keys of a designed tuning: the block's, then the informational ones."""
+    mg = d.margins
+    out = {**d.params, "ts": d.ts, "ms_target": d.ms_target, **_margin_keys(mg), "ki": d.ki}
+    if math.isfinite(d.mv_noise):
+        out["mv_noise"] = d.mv_noise
+    out["model"] = model.as_dict()["model"]
+    out["warnings"] = list(d.warnings)
+    return out
+
+
+def _tune_adrc_designed(gain, time_constant, dead_time, order, time_constant_2, ms, ts,
+                        observer_ratio, discretisation, noise_std, u_noise_max, as_json,
+                        plot_path) -> None:  # fmt: skip
+    """``tune adrc`` without a settling time: :func:`~ctrlblocks.tuning.design.design_adrc`."""
+    from .design import OBSERVER_RATIOS, design_adrc
+
+    model, h = _design_inputs(gain, time_constant, dead_time, time_constant_2, noise_std,
+                              u_noise_max, ts)  # fmt: skip
+    ratios = OBSERVER_RATIOS if observer_ratio is None else (observer_ratio,)
+    try:
+        d = design_adrc(model, order, h, ms=ms, noise_std=noise_std, mv_noise_max=u_noise_max,
+                        ratios=ratios, discretisation=discretisation)  # fmt: skip
+    except ValueError as exc:
+        raise click.ClickException(str(exc)) from None
+    out = _design_out(d, model)
+    out["discretisation"] = discretisation
+    if plot_path:
+        _write_plot(d.loop(model), d.margins, plot_path,
+                    f"ADRC n = {order}: b0 = {d.params['b0']:.4g}, omega_c = "
+                    f"{d.params['omega_c']:.4g} rad/s, omega_o = {d.params['omega_o']:.4g} rad/s, "
+                    f"ts = {h:g} s")  # fmt: skip
+        out["plot"] = plot_path
+    _emit(_finite(out), as_json, f"ADRC order {order} designed for the smallest load IAE with "
+          f"Ms <= {ms:g} on the {model.as_dict()['model'].upper()} (as ctrlblocks compare); "
+          f"margins: {d.margins.summary()}")  # fmt: skip
+
+
+_PID_RULES = ("migo", "simc", "amigo", "zn", "lambda", "tyreus-luyben")
 
 
 @tune.command("pid")
@@ -349,9 +451,10 @@ _PID_RULES = ("simc", "amigo", "zn", "lambda", "tyreus-luyben")
 @click.option(
     "--rule",
     type=click.Choice(_PID_RULES),
-    required=True,
-    help="Tuning rule; zn and tyreus-luyben take --ku/--pu (zn without them: the "
-    "step-response rule).",
+    default="migo",
+    show_default=True,
+    help="migo: the design of ctrlblocks compare (smallest load IAE with Ms <= --ms); or a "
+    "rule; zn and tyreus-luyben take --ku/--pu (zn without them: the step-response rule).",
 )
 @click.option("--ku", type=float, help="Ultimate gain (relay experiment) [MV unit / PV unit].")
 @click.option("--pu", type=float, help="Ultimate period [s].")
@@ -360,12 +463,21 @@ _PID_RULES = ("simc", "amigo", "zn", "lambda", "tyreus-luyben")
     help="Controller type (SIMC gives PID only with --time-constant-2).",
 )  # fmt: skip
 @click.option(
-    "--time-constant-2", type=float, default=0.0, help="SOPDT second time constant [s] (SIMC)."
-)
+    "--time-constant-2", type=float, default=0.0,
+    help="SOPDT second time constant [s]: migo designs on the SOPDT, SIMC uses it as tau_D, "
+    "AMIGO, zn and lambda take the SOPDT's half-rule FOPDT; the margins are on the SOPDT.",
+)  # fmt: skip
+@click.option("--ms", "ms", type=float, default=1.6, show_default=True,
+              help="migo: maximum sensitivity target (1.4 robust, 2 aggressive).")  # fmt: skip
+@click.option("--noise-std", type=float, help="migo: PV noise standard deviation.")
+@click.option("--u-noise-max", type=float, help="migo: acceptable MV noise standard deviation.")
+@click.option("--smith", is_flag=True, help="migo: the PID inside a Smith predictor.")
 @click.option("--tau-c", type=float, help="Closed-loop time constant [s] (SIMC tau_c, lambda).")
-@click.option("--n", "n_filter", type=float, default=10.0, show_default=True,
-              help="Derivative filter N (Tf = Td/N) of the PID, for the margins.")  # fmt: skip
-@click.option("--ts", type=float, help="Sample time [s] of the margins; default min(T, L)/10.")
+@click.option("--n", "n_filter", type=float, default=None,
+              help="Derivative filter N (Tf = Td/N) of the PID, for the margins of a rule "
+              "(default 10; migo chooses it).")  # fmt: skip
+@click.option("--ts", type=float, help="Sample time [s] of the design and the margins; default "
+              "min(T, L)/40 for migo, min(T, L)/10 for a rule.")  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @_plot_option
 def tune_pid(
@@ -377,13 +489,22 @@ def tune_pid(
     pu: float | None,
     controller: str,
     time_constant_2: float,
+    ms: float,
+    noise_std: float | None,
+    u_noise_max: float | None,
+    smith: bool,
     tau_c: float | None,
-    n_filter: float,
+    n_filter: float | None,
     ts: float | None,
     as_json: bool,
     plot_path: str | None,
 ) -> None:
-    """PID (ISA form: kp, ti, td) by SIMC, AMIGO, Ziegler-Nichols, Tyreus-Luyben or lambda.
+    """PID (ISA form: kp, ti, td) by the design of compare (migo) or a rule.
+
+    migo (the default): the smallest load IAE with Ms <= --ms (and the MV
+    noise within --u-noise-max for --noise-std), derivative filter and
+    set-point weight included, as ctrlblocks compare designs it; or SIMC,
+    AMIGO, Ziegler-Nichols, Tyreus-Luyben, lambda.
 
     kp is printed as a magnitude with reverse = true for a negative process
     gain, ready for ctrlblocks.PID(kp=, ti=, td=, reverse=, form=) (drop the
@@ -406,6 +527,21 @@ def tune_pid(
         raise click.UsageError("the Tyreus-Luyben rule needs --ku and --pu")
     if ultimate and rule not in ("zn", "tyreus-luyben"):
         raise click.UsageError(f"--ku/--pu go with --rule zn or tyreus-luyben, not {rule}")
+    if ultimate and time_constant_2:
+        raise click.UsageError(
+            "--time-constant-2 is a model's, and the ultimate-point rules do not use a model: "
+            "give the SOPDT (--gain, --time-constant, --dead-time, --time-constant-2) with "
+            "--rule migo, simc, amigo, zn or lambda"
+        )
+    if rule != "migo" and (smith or noise_std is not None or u_noise_max is not None):
+        raise click.UsageError("--smith, --noise-std and --u-noise-max go with --rule migo")
+    if rule == "migo" and n_filter is not None:
+        raise click.UsageError("--rule migo chooses the derivative filter itself; leave out --n")
+    if rule == "migo":
+        _tune_pid_designed(gain, time_constant, dead_time, time_constant_2, ms, noise_std,
+                           u_noise_max, smith, controller, ts, as_json, plot_path)  # fmt: skip
+        return
+    n_filter = 10.0 if n_filter is None else n_filter
     try:
         if ultimate:
             assert ku is not None and pu is not None
@@ -415,12 +551,19 @@ def tune_pid(
             tun = r.simc(
                 gain, time_constant, dead_time, time_constant_2=time_constant_2, tau_c=tau_c
             )
-        elif rule == "amigo":
-            tun = r.amigo(gain, time_constant, dead_time, controller=controller)
-        elif rule == "zn":
-            tun = r.ziegler_nichols_open(gain, time_constant, dead_time, controller=controller)
         else:
-            tun = r.lambda_tuning(gain, time_constant, dead_time, lam=tau_c, controller=controller)
+            # an SOPDT: the rule's FOPDT by Skogestad's half rule (as pid_from_model)
+            k, t_h, l_h = gain, time_constant + time_constant_2 / 2, dead_time + time_constant_2 / 2
+            if rule == "amigo":
+                tun = r.amigo(k, t_h, l_h, controller=controller)
+            elif rule == "zn":
+                tun = r.ziegler_nichols_open(k, t_h, l_h, controller=controller)
+            else:
+                tun = r.lambda_tuning(k, t_h, l_h, lam=tau_c, controller=controller)
+            if time_constant_2:
+                half = (f"on the SOPDT's half-rule FOPDT (T = {t_h:.4g} s, L = {l_h:.4g} s; "
+                        "Skogestad 2003)")  # fmt: skip
+                tun = dataclasses.replace(tun, note="; ".join(x for x in (tun.note, half) if x))
         out: dict = {**tun.as_kwargs(), "form": tun.form, "rule": tun.rule}
         if tun.note:
             out["note"] = tun.note
@@ -449,6 +592,38 @@ def tune_pid(
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
     out["warnings"] = warnings
+    _emit(_finite(out), as_json, title)
+
+
+def _tune_pid_designed(gain, time_constant, dead_time, time_constant_2, ms, noise_std,
+                       u_noise_max, smith, controller, ts, as_json, plot_path) -> None:  # fmt: skip
+    """``tune pid --rule migo``: :func:`~ctrlblocks.tuning.design.design_pid`."""
+    from .design import design_pid
+
+    if gain is None:
+        raise click.UsageError("--rule migo needs the model (--gain, --time-constant, --dead-time)")
+    model, h = _design_inputs(gain, time_constant, dead_time, time_constant_2, noise_std,
+                              u_noise_max, ts)  # fmt: skip
+    try:
+        d = design_pid(model, h, ms=ms, noise_std=noise_std, mv_noise_max=u_noise_max,
+                       controller=controller, smith=smith)  # fmt: skip
+    except ValueError as exc:
+        raise click.ClickException(str(exc)) from None
+    out = {**d.params, "reverse": bool(d.params.get("reverse", False)), "form": "isa",
+           "rule": "migo"}  # fmt: skip
+    rest = _design_out(d, model)
+    rest.pop("ts")
+    out.update({"margins_ts": d.ts, **{k: v for k, v in rest.items() if k not in out}})
+    if smith:
+        out["note"] = "inside a Smith predictor on the model (structure = \"smith\")"
+    title = (f"PID (migo: the smallest load IAE with Ms <= {ms:g} on the "
+             f"{model.as_dict()['model'].upper()}, as ctrlblocks compare; ISA form); margins at "
+             f"ts = {d.ts:g} s: {d.margins.summary()}")  # fmt: skip
+    if plot_path:
+        _write_plot(d.loop(model), d.margins, plot_path,
+                    f"PID (migo): kp = {d.params['kp']:.4g}, ti = {d.params['ti']:.4g} s, "
+                    f"td = {d.params['td']:.4g} s, ts = {d.ts:g} s")  # fmt: skip
+        out["plot"] = plot_path
     _emit(_finite(out), as_json, title)
 
 

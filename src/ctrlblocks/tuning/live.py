@@ -31,8 +31,11 @@ What a plant needs from a live experiment, and what this class guarantees:
 
 The proposals: for a step test the FOPDT fit
 (:func:`~ctrlblocks.tuning.identify.fit_fopdt`) gives PID settings by AMIGO
-and SIMC (Åström & Hägglund 2006; Skogestad 2003) and the ADRC of order 2 by
-the inverse half-rule and bandwidth tuning (Nowak et al. 2018, section 3); for
+and SIMC (Åström & Hägglund 2006; Skogestad 2003), and the designs of
+``ctrlblocks compare`` (:mod:`ctrlblocks.tuning.design`: the smallest load IAE
+with ``Ms <= 1.6`` and the MV noise from the record's PV noise within 5 % of
+the step) of a PID (``PID_MIGO``) and an ADRC of order 2 (``ADRC_2``), on the
+same FOPDT (the model the runtime computes the proposals' margins on); for
 the relay the ultimate point gives Ziegler-Nichols and Tyreus-Luyben PID
 settings (Ziegler & Nichols 1942; Tyreus & Luyben 1992).
 """
@@ -52,7 +55,6 @@ from ..blocks.base import (
     require_nonnegative,
     require_positive,
 )
-from .adrc import adrc_tuning
 from .identify import fit_fopdt
 from .pid_rules import amigo, simc, tyreus_luyben, ziegler_nichols_closed
 from .relay import RelayExperiment, StepExperiment
@@ -211,6 +213,12 @@ class LiveTuner:
             return self.u0
         return u
 
+    def record(self) -> tuple[Any, Any, Any] | None:
+        """``(t, u, y)`` of a finished step test (what the model was fitted to); None otherwise."""
+        if isinstance(self._exp, StepExperiment) and not self.running:
+            return self._exp.record()
+        return None
+
     def abort(self, reason: str = "aborted by the operator") -> None:
         """End the experiment now; :meth:`step` returns ``u0`` from here on."""
         if self.running:
@@ -260,16 +268,24 @@ def _step_result(exp: StepExperiment) -> TuningResult:
     t, u, y = exp.record()
     model = fit_fopdt(t, u, y)
     warnings = [] if exp.settled else ["the PV had not settled when the test ended"]
+    import numpy as np
+
+    from .design import MV_NOISE_FRACTION, design_adrc, design_pid
+
     proposals = {
         "PID_AMIGO": _pid_proposal(amigo(model.gain, model.time_constant, model.dead_time)),
         "PI_SIMC": _pid_proposal(simc(model.gain, model.time_constant, model.dead_time)),
     }
+    noise = float(np.std(np.asarray(y, float) - model.response(t, u)))
+    kw = {"noise_std": noise, "mv_noise_max": MV_NOISE_FRACTION * abs(float(u[-1] - u[0]))}
     try:
-        adrc = adrc_tuning(model.gain, model.time_constant, model.dead_time, 2, ts=exp.ts)
-        proposals["ADRC_2"] = {
-            "type": "ADRC", "order": 2, "b0": adrc.b0, "omega_c": adrc.omega_c,
-            "omega_o": adrc.omega_o, "reverse": adrc.reverse,  # as the PIDs' proposals
-        }  # fmt: skip
+        pid = design_pid(model, exp.ts, **kw)
+        proposals["PID_MIGO"] = {"type": "PID", "reverse": False, **pid.params}
+    except ParameterError as exc:
+        warnings.append(f"no PID_MIGO proposal: {exc}")
+    try:
+        adrc = design_adrc(model, 2, exp.ts, **kw)
+        proposals["ADRC_2"] = {"type": "ADRC", "reverse": False, **adrc.params}
         warnings += adrc.warnings
     except ParameterError as exc:  # e.g. a dead time too long for every bandwidth
         warnings.append(f"no ADRC proposal: {exc}")

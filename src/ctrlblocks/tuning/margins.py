@@ -67,11 +67,14 @@ __all__ = [
     "DiscreteSS",
     "Loop",
     "Margins",
+    "SmithSS",
     "controller_ss",
     "loop",
     "margins",
     "model_plant",
+    "plant_response",
     "plant_ss",
+    "smith_ss",
 ]
 
 MS_FRAGILE = 2.0
@@ -95,6 +98,12 @@ class DiscreteSS:
     """Which states hold MV values (a controller's integrator, its last output; the
     rest hold PV values and their rates): :meth:`Loop.poles` scales them with the
     process gain.  Empty: none does."""
+    delay: tuple[int, int] | None = None
+    """``(source, m)``: the last states from ``m`` on are a shift register of the state
+    ``source`` (the ADRC's ``input_delay`` history of its last u, oldest first: state
+    ``m + j`` is ``source`` delayed by ``n - m - j`` samples).  :meth:`response` then
+    solves the ``m`` other states only (a register of 200 samples makes the full
+    matrix ill-conditioned for a transfer function, and slow to solve)."""
 
     def response(self, w: np.ndarray) -> np.ndarray:
         """Frequency response at ``w`` [rad/s]: array (len(w), outputs, inputs), complex."""
@@ -102,9 +111,31 @@ class DiscreteSS:
         n = self.a.shape[0]
         if n == 0:
             return np.broadcast_to(self.d, (len(z), *self.d.shape)).astype(complex)
+        if self.delay is not None:
+            return self._delayed_response(z)
         m = z[:, None, None] * np.eye(n) - self.a
         x = np.linalg.solve(m, np.broadcast_to(self.b, (len(z), *self.b.shape)))
         return self.c @ x + self.d
+
+    def _delayed_response(self, z: np.ndarray) -> np.ndarray:
+        """:meth:`response` with the register states written as delays of their source."""
+        assert self.delay is not None
+        src, m = self.delay
+        n = self.a.shape[0]
+        # the register's states that act on the rest (the oldest one, for the ADRC)
+        used = np.flatnonzero(np.any(self.a[:m, m:] != 0.0, axis=0)
+                              | np.any(self.c[:, m:] != 0.0, axis=0))  # fmt: skip
+        lags = (n - m - used).astype(float)  # state m + j is the source delayed by n - m - j
+        zd = np.exp(-1j * np.log(z)[:, None].imag * lags[None, :])  # z^-lag on |z| = 1
+        # x_reg = zd * x_src: fold the register's columns into the source's column
+        a_eff = np.broadcast_to(self.a[:m, :m], (len(z), m, m)).astype(complex).copy()
+        a_eff[:, :, src] += zd @ self.a[:m, m + used].T
+        c_eff = np.broadcast_to(self.c[:, :m], (len(z), *self.c[:, :m].shape)).astype(complex)
+        c_eff = c_eff.copy()
+        c_eff[:, :, src] += zd @ self.c[:, m + used].T
+        lhs = z[:, None, None] * np.eye(m) - a_eff
+        x = np.linalg.solve(lhs, np.broadcast_to(self.b[:m], (len(z), m, self.b.shape[1])))
+        return c_eff @ x + self.d
 
 
 # ---------------------------------------------------------------------------
@@ -180,8 +211,14 @@ _ADRC_STATES = {
 }
 
 
-def controller_ss(block: PID | ADRC) -> DiscreteSS:
+def controller_ss(block: PID | ADRC, *, direct: bool = False) -> DiscreteSS:
     """The discrete 2-DOF controller of ``block`` inside its limits: inputs ``[r, y]``, output u.
+
+    An ADRC with an ``input_delay`` of ``d > 1`` samples is read with a delay of
+    one sample and its history extended to ``d`` samples (only the oldest value
+    feeds the ESO; the others shift): the same matrices as reading all ``d``
+    history states one by one (``direct=True``, a test compares them), without
+    ``d`` cycles of the block.
 
     The block's configuration is copied with infinite output limits (the
     margins are those of the linear loop); the matrices come from one cycle of
@@ -190,6 +227,10 @@ def controller_ss(block: PID | ADRC) -> DiscreteSS:
     refused (its law is then not the plain linear one analysed here).
     """
     cfg = block.config
+    nd = round(float(getattr(cfg, "input_delay", 0.0)) / float(cfg.ts))
+    if isinstance(block, ADRC) and nd > 1 and not direct:
+        one = ADRC(cfg, input_delay=float(cfg.ts), u_min=-math.inf, u_max=math.inf)
+        return _extend_history(controller_ss(one), nd)
     if isinstance(block, ADRC):
         probe: PID | ADRC = ADRC(cfg, u_min=-math.inf, u_max=math.inf, anti_backoff=False)
         fields = _ADRC_STATES[int(cfg.order)]  # x2, x3 unused below order 2, 3
@@ -216,15 +257,20 @@ def controller_ss(block: PID | ADRC) -> DiscreteSS:
     probe(0.0, 0.0)  # leave the first-cycle start-up (ESO start, PID cold start)
     probe(0.0, 0.0)
     template = probe.snapshot()
-    n = len(fields)
+    # the ADRC's input_delay: the history of applied u the ESO is fed from, oldest first
+    n_hist = len(template.get("_u_hist", ()))
+    n = len(fields) + n_hist
 
     def cycle(x: Sequence[float], r: float, y: float) -> tuple[np.ndarray, float]:
         snap = dict(template)
-        snap.update(zip(fields, (float(v) for v in x), strict=True))
+        snap.update(zip(fields, (float(v) for v in x[: len(fields)]), strict=True))
+        if n_hist:
+            snap["_u_hist"] = tuple(float(v) for v in x[len(fields) :])
         probe.restore(snap)
         u = float(probe(r, y))
         new = probe.snapshot()
-        return np.array([float(new[f]) for f in fields]), u
+        hist = [float(v) for v in new["_u_hist"]] if n_hist else []
+        return np.array([float(new[f]) for f in fields] + hist), u
 
     a = np.zeros((n, n))
     b = np.zeros((n, 2))
@@ -237,7 +283,112 @@ def controller_ss(block: PID | ADRC) -> DiscreteSS:
         a[:, j], c[0, j] = cycle(e, 0.0, 0.0)
     b[:, 0], d[0, 0] = cycle(zero, 1.0, 0.0)
     b[:, 1], d[0, 1] = cycle(zero, 0.0, 1.0)
-    return DiscreteSS(a, b, c, d, float(cfg.ts), tuple(f in _MV_STATES for f in fields))
+    mv = tuple(f in _MV_STATES for f in fields) + (True,) * n_hist
+    delay = (fields.index("_u_prev"), len(fields)) if n_hist else None
+    return DiscreteSS(a, b, c, d, float(cfg.ts), mv, delay)
+
+
+def plant_response(p: LinearPlant, w: np.ndarray) -> np.ndarray:
+    """``P(e^{j w ts})`` of a sampled plant from its own matrices (dead time as ``z^-d``)."""
+    z = np.exp(1j * np.asarray(w, float) * p.ts)
+    n = p.n_states
+    m = z[:, None, None] * np.eye(n) - p.phi
+    g = p.gamma0[None, :] + p.gamma1[None, :] / z[:, None]
+    x = np.linalg.solve(m, g[:, :, None])[:, :, 0]
+    return (x @ p.c) * z ** (-p.dead_samples)
+
+
+@dataclass(frozen=True)
+class SmithSS(DiscreteSS):
+    """The state space of :func:`smith_ss`, with its frequency response from the parts.
+
+    ``inner`` is the block's controller, ``models`` the predictor's plants
+    ``(M0, M)``: ``[C_r, -C_y] / (1 + C_y (M0 - M))`` (the matrices of the
+    whole controller, with both models' states and the dead-time register, are
+    for the poles; their response would need a solve of that size per frequency).
+    """
+
+    inner: DiscreteSS | None = None
+    models: tuple[LinearPlant, LinearPlant] | None = None
+
+    def response(self, w: np.ndarray) -> np.ndarray:
+        assert self.inner is not None and self.models is not None
+        g = self.inner.response(w).copy()
+        dm = plant_response(self.models[0], w) - plant_response(self.models[1], w)
+        cy = -g[:, 0, 1]
+        den = 1.0 + cy * dm
+        g[:, 0, 0] /= den
+        g[:, 0, 1] /= den
+        return g
+
+
+def _extend_history(one: DiscreteSS, nd: int) -> DiscreteSS:
+    """The controller of a one-sample ``input_delay`` with its history made ``nd`` samples long."""
+    assert one.delay is not None
+    src, m = one.delay
+    n = m + nd
+    a = np.zeros((n, n))
+    a[:m, :m] = one.a[:m, :m]
+    a[:m, m] = one.a[:m, m]  # the oldest value feeds the ESO
+    for j in range(nd - 1):
+        a[m + j, m + j + 1] = 1.0  # the history shifts
+    a[n - 1, :m] = one.a[m, :m]  # the newest value: the last u (the source state)
+    b = np.zeros((n, one.b.shape[1]))
+    b[:m] = one.b[:m]
+    c = np.zeros((1, n))
+    c[0, :m] = one.c[0, :m]
+    c[0, m] = one.c[0, m]
+    mv = tuple(one.mv_states[:m]) + (True,) * nd
+    return DiscreteSS(a, b, c, one.d.copy(), one.ts, mv, (src, m))
+
+
+def smith_ss(ctrl: DiscreteSS, model: Any) -> DiscreteSS:
+    """The controller ``ctrl`` inside a Smith predictor on ``model``: inputs ``[r, y]``, output u.
+
+    The structure of :class:`ctrlblocks.loops.structures.Smith` (Nowak et al.
+    2018, section 3.1), in the simulator's order: the block reads
+    ``y_f = y + y_M0 - y_M`` (``M`` the model sampled at the controller's
+    ``ts`` with its dead time, ``M0`` the same without the dead time; both
+    strictly proper, their outputs of this cycle from their states), computes
+    ``u``, then both models advance with ``u``.  States: the block's, then
+    ``M0``'s, then ``M``'s (with its input shift register).  ``model`` is the
+    predictor's model, which need not be the process the loop runs on.
+    """
+    import dataclasses
+
+    ts = ctrl.ts
+    fast_plant, fast = _sampled(dataclasses.replace(model, dead_time=0.0), ts)
+    slow_plant, slow = _sampled(model, ts)
+    nc, n0, nm = ctrl.a.shape[0], fast.a.shape[0], slow.a.shape[0]
+    n = nc + n0 + nm
+    # y_f = y + H x_models, H = [c0, -cm]
+    h = np.zeros((1, n))
+    h[0, nc : nc + n0] = fast.c[0]
+    h[0, nc + n0 :] = -slow.c[0]
+    ex = np.zeros((nc, n))
+    ex[:, :nc] = np.eye(nc)
+    by, dy = ctrl.b[:, 1:2], ctrl.d[0, 1]
+    c_u = ctrl.c[0] @ ex + dy * h[0]  # u = c_u X + d_r r + d_y y
+    d_u = ctrl.d[0].copy()
+    a = np.zeros((n, n))
+    b = np.zeros((n, 2))
+    a[:nc] = ctrl.a @ ex + by @ h
+    b[:nc] = ctrl.b
+    for lo, ss in ((nc, fast), (nc + n0, slow)):
+        k = ss.a.shape[0]
+        a[lo : lo + k, lo : lo + k] += ss.a
+        a[lo : lo + k] += ss.b @ c_u[None, :]
+        b[lo : lo + k] += ss.b @ d_u[None, :]
+    mv = list(ctrl.mv_states) + [False] * (nc - len(ctrl.mv_states))
+    mv += _register_flags(fast, fast_plant)
+    mv += _register_flags(slow, slow_plant)
+    return SmithSS(a, b, c_u[None, :], d_u[None, :], ts, tuple(mv), None, ctrl,
+                   (fast_plant, slow_plant))  # fmt: skip
+
+
+def _register_flags(ss: DiscreteSS, plant: LinearPlant) -> list[bool]:
+    """Which states of :func:`plant_ss` hold past MVs (the input shift register)."""
+    return [False] * plant.n_states + [True] * (ss.a.shape[0] - plant.n_states)
 
 
 # ---------------------------------------------------------------------------
@@ -328,12 +479,14 @@ class Loop:
     ----------
     model : FOPDT, SOPDT, Integrating or LinearPlant
         The process model (dead time exact).
-    block : PID or ADRC
-        The configured controller; its ``ts`` is the loop's sample time.
+    block : PID, ADRC or DiscreteSS
+        The configured controller; its ``ts`` is the loop's sample time.  A
+        :class:`DiscreteSS` with inputs ``[r, y]`` is a whole controller
+        already (e.g. a block inside a Smith predictor, :func:`smith_ss`).
     """
 
-    def __init__(self, model: Any, block: PID | ADRC) -> None:
-        self.ctrl = controller_ss(block)
+    def __init__(self, model: Any, block: PID | ADRC | DiscreteSS) -> None:
+        self.ctrl = block if isinstance(block, DiscreteSS) else controller_ss(block)
         self.ts = self.ctrl.ts
         self.plant, self.pss = _sampled(model, self.ts)
 
@@ -341,13 +494,7 @@ class Loop:
 
     def process(self, w: np.ndarray) -> np.ndarray:
         """``P(e^{j w ts})`` from the plant's own matrices (dead time as ``z^-d``)."""
-        p = self.plant
-        z = np.exp(1j * np.asarray(w, float) * self.ts)
-        n = p.n_states
-        m = z[:, None, None] * np.eye(n) - p.phi
-        g = p.gamma0[None, :] + p.gamma1[None, :] / z[:, None]
-        x = np.linalg.solve(m, g[:, :, None])[:, :, 0]
-        return (x @ p.c) * z ** (-p.dead_samples)
+        return plant_response(self.plant, w)
 
     def controller(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(C_r, C_y)`` at ``w``: ``u = C_r r - C_y y`` (``C_y`` the feedback part)."""
