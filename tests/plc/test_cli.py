@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from importlib import resources
 
 from click.testing import CliRunner
@@ -77,6 +78,7 @@ def test_a_reverse_acting_adrc_from_tune_adrc_exports_with_reverse(tmp_path):
     assert json.loads(r.output)["reverse"] is True
     tuned = tmp_path / "adrc.json"
     tuned.write_text(r.output)
-    r = _run("export", "--from-json", str(tuned), "--set", "ts=0.1")
+    r = _run("export", "--from-json", str(tuned))  # at the tuning's ts
     assert r.exit_code == 0, r.output
     assert "FUNCTION_BLOCK CB_ADRC" in r.output and "REVERSE : BOOL := TRUE;" in r.output
+    assert re.search(r"^    TS : REAL := 0\.02;", r.output, re.M)
