@@ -46,9 +46,10 @@ class Run:
     outputs: list[dict[str, Any]] = field(default_factory=list)
 
 
-def _value(rng: np.random.Generator, plain: float, p_hostile: float) -> float:
+def _value(rng: np.random.Generator, plain: float, p_hostile: float,
+           pool: tuple[float, ...] = HOSTILE) -> float:  # fmt: skip
     if rng.random() < p_hostile:
-        return float(HOSTILE[rng.integers(len(HOSTILE))])
+        return float(pool[rng.integers(len(pool))])
     return plain
 
 
@@ -103,10 +104,13 @@ _LL_RETUNES: dict[str, Any] = {
 _LIMIT_FIELDS = {"pid": ("u_min", "u_max"), "adrc": ("u_min", "u_max"),
                  "leadlag": ("out_min", "out_max")}  # fmt: skip
 def _tuning(block: Any) -> dict[str, Any]:
-    """The FB's tuning inputs (PLC name -> value) for the block's configuration."""
+    """The FB's tuning inputs (PLC name -> value) for the block's configuration (as REALs
+    for a float32 block, as they are for a float64 one)."""
     spec = spec_for(block)
     tuning = [v for v in spec.inputs if v.st not in spec.process]
-    vals = pc.real_args({v.py: spec.values[v.py] for v in tuning})  # limits: +-REAL_MAX
+    vals = {v.py: spec.values[v.py] for v in tuning}
+    if block.config.precision == "float32":
+        vals = pc.real_args(vals)  # limits: +-REAL_MAX
     return {v.st: (x.item() if isinstance(x := vals[v.py], np.generic) else x) for v in tuning}
 
 
@@ -124,12 +128,15 @@ def _retune(block: Any, kind: str, rng: np.random.Generator) -> bool:
 
 
 def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
-                  p_hostile: float = 0.04, **config: Any) -> tuple[Any, Run]:  # fmt: skip
-    """``n`` hostile samples for a float32 ``kind`` block (``"pid"``, ``"adrc"``,
-    ``"leadlag"``) configured with ``config``: (the starting block to export, the run)."""
+                  p_hostile: float = 0.04, precision: str = "float32",
+                  pool: tuple[float, ...] = HOSTILE, **config: Any) -> tuple[Any, Run]:  # fmt: skip
+    """``n`` hostile samples for a ``precision`` (float32: the FB's REAL) ``kind`` block
+    (``"pid"``, ``"adrc"``, ``"leadlag"``) configured with ``config``, its process values
+    drawn from ``pool`` with probability ``p_hostile``: (the starting block to export, the
+    run)."""
     rng = np.random.default_rng(seed)
     make = {"pid": PID, "adrc": ADRC, "leadlag": LeadLag}[kind]
-    block = make(**config, precision="float32")
+    block = make(**config, precision=precision)
     start = make(**config)
     written: dict[str, Any] = _tuning(block)
     run = Run()
@@ -152,7 +159,7 @@ def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
         pv = pv + 0.2 * (x - pv) * 0.1 + float(rng.normal(0.0, 0.3))
         if not math.isfinite(pv) or abs(pv) > 1e6:
             pv = 40.0
-        spv, pvv = _value(rng, sp, p_hostile), _value(rng, pv, p_hostile)
+        spv, pvv = _value(rng, sp, p_hostile, pool), _value(rng, pv, p_hostile, pool)
         ok = rng.random() > 0.02
         if kind == "pid":
             for mode, attr in (("MANUAL", "manual"), ("RST", "reset_active"), ("TRACK", "track"),
@@ -163,13 +170,13 @@ def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
                     inp[mode] = modes[mode]
             if rng.random() < 0.03:
                 block.manual_value = inp["MAN_VALUE"] = _value(rng, float(rng.uniform(0, 100)),
-                                                               0.3)  # fmt: skip
+                                                               0.3, pool)  # fmt: skip
             if rng.random() < 0.03:
                 block.track_value = inp["TRACK_VALUE"] = _value(rng, float(rng.uniform(0, 100)),
-                                                                0.3)  # fmt: skip
-            block.actuator_pos = inp["ACTUATOR_POS"] = _value(rng, x, p_hostile / 2)
-            ff = _value(rng, float(rng.normal(0.0, 1.0)), p_hostile / 2)
-            dv = _value(rng, float(np.sin(_k / 20.0)), p_hostile / 2)
+                                                                0.3, pool)  # fmt: skip
+            block.actuator_pos = inp["ACTUATOR_POS"] = _value(rng, x, p_hostile / 2, pool)
+            ff = _value(rng, float(rng.normal(0.0, 1.0)), p_hostile / 2, pool)
+            dv = _value(rng, float(np.sin(_k / 20.0)), p_hostile / 2, pool)
             inp.update(SP=spv, PV=pvv, FF=ff, DV=dv, PV_OK=ok)
             x = block(spv, pvv, ff=ff, dv=dv, pv_ok=ok, dt=dt)
             out = {"MV": x, "ERROR_ID": int(block.error_id),
@@ -183,12 +190,17 @@ def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
                     setattr(block, attr, modes[mode])
                     inp[mode] = modes[mode]
             if rng.random() < 0.03:
-                block.u_man = inp["MAN_VALUE"] = _value(rng, float(rng.uniform(0, 100)), 0.3)
-            u_real = _value(rng, x, p_hostile / 2)
+                block.u_man = inp["MAN_VALUE"] = _value(rng, float(rng.uniform(0, 100)), 0.3,
+                                                        pool)  # fmt: skip
+            u_real = _value(rng, x, p_hostile / 2, pool)
             inp.update(SP=spv, PV=pvv, PV_OK=ok, U_REAL=u_real)
             x = block(spv, pvv, y_ok=ok, u_real=u_real, dt=dt)
+            x1, x2, x3, x4 = block.x
             out = {"MV": x, "ERROR_ID": int(block.error_id), "AWOUT": bool(block.awout),
-                   "U_RAW": block.u_raw, "MAN_VALUE": block.u_man}  # fmt: skip
+                   "U_RAW": block.u_raw, "MAN_VALUE": block.u_man,
+                   # the outputs of Nowak et al. 2018, Fig. 2
+                   "E": block.e, "Y": block.y, "Y_REF": block.y_ref, "X1": x1, "X2": x2,
+                   "X3": x3, "DISTURBANCE": x4}  # fmt: skip
         else:
             if rng.random() < (0.01 if modes.get("ENABLE", True) else 0.1):
                 modes["ENABLE"] = not modes.get("ENABLE", True)

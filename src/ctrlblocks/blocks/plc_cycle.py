@@ -537,6 +537,8 @@ def pid_cycle(
     db_width: float,
     t_stab: float,
     out: float,
+    p: float,
+    i_term: float,
     i: float,
     d: float,
     w_prev: float,
@@ -750,8 +752,8 @@ def pid_cycle(
             ok = False
             if err == NO_ERROR:
                 err = BAD_INPUT
-    p = 0.0
-    i_term = i
+    # the terms shown (P, I_TERM, D_TERM) are those of the last cycle that ran the law: a
+    # cycle that holds (bad input, bad mode value) shows them unchanged, as the block does
     d_term = d
     overflow = False
     if not ok:
@@ -1167,6 +1169,8 @@ def adrc_cycle(
         x4 = -x4
         ref = -ref
         q = -q
+        e = -e  # the held e and Y of Fig. 2 too (a bad SP or PV in this cycle keeps them)
+        y_last = -y_last
         ab_sat = -ab_sat
         track = True
     rev_prev = reverse
@@ -1320,9 +1324,9 @@ def leadlag_cycle(
         hi = out_max
     else:
         err = BAD_LIMITS
+    out = clamp(out, lo, hi)  # new limits contain the last output (the block's configure)
     if not is_real(x):
-        err = BAD_INPUT
-        out = clamp(out, lo, hi)  # held, within the limits in force (as the block's output guard)
+        err = BAD_INPUT  # the output held
     elif not enable:
         out = clamp(0.0, lo, hi)  # 0, within the output limits (as the block's output guard)
         x_prev = x
@@ -1445,7 +1449,7 @@ def pid_state(config: Any) -> dict[str, Any]:
     u0 = clamp(float(config.reset_value), lo, hi)
     window = max(1, round(config.t_stab / config.ts))
     return {
-        "out": u0, "i": float(config.reset_value),
+        "out": u0, "p": 0.0, "i_term": float(config.reset_value), "i": float(config.reset_value),
         "d": 0.0, "w_prev": 0.0, "e_prev": 0.0, "x": u0, "bias": float(config.reset_value),
         "p_prev": 0.0, "d_prev": 0.0, "ff_prev": 0.0, "sp_f": 0.0, "pv_f": 0.0, "sp_w": 0.0,
         "ll_x": 0.0, "ll_out": 0.0, "suppressed": False, "ramp_out": u0,

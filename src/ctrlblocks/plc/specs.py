@@ -140,9 +140,10 @@ _PID_OUT = _table("""
 mv            MV            manipulated variable [{mv}] (limited)
 error_id      ERROR_ID
 limits_active LIMITS_ACTIVE the output is at a limit (= AWOUT for a cascade)
-p             P             proportional term of this cycle [{mv}]
-i_term        I_TERM        integral term of this cycle [{mv}]
-d_term        D_TERM        derivative term of this cycle [{mv}]
+p             P             proportional term [{mv}] of the last cycle that ran the law (a
+                            cycle that holds on bad input keeps it)
+i_term        I_TERM        integral term [{mv}] (as P)
+d_term        D_TERM        derivative term [{mv}] (as P)
 """)
 _PID_STATE_COMMENTS = {
     "out": "output of the last cycle [{mv}]", "i": "integrator for the next cycle [{mv}]",
@@ -291,7 +292,7 @@ def _spec_for(block: Any) -> BlockSpec:
         values = {**process, **pc.pid_inputs(c), **state, **outputs}
         return BlockSpec("pid", "CB_PID", "PID (ISA form, positional or velocity)", pc.pid_cycle,
                          pc.PID_RESULTS, _PID_PROCESS + _PID_TUNING, _PID_OUT,
-                         _state(state, _PID_STATE_COMMENTS, set()), values, c,
+                         _state(state, _PID_STATE_COMMENTS, {"p", "i_term"}), values, c,
                          frozenset(v.st for v in _PID_PROCESS))  # fmt: skip
     if isinstance(block, ADRC):
         bad = plc_unsupported(c, "adrc")
