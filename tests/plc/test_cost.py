@@ -23,16 +23,16 @@ CASES = [
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, deadband=1.0, t_stab=2.0), "CB_PID",
      {"SP": 50.0, "PV": 50.5}, (69, 96, 19, 30, 5)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (68, 45, 10, 18, 0)),
+     {"SP": 1.0, "PV": 0.5}, (77, 59, 16, 26, 0)),
     (lambda: ADRC(order=2, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (71, 47, 10, 18, 0)),
+     {"SP": 1.0, "PV": 0.5}, (110, 64, 19, 28, 0)),
     (lambda: ADRC(order=2, b0=1.0, u_min=0.0, u_max=100.0, discretisation="exact"), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (111, 49, 12, 21, 0)),
+     {"SP": 1.0, "PV": 0.5}, (118, 59, 18, 28, 0)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (76, 47, 11, 18, 0)),
+     {"SP": 1.0, "PV": 0.5}, (115, 65, 20, 28, 0)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, discretisation="exact"), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (140, 50, 12, 21, 0)),
-    (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 9, 2, 6, 0)),
+     {"SP": 1.0, "PV": 0.5}, (147, 60, 18, 28, 0)),
+    (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 11, 2, 7, 0)),
 ]  # fmt: skip
 
 
