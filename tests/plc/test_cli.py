@@ -55,6 +55,8 @@ def test_export_mistakes_are_messages_not_tracebacks(tmp_path):
     assert r.exit_code == 2 and "no parameter(s) kq" in r.output
     r = _run("export", "pid", "--set", "deadband=0.5", "--set", "ti=1", "--set", "t_stab=20000")
     assert r.exit_code == 1 and "does not cover the PID options ['t_stab']" in r.output
+    r = _run("export", "adrc", "--set", "order=1", "--set", "b0=1", "--set", "input_delay=0.5")
+    assert r.exit_code == 1 and "ADRC option input_delay (= 0.5 s)" in r.output
     r = _run("export", "pid", "--set", "kp=-1")
     assert r.exit_code == 1 and "kp" in r.output
     r = _run("export", "pid", "--set", "novalue")
