@@ -3,17 +3,18 @@
 The real compiler is MATIEC (``test_matiec.py``): every configuration
 compiled strictly and run bit for bit against the ``precision="float32"``
 block over all the traces and the hostile sequences.  This interpreter
-(blark's parser, :mod:`.st_interpreter`) stays for what compiled C cannot
-show: it *poisons* VAR_TEMP and a FUNCTION's locals and outputs at every
-call, so translated code that reads a variable before writing it in the same
-call fails (MATIEC's C zeroes them: such a read passes there and depends on
-the target elsewhere); it checks ARRAY subscripts against the bounds (C does
-not); it refuses reading an instance's VAR from outside the FB (CODESYS
-refuses it, C does not) and REAL/DINT mixing without a conversion; and it
-counts the operations of ``test_cost.py``.  It runs one long trace per block
-kind, one option-rich PID (velocity, back-calculation on the actuator
-position, setpoint tracking, filters) and the dead band's ARRAY case:
-bit-identical, as MATIEC's build is.
+(blark's parser, :mod:`.st_interpreter`) is kept -- behind ``-m slow``, as
+blark's Earley parse costs 5 to 40 s per exported file -- for what compiled
+C cannot show: it *poisons* VAR_TEMP and a FUNCTION's locals and outputs at
+every call, so translated code that reads a variable before writing it in
+the same call fails (MATIEC's C zeroes them: such a read passes there and
+depends on the target elsewhere); it checks ARRAY subscripts against the
+bounds (C does not); it refuses reading an instance's VAR from outside the
+FB (CODESYS refuses it, C does not); and it counts the operations of
+``test_cost.py``.  It runs one long trace per block kind, one option-rich PID
+(velocity, back-calculation on the actuator position, setpoint tracking,
+filters), the exact ADRC and the dead band's ARRAY case: bit-identical, as
+MATIEC's build is.  The sweeps over every trace are MATIEC's alone.
 """
 
 from __future__ import annotations
