@@ -143,6 +143,17 @@ def test_units_in_the_comments_come_from_the_data():
     assert "b0 > 0 [m/s^n per V]" in adrc and "(* process value Y [m] *)" in adrc
 
 
+def test_cb_adrc_has_the_outputs_of_the_papers_fig_2_block():
+    """Nowak et al. 2018, Fig. 2: e, Y, Y_ref and the observer state beside u (the values are
+    the block's: test_cycle.py, test_cycle_hostile.py, and bit for bit test_matiec.py)."""
+    text = plc.export(ADRC(order=3, b0=0.05), units={"pv": "m", "mv": "V"})
+    fb = _pous(text)["CB_ADRC"]
+    outputs = fb[fb.index("VAR_OUTPUT") : fb.index("END_VAR", fb.index("VAR_OUTPUT"))]
+    declared = re.findall(r"^    (\w+) : REAL", outputs, re.M)
+    assert {"MV", "E", "Y", "Y_REF", "X1", "X2", "X3", "DISTURBANCE"} <= set(declared)
+    assert "E : REAL := 0.0; (* control error SP - PV [m]" in outputs
+
+
 def _run(*args: str):
     return CliRunner().invoke(main, list(args), catch_exceptions=False)
 
