@@ -6,12 +6,17 @@
 # (default: ~/.cache/ctrlblocks/matiec-<archive name>), never copied into the project.
 #
 #   tests/plc/build_matiec.sh [ARCHIVE] [CACHE_DIR]
+#   tests/plc/build_matiec.sh --archive      (prints the archive it would build, or exits 2)
 #
 # Prints the directory that holds iec2c and lib/ (what CTRLBLOCKS_MATIEC names) on stdout; the
 # build's own output goes to CACHE_DIR/build.log. A second run with the same archive is a no-op.
 # Needs gcc, make, flex, bison, autoconf, automake, libtool (Debian packages of those names).
+# Exit codes: 2 no source archive, 3 a build tool missing, 4 the build failed (its log's tail
+# on stderr).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
+only_find=""
+if [ "${1:-}" = "--archive" ]; then only_find=1; shift; fi
 archive="${1:-}"
 if [ -z "$archive" ]; then
     # beside the repository; for a git worktree also beside its main checkout
@@ -25,6 +30,7 @@ if [ -z "$archive" ] || [ ! -f "$archive" ]; then
     echo "build_matiec: no MATIEC source archive (looked for ../shared/tools/matiec/matiec-*.tar.gz)" >&2
     exit 2
 fi
+if [ -n "$only_find" ]; then echo "$archive"; exit 0; fi
 name="$(basename "$archive" .tar.gz)"
 cache="${2:-${XDG_CACHE_HOME:-$HOME/.cache}/ctrlblocks/$name}"
 if [ -x "$cache/matiec/iec2c" ] && [ -f "$cache/matiec/lib/C/iec_std_lib.h" ]; then
