@@ -38,6 +38,25 @@ BAD_DT = (0.0, 1e-30, 1e30, math.nan, -0.1)
 """Cycle times a broken task clock may give."""
 
 
+STARTS: list[tuple[str, dict[str, Any]]] = [
+    ("pid", {"kp": 1.5, "ti": 4.0, "td": 0.5, "ts": 0.1, "u_min": 0.0, "u_max": 100.0}),
+    ("pid", {"kp": 2.0, "ti": 3.0, "algorithm": "velocity", "sp_filter": 1.0, "pv_filter": 0.5,
+             "sp_rate": 10.0, "out_rate": 30.0, "ff_k": 1.0, "ff_t_lag": 2.0}),
+    ("pid", {"kp": 1.0, "ti": 2.0, "deadband": 1.0, "t_stab": 1.0, "pv_range": (-50.0, 150.0),
+             "anti_windup": "back_calc_real", "bumpless": "suppress_p_action"}),
+    ("adrc", {"order": 2, "b0": 0.05, "omega_c": 0.5, "omega_o": 2.5, "ts": 0.1, "u_min": 0.0,
+              "u_max": 100.0}),
+    ("adrc", {"order": 3, "b0": 0.01, "omega_c": 0.3, "omega_o": 1.2, "discretisation": "exact",
+              "t_ref": 1.0, "u_real_on": True}),
+    ("adrc", {"order": 1, "b0": 0.5, "anti_backoff": True, "y_sat": 80.0, "y_sat_lo": -5.0,
+              "reverse": True, "u_min": -50.0, "u_max": 50.0}),
+    ("leadlag", {"k": 1.5, "t_lead": 2.0, "t_lag": 1.0, "ts": 0.1}),
+    ("leadlag", {"k": -0.5, "t_lead": 0.0, "t_lag": 0.3, "method": "euler", "out_min": -2.0,
+                 "out_max": 3.0}),
+]  # fmt: skip
+"""Starting configurations of the hostile runs (each retuned at random on the way)."""
+
+
 @dataclass
 class Run:
     """Per sample: the FB inputs written, and the block's outputs by FB name."""
