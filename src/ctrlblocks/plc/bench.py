@@ -32,7 +32,13 @@ __all__ = ["Bench", "FbModel", "default_trace", "record"]
 
 CHECKED = {"pid": ("MV", "ERROR_ID", "LIMITS_ACTIVE"), "adrc": ("MV", "ERROR_ID", "AWOUT"),
            "leadlag": ("OUT", "ERROR_ID")}  # fmt: skip
-"""The outputs the test bench compares after each call, per block kind."""
+"""The outputs the test bench compares after each call, per block kind (the one-cycle
+blocks: every output, :func:`checked`)."""
+
+
+def checked(spec: BlockSpec) -> tuple[str, ...]:
+    """The outputs the test bench of ``spec`` compares after each call."""
+    return CHECKED.get(spec.kind) or tuple(v.st for v in spec.outputs)
 
 
 class FbModel:
@@ -69,6 +75,8 @@ class Bench:
 
     fb: str
     kind: str
+    checked: tuple[str, ...] = ()
+    """The outputs compared after each call."""
     inputs: list[dict[str, Any]] = field(default_factory=list)
     expected: list[dict[str, Any]] = field(default_factory=list)
 
@@ -76,11 +84,11 @@ class Bench:
 def record(spec: BlockSpec, trace: list[dict[str, Any]], fb_name: str | None = None) -> Bench:
     """Run ``trace`` (per sample ``{PLC input: value}``) through :class:`FbModel`."""
     model = FbModel(spec)
-    bench = Bench(fb_name or spec.fb_name, spec.kind)
+    bench = Bench(fb_name or spec.fb_name, spec.kind, checked(spec))
     for inp in trace:
         model(**inp)
         bench.inputs.append(dict(inp))
-        bench.expected.append({k: _plain(model[k]) for k in CHECKED[spec.kind]})
+        bench.expected.append({k: _plain(model[k]) for k in bench.checked})
     return bench
 
 
@@ -99,6 +107,8 @@ def default_trace(spec: BlockSpec, n: int = 120) -> list[dict[str, Any]]:
     plant), so the recorded inputs are those the FB meets in operation; the
     bench replays them open-loop.
     """
+    if spec.kind not in CHECKED:
+        return _cycle_trace(spec, n)
     model = FbModel(spec)
     trace: list[dict[str, Any]] = []
     y, dy = 20.0, 0.0
@@ -153,6 +163,29 @@ def default_trace(spec: BlockSpec, n: int = 120) -> list[dict[str, Any]]:
             b = 100.0 / max(hi - lo, 1e-9) * 0.05
             h = float(spec.values["ts"])
             y, dy = y + h * dy, dy + h * (-0.5 * dy + b * (u - lo) - 0.1 * y)
+    return trace
+
+
+def _cycle_trace(spec: BlockSpec, n: int) -> list[dict[str, Any]]:
+    """The exercise of a one-cycle block (two/three-point, transfer function, set-point
+    program, heat/cool stage), open loop: its REAL process inputs swing through +-60 around
+    0 (SP steps between 0 and 1) with a NaN and an infinite sample; each BOOL process input
+    takes the other value for a few samples twice."""
+    trace: list[dict[str, Any]] = []
+    names = [v for v in spec.inputs if v.st in spec.process]
+    for k in range(n):
+        inp: dict[str, Any] = {}
+        for j, v in enumerate(names):
+            default = spec.values[v.py]
+            if isinstance(default, bool):
+                flip = k in range(int(0.3 * n), int(0.3 * n) + 3) or k == int(0.7 * n) + j
+                inp[v.st] = (not default) if flip else default
+            elif v.st == "SP":
+                inp[v.st] = 0.0 if k < n // 2 else 1.0
+            else:
+                x = 60.0 * math.sin(2.0 * math.pi * k / 40.0) + 0.5 * math.sin(1.7 * k + j)
+                inp[v.st] = math.nan if k == int(0.5 * n) else math.inf if k == int(0.8 * n) else x
+        trace.append(inp)
     return trace
 
 

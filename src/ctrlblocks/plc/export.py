@@ -44,7 +44,7 @@ from xml.sax.saxutils import escape, quoteattr
 import numpy as np
 
 from ..blocks import plc_cycle as pc
-from .bench import CHECKED, Bench, default_trace, record
+from .bench import Bench, default_trace, record
 from .names import iec_name, is_iec_identifier
 from .specs import BlockSpec, spec_for
 from .translate import (
@@ -324,7 +324,7 @@ def bench_unit(ex: Exported, framework: str) -> list[FbDecl]:
         lines.append(f"{inst}({args});")
         if framework == "plain":
             conds = []
-            for n in CHECKED[b.kind]:
+            for n in b.checked:
                 out = f"{inst}.{n}"
                 if types[n] == BOOL:
                     conds.append(out if exp[n] else f"NOT {out}")
@@ -332,13 +332,13 @@ def bench_unit(ex: Exported, framework: str) -> list[FbDecl]:
                     conds.append(f"({out} = {_value(exp[n], types[n])})")
             lines.append(f"{var('check')}(SAMPLE := {k}, OK := {' AND '.join(conds)});")
         else:
-            for n in CHECKED[b.kind]:
+            for n in b.checked:
                 t = types[n]
                 delta = ", Delta := 0.0" if t == REAL else ""
                 lines.append(f"AssertEquals_{t}(Expected := {_value(exp[n], t)}, Actual := "
                              f"{inst}.{n}{delta}, Message := 'sample {k}: {n}');")  # fmt: skip
     title = (f"test bench of {fb.name}: replays {len(b.inputs)} samples recorded from the "
-             f"ctrlblocks block (precision=\"float32\") and compares {', '.join(CHECKED[b.kind])} "
+             f"ctrlblocks block (precision=\"float32\") and compares {', '.join(b.checked)} "
              "after every call, bit for bit")  # fmt: skip
     state: list[Item] = [("fb", fb.name, "", "the block under test"),
                          ("big", REAL, real_literal(_BIG), ""), ("inf_v", REAL, "", ""),
