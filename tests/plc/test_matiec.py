@@ -41,6 +41,7 @@ from . import matiec
 from .hostile import STARTS as HOSTILE
 from .hostile import hostile_trace
 from .plcopen_reader import BeremizReadError, st_from_plcopen
+from .test_cycle_blocks_export import BLOCKS as CYCLE_BLOCKS
 from .traces import (
     ADRC_OPTIONS,
     DB_OPTIONS,
@@ -90,12 +91,16 @@ SMOKE = {"pid": PID(kp=1.2, ti=5.9, td=0.9, ts=0.1, u_min=0.0, u_max=100.0),
          "leadlag": LeadLag(k=2.0, t_lead=1.0, t_lag=3.0, method="euler", out_max=9.0)}  # fmt: skip
 
 
-def test_pid_adrc_and_leadlag_in_one_project_with_test_benches_compile_strictly(tmp_path):
-    """All five configurations, their helpers once, and a test program per block: iec2c
-    without -b (standard syntax only) accepts the file."""
-    src = plc.export(dict(zip([f"CB_{k.upper()}" for k in SMOKE], SMOKE.values(), strict=True)),
-                     "codesys", test="plain")  # fmt: skip
-    matiec.iec2c(src + matiec.configuration([f"CB_{k.upper()}" for k in SMOKE]), tmp_path)
+def test_every_block_kind_in_one_project_with_test_benches_compiles_strictly(tmp_path):
+    """The five PID/ADRC/lead-lag configurations and the five one-cycle blocks (two/three-point,
+    transfer function, set-point program, heat/cool stage), their helpers once, and a test
+    program per block: iec2c without -b (standard syntax only) accepts the file."""
+    blocks = {f"CB_{k.upper()}": b for k, b in SMOKE.items()}
+    blocks.update((k, make()) for k, make in CYCLE_BLOCKS.items())
+    src = plc.export(blocks, "codesys", test="plain")
+    tests = re.findall(r"^PROGRAM (\w+_TEST)$", src, re.M)
+    assert len(tests) == len(blocks)
+    matiec.iec2c(src + matiec.configuration(list(blocks), tests), tmp_path)
 
 
 @pytest.mark.slow
@@ -176,20 +181,22 @@ def _configurations() -> list[tuple[str, Any]]:
             for j, c in enumerate(ADRC_OPTIONS)]  # fmt: skip
     out += [(f"hostile{j}", {"pid": PID, "adrc": ADRC, "leadlag": LeadLag}[k](**c))
             for j, (k, c) in enumerate(HOSTILE)]  # fmt: skip
-    return out
+    return out + [(k.lower(), make()) for k, make in CYCLE_BLOCKS.items()]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("target", ["codesys", "beremiz", "plcopen"])
 def test_every_exported_configuration_compiles_strictly(target, tmp_path):
-    """Every configuration the tests use (33), each with its test bench, in one project: the
-    ST as written (TwinCAT's text is the same, test_export.py), the XML read back to ST (the
-    Beremiz form as Beremiz reads it). TIA's SCL is another language (checked offline)."""
+    """Every configuration the tests use (33) and the five one-cycle blocks, each with its
+    test bench, in one project: the ST as written (TwinCAT's text is the same,
+    test_export.py), the XML read back to ST (the Beremiz form as Beremiz reads it). TIA's
+    SCL is another language (checked offline)."""
     configs = _configurations()
     src = plc.export([b for _n, b in configs], target, test="plain")
     if target in ("beremiz", "plcopen"):
         src = st_from_plcopen(src, "beremiz" if target == "beremiz" else "codesys")
-    fbs = re.findall(r"^FUNCTION_BLOCK (CB_(?:PID|ADRC|LEADLAG)(?:_\d+)?)$", src, re.M)
+    kinds = "PID|ADRC|LEADLAG|TWOPOINT|THREEPOINT|TRANSFER|SETPOINT|HEATCOOL"
+    fbs = re.findall(rf"^FUNCTION_BLOCK (CB_(?:{kinds})(?:_\d+)?)$", src, re.M)
     tests = re.findall(r"^PROGRAM (\w+_TEST)$", src, re.M)
     assert len(fbs) == len(tests) == len(configs)
     matiec.iec2c(src + matiec.configuration(fbs, tests), tmp_path)
@@ -210,9 +217,11 @@ def test_beremiz_xml_read_back_compiles_and_equals_the_block_bit_for_bit(cache):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["pid", "pid_all", "adrc", "adrc_exact", "leadlag"])
+@pytest.mark.parametrize("name", ["pid", "pid_all", "adrc", "adrc_exact", "leadlag",
+                                  *sorted(CYCLE_BLOCKS)])  # fmt: skip
 def test_every_test_bench_passes_on_its_compiled_fb(name, cache):
-    src = plc.export(SMOKE[name], "codesys", test="plain")
+    block = SMOKE[name] if name in SMOKE else CYCLE_BLOCKS[name]()
+    src = plc.export(block, "codesys", test="plain")
     fb = src.split("PROGRAM ")[1].split()[0]
     prog = matiec.build(src, cache, [], [fb]).instance(fb)
     prog()
