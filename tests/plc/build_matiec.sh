@@ -2,7 +2,9 @@
 # Build MATIEC (iec2c, the IEC 61131-3 compiler of Beremiz and OpenPLC) for tests/plc/test_matiec.py.
 #
 # MATIEC is GPL-3: a test tool only. It is built from a source archive OUTSIDE this repository
-# (default: ../shared/tools/matiec/matiec-*.tar.gz beside the repository) into a cache directory
+# (default: ../shared/tools/matiec/matiec-*.tar.gz beside the repository, beside a worktree's main
+# checkout, or beside the local repository a fresh clone was made from; or the archive that
+# CTRLBLOCKS_MATIEC_ARCHIVE names) into a cache directory
 # (default: ~/.cache/ctrlblocks/matiec-<archive name>), never copied into the project.
 #
 #   tests/plc/build_matiec.sh [ARCHIVE] [CACHE_DIR]
@@ -18,16 +20,29 @@ root="$(cd "$(dirname "$0")/../.." && pwd)"
 only_find=""
 if [ "${1:-}" = "--archive" ]; then only_find=1; shift; fi
 archive="${1:-}"
+archive="${archive:-${CTRLBLOCKS_MATIEC_ARCHIVE:-}}"
+# the checkouts to look beside: this one; for a git worktree its main checkout; for a clone
+# of a local repository (CI's fresh clone) that repository and its main checkout
+checkouts() {
+    local dir="$1" common origin
+    echo "$dir"
+    common="$(cd "$dir" && git rev-parse --path-format=absolute --git-common-dir 2>/dev/null || true)"
+    [ -n "$common" ] && dirname "$common"
+    origin="$(cd "$dir" && git config --get remote.origin.url 2>/dev/null || true)"
+    origin="${origin#file://}"
+    if [ -n "$origin" ] && [ -d "$origin" ] && [ "${2:-}" != "nested" ]; then
+        checkouts "$(cd "$origin" && pwd)" nested
+    fi
+}
 if [ -z "$archive" ]; then
-    # beside the repository; for a git worktree also beside its main checkout
-    main="$(cd "$root" && git rev-parse --path-format=absolute --git-common-dir 2>/dev/null || true)"
-    for dir in "$root/.." ${main:+"$(dirname "$main")/.."}; do
-        archive="$(ls "$dir"/shared/tools/matiec/matiec-*.tar.gz 2>/dev/null | head -n 1 || true)"
+    for dir in $(checkouts "$root"); do
+        archive="$(ls "$dir"/../shared/tools/matiec/matiec-*.tar.gz 2>/dev/null | head -n 1 || true)"
         [ -n "$archive" ] && break
     done
 fi
 if [ -z "$archive" ] || [ ! -f "$archive" ]; then
-    echo "build_matiec: no MATIEC source archive (looked for ../shared/tools/matiec/matiec-*.tar.gz)" >&2
+    echo "build_matiec: no MATIEC source archive (looked for ../shared/tools/matiec/matiec-*.tar.gz" \
+        "beside $(checkouts "$root" | tr '\n' ' ')and CTRLBLOCKS_MATIEC_ARCHIVE)" >&2
     exit 2
 fi
 if [ -n "$only_find" ]; then echo "$archive"; exit 0; fi
