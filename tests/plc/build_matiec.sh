@@ -22,27 +22,28 @@ if [ "${1:-}" = "--archive" ]; then only_find=1; shift; fi
 archive="${1:-}"
 archive="${archive:-${CTRLBLOCKS_MATIEC_ARCHIVE:-}}"
 # the checkouts to look beside: this one; for a git worktree its main checkout; for a clone
-# of a local repository (CI's fresh clone) that repository and its main checkout
+# of a local repository (CI's fresh clone) that repository and its main checkout (3 levels)
 checkouts() {
-    local dir="$1" common origin
+    local dir="$1" depth="${2:-0}" common origin
     echo "$dir"
     common="$(cd "$dir" && git rev-parse --path-format=absolute --git-common-dir 2>/dev/null || true)"
     [ -n "$common" ] && dirname "$common"
     origin="$(cd "$dir" && git config --get remote.origin.url 2>/dev/null || true)"
     origin="${origin#file://}"
-    if [ -n "$origin" ] && [ -d "$origin" ] && [ "${2:-}" != "nested" ]; then
-        checkouts "$(cd "$origin" && pwd)" nested
+    if [ -n "$origin" ] && [ -d "$origin" ] && [ "$depth" -lt 3 ]; then
+        checkouts "$(cd "$origin" && pwd)" $((depth + 1))
     fi
 }
+places() { checkouts "$root" | awk '!seen[$0]++'; }
 if [ -z "$archive" ]; then
-    for dir in $(checkouts "$root"); do
+    for dir in $(places); do
         archive="$(ls "$dir"/../shared/tools/matiec/matiec-*.tar.gz 2>/dev/null | head -n 1 || true)"
         [ -n "$archive" ] && break
     done
 fi
 if [ -z "$archive" ] || [ ! -f "$archive" ]; then
     echo "build_matiec: no MATIEC source archive (looked for ../shared/tools/matiec/matiec-*.tar.gz" \
-        "beside $(checkouts "$root" | tr '\n' ' ')and CTRLBLOCKS_MATIEC_ARCHIVE)" >&2
+        "beside $(places | tr '\n' ' ')and CTRLBLOCKS_MATIEC_ARCHIVE)" >&2
     exit 2
 fi
 if [ -n "$only_find" ]; then echo "$archive"; exit 0; fi
