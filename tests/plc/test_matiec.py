@@ -28,6 +28,7 @@ in ``.ci/run``).
 from __future__ import annotations
 
 import math
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -288,3 +289,33 @@ def test_the_alarm_blocks_translate_to_st_that_compiles_strictly(tmp_path):
     lines = [ln for p in prog.ordered() for ln in st.function_text(p)]
     lines += [ln for name in fbs for ln in st.fb_text(_small_block(prog.fbs[name]))]
     matiec.iec2c("\n".join(lines) + "\n" + matiec.configuration(fbs), tmp_path)
+
+
+@pytest.mark.slow
+def test_the_build_script_finds_the_source_archive_from_a_fresh_clone(tmp_path):
+    """.ci/run in a fresh clone (``git clone . "$(mktemp -d)/c"``): the build script there
+    finds the archive this checkout finds (beside the repository it was cloned from)."""
+    import subprocess
+
+    script = Path(__file__).with_name("build_matiec.sh")
+    root = script.parents[2]
+    env = {k: v for k, v in os.environ.items() if k != "CTRLBLOCKS_MATIEC_ARCHIVE"}
+
+    def find(cwd: Path) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(["bash", "tests/plc/build_matiec.sh", "--archive"], cwd=cwd,
+                              env=env, capture_output=True, text=True, timeout=60,
+                              check=False)  # fmt: skip
+
+    here = find(root)
+    if here.returncode == 2:
+        pytest.skip(f"no MATIEC source archive beside this checkout: {here.stderr.strip()}")
+    assert here.returncode == 0, here.stderr
+    clone = tmp_path / "c"
+    subprocess.run(["git", "clone", "-q", "--no-checkout", str(root), str(clone)], check=True,
+                   timeout=300)  # fmt: skip
+    subprocess.run(["git", "checkout", "-q", "HEAD", "--", "tests/plc/build_matiec.sh"],
+                   cwd=clone, check=True, timeout=60)  # fmt: skip
+    (clone / "tests" / "plc" / "build_matiec.sh").write_bytes(script.read_bytes())  # this one's
+    there = find(clone)
+    assert there.returncode == 0, there.stderr
+    assert Path(there.stdout.strip()).resolve() == Path(here.stdout.strip()).resolve()
