@@ -84,3 +84,12 @@ def test_a_reverse_acting_adrc_from_tune_adrc_exports_with_reverse(tmp_path):
     assert r.exit_code == 0, r.output
     assert "FUNCTION_BLOCK CB_ADRC" in r.output and "REVERSE : BOOL := TRUE;" in r.output
     assert re.search(r"^    TS : REAL := 0\.02;", r.output, re.M)
+
+
+def test_export_takes_a_one_cycle_block_of_a_shipped_scenario():
+    """The two-point thermostat scenario's controller exports as CB_TWOPOINT with the
+    scenario's hysteresis (HYSTERESIS is a standard FB's name: escaped)."""
+    toml = resources.files("ctrlblocks") / "scenarios" / "two_point_thermostat.toml"
+    r = _run("export", "--toml", str(toml), "--controller", "H = 4 K", "--target", "codesys")
+    assert r.exit_code == 0, r.output
+    assert "FUNCTION_BLOCK CB_TWOPOINT" in r.output and "HYSTERESIS_v : REAL := 4.0;" in r.output

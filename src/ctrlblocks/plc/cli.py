@@ -32,10 +32,12 @@ from typing import Any
 import click
 
 from .export import TARGETS
+from .specs import EXPORTED
 
 __all__ = ["export_command"]
 
 _TYPES = {"pid": "PID", "adrc": "ADRC", "leadlag": "LeadLag"}
+_COVERED = ", ".join(EXPORTED)
 
 
 def _value(text: str) -> Any:
@@ -129,19 +131,20 @@ def _from_toml(
         if controller is not None or role is not None:
             raise click.UsageError("--all exports every block: no --controller or --role with it")
         chosen = [(n, r) for n, (specs, _ts) in entries.items() for r, s in specs.items()
-                  if getattr(s, "type", None) in _TYPES.values()]  # fmt: skip
+                  if getattr(s, "type", None) in EXPORTED]  # fmt: skip
         if not chosen:
-            raise click.ClickException(f"{path}: no PID, ADRC or LeadLag block")
+            raise click.ClickException(f"{path}: no block the export covers ({_COVERED})")
     else:
         name = controller if controller is not None else next(iter(entries))
         if name not in entries:
             raise click.UsageError(
                 f"{path}: no controller {name!r}; entries: {', '.join(entries)}")
         specs = entries[name][0]
-        roles = [r for r, s in specs.items() if getattr(s, "type", None) in _TYPES.values()]
+        roles = [r for r, s in specs.items() if getattr(s, "type", None) in EXPORTED]
         if role is None:
             if not roles:
-                raise click.ClickException(f"{path}: {name!r} has no PID, ADRC or LeadLag block")
+                raise click.ClickException(
+                    f"{path}: {name!r} has no block the export covers ({_COVERED})")
             role = roles[0]
         if role not in roles:
             raise click.UsageError(f"{name!r} has no exportable block {role!r}: {', '.join(roles)}")
@@ -171,8 +174,8 @@ def _units(pairs: tuple[str, ...]) -> dict[str, str]:
               help="A tune --json output (repeat: several blocks in one project).")
 @click.option("--toml", type=click.Path(dir_okay=False), help="A scenario or runtime TOML file.")
 @click.option("--controller", help="The [[controllers]] entry or [[loops]] loop of --toml.")
-@click.option("--role", help="The block of that entry (default: its first PID/ADRC/LeadLag).")
-@click.option("--all", "every", is_flag=True, help="--toml: every PID/ADRC/LeadLag, one project.")
+@click.option("--role", help="The block of that entry (default: its first exportable block).")
+@click.option("--all", "every", is_flag=True, help="--toml: every exportable block, one project.")
 @click.option("--target", type=click.Choice(TARGETS), default="codesys", show_default=True)
 @click.option("--name", help="The FUNCTION_BLOCK's name (default CB_PID, CB_ADRC, CB_LEADLAG).")
 @click.option("--unit", "unit_pairs", multiple=True, metavar="SIGNAL=UNIT",

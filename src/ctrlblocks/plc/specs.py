@@ -21,7 +21,7 @@ from ..blocks.cycleblock import CycleBlock
 from ..blocks.heatcool import HeatCoolPID
 from ..blocks.precision import plc_unsupported
 
-__all__ = ["BlockSpec", "UnsupportedBlock", "spec_for"]
+__all__ = ["EXPORTED", "BlockSpec", "UnsupportedBlock", "spec_for"]
 
 
 class UnsupportedBlock(ValueError):
@@ -331,8 +331,7 @@ def _spec_for(block: Any) -> BlockSpec:
     if cycle_spec is not None:
         return cycle_spec
     raise UnsupportedBlock(
-        f"no PLC export for {type(block).__name__}; blocks exported: PID, ADRC, LeadLag, "
-        + ", ".join(sorted(_CYCLE_BLOCKS))
+        f"no PLC export for {type(block).__name__}; blocks exported: {', '.join(EXPORTED)}"
     )
 
 
@@ -341,8 +340,8 @@ def _spec_for(block: Any) -> BlockSpec:
 # ---------------------------------------------------------------------------
 
 _ONOFF_PROCESS = _table("""
-sp     SP     setpoint [PV units]
-pv     PV     process value [PV units]
+sp     SP     setpoint [{pv}]
+pv     PV     process value [{pv}]
 pv_ok  PV_OK  quality of PV; FALSE = invalid measurement (16#8102): the output goes off
 enable ENABLE FALSE: the output goes off (no error)
 """)
@@ -355,7 +354,7 @@ ts        TS
 _TWO_POINT = (
     "CB_TWOPOINT", "two-point controller with hysteresis (Beckhoff TF4100 FB_CTRL_2POINT)",
     _ONOFF_PROCESS + _table("""
-hysteresis HYSTERESIS hysteresis width H [PV units]: switching points SP - H/2 and SP + H/2
+hysteresis HYSTERESIS hysteresis width H [{pv}]: switching points SP - H/2 and SP + H/2
 """) + _ONOFF_TIMES,
     _table("""
 out      OUT      1.0 on, 0.0 off
@@ -366,8 +365,8 @@ error_id ERROR_ID
 _THREE_POINT = (
     "CB_THREEPOINT", "three-point controller raise/stop/lower (Beckhoff TF4100 FB_CTRL_3POINT)",
     _ONOFF_PROCESS + _table("""
-deadband   DEADBAND   neutral zone half-width D [PV units]: +1 from SP - PV >= D, -1 from <= -D
-hysteresis HYSTERESIS hysteresis H of each switching point [PV units] (0 <= H <= 2 D)
+deadband   DEADBAND   neutral zone half-width D [{pv}]: +1 from SP - PV >= D, -1 from <= -D
+hysteresis HYSTERESIS hysteresis H of each switching point [{pv}] (0 <= H <= 2 D)
 """) + _ONOFF_TIMES,
     _table("""
 out       OUT       +1.0 raise, 0.0 stop, -1.0 lower
@@ -400,14 +399,14 @@ error_id ERROR_ID
 _SETPOINT = (
     "CB_SETPOINT", "setpoint programmer: ramp/soak segments with guaranteed ramp and soak",
     _table("""
-pv            PV            process value [PV units] (holdback and start at PV)
+pv            PV            process value [{pv}] (holdback and start at PV)
 pv_ok         PV_OK         quality of PV; FALSE holds the program while a holdback band is on
 run           RUN           TRUE: the program runs; FALSE: it holds where it is
 reset         RESET         TRUE: back to the start (START or PV, segment 0)
-target        TARGET        target of each segment [PV units]
-rate          RATE          ramp rate of each segment [PV units/s]; 0 = a step
+target        TARGET        target of each segment [{pv}]
+rate          RATE          ramp rate of each segment [{pv}/s]; 0 = a step
 soak          SOAK          soak time of each segment [s]
-start         START         setpoint at the start [PV units]
+start         START         setpoint at the start [{pv}]
 start_at_pv   START_AT_PV   TRUE: start at the PV instead (when it is valid)
 repeat        CYCLIC        TRUE: after the last segment start again with the first
 holdback_ramp HOLDBACK_RAMP guaranteed ramp: hold while |PV - SP| exceeds it; 0 = off
@@ -415,7 +414,7 @@ holdback_soak HOLDBACK_SOAK guaranteed soak: hold while |PV - SP| exceeds it; 0 
 ts            TS
 """),
     _table("""
-out      OUT      setpoint [PV units]
+out      OUT      setpoint [{pv}]
 error_id ERROR_ID
 held     HELD     a holdback band holds the program
 """),
@@ -464,6 +463,8 @@ _CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] 
     "TransferFunction": _TRANSFER,
 }
 """Class name -> (FB name, title, inputs, outputs, state comments) of each cycle block."""
+EXPORTED = ("PID", "ADRC", "LeadLag", *sorted(_CYCLE_BLOCKS))
+"""The class names of the blocks the PLC export covers."""
 
 
 def _cycle_block_spec(block: Any) -> BlockSpec | None:
