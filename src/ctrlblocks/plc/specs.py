@@ -301,8 +301,9 @@ def _spec_for(block: Any) -> BlockSpec:
         if bad == ["input_delay"]:
             raise UnsupportedBlock(
                 f"the PLC export does not cover the ADRC option input_delay "
-                f"(= {c.input_delay!r} s): the observer fed the MV of input_delay ago (Zhao & "
-                "Gao 2014) needs a history of the MV that the PLC cycle does not have yet; "
+                f"(= {c.input_delay!r} s): the observer fed the MV of input_delay ago "
+                "(Zhao & Gao 2014) needs a history of the MV that the PLC cycle does not have "
+                "yet; "
                 "export the ADRC designed without it (input_delay = 0, compare's 'ADRC n=...' "
                 "candidate) or run this one from Python")  # fmt: skip
         if bad:
