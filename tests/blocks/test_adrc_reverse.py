@@ -49,7 +49,7 @@ def test_reverse_is_the_plain_block_on_the_mirrored_signals(
     rev, plain = _pair(r, precision)
     y = 0.0
     for k in range(400):
-        sp = 1.0 if k > 10 else 0.0
+        sp = (1.0 if k > 10 else 0.0) if r.random() > 0.03 else math.nan  # a bad set point too
         yv = y + r.gauss(0.0, 0.01) if r.random() > 0.03 else math.nan
         ok = r.random() > 0.02
         if r.random() < 0.02:

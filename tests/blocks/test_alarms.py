@@ -209,27 +209,30 @@ def test_alarm_state_follows_the_isa_transition_table(steps: list) -> None:
 # ---------------------------------------------------------------------------
 
 
-def _st_source(fn) -> tuple[str, str]:
+def _st_source(fn) -> tuple[str, str, dict[str, str]]:
+    """The ST of ``fn`` as a FUNCTION_BLOCK with its functions, its name, and the ST name of
+    each Python parameter (a keyword such as ``limit`` is escaped)."""
     import importlib
 
     from ctrlblocks.plc.translate import Program
 
     ex = importlib.import_module("ctrlblocks.plc.export")  # the module, not the function
+    st = ex.DIALECTS["codesys"]
 
     prog = Program()
     sig = prog.fb_type(fn)
     lines: list[str] = []
     for p in prog.ordered():
-        lines += ex._function_text(p, "codesys")
-    lines += ex._fb_text(ex._small_block(prog.fbs[sig.pou]), "codesys")
-    return "\n".join(lines) + "\n", sig.pou
+        lines += st.function_text(p)
+    lines += st.fb_text(ex._small_block(prog.fbs[sig.pou]))
+    return "\n".join(lines) + "\n", sig.pou, sig.st
 
 
 def test_alarm_cycle_translates_to_st_that_runs_like_the_python() -> None:
     pytest.importorskip("blark")
     from tests.plc.st_interpreter import Interpreter
 
-    src, pou = _st_source(al.alarm_cycle)
+    src, pou, names = _st_source(al.alarm_cycle)
     fb = Interpreter(src).instance(pou)
     rng = np.random.default_rng(4)
     state, active, timer, left = al.NORMAL, False, 0.0, 0.0
@@ -241,7 +244,7 @@ def test_alarm_cycle_translates_to_st_that_runs_like_the_python() -> None:
                    suppress=k % 41 < 3)  # fmt: skip
         state, active, timer, left = al.alarm_cycle(**inp, state=state, active=active,
                                                     timer=timer, shelve_left=left)
-        fb(**{n.upper() if n != "limit" else "LIMIT_": v for n, v in inp.items()})
+        fb(**{names[n]: v for n, v in inp.items()})
         assert (int(fb.output("STATE")), bool(fb.output("ACTIVE"))) == (state, active), k
         assert float(fb.output("SHELVE_LEFT")) == pytest.approx(left)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from importlib import resources
 
 from click.testing import CliRunner
@@ -54,6 +55,8 @@ def test_export_mistakes_are_messages_not_tracebacks(tmp_path):
     assert r.exit_code == 2 and "no parameter(s) kq" in r.output
     r = _run("export", "pid", "--set", "deadband=0.5", "--set", "ti=1", "--set", "t_stab=20000")
     assert r.exit_code == 1 and "does not cover the PID options ['t_stab']" in r.output
+    r = _run("export", "adrc", "--set", "order=1", "--set", "b0=1", "--set", "input_delay=0.5")
+    assert r.exit_code == 1 and "ADRC option input_delay (= 0.5 s)" in r.output
     r = _run("export", "pid", "--set", "kp=-1")
     assert r.exit_code == 1 and "kp" in r.output
     r = _run("export", "pid", "--set", "novalue")
@@ -77,6 +80,16 @@ def test_a_reverse_acting_adrc_from_tune_adrc_exports_with_reverse(tmp_path):
     assert json.loads(r.output)["reverse"] is True
     tuned = tmp_path / "adrc.json"
     tuned.write_text(r.output)
-    r = _run("export", "--from-json", str(tuned), "--set", "ts=0.1")
+    r = _run("export", "--from-json", str(tuned))  # at the tuning's ts
     assert r.exit_code == 0, r.output
     assert "FUNCTION_BLOCK CB_ADRC" in r.output and "REVERSE : BOOL := TRUE;" in r.output
+    assert re.search(r"^    TS : REAL := 0\.02;", r.output, re.M)
+
+
+def test_export_takes_a_one_cycle_block_of_a_shipped_scenario():
+    """The two-point thermostat scenario's controller exports as CB_TWOPOINT with the
+    scenario's hysteresis (HYSTERESIS is a standard FB's name: escaped)."""
+    toml = resources.files("ctrlblocks") / "scenarios" / "two_point_thermostat.toml"
+    r = _run("export", "--toml", str(toml), "--controller", "H = 4 K", "--target", "codesys")
+    assert r.exit_code == 0, r.output
+    assert "FUNCTION_BLOCK CB_TWOPOINT" in r.output and "HYSTERESIS_v : REAL := 4.0;" in r.output

@@ -54,7 +54,8 @@ FB_TO_PY = {
 
 
 def _run64(kind, block, trace):
-    """The cycle function in float64, fed with the trace's inputs; its outputs per sample."""
+    """The cycle function in float64, fed with the trace's inputs; per sample its output, its
+    status and all its results by name."""
     fn, results, inputs, state, process = {
         "pid": (pc.pid_cycle, pc.PID_RESULTS, pc.pid_inputs, pc.pid_state, PID_PROCESS),
         "adrc": (pc.adrc_cycle, pc.ADRC_RESULTS, pc.adrc_inputs, pc.adrc_state,
@@ -78,7 +79,7 @@ def _run64(kind, block, trace):
         if "man_value" in res:
             args["man_value"] = res["man_value"]
         mv = res.get("mv", res.get("out"))
-        out.append((mv, res["error_id"]))
+        out.append((mv, res["error_id"], res))
     return out
 
 
@@ -107,6 +108,7 @@ def test_cycle_in_float64_is_the_block(kind, make):
     cls = type(start)
     block = cls(**{**vars(start.config), "precision": "float64"})
     ref = []
+    fig2 = []  # the ADRC's outputs of Nowak et al. 2018, Fig. 2: e, Y, Y_ref, the ESO state
     for inp in trace.inputs:
         if kind == "pid":
             for name, attr in PID_MODES.items():
@@ -134,6 +136,7 @@ def test_cycle_in_float64_is_the_block(kind, make):
                 block.set_limits(inp["U_MIN"], inp["U_MAX"])
             u = block(inp["SP"], inp["PV"], y_ok=inp["PV_OK"], u_real=inp.get("U_REAL"))
             ref.append((u, int(block.error_id)))
+            fig2.append((block.e, block.y, block.y_ref, *block.x))
         else:
             if "T_LEAD" in inp:
                 block.configure(t_lead=inp["T_LEAD"], out_min=inp["OUT_MIN"],
@@ -145,9 +148,22 @@ def test_cycle_in_float64_is_the_block(kind, make):
     end = next((k for k, i in enumerate(trace.inputs) if i.get("PV") in SPIKES), len(ref))
     got, ref = got[:end], ref[:end]
     scale = max(abs(u) for u, _e in ref) + 1.0
-    for k, ((u, e), (v, f)) in enumerate(zip(got, ref, strict=True)):
+    for k, ((u, e, _res), (v, f)) in enumerate(zip(got, ref, strict=True)):
         assert abs(u - v) <= 1e-12 * scale, f"sample {k}: cycle {u!r}, block {v!r}"
         assert e == f, f"sample {k}: cycle 16#{e:04X}, block 16#{f:04X}"
+    if kind == "adrc":
+        # the FB's outputs E, Y, Y_REF, X1..X3 and DISTURBANCE are the block's e, y, y_ref, x
+        names = ("e_out", "y_out", "y_ref", "x1_out", "x2_out", "x3_out", "x4_out")
+        moved = set()
+        for k, ((_u, _e, res), want) in enumerate(zip(got, fig2[:end], strict=True)):
+            for name, w in zip(names, want, strict=True):
+                g = res[name]
+                assert abs(g - w) <= 1e-12 * (abs(w) + scale), f"sample {k}: {name} {g!r}, {w!r}"
+                if g != 0.0:
+                    moved.add(name)
+        n = start.config.order
+        assert moved >= {"e_out", "y_out", "y_ref", "x1_out", "x4_out",
+                         *(["x2_out"] if n >= 2 else []), *(["x3_out"] if n >= 3 else [])}
 
 
 @pytest.mark.parametrize("n", [1, 2, 3])

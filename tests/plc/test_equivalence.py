@@ -1,19 +1,20 @@
-"""The exported FUNCTION_BLOCKs compute what the blocks compute in REAL arithmetic.
+"""The ST interpreter runs the exported FBs with the checks a C compiler does not make.
 
-Each test closes a loop with a ``precision="float32"`` block over a long trace
-(setpoint steps, PV noise, limits hit, MAN/AUTO, RESET, NaN/inf, PV_OK false,
-a bad setpoint, retuning and new limits mid-run), exports the block's starting
-configuration to CODESYS ST, runs that ST in the blark-based interpreter with
-the same inputs, and compares every sample.
-
-Bound: at most 1 ulp per sample is the requirement; what is reached is 0 ulp
-(bit-identical).  Both sides round every +, -, *, / of the same operands in
-the same order to the nearest float32 (IEEE 754), the translator keeps
-Python's evaluation order (left-associative, explicit parentheses), and the
-one transcendental function (EXP, for the ADRC reference filter) is the one
-defined for the float32 cycle on both sides, ``float32(exp(float64(x)))``
-(``ctrlblocks.blocks.precision.real_exp``).  On a real PLC, EXP/LN/SQRT of the
-vendor's library may differ from it by an ulp; only ``T_REF > 0`` uses them.
+The real compiler is MATIEC (``test_matiec.py``): every configuration
+compiled strictly and run bit for bit against the ``precision="float32"``
+block over all the traces and the hostile sequences.  This interpreter
+(blark's parser, :mod:`.st_interpreter`) is kept -- behind ``-m slow``, as
+blark's Earley parse costs 5 to 40 s per exported file -- for what compiled
+C cannot show: it *poisons* VAR_TEMP and a FUNCTION's locals and outputs at
+every call, so translated code that reads a variable before writing it in
+the same call fails (MATIEC's C zeroes them: such a read passes there and
+depends on the target elsewhere); it checks ARRAY subscripts against the
+bounds (C does not); it refuses reading an instance's VAR from outside the
+FB (CODESYS refuses it, C does not); and it counts the operations of
+``test_cost.py``.  It runs one long trace per block kind, one option-rich PID
+(velocity, back-calculation on the actuator position, setpoint tracking,
+filters), the exact ADRC and the dead band's ARRAY case: bit-identical, as
+MATIEC's build is.  The sweeps over every trace are MATIEC's alone.
 """
 
 from __future__ import annotations
@@ -65,21 +66,7 @@ def test_pid_fb_equals_float32_block_over_a_long_trace():
     assert _compare(block, trace, "CB_PID", "MV", "LIMITS_ACTIVE") == 0
 
 
-@pytest.mark.parametrize(
-    "config",
-    [
-        {"integral_method": "forward", "derivative_method": "tustin", "c": 0.5, "b": 0.7,
-         "anti_windup": "back_calc_model", "tt": 1.0, "reverse": True},
-        {"integral_method": "backward", "derivative_method": "forward", "td": 2.0,
-         "ti": 0.0, "safe_value": 12.5, "reset_value": 25.0},
-    ],
-)  # fmt: skip
-def test_pid_fb_equals_float32_block_for_other_options(config):
-    block, trace = pid_trace(400, seed=2, **config)
-    assert _compare(block, trace, "CB_PID", "MV", "LIMITS_ACTIVE") == 0
-
-
-@pytest.mark.parametrize("config", PID_OPTIONS, ids=lambda c: ",".join(c))
+@pytest.mark.parametrize("config", PID_OPTIONS[5:6], ids=lambda c: ",".join(c))
 def test_pid_fb_equals_float32_block_for_velocity_filters_ramps_ff_and_modes(config):
     """Velocity form, filters, ramps, lead-lag FF, PV scaling, TRACK/HOLD/AWIN, every
     anti-windup and bumpless method: bit-identical over a trace with all the events."""
@@ -88,7 +75,7 @@ def test_pid_fb_equals_float32_block_for_velocity_filters_ramps_ff_and_modes(con
     assert _compare(block, trace, "CB_PID", "MV", "LIMITS_ACTIVE") == 0
 
 
-@pytest.mark.parametrize("config", DB_OPTIONS, ids=lambda c: ",".join(c))
+@pytest.mark.parametrize("config", DB_OPTIONS[1:2], ids=lambda c: ",".join(c))
 def test_pid_fb_with_the_adaptive_dead_band_equals_float32_block_retuned_mid_run(config):
     """The dead band's moving average (an ARRAY ring sized from t_stab/ts at export, a
     running sum re-summed by a FOR loop once per window) and steady-state detector, as
@@ -107,30 +94,14 @@ def test_adrc_fb_equals_float32_block_over_a_long_trace():
     assert _compare(block, trace, "CB_ADRC", "MV", "AWOUT") == 0
 
 
-@pytest.mark.parametrize(
-    "config",
-    [
-        {"order": 1, "b0": 0.5, "anti_windup": "freeze", "t_ref": 2.0, "u_sf": 7.0},
-        {"order": 3, "b0": 0.01, "omega_c": 0.3, "omega_o": 1.2, "anti_windup": "off"},
-    ],
-)
-def test_adrc_fb_equals_float32_block_for_every_order(config):
-    block, trace = adrc_trace(400, seed=4, **config)
-    assert _compare(block, trace, "CB_ADRC", "MV", "AWOUT") == 0
-
-
-@pytest.mark.parametrize("config", ADRC_OPTIONS, ids=lambda c: ",".join(c))
-def test_adrc_fb_equals_float32_block_for_exact_u_real_anti_backoff_and_awin(config):
-    """The exact (ZOH) observer, U_REAL, the anti-backoff action at a saturating sensor,
-    AWIN and the 16#8301 warning: bit-identical over a trace with all the events."""
+@pytest.mark.parametrize("config", ADRC_OPTIONS[5:6], ids=lambda c: ",".join(c))
+def test_adrc_fb_with_the_exact_observer_equals_float32_block(config):
+    """The exact observer, U_REAL, the anti-backoff action, the reference filter, AWIN."""
     block, trace = adrc_trace(900, seed=50, modes=True, **config)
-    # 16#8103: the law overflowed REAL (not with a saturating sensor: the spike is clipped)
-    expected = {0, 0x8101, 0x8102} | (set() if config.get("anti_backoff") else {0x8103})
-    assert {e for _u, e, _f in trace.outputs} >= expected
     assert _compare(block, trace, "CB_ADRC", "MV", "AWOUT") == 0
 
 
-@pytest.mark.parametrize("method", ["tustin", "euler"])
+@pytest.mark.parametrize("method", ["tustin"])
 def test_leadlag_fb_equals_float32_block(method):
     block, trace = leadlag_trace(600, seed=5, method=method)
     assert _compare(block, trace, "CB_LEADLAG", "OUT", None) == 0

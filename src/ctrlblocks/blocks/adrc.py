@@ -1659,7 +1659,7 @@ class ADRC(Block):
             # x4 by (11) next cycle: after MAN or a bad setpoint, at the end of the wait
             track_next = manual or not sp_valid or end_wait
             y_out = yf
-            e = float(sp) - yf if sp_valid else self.e
+            e = float(sp) - yf if sp_valid else sgn * self.e  # e held, in the cycle's units
             if not (_NINF < yh < _INF and _NINF < x2 < _INF and _NINF < x3 < _INF
                     and _NINF < x4 < _INF):  # fmt: skip
                 # the ESO overflowed behind an output that did not need it (MAN, the

@@ -107,6 +107,7 @@ TIA Portal document, written for an infinite limit; a larger magnitude counts
 as an overflow (``is_real`` is False)."""
 
 NO_ERROR = int(ErrorCode.NO_ERROR)
+NO_CYCLE = int(ErrorCode.NO_CYCLE)
 BAD_INPUT = int(ErrorCode.BAD_INPUT)
 BAD_MEASUREMENT = int(ErrorCode.BAD_MEASUREMENT)
 BAD_LIMITS = int(ErrorCode.BAD_LIMITS)
@@ -118,8 +119,23 @@ NO_MODE = -1
 
 
 def is_real(x: float) -> bool:
-    """True for a finite REAL: NaN fails every comparison, inf exceeds REAL_MAX."""
-    return abs(x) <= REAL_MAX
+    """True for a finite REAL: NaN fails every comparison, inf exceeds REAL_MAX.
+
+    The NaN is caught by ``x == x`` first, a *quiet* comparison (IEEE 754: no invalid-operation
+    exception for a quiet NaN), so that a runtime that traps floating-point exceptions does not
+    stop at a NaN input in the ordered comparison ``abs(x) <= REAL_MAX`` (docs/plc.md, "Traps").
+    """
+    if x == x:  # the NaN test
+        return abs(x) <= REAL_MAX
+    return False
+
+
+def cycle_time_ok(ts: float) -> bool:
+    """True for a usable sample time: a finite REAL > 0.  Else the cycle does not run: the
+    outputs and the state hold and the status is ``NO_CYCLE`` (the block's bad ``dt``)."""
+    if is_real(ts):
+        return ts > 0.0
+    return False
 
 
 def finite_or_zero(x: float) -> float:
@@ -521,6 +537,8 @@ def pid_cycle(
     db_width: float,
     t_stab: float,
     out: float,
+    p: float,
+    i_term: float,
     i: float,
     d: float,
     w_prev: float,
@@ -734,8 +752,8 @@ def pid_cycle(
             ok = False
             if err == NO_ERROR:
                 err = BAD_INPUT
-    p = 0.0
-    i_term = i
+    # the terms shown (P, I_TERM, D_TERM) are those of the last cycle that ran the law: a
+    # cycle that holds (bad input, bad mode value) shows them unchanged, as the block does
     d_term = d
     overflow = False
     if not ok:
@@ -1151,6 +1169,8 @@ def adrc_cycle(
         x4 = -x4
         ref = -ref
         q = -q
+        e = -e  # the held e and Y of Fig. 2 too (a bad SP or PV in this cycle keeps them)
+        y_last = -y_last
         ab_sat = -ab_sat
         track = True
     rev_prev = reverse
@@ -1304,10 +1324,11 @@ def leadlag_cycle(
         hi = out_max
     else:
         err = BAD_LIMITS
+    out = clamp(out, lo, hi)  # new limits contain the last output (the block's configure)
     if not is_real(x):
-        err = BAD_INPUT
+        err = BAD_INPUT  # the output held
     elif not enable:
-        out = 0.0
+        out = clamp(0.0, lo, hi)  # 0, within the output limits (as the block's output guard)
         x_prev = x
     else:
         b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, ts, tustin)
@@ -1428,7 +1449,7 @@ def pid_state(config: Any) -> dict[str, Any]:
     u0 = clamp(float(config.reset_value), lo, hi)
     window = max(1, round(config.t_stab / config.ts))
     return {
-        "out": u0, "i": float(config.reset_value),
+        "out": u0, "p": 0.0, "i_term": float(config.reset_value), "i": float(config.reset_value),
         "d": 0.0, "w_prev": 0.0, "e_prev": 0.0, "x": u0, "bias": float(config.reset_value),
         "p_prev": 0.0, "d_prev": 0.0, "ff_prev": 0.0, "sp_f": 0.0, "pv_f": 0.0, "sp_w": 0.0,
         "ll_x": 0.0, "ll_out": 0.0, "suppressed": False, "ramp_out": u0,
@@ -1498,8 +1519,9 @@ def _lane(
     inputs: dict[str, Any],
     config_inputs: dict[str, Any],
     initial: Callable[[Any], dict[str, Any]],
-) -> dict[str, Any]:
-    """One float32 cycle of ``block``: its state in ``block._plc_state`` (None after reset)."""
+) -> dict[str, Any] | None:
+    """One float32 cycle of ``block``: its state in ``block._plc_state`` (None after reset);
+    None (nothing ran) when the sample time is no finite REAL > 0 (:func:`cycle_time_ok`)."""
     state = block.__dict__.get("_plc_state")
     if state is None:
         state = real_args(initial(block.config))
@@ -1507,6 +1529,8 @@ def _lane(
     # (manual value) become floats once, anything unusable NaN; flags stay bools.
     process = {k: v if type(v) is bool else as_input(v) for k, v in inputs.items()}
     args = {**real_args(process), **real_args(config_inputs), **state}
+    if not cycle_time_ok(args["ts"]):
+        return None  # the sample time as a REAL is unusable: the FB's guard holds everything
     res = dict(zip(names, run_float32(fn, **args), strict=True))
     block._plc_state = {k: res[k] for k in state}
     return res
@@ -1532,6 +1556,9 @@ def pid_float32(
         "man_value": pid.manual_value, "rst": bool(pid.reset_active), "track": bool(pid.track),
         "track_value": pid.track_value, "hold": bool(pid.hold), "awin": bool(pid.awin),
         "actuator_pos": pid.actuator_pos}, prm, pid_state)  # fmt: skip
+    if res is None:
+        pid.error_id = ErrorCode.NO_CYCLE
+        return pid.out  # type: ignore[no-any-return]
     pid.out = float(res["mv"])
     pid.error_id = ErrorCode(res["error_id"])
     pid.limits_active = bool(res["limits_active"])
@@ -1554,6 +1581,9 @@ def adrc_float32(
         "sp": sp, "y": y, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
         "u_man": adrc.u_man, "awin": bool(adrc.awin),
         "u_real": math.nan if u_real is None else u_real}, prm, adrc_state)  # fmt: skip
+    if res is None:
+        adrc.error_id = ErrorCode.NO_CYCLE
+        return adrc.out  # type: ignore[no-any-return]
     adrc.out = float(res["mv"])
     adrc.error_id = ErrorCode(res["error_id"])
     adrc.awout = bool(res["awout"])
@@ -1576,6 +1606,9 @@ def leadlag_float32(ll: Any, x: float, enable: bool, dt: float | None) -> float:
     res = _lane(
         ll, leadlag_cycle, LEADLAG_RESULTS, {"x": x, "enable": bool(enable)}, prm, leadlag_state
     )
+    if res is None:
+        ll.error_id = ErrorCode.NO_CYCLE
+        return ll.out  # type: ignore[no-any-return]
     ll.out = float(res["out"])
     ll.error_id = ErrorCode(res["error_id"])
     ll.enabled = bool(enable)

@@ -11,7 +11,7 @@ cycle function itself (:mod:`.translate`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,7 +21,7 @@ from ..blocks.cycleblock import CycleBlock
 from ..blocks.heatcool import HeatCoolPID
 from ..blocks.precision import plc_unsupported
 
-__all__ = ["BlockSpec", "UnsupportedBlock", "spec_for"]
+__all__ = ["EXPORTED", "BlockSpec", "UnsupportedBlock", "spec_for"]
 
 
 class UnsupportedBlock(ValueError):
@@ -51,6 +51,8 @@ class BlockSpec:
     state: list[Var]
     values: dict[str, Any]
     config: Any
+    process: frozenset[str] = frozenset()
+    """PLC names of the inputs the process writes (the others are the configuration's)."""
 
     def names(self) -> dict[str, str]:
         """python name -> PLC name for every parameter and result of the cycle."""
@@ -81,30 +83,31 @@ def _table(text: str) -> list[Var]:
 
 
 _PID_PROCESS = _table("""
-sp           SP           setpoint [eng. units]
-pv           PV           process value [eng. units]
-ff           FF           feed-forward / offset added before the limits [%]
+sp           SP           setpoint [{pv}]
+pv           PV           process value [{pv}]
+ff           FF           feed-forward / offset added before the limits [{mv}]
 pv_ok        PV_OK        quality of PV; FALSE = invalid measurement (16#8102)
 manual       MANUAL       manual mode: MV := MAN_VALUE (limited), bumpless back to AUTO
-man_value    MAN_VALUE    manual value [%]; outside MANUAL it follows MV (In/Out)
+man_value    MAN_VALUE    manual value [{mv}]; outside MANUAL it follows MV (In/Out)
 rst          RST          reset: MV := RESET_VALUE (limited), integrator set to match
 dv           DV           input of the lead-lag feed-forward path (FF_K <> 0)
 track        TRACK        tracking mode: MV := TRACK_VALUE (limited), bumpless back
-track_value  TRACK_VALUE  output in TRACK [%]
+track_value  TRACK_VALUE  output in TRACK [{mv}]
 hold         HOLD         hold mode: MV stays, bumpless back
 awin         AWIN         freeze the integrator (anti-windup from a secondary in cascade)
-actuator_pos ACTUATOR_POS measured actuator position [%] for ANTI_WINDUP = 2 (write it every cycle)
+actuator_pos ACTUATOR_POS measured actuator position [{mv}] for ANTI_WINDUP = 2
+                          (write it every cycle)
 """)
 _PID_TUNING = _table("""
-k           K              gain K [%/%] (ISA form, Åström 1987 (2.1))
+k           K              gain K [{mv}/{e}] (ISA form, Åström 1987 (2.1))
 ti          TI             integral time Ti [s]; 0 = no integral action
 td          TD             derivative time Td [s]; 0 = no derivative action
 n           N              derivative filter Tf = Td/N
 b           B              setpoint weight of P (Åström 1987 (2.2))
 c           C              setpoint weight of D (0 = derivative on PV)
 ts          TS
-u_min       U_MIN          output low limit [%]
-u_max       U_MAX          output high limit [%]
+u_min       U_MIN          output low limit [{mv}]
+u_max       U_MAX          output high limit [{mv}]
 tt          TT             tracking time constant Tt [s]; 0 = Ti/5 (ts without I)
 reverse     REVERSE        reverse action
 i_method    I_METHOD       integral discretisation: 0 forward (2.8), 1 backward, 2 Tustin
@@ -113,99 +116,107 @@ aw          ANTI_WINDUP    0 clamping (conditional integration), 1 back-calculat
                            2 on ACTUATOR_POS
 velocity    VELOCITY       TRUE: velocity (incremental) algorithm, Åström 1987 Fig. 2.5
 scale_pv    SCALE_PV       TRUE: SP and PV scaled from PV_LO..PV_HI to 0..100 %
-pv_lo       PV_LO          PV range low [eng. units] (SCALE_PV)
-pv_hi       PV_HI          PV range high [eng. units] (SCALE_PV)
+pv_lo       PV_LO          PV range low [{pv}] (SCALE_PV)
+pv_hi       PV_HI          PV range high [{pv}] (SCALE_PV)
 sp_filter   SP_FILTER      SP filter time constant [s] (PT1, exp(-TS/T)); 0 = off
 pv_filter   PV_FILTER      PV filter time constant [s] (PT1, exp(-TS/T)); 0 = off
-sp_rate     SP_RATE        setpoint ramp [%/s]; 0 = off
-out_rate    OUT_RATE       output ramp [%/s], in every mode but RST; 0 = off
-ff_k        FF_K           lead-lag feed-forward gain on DV; 0 = off (Bonde et al. 2021)
+sp_rate     SP_RATE        setpoint ramp [{e}/s]; 0 = off
+out_rate    OUT_RATE       output ramp [{mv}/s], in every mode but RST; 0 = off
+ff_k        FF_K           lead-lag feed-forward gain on DV [{mv} per DV unit]; 0 = off
+                           (Bonde et al. 2021)
 ff_t_lead   FF_T_LEAD      feed-forward lead time constant [s]
 ff_t_lag    FF_T_LAG       feed-forward lag time constant [s] (> 0, Tustin)
 bumpless    BUMPLESS       to AUTO: 0 integrator, 1 track setpoint (SP ramp),
                            2 suppress P until |e| <= DEV_TOL
-dev_tol     DEV_TOL        deviation tolerance [%] of BUMPLESS = 2
-reset_value RESET_VALUE    output while RST [%]
-safe_value  SAFE_VALUE     output while SP/PV/FF are bad, if USE_SAFE_VALUE [%]
+dev_tol     DEV_TOL        deviation tolerance [{e}] of BUMPLESS = 2
+reset_value RESET_VALUE    output while RST [{mv}]
+safe_value  SAFE_VALUE     output while SP/PV/FF are bad, if USE_SAFE_VALUE [{mv}]
 use_safe    USE_SAFE_VALUE TRUE: SAFE_VALUE on bad inputs; FALSE: hold MV
-db_width    DEADBAND       adaptive dead band half-width [%] (controltheplant 2024, 2.3.10); 0 = off
+db_width    DEADBAND       adaptive dead band half-width [{e}] (controltheplant 2024,
+                           2.3.10); 0 = off
 t_stab      T_STAB         stabilisation time [s] of the dead band: the error inside the band
                            for T_STAB holds MV at its mean over T_STAB/TS samples (<= the
                            exported array; a longer one: 16#8209, the window in force stays)
 """)
 _PID_OUT = _table("""
-mv            MV            manipulated variable [%] (limited)
+mv            MV            manipulated variable [{mv}] (limited)
 error_id      ERROR_ID
 limits_active LIMITS_ACTIVE the output is at a limit (= AWOUT for a cascade)
-p             P             proportional term of this cycle [%]
-i_term        I_TERM        integral term of this cycle [%]
-d_term        D_TERM        derivative term of this cycle [%]
+p             P             proportional term [{mv}] of the last cycle that ran the law (a
+                            cycle that holds on bad input keeps it)
+i_term        I_TERM        integral term [{mv}] (as P)
+d_term        D_TERM        derivative term [{mv}] (as P)
 """)
 _PID_STATE_COMMENTS = {
-    "out": "output of the last cycle [%]", "i": "integrator for the next cycle [%]",
+    "out": "output of the last cycle [{mv}]", "i": "integrator for the next cycle [{mv}]",
     "d": "derivative state D[k-1]", "w_prev": "c r - y of the last cycle",
     "e_prev": "control error of the last cycle", "lo": "low limit in force",
     "hi": "high limit in force", "mode_prev": "mode of the last cycle (-1 none, 0 auto)",
     "cold": "first cycle after a (re)start", "reinit": "re-initialise the integrator",
     "reinit_d": "re-initialise the derivative histories",
-    "x": "output integrator of the velocity algorithm [%]",
+    "x": "output integrator of the velocity algorithm [{mv}]",
     "bias": "bias of the velocity algorithm without I (Åström 1987, Fig. 2.4)",
     "p_prev": "P of the last cycle (velocity)", "d_prev": "D of the last cycle (velocity)",
     "ff_prev": "FF of the last cycle (velocity)", "sp_f": "filtered SP", "pv_f": "filtered PV",
     "sp_w": "working setpoint after the ramp", "ll_x": "DV of the last cycle",
     "ll_out": "output of the lead-lag feed-forward", "suppressed": "P action suppressed",
-    "ramp_out": "output ramp's last value [%]",
-    "db_active": "the dead band holds the output", "db_hold": "output held by the dead band [%]",
+    "ramp_out": "output ramp's last value [{mv}]",
+    "db_active": "the dead band holds the output", "db_hold": "output held by the dead band [{mv}]",
     "db_win": "moving-average window in force [samples]", "db_t": "T_STAB in force [s]",
 }  # fmt: skip
 
 _ADRC_PROCESS = _table("""
-sp     SP        setpoint Y_sp [units of Y]
-y      PV        process value Y
+sp     SP        setpoint Y_sp [{pv}]
+y      PV        process value Y [{pv}]
 y_ok   PV_OK     quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF
 manual MANUAL    MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)
-u_man  MAN_VALUE manual value; outside MANUAL it follows the applied u (In/Out)
+u_man  MAN_VALUE manual value [{mv}]; outside MANUAL it follows the applied u (In/Out)
 awin   AWIN      freeze x4 (anti-windup from a secondary in cascade, section 5)
-u_real U_REAL    measured actuator value u_real (U_REAL_ON; NaN: u, 16#8101)
+u_real U_REAL    measured actuator value u_real [{mv}] (U_REAL_ON; NaN: u, 16#8101)
 """)
 _ADRC_TUNING = _table("""
 order        ORDER        ADRC order n = 1, 2, 3 (one body for all, section 3.2)
-b0           B0           scaling parameter b0 > 0
+b0           B0           scaling parameter b0 > 0 [{pv}/s^n per {mv}] (n = ORDER)
 omega_c      OMEGA_C      controller bandwidth [rad/s]
 omega_o      OMEGA_O      observer bandwidth [rad/s]
 ts           TS
-u_min        U_MIN        lower limit of MV
-u_max        U_MAX        upper limit of MV
+u_min        U_MIN        lower limit of MV [{mv}]
+u_max        U_MAX        upper limit of MV [{mv}]
 t_ref        T_REF        time constant of the reference trajectory [s]; 0 = off
-u_sf         U_SF         safe value while PV is invalid
+u_sf         U_SF         safe value while PV is invalid [{mv}]
 aw_rule      ANTI_WINDUP  x4 anti-windup: 0 off, 1 freeze, 2 directional (section 4.1)
 exact        EXACT        TRUE: exact (ZOH) current observer, FALSE: Euler ESO (4a)
 u_real_on    U_REAL_ON    TRUE: U_REAL drives the ESO (section 5)
 anti_backoff ANTI_BACKOFF anti-backoff action (12a)/(12b) at a sensor limit (4.3)
-y_sat        Y_SAT        upper saturation of the sensor [units of Y] (ANTI_BACKOFF)
-y_sat_lo     Y_SAT_LO     lower saturation of the sensor [units of Y] (ANTI_BACKOFF)
+y_sat        Y_SAT        upper saturation of the sensor [{pv}] (ANTI_BACKOFF)
+y_sat_lo     Y_SAT_LO     lower saturation of the sensor [{pv}] (ANTI_BACKOFF)
 tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
 reverse      REVERSE      reverse-acting process (negative gain): the ESO and law run on -SP, -Y
 """)
 _ADRC_OUT = _table("""
-mv       MV          manipulated variable u (limited)
+mv       MV          manipulated variable u [{mv}] (limited)
 error_id ERROR_ID
 awout    AWOUT       u_raw beyond a limit (for a primary controller in cascade)
-u_raw    U_RAW       u of the control law (4b) before the limits
-x4_out   DISTURBANCE x4: estimate of the total disturbance h
-e_out    E           control error SP - PV (Fig. 2, e)
-y_out    Y           the measurement used (Fig. 2, Y)
-y_ref    Y_REF       the reference trajectory (Fig. 2, Y_ref; the law adds the handover offset Q)
-x1_out   X1          ESO state Y_hat (Fig. 2, observer state; with REVERSE in the units of -PV)
-x2_out   X2          ESO state x2 (the first derivative of Y in the model; 0 for n = 1)
-x3_out   X3          ESO state x3 (the second derivative of Y in the model; 0 for n < 3)
+u_raw    U_RAW       u of the control law (4b) before the limits [{mv}]
+x4_out   DISTURBANCE x4: estimate of the total disturbance h [{pv}/s^n]
+e_out    E           control error SP - PV [{pv}] (Fig. 2, e)
+y_out    Y           the measurement used [{pv}] (Fig. 2, Y)
+y_ref    Y_REF       the reference trajectory [{pv}] (Fig. 2, Y_ref; the law adds the handover
+                     offset Q)
+x1_out   X1          ESO state Y_hat [{pv}] (Fig. 2, observer state; with REVERSE in the units
+                     of -PV)
+x2_out   X2          ESO state x2 [{pv}/s] (the first derivative of Y in the model; 0 for n = 1)
+x3_out   X3          ESO state x3 [{pv}/s^2] (the second derivative of Y in the model; 0 for
+                     n < 3)
 """)
 _ADRC_STATE_COMMENTS = {
-    "out": "u of the last cycle", "yh": "ESO state Y_hat", "x2": "ESO state x2",
+    "out": "u of the last cycle [{mv}]", "yh": "ESO state Y_hat [{pv}]", "x2": "ESO state x2",
     "x3": "ESO state x3", "x4": "ESO state x4 (total disturbance)",
-    "u_prev": "applied u of the last cycle", "ref": "reference trajectory",
-    "q": "handover offset of the reference (bumpless transfer, decays by EXP(-OMEGA_C TS))",
-    "e": "control error of the last valid cycle", "y_last": "PV of the last valid cycle",
+    "u_prev": "applied u of the last cycle [{mv}]", "ref": "reference trajectory [{pv}]",
+    "q": "handover offset of the reference [{pv}] (bumpless transfer, decays by "
+         "EXP(-OMEGA_C TS))",
+    "e": "control error of the last valid cycle [{pv}]",
+    "y_last": "PV of the last valid cycle [{pv}]",
     "started": "the ESO has been started on a valid PV", "track": "re-solve x4 by (11)",
     "sat": "+1/-1: last u_raw above/below the limits", "lo": "low limit in force",
     "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
@@ -214,20 +225,20 @@ _ADRC_STATE_COMMENTS = {
 }  # fmt: skip
 
 _LL_PROCESS = _table("""
-x      IN     input (setpoint or measured disturbance)
+x      IN     input (setpoint or measured disturbance) [{pv}]
 enable ENABLE FALSE: OUT := 0, the input follows IN (Bonde et al. 2021, Fig. 10)
 """)
 _LL_TUNING = _table("""
-k       K       gain K
+k       K       gain K [{mv}/{pv}]
 t_lead  T_LEAD  lead time constant Tt [s] (numerator)
 t_lag   T_LAG   lag time constant Tn [s] (denominator)
 ts      TS
 tustin  TUSTIN  TRUE Tustin (Bonde et al. 2021, Fig. 10), FALSE backward Euler
-out_min OUT_MIN output low limit
-out_max OUT_MAX output high limit
+out_min OUT_MIN output low limit [{mv}]
+out_max OUT_MAX output high limit [{mv}]
 """)
 _LL_OUT = _table("""
-out      OUT      output K (1 + Tt s)/(1 + Tn s), limited
+out      OUT      output K (1 + Tt s)/(1 + Tn s), limited [{mv}]
 error_id ERROR_ID
 """)
 
@@ -237,8 +248,37 @@ def _state(values: dict[str, Any], comments: dict[str, str], skip: set[str]) -> 
             for k in values if k not in skip]  # fmt: skip
 
 
-def spec_for(block: Any) -> BlockSpec:
-    """The :class:`BlockSpec` of a configured PID, ADRC or LeadLag."""
+def _units(kind: str, config: Any, units: Mapping[str, str] | None) -> dict[str, str]:
+    """The unit texts of the comments: ``pv`` (SP, PV), ``mv`` (the output), ``e`` (the
+    control error: % of the PV range when the PID scales PV, else PV's unit).  Unknown units
+    are named, not guessed (``[MV unit/PV unit]``)."""
+    given = {k: v for k, v in (units or {}).items() if v}
+    if kind == "leadlag":
+        return {"pv": given.get("pv", "IN unit"), "mv": given.get("mv", "OUT unit")}
+    pv = given.get("pv", given.get("sp", "PV unit"))
+    scaled = kind == "pid" and config.pv_range is not None
+    return {"pv": pv, "mv": given.get("mv", "MV unit"), "e": "% of PV range" if scaled else pv}
+
+
+def _with_units(spec: BlockSpec, units: dict[str, str]) -> BlockSpec:
+    def fill(vs: list[Var]) -> list[Var]:
+        return [Var(v.py, v.st, v.comment.format_map(units)) for v in vs]
+
+    spec.inputs, spec.outputs, spec.state = fill(spec.inputs), fill(spec.outputs), fill(spec.state)
+    return spec
+
+
+def spec_for(block: Any, units: Mapping[str, str] | None = None) -> BlockSpec:
+    """The :class:`BlockSpec` of a configured PID, ADRC or LeadLag.
+
+    ``units``: the unit of ``"pv"`` (SP and PV) and ``"mv"`` (the output) for the comments
+    (a runtime TOML's ``unit`` table); unknown units are written as ``PV unit``, ``MV unit``.
+    """
+    spec = _spec_for(block)
+    return _with_units(spec, _units(spec.kind, block.config, units))
+
+
+def _spec_for(block: Any) -> BlockSpec:
     c = block.config
     if isinstance(block, PID):
         bad = plc_unsupported(c, "pid")
@@ -254,9 +294,18 @@ def spec_for(block: Any) -> BlockSpec:
         values = {**process, **pc.pid_inputs(c), **state, **outputs}
         return BlockSpec("pid", "CB_PID", "PID (ISA form, positional or velocity)", pc.pid_cycle,
                          pc.PID_RESULTS, _PID_PROCESS + _PID_TUNING, _PID_OUT,
-                         _state(state, _PID_STATE_COMMENTS, set()), values, c)  # fmt: skip
+                         _state(state, _PID_STATE_COMMENTS, {"p", "i_term"}), values, c,
+                         frozenset(v.st for v in _PID_PROCESS))  # fmt: skip
     if isinstance(block, ADRC):
         bad = plc_unsupported(c, "adrc")
+        if bad == ["input_delay"]:
+            raise UnsupportedBlock(
+                f"the PLC export does not cover the ADRC option input_delay "
+                f"(= {c.input_delay!r} s): the observer fed the MV of input_delay ago "
+                "(Zhao & Gao 2014) needs a history of the MV that the PLC cycle does not have "
+                "yet; "
+                "export the ADRC designed without it (input_delay = 0, compare's 'ADRC n=...' "
+                "candidate) or run this one from Python")  # fmt: skip
         if bad:
             raise UnsupportedBlock(f"the PLC export does not cover the ADRC options {bad}")
         state = pc.adrc_state(c)
@@ -268,7 +317,8 @@ def spec_for(block: Any) -> BlockSpec:
                   "x3_out": 0.0}  # fmt: skip
         return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler or exact ESO, orders 1..3)", pc.adrc_cycle,
                          pc.ADRC_RESULTS, _ADRC_PROCESS + _ADRC_TUNING, _ADRC_OUT,
-                         _state(state, _ADRC_STATE_COMMENTS, set()), values, c)  # fmt: skip
+                         _state(state, _ADRC_STATE_COMMENTS, set()), values, c,
+                         frozenset(v.st for v in _ADRC_PROCESS))  # fmt: skip
     if isinstance(block, LeadLag):
         state = pc.leadlag_state(c)
         values = {"x": 0.0, "enable": True, **pc.leadlag_inputs(c), **state, "error_id": 0}
@@ -277,13 +327,12 @@ def spec_for(block: Any) -> BlockSpec:
                          _LL_OUT, _state(state, {"x_prev": "input of the last sample",
                                                  "lo": "low limit in force",
                                                  "hi": "high limit in force"}, {"out"}),
-                         values, c)  # fmt: skip
+                         values, c, frozenset(v.st for v in _LL_PROCESS))  # fmt: skip
     cycle_spec = _cycle_block_spec(block)
     if cycle_spec is not None:
         return cycle_spec
     raise UnsupportedBlock(
-        f"no PLC export for {type(block).__name__}; blocks exported: PID, ADRC, LeadLag, "
-        + ", ".join(sorted(_CYCLE_BLOCKS))
+        f"no PLC export for {type(block).__name__}; blocks exported: {', '.join(EXPORTED)}"
     )
 
 
@@ -292,8 +341,8 @@ def spec_for(block: Any) -> BlockSpec:
 # ---------------------------------------------------------------------------
 
 _ONOFF_PROCESS = _table("""
-sp     SP     setpoint [PV units]
-pv     PV     process value [PV units]
+sp     SP     setpoint [{pv}]
+pv     PV     process value [{pv}]
 pv_ok  PV_OK  quality of PV; FALSE = invalid measurement (16#8102): the output goes off
 enable ENABLE FALSE: the output goes off (no error)
 """)
@@ -306,7 +355,7 @@ ts        TS
 _TWO_POINT = (
     "CB_TWOPOINT", "two-point controller with hysteresis (Beckhoff TF4100 FB_CTRL_2POINT)",
     _ONOFF_PROCESS + _table("""
-hysteresis HYSTERESIS hysteresis width H [PV units]: switching points SP - H/2 and SP + H/2
+hysteresis HYSTERESIS hysteresis width H [{pv}]: switching points SP - H/2 and SP + H/2
 """) + _ONOFF_TIMES,
     _table("""
 out      OUT      1.0 on, 0.0 off
@@ -317,8 +366,8 @@ error_id ERROR_ID
 _THREE_POINT = (
     "CB_THREEPOINT", "three-point controller raise/stop/lower (Beckhoff TF4100 FB_CTRL_3POINT)",
     _ONOFF_PROCESS + _table("""
-deadband   DEADBAND   neutral zone half-width D [PV units]: +1 from SP - PV >= D, -1 from <= -D
-hysteresis HYSTERESIS hysteresis H of each switching point [PV units] (0 <= H <= 2 D)
+deadband   DEADBAND   neutral zone half-width D [{pv}]: +1 from SP - PV >= D, -1 from <= -D
+hysteresis HYSTERESIS hysteresis H of each switching point [{pv}] (0 <= H <= 2 D)
 """) + _ONOFF_TIMES,
     _table("""
 out       OUT       +1.0 raise, 0.0 stop, -1.0 lower
@@ -351,14 +400,14 @@ error_id ERROR_ID
 _SETPOINT = (
     "CB_SETPOINT", "setpoint programmer: ramp/soak segments with guaranteed ramp and soak",
     _table("""
-pv            PV            process value [PV units] (holdback and start at PV)
+pv            PV            process value [{pv}] (holdback and start at PV)
 pv_ok         PV_OK         quality of PV; FALSE holds the program while a holdback band is on
 run           RUN           TRUE: the program runs; FALSE: it holds where it is
 reset         RESET         TRUE: back to the start (START or PV, segment 0)
-target        TARGET        target of each segment [PV units]
-rate          RATE          ramp rate of each segment [PV units/s]; 0 = a step
+target        TARGET        target of each segment [{pv}]
+rate          RATE          ramp rate of each segment [{pv}/s]; 0 = a step
 soak          SOAK          soak time of each segment [s]
-start         START         setpoint at the start [PV units]
+start         START         setpoint at the start [{pv}]
 start_at_pv   START_AT_PV   TRUE: start at the PV instead (when it is valid)
 repeat        CYCLIC        TRUE: after the last segment start again with the first
 holdback_ramp HOLDBACK_RAMP guaranteed ramp: hold while |PV - SP| exceeds it; 0 = off
@@ -366,7 +415,7 @@ holdback_soak HOLDBACK_SOAK guaranteed soak: hold while |PV - SP| exceeds it; 0 
 ts            TS
 """),
     _table("""
-out      OUT      setpoint [PV units]
+out      OUT      setpoint [{pv}]
 error_id ERROR_ID
 held     HELD     a holdback band holds the program
 """),
@@ -398,6 +447,15 @@ cooling_out COOLING  TRUE: give CB_PID the cooling tunings in the next cycle
     {"cooling": "the parameter set chosen (cooling)", "h_on": "heating PWM on",
      "c_on": "cooling PWM on"},
 )
+_CYCLE_PROCESS = {
+    "HeatCoolPID": ("V",),
+    "SetpointProgram": ("PV", "PV_OK", "RUN", "RESET"),
+    "TwoPoint": tuple(v.st for v in _ONOFF_PROCESS),
+    "ThreePoint": tuple(v.st for v in _ONOFF_PROCESS),
+    "TransferFunction": ("X", "INIT"),
+}
+"""Class name -> PLC names of the inputs the process writes (the others are the
+configuration's: the hostile runs retune them)."""
 _CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] = {
     "HeatCoolPID": _HEAT_COOL,
     "SetpointProgram": _SETPOINT,
@@ -406,6 +464,8 @@ _CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] 
     "TransferFunction": _TRANSFER,
 }
 """Class name -> (FB name, title, inputs, outputs, state comments) of each cycle block."""
+EXPORTED = ("PID", "ADRC", "LeadLag", *sorted(_CYCLE_BLOCKS))
+"""The class names of the blocks the PLC export covers."""
 
 
 def _cycle_block_spec(block: Any) -> BlockSpec | None:
@@ -418,4 +478,4 @@ def _cycle_block_spec(block: Any) -> BlockSpec | None:
     state = [Var(k, k, comments.get(k, "")) for k in block.memory_names()]
     return BlockSpec(type(block).__name__.lower(), fb_name, title, block.cycle_function(),
                      block.cycle_results(), inputs, outputs, state, values,
-                     block.config)  # fmt: skip
+                     block.config, frozenset(_CYCLE_PROCESS[type(block).__name__]))  # fmt: skip

@@ -33,6 +33,7 @@ render them (Siemens SCL writes ``#name`` and ``"NAME"``).
 from __future__ import annotations
 
 import ast
+import functools
 import inspect
 import io
 import re
@@ -42,6 +43,8 @@ import types
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
+
+from .names import iec_name
 
 __all__ = [
     "FbPou",
@@ -70,16 +73,6 @@ def array_info(typ: str) -> tuple[int, str] | None:
     """``(length, element type)`` of an array type, None for a scalar or an FB type."""
     m = _ARRAY.fullmatch(typ)
     return (int(m.group(1)) + 1, m.group(2)) if m else None
-# identifiers that are keywords (or standard names) in at least one of the dialects
-_RESERVED = {
-    "ref", "to", "by", "do", "of", "if", "or", "and", "xor", "not", "mod", "at", "on",
-    "end", "var", "exit", "return", "then", "else", "case", "for", "while", "repeat",
-    "until", "time", "date", "real", "int", "bool", "word", "string", "in", "r", "s",
-    "q", "pt", "et", "sel", "max", "min", "abs", "exp", "ln", "log", "sqrt", "limit",
-    "trunc", "type", "step", "region", "const", "task", "retain", "super", "this",
-    "method", "property", "interface", "extends", "implements", "action", "program",
-    "function", "class", "new", "begin", "version", "void", "array", "struct", "pointer",
-}  # fmt: skip
 
 PREC_OR, PREC_XOR, PREC_AND, PREC_EQ, PREC_CMP, PREC_ADD, PREC_MUL, PREC_UNARY, PREC_ATOM = range(
     1, 10
@@ -172,12 +165,20 @@ class _Sig:
     pou: str
     params: list[str]  # python parameter names in order
     inputs: dict[str, list[str]]  # python param -> ST input names (a tuple param expands)
-    ret_type: str | None  # single value
-    outputs: list[tuple[str, str]]  # tuple return: (ST name, type)
+    ret_type: str | None  # the function's value (a tuple's first value)
+    outputs: list[tuple[str, str]]  # a tuple's other values: (ST output name, type)
+    tuple_ret: bool = False  # returns a tuple: called as ``a := F(..., OUT => b)``
 
 
-def _st_name(name: str) -> str:
-    return name + "_" if name.lower() in _RESERVED else name
+def _iec_names(wanted: dict[str, str], taken: set[str] | None = None) -> dict[str, str]:
+    """``{key: wanted name}`` -> ``{key: IEC identifier}``, distinct (case-insensitively)
+    from ``taken`` and from each other, given in order."""
+    used = set(taken or ())
+    out: dict[str, str] = {}
+    for key, name in wanted.items():
+        out[key] = iec_name(name, used)
+        used.add(out[key])
+    return out
 
 
 class Program:
@@ -200,16 +201,16 @@ class Program:
         if key in self._fb_sigs:
             return self._fb_sigs[key]
         short, results, hidden = fn.plc_block  # type: ignore[attr-defined]
-        if any(k[0] is fn for k in self._fb_sigs):
-            short += "_" + "_".join(str(n) for n in sizes.values())  # another array size
+        # the array sizes are part of the type's name: one name, one text, in every export
+        pou_name = iec_name("_".join([self.prefix + short, *(str(n) for n in sizes.values())]))
         node = _source(fn)[0]
         params = [a.arg for a in node.args.args]
-        names = {n: _st_name(n.upper()) for n in (*params, *results)}
+        names = _iec_names({n: n.upper() for n in (*params, *results)})
         tr = _Translator(self, fn, {}, fb=(results, names), sizes=sizes)
         body, fbvars, temps, instances = tr.translate_fb()
         state = {p for p in params if p in results}
         pou = FbPou(
-            name=self.prefix + short,
+            name=pou_name,
             doc=tr.doc(),
             inputs=[(names[p], fbvars[names[p]]) for p in params if p not in state],
             outputs=[(names[r], fbvars[names[r]]) for r in results if r not in hidden],
@@ -268,7 +269,10 @@ class Program:
         return [self.pous[n] for n in done]
 
 
+@functools.cache
 def _source(fn: Callable[..., Any]) -> tuple[ast.FunctionDef, str, int, dict[int, str]]:
+    """The parsed source of ``fn`` (cached: the translator reads a callee at each call site;
+    the tree is never modified)."""
     try:
         src = inspect.getsource(fn)
         first = inspect.getsourcelines(fn)[1]
@@ -321,6 +325,8 @@ class _Translator:
         self.owned: dict[str, tuple[str, str | None]] = {}
         self.instances: dict[str, str] = {}  # instance -> FB type
         self.fb_calls: dict[int, tuple[str, _FbSig, dict[str, str]]] = {}
+        self.reserved_names: set[str] = set()  # names this POU declares besides self.st
+        self._expr_cache: dict[tuple[int, str | None], tuple[ast.expr, tuple[str, int, str]]] = {}
 
     def scan_instances(self) -> None:
         """Find the calls of small blocks: one instance per set of memories passed."""
@@ -351,9 +357,7 @@ class _Translator:
             sig = self.prog.fb_type(fn, sizes)
             key = tuple(state_args.values())
             if key not in by_state:
-                inst = f"{sig.short}_{key[0]}" if key else sig.short
-                while inst.lower() in {i.lower() for i in self.instances}:
-                    inst += "_"
+                inst = iec_name(f"{sig.short}_{key[0]}" if key else sig.short, self.taken())
                 by_state[key] = inst
                 self.instances[inst] = sig.pou
             inst = by_state[key]
@@ -405,7 +409,9 @@ class _Translator:
 
     # -- names and types -----------------------------------------------------------
 
-    def declare(self, name: str, typ: str, node: ast.AST) -> str:
+    def declare(self, name: str, typ: str, node: ast.AST, want: str = "") -> str:
+        """The ST variable of the Python name ``name`` (declared as a local of type ``typ``
+        the first time, as an IEC identifier made from ``want`` or ``name``)."""
         if name in self.st and name not in self.types:
             self.types[name] = typ  # a result variable of the FB, named beforehand
             return self.st[name]
@@ -414,14 +420,15 @@ class _Translator:
             if old != typ and not (old == REAL and typ == DINT):
                 raise self.err(node, f"{name!r} changes type from {old} to {typ}")
             return self.st[name]
-        st = _st_name(name)
-        taken = {v.lower() for v in self.st.values()} | {self.ret_name.lower()}
-        while st.lower() in taken:
-            st += "_"
+        st = iec_name(want or name, self.taken())
         self.st[name] = st
         self.types[name] = typ
         self.locals[st] = typ
         return st
+
+    def taken(self) -> set[str]:
+        """The ST names of this POU's scope: variables, instances, the function's own name."""
+        return {*self.st.values(), *self.instances, *self.reserved_names, self.ret_name}
 
     def bump(self, name: str) -> None:
         self.version[name] = self.version.get(name, 0) + 1
@@ -449,9 +456,8 @@ class _Translator:
 
     def translate_function(self) -> _Sig:
         fn = self.fn
-        name = self.prog.prefix + fn.__name__.lstrip("_").upper()
-        if self.consts:
-            name += "_" + "_".join(str(v).upper() for v in self.consts.values())
+        name = iec_name("_".join([self.prog.prefix + fn.__name__.upper(),
+                                  *(str(v).upper() for v in self.consts.values())]))  # fmt: skip
         self.ret_name = name
         self.scan_instances()
         body = self._body_statements()
@@ -486,7 +492,9 @@ class _Translator:
                 if unpack is None:
                     raise self.err(self.node, f"parameter {pname!r} needs a type annotation")
                 body.remove(unpack)
-                names = [e.id for e in unpack.targets[0].elts if isinstance(e, ast.Name)]
+                target = unpack.targets[0]
+                assert isinstance(target, ast.Tuple)
+                names = [e.id for e in target.elts if isinstance(e, ast.Name)]
                 st_names = []
                 for n in names:
                     st_names.append(self.declare(n, REAL, unpack))
@@ -498,7 +506,8 @@ class _Translator:
             del self.locals[st]
             if pname in assigned:
                 # an input the body writes: the input is copied to a local of the same name
-                inp = pname + "_in"
+                inp = iec_name(pname + "_in", self.taken())
+                self.reserved_names.add(inp)
                 inputs.append((inp, ptype))
                 self.locals[st] = ptype
                 copy_in.append((st, inp))
@@ -508,14 +517,13 @@ class _Translator:
                 sig_inputs[pname] = [st]
         ret = self.node.returns
         ann = ast.unparse(ret) if ret is not None else ""
-        if ann in _ANN:
+        tuple_ret = ann not in _ANN
+        if not tuple_ret:
             self.ret_type = _ANN[ann]
         else:
-            self.outputs = self._tuple_outputs(body, ann)
-            for oname, otype in self.outputs:
-                self.st.setdefault(oname, oname)
-                self.types.setdefault(oname, otype)
-                self.locals.pop(oname, None)
+            # a tuple: its first value is the function's value, the others VAR_OUTPUTs
+            first, *self.outputs = self._tuple_outputs(body, ann)
+            self.ret_type = first[1]
         for st, inp in copy_in:
             self.emit(f"{var(st)} := {var(inp)};")
         self.block(body, top=True)
@@ -525,13 +533,11 @@ class _Translator:
             inputs=inputs,
             outputs=self.outputs,
             locals={k: v for k, v in self.locals.items() if k not in dict(self.outputs)},
-            ret_type=self.ret_type or (BOOL if self.outputs else None),
+            ret_type=self.ret_type,
             body=self.lines,
             source=f"{fn.__module__}.{fn.__qualname__}",
             calls=self.calls,
         )
-        if self.outputs:
-            pou.body = [*pou.body, f"{var(name)} := TRUE;"]
         self.prog.pous[name] = pou
         return _Sig(
             pou=name,
@@ -539,9 +545,12 @@ class _Translator:
             inputs=sig_inputs,
             ret_type=self.ret_type,
             outputs=self.outputs,
+            tuple_ret=tuple_ret,
         )
 
     def _tuple_outputs(self, body: list[ast.stmt], ann: str) -> list[tuple[str, str]]:
+        """(ST name, type) of each value of the returned tuples; a value returned as a
+        local's name names its output (and that local *is* the output), else ``r<j>``."""
         rets = [
             n
             for s in body
@@ -552,27 +561,27 @@ class _Translator:
             raise self.err(self.node, "returns neither a scalar annotation nor tuples")
         last = rets[-1].value
         assert isinstance(last, ast.Tuple)
+        if len(last.elts) < 2:
+            raise self.err(self.node, "a tuple of one value (return the value itself)")
         params = {a.arg for a in self.node.args.args}
         elt_types: list[str | None] = []
         if ann.startswith("tuple[") and "..." not in ann:
             elt_types = [_ANN.get(t.strip()) for t in ann[6:-1].split(",")]
         outs: list[tuple[str, str]] = []
-        used: set[str] = set()
         for j, e in enumerate(last.elts):
+            typ = elt_types[j] if j < len(elt_types) else None
+            typ = typ or REAL
             nm = e.id if isinstance(e, ast.Name) else ""
-            if not nm or nm in params or nm in used or nm in self.st:
-                nm = f"r{j}"
-            used.add(nm)
-            typ = elt_types[j] if j < len(elt_types) and elt_types[j] else REAL
-            outs.append((_st_name(nm), typ))
-        # outputs named after locals: those locals *are* the outputs
-        for (oname, otype), e in zip(outs, last.elts, strict=True):
-            if isinstance(e, ast.Name) and _st_name(e.id) == oname:
-                self.st[e.id] = oname
-                self.types[e.id] = otype
+            own = j > 0 and bool(nm) and nm not in params and nm not in self.st
+            oname = iec_name(nm if nm else f"r{j}", self.taken())
+            self.reserved_names.add(oname)
+            if own:  # the local returned here is the output itself
+                self.st[nm] = oname
+                self.types[nm] = typ
+            outs.append((oname, typ))
         return outs
 
-    def translate_fb(self) -> tuple[list[str], dict[str, str], dict[str, str]]:
+    def translate_fb(self) -> tuple[list[str], dict[str, str], dict[str, str], dict[str, str]]:
         assert self.fb is not None
         results, names = self.fb
         params = self._params()
@@ -625,20 +634,40 @@ class _Translator:
             self.emit(f"{var(st)} := {text};")
             written.add(st)
         temps = {k: v for k, v in self.locals.items() if k not in fbvars}
-        for k in list(temps):
-            if k.lower() in {v.lower() for v in fbvars}:
-                del temps[k]
         return self.lines, fbvars, temps, self.instances
 
     # -- statements ----------------------------------------------------------------------
 
     def block(self, stmts: list[ast.stmt], top: bool) -> None:
-        for i, s in enumerate(stmts):
+        """The statements up to the first that always returns (the rest is dead code, in
+        Python as in ST); ``top``: nothing follows this block in the POU, so its last
+        statement needs no RETURN."""
+        live: list[ast.stmt] = []
+        for s in stmts:
+            live.append(s)
+            if self.returns(s):
+                break
+        for i, s in enumerate(live):
             self.emit_comments(s)
-            last = top and i == len(stmts) - 1
-            self.stmt(s, last)
+            self.stmt(s, top and i == len(live) - 1)
+        if len(live) < len(stmts):  # the dead statements' comments go with them
+            self.last_line = max(self.last_line, getattr(stmts[-1], "end_lineno", 0) or 0)
+
+    def returns(self, s: ast.stmt) -> bool:
+        """True if ``s`` returns on every path (after translation-time constant folding)."""
+        if isinstance(s, ast.Return):
+            return True
+        if isinstance(s, ast.If):
+            c = self.const_test(s.test)
+            if c is not None:
+                return any(self.returns(x) for x in (s.body if c else s.orelse))
+            return any(self.returns(x) for x in s.body) and any(
+                self.returns(x) for x in s.orelse
+            )
+        return False
 
     def stmt(self, s: ast.stmt, last: bool) -> None:
+        self._expr_cache.clear()  # the names and types may change from statement to statement
         if isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant):
             return
         if isinstance(s, ast.Assign):
@@ -673,7 +702,7 @@ class _Translator:
         lo = self.coerce(it.args[0], DINT) if len(it.args) == 2 else "0"
         hi = it.args[-1]
         if isinstance(hi, ast.Constant):
-            top = str(int(hi.value) - 1)
+            top = str(int(hi.value) - 1)  # type: ignore[arg-type]
         else:
             top = f"{self.wrap(self.expr(hi), PREC_ADD + 1)} - 1"
             if self.expr(hi)[2] != DINT:
@@ -697,23 +726,26 @@ class _Translator:
         if c is not None:
             self.block(s.body if c else s.orelse, top=last)
             return
+        # the branches of the POU's last statement end the POU: no RETURN at their ends
         self.emit(f"IF {self.expr(s.test)[0]} THEN")
         self.indent += 1
-        self.block(s.body, top=False)
+        self.block(s.body, top=last)
         self.indent -= 1
         orelse = s.orelse
         while len(orelse) == 1 and isinstance(orelse[0], ast.If):
             sub = orelse[0]
+            if self.const_test(sub.test) is not None:
+                break  # a folded elif: its live branch is the ELSE
             self.emit_comments(sub)
             self.emit(f"ELSIF {self.expr(sub.test)[0]} THEN")
             self.indent += 1
-            self.block(sub.body, top=False)
+            self.block(sub.body, top=last)
             self.indent -= 1
             orelse = sub.orelse
         if orelse:
             self.emit("ELSE")
             self.indent += 1
-            self.block(orelse, top=False)
+            self.block(orelse, top=last)
             self.indent -= 1
         self.emit("END_IF;")
 
@@ -722,19 +754,19 @@ class _Translator:
             raise self.err(s, "an early return in the cycle function")
         if s.value is None:
             raise self.err(s, "a bare return")
-        if self.ret_type is not None:
-            self.assign_value(self.ret_name, self.ret_type, s.value, s)
+        if not self.outputs:
+            self.assign_value(self.ret_name, self.ret_type or REAL, s.value, s)
         else:
-            if not isinstance(s.value, ast.Tuple) or len(s.value.elts) != len(self.outputs):
+            if not isinstance(s.value, ast.Tuple) or len(s.value.elts) != len(self.outputs) + 1:
                 raise self.err(s, "returns a different number of values")
-            pending = []
-            for (oname, _otype), e in zip(self.outputs, s.value.elts, strict=True):
+            pending = [(self.ret_name, self.ret_type or REAL, s.value.elts[0])]
+            for (oname, otype), e in zip(self.outputs, s.value.elts[1:], strict=True):
                 if isinstance(e, ast.Name) and self.st.get(e.id) == oname:
                     continue
-                pending.append((oname, e))
+                pending.append((oname, otype, e))
             written: list[str] = []
-            for oname, e in pending:
-                text = self.expr(e)[0]
+            for oname, otype, e in pending:
+                text = self.coerce(e, otype)
                 if any(var(w) in text for w in written):
                     raise self.err(s, f"output {oname} reads an output assigned before it")
                 self.emit(f"{var(oname)} := {text};")
@@ -818,11 +850,11 @@ class _Translator:
             if isinstance(e, ast.Name | ast.Constant):
                 elts.append(e)
                 continue
-            nm = callee_names[j] if j < len(callee_names) else f"{name}_{j}"
-            while nm in self.st and self.st[nm] not in self.locals:
-                nm += "_"
+            # a local of its own (a key no Python name has), named after the callee's parameter
+            nm = f"{name}.{j}"
+            want = callee_names[j] if j < len(callee_names) else f"{name}_{j}"
             typ = self.expr(e)[2]
-            st = self.declare(nm, typ, s)
+            st = self.declare(nm, typ, s, want)
             self.assign_value(st, typ, e, s)
             self.bump(nm)
             elts.append(ast.Name(nm))
@@ -867,7 +899,7 @@ class _Translator:
     def is_tuple_call(self, c: ast.Call) -> bool:
         fn = self.resolve(c.func)
         if isinstance(fn, types.FunctionType) and fn.__module__.startswith("ctrlblocks."):
-            return not self.user_sig(c, fn).ret_type
+            return self.user_sig(c, fn).tuple_ret
         return False
 
     def user_sig(self, c: ast.Call, fn: types.FunctionType) -> _Sig:
@@ -911,25 +943,34 @@ class _Translator:
         if not (isinstance(fn, types.FunctionType) and fn.__module__.startswith("ctrlblocks.")):
             raise self.err(s, "a tuple assignment from something other than a block function")
         sig = self.user_sig(c, fn)
-        if sig.ret_type is not None or len(sig.outputs) != len(names):
-            raise self.err(s, f"{sig.pou} returns {len(sig.outputs)} values, {len(names)} targets")
+        if not sig.tuple_ret or len(sig.outputs) + 1 != len(names):
+            n_values = len(sig.outputs) + 1 if sig.tuple_ret else 1
+            raise self.err(s, f"{sig.pou} returns {n_values} values, {len(names)} targets")
         args = self.call_args(c, sig)
-        outs = []
-        for n, (oname, otype) in zip(names, sig.outputs, strict=True):
+        outs, targets = [], []
+        results = [(sig.pou, sig.ret_type or REAL), *sig.outputs]
+        for n, (oname, otype) in zip(names, results, strict=True):
             st = self.declare(n, self.types.get(n, otype), s)
-            if self.types[n] != otype and not (self.types[n] == REAL and otype == DINT):
+            if self.types[n] != otype:  # an output (=>) is not converted
                 raise self.err(s, f"{n!r} is {self.types[n]}, {sig.pou}.{oname} is {otype}")
-            outs.append(f"{oname} => {var(st)}")
+            targets.append(st)
             self.bump(n)
+        if len(set(targets)) != len(targets):
+            raise self.err(s, "one name for two results")
+        for st, (oname, _otype) in zip(targets[1:], sig.outputs, strict=True):
+            outs.append(f"{oname} => {var(st)}")
         if sig.pou not in self.calls:
             self.calls.append(sig.pou)
-        self.emit_call(pou_ref(sig.pou), args + outs)
+        # the function's value is assigned: IEC 61131-3 has no call statement of a FUNCTION
+        # that discards its value
+        self.emit_call(pou_ref(sig.pou), args + outs, f"{var(targets[0])} := ")
 
-    def emit_call(self, name: str, params: list[str]) -> None:
+    def emit_call(self, name: str, params: list[str], assign: str = "") -> None:
+        """``[assign]name(p1, ...);``, one parameter a line."""
         if not params:
-            self.emit(f"{name}();")
+            self.emit(f"{assign}{name}();")
             return
-        self.emit(f"{name}(")
+        self.emit(f"{assign}{name}(")
         for j, p in enumerate(params):
             self.emit("    " + p + ("," if j < len(params) - 1 else ");"))
 
@@ -976,6 +1017,16 @@ class _Translator:
         return sub[0] if sub[1] >= prec else f"({sub[0]})"
 
     def expr(self, e: ast.expr, want: str | None = None) -> tuple[str, int, str]:
+        """``(ST text, precedence, type)`` of ``e``; cached within a statement (the type and
+        text of a sub-expression are asked for several times on the way up; the node is
+        kept with its entry, so that its id is not reused)."""
+        key = (id(e), want)
+        hit = self._expr_cache.get(key)
+        if hit is None:
+            hit = self._expr_cache[key] = (e, self._expr(e, want))
+        return hit[1]
+
+    def _expr(self, e: ast.expr, want: str | None = None) -> tuple[str, int, str]:
         if isinstance(e, ast.Constant) or (
             isinstance(e, ast.Name) and e.id not in self.st and e.id not in self.tuples
         ):
@@ -1010,7 +1061,7 @@ class _Translator:
                 return f"NOT {self.wrap(sub, PREC_UNARY)}", PREC_UNARY, BOOL
             if isinstance(e.op, ast.USub):
                 if isinstance(e.operand, ast.Constant):
-                    return self.expr(ast.Constant(-e.operand.value), want)
+                    return self.expr(ast.Constant(-e.operand.value), want)  # type: ignore[operator]
                 sub = self.expr(e.operand, want)
                 return f"-{self.wrap(sub, PREC_ATOM)}", PREC_UNARY, sub[2]
             raise self.err(e, "unary operator")
@@ -1045,7 +1096,8 @@ class _Translator:
             left = self.expr(e.left)
             if left[2] != DINT:
                 raise self.err(e, ">> needs an integer")
-            return f"{self.wrap(left, PREC_MUL)} / {2 ** int(e.right.value)}", PREC_MUL, DINT
+            shift = int(e.right.value)  # type: ignore[arg-type]
+            return f"{self.wrap(left, PREC_MUL)} / {2**shift}", PREC_MUL, DINT
         if (
             isinstance(e.op, ast.BitAnd)
             and isinstance(e.right, ast.Constant)
@@ -1140,8 +1192,8 @@ class _Translator:
         if name == "float":
             return self.coerce(c.args[0], REAL), PREC_ATOM, REAL
         if name == "len":
-            a = c.args[0]
-            info = array_info(self.types.get(a.id, "")) if isinstance(a, ast.Name) else None
+            arg = c.args[0]
+            info = array_info(self.types.get(arg.id, "")) if isinstance(arg, ast.Name) else None
             if info is None:
                 raise self.err(c, "len() of something other than an array")
             return str(info[0]), PREC_ATOM, DINT  # the bounds are fixed at export
@@ -1159,9 +1211,9 @@ class _Translator:
         if not (isinstance(fn, types.FunctionType) and fn.__module__.startswith("ctrlblocks.")):
             raise self.err(c, f"call of {name or ast.unparse(f)!r} is not translated")
         sig = self.user_sig(c, fn)
-        if sig.ret_type is None:
+        if sig.tuple_ret:
             raise self.err(c, f"{sig.pou} returns a tuple: assign it to names")
         if sig.pou not in self.calls:
             self.calls.append(sig.pou)
         args = self.call_args(c, sig)
-        return f"{pou_ref(sig.pou)}({', '.join(args)})", PREC_ATOM, sig.ret_type
+        return f"{pou_ref(sig.pou)}({', '.join(args)})", PREC_ATOM, sig.ret_type or REAL
