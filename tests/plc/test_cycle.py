@@ -311,7 +311,7 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
     kind = "pid" if isinstance(block, PID) else "adrc"
     seen = []
-    name = "pid_step" if kind == "pid" else "adrc_law"  # the ADRC's one cycle
+    name = "pid_law" if kind == "pid" else "adrc_law"  # each block's one law
     kernel = getattr(pc, name)
 
     def spy(*args):

@@ -3,9 +3,9 @@
 A PLC function block is called once per cycle with all its inputs; its state
 lives in the instance.  The functions here are that cycle, written with the
 blocks' own pure per-cycle functions (DESIGN principle 2: one implementation
-of each law): :func:`pid_cycle` calls :func:`.pid.pid_step` (and through it
-``derivative_step`` (Åström 1987, (2.13)), ``integral_increment`` ((2.8) /
-Tustin), ``clamping_blocks``), :func:`adrc_cycle` calls :func:`.adrc.adrc_step`
+of each law): :func:`pid_cycle` calls :func:`.pid.pid_law` and
+:func:`.pid.pid_commit` (the PID's one law, also the block's, the compiled
+kernels' and the float32 lane's), :func:`adrc_cycle` calls :func:`.adrc.adrc_law`
 (Nowak et al. 2018, (4a), (4b), (11)) and :func:`leadlag_cycle` calls
 :func:`.leadlag.leadlag_step`.  What they add is the *plumbing* a PLC block
 needs around the law, the same the blocks' ``compute_output``/``update_state``
@@ -69,16 +69,12 @@ _leadlag = _interpreted("leadlag")
 leadlag_coefficients = _leadlag.leadlag_coefficients
 leadlag_step = _leadlag.leadlag_step
 _pid = _interpreted("pid")
-clamping_blocks = _pid.clamping_blocks
-clamping_integral = _pid.clamping_integral
-derivative_coefficients = _pid.derivative_coefficients
-derivative_step = _pid.derivative_step
-integral_increment = _pid.integral_increment
-integral_weights = _pid.integral_weights
-pid_step = _pid.pid_step
-ramp_blocks = _pid.ramp_blocks
+pid_commit = _pid.pid_commit
+pid_law = _pid.pid_law
+pid_output = _pid.pid_output
+pid_parameters = _pid.pid_parameters
 retune_states = _pid.retune_states
-tracking_gain = _pid.tracking_gain
+tracking_time = _pid.tracking_time
 _signals = _interpreted("signals")
 clamp = _signals.clamp
 deadband = _signals.deadband
@@ -334,146 +330,6 @@ DB_TOLERANCE = 0.5
 """Tolerance of the dead band's steady-state detector (fed with 0: only its time counts)."""
 
 
-def pid_general_step(
-    sp: float,
-    pv: float,
-    ff: float,
-    target_mode: bool,
-    target: float,
-    cold: bool,
-    hist: bool,
-    transfer: bool,
-    suppressed: bool,
-    dev_tol: float,
-    awin: bool,
-    velocity: bool,
-    ki: float,
-    actuator_pos: float,
-    ramp_y: float,
-    rate: float,
-    h: float,
-    i: float,
-    d: float,
-    w_prev: float,
-    e_prev: float,
-    x: float,
-    bias: float,
-    p_prev: float,
-    d_prev: float,
-    ff_prev: float,
-    out_prev: float,
-    prm: tuple[float, ...],
-) -> tuple[
-    float, float, float, bool, float, float, float, float, float, float, float, float, float,
-    float, float, bool,
-]:  # fmt: skip
-    """One cycle of the PID in every algorithm: :meth:`PID.compute_output` + ``update_state``.
-
-    The configurations :func:`.pid.pid_step` does not cover -- the velocity
-    algorithm (controltheplant 2024, section 2.3.1; Åström 1987, Figs. 2.2,
-    2.4, 2.5), the output ramp and its conditional integration, ``awin``,
-    back-calculation on the measured actuator position (Åström 1987, Fig. 3.2
-    A), the SUPPRESS_P_ACTION bumpless method -- with the same functions
-    (:func:`.pid.derivative_step` (2.13), :func:`.pid.integral_increment`
-    (2.8), :func:`.pid.clamping_blocks`, :func:`.pid.ramp_blocks`,
-    :func:`.pid.tracking_gain`) in the block's order, applied value = output.
-    ``target_mode``: MANUAL/TRACK/HOLD/RESET with the output ``target``; ``hist``
-    restarts the D and error histories; ``ramp_y``/``rate`` the output ramp's
-    last value and rate [%/s] (0 off); ``prm`` as for :func:`.pid.pid_step`.
-
-    Returns ``(out, ramped, v_raw, limiting, p, i_shown, i_new, d, w, e, x_new,
-    bias_new, p_prev_new, ff_used, d_prev_new, suppressed_new)``.
-    """
-    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
-    e = sgn * (sp - pv)
-    p = k * sgn * (b * sp - pv)
-    w = sgn * (c * sp - pv)
-    if hist:
-        w_prev = w
-        d = 0.0
-        e_prev = e
-    dn = derivative_step(ad, bd, d, w, w_prev)
-    if suppressed and abs(e) <= dev_tol:
-        transfer = True  # the P action comes back: re-initialise the integrator
-        suppressed = False
-    p_used = p
-    if suppressed:
-        p_used = 0.0
-    i_k = i
-    x_new = x
-    bias_new = bias
-    if target_mode:
-        v_raw = target
-    elif velocity:
-        if transfer:
-            bias_new = out_prev - p_used - dn - ff
-            i_k = bias_new
-            v_raw = out_prev
-        else:
-            pp = p_prev
-            dp = d_prev
-            fp = ff_prev
-            if cold:
-                pp = 0.0
-                dp = 0.0
-                fp = 0.0
-            xv = x + (p_used - pp) + (dn - dp) + (ff - fp)
-            if ki != 0.0:  # switch A of Fig. 2.5: the increments of I
-                if not (cold or awin):
-                    xv = xv + integral_increment(ki_h, alpha, beta, e_prev, e)
-            else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
-                xv = xv + g * (p_used + dn + ff + bias - xv)
-            i_k = xv - p_used - dn - ff
-            v_raw = xv
-    elif transfer:
-        i_k = out_prev - p_used - dn - ff
-        v_raw = p_used + i_k + dn + ff
-    elif ki == 0.0 or cold or awin:
-        v_raw = p_used + i_k + dn + ff
-    else:
-        di = integral_increment(ki_h, alpha, beta, e_prev, e)
-        i_k = i + di
-        v = p_used + i_k + dn + ff
-        v_raw = v
-        if aw == 0.0 and clamping_blocks(di, v, lo, hi):
-            # integrate up to the limit; v_raw stays the demand beyond it
-            i_k = clamping_integral(i, di, p_used + dn + ff, lo, hi)
-        else:
-            if aw == 0.0 and clamping_blocks(di, p_used + i_k + ff, lo, hi):
-                i_k = clamping_integral(i, di, p_used + ff, lo, hi)  # D hides the limit
-            elif aw == 0.0 and ramp_blocks(di, clamp(v, lo, hi), ramp_y, rate * h):
-                i_k = i  # the output ramp holds the output back
-            v_raw = p_used + i_k + dn + ff
-    ramped, limiting = rate_limit_step(clamp(v_raw, lo, hi), ramp_y, rate, rate, h)
-    out = clamp(ramped, lo, hi)  # limits narrowed at run time win over the ramp (output guard)
-    # update_state with the applied value = out
-    i_new = i
-    if target_mode:
-        i_k = out - p_used - dn - ff
-        if velocity:
-            x_new = out
-            bias_new = out - p_used - dn - ff
-        else:
-            i_new = out - p_used - dn - ff
-    elif velocity:
-        track_to = out
-        if aw == 2.0 and is_real(actuator_pos):
-            track_to = actuator_pos
-        x_new = out + g * (track_to - out)
-    else:
-        i_new = i_k
-        if ki != 0.0:
-            ref = out
-            vv = out
-            if aw != 0.0:
-                vv = v_raw
-            if aw == 2.0 and is_real(actuator_pos):
-                ref = actuator_pos
-            i_new = i_k + g * (ref - vv)
-    return (out, ramped, v_raw, limiting, p_used, i_k, i_new, dn, w, e, x_new, bias_new, p_used,
-            ff, dn, suppressed)  # fmt: skip
-
-
 def pid_cycle(
     sp: float,
     pv: float,
@@ -680,36 +536,15 @@ def pid_cycle(
         mode = HOLD
     elif manual:
         mode = MANUAL
-    # coefficients of this cycle (PID._set_h)
-    sgn = 1.0
-    if reverse:
-        sgn = -1.0
-    ki = 0.0
-    if ti > 0.0:
-        ki = k / ti
-    tt_used = ts
-    if tt > 0.0:
-        tt_used = tt
-    elif ti > 0.0:
-        tt_used = ti / 5.0
-    ad, bd = derivative_coefficients(k * td, td / n, ts, d_method)
-    alpha, beta = integral_weights(i_method)
-    aw_flag = float(aw)
-    prm = (
-        k,
-        sgn,
-        b,
-        c,
-        ad,
-        bd,
-        ki * ts,
-        alpha,
-        beta,
-        lo,
-        hi,
-        aw_flag,
-        tracking_gain(ts, tt_used),
-    )
+    # the law's parameters of this cycle (PID._set_h): pid_parameters, tracking_time
+    (k_p, sgn, b_p, c_p, ad, bd, ki_h, alpha, beta, lo_p, hi_p, aw_p,
+     g) = pid_parameters(k, ti, td, n, b, c, ts, lo, hi, reverse, d_method, i_method,
+                         float(aw), tracking_time(tt, ti, ts))  # fmt: skip
+    prm = (k_p, sgn, b_p, c_p, ad, bd, ki_h, alpha, beta, lo_p, hi_p, aw_p, g)
+    vel = 0.0
+    if velocity:
+        vel = 1.0
+    opt = (vel, dev_tol, out_rate * ts, db)
     # process data
     ok = is_real(sp) and is_real(pv) and is_real(ff) and is_real(dv)
     err = NO_ERROR
@@ -742,10 +577,8 @@ def pid_cycle(
         # hold (or the safe value); the next good cycle continues without a bump
         if mode == AUTO and use_safe:
             target = safe_value
-        ramp_out, limits_active = rate_limit_step(
-            clamp(target, lo, hi), ramp_y, out_rate, out_rate, ts
-        )
-        mv = clamp(ramp_out, lo, hi)
+        mv, limits_active = pid_output(target, ramp_y, lo, hi, out_rate * ts)
+        ramp_out = mv
         limits_active = limits_active or target > hi or target < lo
         reinit = True
         reinit_d = True
@@ -773,46 +606,46 @@ def pid_cycle(
             ll_out, ll_x = leadlag_filter(dv, ff_k, ff_t_lead, ff_t_lag, ts, ll_out, ll_x)
             ff_tot = ff + ll_out
         from_mode = mode == AUTO and mode_prev != NO_MODE and mode_prev != AUTO
-        transfer = from_mode or (mode == AUTO and reinit)
         # the memory of the last cycle, kept if the law overflows REAL in this one
-        d_old, w_old, e_old, supp_old = d, w_prev, e_prev, suppressed
-        pp_old, dp_old, fp_old = p_prev, d_prev, ff_prev
+        pp_old, dp_old, fp_old, supp_old = p_prev, d_prev, ff_prev, suppressed
         if from_mode and bumpless == BUMPLESS_SUPPRESS_P:
             suppressed = True
-        # the adaptive dead band: hold at the average while the error stays inside
-        e_now = sgn * (sp_w - pv_f)
-        db_held = False
-        if mode == AUTO and db > 0.0 and db_active:
-            if deadband(e_now, db) == 0.0:
-                db_held = True
-                target = db_hold
-            else:
-                transfer = True  # dead band released: continue without a bump
-        held = mode != AUTO or db_held
-        if velocity or out_rate > 0.0 or awin or aw == BACK_CALC_REAL or suppressed:
-            (mv, ramp_out, v_raw, limits_active, p, i_term, i, d, w_prev, e_prev, x, bias, p_prev,
-             ff_prev, d_prev, suppressed) = pid_general_step(
-                sp_w, pv_f, ff_tot, held, target, cold, cold or reinit_d, transfer,
-                suppressed, dev_tol, awin, velocity, ki, actuator_pos, ramp_y, out_rate, ts,
-                i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out, prm,
-            )  # fmt: skip
-            limits_active = limits_active or v_raw > hi or v_raw < lo
+        held = mode != AUTO
+        transfer = from_mode or (mode == AUTO and reinit)
+        # the PID's one law (pid.pid_law), then its commit with the applied value = MV
+        (mv, v_raw, limits_active, p, i_term, d, w_prev, e_prev, bias_k, suppressed,
+         db_held) = pid_law(
+            sp_w, pv_f, ff_tot, held, target, cold or reinit_d, transfer, suppressed, awin,
+            db_active, db_hold, i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out,
+            ramp_y, prm, opt,
+        )  # fmt: skip
+        held = held or db_held
+        ramp_out = mv
+        limits_active = limits_active or v_raw > hi or v_raw < lo
+        i_new, x_new = pid_commit(mv, mv, v_raw, p, i_term, d, ff_tot, held,
+                                  is_real(actuator_pos), actuator_pos, ki_h, aw_p, g,
+                                  vel)  # fmt: skip
+        if velocity:
+            x = x_new
+            bias = bias_k
+            if held:
+                bias = i_new
+            p_prev = p
+            d_prev = d
+            ff_prev = ff_tot
         else:
-            mv, v_raw, p, i_term, i, d, w_prev, e_prev = pid_step(
-                sp_w, pv_f, ff_tot, held, target, cold or reinit_d, transfer,
-                i, d, w_prev, e_prev, out, prm,
-            )  # fmt: skip
-            limits_active = v_raw > hi or v_raw < lo
-            ramp_out = mv
+            i = i_new
+        if held:
+            i_term = mv - p - d - ff_tot  # the I term shown: P + I + D + FF is the output
         d_term = d
-        if is_real(v_raw):
+        if is_real(v_raw) and is_real(d) and is_real(w_prev) and is_real(i_term):
             cold = False
             reinit = False
             reinit_d = False
             if db > 0.0:
                 # the dead band's detector counts the time inside the band in AUTO; the
                 # average follows the applied output until the band holds it
-                inside = mode == AUTO and deadband(e_now, db) == 0.0
+                inside = mode == AUTO and deadband(e_prev, db) == 0.0
                 steady, st_anchor, st_elapsed, st_started = steady_detector(
                     0.0, DB_TOLERANCE, db_t, ts, not inside, st_anchor, st_elapsed, st_started
                 )
@@ -826,19 +659,22 @@ def pid_cycle(
                         db_active = True
                         db_hold = db_mean
         else:
-            # the law overflowed REAL: hold the output (or the safe value) and restart
-            # bumplessly from it on the next good cycle (Block._contain, PID._resume)
+            # the law overflowed REAL (Block._contain, PID._resume): an overflowed law holds
+            # the output (or the safe value); a memory that overflowed behind an output
+            # that did not need it (a mode's target) lets this cycle's output stand; the
+            # memory is made finite and the next good cycle restarts bumplessly from MV
             overflow = True
-            mv = out
-            if use_safe:
-                mv = safe_value
-            mv = clamp(mv, lo, hi)
+            if not is_real(v_raw):
+                mv = out
+                if use_safe:
+                    mv = safe_value
+                mv = clamp(mv, lo, hi)
             i, x, bias, ramp_out = mv, mv, mv, mv
-            d, w_prev, e_prev = finite_or_zero(d_old), finite_or_zero(w_old), finite_or_zero(e_old)
+            d, w_prev, e_prev = finite_or_zero(d), finite_or_zero(w_prev), finite_or_zero(e_prev)
             p_prev, d_prev = finite_or_zero(pp_old), finite_or_zero(dp_old)
             ff_prev, suppressed = finite_or_zero(fp_old), supp_old
             # (a filter, ramp or feed-forward memory that overflowed restarts in its block)
-            p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d_term)
+            p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d)
             limits_active = False
             reinit = True
             reinit_d = True
