@@ -8,8 +8,10 @@ Usage (from the repository root; needs valgrind)::
 A wall-clock timing on a shared machine moves with the load; the number of
 instructions a call executes does not.  Each case runs in two processes under
 ``valgrind --tool=callgrind`` with the same set-up, one with ``--calls`` more
-calls than the other (``PYTHONHASHSEED=0``); the difference of their totals
-divided by the number of calls is the cost of one call.  The cases: the
+calls than the other (``PYTHONHASHSEED=0``, after a first run that writes the
+byte-code caches); the difference of their totals divided by the number of
+calls is the cost of one call (what varies between two starts of Python, a
+few thousand instructions, is below one instruction per call).  The cases: the
 plain PID and ADRC per call (their fast lanes), the PID with an SP filter and
 an output ramp (its general cycle) and the two-phase PID and ADRC
 (``compute_output`` + ``update_state``, as the loop structures call them).
@@ -75,10 +77,11 @@ def instructions(case: str, calls: int, compiled: bool) -> int:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--compiled", action="store_true", help="the compiled build (must exist)")
-    ap.add_argument("--calls", type=int, default=4000)
+    ap.add_argument("--calls", type=int, default=20000)
     ap.add_argument("cases", nargs="*", default=list(SETUP))
     args = ap.parse_args()
     for case in args.cases:
+        instructions(case, 0, args.compiled)  # writes the byte-code caches
         base = instructions(case, 0, args.compiled)
         more = instructions(case, args.calls, args.compiled)
         per = (more - base) / args.calls
