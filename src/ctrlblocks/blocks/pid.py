@@ -102,6 +102,7 @@ __all__ = [
     "PIDConfig",
     "PIDKernelParams",
     "PIDKernelState",
+    "PIDOptions",
     "pid_step",
     "retune_states",
 ]
@@ -346,9 +347,10 @@ def pid_parameters(
     return k, sgn, b, c, ad, bd, ki * h, alpha, beta, lo, hi, aw, g
 
 
-NO_OPTIONS: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-"""The ``opt`` of :func:`pid_law` for the plain positional law (no velocity form, no
-P suppression, no output ramp, no dead band): what the compiled kernels pass."""
+NO_OPTIONS: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+"""The ``opt`` of :func:`pid_law` (:class:`PIDOptions`) for the plain positional law (no
+velocity form, no P suppression, no output ramp, no dead band, integration at any error):
+what the compiled kernels pass."""
 
 
 def pid_law(
@@ -402,10 +404,12 @@ def pid_law(
     ``ramp_y`` the output ramp's last value.
 
     ``prm`` is :class:`PIDKernelParams` (:func:`pid_parameters`), ``opt`` is
-    :class:`PIDOptions` -- ``(velocity, dev_tol, rate_h, db)``: the velocity
-    algorithm (1.0), the deviation tolerance of SUPPRESS_P_ACTION, the output
-    ramp's largest step per cycle (0: off), the dead band's half-width (0:
-    off); :data:`NO_OPTIONS` for the plain positional law.
+    :class:`PIDOptions` -- ``(velocity, dev_tol, rate_h, db, i_band)``: the
+    velocity algorithm (1.0), the deviation tolerance of SUPPRESS_P_ACTION,
+    the output ramp's largest step per cycle (0: off), the dead band's
+    half-width (0: off), the integral band (0: off; conditional integration,
+    Åström & Hägglund 2006, section 3.5: the error is integrated only while
+    ``|e| <= i_band``); :data:`NO_OPTIONS` for the plain positional law.
 
     Returns ``(out, v_raw, limiting, p, i_k, d, w, e, bias, suppressed,
     db_held)``: the limited (and ramped) output, the law's value before the
@@ -416,7 +420,7 @@ def pid_law(
     suppressed, and whether the dead band held the output.
     """
     k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
-    velocity, dev_tol, rate_h, db = opt
+    velocity, dev_tol, rate_h, db, i_band = opt
     e = sgn * (sp - pv)
     p = k * sgn * (b * sp - pv)
     w = sgn * (c * sp - pv)
@@ -430,6 +434,9 @@ def pid_law(
         suppressed = False
     if suppressed:
         p = 0.0
+    # conditional integration (Åström & Hägglund 2006, section 3.5): no increment of the
+    # integral while the error is outside the integral band
+    frozen = hist or awin or (i_band > 0.0 and abs(e) > i_band)
     db_held = False
     if db_active and not held and db > 0.0:
         if deadband(e, db) == 0.0:
@@ -454,7 +461,7 @@ def pid_law(
                 ff_prev = 0.0
             v_raw = x + (p - p_prev) + (dn - d_prev) + (ff - ff_prev)
             if ki_h != 0.0:  # switch A of Fig. 2.5: the increments of I
-                if not (hist or awin):
+                if not frozen:
                     v_raw = v_raw + integral_increment(ki_h, alpha, beta, e_prev, e)
             else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
                 v_raw = v_raw + g * (p + dn + ff + bias - v_raw)
@@ -462,7 +469,7 @@ def pid_law(
     elif transfer:
         i_k = out_prev - p - dn - ff
         v_raw = p + i_k + dn + ff
-    elif ki_h == 0.0 or hist or awin:
+    elif ki_h == 0.0 or frozen:
         v_raw = p + i_k + dn + ff
     else:
         di = integral_increment(ki_h, alpha, beta, e_prev, e)
@@ -664,6 +671,12 @@ class PIDConfig(BlockConfig):
         REAL does, every intermediate rounded to single precision (the cycle
         of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
         the configurations the export covers.
+    i_band : float
+        Integral band [%], >= 0: the error is integrated only while ``|e| <=
+        i_band`` (conditional integration, Åström & Hägglund 2006, section 3.5:
+        no integral build-up during a large setpoint change or upset, so less
+        overshoot after it); 0 (default) = always.  The anti-windup tracking
+        and the bumpless transfers act as without it.
     """
 
     kp: float = 1.0
@@ -697,6 +710,7 @@ class PIDConfig(BlockConfig):
     ff_t_lead: float = 0.0
     ff_t_lag: float = 1.0
     precision: str = "float64"
+    i_band: float = 0.0
 
     def isa(self) -> tuple[float, float, float]:
         """The ISA parameters ``(K, Ti, Td)`` of this configuration."""
@@ -745,6 +759,7 @@ class PIDConfig(BlockConfig):
                 f"got {self.dev_tol!r}",
             )
         require_finite("deadband", self.deadband)
+        require_nonnegative("i_band", self.i_band, ErrorCode.BAD_PARAMETER)
         t_stab = require_positive("t_stab", self.t_stab, ErrorCode.BAD_STAB_TIME)
         if t_stab / ts > MAX_WINDOW:
             raise ParameterError(
@@ -1013,18 +1028,6 @@ class PID(Block):
         if old is not None:
             self._sync_subs()
         c = self._config
-        self._lean = (
-            c.algorithm == "positional"
-            and c.pv_range is None
-            and c.sp_filter == 0.0
-            and c.pv_filter == 0.0
-            and c.sp_rate == 0.0
-            and c.out_rate == 0.0
-            and c.ff_k == 0.0
-            and c.deadband == 0.0
-            and c.bumpless == Bumpless.INTEGRATOR
-            and c.anti_windup in (AntiWindup.CLAMPING, AntiWindup.BACK_CALC_MODEL)
-        )
         self._imeth = METHODS.index(c.integral_method)
         self._dmeth = METHODS.index(c.derivative_method)
         self._alpha, self._beta = integral_weights(self._imeth)
@@ -1035,6 +1038,8 @@ class PID(Block):
         self._db = abs(float(c.deadband))
         self._ts = ts = float(c.ts)
         self._set_tuning(c)
+        # the per-call fast lane runs pid_step: the configurations of the compiled kernels
+        self._lean = not (_unsupported(c, "pid") or self._option_blockers())
         self._sync("_sp_filter", PT1, t=c.sp_filter, ts=ts)
         self._sync("_pv_filter", PT1, t=c.pv_filter, ts=ts)
         self._sync("_sp_ramp", RateLimiter, rate_up=c.sp_rate, rate_down=c.sp_rate, ts=ts)
@@ -1135,7 +1140,8 @@ class PID(Block):
             self._k, self._ti, self._td, float(c.n), float(c.b), float(c.c), h, self._lo,
             self._hi, c.reverse, self._dmeth, self._imeth, aw, self._tt,
         )  # fmt: skip
-        self._opt = (1.0 if self._velocity else 0.0, float(c.dev_tol), c.out_rate * h, self._db)
+        self._opt = (1.0 if self._velocity else 0.0, float(c.dev_tol), c.out_rate * h, self._db,
+                     float(c.i_band))  # fmt: skip
 
     def configure(self, **changes: Any) -> None:
         """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``.
@@ -1670,12 +1676,21 @@ class PID(Block):
         banks start in auto).
         """
         bad = _unsupported(self._config, "pid")  # the options (also the PLC cycle's check)
+        bad += [name for name in self._option_blockers() if name not in bad]
         bad += [n for n in ("track", "hold", "reset_active", "awin") if getattr(self, n)]
         if self._reinit and not self._cold:
             bad.append("re-initialising after a change (run one cycle first)")
         if not manual_ok and self._mode_prev not in (-1, Mode.AUTO):
             bad.append("last cycle not in auto")
         return bad
+
+    def _option_blockers(self) -> list[str]:
+        """The law's options (:class:`PIDOptions`) not at :data:`NO_OPTIONS`, the kernels' law.
+
+        ``dev_tol`` is read only while P is suppressed, which the kernels never are.
+        """
+        return [name for name, v, off in zip(PIDOptions._fields, self._opt, NO_OPTIONS, strict=True)
+                if v != off and name != "dev_tol"]  # fmt: skip
 
     def fast_path_supported(self, *, manual_ok: bool = True) -> bool:
         """True when :func:`pid_step` runs this PID exactly (:meth:`fast_path_blockers`)."""
@@ -1734,6 +1749,21 @@ class PIDKernelParams(NamedTuple):
     hi: float
     aw: float  # anti-windup: 0 clamping, 1 back-calculation
     g: float  # tracking gain h / (Tt + h)
+
+
+class PIDOptions(NamedTuple):
+    """The options of :func:`pid_law` beyond :class:`PIDKernelParams` (its ``opt``), by name.
+
+    The compiled kernels run the law with :data:`NO_OPTIONS`: a block whose
+    options differ (but for ``dev_tol``, read only while P is suppressed) is
+    not theirs (:meth:`PID.fast_path_blockers`).
+    """
+
+    velocity: float  # 1.0: the velocity algorithm
+    dev_tol: float  # deviation tolerance of SUPPRESS_P_ACTION [%]
+    rate_h: float  # the output ramp's largest step per cycle [%] (0: off)
+    db: float  # half-width of the adaptive dead band [%] (0: off)
+    i_band: float  # integral band [%] (0: off)
 
 
 class PIDKernelState(NamedTuple):

@@ -376,6 +376,7 @@ def pid_cycle(
     use_safe: bool,
     db_width: float,
     t_stab: float,
+    i_band: float,
     out: float,
     i: float,
     d: float,
@@ -544,7 +545,7 @@ def pid_cycle(
     vel = 0.0
     if velocity:
         vel = 1.0
-    opt = (vel, dev_tol, out_rate * ts, db)
+    opt = (vel, dev_tol, out_rate * ts, db, i_band)
     # process data
     ok = is_real(sp) and is_real(pv) and is_real(ff) and is_real(dv)
     err = NO_ERROR
@@ -1251,6 +1252,7 @@ def pid_inputs(config: Any) -> dict[str, Any]:
         "safe_value": float(config.safe_value) if config.safe_value is not None else 0.0,
         "use_safe": config.safe_value is not None,
         "db_width": float(config.deadband), "t_stab": float(config.t_stab),
+        "i_band": float(config.i_band),
     }  # fmt: skip
 
 

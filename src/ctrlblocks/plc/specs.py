@@ -130,6 +130,8 @@ db_width    DEADBAND       adaptive dead band half-width [%] (controltheplant 20
 t_stab      T_STAB         stabilisation time [s] of the dead band: the error inside the band
                            for T_STAB holds MV at its mean over T_STAB/TS samples (<= the
                            exported array; a longer one: 16#8209, the window in force stays)
+i_band      I_BAND         integral band [%]: the error is integrated only while |E| <= I_BAND
+                           (conditional integration); 0 = always
 """)
 _PID_OUT = _table("""
 mv            MV            manipulated variable [%] (limited)
