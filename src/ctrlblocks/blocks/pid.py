@@ -1570,8 +1570,9 @@ class PID(Block):
         suppressed = self.p_suppressed or (from_mode and c.bumpless == Bumpless.SUPPRESS_P_ACTION)
         held = target is not None
         out, v_raw, limiting, p, i_k, d, w, e, bias, suppressed, db_held = pid_law(
-            sp_w, pv_f, ff_tot, held, 0.0 if target is None else target, self._cold or self._reinit_d,
-            from_mode or (mode == Mode.AUTO and self._reinit), suppressed, bool(self.awin),
+            sp_w, pv_f, ff_tot, held, 0.0 if target is None else target,
+            self._cold or self._reinit_d, from_mode or (mode == Mode.AUTO and self._reinit),
+            suppressed, bool(self.awin),
             self.deadband_active, self._db_hold, self._i, self._d, self._w_prev, self._e_prev,
             self._x, self._bias, self._p_prev, self._d_prev, self._ff_prev, out_prev, ramp_y,
             self._prm, self._opt,

@@ -53,6 +53,9 @@ _adrc = _interpreted("adrc")
 EULER_LIMIT = _adrc.EULER_LIMIT
 EXACT_LIMIT = _adrc.EXACT_LIMIT
 adrc_law = _adrc.adrc_law
+bandwidth_gains = _adrc.bandwidth_gains
+exact_coefficients = _adrc.exact_coefficients
+pole_distance = _adrc.pole_distance
 euler_sensitivities = _adrc.euler_sensitivities
 euler_substeps = _adrc.euler_substeps
 handover_pole = _adrc.handover_pole
@@ -720,102 +723,7 @@ EULER_LIMIT_1 = EULER_LIMIT[1]
 EULER_LIMIT_2 = EULER_LIMIT[2]
 EULER_LIMIT_3 = EULER_LIMIT[3]
 EULER_LIMIT_4 = EULER_LIMIT[4]
-ONE_THIRD = 1.0 / 3.0
-ELEVEN_SIXTHS = 11.0 / 6.0
 WARN_DISCRETISATION = int(ErrorCode.WARN_DISCRETISATION)
-
-
-def bandwidth_gains(
-    n: int, omega_c: float, omega_o: float
-) -> tuple[float, float, float, float, float, float, float]:
-    """Gao's gains ``(l1, l2, l3, l4, kp, kd1, kd2)`` for n = 1, 2, 3, written out.
-
-    The binomial coefficients of ``(s + omega_o)^(n+1)`` and ``(s + omega_c)^n``
-    (Nowak et al. 2018, section 3.3) as :func:`.adrc.adrc_gains` computes them
-    with ``math.comb`` -- spelled out here because a PLC has no lists; the
-    tests check both agree for every order.
-    """
-    wo2 = omega_o * omega_o
-    wc2 = omega_c * omega_c
-    if n == 1:
-        return 2.0 * omega_o, 0.0, 0.0, wo2, omega_c, 0.0, 0.0
-    if n == 2:
-        return 3.0 * omega_o, 3.0 * wo2, 0.0, wo2 * omega_o, wc2, 2.0 * omega_c, 0.0
-    return (4.0 * omega_o, 6.0 * wo2, 4.0 * (wo2 * omega_o), wo2 * wo2,
-            wc2 * omega_c, 3.0 * wc2, 3.0 * omega_c)  # fmt: skip
-
-
-def pole_distance(omega: float, h: float) -> tuple[float, float]:
-    """``(d, q) = (1 - exp(-omega h), d/h)``: distance of the pole ``exp(-omega h)`` from 1.
-
-    As :func:`.adrc._scaled_gain` computes them with ``expm1`` (which a PLC
-    lacks): for ``a = omega h < 0.1`` by the Taylor series of ``(1 - exp(-a))/a``
-    to ``a^8`` (relative error below 3e-14), so that ``d/h`` stays accurate
-    for a tiny ``a``; above by ``1 - EXP(-a)``.
-    """
-    a = omega * h
-    if a < 0.1:
-        r = 1.0 - a / 2.0 * (1.0 - a / 3.0 * (1.0 - a / 4.0 * (1.0 - a / 5.0 * (
-            1.0 - a / 6.0 * (1.0 - a / 7.0 * (1.0 - a / 8.0 * (1.0 - a / 9.0)))))))  # fmt: skip
-        return a * r, omega * r
-    d = 1.0 - math.exp(-a)
-    return d, omega * (d / a)
-
-
-def exact_coefficients(
-    n: int, b0: float, omega_c: float, omega_o: float, h: float
-) -> tuple[
-    float, float, float, float, float, float, float, float, float, float, float, float, float,
-    float, float, float,
-]:  # fmt: skip
-    """The ZOH current observer and controller gains of ``discretisation="exact"``, written out.
-
-    ``(f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2)``
-    as :func:`.adrc._exact_coefficients` computes them from its constant
-    vectors (Ackermann, all observer poles at ``exp(-omega_o h)``, all
-    controller poles at ``exp(-omega_c h)``; Herbst 2013 via Nowak et al.
-    2018): polynomials in ``d = 1 - exp(-omega h)`` and ``q = d/h``, spelled
-    out for n = 1, 2, 3 (a PLC has no matrices); the tests check both agree.
-    """
-    d, q = pole_distance(omega_o, h)
-    dc, qc = pole_distance(omega_c, h)
-    hh = h * h
-    f01, f02, f03, f12, f13, f23 = 0.0, 0.0, h, 0.0, 0.0, 0.0
-    g0, g1, g2 = b0 * h, 0.0, 0.0
-    c0, c1, c2, c3 = 2.0 * d - d * d, 0.0, 0.0, q * d
-    kp, kd1, kd2 = qc, 0.0, 0.0
-    if n == 2:
-        f01 = h
-        f03 = hh / 2.0
-        f13 = h
-        g0 = b0 * hh / 2.0
-        g1 = b0 * h
-        c0 = 3.0 * d - 3.0 * (d * d) + d * d * d
-        c1 = 3.0 * q * d - 1.5 * q * (d * d)
-        c3 = q * q * d
-        kp = qc * qc
-        kd1 = 2.0 * qc - 0.5 * qc * dc
-    elif n == 3:
-        d2 = d * d
-        q2 = q * q
-        qc2 = qc * qc
-        f01 = h
-        f02 = hh / 2.0
-        f03 = hh * h / 6.0
-        f12 = h
-        f13 = hh / 2.0
-        f23 = h
-        g0 = b0 * (hh * h) / 6.0
-        g1 = b0 * hh / 2.0
-        g2 = b0 * h
-        c0 = 4.0 * d - 6.0 * d2 + 4.0 * (d2 * d) - d2 * d2
-        c1 = 6.0 * q * d - 6.0 * q * d2 + ELEVEN_SIXTHS * q * (d2 * d)
-        c2 = 4.0 * q2 * d - 2.0 * q2 * d2
-        c3 = q2 * q * d
-        kp = qc2 * qc
-        kd1 = 3.0 * qc2 - qc2 * dc
-        kd2 = 3.0 * qc - 1.5 * qc * dc + ONE_THIRD * qc * (dc * dc)
-    return f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2
 
 
 def law_gains(
