@@ -150,12 +150,6 @@ def test_cycle_in_float64_is_the_block(kind, make):
         assert e == f, f"sample {k}: cycle 16#{e:04X}, block 16#{f:04X}"
 
 
-@pytest.mark.parametrize("n", [1, 2, 3])
-def test_bandwidth_gains_spelled_out_equal_adrc_gains(n):
-    wc, wo = 0.7, 3.3
-    assert pc.bandwidth_gains(n, wc, wo) == pytest.approx(adrc_mod.adrc_gains(n, wc, wo), rel=1e-15)
-
-
 SPIKES = (REAL_SPIKE, 1.7e308)
 
 

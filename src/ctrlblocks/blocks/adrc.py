@@ -196,14 +196,6 @@ _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 # ---------------------------------------------------------------------------
 
 
-def _pow(x: float, k: int) -> float:
-    """``x**k`` for a float and a small int ``k >= 0``; +-inf instead of OverflowError."""
-    try:
-        return x**k
-    except OverflowError:
-        return math.inf if x > 0.0 or k % 2 == 0 else -math.inf
-
-
 def adrc_switches(n: int) -> tuple[float, float, float, float, float]:
     """Switches ``(p1, p2, k1, k2, k3)`` from the two low bits of the order n.
 
@@ -226,20 +218,13 @@ def adrc_gains(
     """Gao's bandwidth gains ``(l1, l2, l3, l4, kp, kd1, kd2)`` for order n.
 
     Observer: ``(s + omega_o)^(n+1)``; controller: ``(s + omega_c)^n``
-    (Nowak et al. 2018, section 3.3; derivation and table in the module docstring).
-    ``l4`` always multiplies the x4 (total disturbance) recursion.
+    (Nowak et al. 2018, section 3.3; derivation and table in the module docstring):
+    the binomial coefficients ``C(n+1, j) omega_o^j`` and ``C(n, j) omega_c^j``,
+    spelled out for n = 1, 2, 3 by :func:`bandwidth_gains` (the version the PLC
+    runs too; the tests check them against ``numpy.poly``).  ``l4`` always
+    multiplies the x4 (total disturbance) recursion.
     """
-    m = n + 1
-    lo = [math.comb(m, j) * _pow(omega_o, j) for j in range(1, m + 1)]  # l1 .. l_m
-    l1 = lo[0]
-    l2 = lo[1] if n >= 2 else 0.0
-    l3 = lo[2] if n >= 3 else 0.0
-    l4 = lo[-1]
-    kc = [math.comb(n, j) * _pow(omega_c, j) for j in range(1, n + 1)]  # a_1 .. a_n
-    kp = kc[-1]
-    kd1 = kc[-2] if n >= 2 else 0.0
-    kd2 = kc[-3] if n >= 3 else 0.0
-    return l1, l2, l3, l4, kp, kd1, kd2
+    return bandwidth_gains(n, omega_c, omega_o)
 
 
 def euler_pole_polynomial(m: int, a: float) -> np.ndarray:
@@ -1288,7 +1273,7 @@ class ADRC(Block):
         c = self._config
         n, b0 = self._n, self._b0
         p1, p2, k1, k2, k3 = adrc_switches(n)
-        l1, l2, l3, l4, kp, kd1, kd2 = adrc_gains(n, float(c.omega_c), float(c.omega_o))
+        l1, l2, l3, l4, kp, kd1, kd2 = bandwidth_gains(n, float(c.omega_c), float(c.omega_o))
         nsub = 1.0
         if self._exact:
             (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1,
