@@ -290,6 +290,44 @@ def moving_average(
     return mean, buf, idx, count, since, total, n_prev
 
 
+@plc_block("DELAY", ("u", "buf", "idx", "n_prev", "ok"), hidden=("buf", "idx", "n_prev"))
+def delay_line(
+    push: float, n: int, restart: bool, buf: list[float], idx: int, n_prev: int
+) -> tuple[float, list[float], int, int, bool]:
+    """A delay line: ``push`` enters, out comes the value pushed ``n`` calls before it.
+
+    The ADRC's ESO input (``ADRCConfig.input_delay``, Zhao & Gao 2014): pushed the
+    last applied u each cycle, it gives the applied u of ``n`` samples before that,
+    as the block's history ``ADRC._u_hist``.  ``buf`` is a ring of ``len(buf) >= n
+    + 1`` values (in the PLC an ARRAY sized at export), ``idx`` the next place to
+    write, ``n_prev`` the delay in force.  A new ``n`` keeps the newest values; a
+    longer one pads the line at its old end with its oldest value (as if u had
+    rested there: ``adrc._resize_history``) -- so the first call (``n_prev = 0``)
+    fills the line with ``push``, as ``ADRC.reset`` does with ``u0``; ``restart``
+    fills it with ``push`` (after an overflow, ``ADRC._resume``).  An ``n`` beyond
+    the ring is refused (``ok`` False) and the delay in force stays.  Returns
+    ``(u, buf, idx, n_prev, ok)``.
+    """
+    cap = len(buf)
+    buf[idx] = push
+    idx = (idx + 1) % cap
+    if restart:
+        for j in range(cap):
+            buf[j] = push
+    ok = True
+    if n != n_prev:
+        if n < 0 or n >= cap:
+            ok = False
+        else:
+            if n > n_prev:
+                pad = buf[(idx + cap - 1 - n_prev) % cap]
+                for j in range(n - n_prev):
+                    buf[(idx + cap - 1 - n + j) % cap] = pad
+            n_prev = n
+    u = buf[(idx + cap - 1 - n_prev) % cap]
+    return u, buf, idx, n_prev, ok
+
+
 def deadband_window(t_stab: float, ts: float, cap: int, window: int) -> tuple[int, bool]:
     """The moving-average window ``round(t_stab/ts)`` (half to even, >= 1) and whether it is valid.
 
@@ -329,6 +367,7 @@ BACK_CALC_REAL = 2
 BUMPLESS_TRACK_SP = 1
 BUMPLESS_SUPPRESS_P = 2
 BAD_STAB_TIME = int(ErrorCode.BAD_STAB_TIME)
+BAD_TIME_CONSTANT = int(ErrorCode.BAD_TIME_CONSTANT)
 DB_TOLERANCE = 0.5
 """Tolerance of the dead band's steady-state detector (fed with 0: only its time counts)."""
 
@@ -715,7 +754,7 @@ ADRC_RESULTS = (
     "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "q", "e", "y_last", "started", "track",
     "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
-    "exact_prev", "rev_prev",
+    "exact_prev", "rev_prev", "u_buf", "d_idx", "nd_prev", "d_restart",
 )  # fmt: skip
 """Names of the values :func:`adrc_cycle` returns: outputs, then the new state."""
 
@@ -778,6 +817,7 @@ def adrc_cycle(
     y_sat_lo: float,
     tau_wait: float,
     reverse: bool,
+    nd: int,
     out: float,
     yh: float,
     x2: float,
@@ -803,6 +843,10 @@ def adrc_cycle(
     ts_prev: float,
     exact_prev: bool,
     rev_prev: bool,
+    u_buf: list[float],
+    d_idx: int,
+    nd_prev: int,
+    d_restart: bool,
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
@@ -816,7 +860,11 @@ def adrc_cycle(
     states and re-solves x4 by (11), bumplessly.  The status
     ``WARN_DISCRETISATION`` (16#8301) when omega ts leaves the trusted range;
     a law that overflows REAL holds the output and restarts the ESO
-    (16#8103), as the block's output guard does.  Returns :data:`ADRC_RESULTS`.
+    (16#8103), as the block's output guard does.  ``nd``: the dead time of the
+    process input in samples (``ADRCConfig.input_delay``): the ESO is fed the
+    applied u of ``nd`` samples before the last one (Zhao & Gao 2014), from the
+    line :func:`delay_line` (its array sized at export; a longer ``nd`` is
+    refused with ``BAD_TIME_CONSTANT`` and the one in force stays).  Returns :data:`ADRC_RESULTS`.
     """
     lim_err = NO_ERROR
     if u_min <= u_max:
@@ -908,6 +956,10 @@ def adrc_cycle(
         sat_hi = -y_sat_lo
         sat_lo = -y_sat
     ab = (sat_hi, sat_lo, tau)
+    # the ESO's input: the applied u of nd samples before the last one (ADRC.input_delay)
+    u_eso, u_buf, d_idx, nd_prev, delay_ok = delay_line(u_prev, nd, d_restart, u_buf, d_idx,
+                                                        nd_prev)  # fmt: skip
+    d_restart = False
     # process data
     err = NO_ERROR
     y_valid = y_ok and is_real(y)
@@ -946,7 +998,7 @@ def adrc_cycle(
         # the ADRC's one cycle (adrc.adrc_law), as the block runs it
         mv, u_raw, yh, x2, x3, x4, ref, q, track, sat, ab_sat, ab_wait = adrc_law(
             r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, started, sat,
-            awin, exact, anti_backoff, yh, x2, x3, x4, u_prev, u_prev, ref, q, ab_sat, ab_wait,
+            awin, exact, anti_backoff, yh, x2, x3, x4, u_eso, u_prev, ref, q, ab_sat, ab_wait,
             prm, ecoef, ab,
         )  # fmt: skip
         y_last = y
@@ -973,6 +1025,7 @@ def adrc_cycle(
             sat = 0
             ab_sat = 0
             ab_wait = 0.0
+            d_restart = True  # the delay line restarts at the held output (ADRC._resume)
         elif not (is_real(yh) and is_real(x2) and is_real(x3) and is_real(x4)):
             # the ESO overflowed REAL behind an output that did not need it (MAN, the
             # re-solve by (11), the anti-backoff wait): it restarts at rest on the next
@@ -990,6 +1043,8 @@ def adrc_cycle(
             ab_wait = 0.0
     if err == NO_ERROR:
         err = lim_err
+    if err == NO_ERROR and not delay_ok:
+        err = BAD_TIME_CONSTANT  # a delay beyond the exported array: the one in force stays
     if err == NO_ERROR and not discretisation_ok(order, omega_c, omega_o, ts, exact):
         err = WARN_DISCRETISATION
     if overflow:
@@ -1013,6 +1068,7 @@ def adrc_cycle(
         out, yh, x2, x3, x4, u_prev, ref, q, e, y_last, started, track, sat, ab_sat, ab_wait,
         lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
+        u_buf, d_idx, nd_prev, d_restart,
     )  # fmt: skip
 
 
@@ -1199,19 +1255,27 @@ def adrc_inputs(config: Any) -> dict[str, Any]:
         "u_real_on": bool(config.u_real_on), "anti_backoff": bool(config.anti_backoff),
         "y_sat": float(config.y_sat), "y_sat_lo": float(config.y_sat_lo),
         "tau_wait": float(config.tau_wait), "reverse": bool(config.reverse),
+        "nd": _adrc.delay_samples(config.input_delay, config.ts),
     }  # fmt: skip
 
 
 def adrc_state(config: Any) -> dict[str, Any]:
-    """The state of :func:`adrc_cycle` after a reset (ADRC.reset)."""
+    """The state of :func:`adrc_cycle` after a reset (ADRC.reset).
+
+    The delay line's array holds the configured ``input_delay`` in samples and the
+    last applied u: the longest delay the PLC can retune to.  The line starts empty
+    (its instance's zeros); the first cycle fills it with the output, as ``reset``.
+    """
     lo, hi = float(config.u_min), float(config.u_max)
     u0 = clamp(float(config.u0), lo, hi)
+    nd = _adrc.delay_samples(config.input_delay, config.ts)
     return {
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ref": 0.0,
         "q": 0.0, "e": 0.0, "y_last": 0.0, "started": False, "track": False, "sat": 0,
         "ab_sat": 0, "ab_wait": 0.0, "lo": lo, "hi": hi, "tuned": False, "order_prev": 0,
         "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
-        "rev_prev": bool(config.reverse),
+        "rev_prev": bool(config.reverse), "u_buf": [0.0] * (nd + 1), "d_idx": 0, "nd_prev": 0,
+        "d_restart": False,
     }  # fmt: skip
 
 

@@ -186,6 +186,9 @@ y_sat        Y_SAT        upper saturation of the sensor [units of Y] (ANTI_BACK
 y_sat_lo     Y_SAT_LO     lower saturation of the sensor [units of Y] (ANTI_BACKOFF)
 tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
 reverse      REVERSE      reverse-acting process (negative gain): the ESO and law run on -SP, -Y
+nd           DELAY        dead time of the process input [samples of TS] (input_delay/ts): the ESO
+                          is fed the applied u of DELAY samples before the last (Zhao & Gao 2014);
+                          at most the exported array (a longer one: 16#8211, the one in force stays)
 """)
 _ADRC_OUT = _table("""
 mv       MV          manipulated variable u (limited)
@@ -211,6 +214,7 @@ _ADRC_STATE_COMMENTS = {
     "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
     "ab_wait": "anti-backoff hold time left [s]",
     "rev_prev": "REVERSE of the last cycle (a change negates the states)",
+    "d_restart": "the delay line restarts at the output (after an overflow)",
 }  # fmt: skip
 
 _LL_PROCESS = _table("""
