@@ -240,3 +240,25 @@ def test_the_exported_fb_with_a_delay_equals_the_float32_block() -> None:
     fb = Interpreter(plc.export(block, "codesys")).instance("CB_ADRC")
     got = replay(fb, trace, "MV", "AWOUT", None)
     assert max(ulps(g[0], ref[0]) for g, ref in zip(got, trace.outputs, strict=True)) == 0
+
+
+def test_the_float32_cycle_follows_the_block_through_delays_switched_off_and_on() -> None:
+    """Without a delay in force the PLC cycle leaves its line alone; one switched on again
+    is filled with the output in force, as the block's history is (float32 ~ float64)."""
+    delays = {60: 0.0, 100: 0.2, 180: 0.0, 220: 0.3}
+
+    def run(precision: str) -> list[float]:
+        adrc = ADRC(order=1, b0=1.0, omega_c=1.0, omega_o=4.0, ts=0.1, input_delay=0.3,
+                    u_min=-5.0, u_max=5.0, precision=precision)  # fmt: skip
+        y, out = 0.0, []
+        for k in range(300):
+            if k in delays:
+                adrc.configure(input_delay=delays[k])
+            u = adrc(1.0 if k < 150 else -1.0, y)
+            assert adrc.error_id == ErrorCode.NO_ERROR
+            out.append(u)
+            y += 0.1 * (-y + u)
+        return out
+
+    ref, f32 = run("float64"), run("float32")
+    assert max(abs(a - b) for a, b in zip(ref, f32, strict=True)) < 1e-4
