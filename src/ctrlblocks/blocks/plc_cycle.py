@@ -7,7 +7,7 @@ of each law): :func:`pid_cycle` calls :func:`.pid.pid_law` and
 :func:`.pid.pid_commit` (the PID's one law, also the block's, the compiled
 kernels' and the float32 lane's), :func:`adrc_cycle` calls :func:`.adrc.adrc_law`
 (Nowak et al. 2018, (4a), (4b), (11)) and :func:`leadlag_cycle` calls
-:func:`.leadlag.leadlag_law` (the block's cycle too).  What they add is the *plumbing* a PLC block
+:func:`.leadlag.leadlag_step`.  What they add is the *plumbing* a PLC block
 needs around the law, the same the blocks' ``compute_output``/``update_state``
 do for these configurations:
 
@@ -71,7 +71,6 @@ x4_update_allowed = _adrc.x4_update_allowed
 _leadlag = _interpreted("leadlag")
 leadlag_coefficients = _leadlag.leadlag_coefficients
 leadlag_step = _leadlag.leadlag_step
-leadlag_law = _leadlag.leadlag_law
 _pid = _interpreted("pid")
 pid_commit = _pid.pid_commit
 pid_law = _pid.pid_law
@@ -957,13 +956,9 @@ def adrc_cycle(
         sat_hi = -y_sat_lo
         sat_lo = -y_sat
     ab = (sat_hi, sat_lo, tau)
-    # the ESO's input: the applied u of nd samples before the last one (ADRC.input_delay);
-    # without a delay the line is left alone (a later one fills it with u, as it starts)
-    u_eso = u_prev
-    delay_ok = True
-    if nd != 0 or nd_prev != 0:
-        u_eso, u_buf, d_idx, nd_prev, delay_ok = delay_line(u_prev, nd, d_restart, u_buf,
-                                                            d_idx, nd_prev)  # fmt: skip
+    # the ESO's input: the applied u of nd samples before the last one (ADRC.input_delay)
+    u_eso, u_buf, d_idx, nd_prev, delay_ok = delay_line(u_prev, nd, d_restart, u_buf, d_idx,
+                                                        nd_prev)  # fmt: skip
     d_restart = False
     # process data
     err = NO_ERROR
@@ -1110,12 +1105,15 @@ def leadlag_cycle(
         hi = out_max
     else:
         err = BAD_LIMITS
-    x_ok = is_real(x)
-    if not x_ok:
+    if not is_real(x):
         err = BAD_INPUT
-    # the lead-lag's one cycle (leadlag.leadlag_law), as the block runs it
-    b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, ts, tustin)
-    out, x_prev = leadlag_law(x, x_ok, enable, out, x_prev, b0, b1, a1, lo, hi)
+    elif not enable:
+        out = 0.0
+        x_prev = x
+    else:
+        b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, ts, tustin)
+        out = leadlag_step(x, x_prev, out, b0, b1, a1, lo, hi)
+        x_prev = x
     return out, err, x_prev, lo, hi
 
 
