@@ -7,7 +7,7 @@ of each law): :func:`pid_cycle` calls :func:`.pid.pid_law` and
 :func:`.pid.pid_commit` (the PID's one law, also the block's, the compiled
 kernels' and the float32 lane's), :func:`adrc_cycle` calls :func:`.adrc.adrc_law`
 (Nowak et al. 2018, (4a), (4b), (11)) and :func:`leadlag_cycle` calls
-:func:`.leadlag.leadlag_step`.  What they add is the *plumbing* a PLC block
+:func:`.leadlag.leadlag_law` (the block's cycle too).  What they add is the *plumbing* a PLC block
 needs around the law, the same the blocks' ``compute_output``/``update_state``
 do for these configurations:
 
@@ -71,6 +71,7 @@ x4_update_allowed = _adrc.x4_update_allowed
 _leadlag = _interpreted("leadlag")
 leadlag_coefficients = _leadlag.leadlag_coefficients
 leadlag_step = _leadlag.leadlag_step
+leadlag_law = _leadlag.leadlag_law
 _pid = _interpreted("pid")
 pid_commit = _pid.pid_commit
 pid_law = _pid.pid_law
@@ -1105,15 +1106,12 @@ def leadlag_cycle(
         hi = out_max
     else:
         err = BAD_LIMITS
-    if not is_real(x):
+    x_ok = is_real(x)
+    if not x_ok:
         err = BAD_INPUT
-    elif not enable:
-        out = 0.0
-        x_prev = x
-    else:
-        b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, ts, tustin)
-        out = leadlag_step(x, x_prev, out, b0, b1, a1, lo, hi)
-        x_prev = x
+    # the lead-lag's one cycle (leadlag.leadlag_law), as the block runs it
+    b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, ts, tustin)
+    out, x_prev = leadlag_law(x, x_ok, enable, out, x_prev, b0, b1, a1, lo, hi)
     return out, err, x_prev, lo, hi
 
 
