@@ -76,7 +76,7 @@ from ..loops.feedforward import FeedForwardStage
 from ..loops.lane import LaneResult, LaneRun
 from ..loops.smith import SmithPredictor
 from ._jit import HAVE_NUMBA, jit, jitable, python_function
-from .kernels import UnsupportedConfig, adrc_step, pid_step
+from .kernels import UnsupportedConfig, adrc_step
 from .loops import _controller_arrays, _plant_arrays, _plant_step
 
 # the law functions as Python functions, for numba (ctrlblocks.compiled.interpreted)
