@@ -133,8 +133,132 @@ def test_manual_to_auto_with_a_delay_continues_from_the_manual_value() -> None:
     assert adrc(0.4, plant.y) == pytest.approx(0.4, abs=1e-12)
 
 
-def test_the_compiled_paths_and_the_plc_cycle_name_the_option_they_lack() -> None:
+def test_the_compiled_kernels_name_the_option_they_lack() -> None:
+    """The numba kernels carry a controller's state as a fixed tuple of floats: no delay
+    line (docs/blocks/adrc.md); the block, its compiled build, the float32 cycle and the
+    exported FB have it."""
     assert "input_delay" in ADRC(input_delay=0.2).fast_path_blockers()
     assert ADRC(input_delay=0.0).fast_path_blockers() == []
-    with pytest.raises(ParameterError, match="input_delay"):
-        ADRC(input_delay=0.2, precision="float32")
+
+
+def _delay_run(precision: str, nd_shift: int = 0) -> list[float]:
+    """A closed loop on a dead-time process whose delay is changed to shorter and longer."""
+    adrc = ADRC(order=2, b0=0.5, omega_c=1.0, omega_o=5.0, ts=0.1, input_delay=0.5,
+                u_min=-10.0, u_max=10.0, u0=2.0, precision=precision)  # fmt: skip
+    line = [2.0] * 6
+    y, v, out = 0.0, 0.0, []
+    for k in range(400):
+        if k == 150:
+            adrc.configure(input_delay=0.2 + 0.1 * nd_shift)
+        if k == 250:
+            adrc.configure(input_delay=0.4 + 0.1 * nd_shift)
+        u = adrc(1.0, y)
+        out.append(u)
+        line = [*line[1:], u]
+        v += 0.1 * (-0.5 * v + 0.5 * line[0])
+        y += 0.1 * v
+    return out
+
+
+def test_the_float32_cycle_has_the_delay_line_of_the_block() -> None:
+    """The PLC cycle's delay line (plc_cycle.delay_line) feeds the ESO what the block's
+    history does, through shorter and longer delays: the float32 block follows the
+    float64 one within REAL's rounding -- and a line off by one sample would not."""
+    ref, f32 = _delay_run("float64"), _delay_run("float32")
+    worst = max(abs(a - b) for a, b in zip(ref, f32, strict=True))
+    assert worst < 1e-4
+    off = _delay_run("float64", nd_shift=1)
+    assert max(abs(a - b) for a, b in zip(ref[150:], off[150:], strict=True)) > 100 * worst
+
+
+def test_the_delay_line_gives_the_value_pushed_n_calls_before_hand_checked() -> None:
+    from ctrlblocks.blocks.plc_cycle import delay_line
+
+    buf, idx, n_prev = [0.0] * 4, 0, 0
+    got = []
+    for k, n in enumerate((2, 2, 2, 2, 1, 3, 3, 3, 5)):
+        u, buf, idx, n_prev, ok = delay_line(float(k + 1), n, False, buf, idx, n_prev)
+        got.append((u, ok))
+    # n = 2 from the start: the line is filled with the first value (as reset with u0)
+    assert got[:4] == [(1.0, True), (1.0, True), (1.0, True), (2.0, True)]
+    assert got[4] == (4.0, True)  # shorter: the newest values kept (5 pushed, 4 one before)
+    # longer (1 -> 3) when 6 is pushed: the line held (5,) before 6, padded with its
+    # oldest value to (5, 5, 5), as adrc._resize_history; then 5 is 3 pushes before 8
+    assert got[5:8] == [(5.0, True), (5.0, True), (5.0, True)]
+    assert got[8] == (6.0, False)  # 5 > the ring (4 values: at most 3): the 3 stays
+
+
+def test_the_delay_line_is_the_blocks_history_through_any_delay_changes() -> None:
+    """Against the block's own history (a tuple of the nd values before u_prev, resized
+    by adrc._resize_history): any sequence of pushes and delays within the ring."""
+    from hypothesis import given
+    from hypothesis import strategies as st
+
+    from ctrlblocks.blocks.adrc import _resize_history
+    from ctrlblocks.blocks.plc_cycle import delay_line
+
+    @given(st.integers(1, 8), st.lists(st.tuples(st.floats(-1e3, 1e3), st.integers(0, 9))))
+    def check(cap: int, steps: list[tuple[float, int]]) -> None:
+        buf, idx, n_prev = [0.0] * cap, 0, 0
+        hist: tuple[float, ...] = ()
+        u_prev, nd = 0.0, 0
+        for k, (push, n) in enumerate(steps):
+            u, buf, idx, n_prev, ok = delay_line(push, n, False, buf, idx, n_prev)
+            # the block: u_prev moves into the history, then a new delay resizes it
+            hist = (*hist[1:], u_prev) if (k and nd) else hist
+            u_prev = push
+            assert ok == (n == nd or 0 <= n < cap)
+            if n != nd and ok:
+                hist, nd = _resize_history(hist, n, u_prev), n
+            assert n_prev == nd
+            assert u == (hist[0] if nd else u_prev)
+
+    check()
+
+
+def test_a_delay_beyond_the_exported_line_is_refused_by_the_float32_block() -> None:
+    adrc = ADRC(order=1, b0=1.0, omega_c=1.0, omega_o=4.0, ts=0.1, input_delay=0.2,
+                precision="float32")  # fmt: skip
+    adrc(1.0, 0.0)
+    adrc.configure(input_delay=0.5)  # the float32 cycle's line holds 2 samples
+    adrc(1.0, 0.0)
+    assert adrc.error_id == ErrorCode.BAD_TIME_CONSTANT
+    adrc.reset()  # a reset sizes the line anew from the configuration
+    adrc(1.0, 0.0)
+    assert adrc.error_id != ErrorCode.BAD_TIME_CONSTANT
+
+
+@pytest.mark.slow
+def test_the_exported_fb_with_a_delay_equals_the_float32_block() -> None:
+    """Bit for bit over a closed-loop day (tests/plc/traces.py), the FB's DELAY input."""
+    pytest.importorskip("blark")
+    from ctrlblocks import plc
+    from tests.plc.st_interpreter import Interpreter
+    from tests.plc.traces import adrc_trace, replay, ulps
+
+    block, trace = adrc_trace(3000, 5, input_delay=1.0)
+    fb = Interpreter(plc.export(block, "codesys")).instance("CB_ADRC")
+    got = replay(fb, trace, "MV", "AWOUT", None)
+    assert max(ulps(g[0], ref[0]) for g, ref in zip(got, trace.outputs, strict=True)) == 0
+
+
+def test_the_float32_cycle_follows_the_block_through_delays_switched_off_and_on() -> None:
+    """Without a delay in force the PLC cycle leaves its line alone; one switched on again
+    is filled with the output in force, as the block's history is (float32 ~ float64)."""
+    delays = {60: 0.0, 100: 0.2, 180: 0.0, 220: 0.3}
+
+    def run(precision: str) -> list[float]:
+        adrc = ADRC(order=1, b0=1.0, omega_c=1.0, omega_o=4.0, ts=0.1, input_delay=0.3,
+                    u_min=-5.0, u_max=5.0, precision=precision)  # fmt: skip
+        y, out = 0.0, []
+        for k in range(300):
+            if k in delays:
+                adrc.configure(input_delay=delays[k])
+            u = adrc(1.0 if k < 150 else -1.0, y)
+            assert adrc.error_id == ErrorCode.NO_ERROR
+            out.append(u)
+            y += 0.1 * (-y + u)
+        return out
+
+    ref, f32 = run("float64"), run("float32")
+    assert max(abs(a - b) for a, b in zip(ref, f32, strict=True)) < 1e-4

@@ -48,11 +48,19 @@ def _pxd_attributes(name: str) -> dict[str, str]:
 
 
 def _pxd_functions(name: str) -> dict[str, list[str]]:
-    """``cpdef`` functions of ``<name>.pxd`` at module level: {name: parameter names}."""
+    """``cpdef`` functions of ``<name>.pxd`` at module level: {name: parameter names}.
+
+    A parameter may be a C tuple (``(double, double) prm``): its parentheses are skipped.
+    """
     text = (BLOCKS_DIR / f"{name}.pxd").read_text()
     found = {}
-    for m in re.finditer(r"^cpdef [^\n(]*?(\w+)\(([^)]*)\)", text, re.M | re.S):
-        params = [p.split()[-1].split("=")[0] for p in m.group(2).replace("\n", " ").split(",")]
+    for m in re.finditer(r"^cpdef (?:\([^)]*\)|\w+)\s*(\w+)\(", text, re.M):
+        depth, start, j = 1, m.end(), m.end()
+        while depth:
+            depth += {"(": 1, ")": -1}.get(text[j], 0)
+            j += 1
+        inner = re.sub(r"\([^()]*\)", "tuple", text[start : j - 1].replace("\n", " "))
+        params = [p.split()[-1].split("=")[0] for p in inner.split(",")]
         found[m.group(1)] = [p for p in params if p and p != "self"]
     return found
 

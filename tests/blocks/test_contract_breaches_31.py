@@ -238,3 +238,31 @@ def test_step_controller_and_steady_detector_clocks_saturate() -> None:
     for _ in range(4):
         det(1.0, dt=MAX)
     assert det.steady and _finite_state(det)
+
+
+# --- the float32 PID's terms in a mode's hold (the one law's overflow check) -----------
+
+
+@pytest.mark.parametrize("precision, sp", [("float32", 1e38), ("float64", 1e308)])
+def test_pid_in_reset_with_a_huge_setpoint_shows_finite_terms_and_keeps_a_finite_memory(
+    precision: str, sp: float
+) -> None:
+    """In RESET the output is the reset value whatever the setpoint; ``K (b SP - PV)`` of
+    SP = 1e38 overflows REAL (1e308 a float64). Before, the float32 PID (the exported
+    FB) showed P = inf, I = -inf and kept the integrator -inf (its overflow check read
+    only the law's value before the limits, the reset value); now both precisions say
+    BAD_RESULT, show finite terms, keep a finite memory and leave RESET bumplessly."""
+    pid = PID(kp=4.0, ti=1.0, td=0.5, ts=0.1, u_min=0.0, u_max=100.0, reset_value=10.0,
+              precision=precision)  # fmt: skip
+    pid(1.0, 0.0)
+    pid.reset_active = True
+    assert pid(sp, 0.0) == 10.0
+    assert pid.error_id == ErrorCode.BAD_RESULT
+    real_max = 3.4028230607370965e38 if precision == "float32" else MAX
+    assert all(abs(v) <= real_max for v in (pid.p, pid.i, pid.d))
+    assert _finite_state(pid)
+    memory = pid.snapshot().get("_plc_state") or {}
+    assert all(abs(float(v)) <= real_max for k, v in memory.items() if k != "db_buf")
+    pid.reset_active = False
+    assert pid(1.0, 1.0) == pytest.approx(10.0, abs=1e-5)  # P = D = 0: continues at 10
+    assert pid.error_id == ErrorCode.NO_ERROR

@@ -166,12 +166,6 @@ def test_cycle_in_float64_is_the_block(kind, make):
                          *(["x2_out"] if n >= 2 else []), *(["x3_out"] if n >= 3 else [])}
 
 
-@pytest.mark.parametrize("n", [1, 2, 3])
-def test_bandwidth_gains_spelled_out_equal_adrc_gains(n):
-    wc, wo = 0.7, 3.3
-    assert pc.bandwidth_gains(n, wc, wo) == pytest.approx(adrc_mod.adrc_gains(n, wc, wo), rel=1e-15)
-
-
 SPIKES = (REAL_SPIKE, 1.7e308)
 
 
@@ -203,12 +197,15 @@ def test_overflow_of_the_law_holds_the_output_and_recovers_as_the_block_does(mak
 @pytest.mark.parametrize("n", [1, 2, 3])
 @pytest.mark.parametrize("a", [1e-9, 1e-4, 0.05, 0.0999, 0.1, 0.3, 1.0, 3.0, 40.0])
 def test_exact_coefficients_spelled_out_equal_the_blocks_ackermann_ones(n, a):
-    """plc_cycle.exact_coefficients (PLC arithmetic, no expm1, no matrices) against
-    adrc._exact_coefficients (numpy, expm1) for every order, omega ts from 1e-9 to 40."""
+    """exact_coefficients (the one design: PLC arithmetic, no expm1, no matrices) against
+    an independent closed form (numpy, expm1, tests/blocks/exact_oracle.py) for every
+    order, omega ts from 1e-9 to 40."""
+    from tests.blocks.exact_oracle import exact_coefficients as oracle
+
     b0, h = 0.7, 0.05
     wc, wo = 0.4 * a / h, a / h
     got = pc.exact_coefficients(n, b0, wc, wo, h)
-    coef, gains = adrc_mod._exact_coefficients(n, b0, wc, wo, h)
+    coef, gains = oracle(n, b0, wc, wo, h)
     assert got == pytest.approx((*coef, *gains), rel=1e-13, abs=0.0)
 
 
@@ -327,7 +324,7 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
     kind = "pid" if isinstance(block, PID) else "adrc"
     seen = []
-    name = "pid_step" if kind == "pid" else "adrc_law"  # the ADRC's one cycle
+    name = "pid_law" if kind == "pid" else "adrc_law"  # each block's one law
     kernel = getattr(pc, name)
 
     def spy(*args):

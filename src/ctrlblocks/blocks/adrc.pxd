@@ -1,7 +1,9 @@
 # Declarations for the optional compiled build of the blocks (see base.pxd): ADRC as an
 # extension type whose float state is C doubles, and the per-call law functions with
 # C arguments (the interpreted functions of adrc.py stay what ctrlblocks.fast compiles
-# with numba and the float32 cycle rebuilds).  The attributes declared here are
+# with numba and the float32 cycle rebuilds).  adrc_law's parameter tuples are C tuples
+# and its constant ones (NO_EXACT, NO_ANTI_BACKOFF) C values: the fast lane passes them
+# without converting (issue 31: the Python tuples cost the compiled ADRC 46 %).  The attributes declared here are
 # ADRC._declared; tests/blocks/test_compiled.py keeps this file in step with adrc.py.
 
 cimport cython
@@ -36,8 +38,16 @@ cpdef (double, double, double, double, double, double, double, double, bint, lon
        double) adrc_law(
     double r_in, double y, bint manual, double target, bint tracking, bint started, long sat,
     bint awin, bint exact, bint ab_on, double yh, double x2, double x3, double x4, double u_eso,
-    double u_prev, double ref, double q, long ab_sat, double ab_wait, object prm, object ecoef,
-    object ab)
+    double u_prev, double ref, double q, long ab_sat, double ab_wait,
+    (double, double, double, double, double, double, double, double, double, double, double,
+     double, double, double, double, double, double, double, double, double, double, double,
+     double, double) prm,
+    (double, double, double, double, double, double, double, double, double, double, double,
+     double, double) ecoef,
+    (double, double, double) ab)
+cdef (double, double, double, double, double, double, double, double, double, double, double,
+      double, double) NO_EXACT
+cdef (double, double, double) NO_ANTI_BACKOFF
 cpdef double handover_offset(double target, double ref, double yh, double x2, double x3,
                              double x4, double b0, double kp, double kd1, double kd2)
 @cython.locals(lo=cython.double, hi=cython.double, target=cython.double, u=cython.double,

@@ -118,7 +118,6 @@ outputs of Fig. 2 (section 5).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -197,14 +196,6 @@ _ANTI_WINDUP = {"directional": 2, "freeze": 1, "off": 0, True: 2, False: 0}
 # ---------------------------------------------------------------------------
 
 
-def _pow(x: float, k: int) -> float:
-    """``x**k`` for a float and a small int ``k >= 0``; +-inf instead of OverflowError."""
-    try:
-        return x**k
-    except OverflowError:
-        return math.inf if x > 0.0 or k % 2 == 0 else -math.inf
-
-
 def adrc_switches(n: int) -> tuple[float, float, float, float, float]:
     """Switches ``(p1, p2, k1, k2, k3)`` from the two low bits of the order n.
 
@@ -227,20 +218,13 @@ def adrc_gains(
     """Gao's bandwidth gains ``(l1, l2, l3, l4, kp, kd1, kd2)`` for order n.
 
     Observer: ``(s + omega_o)^(n+1)``; controller: ``(s + omega_c)^n``
-    (Nowak et al. 2018, section 3.3; derivation and table in the module docstring).
-    ``l4`` always multiplies the x4 (total disturbance) recursion.
+    (Nowak et al. 2018, section 3.3; derivation and table in the module docstring):
+    the binomial coefficients ``C(n+1, j) omega_o^j`` and ``C(n, j) omega_c^j``,
+    spelled out for n = 1, 2, 3 by :func:`bandwidth_gains` (the version the PLC
+    runs too; the tests check them against ``numpy.poly``).  ``l4`` always
+    multiplies the x4 (total disturbance) recursion.
     """
-    m = n + 1
-    lo = [math.comb(m, j) * _pow(omega_o, j) for j in range(1, m + 1)]  # l1 .. l_m
-    l1 = lo[0]
-    l2 = lo[1] if n >= 2 else 0.0
-    l3 = lo[2] if n >= 3 else 0.0
-    l4 = lo[-1]
-    kc = [math.comb(n, j) * _pow(omega_c, j) for j in range(1, n + 1)]  # a_1 .. a_n
-    kp = kc[-1]
-    kd1 = kc[-2] if n >= 2 else 0.0
-    kd2 = kc[-3] if n >= 3 else 0.0
-    return l1, l2, l3, l4, kp, kd1, kd2
+    return bandwidth_gains(n, omega_c, omega_o)
 
 
 def euler_pole_polynomial(m: int, a: float) -> np.ndarray:
@@ -918,116 +902,110 @@ class ADRCConfig(BlockConfig):
 # ---------------------------------------------------------------------------
 
 
-def _exact_coefficients(
-    n: int, b0: float, omega_c: float, omega_o: float, ts: float
-) -> tuple[tuple[float, ...], tuple[float, float, float]]:
-    """ZOH matrices, current-observer gain and controller gains (Ackermann), in closed form.
+ONE_THIRD = 1.0 / 3.0
+ELEVEN_SIXTHS = 11.0 / 6.0
 
-    Returns ``(f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3)`` in
-    the 4-state layout and ``(kp, kd1, kd2)``.
 
-    The chain of ``m = n + 1`` integrators (Y, its derivatives, h) has
-    ``Phi[i][j] = ts^(j-i)/(j-i)!``.  In the scaled state ``x_i ts^i`` it becomes
-    the constant ``exp(N)`` (N the shift matrix), so Ackermann's formula
-    ``Lp = p(Phi) O^-1 e_last`` with ``p(z) = (z - z_o)^m = ((z - 1) + d)^m``,
-    ``d = 1 - exp(-omega_o ts)``, is a sum of constant vectors times ``d^k``
-    (:func:`_chain_constants`); unscaling multiplies entry i by ``ts^-i`` and
-    only terms with ``k > i`` occur, written ``(d/ts)^i d^(k-i)``.  So the gains are
-    accurate for every ``omega_o ts`` (no cancellation when it is tiny, no
-    singular matrix at ``ts = 1e-300``).  Example, n = 1: ``Lc = (1 - z_o^2,
-    (1 - z_o)^2/ts)``.  The controller gains are placed likewise on the n-chain
-    (all poles at ``exp(-omega_c ts)``).
+def bandwidth_gains(
+    n: int, omega_c: float, omega_o: float
+) -> tuple[float, float, float, float, float, float, float]:
+    """Gao's gains ``(l1, l2, l3, l4, kp, kd1, kd2)`` for n = 1, 2, 3, written out.
+
+    The binomial coefficients of ``(s + omega_o)^(n+1)`` and ``(s + omega_c)^n``
+    (Nowak et al. 2018, section 3.3) as :func:`adrc_gains` computes them with
+    ``math.comb`` -- spelled out because a PLC has no lists (the float32 cycle
+    and the export run it); the tests check both agree for every order.
     """
-    m = n + 1
-    idx = {1: [0, 3], 2: [0, 1, 3], 3: [0, 1, 2, 3]}[n]
-    h = ts
-    phi = np.eye(4)
-    gam = np.zeros(4)
-    for a in range(m):
-        for b in range(a + 1, m):
-            phi[idx[a], idx[b]] = _pow(h, b - a) / math.factorial(b - a)
-        if a < n:
-            gam[idx[a]] = b0 * _pow(h, n - a) / math.factorial(n - a)
-    obs_terms, ctl_terms = _chain_constants(n)
-    lc_r = _scaled_gain(obs_terms, m, omega_o, h, observer=True)
-    kk = _scaled_gain(ctl_terms, n, omega_c, h, observer=False) + [0.0] * (3 - n)
-    lc = np.zeros(4)
-    lc[idx] = lc_r
-    coef = (
-        float(phi[0, 1]),
-        float(phi[0, 2]),
-        float(phi[0, 3]),
-        float(phi[1, 2]),
-        float(phi[1, 3]),
-        float(phi[2, 3]),
-        float(gam[0]),
-        float(gam[1]),
-        float(gam[2]),
-        *(float(v) for v in lc),
-    )
-    return coef, (kk[0], kk[1], kk[2])
+    wo2 = omega_o * omega_o
+    wc2 = omega_c * omega_c
+    if n == 1:
+        return 2.0 * omega_o, 0.0, 0.0, wo2, omega_c, 0.0, 0.0
+    if n == 2:
+        return 3.0 * omega_o, 3.0 * wo2, 0.0, wo2 * omega_o, wc2, 2.0 * omega_c, 0.0
+    return (4.0 * omega_o, 6.0 * wo2, 4.0 * (wo2 * omega_o), wo2 * wo2,
+            wc2 * omega_c, 3.0 * wc2, 3.0 * omega_c)  # fmt: skip
 
 
-def _scaled_gain(
-    terms: list[np.ndarray], size: int, omega: float, h: float, *, observer: bool
-) -> list[float]:
-    """Gain entries from the constant vectors ``terms[k]`` (coefficient of ``d^k``).
+def pole_distance(omega: float, h: float) -> tuple[float, float]:
+    """``(d, q) = (1 - exp(-omega h), d/h)``: distance of the pole ``exp(-omega h)`` from 1.
 
-    Observer entry i: ``sum_k terms[k][i] (d/h)^i d^(k-i)`` (``k > i``).
-    Controller entry i: ``sum_k terms[k][i] (d/h)^(size-i) d^(k-size+i)``
-    (``k >= size - i``).  ``d = 1 - exp(-omega h)`` by ``expm1``; ``d/h`` tends to
-    ``omega`` as ``omega h -> 0``.
+    Without ``expm1`` (which a PLC lacks): for ``a = omega h < 0.1`` by the
+    Taylor series of ``(1 - exp(-a))/a`` to ``a^8`` (relative error below
+    3e-14, checked against ``expm1``), so that ``d/h`` stays accurate for a
+    tiny ``a``; above by ``1 - EXP(-a)``.
     """
     a = omega * h
-    d = -math.expm1(-a)
-    q = omega * (d / a) if a > 1e-300 else omega  # d/h without dividing by a subnormal h
-    out = []
-    for i in range(size):
-        p = i if observer else size - i
-        acc = 0.0
-        for k in range(1, size + 1):
-            c = float(terms[k][i])
-            if c != 0.0 and k >= p:
-                acc += c * _pow(q, p) * _pow(d, k - p)
-        out.append(acc)
-    return out
+    if a < 0.1:
+        r = 1.0 - a / 2.0 * (1.0 - a / 3.0 * (1.0 - a / 4.0 * (1.0 - a / 5.0 * (
+            1.0 - a / 6.0 * (1.0 - a / 7.0 * (1.0 - a / 8.0 * (1.0 - a / 9.0)))))))  # fmt: skip
+        return a * r, omega * r
+    d = 1.0 - math.exp(-a)
+    return d, omega * (d / a)
 
 
-@functools.cache
-def _chain_constants(n: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """Constant vectors of the scaled chain for :func:`_exact_coefficients`.
+def exact_coefficients(
+    n: int, b0: float, omega_c: float, omega_o: float, h: float
+) -> tuple[
+    float, float, float, float, float, float, float, float, float, float, float, float, float,
+    float, float, float,
+]:  # fmt: skip
+    """The ZOH current observer and controller gains of ``discretisation="exact"``: the one design.
 
-    Observer (m = n + 1 states): ``C(m, k) exp(-N) W^(m-k) O^-1 e_last``,
-    ``W = exp(N) - I``; controller (n states, input on the last): ``C(n, k)
-    e_last^T Ctrb^-1 W^(n-k)`` with ``Ctrb = [g, exp(N) g, ...]``, ``g_i =
-    1/(n-i)!``.  Index k = 0..size (entry 0 unused).  Exact small rational
-    matrices, computed once per order.
+    ``(f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2)``:
+    the chain of ``m = n + 1`` integrators (Y, its derivatives, h) has
+    ``Phi[i][j] = h^(j-i)/(j-i)!`` and the zero-order-hold input vector ``g``;
+    Ackermann's formula places all observer poles of the current observer
+    ``(I - Lc C) Phi`` at ``exp(-omega_o h)`` and all controller poles of the
+    n-chain at ``exp(-omega_c h)`` (Herbst 2013 via Nowak et al. 2018).  In
+    the scaled state ``x_i h^i`` the chain is the constant ``exp(N)``, so the
+    gains are polynomials in ``d = 1 - exp(-omega h)`` and ``q = d/h``
+    (:func:`pole_distance`): accurate for every ``omega h`` (no cancellation
+    when it is tiny, no singular matrix at ``h = 1e-300``).  Spelled out for
+    n = 1, 2, 3 (a PLC has no matrices): the block, the float32 cycle and the
+    exported FB run this one function; the tests check it against scipy's
+    matrix exponential with Ackermann's formula and a closed form of the
+    constant vectors (tests/blocks/exact_oracle.py).  Example, n = 1: ``Lc =
+    (1 - z_o^2, (1 - z_o)^2/h)``.
     """
-
-    def expn(size: int, sign: float) -> np.ndarray:
-        e = np.zeros((size, size))
-        for i in range(size):
-            for j in range(i, size):
-                e[i, j] = sign ** (j - i) / math.factorial(j - i)
-        return e
-
-    m = n + 1
-    phi, pinv = expn(m, 1.0), expn(m, -1.0)
-    w = phi - np.eye(m)
-    obs = np.array([np.linalg.matrix_power(phi, k)[0] for k in range(m)])
-    v = np.linalg.solve(obs, np.eye(m)[-1])
-    obs_terms = [np.zeros(m)] + [
-        math.comb(m, k) * (pinv @ np.linalg.matrix_power(w, m - k) @ v) for k in range(1, m + 1)
-    ]
-    phic = phi[:n, :n]
-    wc = phic - np.eye(n)
-    g = np.array([1.0 / math.factorial(n - i) for i in range(n)])
-    ctrb = np.column_stack([np.linalg.matrix_power(phic, k) @ g for k in range(n)])
-    r0 = np.linalg.solve(ctrb.T, np.eye(n)[-1])
-    ctl_terms = [np.zeros(n)] + [
-        math.comb(n, k) * (r0 @ np.linalg.matrix_power(wc, n - k)) for k in range(1, n + 1)
-    ]
-    return obs_terms, ctl_terms
+    d, q = pole_distance(omega_o, h)
+    dc, qc = pole_distance(omega_c, h)
+    hh = h * h
+    f01, f02, f03, f12, f13, f23 = 0.0, 0.0, h, 0.0, 0.0, 0.0
+    g0, g1, g2 = b0 * h, 0.0, 0.0
+    c0, c1, c2, c3 = 2.0 * d - d * d, 0.0, 0.0, q * d
+    kp, kd1, kd2 = qc, 0.0, 0.0
+    if n == 2:
+        f01 = h
+        f03 = hh / 2.0
+        f13 = h
+        g0 = b0 * hh / 2.0
+        g1 = b0 * h
+        c0 = 3.0 * d - 3.0 * (d * d) + d * d * d
+        c1 = 3.0 * q * d - 1.5 * q * (d * d)
+        c3 = q * q * d
+        kp = qc * qc
+        kd1 = 2.0 * qc - 0.5 * qc * dc
+    elif n == 3:
+        d2 = d * d
+        q2 = q * q
+        qc2 = qc * qc
+        f01 = h
+        f02 = hh / 2.0
+        f03 = hh * h / 6.0
+        f12 = h
+        f13 = hh / 2.0
+        f23 = h
+        g0 = b0 * (hh * h) / 6.0
+        g1 = b0 * hh / 2.0
+        g2 = b0 * h
+        c0 = 4.0 * d - 6.0 * d2 + 4.0 * (d2 * d) - d2 * d2
+        c1 = 6.0 * q * d - 6.0 * q * d2 + ELEVEN_SIXTHS * q * (d2 * d)
+        c2 = 4.0 * q2 * d - 2.0 * q2 * d2
+        c3 = q2 * q * d
+        kp = qc2 * qc
+        kd1 = 3.0 * qc2 - qc2 * dc
+        kd2 = 3.0 * qc - 1.5 * qc * dc + ONE_THIRD * qc * (dc * dc)
+    return f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2
 
 
 def discretisation_trusted(
@@ -1295,12 +1273,13 @@ class ADRC(Block):
         c = self._config
         n, b0 = self._n, self._b0
         p1, p2, k1, k2, k3 = adrc_switches(n)
-        l1, l2, l3, l4, kp, kd1, kd2 = adrc_gains(n, float(c.omega_c), float(c.omega_o))
+        l1, l2, l3, l4, kp, kd1, kd2 = bandwidth_gains(n, float(c.omega_c), float(c.omega_o))
         nsub = 1.0
         if self._exact:
-            coef, (kp, kd1, kd2) = _exact_coefficients(n, b0, float(c.omega_c), float(c.omega_o), h)
+            (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1,
+             kd2) = exact_coefficients(n, b0, float(c.omega_c), float(c.omega_o), h)  # fmt: skip
             self._eso = eso_exact
-            self._eso_coef = coef
+            self._eso_coef = (f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3)
             s_yh = s_x2 = s_x3 = 0.0  # the current observer does not pass x4_i on
         else:
             self._eso = eso_euler

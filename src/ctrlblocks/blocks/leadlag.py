@@ -89,7 +89,7 @@ from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
 from .signals import clamp
 
-__all__ = ["LeadLag", "LeadLagConfig", "leadlag_coefficients", "leadlag_step"]
+__all__ = ["LeadLag", "LeadLagConfig", "leadlag_coefficients", "leadlag_law", "leadlag_step"]
 
 
 # ---------------------------------------------------------------------------
@@ -136,6 +136,33 @@ def leadlag_step(
 ) -> float:
     """One lead-lag sample, limited to ``[lo, hi]`` (Bonde et al. 2021, Fig. 10)."""
     return clamp(b0 * x + b1 * x_prev - a1 * y_prev, lo, hi)
+
+
+def leadlag_law(
+    x: float,
+    x_ok: bool,
+    enable: bool,
+    out: float,
+    x_prev: float,
+    b0: float,
+    b1: float,
+    a1: float,
+    lo: float,
+    hi: float,
+) -> tuple[float, float]:
+    """The lead-lag's cycle (Bonde et al. 2021, Fig. 10): the new ``(out, x_prev)``.
+
+    ``x_ok`` False (a NaN/inf input, judged by the caller in its precision) holds
+    both; ``enable`` False gives 0 within the limits and lets the input memory
+    follow ``x``; else one
+    :func:`leadlag_step`.  Written once: the block (float64), its float32 cycle and
+    the exported FB (:func:`.plc_cycle.leadlag_cycle`) run it.
+    """
+    if not x_ok:
+        return out, x_prev
+    if not enable:
+        return clamp(0.0, lo, hi), x
+    return leadlag_step(x, x_prev, out, b0, b1, a1, lo, hi), x
 
 
 # ---------------------------------------------------------------------------
@@ -278,19 +305,14 @@ class LeadLag(Block):
         x = as_input(x)
         if self._config.precision == "float32":
             return _float32_cycle("leadlag")(self, x, enable, dt)
-        if not math.isfinite(x):
-            self.error_id = ErrorCode.BAD_INPUT
-            return self.out
-        self.error_id = ErrorCode.NO_ERROR
-        self.enabled = as_flag(enable, False)
-        if not self.enabled:
-            self.out = 0.0
-            self._x_prev = x
-            return 0.0
-        if h != self._h:
-            self._set_h(h)
-        self.out = leadlag_step(
-            x, self._x_prev, self.out, self._b0, self._b1, self._a1, self._lo, self._hi
-        )
-        self._x_prev = x
+        x_ok = math.isfinite(x)
+        if x_ok:
+            self.enabled = as_flag(enable, False)
+            if h != self._h:
+                self._set_h(h)
+        self.error_id = ErrorCode.NO_ERROR if x_ok else ErrorCode.BAD_INPUT
+        self.out, self._x_prev = leadlag_law(
+            x, x_ok, self.enabled, self.out, self._x_prev,
+            self._b0, self._b1, self._a1, self._lo, self._hi,
+        )  # fmt: skip
         return self.out

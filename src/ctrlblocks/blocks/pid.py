@@ -91,6 +91,7 @@ from .signals import (
     SteadyStateDetector,
     clamp,
     deadband,
+    rate_limit_step,
     scale,
 )
 
@@ -101,6 +102,7 @@ __all__ = [
     "PIDConfig",
     "PIDKernelParams",
     "PIDKernelState",
+    "PIDOptions",
     "pid_step",
     "retune_states",
 ]
@@ -297,6 +299,262 @@ def retune_states(
     return i + shift, bias_new, p_new, d_new, sgn * (c * sp_w - pv_f), sgn * (sp_w - pv_f)
 
 
+def tracking_time(tt: float, ti: float, ts: float) -> float:
+    """The tracking time constant ``Tt`` in force [s]: ``tt`` if > 0, else the default.
+
+    The default is ``Ti/5`` (Åström 1987, Fig. 3.9 uses ``Tt = Ti/5``), or ``ts``
+    without integral action (``Ti = 0``: the reset feedback of the velocity form).
+    """
+    if tt > 0.0:
+        return tt
+    if ti > 0.0:
+        return ti / 5.0
+    return ts
+
+
+def pid_parameters(
+    k: float,
+    ti: float,
+    td: float,
+    n: float,
+    b: float,
+    c: float,
+    h: float,
+    lo: float,
+    hi: float,
+    reverse: bool,
+    d_method: int,
+    i_method: int,
+    aw: float,
+    tt: float,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, float, float,
+           float]:  # fmt: skip
+    """The parameter tuple of :func:`pid_law` (:class:`PIDKernelParams`) from the ISA tuning.
+
+    ``(K, Ti, Td)`` ISA, ``n`` the derivative filter (``Tf = Td/n``), ``h`` the
+    sample time of the cycle, ``d_method`` / ``i_method`` 0 forward, 1 backward,
+    2 Tustin, ``aw`` 0 clamping, 1 back-calculation (model), 2 on the measured
+    actuator position, ``tt`` the tracking time (0: :func:`tracking_time`'s
+    default).  The one derivation of the parameters: the block, the PLC cycle
+    and the compiled banks call it.
+    """
+    ad, bd = derivative_coefficients(k * td, td / n, h, d_method)
+    ki = 0.0
+    if ti > 0.0:
+        ki = k / ti
+    alpha, beta = integral_weights(i_method)
+    sgn = 1.0
+    if reverse:
+        sgn = -1.0
+    g = tracking_gain(h, tracking_time(tt, ti, h))
+    return k, sgn, b, c, ad, bd, ki * h, alpha, beta, lo, hi, aw, g
+
+
+NO_OPTIONS: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+"""The ``opt`` of :func:`pid_law` (:class:`PIDOptions`) for the plain positional law (no
+velocity form, no P suppression, no output ramp, no dead band, integration at any error):
+what the compiled kernels pass."""
+
+
+def pid_law(
+    sp: float,
+    pv: float,
+    ff: float,
+    held: bool,
+    target: float,
+    hist: bool,
+    transfer: bool,
+    suppressed: bool,
+    awin: bool,
+    db_active: bool,
+    db_hold: float,
+    i: float,
+    d: float,
+    w_prev: float,
+    e_prev: float,
+    x: float,
+    bias: float,
+    p_prev: float,
+    d_prev: float,
+    ff_prev: float,
+    out_prev: float,
+    ramp_y: float,
+    prm: tuple[float, ...],
+    opt: tuple[float, ...],
+) -> tuple[float, float, bool, float, float, float, float, float, float, bool, bool]:
+    """The PID's cycle from its working signals: the one law of every executor (compute half).
+
+    The block (:meth:`PID.compute_output` and its per-call fast lane), the
+    compiled kernels (:func:`pid_step`, numba and Cython), the float32 cycle
+    and the exported function block (:func:`.plc_cycle.pid_cycle`) all run
+    this function, written once in the subset the PLC translator accepts.  In
+    Åström's computational order (1987, section 6) it is ``ComputeOutput``:
+    from the committed state to this cycle's output and what
+    :func:`pid_commit` commits with the value actually applied.
+
+    ``sp``, ``pv`` are the working setpoint and the (filtered, scaled)
+    measurement, ``ff`` the whole feed-forward.  ``held``: a mode other than
+    AUTO, whose output is ``target``; ``hist`` restarts the derivative's and
+    the error's histories on this sample (the first cycle, after a bad
+    input); ``transfer`` continues from ``out_prev`` (the first AUTO cycle
+    after another mode, a re-initialisation: Åström 1987, Fig. 4.4);
+    ``suppressed`` the P action is off until ``|e| <= dev_tol``
+    (SUPPRESS_P_ACTION); ``awin`` freezes the integrator; ``db_active`` the
+    adaptive dead band holds the output at ``db_hold`` while the error stays
+    in the band (controltheplant 2024, section 2.3.10).  The state: the
+    integrator ``i``, ``D[k-1]``, ``w[k-1] = c r - y``, ``e[k-1]``, the
+    velocity form's output integrator ``x``, its bias and the last P, D, FF;
+    ``ramp_y`` the output ramp's last value.
+
+    ``prm`` is :class:`PIDKernelParams` (:func:`pid_parameters`), ``opt`` is
+    :class:`PIDOptions` -- ``(velocity, dev_tol, rate_h, db, i_band)``: the
+    velocity algorithm (1.0), the deviation tolerance of SUPPRESS_P_ACTION,
+    the output ramp's largest step per cycle (0: off), the dead band's
+    half-width (0: off), the integral band (0: off; conditional integration,
+    Åström & Hägglund 2006, section 3.5: the error is integrated only while
+    ``|e| <= i_band``); :data:`NO_OPTIONS` for the plain positional law.
+
+    Returns ``(out, v_raw, limiting, p, i_k, d, w, e, bias, suppressed,
+    db_held)``: the limited (and ramped) output, the law's value before the
+    limits, whether the output ramp set the output, the P term as used, the
+    I term of this cycle (the integrator before the tracking of
+    :func:`pid_commit`; the velocity form: ``v - P - D - FF``), the D term,
+    ``w`` and ``e`` (with the action sign), the velocity form's bias, P still
+    suppressed, and whether the dead band held the output.
+    """
+    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
+    velocity, dev_tol, rate_h, db, i_band = opt
+    e = sgn * (sp - pv)
+    p = k * sgn * (b * sp - pv)
+    w = sgn * (c * sp - pv)
+    if hist:
+        w_prev = w
+        d = 0.0
+        e_prev = e
+    dn = derivative_step(ad, bd, d, w, w_prev)
+    if suppressed and abs(e) <= dev_tol:
+        transfer = True  # the P action comes back: re-initialise the integrator
+        suppressed = False
+    if suppressed:
+        p = 0.0
+    # conditional integration (Åström & Hägglund 2006, section 3.5): no increment of the
+    # integral while the error is outside the integral band
+    frozen = hist or awin or (i_band > 0.0 and abs(e) > i_band)
+    db_held = False
+    if db_active and not held and db > 0.0:
+        if deadband(e, db) == 0.0:
+            db_held = True  # the error stays in the band: hold the output at the average
+            held = True
+            target = db_hold
+        else:
+            transfer = True  # the dead band released: continue without a bump
+    i_k = i
+    if held:
+        v_raw = target
+    elif velocity != 0.0:
+        # the velocity algorithm (controltheplant 2024, 2.3.1; Åström 1987, Figs. 2.2-2.5)
+        if transfer:
+            bias = out_prev - p - dn - ff
+            i_k = bias
+            v_raw = out_prev
+        else:
+            if hist:
+                p_prev = 0.0
+                d_prev = 0.0
+                ff_prev = 0.0
+            v_raw = x + (p - p_prev) + (dn - d_prev) + (ff - ff_prev)
+            if ki_h != 0.0:  # switch A of Fig. 2.5: the increments of I
+                if not frozen:
+                    v_raw = v_raw + integral_increment(ki_h, alpha, beta, e_prev, e)
+            else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
+                v_raw = v_raw + g * (p + dn + ff + bias - v_raw)
+            i_k = v_raw - p - dn - ff
+    elif transfer:
+        i_k = out_prev - p - dn - ff
+        v_raw = p + i_k + dn + ff
+    elif ki_h == 0.0 or frozen:
+        v_raw = p + i_k + dn + ff
+    else:
+        di = integral_increment(ki_h, alpha, beta, e_prev, e)
+        i_k = i + di
+        v_raw = p + i_k + dn + ff
+        if aw == 0.0 and clamping_blocks(di, v_raw, lo, hi):
+            # integrate up to the limit, not beyond (clamping_integral); v_raw stays the
+            # demand, beyond the limit, so that the limit status is set
+            i_k = clamping_integral(i, di, p + dn + ff, lo, hi)
+        else:
+            if aw == 0.0 and clamping_blocks(di, p + i_k + ff, lo, hi):
+                # a derivative kick of the other sign hides the limit: the integral may
+                # still not take P + I + FF beyond it (no windup behind a D spike)
+                i_k = clamping_integral(i, di, p + ff, lo, hi)
+            elif aw == 0.0 and ramp_blocks(di, clamp(v_raw, lo, hi), ramp_y, rate_h):
+                i_k = i  # the output ramp holds the output back
+            v_raw = p + i_k + dn + ff
+    out, limiting = pid_output(v_raw, ramp_y, lo, hi, rate_h)
+    return out, v_raw, limiting, p, i_k, dn, w, e, bias, suppressed, db_held
+
+
+def pid_output(v: float, ramp_y: float, lo: float, hi: float, rate_h: float) -> tuple[float, bool]:
+    """The output stage: ``v`` limited to ``[lo, hi]``, then the output ramp; ``(out, limiting)``.
+
+    The ramp (controltheplant 2024, section 2.3.8; :func:`.signals.rate_limit_step`)
+    moves at most ``rate_h`` per cycle from its last value ``ramp_y`` (0: off) and
+    acts in every mode (RESET presets it: the caller passes the reset value as
+    ``ramp_y``); limits narrowed at run time win over it.  ``limiting``: the ramp
+    set the output.
+    """
+    out = clamp(v, lo, hi)
+    if rate_h > 0.0:
+        out, limiting = rate_limit_step(out, ramp_y, rate_h, rate_h, 1.0)
+        return clamp(out, lo, hi), limiting
+    return out, False
+
+
+def pid_commit(
+    u: float,
+    out: float,
+    v_raw: float,
+    p: float,
+    i_k: float,
+    d: float,
+    ff: float,
+    held: bool,
+    pos_ok: bool,
+    actuator_pos: float,
+    ki_h: float,
+    aw: float,
+    g: float,
+    velocity: float,
+) -> tuple[float, float]:
+    """The PID's state after a cycle of :func:`pid_law` with the applied value ``u`` (update half).
+
+    ``UpdateState`` of Åström 1987, Listing 6.3.  In AUTO the integrator
+    tracks ``u`` with time constant ``Tt`` (Åström 1987, Fig. 3.6, implicit
+    Euler :func:`tracking_gain`): with clamping on ``u - out`` (0 when the
+    block's own output is applied), with back-calculation on ``u - v_raw``
+    (``aw`` 1) or ``actuator_pos - v_raw`` (``aw`` 2, while ``pos_ok``; Åström
+    1987, Fig. 3.2 A); the velocity form's output integrator tracks from the
+    output.  While ``held`` (another mode, the dead band) the integrator is set
+    so that ``P + I + D + FF = u`` (Åström 1987, Fig. 4.4).  Returns ``(i, x)``:
+    the integrator and the velocity form's output integrator for the next cycle
+    (the positional form keeps ``x``'s input, the velocity form ``i``'s: the caller's).
+    ``ki_h``, ``aw``, ``g`` and ``velocity`` are those of :func:`pid_law`'s ``prm`` and ``opt``.
+    """
+    if held:
+        return u - p - d - ff, u
+    ref = u
+    if aw == 2.0 and pos_ok:
+        ref = actuator_pos
+    if velocity != 0.0:
+        return i_k, out + g * (ref - out)
+    if ki_h != 0.0 and (aw != 0.0 or u != out):
+        v = out
+        if aw != 0.0:
+            v = v_raw
+        return i_k + g * (ref - v), out
+    return i_k, out
+
+
 def pid_step(
     sp: float,
     pv: float,
@@ -312,61 +570,30 @@ def pid_step(
     out_prev: float,
     prm: tuple[float, ...],
 ) -> tuple[float, float, float, float, float, float, float, float]:
-    """One whole cycle of the positional PID with ``applied = out``, from the functions above.
+    """One cycle of the positional PID with ``applied = out``: :func:`pid_law` for the kernels.
 
-    The per-call fast lane of :class:`PID` (plain configuration, see
-    ``PID._lean``) and the compiled loops and banks of :mod:`ctrlblocks.fast`
-    run this one function; it is :meth:`PID.compute_output` followed by
-    :meth:`PID.update_state` for that configuration (same operations in the
-    same order, so the results are identical).  ``prm = (K, sgn, b, c, a, bd,
-    K h/Ti, alpha, beta, u_min, u_max, aw, g)``: gain, action sign, setpoint
-    weights, derivative coefficients (2.13), integral gain and weights,
-    limits, anti-windup (0 clamping, 1 back-calculation) and tracking gain
-    ``h/(Tt + h)``.  ``manual`` outputs ``u_man`` (limited) and sets the
-    integrator so that ``P + I + D + FF`` equals it (Åström 1987, Fig. 4.4);
-    ``transfer`` (first auto cycle after manual) continues from ``out_prev``;
-    ``cold`` (first cycle after a reset) starts the histories on this sample.
+    The compiled loops, banks and lanes of :mod:`ctrlblocks.fast` run this
+    function (numba inlines it): :func:`pid_law` with :data:`NO_OPTIONS`
+    followed by :func:`pid_commit` with the block's own output.  ``manual``
+    outputs ``u_man`` (limited) and sets the integrator so that ``P + I + D +
+    FF`` equals it (Åström 1987, Fig. 4.4); ``transfer`` (first auto cycle
+    after manual) continues from ``out_prev``; ``cold`` (first cycle after a
+    reset) starts the histories on this sample.  ``prm`` is
+    :class:`PIDKernelParams`.
 
     Returns ``(out, v_raw, p, i_shown, i_new, d, w, e)``: the limited output,
     the output before the limits, the P term, the I term of this cycle, the
     integrator for the next cycle, the D term, ``w = c r - y`` and
     ``e = r - y`` (with the action sign).
     """
-    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
-    e = sgn * (sp - pv)
-    p = k * sgn * (b * sp - pv)
-    w = sgn * (c * sp - pv)
-    if cold:
-        w_prev = w
-        d = 0.0
-        e_prev = e
-    dn = derivative_step(ad, bd, d, w, w_prev)
+    out, v_raw, _lim, p, i_k, dn, w, e, _bias, _sup, _dbh = pid_law(
+        sp, pv, ff, manual, u_man, cold, transfer, False, False, False, 0.0, i, d, w_prev,
+        e_prev, 0.0, 0.0, 0.0, 0.0, 0.0, out_prev, out_prev, prm, NO_OPTIONS,
+    )  # fmt: skip
+    i_new, _x = pid_commit(out, out, v_raw, p, i_k, dn, ff, manual, False, 0.0, prm[6], prm[11],
+                           prm[12], 0.0)  # fmt: skip
     if manual:
-        out = clamp(u_man, lo, hi)
-        i_new = out - p - dn - ff
-        return out, u_man, p, i_new, i_new, dn, w, e
-    if transfer:
-        i_k = out_prev - p - dn - ff
-    elif ki_h == 0.0 or cold:
-        i_k = i
-    else:
-        di = integral_increment(ki_h, alpha, beta, e_prev, e)
-        i_k = i + di
-        if aw == 0.0 and clamping_blocks(di, p + i_k + dn + ff, lo, hi):
-            # integrate up to the limit, not beyond (clamping_integral); v_raw is
-            # the demand, beyond the limit, so that the limit status is set
-            v_raw = p + i_k + dn + ff
-            i_k = clamping_integral(i, di, p + dn + ff, lo, hi)
-            return clamp(v_raw, lo, hi), v_raw, p, i_k, i_k, dn, w, e
-        if aw == 0.0 and clamping_blocks(di, p + i_k + ff, lo, hi):
-            # a derivative kick of the other sign hides the limit: the integral may
-            # still not take P + I + FF beyond it (no windup behind a D spike)
-            i_k = clamping_integral(i, di, p + ff, lo, hi)
-    v_raw = p + i_k + dn + ff
-    out = clamp(v_raw, lo, hi)
-    # update_state with applied = out: clamping tracks ``applied - out`` = 0 (the
-    # integrator stays i_k), back-calculation ``applied - v_raw`` (Åström 1987, Fig. 3.6)
-    i_new = i_k + g * (out - v_raw) if ki_h != 0.0 and aw != 0.0 else i_k
+        i_k = i_new  # the I term shown: what makes P + I + D + FF the output
     return out, v_raw, p, i_k, i_new, dn, w, e
 
 
@@ -447,6 +674,12 @@ class PIDConfig(BlockConfig):
         REAL does, every intermediate rounded to single precision (the cycle
         of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
         the configurations the export covers.
+    i_band : float
+        Integral band [%], >= 0: the error is integrated only while ``|e| <=
+        i_band`` (conditional integration, Åström & Hägglund 2006, section 3.5:
+        no integral build-up during a large setpoint change or upset, so less
+        overshoot after it); 0 (default) = always.  The anti-windup tracking
+        and the bumpless transfers act as without it.
     tdf : float or None
         The derivative filter as an absolute time [s] > 0 (controltheplant 2024,
         ``irTdF``, default there 0.5 s): given, it sets ``n = Td/tdf`` (ISA ``Td``)
@@ -485,6 +718,7 @@ class PIDConfig(BlockConfig):
     ff_t_lead: float = 0.0
     ff_t_lag: float = 1.0
     precision: str = "float64"
+    i_band: float = 0.0
     tdf: float | None = None
 
     def __post_init__(self) -> None:
@@ -548,6 +782,7 @@ class PIDConfig(BlockConfig):
                 f"got {self.dev_tol!r}",
             )
         require_finite("deadband", self.deadband)
+        require_nonnegative("i_band", self.i_band, ErrorCode.BAD_PARAMETER)
         t_stab = require_positive("t_stab", self.t_stab, ErrorCode.BAD_STAB_TIME)
         if t_stab / ts > MAX_WINDOW:
             raise ParameterError(
@@ -616,8 +851,9 @@ def _law(c: PIDConfig) -> tuple[Any, ...]:
     return (c.isa(), c.n, c.b, c.c, c.reverse, c.pv_range, c.algorithm)
 
 
-_SUB_COMPUTE = ("_sp_filter", "_pv_filter", "_sp_ramp", "_out_ramp", "_ll")
-"""The sub-blocks ``compute_output`` calls; their states travel in the pending cycle."""
+_SUB_COMPUTE = ("_sp_filter", "_pv_filter", "_sp_ramp", "_ll")
+"""The sub-blocks ``compute_output`` calls; their states travel in the pending cycle (the
+output ramp's is a value of the law, :func:`pid_output`)."""
 
 _SKIP, _BAD, _LAW = 0, 1, 2
 
@@ -639,11 +875,13 @@ class _Cycle(NamedTuple):
     d: float = 0.0  # D term [%]
     p: float = 0.0  # P term as used (0 while suppressed) [%]
     ff: float = 0.0  # feed-forward [%]
-    i: float = 0.0  # integrator (velocity form: the I term) [%]
+    i: float = 0.0  # integrator before tracking (velocity form: the I term) [%]
     v_raw: float = 0.0  # output before the limits [%]
     bias: float = 0.0  # velocity form: bias of the reset feedback [%]
     suppressed: bool = False  # P action suppressed (SUPPRESS_P_ACTION)
-    db_hold: bool = False  # the adaptive dead band holds the output
+    held: bool = False  # a mode other than AUTO, or the adaptive dead band, held the output
+    ramp: float = 0.0  # the output ramp's state to commit [%]
+    limiting: bool = False  # the output ramp set the output
 
 
 @functools.cache
@@ -813,18 +1051,6 @@ class PID(Block):
         if old is not None:
             self._sync_subs()
         c = self._config
-        self._lean = (
-            c.algorithm == "positional"
-            and c.pv_range is None
-            and c.sp_filter == 0.0
-            and c.pv_filter == 0.0
-            and c.sp_rate == 0.0
-            and c.out_rate == 0.0
-            and c.ff_k == 0.0
-            and c.deadband == 0.0
-            and c.bumpless == Bumpless.INTEGRATOR
-            and c.anti_windup in (AntiWindup.CLAMPING, AntiWindup.BACK_CALC_MODEL)
-        )
         self._imeth = METHODS.index(c.integral_method)
         self._dmeth = METHODS.index(c.derivative_method)
         self._alpha, self._beta = integral_weights(self._imeth)
@@ -835,6 +1061,8 @@ class PID(Block):
         self._db = abs(float(c.deadband))
         self._ts = ts = float(c.ts)
         self._set_tuning(c)
+        # the per-call fast lane runs pid_step: the configurations of the compiled kernels
+        self._lean = not (_unsupported(c, "pid") or self._option_blockers())
         self._sync("_sp_filter", PT1, t=c.sp_filter, ts=ts)
         self._sync("_pv_filter", PT1, t=c.pv_filter, ts=ts)
         self._sync("_sp_ramp", RateLimiter, rate_up=c.sp_rate, rate_down=c.sp_rate, ts=ts)
@@ -906,7 +1134,7 @@ class PID(Block):
         ki = k / ti if ti > 0.0 else 0.0
         kd = k * td
         tf = td / c.n
-        tt = float(c.tt) if c.tt is not None else (ti / 5.0 if ti > 0.0 else float(c.ts))
+        tt = tracking_time(float(c.tt) if c.tt is not None else 0.0, ti, float(c.ts))
         ts = self._ts
         try:
             ad, bd = derivative_coefficients(kd, tf, ts, self._dmeth)
@@ -927,13 +1155,16 @@ class PID(Block):
             sub.configure(**params)
 
     def _set_h(self, h: float) -> None:
+        """The law's parameters (:func:`pid_parameters`) and options at the sample time ``h``."""
         self._h = h
-        self._ad, self._bd = derivative_coefficients(self._kd, self._tf, h, self._dmeth)
-        self._ki_h = self._ki * h
-        aw = 0.0 if self._config.anti_windup == AntiWindup.CLAMPING else 1.0
-        self._prm = (self._k, self._sgn, float(self._config.b), float(self._config.c),
-                     self._ad, self._bd, self._ki_h, self._alpha, self._beta, self._lo,
-                     self._hi, aw, tracking_gain(h, self._tt))  # fmt: skip
+        c = self._config
+        aw = float(AntiWindup.ALL.index(c.anti_windup))
+        self._prm = pid_parameters(
+            self._k, self._ti, self._td, float(c.n), float(c.b), float(c.c), h, self._lo,
+            self._hi, c.reverse, self._dmeth, self._imeth, aw, self._tt,
+        )  # fmt: skip
+        self._opt = (1.0 if self._velocity else 0.0, float(c.dev_tol), c.out_rate * h, self._db,
+                     float(c.i_band))  # fmt: skip
 
     def configure(self, **changes: Any) -> None:
         """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``.
@@ -1008,7 +1239,8 @@ class PID(Block):
         self._subs["_out_ramp"].preset(held)
         if cycle is not None:
             # update_state: nothing is known, re-initialise on recovery
-            self._pending = cycle._replace(kind=_BAD, subs=subs.take())
+            self._pending = cycle._replace(kind=_BAD, subs=subs.take(), ramp=held,
+                                           limiting=False)  # fmt: skip
             subs.put(committed)
         self.limits_active = False
         if not self.manual:
@@ -1019,7 +1251,7 @@ class PID(Block):
     def _relimit(self) -> None:
         """Limit ``out`` to the limits now in force, and the output ramp with it.
 
-        The ramp's state is the output (:meth:`_finish` ramps the limited law);
+        The ramp's state is the output (:func:`pid_output` ramps the limited law);
         left at the old output it would hold the next cycles back (or, on the
         first good cycle after bad data, ramp away from the held output: a
         bump).  A pending two-phase cycle's ramp state is limited as well.
@@ -1028,16 +1260,10 @@ class PID(Block):
         super()._relimit()
         if self.out == before:
             return
-        ramp = self._subs["_out_ramp"]
-        ramp.preset(self.out)
+        self._subs["_out_ramp"].preset(self.out)
         cycle = self._pending
         if cycle is not None:  # the state update_state will commit
-            subs = self._cycle_subs
-            committed = subs.take()
-            subs.put(cycle.subs)
-            ramp.preset(self.out)
-            self._pending = cycle._replace(subs=subs.take())
-            subs.put(committed)
+            self._pending = cycle._replace(ramp=self.out, limiting=False)
 
     def set_limits(self, u_min: float, u_max: float) -> None:
         """Change the output limits at run time; never raises.
@@ -1293,7 +1519,7 @@ class PID(Block):
         self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool,
         out_prev: float,
     ) -> _Cycle:  # fmt: skip
-        """The law of one cycle from the committed state; sets the outputs, returns the cycle."""
+        """The cycle from the committed state (:func:`pid_law`); sets the outputs, returns it."""
         h = self._cycle_time(dt, self._ts)
         if h is None:
             self.error_id = ErrorCode.NO_CYCLE
@@ -1306,6 +1532,7 @@ class PID(Block):
         subs = self._subs
         lo, hi = self._lo, self._hi
         limits_status = self._limits_status
+        ramp_y = subs["_out_ramp"].out
 
         ok = is_finite(sp) and is_finite(pv) and is_finite(ff) and is_finite(dv)
         bad = ErrorCode.BAD_INPUT if not ok else ErrorCode.NO_ERROR
@@ -1322,14 +1549,21 @@ class PID(Block):
             target = out_prev
         elif mode == Mode.RESET:
             target = clamp(float(c.reset_value), lo, hi)
-            subs["_out_ramp"].preset(target)  # "immediately" (controltheplant 2024, section 2.3.5)
+            ramp_y = target  # "immediately" (controltheplant 2024, section 2.3.5)
             limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
 
         if not ok:
             if target is None:
                 target = out_prev if c.safe_value is None else float(c.safe_value)
-            cycle = _Cycle(_BAD, out_prev, mode, h, v_raw=target)
-            return self._finish(cycle, bad or ErrorCode.BAD_INPUT, limits_status, True)
+            if _NINF < target < _INF:
+                out, limiting = pid_output(target, ramp_y, lo, hi, self._opt[2])
+            else:
+                out, limiting = math.nan, False
+            self.limits_active = target > hi or target < lo or limiting
+            self.out = out
+            self.error_id = bad or ErrorCode.BAD_INPUT
+            return _Cycle(_BAD, out_prev, mode, h, ramp=out if out == out else ramp_y,
+                          limiting=limiting)  # fmt: skip
 
         # --- inputs: scaling, filters, setpoint ramp -------------------------
         x_sp, x_pv = float(sp), float(pv)
@@ -1337,151 +1571,57 @@ class PID(Block):
             x_sp = scale(x_sp, self._range[0], self._range[1], 0.0, 100.0)
             x_pv = scale(x_pv, self._range[0], self._range[1], 0.0, 100.0)
         spf, pvf = subs["_sp_filter"], subs["_pv_filter"]
-        ramp = subs["_sp_ramp"]
+        sramp = subs["_sp_ramp"]
         if self._cold:
             spf.preset(x_sp)
             pvf.preset(x_pv)
         sp_f = spf(x_sp, dt=h)
         pv_f = pvf(x_pv, dt=h)
         if c.bumpless == Bumpless.TRACK_SETPOINT and mode != Mode.AUTO:
-            ramp.preset(pv_f)  # controltheplant 2024: in manual the SP follows the PV
+            sramp.preset(pv_f)  # controltheplant 2024: in manual the SP follows the PV
             sp_w = pv_f
         else:
             if self._cold:
-                ramp.preset(sp_f)
-            sp_w = ramp(sp_f, dt=h)
+                sramp.preset(sp_f)
+            sp_w = sramp(sp_f, dt=h)
         ff_tot = float(ff)
         if c.ff_k != 0.0:
             ff_tot += subs["_ll"](float(dv), dt=h)
 
-        # --- P, D (computed in every mode so that the integrator can track) --
-        s = self._sgn
-        e = s * (sp_w - pv_f)
-        p = self._k * s * (c.b * sp_w - pv_f)
-        w = s * (c.c * sp_w - pv_f)
-        if self._cold or self._reinit_d:
-            w_prev, d_prev, e_prev = w, 0.0, e
-        else:
-            w_prev, d_prev, e_prev = self._w_prev, self._d, self._e_prev
-        d = derivative_step(self._ad, self._bd, d_prev, w, w_prev)
-        self.sp_w, self.pv_f, self.e = sp_w, pv_f, e
-
-        # --- non-auto modes and the adaptive dead band -----------------------
+        # --- the law, in every mode (the integrator tracks the others' output) ----------
         from_mode = mode == Mode.AUTO and self._mode_prev not in (-1, Mode.AUTO)
-        transfer = from_mode or (mode == Mode.AUTO and self._reinit)
-        suppressed = self.p_suppressed
-        if from_mode and c.bumpless == Bumpless.SUPPRESS_P_ACTION:
-            suppressed = True
-        if suppressed and abs(e) <= c.dev_tol:
-            if not transfer:
-                transfer = True  # P comes back: re-initialise the integrator
-            suppressed = False
-        db_hold = False
-        if mode == Mode.AUTO and self._db > 0.0 and self.deadband_active:
-            if deadband(e, self._db) == 0.0:
-                db_hold = True
-                target = self._db_hold
-            else:
-                transfer = True  # dead band released: continue without a bump
-        p_used = 0.0 if suppressed else p
-
-        if target is not None:
-            cycle = _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p_used, ff_tot, self._i,
-                           target, 0.0, suppressed, db_hold)  # fmt: skip
-            return self._finish(cycle, ErrorCode.NO_ERROR, limits_status, True)
-
-        # --- auto ----------------------------------------------------------------
-        bias = 0.0
-        if self._velocity:
-            v_raw, i_k, bias = self._velocity_output(
-                p_used, d, ff_tot, e, e_prev, out_prev, transfer, h
-            )
-        else:
-            if transfer:
-                i_k = out_prev - p_used - d - ff_tot
-            elif self._ki_h == 0.0 or self._cold or self.awin:  # as pid_step: K h/Ti
-                i_k = self._i
-            else:
-                di = integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
-                i_k = self._i + di
-                if c.anti_windup == AntiWindup.CLAMPING:
-                    v = p_used + i_k + d + ff_tot
-                    if clamping_blocks(di, v, lo, hi):
-                        i_k = clamping_integral(self._i, di, p_used + d + ff_tot, lo, hi)
-                        # the demand, beyond the limit, so that the limit status is set
-                        cycle = _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p_used, ff_tot,
-                                       i_k, v, 0.0, suppressed, False)  # fmt: skip
-                        return self._finish(cycle, ErrorCode.NO_ERROR, limits_status, False)
-                    if clamping_blocks(di, p_used + i_k + ff_tot, lo, hi):  # D hides the limit
-                        i_k = clamping_integral(self._i, di, p_used + ff_tot, lo, hi)
-                    elif ramp_blocks(di, clamp(v, lo, hi), subs["_out_ramp"].out, c.out_rate * h):
-                        i_k = self._i
-            v_raw = p_used + i_k + d + ff_tot
-        cycle = _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p_used, ff_tot, i_k, v_raw, bias,
-                       suppressed, False)  # fmt: skip
-        return self._finish(cycle, ErrorCode.NO_ERROR, limits_status, False)
-
-    def _velocity_output(
-        self,
-        p: float,
-        d: float,
-        ff: float,
-        e: float,
-        e_prev: float,
-        out_prev: float,
-        transfer: bool,
-        h: float,
-    ) -> tuple[float, float, float]:
-        """Velocity algorithm (controltheplant 2024, 2.3.1; Åström 1987, Figs. 2.2, 2.4, 2.5).
-
-        Returns ``(x, I, bias)``: the output integrator before the limits, the
-        I term it holds and the bias of the reset feedback.
-        """
-        if transfer:
-            bias = out_prev - p - d - ff
-            return out_prev, bias, bias
-        if self._cold:
-            p_prev = d_prev = ff_prev = 0.0
-        else:
-            p_prev, d_prev, ff_prev = self._p_prev, self._d_prev, self._ff_prev
-        x = self._x + (p - p_prev) + (d - d_prev) + (ff - ff_prev)
-        if self._ki != 0.0:  # switch A of Fig. 2.5: the increments of I
-            if not (self._cold or self.awin):
-                x += integral_increment(self._ki_h, self._alpha, self._beta, e_prev, e)
-        else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
-            x += tracking_gain(h, self._tt) * (p + d + ff + self._bias - x)
-        return x, x - p - d - ff, self._bias
-
-    def _finish(self, cycle: _Cycle, status: int, limits_status: int, held: bool) -> _Cycle:
-        """Limits, output ramp, status and the terms shown for ``cycle``; returns it.
-
-        ``held``: the output is a mode's target (or the dead band's), the I
-        shown is what makes ``P + I + D + FF`` equal the output.
-        """
-        lo, hi = self._lo, self._hi
-        v_raw = cycle.v_raw
-        v_lim = clamp(v_raw, lo, hi)
-        ramp = self._subs["_out_ramp"]
+        suppressed = self.p_suppressed or (from_mode and c.bumpless == Bumpless.SUPPRESS_P_ACTION)
+        held = target is not None
+        out, v_raw, limiting, p, i_k, d, w, e, bias, suppressed, db_held = pid_law(
+            sp_w, pv_f, ff_tot, held, 0.0 if target is None else target,
+            self._cold or self._reinit_d, from_mode or (mode == Mode.AUTO and self._reinit),
+            suppressed, bool(self.awin),
+            self.deadband_active, self._db_hold, self._i, self._d, self._w_prev, self._e_prev,
+            self._x, self._bias, self._p_prev, self._d_prev, self._ff_prev, out_prev, ramp_y,
+            self._prm, self._opt,
+        )  # fmt: skip
+        held = held or db_held
+        self.sp_w, self.pv_f, self.e = sp_w, pv_f, e
         # a law that overflowed (v not finite) is the output guard's case (BAD_RESULT)
-        out = ramp(v_lim, dt=cycle.h) if _NINF < v_raw < _INF else math.nan
-        self.limits_active = v_raw > hi or v_raw < lo or ramp.limiting
-        self.out = out
-        if cycle.kind == _LAW:
-            self.p, self.d, self.ff = cycle.p, cycle.d, cycle.ff
-            self.i = out - cycle.p - cycle.d - cycle.ff if held else cycle.i
-        self.error_id = status or limits_status
-        return cycle
+        self.out = out if _NINF < v_raw < _INF else math.nan
+        self.limits_active = v_raw > hi or v_raw < lo or limiting
+        self.p, self.d, self.ff = p, d, ff_tot
+        # the I term shown: while held, what makes P + I + D + FF the output
+        self.i = out - p - d - ff_tot if held else i_k
+        self.error_id = limits_status
+        return _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p, ff_tot, i_k, v_raw, bias,
+                      suppressed, held, out, limiting)  # fmt: skip
 
     def update_state(self, applied: float) -> None:
         """UpdateState of Åström 1987, Listing 6.3 with the value actually applied [%].
 
-        Commits the cycle :meth:`compute_output` left pending.  In auto the
-        integrator tracks ``applied`` with time constant ``tt`` (Åström 1987,
-        Fig. 3.6); with CLAMPING on ``applied - out``, with BACK_CALC_MODEL on
-        ``applied - v`` (``v`` before limits), with BACK_CALC_REAL on
-        ``actuator_pos - v``.  In the other modes (and while the dead band
-        holds the output) the integrator is set so that ``P + I + D + FF =
-        applied``.  A non-finite ``applied`` counts as ``out``.
+        Commits the cycle :meth:`compute_output` left pending (:func:`pid_commit`).
+        In auto the integrator tracks ``applied`` with time constant ``tt``
+        (Åström 1987, Fig. 3.6); with CLAMPING on ``applied - out``, with
+        BACK_CALC_MODEL on ``applied - v`` (``v`` before limits), with
+        BACK_CALC_REAL on ``actuator_pos - v``.  In the other modes (and while
+        the dead band holds the output) the integrator is set so that ``P + I
+        + D + FF = applied``.  A non-finite ``applied`` counts as ``out``.
         """
         cycle = self._pending
         if cycle is None:
@@ -1491,6 +1631,8 @@ class PID(Block):
         if cycle.kind == _SKIP:
             return
         self._cycle_subs.put(cycle.subs)
+        ramp = self._subs["_out_ramp"]
+        ramp.out, ramp.limiting = cycle.ramp, cycle.limiting
         mode = cycle.mode
         if mode == Mode.RESET:
             self._limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
@@ -1504,36 +1646,19 @@ class PID(Block):
                 self.deadband_active = False
                 self._subs["_det"].reset()
             return
-        c = self._config
         p, d, ff = cycle.p, cycle.d, cycle.ff
-        auto = mode == Mode.AUTO and not cycle.db_hold
+        pos = self.actuator_pos
+        pos_ok = is_finite(pos)
+        prm = self._prm
+        i, x = pid_commit(u, self.out, cycle.v_raw, p, cycle.i, d, ff, cycle.held, pos_ok,
+                          float(pos) if pos_ok else 0.0, prm[6], prm[11], prm[12],
+                          self._opt[0])  # fmt: skip
         if self._velocity:
-            if auto:
-                track_to = u
-                if c.anti_windup == AntiWindup.BACK_CALC_REAL and is_finite(self.actuator_pos):
-                    track_to = float(self.actuator_pos)
-                self._x = self.out + tracking_gain(cycle.h, self._tt) * (track_to - self.out)
-                self._bias = cycle.bias
-            else:
-                self._x = u
-                self._bias = u - p - d - ff
+            self._x = x
+            self._bias = i if cycle.held else cycle.bias
             self._p_prev, self._d_prev, self._ff_prev = p, d, ff
-        elif auto:
-            i_k = cycle.i
-            # integral action present: K h/Ti of this cycle, the one test pid_step and the
-            # compiled kernels make (K/Ti may be a denormal whose product with h is 0)
-            if self._ki_h != 0.0:
-                if c.anti_windup == AntiWindup.CLAMPING:
-                    ref, v = u, self.out
-                elif c.anti_windup == AntiWindup.BACK_CALC_MODEL:
-                    ref, v = u, cycle.v_raw
-                else:
-                    ref = float(self.actuator_pos) if is_finite(self.actuator_pos) else u
-                    v = cycle.v_raw
-                i_k += tracking_gain(cycle.h, self._tt) * (ref - v)
-            self._i = i_k
         else:
-            self._i = u - p - d - ff
+            self._i = i
         self._d = d
         self._w_prev = cycle.w
         self._e_prev = cycle.e
@@ -1575,12 +1700,21 @@ class PID(Block):
         banks start in auto).
         """
         bad = _unsupported(self._config, "pid")  # the options (also the PLC cycle's check)
+        bad += [name for name in self._option_blockers() if name not in bad]
         bad += [n for n in ("track", "hold", "reset_active", "awin") if getattr(self, n)]
         if self._reinit and not self._cold:
             bad.append("re-initialising after a change (run one cycle first)")
         if not manual_ok and self._mode_prev not in (-1, Mode.AUTO):
             bad.append("last cycle not in auto")
         return bad
+
+    def _option_blockers(self) -> list[str]:
+        """The law's options (:class:`PIDOptions`) not at :data:`NO_OPTIONS`, the kernels' law.
+
+        ``dev_tol`` is read only while P is suppressed, which the kernels never are.
+        """
+        return [name for name, v, off in zip(PIDOptions._fields, self._opt, NO_OPTIONS, strict=True)
+                if v != off and name != "dev_tol"]  # fmt: skip
 
     def fast_path_supported(self, *, manual_ok: bool = True) -> bool:
         """True when :func:`pid_step` runs this PID exactly (:meth:`fast_path_blockers`)."""
@@ -1639,6 +1773,21 @@ class PIDKernelParams(NamedTuple):
     hi: float
     aw: float  # anti-windup: 0 clamping, 1 back-calculation
     g: float  # tracking gain h / (Tt + h)
+
+
+class PIDOptions(NamedTuple):
+    """The options of :func:`pid_law` beyond :class:`PIDKernelParams` (its ``opt``), by name.
+
+    The compiled kernels run the law with :data:`NO_OPTIONS`: a block whose
+    options differ (but for ``dev_tol``, read only while P is suppressed) is
+    not theirs (:meth:`PID.fast_path_blockers`).
+    """
+
+    velocity: float  # 1.0: the velocity algorithm
+    dev_tol: float  # deviation tolerance of SUPPRESS_P_ACTION [%]
+    rate_h: float  # the output ramp's largest step per cycle [%] (0: off)
+    db: float  # half-width of the adaptive dead band [%] (0: off)
+    i_band: float  # integral band [%] (0: off)
 
 
 class PIDKernelState(NamedTuple):

@@ -3,11 +3,11 @@
 A PLC function block is called once per cycle with all its inputs; its state
 lives in the instance.  The functions here are that cycle, written with the
 blocks' own pure per-cycle functions (DESIGN principle 2: one implementation
-of each law): :func:`pid_cycle` calls :func:`.pid.pid_step` (and through it
-``derivative_step`` (Åström 1987, (2.13)), ``integral_increment`` ((2.8) /
-Tustin), ``clamping_blocks``), :func:`adrc_cycle` calls :func:`.adrc.adrc_step`
+of each law): :func:`pid_cycle` calls :func:`.pid.pid_law` and
+:func:`.pid.pid_commit` (the PID's one law, also the block's, the compiled
+kernels' and the float32 lane's), :func:`adrc_cycle` calls :func:`.adrc.adrc_law`
 (Nowak et al. 2018, (4a), (4b), (11)) and :func:`leadlag_cycle` calls
-:func:`.leadlag.leadlag_step`.  What they add is the *plumbing* a PLC block
+:func:`.leadlag.leadlag_law` (the block's cycle too).  What they add is the *plumbing* a PLC block
 needs around the law, the same the blocks' ``compute_output``/``update_state``
 do for these configurations:
 
@@ -53,6 +53,9 @@ _adrc = _interpreted("adrc")
 EULER_LIMIT = _adrc.EULER_LIMIT
 EXACT_LIMIT = _adrc.EXACT_LIMIT
 adrc_law = _adrc.adrc_law
+bandwidth_gains = _adrc.bandwidth_gains
+exact_coefficients = _adrc.exact_coefficients
+pole_distance = _adrc.pole_distance
 euler_sensitivities = _adrc.euler_sensitivities
 euler_substeps = _adrc.euler_substeps
 handover_pole = _adrc.handover_pole
@@ -68,17 +71,14 @@ x4_update_allowed = _adrc.x4_update_allowed
 _leadlag = _interpreted("leadlag")
 leadlag_coefficients = _leadlag.leadlag_coefficients
 leadlag_step = _leadlag.leadlag_step
+leadlag_law = _leadlag.leadlag_law
 _pid = _interpreted("pid")
-clamping_blocks = _pid.clamping_blocks
-clamping_integral = _pid.clamping_integral
-derivative_coefficients = _pid.derivative_coefficients
-derivative_step = _pid.derivative_step
-integral_increment = _pid.integral_increment
-integral_weights = _pid.integral_weights
-pid_step = _pid.pid_step
-ramp_blocks = _pid.ramp_blocks
+pid_commit = _pid.pid_commit
+pid_law = _pid.pid_law
+pid_output = _pid.pid_output
+pid_parameters = _pid.pid_parameters
 retune_states = _pid.retune_states
-tracking_gain = _pid.tracking_gain
+tracking_time = _pid.tracking_time
 _signals = _interpreted("signals")
 clamp = _signals.clamp
 deadband = _signals.deadband
@@ -307,6 +307,44 @@ def moving_average(
     return mean, buf, idx, count, since, total, n_prev
 
 
+@plc_block("DELAY", ("u", "buf", "idx", "n_prev", "ok"), hidden=("buf", "idx", "n_prev"))
+def delay_line(
+    push: float, n: int, restart: bool, buf: list[float], idx: int, n_prev: int
+) -> tuple[float, list[float], int, int, bool]:
+    """A delay line: ``push`` enters, out comes the value pushed ``n`` calls before it.
+
+    The ADRC's ESO input (``ADRCConfig.input_delay``, Zhao & Gao 2014): pushed the
+    last applied u each cycle, it gives the applied u of ``n`` samples before that,
+    as the block's history ``ADRC._u_hist``.  ``buf`` is a ring of ``len(buf) >= n
+    + 1`` values (in the PLC an ARRAY sized at export), ``idx`` the next place to
+    write, ``n_prev`` the delay in force.  A new ``n`` keeps the newest values; a
+    longer one pads the line at its old end with its oldest value (as if u had
+    rested there: ``adrc._resize_history``) -- so the first call (``n_prev = 0``)
+    fills the line with ``push``, as ``ADRC.reset`` does with ``u0``; ``restart``
+    fills it with ``push`` (after an overflow, ``ADRC._resume``).  An ``n`` beyond
+    the ring is refused (``ok`` False) and the delay in force stays.  Returns
+    ``(u, buf, idx, n_prev, ok)``.
+    """
+    cap = len(buf)
+    buf[idx] = push
+    idx = (idx + 1) % cap
+    if restart:
+        for j in range(cap):
+            buf[j] = push
+    ok = True
+    if n != n_prev:
+        if n < 0 or n >= cap:
+            ok = False
+        else:
+            if n > n_prev:
+                pad = buf[(idx + cap - 1 - n_prev) % cap]
+                for j in range(n - n_prev):
+                    buf[(idx + cap - 1 - n + j) % cap] = pad
+            n_prev = n
+    u = buf[(idx + cap - 1 - n_prev) % cap]
+    return u, buf, idx, n_prev, ok
+
+
 def deadband_window(t_stab: float, ts: float, cap: int, window: int) -> tuple[int, bool]:
     """The moving-average window ``round(t_stab/ts)`` (half to even, >= 1) and whether it is valid.
 
@@ -346,148 +384,9 @@ BACK_CALC_REAL = 2
 BUMPLESS_TRACK_SP = 1
 BUMPLESS_SUPPRESS_P = 2
 BAD_STAB_TIME = int(ErrorCode.BAD_STAB_TIME)
+BAD_TIME_CONSTANT = int(ErrorCode.BAD_TIME_CONSTANT)
 DB_TOLERANCE = 0.5
 """Tolerance of the dead band's steady-state detector (fed with 0: only its time counts)."""
-
-
-def pid_general_step(
-    sp: float,
-    pv: float,
-    ff: float,
-    target_mode: bool,
-    target: float,
-    cold: bool,
-    hist: bool,
-    transfer: bool,
-    suppressed: bool,
-    dev_tol: float,
-    awin: bool,
-    velocity: bool,
-    ki: float,
-    actuator_pos: float,
-    ramp_y: float,
-    rate: float,
-    h: float,
-    i: float,
-    d: float,
-    w_prev: float,
-    e_prev: float,
-    x: float,
-    bias: float,
-    p_prev: float,
-    d_prev: float,
-    ff_prev: float,
-    out_prev: float,
-    prm: tuple[float, ...],
-) -> tuple[
-    float, float, float, bool, float, float, float, float, float, float, float, float, float,
-    float, float, bool,
-]:  # fmt: skip
-    """One cycle of the PID in every algorithm: :meth:`PID.compute_output` + ``update_state``.
-
-    The configurations :func:`.pid.pid_step` does not cover -- the velocity
-    algorithm (controltheplant 2024, section 2.3.1; Åström 1987, Figs. 2.2,
-    2.4, 2.5), the output ramp and its conditional integration, ``awin``,
-    back-calculation on the measured actuator position (Åström 1987, Fig. 3.2
-    A), the SUPPRESS_P_ACTION bumpless method -- with the same functions
-    (:func:`.pid.derivative_step` (2.13), :func:`.pid.integral_increment`
-    (2.8), :func:`.pid.clamping_blocks`, :func:`.pid.ramp_blocks`,
-    :func:`.pid.tracking_gain`) in the block's order, applied value = output.
-    ``target_mode``: MANUAL/TRACK/HOLD/RESET with the output ``target``; ``hist``
-    restarts the D and error histories; ``ramp_y``/``rate`` the output ramp's
-    last value and rate [%/s] (0 off); ``prm`` as for :func:`.pid.pid_step`.
-
-    Returns ``(out, ramped, v_raw, limiting, p, i_shown, i_new, d, w, e, x_new,
-    bias_new, p_prev_new, ff_used, d_prev_new, suppressed_new)``.
-    """
-    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
-    e = sgn * (sp - pv)
-    p = k * sgn * (b * sp - pv)
-    w = sgn * (c * sp - pv)
-    if hist:
-        w_prev = w
-        d = 0.0
-        e_prev = e
-    dn = derivative_step(ad, bd, d, w, w_prev)
-    if suppressed and abs(e) <= dev_tol:
-        transfer = True  # the P action comes back: re-initialise the integrator
-        suppressed = False
-    p_used = p
-    if suppressed:
-        p_used = 0.0
-    i_k = i
-    x_new = x
-    bias_new = bias
-    if target_mode:
-        v_raw = target
-    elif velocity:
-        if transfer:
-            bias_new = out_prev - p_used - dn - ff
-            i_k = bias_new
-            v_raw = out_prev
-        else:
-            pp = p_prev
-            dp = d_prev
-            fp = ff_prev
-            if cold:
-                pp = 0.0
-                dp = 0.0
-                fp = 0.0
-            xv = x + (p_used - pp) + (dn - dp) + (ff - fp)
-            if ki != 0.0:  # switch A of Fig. 2.5: the increments of I
-                if not (cold or awin):
-                    xv = xv + integral_increment(ki_h, alpha, beta, e_prev, e)
-            else:  # switch B: reset feedback of Fig. 2.4 towards P + D + FF + bias
-                xv = xv + g * (p_used + dn + ff + bias - xv)
-            i_k = xv - p_used - dn - ff
-            v_raw = xv
-    elif transfer:
-        i_k = out_prev - p_used - dn - ff
-        v_raw = p_used + i_k + dn + ff
-    elif ki == 0.0 or cold or awin:
-        v_raw = p_used + i_k + dn + ff
-    else:
-        di = integral_increment(ki_h, alpha, beta, e_prev, e)
-        i_k = i + di
-        v = p_used + i_k + dn + ff
-        v_raw = v
-        if aw == 0.0 and clamping_blocks(di, v, lo, hi):
-            # integrate up to the limit; v_raw stays the demand beyond it
-            i_k = clamping_integral(i, di, p_used + dn + ff, lo, hi)
-        else:
-            if aw == 0.0 and clamping_blocks(di, p_used + i_k + ff, lo, hi):
-                i_k = clamping_integral(i, di, p_used + ff, lo, hi)  # D hides the limit
-            elif aw == 0.0 and ramp_blocks(di, clamp(v, lo, hi), ramp_y, rate * h):
-                i_k = i  # the output ramp holds the output back
-            v_raw = p_used + i_k + dn + ff
-    ramped, limiting = rate_limit_step(clamp(v_raw, lo, hi), ramp_y, rate, rate, h)
-    out = clamp(ramped, lo, hi)  # limits narrowed at run time win over the ramp (output guard)
-    # update_state with the applied value = out
-    i_new = i
-    if target_mode:
-        i_k = out - p_used - dn - ff
-        if velocity:
-            x_new = out
-            bias_new = out - p_used - dn - ff
-        else:
-            i_new = out - p_used - dn - ff
-    elif velocity:
-        track_to = out
-        if aw == 2.0 and is_real(actuator_pos):
-            track_to = actuator_pos
-        x_new = out + g * (track_to - out)
-    else:
-        i_new = i_k
-        if ki != 0.0:
-            ref = out
-            vv = out
-            if aw != 0.0:
-                vv = v_raw
-            if aw == 2.0 and is_real(actuator_pos):
-                ref = actuator_pos
-            i_new = i_k + g * (ref - vv)
-    return (out, ramped, v_raw, limiting, p_used, i_k, i_new, dn, w, e, x_new, bias_new, p_used,
-            ff, dn, suppressed)  # fmt: skip
 
 
 def pid_cycle(
@@ -536,6 +435,7 @@ def pid_cycle(
     use_safe: bool,
     db_width: float,
     t_stab: float,
+    i_band: float,
     out: float,
     p: float,
     i_term: float,
@@ -698,36 +598,15 @@ def pid_cycle(
         mode = HOLD
     elif manual:
         mode = MANUAL
-    # coefficients of this cycle (PID._set_h)
-    sgn = 1.0
-    if reverse:
-        sgn = -1.0
-    ki = 0.0
-    if ti > 0.0:
-        ki = k / ti
-    tt_used = ts
-    if tt > 0.0:
-        tt_used = tt
-    elif ti > 0.0:
-        tt_used = ti / 5.0
-    ad, bd = derivative_coefficients(k * td, td / n, ts, d_method)
-    alpha, beta = integral_weights(i_method)
-    aw_flag = float(aw)
-    prm = (
-        k,
-        sgn,
-        b,
-        c,
-        ad,
-        bd,
-        ki * ts,
-        alpha,
-        beta,
-        lo,
-        hi,
-        aw_flag,
-        tracking_gain(ts, tt_used),
-    )
+    # the law's parameters of this cycle (PID._set_h): pid_parameters, tracking_time
+    (k_p, sgn, b_p, c_p, ad, bd, ki_h, alpha, beta, lo_p, hi_p, aw_p,
+     g) = pid_parameters(k, ti, td, n, b, c, ts, lo, hi, reverse, d_method, i_method,
+                         float(aw), tracking_time(tt, ti, ts))  # fmt: skip
+    prm = (k_p, sgn, b_p, c_p, ad, bd, ki_h, alpha, beta, lo_p, hi_p, aw_p, g)
+    vel = 0.0
+    if velocity:
+        vel = 1.0
+    opt = (vel, dev_tol, out_rate * ts, db, i_band)
     # process data
     ok = is_real(sp) and is_real(pv) and is_real(ff) and is_real(dv)
     err = NO_ERROR
@@ -760,10 +639,8 @@ def pid_cycle(
         # hold (or the safe value); the next good cycle continues without a bump
         if mode == AUTO and use_safe:
             target = safe_value
-        ramp_out, limits_active = rate_limit_step(
-            clamp(target, lo, hi), ramp_y, out_rate, out_rate, ts
-        )
-        mv = clamp(ramp_out, lo, hi)
+        mv, limits_active = pid_output(target, ramp_y, lo, hi, out_rate * ts)
+        ramp_out = mv
         limits_active = limits_active or target > hi or target < lo
         reinit = True
         reinit_d = True
@@ -791,46 +668,46 @@ def pid_cycle(
             ll_out, ll_x = leadlag_filter(dv, ff_k, ff_t_lead, ff_t_lag, ts, ll_out, ll_x)
             ff_tot = ff + ll_out
         from_mode = mode == AUTO and mode_prev != NO_MODE and mode_prev != AUTO
-        transfer = from_mode or (mode == AUTO and reinit)
         # the memory of the last cycle, kept if the law overflows REAL in this one
-        d_old, w_old, e_old, supp_old = d, w_prev, e_prev, suppressed
-        pp_old, dp_old, fp_old = p_prev, d_prev, ff_prev
+        pp_old, dp_old, fp_old, supp_old = p_prev, d_prev, ff_prev, suppressed
         if from_mode and bumpless == BUMPLESS_SUPPRESS_P:
             suppressed = True
-        # the adaptive dead band: hold at the average while the error stays inside
-        e_now = sgn * (sp_w - pv_f)
-        db_held = False
-        if mode == AUTO and db > 0.0 and db_active:
-            if deadband(e_now, db) == 0.0:
-                db_held = True
-                target = db_hold
-            else:
-                transfer = True  # dead band released: continue without a bump
-        held = mode != AUTO or db_held
-        if velocity or out_rate > 0.0 or awin or aw == BACK_CALC_REAL or suppressed:
-            (mv, ramp_out, v_raw, limits_active, p, i_term, i, d, w_prev, e_prev, x, bias, p_prev,
-             ff_prev, d_prev, suppressed) = pid_general_step(
-                sp_w, pv_f, ff_tot, held, target, cold, cold or reinit_d, transfer,
-                suppressed, dev_tol, awin, velocity, ki, actuator_pos, ramp_y, out_rate, ts,
-                i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out, prm,
-            )  # fmt: skip
-            limits_active = limits_active or v_raw > hi or v_raw < lo
+        held = mode != AUTO
+        transfer = from_mode or (mode == AUTO and reinit)
+        # the PID's one law (pid.pid_law), then its commit with the applied value = MV
+        (mv, v_raw, limits_active, p, i_term, d, w_prev, e_prev, bias_k, suppressed,
+         db_held) = pid_law(
+            sp_w, pv_f, ff_tot, held, target, cold or reinit_d, transfer, suppressed, awin,
+            db_active, db_hold, i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out,
+            ramp_y, prm, opt,
+        )  # fmt: skip
+        held = held or db_held
+        ramp_out = mv
+        limits_active = limits_active or v_raw > hi or v_raw < lo
+        i_new, x_new = pid_commit(mv, mv, v_raw, p, i_term, d, ff_tot, held,
+                                  is_real(actuator_pos), actuator_pos, ki_h, aw_p, g,
+                                  vel)  # fmt: skip
+        if velocity:
+            x = x_new
+            bias = bias_k
+            if held:
+                bias = i_new
+            p_prev = p
+            d_prev = d
+            ff_prev = ff_tot
         else:
-            mv, v_raw, p, i_term, i, d, w_prev, e_prev = pid_step(
-                sp_w, pv_f, ff_tot, held, target, cold or reinit_d, transfer,
-                i, d, w_prev, e_prev, out, prm,
-            )  # fmt: skip
-            limits_active = v_raw > hi or v_raw < lo
-            ramp_out = mv
+            i = i_new
+        if held:
+            i_term = mv - p - d - ff_tot  # the I term shown: P + I + D + FF is the output
         d_term = d
-        if is_real(v_raw):
+        if is_real(v_raw) and is_real(d) and is_real(w_prev) and is_real(i_term):
             cold = False
             reinit = False
             reinit_d = False
             if db > 0.0:
                 # the dead band's detector counts the time inside the band in AUTO; the
                 # average follows the applied output until the band holds it
-                inside = mode == AUTO and deadband(e_now, db) == 0.0
+                inside = mode == AUTO and deadband(e_prev, db) == 0.0
                 steady, st_anchor, st_elapsed, st_started = steady_detector(
                     0.0, DB_TOLERANCE, db_t, ts, not inside, st_anchor, st_elapsed, st_started
                 )
@@ -844,19 +721,22 @@ def pid_cycle(
                         db_active = True
                         db_hold = db_mean
         else:
-            # the law overflowed REAL: hold the output (or the safe value) and restart
-            # bumplessly from it on the next good cycle (Block._contain, PID._resume)
+            # the law overflowed REAL (Block._contain, PID._resume): an overflowed law holds
+            # the output (or the safe value); a memory that overflowed behind an output
+            # that did not need it (a mode's target) lets this cycle's output stand; the
+            # memory is made finite and the next good cycle restarts bumplessly from MV
             overflow = True
-            mv = out
-            if use_safe:
-                mv = safe_value
-            mv = clamp(mv, lo, hi)
+            if not is_real(v_raw):
+                mv = out
+                if use_safe:
+                    mv = safe_value
+                mv = clamp(mv, lo, hi)
             i, x, bias, ramp_out = mv, mv, mv, mv
-            d, w_prev, e_prev = finite_or_zero(d_old), finite_or_zero(w_old), finite_or_zero(e_old)
+            d, w_prev, e_prev = finite_or_zero(d), finite_or_zero(w_prev), finite_or_zero(e_prev)
             p_prev, d_prev = finite_or_zero(pp_old), finite_or_zero(dp_old)
             ff_prev, suppressed = finite_or_zero(fp_old), supp_old
             # (a filter, ramp or feed-forward memory that overflowed restarts in its block)
-            p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d_term)
+            p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d)
             limits_active = False
             reinit = True
             reinit_d = True
@@ -893,7 +773,7 @@ ADRC_RESULTS = (
     "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "q", "e", "y_last", "started", "track",
     "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
-    "exact_prev", "rev_prev",
+    "exact_prev", "rev_prev", "u_buf", "d_idx", "nd_prev", "d_restart",
 )  # fmt: skip
 """Names of the values :func:`adrc_cycle` returns: outputs, then the new state."""
 
@@ -901,102 +781,7 @@ EULER_LIMIT_1 = EULER_LIMIT[1]
 EULER_LIMIT_2 = EULER_LIMIT[2]
 EULER_LIMIT_3 = EULER_LIMIT[3]
 EULER_LIMIT_4 = EULER_LIMIT[4]
-ONE_THIRD = 1.0 / 3.0
-ELEVEN_SIXTHS = 11.0 / 6.0
 WARN_DISCRETISATION = int(ErrorCode.WARN_DISCRETISATION)
-
-
-def bandwidth_gains(
-    n: int, omega_c: float, omega_o: float
-) -> tuple[float, float, float, float, float, float, float]:
-    """Gao's gains ``(l1, l2, l3, l4, kp, kd1, kd2)`` for n = 1, 2, 3, written out.
-
-    The binomial coefficients of ``(s + omega_o)^(n+1)`` and ``(s + omega_c)^n``
-    (Nowak et al. 2018, section 3.3) as :func:`.adrc.adrc_gains` computes them
-    with ``math.comb`` -- spelled out here because a PLC has no lists; the
-    tests check both agree for every order.
-    """
-    wo2 = omega_o * omega_o
-    wc2 = omega_c * omega_c
-    if n == 1:
-        return 2.0 * omega_o, 0.0, 0.0, wo2, omega_c, 0.0, 0.0
-    if n == 2:
-        return 3.0 * omega_o, 3.0 * wo2, 0.0, wo2 * omega_o, wc2, 2.0 * omega_c, 0.0
-    return (4.0 * omega_o, 6.0 * wo2, 4.0 * (wo2 * omega_o), wo2 * wo2,
-            wc2 * omega_c, 3.0 * wc2, 3.0 * omega_c)  # fmt: skip
-
-
-def pole_distance(omega: float, h: float) -> tuple[float, float]:
-    """``(d, q) = (1 - exp(-omega h), d/h)``: distance of the pole ``exp(-omega h)`` from 1.
-
-    As :func:`.adrc._scaled_gain` computes them with ``expm1`` (which a PLC
-    lacks): for ``a = omega h < 0.1`` by the Taylor series of ``(1 - exp(-a))/a``
-    to ``a^8`` (relative error below 3e-14), so that ``d/h`` stays accurate
-    for a tiny ``a``; above by ``1 - EXP(-a)``.
-    """
-    a = omega * h
-    if a < 0.1:
-        r = 1.0 - a / 2.0 * (1.0 - a / 3.0 * (1.0 - a / 4.0 * (1.0 - a / 5.0 * (
-            1.0 - a / 6.0 * (1.0 - a / 7.0 * (1.0 - a / 8.0 * (1.0 - a / 9.0)))))))  # fmt: skip
-        return a * r, omega * r
-    d = 1.0 - math.exp(-a)
-    return d, omega * (d / a)
-
-
-def exact_coefficients(
-    n: int, b0: float, omega_c: float, omega_o: float, h: float
-) -> tuple[
-    float, float, float, float, float, float, float, float, float, float, float, float, float,
-    float, float, float,
-]:  # fmt: skip
-    """The ZOH current observer and controller gains of ``discretisation="exact"``, written out.
-
-    ``(f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2)``
-    as :func:`.adrc._exact_coefficients` computes them from its constant
-    vectors (Ackermann, all observer poles at ``exp(-omega_o h)``, all
-    controller poles at ``exp(-omega_c h)``; Herbst 2013 via Nowak et al.
-    2018): polynomials in ``d = 1 - exp(-omega h)`` and ``q = d/h``, spelled
-    out for n = 1, 2, 3 (a PLC has no matrices); the tests check both agree.
-    """
-    d, q = pole_distance(omega_o, h)
-    dc, qc = pole_distance(omega_c, h)
-    hh = h * h
-    f01, f02, f03, f12, f13, f23 = 0.0, 0.0, h, 0.0, 0.0, 0.0
-    g0, g1, g2 = b0 * h, 0.0, 0.0
-    c0, c1, c2, c3 = 2.0 * d - d * d, 0.0, 0.0, q * d
-    kp, kd1, kd2 = qc, 0.0, 0.0
-    if n == 2:
-        f01 = h
-        f03 = hh / 2.0
-        f13 = h
-        g0 = b0 * hh / 2.0
-        g1 = b0 * h
-        c0 = 3.0 * d - 3.0 * (d * d) + d * d * d
-        c1 = 3.0 * q * d - 1.5 * q * (d * d)
-        c3 = q * q * d
-        kp = qc * qc
-        kd1 = 2.0 * qc - 0.5 * qc * dc
-    elif n == 3:
-        d2 = d * d
-        q2 = q * q
-        qc2 = qc * qc
-        f01 = h
-        f02 = hh / 2.0
-        f03 = hh * h / 6.0
-        f12 = h
-        f13 = hh / 2.0
-        f23 = h
-        g0 = b0 * (hh * h) / 6.0
-        g1 = b0 * hh / 2.0
-        g2 = b0 * h
-        c0 = 4.0 * d - 6.0 * d2 + 4.0 * (d2 * d) - d2 * d2
-        c1 = 6.0 * q * d - 6.0 * q * d2 + ELEVEN_SIXTHS * q * (d2 * d)
-        c2 = 4.0 * q2 * d - 2.0 * q2 * d2
-        c3 = q2 * q * d
-        kp = qc2 * qc
-        kd1 = 3.0 * qc2 - qc2 * dc
-        kd2 = 3.0 * qc - 1.5 * qc * dc + ONE_THIRD * qc * (dc * dc)
-    return f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3, kp, kd1, kd2
 
 
 def law_gains(
@@ -1051,6 +836,7 @@ def adrc_cycle(
     y_sat_lo: float,
     tau_wait: float,
     reverse: bool,
+    nd: int,
     out: float,
     yh: float,
     x2: float,
@@ -1076,6 +862,10 @@ def adrc_cycle(
     ts_prev: float,
     exact_prev: bool,
     rev_prev: bool,
+    u_buf: list[float],
+    d_idx: int,
+    nd_prev: int,
+    d_restart: bool,
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
@@ -1089,7 +879,11 @@ def adrc_cycle(
     states and re-solves x4 by (11), bumplessly.  The status
     ``WARN_DISCRETISATION`` (16#8301) when omega ts leaves the trusted range;
     a law that overflows REAL holds the output and restarts the ESO
-    (16#8103), as the block's output guard does.  Returns :data:`ADRC_RESULTS`.
+    (16#8103), as the block's output guard does.  ``nd``: the dead time of the
+    process input in samples (``ADRCConfig.input_delay``): the ESO is fed the
+    applied u of ``nd`` samples before the last one (Zhao & Gao 2014), from the
+    line :func:`delay_line` (its array sized at export; a longer ``nd`` is
+    refused with ``BAD_TIME_CONSTANT`` and the one in force stays).  Returns :data:`ADRC_RESULTS`.
     """
     lim_err = NO_ERROR
     if u_min <= u_max:
@@ -1183,6 +977,10 @@ def adrc_cycle(
         sat_hi = -y_sat_lo
         sat_lo = -y_sat
     ab = (sat_hi, sat_lo, tau)
+    # the ESO's input: the applied u of nd samples before the last one (ADRC.input_delay)
+    u_eso, u_buf, d_idx, nd_prev, delay_ok = delay_line(u_prev, nd, d_restart, u_buf, d_idx,
+                                                        nd_prev)  # fmt: skip
+    d_restart = False
     # process data
     err = NO_ERROR
     y_valid = y_ok and is_real(y)
@@ -1221,7 +1019,7 @@ def adrc_cycle(
         # the ADRC's one cycle (adrc.adrc_law), as the block runs it
         mv, u_raw, yh, x2, x3, x4, ref, q, track, sat, ab_sat, ab_wait = adrc_law(
             r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, started, sat,
-            awin, exact, anti_backoff, yh, x2, x3, x4, u_prev, u_prev, ref, q, ab_sat, ab_wait,
+            awin, exact, anti_backoff, yh, x2, x3, x4, u_eso, u_prev, ref, q, ab_sat, ab_wait,
             prm, ecoef, ab,
         )  # fmt: skip
         y_last = y
@@ -1248,6 +1046,7 @@ def adrc_cycle(
             sat = 0
             ab_sat = 0
             ab_wait = 0.0
+            d_restart = True  # the delay line restarts at the held output (ADRC._resume)
         elif not (is_real(yh) and is_real(x2) and is_real(x3) and is_real(x4)):
             # the ESO overflowed REAL behind an output that did not need it (MAN, the
             # re-solve by (11), the anti-backoff wait): it restarts at rest on the next
@@ -1265,6 +1064,8 @@ def adrc_cycle(
             ab_wait = 0.0
     if err == NO_ERROR:
         err = lim_err
+    if err == NO_ERROR and not delay_ok:
+        err = BAD_TIME_CONSTANT  # a delay beyond the exported array: the one in force stays
     if err == NO_ERROR and not discretisation_ok(order, omega_c, omega_o, ts, exact):
         err = WARN_DISCRETISATION
     if overflow:
@@ -1288,6 +1089,7 @@ def adrc_cycle(
         out, yh, x2, x3, x4, u_prev, ref, q, e, y_last, started, track, sat, ab_sat, ab_wait,
         lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
+        u_buf, d_idx, nd_prev, d_restart,
     )  # fmt: skip
 
 
@@ -1325,15 +1127,12 @@ def leadlag_cycle(
     else:
         err = BAD_LIMITS
     out = clamp(out, lo, hi)  # new limits contain the last output (the block's configure)
-    if not is_real(x):
-        err = BAD_INPUT  # the output held
-    elif not enable:
-        out = clamp(0.0, lo, hi)  # 0, within the output limits (as the block's output guard)
-        x_prev = x
-    else:
-        b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, ts, tustin)
-        out = leadlag_step(x, x_prev, out, b0, b1, a1, lo, hi)
-        x_prev = x
+    x_ok = is_real(x)
+    if not x_ok:
+        err = BAD_INPUT
+    # the lead-lag's one cycle (leadlag.leadlag_law), as the block runs it
+    b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, ts, tustin)
+    out, x_prev = leadlag_law(x, x_ok, enable, out, x_prev, b0, b1, a1, lo, hi)
     return out, err, x_prev, lo, hi
 
 
@@ -1436,6 +1235,7 @@ def pid_inputs(config: Any) -> dict[str, Any]:
         "safe_value": float(config.safe_value) if config.safe_value is not None else 0.0,
         "use_safe": config.safe_value is not None,
         "db_width": float(config.deadband), "t_stab": float(config.t_stab),
+        "i_band": float(config.i_band),
     }  # fmt: skip
 
 
@@ -1474,19 +1274,27 @@ def adrc_inputs(config: Any) -> dict[str, Any]:
         "u_real_on": bool(config.u_real_on), "anti_backoff": bool(config.anti_backoff),
         "y_sat": float(config.y_sat), "y_sat_lo": float(config.y_sat_lo),
         "tau_wait": float(config.tau_wait), "reverse": bool(config.reverse),
+        "nd": _adrc.delay_samples(config.input_delay, config.ts),
     }  # fmt: skip
 
 
 def adrc_state(config: Any) -> dict[str, Any]:
-    """The state of :func:`adrc_cycle` after a reset (ADRC.reset)."""
+    """The state of :func:`adrc_cycle` after a reset (ADRC.reset).
+
+    The delay line's array holds the configured ``input_delay`` in samples and the
+    last applied u: the longest delay the PLC can retune to.  The line starts empty
+    (its instance's zeros); the first cycle fills it with the output, as ``reset``.
+    """
     lo, hi = float(config.u_min), float(config.u_max)
     u0 = clamp(float(config.u0), lo, hi)
+    nd = _adrc.delay_samples(config.input_delay, config.ts)
     return {
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ref": 0.0,
         "q": 0.0, "e": 0.0, "y_last": 0.0, "started": False, "track": False, "sat": 0,
         "ab_sat": 0, "ab_wait": 0.0, "lo": lo, "hi": hi, "tuned": False, "order_prev": 0,
         "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
-        "rev_prev": bool(config.reverse),
+        "rev_prev": bool(config.reverse), "u_buf": [0.0] * (nd + 1), "d_idx": 0, "nd_prev": 0,
+        "d_restart": False,
     }  # fmt: skip
 
 

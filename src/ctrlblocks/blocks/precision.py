@@ -134,6 +134,9 @@ def unsupported(config: Any, kind: str) -> list[str]:
         if config.discretisation != "euler":
             bad.append("discretisation")
         if getattr(config, "input_delay", 0.0) != 0.0:
+            # the kernels carry a controller's state as a fixed tuple of floats in registers
+            # (loops, banks, lanes): a delay line of up to 100,000 samples is an array per
+            # controller, which their state layout does not have (docs/blocks/adrc.md)
             bad.append("input_delay")
     return bad
 
@@ -144,15 +147,13 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
     A subset of :func:`unsupported`: the PLC cycle of :mod:`.plc_cycle` has
     the PID's velocity algorithm, PV scaling, filters, ramps, lead-lag
     feed-forward, adaptive dead band, every bumpless and anti-windup method,
-    and the ADRC's exact discretisation, ``u_real``, anti-backoff and
-    ``reverse``, which the compiled kernels lack.  Not covered: a dead-band
+    and the ADRC's exact discretisation, ``u_real``, anti-backoff, ``reverse``
+    and ``input_delay``, which the compiled kernels lack.  Not covered: a dead-band
     window ``t_stab/ts`` beyond :data:`PLC_MAX_WINDOW` samples (the ARRAY the
     function block holds).
     """
     if kind == "pid" and round(config.t_stab / config.ts) > PLC_MAX_WINDOW:
         return ["t_stab"]
-    if kind == "adrc" and getattr(config, "input_delay", 0.0) != 0.0:
-        return ["input_delay"]  # the delay line of the ESO's input is not in the PLC cycle yet
     return []
 
 

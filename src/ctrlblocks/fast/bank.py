@@ -93,17 +93,13 @@ class BankResult:
 
 @jitable
 def _pid_row(k, ti, td, n, b, c, h, lo, hi, reverse, dmeth, imeth, aw, tt):
-    """The :func:`pid_params` tuple from ISA parameters, with the block's own functions."""
-    ad, bd = _pid.derivative_coefficients(k * td, td / n, h, dmeth)
-    ki = k / ti if ti > 0.0 else 0.0
-    alpha, beta = _pid.integral_weights(imeth)
-    if tt <= 0.0:
-        tt = ti / 5.0 if ti > 0.0 else h
-    sgn = -1.0 if reverse else 1.0
-    return k, sgn, b, c, ad, bd, ki * h, alpha, beta, lo, hi, aw, _pid.tracking_gain(h, tt)
+    """The :func:`pid_params` tuple from ISA parameters: the block's own :func:`pid_parameters`."""
+    return _pid.pid_parameters(k, ti, td, n, b, c, h, lo, hi, reverse, dmeth, imeth, aw,
+                               _pid.tracking_time(tt, ti, h))  # fmt: skip
 
 
-for _f in (_pid.derivative_coefficients, _pid.integral_weights):
+for _f in (_pid.derivative_coefficients, _pid.integral_weights, _pid.tracking_time,
+           _pid.pid_parameters):  # fmt: skip
     jitable(_f)
 
 

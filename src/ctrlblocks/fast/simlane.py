@@ -76,7 +76,7 @@ from ..loops.feedforward import FeedForwardStage
 from ..loops.lane import LaneResult, LaneRun
 from ..loops.smith import SmithPredictor
 from ._jit import HAVE_NUMBA, jit, jitable, python_function
-from .kernels import UnsupportedConfig, adrc_step, pid_step
+from .kernels import UnsupportedConfig, adrc_step
 from .loops import _controller_arrays, _plant_arrays, _plant_step
 
 # the law functions as Python functions, for numba (ctrlblocks.compiled.interpreted)
@@ -84,6 +84,8 @@ _leadlag = interpreted("leadlag")
 leadlag_coefficients = _leadlag.leadlag_coefficients
 leadlag_step = _leadlag.leadlag_step
 clamp = interpreted("signals").clamp
+_pid = interpreted("pid")
+NO_OPTIONS, pid_commit, pid_law = _pid.NO_OPTIONS, _pid.pid_commit, _pid.pid_law
 
 __all__ = ["LANE", "CompiledLane", "lane_loop", "plant_blocker", "wiring_blockers"]
 
@@ -187,22 +189,19 @@ def _set_limits(kind, p, a, s, lo, hi, out_lo, out_hi):
 def _compute(kind, p, a, s, sp, y, ff, man, awin):
     """ComputeOutput of one controller in state ``s``; returns ``(out, awout, pending)``.
 
-    PID state ``s = (i, d, w_prev, e_prev, out, cold, was_manual, -, -, u_man)``;
-    ``awin`` freezes the integrator as ``PID.compute_output`` does (it then
-    takes the branch of ``K h/Ti = 0``).  ADRC state ``s = (yh, x2, x3, x4,
+    PID (the one law, :func:`~ctrlblocks.blocks.pid.pid_law`) state ``s = (i, d,
+    w_prev, e_prev, out, cold, was_manual, -, -, u_man)``; ``awin`` freezes the
+    integrator as ``PID.compute_output`` does.  ADRC state ``s = (yh, x2, x3, x4,
     u_prev, ref, started, track, sat, u_man, q)`` (``q``: handover offset); ``awin`` freezes x4 as
     ``ADRC.compute_output`` does (``adrc_step``'s own ``awin`` input,
     Nowak et al. 2018, section 5).
     """
     if kind == _PID:
-        if awin:
-            p = (p[0], p[1], p[2], p[3], p[4], p[5], 0.0, p[7], p[8], p[9], p[10],
-                 p[11], p[12])  # fmt: skip
-        out, v_raw, pt, i_k, _in, dn, w, e = pid_step(
-            sp, y, ff, man, s[9], s[5] != 0.0, (not man) and s[6] != 0.0,
-            s[0], s[1], s[2], s[3], s[4], p,
+        out, v_raw, _lim, pt, i_k, dn, w, e, _bias, _sup, _db = pid_law(
+            sp, y, ff, man, s[9], s[5] != 0.0, (not man) and s[6] != 0.0, False, awin, False,
+            0.0, s[0], s[1], s[2], s[3], 0.0, 0.0, 0.0, 0.0, 0.0, s[4], s[4], p, NO_OPTIONS,
         )  # fmt: skip
-        awout = v_raw > p[10] or v_raw < p[9]  # limits_active (PID._finish)
+        awout = v_raw > p[10] or v_raw < p[9]  # limits_active (PID.compute_output)
         if not math.isfinite(v_raw):  # the block's output guard (BAD_RESULT): not here
             out = math.nan
         return out, awout, (out, v_raw, pt, i_k, dn, w, e, ff, 0.0)
@@ -219,10 +218,9 @@ def _compute(kind, p, a, s, sp, y, ff, man, awin):
 def _commit(kind, p, s, pend, man, applied, track):
     """UpdateState of one controller with ``applied`` (its own output or the selected MV).
 
-    PID (``PID.update_state``): in auto the integrator tracks ``applied``
-    (Åström 1987, Fig. 3.6: ``h/(Tt + h) (applied - out)`` with clamping,
-    ``(applied - v)`` with back-calculation), in manual it is set so that
-    ``P + I + D + FF = applied``; ADRC (``ADRC.update_state``): ``applied``
+    PID (``PID.update_state``: :func:`~ctrlblocks.blocks.pid.pid_commit`): in
+    auto the integrator tracks ``applied`` (Åström 1987, Fig. 3.6), in manual
+    it is set so that ``P + I + D + FF = applied``; ADRC (``ADRC.update_state``): ``applied``
     is the ESO's input of the next sample.  In auto the manual value follows
     ``applied`` (In/Out).  A non-finite ``applied`` counts as the output.
     ``track``: the cycle was computed in manual (``man``) to track a value
@@ -233,14 +231,10 @@ def _commit(kind, p, s, pend, man, applied, track):
     out = pend[0]
     u = applied if math.isfinite(applied) else out
     um = s[9] if man and not track else u
-    if kind == _PID:
+    if kind == _PID:  # the one law's commit (pid_commit)
         v_raw, pt, i_k, dn, w, e, ff = pend[1], pend[2], pend[3], pend[4], pend[5], pend[6], pend[7]
-        if man:
-            i = u - pt - dn - ff
-        elif p[6] != 0.0:
-            i = i_k + p[12] * (u - (out if p[11] == 0.0 else v_raw))
-        else:
-            i = i_k
+        i, _x = pid_commit(u, out, v_raw, pt, i_k, dn, ff, man, False, 0.0, p[6], p[11], p[12],
+                           0.0)  # fmt: skip
         return (i, dn, w, e, out, 0.0, 1.0 if man else 0.0, 0.0, 0.0, um, 0.0)
     return (pend[1], pend[2], pend[3], pend[4], u, pend[5], 1.0, pend[6], pend[7], um, pend[8])
 

@@ -137,6 +137,8 @@ db_width    DEADBAND       adaptive dead band half-width [{e}] (controltheplant 
 t_stab      T_STAB         stabilisation time [s] of the dead band: the error inside the band
                            for T_STAB holds MV at its mean over T_STAB/TS samples (<= the
                            exported array; a longer one: 16#8209, the window in force stays)
+i_band      I_BAND         integral band [%]: the error is integrated only while |E| <= I_BAND
+                           (conditional integration); 0 = always
 """)
 _PID_OUT = _table("""
 mv            MV            manipulated variable [{mv}] (limited)
@@ -192,6 +194,9 @@ y_sat        Y_SAT        upper saturation of the sensor [{pv}] (ANTI_BACKOFF)
 y_sat_lo     Y_SAT_LO     lower saturation of the sensor [{pv}] (ANTI_BACKOFF)
 tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
 reverse      REVERSE      reverse-acting process (negative gain): the ESO and law run on -SP, -Y
+nd           DELAY        dead time of the process input [samples of TS] (input_delay/ts): the ESO
+                          is fed the applied u of DELAY samples before the last (Zhao & Gao 2014);
+                          at most the exported array (a longer one: 16#8211, the one in force stays)
 """)
 _ADRC_OUT = _table("""
 mv       MV          manipulated variable u [{mv}] (limited)
@@ -222,6 +227,7 @@ _ADRC_STATE_COMMENTS = {
     "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
     "ab_wait": "anti-backoff hold time left [s]",
     "rev_prev": "REVERSE of the last cycle (a change negates the states)",
+    "d_restart": "the delay line restarts at the output (after an overflow)",
 }  # fmt: skip
 
 _LL_PROCESS = _table("""
