@@ -196,7 +196,7 @@ def test_the_event_finds_the_loop_at_rest_a_later_event_gives_the_same_iae(readm
     candidates): with the record's PV noise every candidate's event IAE equals that of the
     same event much later within 0.1 %; the former rule, max(10 ts, 0.1 (T + L)) (1.1 s on
     this record), left the release's transient in the event (the ADRC's handover offset, the
-    states the noise had not yet moved): up to 11 % (measured)."""
+    states the noise had not yet moved): more than 5 % (asserted below)."""
     _cmd, _res, out, s = readme_run
     taus = s["rest"]["time_constants"]
     assert s["t_event"] == pytest.approx(5 * max(taus.values()), abs=s["ts"])
@@ -248,6 +248,7 @@ def test_monte_carlo_spread_equals_running_each_drawn_model_by_hand(result):
         assert mc["worst"] == pytest.approx(max(vals), rel=1e-9) and mc["not_finite"] == 0
 
 
+@pytest.mark.slow
 def test_the_commands_pool_gives_the_numbers_of_the_serial_runs(result, tmp_path):
     """``ctrlblocks compare --jobs 2`` runs the uncertain models on a process pool."""
     from ctrlblocks.sim.cli import _models_runner
@@ -432,6 +433,7 @@ def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path, result):
     assert bad.exit_code == 1 and "Traceback" not in bad.output
 
 
+@pytest.mark.slow
 def test_compare_on_a_three_tank_bump_test_with_corners_reports_the_spread(tmp_path):
     """The paper's kind of process: a bump test on the three-tank model, with noise."""
     from ctrlblocks.plants import ThreeTank
@@ -496,6 +498,7 @@ def test_a_sample_time_beyond_any_discrete_model_is_refused_by_the_plant():
         PlantFOPDT(1.0, 2.0, 0.0, 1e308)
 
 
+@pytest.mark.slow
 def test_a_reverse_acting_process_gets_adrcs_with_reverse(tmp_path):
     """A negative process gain: the ADRCs are tuned with reverse = true (the block takes
     b0 > 0) on the mirrored process, with its margins, and stand in the verdict."""

@@ -81,9 +81,10 @@ def test_the_oracles_response_equals_the_loop_simulated_step_by_step():
                                           strict=True)) < 1e-6  # fmt: skip
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(900)
 def test_the_verdict_agrees_with_the_true_process_on_a_dead_time_process(tmp_path):
-    """The default run's one process (a coarse sample time): FOPDT with the
+    """A coarse sample time: FOPDT with the
     dead time as long as half the lag, 1 % noise."""
     from ctrlblocks.tuning.identify import FOPDT
 
