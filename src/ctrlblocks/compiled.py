@@ -1,4 +1,4 @@
-"""The optional compiled build of the PID and ADRC blocks (``ctrlblocks compile``).
+"""The compiled build of the PID and ADRC blocks (``pip install``, ``ctrlblocks compile``).
 
 The interpreted package is the reference and stays the fallback.  The build
 compiles four modules of ``blocks/`` -- ``base``, ``signals``, ``pid`` and
@@ -12,6 +12,12 @@ interpreted blocks.
 
 Where the build lives and when it is used
 -----------------------------------------
+``pip install`` builds it into the package itself: ``setup.py`` runs
+:func:`build_packaged` after ``build_py``, into ``ctrlblocks/_compiled/<key>``
+(in the source tree for an editable install).  Without a C compiler that step
+warns once and the package is the pure-Python one.  ``import ctrlblocks`` looks
+there first, then in ``ctrlblocks compile``'s folder.
+
 ``ctrlblocks compile`` writes the extension modules to the user's cache folder
 (``$XDG_CACHE_HOME`` or ``~/.cache``)``/ctrlblocks/compiled/<key>``, or
 ``$CTRLBLOCKS_COMPILED_DIR/<key>``, never into the installed package.  The key
@@ -82,6 +88,7 @@ FORMAT = 1
 """The build's layout and compiler options; part of the key."""
 
 _BLOCKS = Path(__file__).resolve().parent / "blocks"
+_PACKAGED = Path(__file__).resolve().parent / "_compiled"
 _SHADOW = "ctrlblocks._interpreted_blocks"
 _MANIFEST = "build.json"
 
@@ -120,6 +127,15 @@ def build_root() -> Path:
 def build_folder(key: str | None = None) -> Path:
     """The folder of the build of ``key`` (default: the current source's key)."""
     return build_root() / (key or source_key())
+
+
+def packaged_folder(key: str | None = None) -> Path:
+    """The folder of the install-time build of ``key`` inside the package (``setup.py``)."""
+    return _PACKAGED / (key or source_key())
+
+
+def _complete(folder: Path) -> bool:
+    return all((folder / f"{name}{ext_suffix()}").is_file() for name in MODULES)
 
 
 def mode() -> str:
@@ -167,15 +183,21 @@ def install() -> bool:
         _state["reason"] = "CTRLBLOCKS_COMPILED=off"
         return False
     try:
-        folder = build_folder()
+        key = source_key()
     except OSError as exc:  # the sources cannot be read: a broken installation
         folder, missing = None, f"the sources cannot be read ({exc})"
     else:
-        files = [folder / f"{name}{ext_suffix()}" for name in MODULES]
-        absent = [f.name for f in files if not f.is_file()]
-        missing = f"no build for this source in {folder}" if absent else ""
+        # the install's own build first (pip install built it), then ctrlblocks compile's;
+        # $CTRLBLOCKS_COMPILED_DIR names the one place to look
+        places = [build_folder(key)]
+        if not os.environ.get("CTRLBLOCKS_COMPILED_DIR", ""):
+            places.insert(0, packaged_folder(key))
+        found = [p for p in places if _complete(p)]
+        folder = found[0] if found else None
+        where = " or ".join(str(p) for p in places)
+        missing = "" if found else f"no build for this source in {where}"
     if missing:
-        _state["reason"] = missing + " (ctrlblocks compile builds one)"
+        _state["reason"] = missing + " (pip install or ctrlblocks compile builds one)"
         if how == "require":
             raise ImportError(
                 f"CTRLBLOCKS_COMPILED=require: {_state['reason']}; build it with "
@@ -299,16 +321,15 @@ def _say(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def build(
-    *, jobs: int | None = None, force: bool = False, say: Callable[[str], None] = _say
-) -> Path:
-    """Compile the four modules for this Python and source; return the build's folder.
+def compile_modules(
+    dest: Path, key: str, *, jobs: int | None = None, say: Callable[[str], None] = _say
+) -> float:
+    """Compile :data:`MODULES` of this source with Cython into ``dest``; return the seconds.
 
-    Needs Cython (``pip install 'ctrlblocks[compiled]'``) and a C compiler.
-    Builds in a temporary folder and moves the result into place at the end, so
-    an interrupted build leaves nothing half-made.  Checks the result in a
-    fresh process: it must load and compute exactly what the interpreted
-    blocks compute.
+    ``dest`` gets one extension module per name (``pid`` + :func:`ext_suffix`)
+    and the manifest; nothing is checked here (:func:`build` checks in a fresh
+    process; the install-time build of ``setup.py`` cannot, as the package's
+    dependencies are not installed yet).  Raises :class:`BuildError`.
     """
     try:
         import Cython  # noqa: F401
@@ -318,18 +339,8 @@ def build(
             f"the compiled build needs Cython and setuptools ({exc.name} is missing): "
             "pip install 'ctrlblocks[compiled]'"
         ) from None
-    key = source_key()
-    folder = build_folder(key)
-    if folder.is_dir() and not force:
-        say(f"a build for this source is already in {folder} (--force builds it again)")
-        return folder
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(MODULES)))
     cflags = ["-O2", "-ffp-contract=off"] if os.name == "posix" else []
-    root = build_root()
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise BuildError(f"cannot create {root}: {exc.strerror}") from None
     t0 = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="ctrlblocks-compile-") as tmp_name:
         tmp = Path(tmp_name)
@@ -356,18 +367,16 @@ def build(
         if proc.returncode:
             tail = "\n".join(log_file.read_text(errors="replace").strip().splitlines()[-15:])
             raise BuildError(f"the compiler failed (exit {proc.returncode}):\n{tail}")
-        staged = root / f".{key}.{os.getpid()}"
-        shutil.rmtree(staged, ignore_errors=True)
-        staged.mkdir()
+        dest.mkdir(parents=True, exist_ok=True)
         for name in MODULES:
             built = sorted(pkg.glob(f"{name}.*{ext_suffix().rsplit('.', 1)[-1]}"))
             if not built:
                 raise BuildError(f"the compiler made no extension module for {name}")
-            shutil.copy2(built[0], staged / f"{name}{ext_suffix()}")
+            shutil.copy2(built[0], dest / f"{name}{ext_suffix()}")
     secs = time.monotonic() - t0
     import Cython as _cython
 
-    (staged / _MANIFEST).write_text(
+    (dest / _MANIFEST).write_text(
         json.dumps(
             {
                 "key": key,
@@ -382,6 +391,63 @@ def build(
         )
         + "\n"
     )
+    return secs
+
+
+def build_packaged(folder: Path, *, say: Callable[[str], None] = _say) -> Path | None:
+    """The install-time build (``setup.py``): compile into ``folder/<key>`` of the package.
+
+    Returns the build's folder, or None when one for this source is already
+    there.  An older key's build in ``folder`` is removed (an editable install
+    rebuilt after an edit).  Raises :class:`BuildError`.
+    """
+    key = source_key()
+    target = folder / key
+    if all((target / f"{n}{ext_suffix()}").is_file() for n in MODULES):
+        return None
+    staged = folder / f".{key}.{os.getpid()}"
+    shutil.rmtree(staged, ignore_errors=True)
+    try:
+        compile_modules(staged, key, say=say)
+        if folder.is_dir():
+            for old in folder.iterdir():
+                if old.is_dir() and old != staged:
+                    shutil.rmtree(old, ignore_errors=True)
+        staged.rename(target)
+    finally:
+        shutil.rmtree(staged, ignore_errors=True)
+    return target
+
+
+def build(
+    *, jobs: int | None = None, force: bool = False, say: Callable[[str], None] = _say
+) -> Path:
+    """Compile the four modules for this Python and source; return the build's folder.
+
+    Needs Cython (``pip install 'ctrlblocks[compiled]'``) and a C compiler.
+    Builds in a temporary folder and moves the result into place at the end, so
+    an interrupted build leaves nothing half-made.  Checks the result in a
+    fresh process: it must load and compute exactly what the interpreted
+    blocks compute.
+    """
+    key = source_key()
+    folder = build_folder(key)
+    if folder.is_dir() and not force:
+        say(f"a build for this source is already in {folder} (--force builds it again)")
+        return folder
+    root = build_root()
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise BuildError(f"cannot create {root}: {exc.strerror}") from None
+    staged = root / f".{key}.{os.getpid()}"
+    shutil.rmtree(staged, ignore_errors=True)
+    staged.mkdir()
+    try:
+        secs = compile_modules(staged, key, jobs=jobs, say=say)
+    except BaseException:
+        shutil.rmtree(staged, ignore_errors=True)
+        raise
     say(f"compiled in {secs:.0f} s; checking that it loads and computes as the interpreted ...")
     outputs = {}
     for how in ("require", "off"):

@@ -211,6 +211,47 @@ def test_a_broken_build_is_left_with_a_warning_and_nothing_half_loaded(tmp_path:
     assert refused.returncode != 0 and "failed to load" in refused.stderr
 
 
+INSTALLED = """
+import json, ctrlblocks, ctrlblocks.compiled as c
+print(json.dumps(c.status()))
+"""
+
+
+def test_auto_takes_the_install_time_build_from_the_package_when_pip_made_one() -> None:
+    env = {k: v for k, v in os.environ.items() if k != "CTRLBLOCKS_COMPILED_DIR"}
+    env["CTRLBLOCKS_COMPILED"] = "auto"
+    got = subprocess.run(
+        [sys.executable, "-c", INSTALLED], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert got.returncode == 0, got.stderr
+    status = json.loads(got.stdout)
+    packaged = compiled.packaged_folder()
+    if (packaged / "build.json").is_file():  # this environment's pip install compiled them
+        assert status["active"] and status["folder"] == str(packaged)
+        manifest = json.loads((packaged / "build.json").read_text())
+        assert manifest["key"] == compiled.source_key() == status["key"]
+    else:  # no compiler at install (or an edited source): both places are named
+        assert not status["active"]
+        assert str(packaged) in status["reason"]
+        assert str(compiled.build_folder()) in status["reason"]
+
+
+def test_an_install_time_build_without_a_compiler_raises_a_build_error(tmp_path: Path) -> None:
+    if importlib.util.find_spec("Cython") is None:
+        pytest.skip("Cython is not installed (pip install 'ctrlblocks[compiled]')")
+    old = os.environ.get("CC")
+    os.environ["CC"] = "false"  # a compiler that always fails: what setup.py turns into a warning
+    try:
+        with pytest.raises(compiled.BuildError, match="the compiler failed"):
+            compiled.build_packaged(tmp_path / "_compiled", say=lambda _msg: None)
+    finally:
+        if old is None:
+            del os.environ["CC"]
+        else:
+            os.environ["CC"] = old
+    assert not any((tmp_path / "_compiled").glob("*/*.so"))  # nothing half-made is left
+
+
 def test_an_unknown_mode_is_taken_as_auto_with_a_warning(tmp_path: Path) -> None:
     got = json.loads(_probe(tmp_path, "sometimes").stdout)
     assert not got["active"]
@@ -283,6 +324,8 @@ def build_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with the build of the current source (made here unless one is loaded)."""
     if compiled.active():
         return Path(compiled.status()["folder"]).parent
+    if (compiled.packaged_folder() / "build.json").is_file():
+        return compiled.packaged_folder().parent  # pip install built it (setup.py)
     why = _compiler_missing()
     if why:
         pytest.skip(why)

@@ -16,6 +16,7 @@ import pytest
 
 import ctrlblocks
 from ctrlblocks import Block, ErrorCode, ParameterError
+from ctrlblocks.blocks.transfer import lowpass, notch
 
 
 @dataclasses.dataclass
@@ -30,6 +31,12 @@ class Case:
 
 def _wave(k: int) -> float:
     return math.sin(0.3 * k) + (1.0 if k % 17 < 8 else -0.5)
+
+
+def _drive_regulator(b: Any, k: int) -> Any:
+    b.auto = k % 37 < 25
+    b.remote = k % 53 > 30
+    return b(20.0 + 5.0 * _wave(k), 25.0 + _wave(k // 7), sp_inc=k % 11 < 3, out_dec=k % 13 < 2)
 
 
 CASES: dict[str, Case] = {
@@ -155,6 +162,47 @@ CASES: dict[str, Case] = {
         lambda params: ctrlblocks.GainSchedule(
             ctrlblocks.PID(kp=1.0, ti=5.0, ts=0.1), ctrlblocks.GainScheduleConfig(**params)
         ),
+    ),
+    "TwoPoint": Case(
+        lambda: ctrlblocks.TwoPoint(hysteresis=0.4, t_min_on=0.2, t_min_off=0.3, ts=0.1),
+        lambda b, k: b(0.2, _wave(k), pv_ok=k % 23 != 4, enable=k % 41 > 2),
+        {"hysteresis": -1.0},
+        ErrorCode.BAD_LIMITS,
+    ),
+    "ThreePoint": Case(
+        lambda: ctrlblocks.ThreePoint(deadband=0.5, hysteresis=0.2, t_min_off=0.2, ts=0.1),
+        lambda b, k: b(0.0, 1.5 * _wave(k), pv_ok=k % 23 != 4),
+        {"hysteresis": 1.5},
+        ErrorCode.BAD_LIMITS,
+    ),
+    "TransferFunction": Case(
+        lambda: ctrlblocks.TransferFunction(
+            sections=(*lowpass(2.0, 0.1, 3), notch(5.0, 2.0, 0.1, 0.1)), ts=0.1, out_max=1.2
+        ),
+        lambda b, k: b(_wave(k), init=k % 53 == 0),
+        {"sections": ((1.0, 0.0, 0.0, 0.0, 1.0),)},
+        ErrorCode.BAD_PARAMETER,
+    ),
+    "SetpointProgram": Case(
+        lambda: ctrlblocks.SetpointProgram(
+            segments=((2.0, 1.0, 0.5), (-1.0, 0.0, 0.3)), repeat=True, holdback_ramp=1.5, ts=0.1
+        ),
+        lambda b, k: b(_wave(k), run=k % 31 > 2, reset=k % 97 == 50),
+        {"segments": ((1.0, -1.0, 0.0),)},
+        ErrorCode.BAD_RATE,
+    ),
+    "HeatCoolPID": Case(
+        lambda: ctrlblocks.HeatCoolPID(kp=20.0, ti=1.0, cool_method="parameters", kp_cool=40.0,
+                                       ti_cool=0.5, deadzone=2.0, pwm_period=0.5, ts=0.1),
+        lambda b, k: b(0.5, _wave(k), pv_ok=k % 23 != 4),
+        {"cool_factor": -1.0},
+        ErrorCode.BAD_PARAMETER,
+    ),
+    "Regulator": Case(
+        lambda: ctrlblocks.Regulator(kp=2.0, ti=1.0, sp0=20.0, u0=30.0, ts=0.1),
+        _drive_regulator,
+        {"tr": -1.0},
+        ErrorCode.BACK_CALC_T,
     ),
     "MaxSelector": Case(
         lambda: ctrlblocks.MaxSelector(),

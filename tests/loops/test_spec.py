@@ -94,11 +94,13 @@ def test_simulator_and_runtime_tables_are_derived_from_the_structures():
         "pulse_width": "main",
         "three_step": "main",
         "scheduled": "main",
+        "heat_cool": "main",
         "open_loop": "main",
     }
     series = [n for n, s in STRUCTURES.items() if s.series_plant]
     assert series == ["cascade", "override", "three_step"]
-    assert {n: s.actuators for n, s in STRUCTURES.items() if s.actuators != 1} == {"split_range": 2}
+    two = {"split_range": 2, "heat_cool": 2}
+    assert {n: s.actuators for n, s in STRUCTURES.items() if s.actuators != 1} == two
 
 
 def test_parse_controller_raises_the_given_error_class_not_a_scenario_error():

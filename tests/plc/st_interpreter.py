@@ -112,6 +112,9 @@ def split_pous(source: str) -> list[str]:
 
 
 _INIT = re.compile(r"^(\s+)(\w+) : (REAL|DINT|BOOL) := ([^;]+);", re.M)
+_ARRAY_INIT = re.compile(
+    r"^(\s+)(\w+) : (ARRAY\[\d+\.\.\d+\] OF (?:REAL|DINT|BOOL)) := (\[[^\]]*\]);", re.M
+)
 
 
 def strip_initial_values(chunk: str) -> tuple[str, dict[str, str]]:
@@ -123,7 +126,10 @@ def strip_initial_values(chunk: str) -> tuple[str, dict[str, str]]:
     complete files.
     """
     inits = {m.group(2).lower(): m.group(4).strip() for m in _INIT.finditer(chunk)}
-    return _INIT.sub(r"\1\2 : \3;", chunk), inits
+    chunk = _INIT.sub(r"\1\2 : \3;", chunk)
+    # ARRAY initial values [v0, v1, ...] (the coefficients of a cycle block's sections)
+    inits.update((m.group(2).lower(), m.group(4).strip()) for m in _ARRAY_INIT.finditer(chunk))
+    return _ARRAY_INIT.sub(r"\1\2 : \3;", chunk), inits
 
 
 def literal(typ: str, text: str) -> Any:
@@ -191,6 +197,10 @@ class Instance:
         for name, (section, typ, init) in pou.vars.items():
             if isinstance(typ, tuple):
                 self.frame[name] = Array(typ[1], typ[2], typ[3])
+                text = pou.inits.get(name)
+                if text is not None:
+                    items = [literal(typ[3], v.strip()) for v in text[1:-1].split(",")]
+                    self.frame[name].items = items
             elif typ not in (REAL, DINT, BOOL):
                 if section != "VariableDeclarations":
                     raise STError(f"{pou.name}.{name}: an instance outside VAR")

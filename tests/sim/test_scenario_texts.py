@@ -50,6 +50,10 @@ TYPED: dict[str, dict[str, str]] = {
         "0.4": "duty 20 K / 50 K: input arithmetic",
     },
     "tuned_three_tank": {"1.6": "the safe default's Ms target (ctrlblocks.tuning.adrc)"},
+    "two_point_thermostat": dict.fromkeys(
+        ("41.44", "37.10", "42.39", "36.15", "4.3", "6.2"),
+        "the limit cycle's extremes: test_the_two_point_extremes_of_the_notes",
+    ),
 }  # fmt: skip
 NUMBER = re.compile(r"(?<![\w.])\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
 SOURCE_REF = re.compile(
@@ -175,6 +179,25 @@ def test_the_pulse_width_ripples_of_the_notes():
     notes = " ".join(tomllib.loads(path.read_text())["scenario"]["notes"].split())
     r4, r20 = pwm_ripple(50.0, 120.0, 4.0, 0.5), pwm_ripple(50.0, 120.0, 20.0, 0.5)
     assert f"R = {r4:.2f} K for P = 4 s and {r20:.2f} K for P = 20 s" in notes
+
+
+def test_the_two_point_extremes_of_the_notes():
+    """y_max = K - (K - y_hi) e^(-L/T), y_min = y_lo e^(-L/T), as the notes and claims say."""
+    path = ROOT / "src/ctrlblocks/scenarios/two_point_thermostat.toml"
+    doc = tomllib.loads(path.read_text())
+    notes = " ".join(doc["scenario"]["notes"].split())
+    k, t, dead = (doc["plant"][n] for n in ("k", "t", "dead_time"))
+    a = math.exp(-dead / t)
+    extremes = {}
+    for h in (2.0, 4.0):
+        hi, lo = 40.0 + h / 2.0, 40.0 - h / 2.0
+        extremes[h] = (k - (k - hi) * a, lo * a)
+    (x2, n2), (x4, n4) = extremes[2.0], extremes[4.0]
+    assert f"y_max = {x2:.2f} K and y_min = {n2:.2f} K" in notes
+    assert f"gives {x4:.2f} K and {n4:.2f} K" in notes
+    assert f"{x2 - n2:.1f} K for H = 2 K, {x4 - n4:.1f} K for H = 4 K" in notes
+    claims = {c["text"]: c for c in doc["claims"]}
+    assert [c["approx"] for c in claims.values()] == pytest.approx([x2, n2, x4, n4], abs=5e-4)
 
 
 def test_fig7_margins_in_the_comment_and_the_simulator_guide():

@@ -31,6 +31,7 @@ VERDICTS: dict[str, list[bool]] = {
     "nowak_table2_b0": [True, False, False, True, True, True],
     "nowak_smith": [True, True, True],
     "gain_schedule_three_tank": [True, True, True, True, True],
+    "heat_cool_pid_temp": [True, True, True, True, True],
     "pulse_width_heater": [True, True, True, True],
     "ratio_blend": [True, True, True, True, True],
     "split_range_heat_cool": [True, True, True, True, True],
@@ -38,6 +39,7 @@ VERDICTS: dict[str, list[bool]] = {
     # the safe default ADRC, tuned on the SOPDT fit with b0 searched, is offset-free in the
     # 80 s windows (with the inverse half-rule b0 on the FOPDT fit its two claims failed)
     "tuned_three_tank": [True, True, True, True],
+    "two_point_thermostat": [True, True, True, True],
 }
 
 

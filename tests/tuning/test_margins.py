@@ -198,11 +198,12 @@ def test_a_pid_without_integral_action_has_no_spurious_pole_at_one():
     assert mg.stable and mg.radius < 0.999
 
 
-def test_a_pid_with_filters_is_refused_with_a_clear_message():
+@pytest.mark.parametrize("extra", [{"sp_rate": 1.0}, {"out_rate": 2.0}, {"deadband": 0.5}])
+def test_a_pid_with_a_ramp_or_a_dead_band_is_refused_with_a_clear_message(extra):
     from ctrlblocks.blocks.base import ParameterError
 
-    with pytest.raises(ParameterError, match="plain positional PID"):
-        margins(FOPDT(1.0, 10.0, 1.0), PID(kp=1.0, ti=5.0, ts=0.1, pv_filter=1.0))
+    with pytest.raises(ParameterError, match="margins need a linear law"):
+        margins(FOPDT(1.0, 10.0, 1.0), PID(kp=1.0, ti=5.0, ts=0.1, **extra))
 
 
 def test_dead_time_between_samples_moves_the_margins_continuously():

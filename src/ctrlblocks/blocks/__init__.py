@@ -9,10 +9,12 @@ from . import plc_cycle  # noqa: F401  (registers the precision="float32" cycles
 from .adrc import ADRC
 from .alarms import Alarm, LoopAlarms
 from .base import Block, BlockConfig, ErrorCode, Mode, ParameterError
+from .heatcool import HeatCoolPID
 from .jumprate import JumpAndRate
 from .leadlag import LeadLag
 from .manual import ManualStation
 from .monitor import CycleMonitor
+from .onoff import ThreePoint, TwoPoint
 from .pid import PID, AntiWindup, Bumpless
 from .pid_forms import (
     isa_to_parallel,
@@ -23,7 +25,9 @@ from .pid_forms import (
     series_to_parallel,
 )
 from .pwm import PulseWidth
+from .regulator import Regulator
 from .schedule import GainSchedule, GainScheduleConfig
+from .setpoint import SetpointProgram
 from .signals import (
     PT1,
     DeadBand,
@@ -38,6 +42,7 @@ from .signals import (
     scale,
 )
 from .stepper import StepController
+from .transfer import TransferFunction
 
 __all__ = [
     "ADRC",
@@ -53,6 +58,7 @@ __all__ = [
     "ErrorCode",
     "GainSchedule",
     "GainScheduleConfig",
+    "HeatCoolPID",
     "JumpAndRate",
     "LeadLag",
     "LoopAlarms",
@@ -64,10 +70,15 @@ __all__ = [
     "ParameterError",
     "PulseWidth",
     "RateLimiter",
+    "Regulator",
     "Saturation",
     "Scale",
+    "SetpointProgram",
     "SteadyStateDetector",
     "StepController",
+    "ThreePoint",
+    "TransferFunction",
+    "TwoPoint",
     "deadband",
     "isa_to_parallel",
     "isa_to_series",

@@ -289,7 +289,100 @@ def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
             "ts": ts,
         }
 
+    def two_point(r: random.Random) -> dict[str, Any]:
+        return {
+            "hysteresis": _maybe(r, 0.8, _lu(r, 1e-3, 10.0), 0.0),
+            "reverse": r.random() < 0.5,
+            "t_min_on": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "t_min_off": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "ts": _ts(r),
+            "precision": _maybe(r, 0.2, "float32", "float64"),
+        }
+
+    def three_point(r: random.Random) -> dict[str, Any]:
+        d = _maybe(r, 0.9, _lu(r, 1e-3, 10.0), 0.0)
+        return {**two_point(r), "deadband": d, "hysteresis": r.uniform(0.0, 2.0 * d)}
+
+    def transfer(r: random.Random) -> dict[str, Any]:
+        from .transfer import lowpass, notch, tustin
+
+        ts = _ts(r)
+        nyq = math.pi / ts
+        sections: list[Any] = []
+        while not sections or (len(sections) < 6 and r.random() < 0.4):
+            kind = r.random()
+            if kind < 0.4:
+                sections += lowpass(nyq * r.uniform(1e-3, 0.95), ts, r.randint(1, 4))
+            elif kind < 0.7:
+                sections.append(notch(nyq * r.uniform(1e-3, 0.95), _lu(r, 0.5, 50.0), ts,
+                                      _maybe(r, 0.5, r.uniform(0.0, 0.9), 0.0)))  # fmt: skip
+            else:
+                k, t = r.uniform(-100.0, 100.0), _lu(r, 1e-3, 1e3)
+                sections.append(tustin([k], [t, 1.0], ts))
+        lo, hi = _limits(r)
+        return {"sections": tuple(sections[:8]), "ts": ts, "out_min": lo, "out_max": hi,
+                "precision": _maybe(r, 0.2, "float32", "float64")}  # fmt: skip
+
+    def setpoint(r: random.Random) -> dict[str, Any]:
+        segs = tuple(
+            (r.uniform(-100, 100), _maybe(r, 0.8, _lu(r, 1e-3, 1e2), 0.0),
+             _maybe(r, 0.6, _lu(r, 1e-3, 1e2), 0.0))
+            for _ in range(r.randint(1, 6))
+        )  # fmt: skip
+        return {
+            "segments": segs,
+            "start": r.uniform(-100, 100),
+            "start_at_pv": r.random() < 0.3,
+            "repeat": r.random() < 0.4,
+            "holdback_ramp": _maybe(r, 0.4, _lu(r, 1e-2, 1e2), 0.0),
+            "holdback_soak": _maybe(r, 0.4, _lu(r, 1e-2, 1e2), 0.0),
+            "ts": _ts(r),
+            "precision": _maybe(r, 0.2, "float32", "float64"),
+        }
+
+    def heat_cool(r: random.Random) -> dict[str, Any]:
+        ts = _lu(r, 1e-2, 1.0)
+        method = r.choice(("factor", "parameters"))
+        return {
+            "kp": _lu(r, 1e-2, 1e2),
+            "ti": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
+            "td": _maybe(r, 0.3, _lu(r, 1e-2, 10.0), 0.0),
+            "cool_method": method,
+            "cool_factor": _lu(r, 1e-2, 1e2),
+            "kp_cool": _maybe(r, 0.8, _lu(r, 1e-2, 1e2), 0.0),
+            "ti_cool": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
+            "switch_hysteresis": r.uniform(0.0, 10.0),
+            "deadzone": _maybe(r, 0.5, r.uniform(0.0, 20.0), 0.0),
+            "pwm_period": _maybe(r, 0.4, ts * r.uniform(1.0, 50.0), 0.0),
+            "ts": ts,
+        }
+
+    def regulator(r: random.Random) -> dict[str, Any]:
+        lo = r.uniform(-100, 100)
+        slo = r.uniform(-100, 100)
+        return {
+            "kp": _lu(r, 1e-2, 1e2),
+            "ti": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
+            "td": _maybe(r, 0.3, _lu(r, 1e-2, 10.0), 0.0),
+            "u_min": lo,
+            "u_max": lo + _lu(r, 1e-2, 1e3),
+            "sp_min": slo,
+            "sp_max": slo + _lu(r, 1e-2, 1e3),
+            "tm_sp": _lu(r, 1e-1, 1e3),
+            "tm_out": _lu(r, 1e-1, 1e3),
+            "tr": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
+            "sp0": r.uniform(-100, 100),
+            "u0": r.uniform(-100, 100),
+            "ts": _ts(r),
+        }
+
     return {
+        "TwoPoint": two_point,
+        "ThreePoint": three_point,
+        "TransferFunction": transfer,
+        "SetpointProgram": setpoint,
+        "HeatCoolPID": heat_cool,
+        "Regulator": regulator,
         "PT1": lambda r: {
             "t": _maybe(r, 0.8, _lu(r, 1e-3, 1e3), 0.0),
             "ts": _ts(r),
@@ -681,6 +774,19 @@ class Driver:
             return b(v, ok=flags[0], suppress=flags[1], dt=dt)
         if n == "LoopAlarms":
             return b(0.0 if vals[1] is None else vals[1], v, pv_ok=flags[0], manual=flags[1], dt=dt)
+        if n in ("TwoPoint", "ThreePoint"):
+            return b(0.0 if vals[1] is None else vals[1], v, pv_ok=flags[0], enable=flags[1], dt=dt)
+        if n == "TransferFunction":
+            return b(v, init=flags[0])
+        if n == "SetpointProgram":
+            return b(v, pv_ok=flags[0], run=flags[1], reset=flags[2], dt=dt)
+        if n == "HeatCoolPID":
+            b.manual = flags[2]
+            return b(0.0 if vals[1] is None else vals[1], v, pv_ok=flags[0], dt=dt)
+        if n == "Regulator":
+            b.auto, b.remote = flags[1], flags[2]
+            sp = 0.0 if vals[1] is None else vals[1]
+            return b(v, sp, sp_inc=flags[0], out_dec=flags[1], pv_ok=flags[0], dt=dt)
         if n == "StepController":
             fb = vals[1] if flags[2] else None
             return b(v, dt=dt, open_limit=flags[0], close_limit=flags[1], feedback=fb)
@@ -773,6 +879,8 @@ class Driver:
             "ManualStation": ("out_min", "out_max"),
             "Scale": ("out_lo", "out_hi"),
             "PulseWidth": ("in_lo", "in_hi"),
+            "TransferFunction": ("out_min", "out_max"),
+            "Regulator": ("u_min", "u_max"),
             "GainSchedule": (),
         }.get(self.spec.name, ())
         return dict(zip(names, (lo, hi), strict=True)) if names else {}

@@ -444,6 +444,11 @@ class PIDConfig(BlockConfig):
         REAL does, every intermediate rounded to single precision (the cycle
         of :mod:`.plc_cycle`, which :mod:`ctrlblocks.plc` exports); only for
         the configurations the export covers.
+    tdf : float or None
+        The derivative filter as an absolute time [s] > 0 (controltheplant 2024,
+        ``irTdF``, default there 0.5 s): given, it sets ``n = Td/tdf`` (ISA ``Td``)
+        and ``n`` is ignored; None (default): ``n`` as given.  Without derivative
+        action it has no effect.
     """
 
     kp: float = 1.0
@@ -477,12 +482,27 @@ class PIDConfig(BlockConfig):
     ff_t_lead: float = 0.0
     ff_t_lag: float = 1.0
     precision: str = "float64"
+    tdf: float | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        # the derivative filter as an absolute time (controltheplant 2024, irTdF): n = Td/tdf
+        tdf = self.tdf
+        if isinstance(tdf, float) and math.isfinite(tdf) and tdf > 0.0:
+            try:
+                td = self.isa()[2]
+            except (ArithmeticError, ValueError, TypeError):
+                return  # validate refuses the gains
+            if isinstance(td, float) and math.isfinite(td) and td > 0.0:
+                object.__setattr__(self, "n", td / tdf)
 
     def isa(self) -> tuple[float, float, float]:
         """The ISA parameters ``(K, Ti, Td)`` of this configuration."""
         return isa_parameters(self.form, self.kp, self.ti, self.td)
 
     def validate(self) -> None:
+        if self.tdf is not None:
+            require_positive("tdf", self.tdf, ErrorCode.BAD_TIME_CONSTANT)
         kp = self._validate_gains()
         ts = require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
         require_limits("u_min", self.u_min, "u_max", self.u_max)

@@ -56,17 +56,20 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
-    add_time,
-    is_finite,
+    as_input,
     require_limits,
     require_nonnegative,
     require_positive,
 )
+from .cycleblock import time_add
+from .plc_cycle import REAL_MAX, is_real
 from .signals import clamp
 
-__all__ = ["PulseWidth", "PulseWidthConfig", "pwm_ripple"]
+__all__ = ["PWM_RESULTS", "PulseWidth", "PulseWidthConfig", "pwm_cycle", "pwm_ripple"]
 
 _EPS = 1e-9  # seconds: time comparisons within a period
+NO_ERROR = int(ErrorCode.NO_ERROR)
+BAD_INPUT = int(ErrorCode.BAD_INPUT)
 
 
 def pwm_ripple(k: float, t: float, period: float, duty: float) -> float:
@@ -116,6 +119,70 @@ class PulseWidthConfig(BlockConfig):
             raise ParameterError(ErrorCode.BAD_LIMITS, "in_lo/in_hi", "must differ")
 
 
+PWM_RESULTS = (
+    "out", "error_id", "t_in", "t_on", "applied", "asked", "carry", "duty", "started",
+)  # fmt: skip
+"""Names of the values :func:`pwm_cycle` returns: outputs, then the new memory."""
+
+
+def pwm_cycle(
+    v: float,
+    period: float,
+    t_min_on: float,
+    t_min_off: float,
+    in_lo: float,
+    in_hi: float,
+    ts: float,
+    t_in: float,
+    t_on: float,
+    applied: float,
+    asked: float,
+    carry: float,
+    duty: float,
+    started: bool,
+) -> tuple[float, int, float, float, float, float, float, float, bool]:
+    """One sample of :class:`PulseWidth` (module docstring): controller output ``v`` -> on/off.
+
+    The memory: ``t_in`` time since the period started, ``t_on`` the period's on
+    time, ``applied`` the on time applied in it, ``asked`` the on time asked for
+    (``d P + carry``), ``carry``, the latched ``duty`` and ``started`` (False: a
+    period starts now).  A ``v`` that is no finite REAL is a bad input.  Written
+    in the subset the PLC translator accepts.  Returns :data:`PWM_RESULTS`.
+    """
+    err = NO_ERROR
+    good = is_real(v)
+    if not good:
+        err = BAD_INPUT
+    if not started or t_in >= period - 0.5 * ts - _EPS:
+        # close the period that ends (carry its error) and latch the next on time
+        if started:
+            carry = clamp(asked - applied, -period, period)
+        started = True
+        t_in = 0.0
+        applied = 0.0
+        if not good:  # no valid output at the period start: off (a heater's safe state)
+            duty = 0.0
+            asked = 0.0
+            t_on = 0.0
+            carry = 0.0
+        else:
+            duty = clamp((v - in_lo) / (in_hi - in_lo), 0.0, 1.0)
+            asked = duty * period + carry
+            t_on = clamp(asked, 0.0, period)
+            if t_on < t_min_on - _EPS:
+                t_on = 0.0
+            elif period - t_on < t_min_off - _EPS:
+                t_on = period
+    on = t_in + 0.5 * ts <= t_on + _EPS
+    if on:
+        applied = time_add(applied, ts)
+    t_in = time_add(t_in, ts)
+    out = 0.0
+    if on:
+        out = 1.0
+    return out, err, t_in, t_on, applied, asked, carry, duty, started
+
+
 class PulseWidth(Block):
     """Pulse-width modulated on/off output from a controller output.
 
@@ -128,7 +195,7 @@ class PulseWidth(Block):
     """
 
     Config = PulseWidthConfig
-    _state_fields = ("out", "t_in", "t_on", "applied", "asked", "carry", "duty")
+    _state_fields = ("out", "t_in", "t_on", "applied", "asked", "carry", "duty", "started")
 
     config: PulseWidthConfig
     _config: PulseWidthConfig
@@ -138,12 +205,13 @@ class PulseWidth(Block):
 
     def _reset_state(self) -> None:
         self.out = 0.0
-        self.t_in = math.inf  # time since the period started; inf: a period starts now
+        self.t_in = 0.0  # time since the period started [s]
         self.t_on = 0.0  # on time of this period [s]
         self.applied = 0.0  # on time applied in this period [s]
         self.asked = 0.0  # on time asked for in this period (d P + carry) [s]
         self.carry = 0.0
         self.duty = 0.0
+        self.started = False  # False: a period starts with the next sample
 
     @property
     def on(self) -> bool:
@@ -157,31 +225,12 @@ class PulseWidth(Block):
         if h is None:
             self.out = 0.0
             return 0.0
-        good = is_finite(v)
-        self.error_id = ErrorCode.NO_ERROR if good else ErrorCode.BAD_INPUT
-        if self.t_in >= c.period - 0.5 * h - _EPS:
-            self._start_period(c, float(v) if good else None)
-        on = self.t_in + 0.5 * h <= self.t_on + _EPS
-        if on:
-            self.applied = add_time(self.applied, h)
-        self.t_in += h
-        self.out = 1.0 if on else 0.0
+        x = as_input(v)
+        if math.isfinite(x):  # finite beyond REAL: the same duty (clamped to 0..1)
+            x = clamp(x, -REAL_MAX, REAL_MAX)
+        (self.out, err, self.t_in, self.t_on, self.applied, self.asked, self.carry, self.duty,
+         self.started) = pwm_cycle(x, c.period, c.t_min_on, c.t_min_off, c.in_lo, c.in_hi, h,
+                                   self.t_in, self.t_on, self.applied, self.asked, self.carry,
+                                   self.duty, self.started)  # fmt: skip
+        self.error_id = ErrorCode(err)
         return self.out
-
-    def _start_period(self, c: PulseWidthConfig, v: float | None) -> None:
-        """Close the period that ends (carry its error) and latch the next on time."""
-        if math.isfinite(self.t_in):
-            self.carry = clamp(self.asked - self.applied, -c.period, c.period)
-        self.t_in = 0.0
-        self.applied = 0.0
-        if v is None:  # no valid output at the period start: off (a heater's safe state)
-            self.duty, self.asked, self.t_on, self.carry = 0.0, 0.0, 0.0, 0.0
-            return
-        self.duty = clamp((v - c.in_lo) / (c.in_hi - c.in_lo), 0.0, 1.0)
-        self.asked = self.duty * c.period + self.carry
-        t_on = clamp(self.asked, 0.0, c.period)
-        if t_on < c.t_min_on - _EPS:
-            t_on = 0.0
-        elif c.period - t_on < c.t_min_off - _EPS:
-            t_on = c.period
-        self.t_on = t_on

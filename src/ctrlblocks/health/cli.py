@@ -28,6 +28,7 @@ from typing import Any
 import click
 
 from ..tuning.csv_options import csv_options
+from ..tuning.records import shown
 
 
 def _time_bound(text: str | None, what: str) -> float | None:
@@ -42,7 +43,7 @@ def _time_bound(text: str | None, what: str) -> float | None:
         stamp = datetime.datetime.fromisoformat(text)
     except ValueError:
         raise click.BadParameter(
-            f"{text!r} is neither seconds nor an ISO 8601 time", param_hint=what
+            f"{shown(text)} is neither seconds nor an ISO 8601 time", param_hint=what
         ) from None
     if stamp.tzinfo is None:
         stamp = stamp.astimezone()  # local time, as a user types it

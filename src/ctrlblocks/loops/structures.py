@@ -50,11 +50,12 @@ Structures and what they read (``structure`` -> measurements):
 ``three_step``  ``y``, ``y2`` (the valve position: end switches, feedback);
                a step controller's OPEN/CLOSE commands are the MV
 ``scheduled``  ``y``; the controller's parameters follow the setpoint or ``y``
+``heat_cool``  ``y``; a HeatCoolPID's heat and cool outputs on two actuators
 ``open_loop``  none (the block is driven by the setpoint)
 =============  ==========================================================
 
-Actuators: a structure writes one MV, except ``split_range``, which writes
-two (:attr:`Structure.actuators`; :meth:`ControllerSide.actuator_values`
+Actuators: a structure writes one MV, except ``split_range`` and
+``heat_cool``, which write two (:attr:`Structure.actuators`; :meth:`ControllerSide.actuator_values`
 maps the controller output to them).
 
 Quality flags (``y_ok``, ``y2_ok``, ``dv_ok``, ``w_ok``): a block is called
@@ -74,6 +75,7 @@ from typing import Any, ClassVar
 
 from ..blocks.adrc import ADRC
 from ..blocks.base import Mode, ParameterError
+from ..blocks.heatcool import HeatCoolPID
 from ..blocks.leadlag import LeadLag
 from ..blocks.pid import PID
 from ..blocks.protocols import Controller
@@ -1108,6 +1110,55 @@ class ScheduledStructure(Structure):
         side.ctrls["main"].update(u, measured=measured)
 
 
+class HeatCoolStructure(Structure):
+    """A heating/cooling controller (:class:`~ctrlblocks.HeatCoolPID`) on two actuators.
+
+    The entry's ``main`` table is the HeatCoolPID; its output is ``heat -
+    cool`` [%] (one of them is zero), which the structure writes as two MVs:
+    actuator A the cooler (``max(0, -u)``), actuator B the heater
+    (``max(0, u)``) -- the inputs ``u`` and ``u2`` of the shipped two-input
+    plant :class:`~ctrlblocks.plants.HeatCool`.  With PWM outputs the MVs are
+    0 or 100 %.  The block tracks its own demand (its PID's anti-windup acts
+    at the demand's limits).  Signals: ``heat``, ``cool``, ``v_ctrl`` (the
+    demand ``v``) and ``cooling`` (1 while the cooling parameter set is in force).
+    """
+
+    name = "heat_cool"
+    roles = ("main",)
+    actuators = 2
+    tuned_roles = ()
+    runtime = False  # the runtime's loops run PID or ADRC blocks (runtime/config.py)
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*_ENTRY_KEYS, "main"}, key)
+        main = r.role(e, "main", key, ts)
+        if not isinstance(r.build(main, ts, kind="block"), HeatCoolPID):
+            raise r.fail(
+                f"{key}.main.type",
+                f"the heat_cool structure needs a HeatCoolPID, got {main.type}",
+            )
+        return {"main": main}, {}
+
+    def hold_for_warmup(self, side, u0, y2):
+        block: HeatCoolPID = side.blocks["main"]
+        set_manual(block, True, block.demand_for(u0))  # the manual value is a demand
+
+    def compute(self, side, sp, m):
+        u = side.ctrls["main"].output(sp, m.y, m.y_ok, 0.0, m.dt)
+        b: HeatCoolPID = side.blocks["main"]
+        return u, {"heat": b.heat, "cool": b.cool, "v_ctrl": b.demand,
+                   "cooling": float(b.cooling)}  # fmt: skip
+
+    def update(self, side, u, measured):
+        pass  # the block ran its whole sample in compute (it tracks its own demand)
+
+    def actuator_values(self, spec, u):
+        return (max(0.0, -u), max(0.0, u))
+
+    def off_mv(self, spec):
+        return 0.0  # both outputs off
+
+
 STRUCTURES: dict[str, Structure] = {
     s.name: s
     for s in (
@@ -1121,6 +1172,7 @@ STRUCTURES: dict[str, Structure] = {
         PulseWidthStructure(),
         ThreeStepStructure(),
         ScheduledStructure(),
+        HeatCoolStructure(),
         OpenLoop(),
     )
 }

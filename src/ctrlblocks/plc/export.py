@@ -95,6 +95,9 @@ def _small_block(p: FbPou) -> FbDecl:
 
 
 def _init(typ: str, value: Any) -> str:
+    arr = array_info(typ)
+    if arr is not None:  # an ARRAY's initial values: [v0, v1, ...]
+        return "[" + ", ".join(_init(arr[1], v) for v in value) + "]"
     if typ == BOOL:
         return "TRUE" if value else "FALSE"
     if typ == DINT:
@@ -306,7 +309,12 @@ def _xvars(tag: str, items: list[tuple[str, str, str, str]]) -> list[str]:
         else:
             kind = f"<derived name={quoteattr(typ)} />"
         out.append(f"              <type>{kind}</type>")
-        if init:
+        if init and arr is not None and init.startswith("["):
+            values = "".join(f"<value><simpleValue value={quoteattr(v.strip())} /></value>"
+                             for v in init[1:-1].split(","))  # fmt: skip
+            out.append(f"              <initialValue><arrayValue>{values}</arrayValue>"
+                       "</initialValue>")  # fmt: skip
+        elif init:
             out.append(f"              <initialValue><simpleValue value={quoteattr(init)} />"
                        "</initialValue>")  # fmt: skip
         if comment:

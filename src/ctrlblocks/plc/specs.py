@@ -17,6 +17,8 @@ from typing import Any
 
 from ..blocks import ADRC, PID, LeadLag
 from ..blocks import plc_cycle as pc
+from ..blocks.cycleblock import CycleBlock
+from ..blocks.heatcool import HeatCoolPID
 from ..blocks.precision import plc_unsupported
 
 __all__ = ["BlockSpec", "UnsupportedBlock", "spec_for"]
@@ -276,6 +278,144 @@ def spec_for(block: Any) -> BlockSpec:
                                                  "lo": "low limit in force",
                                                  "hi": "high limit in force"}, {"out"}),
                          values, c)  # fmt: skip
+    cycle_spec = _cycle_block_spec(block)
+    if cycle_spec is not None:
+        return cycle_spec
     raise UnsupportedBlock(
-        f"no PLC export for {type(block).__name__}; blocks exported: PID, ADRC, LeadLag"
+        f"no PLC export for {type(block).__name__}; blocks exported: PID, ADRC, LeadLag, "
+        + ", ".join(sorted(_CYCLE_BLOCKS))
     )
+
+
+# ---------------------------------------------------------------------------
+# Blocks run by one pure cycle function (blocks.cycleblock.CycleBlock)
+# ---------------------------------------------------------------------------
+
+_ONOFF_PROCESS = _table("""
+sp     SP     setpoint [PV units]
+pv     PV     process value [PV units]
+pv_ok  PV_OK  quality of PV; FALSE = invalid measurement (16#8102): the output goes off
+enable ENABLE FALSE: the output goes off (no error)
+""")
+_ONOFF_TIMES = _table("""
+reverse   REVERSE   FALSE: e = SP - PV (heating: on below SP); TRUE: e = PV - SP (cooling)
+t_min_on  T_MIN_ON  minimum on time [s]
+t_min_off T_MIN_OFF minimum off time [s]
+ts        TS
+""")
+_TWO_POINT = (
+    "CB_TWOPOINT", "two-point controller with hysteresis (Beckhoff TF4100 FB_CTRL_2POINT)",
+    _ONOFF_PROCESS + _table("""
+hysteresis HYSTERESIS hysteresis width H [PV units]: switching points SP - H/2 and SP + H/2
+""") + _ONOFF_TIMES,
+    _table("""
+out      OUT      1.0 on, 0.0 off
+error_id ERROR_ID
+"""),
+    {"on": "the output is on (the relay)", "t_in": "time in the present state [s]"},
+)
+_THREE_POINT = (
+    "CB_THREEPOINT", "three-point controller raise/stop/lower (Beckhoff TF4100 FB_CTRL_3POINT)",
+    _ONOFF_PROCESS + _table("""
+deadband   DEADBAND   neutral zone half-width D [PV units]: +1 from SP - PV >= D, -1 from <= -D
+hysteresis HYSTERESIS hysteresis H of each switching point [PV units] (0 <= H <= 2 D)
+""") + _ONOFF_TIMES,
+    _table("""
+out       OUT       +1.0 raise, 0.0 stop, -1.0 lower
+error_id  ERROR_ID
+raise_out RAISE_OUT the raise relay
+lower_out LOWER_OUT the lower relay
+"""),
+    {"state": "+1 raise, 0 stop, -1 lower", "t_in": "time in the present state [s]"},
+)
+_TRANSFER = (
+    "CB_TRANSFER", "discrete transfer function, a cascade of biquads (transposed direct form II)",
+    _table("""
+x       X       input
+init    INIT    TRUE: start at rest at this input (output = DC gain x X)
+b0      B0      numerator coefficient b0 of each section
+b1      B1      numerator coefficient b1 of each section (of z^-1)
+b2      B2      numerator coefficient b2 of each section (of z^-2)
+a1      A1      denominator coefficient a1 of each section (of z^-1; a0 = 1)
+a2      A2      denominator coefficient a2 of each section (of z^-2)
+out_min OUT_MIN output low limit
+out_max OUT_MAX output high limit
+"""),
+    _table("""
+out      OUT      output, limited
+error_id ERROR_ID
+"""),
+    {"y": "unlimited output of the last valid sample", "z1": "memory s1 of each section",
+     "z2": "memory s2 of each section"},
+)
+_SETPOINT = (
+    "CB_SETPOINT", "setpoint programmer: ramp/soak segments with guaranteed ramp and soak",
+    _table("""
+pv            PV            process value [PV units] (holdback and start at PV)
+pv_ok         PV_OK         quality of PV; FALSE holds the program while a holdback band is on
+run           RUN           TRUE: the program runs; FALSE: it holds where it is
+reset         RESET         TRUE: back to the start (START or PV, segment 0)
+target        TARGET        target of each segment [PV units]
+rate          RATE          ramp rate of each segment [PV units/s]; 0 = a step
+soak          SOAK          soak time of each segment [s]
+start         START         setpoint at the start [PV units]
+start_at_pv   START_AT_PV   TRUE: start at the PV instead (when it is valid)
+repeat        CYCLIC        TRUE: after the last segment start again with the first
+holdback_ramp HOLDBACK_RAMP guaranteed ramp: hold while |PV - SP| exceeds it; 0 = off
+holdback_soak HOLDBACK_SOAK guaranteed soak: hold while |PV - SP| exceeds it; 0 = off
+ts            TS
+"""),
+    _table("""
+out      OUT      setpoint [PV units]
+error_id ERROR_ID
+held     HELD     a holdback band holds the program
+"""),
+    {"seg": "segment (0-based)", "phase": "0 ramp, 1 soak", "done": "the program has ended",
+     "sp": "setpoint", "t_soak": "soak time spent [s]", "started": "the program has started"},
+)
+_HEAT_COOL = (
+    "CB_HEATCOOL", "heat/cool output stage of HeatCoolPID: split, parameter set, PWM on both "
+    "outputs (wire CB_PID.MV to V)",
+    _table("""
+v                 V                 the PID's demand [%] (CB_PID.MV): > 0 heats, < 0 cools
+deadzone          DEADZONE          neutral zone [%] between heating and cooling
+factor            COOL_FACTOR       cooling factor: heating actuator gain / cooling actuator gain
+switching         SWITCHING         TRUE: own cooling tunings, chosen by COOLING
+switch_hysteresis SWITCH_HYSTERESIS hysteresis [%] of the switch between the parameter sets
+pwm               PWM               TRUE: both outputs pulse-width modulated (0 or 100 %)
+period            PERIOD            PWM period [s]
+t_min_on          T_MIN_ON          shortest PWM pulse [s]
+t_min_off         T_MIN_OFF         shortest PWM pause [s]
+ts                TS
+"""),
+    _table("""
+out         OUT      HEAT - COOL [%]
+error_id    ERROR_ID
+heat        HEAT     heating output [%] (0 or 100 with PWM)
+cool        COOL     cooling output [%] (0 or 100 with PWM)
+cooling_out COOLING  TRUE: give CB_PID the cooling tunings in the next cycle
+"""),
+    {"cooling": "the parameter set chosen (cooling)", "h_on": "heating PWM on",
+     "c_on": "cooling PWM on"},
+)
+_CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] = {
+    "HeatCoolPID": _HEAT_COOL,
+    "SetpointProgram": _SETPOINT,
+    "TwoPoint": _TWO_POINT,
+    "ThreePoint": _THREE_POINT,
+    "TransferFunction": _TRANSFER,
+}
+"""Class name -> (FB name, title, inputs, outputs, state comments) of each cycle block."""
+
+
+def _cycle_block_spec(block: Any) -> BlockSpec | None:
+    """The :class:`BlockSpec` of a block run by one cycle function, or None."""
+    entry = _CYCLE_BLOCKS.get(type(block).__name__)
+    if entry is None or not isinstance(block, CycleBlock | HeatCoolPID):
+        return None
+    fb_name, title, inputs, outputs, comments = entry
+    values = block.plc_values()
+    state = [Var(k, k, comments.get(k, "")) for k in block.memory_names()]
+    return BlockSpec(type(block).__name__.lower(), fb_name, title, block.cycle_function(),
+                     block.cycle_results(), inputs, outputs, state, values,
+                     block.config)  # fmt: skip

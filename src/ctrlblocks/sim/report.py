@@ -203,7 +203,7 @@ def _margins_lines(sc: Scenario) -> list[str]:
     out = [
         "",
         "Robustness of each tuning on its model (sampled loop, dead time exact, "
-        "`docs/tuning.md`; a dash: set-point ramps, filters or a dead band, not analysed):",
+        "`docs/tuning.md`; a dash: set-point or output ramps or a dead band, not analysed):",
         "",
         "| controller | model | Ms | GM | PM [deg] | crossover [rad/s] | stable |",
         "|---|---|---|---|---|---|---|",
@@ -223,6 +223,7 @@ def _margins_lines(sc: Scenario) -> list[str]:
             f"{cell(mg['gm'], '.3g')} | {cell(mg['pm'], '.1f')} | "
             f"{cell(mg['wc_crossover'], '.4g')} | {stable} |"
         )
+        warn += [f"- ⚠️ {name}: {w}." for w in mg.get("warnings", ())]
         if not mg["stable"] or mg["ms"] > 2.0:
             who = "the tuning found" if tuned else "the source's tuning"
             how = "is unstable" if not mg["stable"] else f"has Ms = {mg['ms']:.3g} > 2 (fragile)"

@@ -209,8 +209,9 @@ def block_margins(
     """``Margins.as_dict()`` of the block ``block_type(**params, ts=ts)`` on ``model``.
 
     None when the block cannot be analysed (not a PID/ADRC, or a configuration
-    without the plain linear law, e.g. a PID with a PV filter, or refused
-    parameters, which the caller reports itself).
+    without a linear law, e.g. a PID with a setpoint ramp or a dead band, or
+    refused parameters, which the caller reports itself).  ``"warnings"``: the
+    notes of :attr:`Margins.warnings`, when there are any.
     """
     from ..blocks.adrc import ADRC
     from ..blocks.pid import PID
@@ -224,4 +225,7 @@ def block_margins(
         mg = margins(model, block)
     except (ParameterError, TypeError):
         return None
-    return dict(mg.as_dict())
+    out: dict[str, Any] = dict(mg.as_dict())
+    if mg.warnings:
+        out["warnings"] = list(mg.warnings)
+    return out

@@ -205,7 +205,7 @@ def tune() -> None:
 ADRC_INFO_KEYS = (
     "b0_min", "b0_max", "settling_time", "settling_time_model", "settling_time_loop",
     "fastest_settling_time", "ms_target", "ms", "gm", "pm", "wc_crossover", "stable",
-    "ki", "mv_noise", "model", "warnings", "plot",
+    "ki", "mv_noise", "model", "warnings", "plot", "kp_eq", "ti_eq", "td_eq", "b_eq",
 )  # fmt: skip
 """Informational keys of ``tune adrc --json``: drop them and ``ADRC(**rest, u_min=, u_max=)``."""
 
@@ -353,6 +353,8 @@ def tune_adrc(
     }
     if not math.isnan(r.fastest_settling_time):
         out["fastest_settling_time"] = r.fastest_settling_time
+    eq = _adrc_as_pid(r, discretisation)
+    out.update(eq.as_dict())
     if plot_path:
         from ..blocks.adrc import ADRC
         from .identify import FOPDT
@@ -365,7 +367,16 @@ def tune_adrc(
                     f"omega_o = {r.omega_o:.4g} rad/s, ts = {r.ts:g} s")  # fmt: skip
         out["plot"] = plot_path
     _emit(_finite(out), as_json, f"ADRC order {r.order} (Nowak et al. 2018, section 3.3); "
-          f"margins on the model: {r.margins.summary()}")  # fmt: skip
+          f"margins on the model: {r.margins.summary()}; {eq.summary()}")  # fmt: skip
+
+
+def _adrc_as_pid(r, discretisation: str):
+    """The tuned ADRC read as a PID (:func:`.equivalent.equivalent_pid` of the block's law)."""
+    from ..blocks.adrc import ADRC
+    from .equivalent import equivalent_pid
+    from .margins import controller_ss
+
+    return equivalent_pid(controller_ss(ADRC(**r.config(discretisation=discretisation))))
 
 
 def _model(gain: float, time_constant: float, dead_time: float, time_constant_2: float):
@@ -432,6 +443,10 @@ def _tune_adrc_designed(gain, time_constant, dead_time, order, time_constant_2, 
         raise click.ClickException(str(exc)) from None
     out = _design_out(d, model)
     out["discretisation"] = discretisation
+    from .equivalent import equivalent_pid
+
+    eq = equivalent_pid(d.loop(model).ctrl)  # the designed ADRC's law read as a PID
+    out.update(eq.as_dict())
     if plot_path:
         _write_plot(d.loop(model), d.margins, plot_path,
                     f"ADRC n = {order}: b0 = {d.params['b0']:.4g}, omega_c = "
@@ -440,7 +455,7 @@ def _tune_adrc_designed(gain, time_constant, dead_time, order, time_constant_2, 
         out["plot"] = plot_path
     _emit(_finite(out), as_json, f"ADRC order {order} designed for the smallest load IAE with "
           f"Ms <= {ms:g} on the {model.as_dict()['model'].upper()} (as ctrlblocks compare); "
-          f"margins: {d.margins.summary()}")  # fmt: skip
+          f"margins: {d.margins.summary()}; {eq.summary()}")  # fmt: skip
 
 
 _PID_RULES = ("migo", "simc", "amigo", "zn", "lambda", "tyreus-luyben")

@@ -365,11 +365,24 @@ def _feasible(m: _Model, c, ms: float, noise_max: float) -> bool:
     return not (noise_max < math.inf and m.noise(c) > noise_max)
 
 
-def _check(model: Any, ms: float, noise_std: float | None, mv_noise_max: float | None):
+def _check(
+    model: Any, ts: float, ms: float, noise_std: float | None, mv_noise_max: float | None
+):
+    from ..plants.linear import MAX_DEAD_SAMPLES
     from .identify import FOPDT, SOPDT
 
     if not isinstance(model, (FOPDT, SOPDT)):
         raise ParameterError(ErrorCode.BAD_PARAMETER, "model", "an FOPDT or SOPDT model")
+    if not (math.isfinite(ts) and ts > 0.0):
+        raise ParameterError(ErrorCode.BAD_TIME_CONSTANT, "ts", f"must be finite > 0, got {ts!r}")
+    _k, tau, _L = _scales(model)
+    if not tau / ts <= MAX_DEAD_SAMPLES:
+        # the search grids and the load response's FFT are sized in samples of ts
+        raise ParameterError(
+            ErrorCode.BAD_TIME_CONSTANT, "time_constant",
+            f"the model's time scale {tau:g} s is more than {MAX_DEAD_SAMPLES:,} samples of "
+            f"ts = {ts:g} s: take a longer ts",
+        )  # fmt: skip
     if not (math.isfinite(ms) and 1.1 <= ms <= 3.0):
         raise ParameterError(ErrorCode.BAD_PARAMETER, "ms", f"must be 1.1..3, got {ms!r}")
     ns = 0.0 if noise_std is None else float(noise_std)
@@ -439,7 +452,7 @@ def design_pid(
     """
     from ..blocks.pid import PID
 
-    noise_std, budget, gmax = _check(model, ms, noise_std, mv_noise_max)
+    noise_std, budget, gmax = _check(model, ts, ms, noise_std, mv_noise_max)
     if controller not in ("pi", "pid"):
         raise ParameterError(ErrorCode.BAD_PARAMETER, "controller", "must be 'pi' or 'pid'")
     pos, reverse = _mirror(model)
@@ -650,9 +663,14 @@ def design_adrc(
     from ..blocks.adrc import ADRC
     from .halfrule import inverse_half_rule
 
-    noise_std, budget, gmax = _check(model, ms, noise_std, mv_noise_max)
+    noise_std, budget, gmax = _check(model, ts, ms, noise_std, mv_noise_max)
     if isinstance(order, bool) or order not in (1, 2, 3):
         raise ParameterError(ErrorCode.BAD_ORDER, "order", f"must be 1, 2 or 3, got {order!r}")
+    if not ratios or not all(math.isfinite(r) and 1.0 <= r <= 100.0 for r in ratios):
+        raise ParameterError(
+            ErrorCode.BAD_BANDWIDTH, "observer_ratio",
+            f"omega_o / omega_c must be 1..100, got {', '.join(f'{r:g}' for r in ratios)}",
+        )  # fmt: skip
     pos, reverse = _mirror(model)
     k, tau, L = _scales(pos)
     m = _Model(pos, ts, False)

@@ -24,7 +24,13 @@ and the process advances by ``ts`` with ``u[k]`` held (zero-order hold).
   methods, filter ``Td/N``, set-point weights ``b``, ``c``) is exactly the
   code that runs, not a second implementation.  States the inputs cannot
   reach (the integrator of a PID without integral action, the x2/x3 of a
-  lower ADRC order) are left out.
+  lower ADRC order) are left out.  A PID is analysed as a plant runs it
+  (controltheplant 2024: PV and setpoint filters, scaling of SP and PV to
+  0..100 %, the velocity form): every memory of its cycle is a state (the
+  ones its configuration does not use drop out), and the cycle's value at
+  rest is subtracted (scaling makes it affine).  Ramps and the dead band are
+  not linear and are refused.  :attr:`Margins.warnings` notes a Tustin
+  derivative that rings (``Td/N < ts/2``, :func:`derivative_rings`).
 * **Loop**: the feedback part ``C_y(z) = -(C (zI - A)^-1 B_y + D_y)`` gives
   the loop transfer function ``L = C_y P``, the sensitivity ``S = 1/(1 + L)``
   and the complementary sensitivity ``T = L/(1 + L)`` on ``z = e^{j w ts}``,
@@ -48,6 +54,7 @@ the usual range (Åström & Hägglund 2006, section 4.4: ``ms = 1.4`` and
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -69,6 +76,7 @@ __all__ = [
     "Margins",
     "SmithSS",
     "controller_ss",
+    "derivative_rings",
     "loop",
     "margins",
     "model_plant",
@@ -202,7 +210,7 @@ def plant_ss(plant: LinearPlant) -> DiscreteSS:
 
 # the controller states that hold MV values (ADRC: the last output; PID: the integral and
 # derivative terms); the others hold PV values, their rates or the ESO's total disturbance
-_MV_STATES = frozenset({"_u_prev", "_i", "_d"})
+_MV_STATES = frozenset({"_u_prev", "_i", "_d", "_x", "_bias", "_p_prev", "_d_prev", "_ff_prev"})
 
 _ADRC_STATES = {
     1: ("_yh", "_x4", "_u_prev", "_ref"),
@@ -235,23 +243,28 @@ def controller_ss(block: PID | ADRC, *, direct: bool = False) -> DiscreteSS:
         probe: PID | ADRC = ADRC(cfg, u_min=-math.inf, u_max=math.inf, anti_backoff=False)
         fields = _ADRC_STATES[int(cfg.order)]  # x2, x3 unused below order 2, 3
     elif isinstance(block, PID):
-        plain = (
-            cfg.algorithm == "positional"
-            and cfg.pv_range is None
-            and cfg.sp_filter == cfg.pv_filter == cfg.sp_rate == cfg.out_rate == 0.0
-            and cfg.deadband == 0.0
-            and cfg.ff_k == 0.0
-        )
-        if not plain:
+        nonlinear = [name for name in ("sp_rate", "out_rate", "deadband")
+                     if getattr(cfg, name) != 0.0]  # fmt: skip
+        if nonlinear:
             raise ParameterError(
                 ErrorCode.BAD_PARAMETER,
                 "PID",
-                "margins need the plain positional PID (no filters, ramps, scaling, "
-                "dead band, feed-forward or velocity form)",
+                f"margins need a linear law; {', '.join(nonlinear)} is not (a ramp limits a "
+                "rate, the dead band holds the output): analyse the PID without it",
             )
         probe = PID(cfg, u_min=-math.inf, u_max=math.inf, bumpless="integrator")
-        # without integral action the integrator is a constant (unreachable) state
-        fields = ("_i", "_d", "_w_prev", "_e_prev")[0 if cfg.ti > 0.0 else 1 :]
+        plain = (
+            cfg.algorithm == "positional"
+            and cfg.pv_range is None
+            and cfg.sp_filter == cfg.pv_filter == 0.0
+        )
+        if plain:
+            # without integral action the integrator is a constant (unreachable) state
+            fields = ("_i", "_d", "_w_prev", "_e_prev")[0 if cfg.ti > 0.0 else 1 :]
+        else:
+            # as a plant runs it (controltheplant 2024): PV and SP filters, scaling to
+            # 0..100 %, the velocity form -- every memory of the cycle is a state
+            fields = _PID_STATES
     else:
         raise TypeError(f"margins are defined for PID and ADRC blocks, not {type(block).__name__}")
     probe(0.0, 0.0)  # leave the first-cycle start-up (ESO start, PID cold start)
@@ -262,30 +275,115 @@ def controller_ss(block: PID | ADRC, *, direct: bool = False) -> DiscreteSS:
     n = len(fields) + n_hist
 
     def cycle(x: Sequence[float], r: float, y: float) -> tuple[np.ndarray, float]:
-        snap = dict(template)
-        snap.update(zip(fields, (float(v) for v in x[: len(fields)]), strict=True))
+        snap = copy.deepcopy(template)
+        for f, v in zip(fields, x[: len(fields)], strict=True):
+            _set_field(snap, f, float(v))
         if n_hist:
             snap["_u_hist"] = tuple(float(v) for v in x[len(fields) :])
         probe.restore(snap)
         u = float(probe(r, y))
         new = probe.snapshot()
         hist = [float(v) for v in new["_u_hist"]] if n_hist else []
-        return np.array([float(new[f]) for f in fields] + hist), u
+        return np.array([float(_get_field(new, f)) for f in fields] + hist), u
 
     a = np.zeros((n, n))
     b = np.zeros((n, 2))
     c = np.zeros((1, n))
     d = np.zeros((1, 2))
     zero = np.zeros(n)
+    # the cycle is affine (scaling to 0..100 % shifts r and y): its value at rest is
+    # subtracted, so that the columns are the linear part (0 for the plain laws)
+    x0, u0 = cycle(zero, 0.0, 0.0)
     for j in range(n):
         e = zero.copy()
         e[j] = 1.0
         a[:, j], c[0, j] = cycle(e, 0.0, 0.0)
+        a[:, j] -= x0
+        c[0, j] -= u0
     b[:, 0], d[0, 0] = cycle(zero, 1.0, 0.0)
     b[:, 1], d[0, 1] = cycle(zero, 0.0, 1.0)
+    b -= x0[:, None]
+    d -= u0
     mv = tuple(f in _MV_STATES for f in fields) + (True,) * n_hist
     delay = (fields.index("_u_prev"), len(fields)) if n_hist else None
+    if isinstance(block, PID) and fields is _PID_STATES:
+        return _minimal(DiscreteSS(a, b, c, d, float(cfg.ts), mv, delay))
     return DiscreteSS(a, b, c, d, float(cfg.ts), mv, delay)
+
+
+_PID_STATES = (
+    "_i", "_d", "_w_prev", "_e_prev", "_x", "_bias", "_p_prev", "_d_prev", "_ff_prev",
+    "_subs._sp_filter.out", "_subs._pv_filter.out",
+)  # fmt: skip
+"""The memories of a PID's cycle with filters, scaling or the velocity form (those its
+configuration does not use are dropped by :func:`_minimal`)."""
+
+
+def _get_field(snap: dict[str, Any], name: str) -> Any:
+    """A snapshot's value at a dotted path (``"_subs._pv_filter.out"``)."""
+    for part in name.split("."):
+        snap = snap[part]
+    return snap
+
+
+def _set_field(snap: dict[str, Any], name: str, value: float) -> None:
+    *path, last = name.split(".")
+    for part in path:
+        snap = snap[part]
+    snap[last] = value
+
+
+def _minimal(ss: DiscreteSS) -> DiscreteSS:
+    """``ss`` without the states the inputs cannot reach or the output cannot see.
+
+    Structurally: a state is kept when a chain of non-zero entries leads to it
+    from ``b`` and from it to ``c`` -- a memory the configuration does not use
+    (the velocity form's output integrator in the positional law, an integrator
+    without integral action) would otherwise add a pole at 0 or 1 that the loop
+    does not have.
+    """
+    a, b, c = ss.a, ss.b, ss.c
+    n = a.shape[0]
+    reach = set(np.flatnonzero(np.any(b != 0.0, axis=1)))
+    grow = True
+    while grow:
+        new = {i for i in range(n) for j in reach if a[i, j] != 0.0}
+        grow = not new <= reach
+        reach |= new
+    seen = set(np.flatnonzero(c[0] != 0.0))
+    grow = True
+    while grow:
+        new = {j for j in range(n) for i in seen if a[i, j] != 0.0}
+        grow = not new <= seen
+        seen |= new
+    keep = sorted(reach & seen)
+    mv = tuple(ss.mv_states[i] for i in keep) if ss.mv_states else ()
+    return DiscreteSS(a[np.ix_(keep, keep)], b[keep], c[:, keep], ss.d, ss.ts, mv, None)
+
+
+def derivative_rings(block: Any) -> str | None:
+    """A warning when a PID's Tustin derivative rings: ``Td/N < ts/2``, else None.
+
+    The Tustin image of the filtered derivative ``Td s/(1 + s Td/N)`` has its pole
+    at ``z = (2 Td/N - h)/(2 Td/N + h)`` (Åström 1987, (2.13)): negative, an
+    oscillation at the Nyquist frequency, when the filter time ``Td/N`` is
+    shorter than half the sample time ``h``.
+    """
+    if not isinstance(block, PID):
+        return None
+    cfg = block.config
+    _k, _ti, td = cfg.isa()
+    if cfg.derivative_method != "tustin" or td <= 0.0:
+        return None
+    tf, h = td / cfg.n, float(cfg.ts)
+    if tf >= 0.5 * h:
+        return None
+    pole = (2.0 * tf - h) / (2.0 * tf + h)
+    return (
+        f"the Tustin derivative rings: Td/N = {tf:.4g} s < ts/2 = {0.5 * h:.4g} s puts its "
+        f"pole at z = {pole:.3f} (an oscillation at the Nyquist frequency); use the "
+        "backward derivative or N <= 2 Td/ts"
+    )
 
 
 def plant_response(p: LinearPlant, w: np.ndarray) -> np.ndarray:
@@ -431,6 +529,8 @@ class Margins:
     stable: bool
     radius: float
     ts: float
+    warnings: tuple[str, ...] = ()
+    """Notes on the analysed controller (a ringing Tustin derivative, :func:`derivative_rings`)."""
 
     def as_dict(self) -> dict[str, float | bool]:
         """The keys of ``ctrlblocks tune ... --json``: ``ms, gm, pm, wc_crossover, stable``."""
@@ -487,6 +587,8 @@ class Loop:
 
     def __init__(self, model: Any, block: PID | ADRC | DiscreteSS) -> None:
         self.ctrl = block if isinstance(block, DiscreteSS) else controller_ss(block)
+        ring = derivative_rings(block)
+        self.warnings: tuple[str, ...] = () if ring is None else (ring,)
         self.ts = self.ctrl.ts
         self.plant, self.pss = _sampled(model, self.ts)
 
@@ -617,7 +719,8 @@ class Loop:
             ms, w_ms = self._refine_peak(w, i)
             gm, w_gm = self._gain_margin(w, L)
             pm, wc = self._phase_margin(w, L)
-        return Margins(ms if stable else math.inf, gm, pm, wc, w_gm, w_ms, stable, radius, self.ts)
+        return Margins(ms if stable else math.inf, gm, pm, wc, w_gm, w_ms, stable, radius, self.ts,
+                       self.warnings)  # fmt: skip
 
     def _refine_peak(self, w: np.ndarray, i: int) -> tuple[float, float]:
         lo, hi = w[max(i - 1, 0)], w[min(i + 1, len(w) - 1)]
