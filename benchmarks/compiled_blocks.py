@@ -12,7 +12,7 @@ What it does:
 1. builds the package's compiled blocks (:func:`ctrlblocks.compiled.build`, the
    same as ``ctrlblocks compile``) into a temporary folder, or with ``--reuse``
    takes the build of the current source from the user's cache folder;
-2. runs the fuzz campaign's seeded random actions (``ctrlblocks.blocks.fuzz``:
+2. runs the fuzz campaign's seeded random actions (``ctrlblocks.testing``:
    inputs with NaN/inf, modes, limits, reconfiguration, snapshot/restore,
    reset) on every exported block, with PID and ADRC runs that start in
    ``precision="float32"``, once interpreted (``CTRLBLOCKS_COMPILED=off``) and
@@ -46,7 +46,7 @@ TARGETS = {"pid": 0.5, "adrc": 0.1}
 TRACES = """
 import json, sys
 from ctrlblocks import compiled
-from ctrlblocks.blocks.fuzz import traces
+from ctrlblocks.testing import traces
 out = traces(*(int(a) for a in sys.argv[1:4]))
 print(json.dumps({"active": compiled.active(), **out}))
 """

@@ -465,7 +465,7 @@ def _warm() -> None:
 def bench_sweep(repeats: int) -> Row:
     import concurrent.futures as cf
 
-    from ctrlblocks.fast import sweep
+    from ctrlblocks.sim import sweep
 
     vary = {"controllers[2].kp": [4.0, 5.0, 6.31, 7.0], "controllers[1].ti": [12.0, 16.65]}
     cores = os.cpu_count() or 1

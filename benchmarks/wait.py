@@ -291,7 +291,7 @@ def bench_bank(rounds: int, n: int = 1_000_000) -> list[Row]:
 
 def _warm_sweep() -> None:
     """A worker's warm-up: one short run of the benchmark's scenario (imports, kernels loaded)."""
-    from ctrlblocks.fast.sweep import read_scenario_text, run_batch
+    from ctrlblocks.sim.sweep import read_scenario_text, run_batch
 
     text, file = read_scenario_text("nowak_fig7")
     run_batch(text, file, [{}], duration=5.0)
@@ -300,7 +300,7 @@ def _warm_sweep() -> None:
 def bench_sweep(rounds: int) -> list[Row]:
     import concurrent.futures as cf
 
-    from ctrlblocks.fast import sweep
+    from ctrlblocks.sim import sweep
 
     # a study of 480 sets of the whole Fig. 7 scenario (six runs of 200 s each per set): on
     # the compiled lane a set takes ~5-10 ms, so the study is a few seconds of work -- the
@@ -350,7 +350,7 @@ def bench_sweep(rounds: int) -> list[Row]:
     dask_note = "distributed not installed"
     clients = {}
     try:
-        from ctrlblocks.fast import dask_executor
+        from ctrlblocks.sim import dask_executor
 
         for w in (1, 2):
             clients[w] = dask_executor(n_workers=w, threads_per_worker=1, processes=True,

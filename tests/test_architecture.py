@@ -6,7 +6,7 @@ a higher layer, and peers of one layer import each other only where
 
     0 blocks (and ctrlblocks._lazy, the packages' lazy re-exports, and
       ctrlblocks.compiled, the loader of the optional compiled blocks)
-    1 plants, tuning
+    1 plants, tuning, testing
     2 loops
     3 sim, runtime, fast, plc
     4 web, cli (ctrlblocks.cli and every sub-command module ``*.cli`` / ``__main__``)
@@ -30,6 +30,7 @@ LAYERS: dict[str, int] = {
     "blocks": 0,
     "plants": 1,
     "tuning": 1,
+    "testing": 1,  # the fuzz campaign of the block contract, for any block (imports blocks)
     "loops": 2,
     "health": 2,  # loop performance assessment: data -> figures and findings (numpy, tuning)
     "sim": 3,
@@ -44,8 +45,6 @@ CLI_LAYER = 4
 #: Allowed imports between peers of one layer (importer's area -> imported area).
 PEER_IMPORTS: set[tuple[str, str]] = {
     ("tuning", "plants"),  # tuning experiments (bump tests) run on process models
-    ("fast", "sim"),  # fast.sweep runs the simulator's scenarios
-    ("sim", "fast"),  # sim.dispatch runs single loops on the compiled lane (module-level acyclic)
     ("", "blocks"),  # the package's __init__ re-exports the blocks
     ("blocks", "compiled"),  # the blocks load their compiled build, if any, first
     ("cli", "web"),  # ``ctrlblocks web`` starts the faceplate
@@ -183,6 +182,24 @@ def test_layer_check_catches_an_upward_import():
     graph = {"ctrlblocks.runtime.loop": {"ctrlblocks.sim.scenario", "ctrlblocks.loops.spec"}}
     assert layer_violations(graph) == {("ctrlblocks.runtime.loop", "ctrlblocks.sim.scenario")}
     assert layer_violations({"ctrlblocks.blocks.pid": {"ctrlblocks.loops.spec"}}) != set()
+
+
+#: Peers that must never import each other, whatever else changes (issue 31): the
+#: simulator finds the compiled lane as an installed plugin (``ctrlblocks.loops.lane``,
+#: entry point group ``ctrlblocks.lanes``), and the sweeps of scenarios live in ``sim``.
+FORBIDDEN: set[tuple[str, str]] = {("sim", "fast"), ("fast", "sim")}
+
+
+def test_sim_and_fast_import_nothing_of_each_other():
+    bad = sorted((m, t) for m, ts in GRAPH.items() for t in ts if (area(m), area(t)) in FORBIDDEN)
+    assert bad == [], f"sim <-> fast (see docs/architecture.md): {bad}"
+    assert not FORBIDDEN & PEER_IMPORTS
+
+
+def test_the_forbidden_pairs_are_caught_both_ways():
+    for a, b in (("sim", "fast"), ("fast", "sim")):
+        graph = {f"ctrlblocks.{a}.x": {f"ctrlblocks.{b}.y"}}
+        assert layer_violations(graph) == {(f"ctrlblocks.{a}.x", f"ctrlblocks.{b}.y")}
 
 
 def test_no_import_circles():

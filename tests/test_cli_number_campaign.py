@@ -107,7 +107,7 @@ def test_a_hostile_number_gives_an_error_line_not_a_traceback(tmp_path, path, op
 
 
 def test_sweep_never_starts_more_processes_than_parameter_sets():
-    from ctrlblocks.fast.sweep import process_pool
+    from ctrlblocks.sim.sweep import process_pool
 
     with process_pool(100_000, 3) as pool:
         assert pool._max_workers == 3

@@ -353,7 +353,7 @@ def build_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
 TRACES = """
 import json, sys
 from ctrlblocks import compiled
-from ctrlblocks.blocks.fuzz import traces
+from ctrlblocks.testing import traces
 out = traces(*(int(a) for a in sys.argv[1:4]))
 print(json.dumps({"active": compiled.active(), **out}))
 """

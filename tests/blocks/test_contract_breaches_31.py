@@ -5,7 +5,7 @@ accumulator (a time held, a sum of squares, a window's sum, a run time) and a
 state updated where the output did not need it (an observer in MAN, the
 anti-backoff wait, a PID's derivative in a mode's hold). The fuzz campaign now
 checks a finite state after every action and each block's own oracle
-(``ctrlblocks.blocks.fuzz``, promises 7 and 8).
+(``ctrlblocks.testing``, promises 7 and 8).
 """
 
 from __future__ import annotations

@@ -15,8 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ctrlblocks import SetpointProgram, ThreePoint, TransferFunction, TwoPoint
-from ctrlblocks.blocks.fuzz import HOSTILE, HOSTILE_DT
 from ctrlblocks.blocks.transfer import lowpass, notch, tustin
+from ctrlblocks.testing import HOSTILE, HOSTILE_DT
 
 VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from(HOSTILE))
 DTS = st.one_of(st.none(), st.sampled_from(HOSTILE_DT), st.floats(1e-6, 1e6))

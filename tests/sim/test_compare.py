@@ -16,12 +16,12 @@ from click.testing import CliRunner
 
 from ctrlblocks.blocks.adrc import ADRC
 from ctrlblocks.cli import main
-from ctrlblocks.fast.sweep import apply_key
 from ctrlblocks.loops.toml import read_toml
 from ctrlblocks.plants.linear import FOPDT as PlantFOPDT
 from ctrlblocks.sim.compare import BOX, _box_models, compare, scenario_toml
 from ctrlblocks.sim.runner import run_scenario
 from ctrlblocks.sim.scenario import ScenarioError, load_scenario, parse_scenario, parse_scenario_doc
+from ctrlblocks.sim.sweep import apply_key
 from ctrlblocks.tuning import fit_fopdt, fit_sopdt
 from ctrlblocks.tuning.bump import block_margins
 from ctrlblocks.tuning.design import design_adrc, design_pid

@@ -176,18 +176,19 @@ def test_cascade_with_an_adrc_primary_and_the_handshake_on_the_lane_equals_pytho
 @pytest.mark.parametrize("secondary", ["PID", "PID safe", "ADRC"])
 @pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "interpreted"])
 def test_lane_cascade_on_a_bad_y2_equals_the_controller_side(primary, secondary, compiled):
-    """The lane's ``_control`` on a bad ``y2`` equals ``ControllerSide.compute``.
+    """The lane's controller side (``_controllers``) on a bad ``y2`` equals ``ControllerSide``.
 
     Flagged bad (finite) or NaN, the secondary in AUTO or in manual: the
-    primary holds its last output (``Cascade.follow_value``; before: it
-    computed its law on its error, 0.8 here) and the secondary runs its
+    primary holds its last output (``Wiring.follow``; before: it computed
+    its law on its error, 0.8 here) and the secondary runs its
     bad-measurement cycle (``_bad``: hold, its ``safe_value``, the ADRC's
     ``u_sf``; the manual value in manual).  Before, a NaN ``y2`` with the
     secondary in AUTO gave a non-finite MV (the lane stopped) and a flagged
-    ``y2`` was not seen at all.
+    ``y2`` was not seen at all.  The lane reads the cascade from its wiring
+    (``_codes``), as the Python path does.
     """
     from ctrlblocks.fast._jit import python_function
-    from ctrlblocks.fast.simlane import _control, _safe_value, _slot
+    from ctrlblocks.fast.simlane import _codes, _controllers, _safe_value, _slot
     from ctrlblocks.sim import ControllerSide
     from ctrlblocks.sim.scenario import parse_controller
 
@@ -202,23 +203,27 @@ def test_lane_cascade_on_a_bad_y2_equals_the_controller_side(primary, secondary,
     for _ in range(20):
         side.step(1.0, 0.2, y2=0.3)
     pb, sb = side.blocks["primary"], side.blocks["secondary"]
-    (k0, p0, a0, s0), (k1, p1, a1, s1) = _slot(pb, pb.manual_value), _slot(sb, sb.manual_value)
-    fn = _control if compiled else python_function(_control)
-    kinds = np.array([k0, k1], dtype=np.int64)
-    row = lambda x: tuple(float(v) for v in x)  # noqa: E731 - the lane's tuples
-    safe = _safe_value(sb, k1)
+    slots = [_slot(b, b.manual_value) for b in (pb, sb)]
+    kinds = np.array([s[0] for s in slots], dtype=np.int64)
+    pprm, aprm, cst = (np.array([s[i] for s in slots]) for i in (1, 2, 3))
+    safe = np.array([_safe_value(b, s[0]) for b, s in zip((pb, sb), slots, strict=True)])
+    wire, sp_fix, mv_src, _src, names = _codes(side)
+    assert names == ("sp2",) and mv_src == 1  # the secondary makes the MV
+    fn = _controllers if compiled else python_function(_controllers)
     # the MV in AUTO: the secondary's last output held, its safe value; in manual: its manual value
-    want = {False: {"PID": s1[4], "PID safe": 7.0, "ADRC": -3.0}[secondary], True: s1[9]}
+    want = {False: {"PID": cst[1, 4], "PID safe": 7.0, "ADRC": -3.0}[secondary], True: cst[1, 9]}
     for y2, ok2 in ((math.nan, True), (0.3, False)):
         for m1 in (False, True):  # the secondary in AUTO, in manual
-            u, v1, ok, *_ = fn(True, True, kinds, row(p0), row(a0), row(s0), row(p1), row(a1),
-                               row(s1), 1.0, 0.2, y2, ok2, safe, 0.0, False, m1, False, True,
-                               math.nan)  # fmt: skip
+            st, v = cst.copy(), np.empty(2)
+            awin, aw, good, track = (np.zeros(2, dtype=np.bool_) for _ in range(4))
+            u, ok = fn(kinds, pprm, aprm, st, wire, sp_fix, safe, mv_src,
+                       np.array([False, m1]), 1.0, (0.2, y2, math.nan), (True, ok2), 0.0,
+                       awin, v, aw, good, track, np.empty(2), np.zeros((2, 9)))  # fmt: skip
             sb.manual = m1
             u_ref = side.compute(1.0, 0.2, y2=y2, y2_ok=ok2)
-            assert ok is True and v1 == pb.out  # the primary held, as the Python path
+            assert ok is True and v[0] == pb.out  # the primary held, as the Python path
             assert side.tracking == {"primary": "hold"}
-            assert abs(side.values["sp2"] - v1) < 1e-12 and abs(u - u_ref) < 1e-12
+            assert abs(side.values["sp2"] - v[0]) < 1e-12 and abs(u - u_ref) < 1e-12
             assert u == want[m1]
 
 
@@ -306,7 +311,7 @@ def test_cascade_primary_holds_during_a_y2_fault_and_returns_bumplessly(name, ca
 
 
 def test_a_y2_fault_of_an_override_and_a_y_fault_of_a_cascade_run_on_the_lane(caplog):
-    """Both were refused by the lane (``compiled_blockers``: "a fault of y2 is covered for
+    """Both were refused by the lane ("a fault of y2 is covered for
     the cascade only", "(sensor): not covered"); now they run on it, equal to Python."""
     override = (
         HEAD.format(structure="override", duration=30.0, initial="y = 0.5")

@@ -14,9 +14,9 @@ from click.testing import CliRunner
 
 import ctrlblocks.loops.toml as toml_mod
 from ctrlblocks.cli import main
-from ctrlblocks.fast.sweep import SweepError, _scenario, sweep
 from ctrlblocks.loops.toml import read_toml
 from ctrlblocks.sim.scenario import ScenarioError, load_scenario, parse_scenario, parse_scenario_doc
+from ctrlblocks.sim.sweep import SweepError, _scenario, sweep
 
 TEXT = """\
 [scenario]

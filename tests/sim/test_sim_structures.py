@@ -290,10 +290,9 @@ def test_limit_change_and_parameter_change_take_effect():
     assert np.max(np.abs(s["u"][t < 12.0])) > 1.0
 
 
-def test_sensor_ok_flag_reaches_adrc_as_y_ok():
-    text = (
-        HEAD.format(structure="single", duration=10.0)
-        + """
+ADRC_AT_REST = (
+    HEAD.format(structure="single", duration=10.0)
+    + """
 [plant]
 type = "PT1"
 k = 1.0
@@ -322,15 +321,33 @@ t = 5.0
 do = "sensor"
 ok = true
 """
-    )
+)
+
+
+def test_sensor_ok_flag_reaches_adrc_as_y_ok():
+    # u0 = 1.0: the block starts where the plant rests (the warm-up's MV), so its
+    # observer starts at rest and the loop is steady to rounding before the fault
+    text = ADRC_AT_REST.replace("u_sf = 0.25", "u_sf = 0.25\nu0 = 1.0")
     s = simulate(parse_scenario(text), "adrc").signals
     t = s["t"]
     bad = (t >= 3.0 - 1e-9) & (t < 5.0 - 1e-9)
     assert np.all(s["u"][bad] == 0.25)  # the safe value u_sf while y_ok is false
-    assert s["u"][29] == pytest.approx(1.0, abs=3e-4)  # steady before the fault (the handover
-    # offset of the warm-up, 1.5e-4 of u here, fades with 1/omega_c: docs/blocks/adrc.md)
+    assert s["u"][29] == pytest.approx(1.0, abs=1e-9)  # steady before the fault
     assert s["u"][-1] == pytest.approx(1.0, abs=0.05)  # recovers
     assert math.isfinite(s["ym"][40])
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect (issue 31 report): the ESO starts at rest for the previously "
+    "applied u (the config's u0, 0 here), not for the manual value the warm-up holds "
+    "(1.0), so x4 starts b0*1.0 off; 2 s = 8/omega_o of warm-up does not settle it, "
+    "and the handover turns the rest into an offset q fading with 1/omega_c (u off by "
+    "2.6e-3 at 0.6 s, 2.2e-4 at 2.7 s; with u0 = 1.0: 2.2e-16)",
+)
+def test_a_warmup_in_manual_leaves_the_adrc_at_rest_whatever_its_u0():
+    s = simulate(parse_scenario(ADRC_AT_REST), "adrc").signals
+    assert np.max(np.abs(s["u"][:30] - 1.0)) <= 1e-9  # the plant rests at u = 1 throughout
 
 
 def test_sensor_ok_flag_reaches_pid_as_pv_ok():

@@ -55,14 +55,13 @@ the same way:
 from __future__ import annotations
 
 import contextlib
-import contextvars
 import copy
 import dataclasses
 import functools
 import math
 import numbers
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from enum import IntEnum
 from typing import Any, ClassVar
 
@@ -410,31 +409,11 @@ def _numeric_fields(cls: type) -> tuple[tuple[str, str], ...]:
 
 
 _NINF, _INF = -math.inf, math.inf
-
-
-_SNAPSHOT_COPIES: contextvars.ContextVar[bool] = contextvars.ContextVar(
-    "snapshot_copies", default=True
-)
+_deepcopy = copy.deepcopy
 
 
 def _itself(x: Any) -> Any:
     return x
-
-
-@contextlib.contextmanager
-def live_snapshots() -> Iterator[None]:
-    """Inside this context (in this thread), ``snapshot()`` does not copy the state.
-
-    The snapshot then holds the block's own state objects (a moving average's
-    buffer, ...): it is for comparing two blocks' states at once, cheaply (the
-    fuzz campaign compares the per-call and two-phase paths' states after every
-    action), and must be neither kept nor restored.
-    """
-    token = _SNAPSHOT_COPIES.set(False)
-    try:
-        yield
-    finally:
-        _SNAPSHOT_COPIES.reset(token)
 
 
 def _guard(step: Callable[..., Any]) -> Callable[..., Any]:
@@ -572,9 +551,15 @@ class Block:
     def _reset_state(self) -> None:
         """Set every state attribute to its initial value (override)."""
 
-    def snapshot(self) -> dict[str, Any]:
-        """A copy of the block's state; :meth:`restore` puts it back."""
-        cp = copy.deepcopy if _SNAPSHOT_COPIES.get() else _itself
+    def snapshot(self, *, copy: bool = True) -> dict[str, Any]:
+        """A copy of the block's state; :meth:`restore` puts it back.
+
+        ``copy=False`` gives the block's own state objects (a moving average's
+        buffer, ...), to compare two blocks' states at once, cheaply (the fuzz
+        campaign of ``ctrlblocks.testing`` does after every action): neither
+        keep nor restore it.
+        """
+        cp = _deepcopy if copy else _itself
         snap = {name: cp(getattr(self, name)) for name in self._state_fields}
         snap["error_id"] = self.error_id
         return snap

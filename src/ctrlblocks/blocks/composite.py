@@ -28,9 +28,9 @@ class CompositeBlock(Block):
         parameter set follows its ``cooling`` state.)
         """
 
-    def snapshot(self) -> dict[str, Any]:
-        snap = super().snapshot()
-        snap["parts"] = {name: b.snapshot() for name, b in self.parts().items()}
+    def snapshot(self, *, copy: bool = True) -> dict[str, Any]:
+        snap = super().snapshot(copy=copy)
+        snap["parts"] = {name: b.snapshot(copy=copy) for name, b in self.parts().items()}
         return snap
 
     def restore(self, snapshot: dict[str, Any]) -> None:

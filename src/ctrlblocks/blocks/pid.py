@@ -1110,10 +1110,10 @@ class PID(Block):
         subs["_sp_ramp"].limiting = subs["_out_ramp"].limiting = False
         self._lean_ran = False
 
-    def snapshot(self) -> dict[str, Any]:
+    def snapshot(self, *, copy: bool = True) -> dict[str, Any]:
         self._sync_subs()
-        snap = super().snapshot()
-        snap["_subs"] = {name: sub.snapshot() for name, sub in self._subs.items()}
+        snap = super().snapshot(copy=copy)
+        snap["_subs"] = {name: sub.snapshot(copy=copy) for name, sub in self._subs.items()}
         return snap
 
     def restore(self, snapshot: dict[str, Any]) -> None:

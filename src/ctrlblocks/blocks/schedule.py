@@ -168,10 +168,10 @@ class GainSchedule(Block):
         super().reset()
         self.controller.reset()
 
-    def snapshot(self) -> dict[str, Any]:
+    def snapshot(self, *, copy: bool = True) -> dict[str, Any]:
         """The schedule's state with the controller's snapshot inside."""
-        snap = super().snapshot()
-        snap["controller"] = self.controller.snapshot()
+        snap = super().snapshot(copy=copy)
+        snap["controller"] = self.controller.snapshot(copy=copy)
         return snap
 
     def restore(self, snapshot: dict[str, Any]) -> None:

@@ -1,4 +1,4 @@
-"""Speed: compiled closed loops, banks of many loops and parallel sweeps.
+"""Speed: compiled closed loops, banks of many loops, the simulator's compiled lane.
 
 Everything here runs the blocks' own pure functions (one implementation of each law):
 numba compiles and inlines them when the ``fast`` extra is installed
@@ -9,11 +9,14 @@ interpreted (slower, same results).  See ``docs/performance.md``.
   three-tank process, compiled (:mod:`.loops`);
 * :class:`PIDBank`, :class:`ADRCBank` -- many independent loops, each with its own
   tunings and plant (:mod:`.bank`);
-* :func:`sweep` -- many scenario runs on a ``concurrent.futures`` executor
-  (process pool by default) or a Dask cluster (:mod:`.sweep`).
+* :mod:`.simlane` -- the simulator's compiled lane: a structure's wiring in a
+  closed loop (found by the simulator as an installed lane,
+  :mod:`ctrlblocks.loops.lane`; neither package imports the other).
 
-The compiled parts are imported on first use (PEP 562), so ``ctrlblocks sweep``
-and the sweep workers do not import numba.
+Sweeps of scenarios (many runs on a process pool or a Dask cluster) run the
+simulator: :func:`ctrlblocks.sim.sweep` (they were ``ctrlblocks.fast.sweep``).
+
+The compiled parts are imported on first use (PEP 562).
 """
 
 from __future__ import annotations
@@ -28,10 +31,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from .kernels import UnsupportedConfig
     from .loops import LoopResult, closed_loop, reference_loop
 
-# imported now: cheap (standard library only), and the function ``sweep`` must
-# shadow the submodule of the same name
-from .sweep import SweepError, dask_executor, sweep, write_rows
-
 _WHERE = {
     "._jit": ("HAVE_NUMBA",),
     ".bank": ("ADRCBank", "BankResult", "PIDBank"),
@@ -45,14 +44,20 @@ __all__ = [
     "BankResult",
     "LoopResult",
     "PIDBank",
-    "SweepError",
     "UnsupportedConfig",
     "closed_loop",
-    "dask_executor",
     "reference_loop",
-    "sweep",
-    "write_rows",
 ]
 
 
-__getattr__, __dir__ = lazy_exports(__name__, _WHERE)
+_lazy_getattr, __dir__ = lazy_exports(__name__, _WHERE)
+_MOVED = ("SweepError", "dask_executor", "sweep", "write_rows")
+
+
+def __getattr__(name: str) -> object:
+    if name in _MOVED:  # a clear message for the names that moved to the simulator
+        raise AttributeError(
+            f"ctrlblocks.fast.{name} moved to ctrlblocks.sim.{name}: sweeps run the "
+            "simulator's scenarios (from ctrlblocks.sim import sweep)"
+        )
+    return _lazy_getattr(name)

@@ -10,7 +10,7 @@ import click
 from ..loops.toml import KeyPathError
 from ..sim.cli import ENGINE, Progress, output_dir
 from ..sim.dispatch import CompiledLaneError
-from .sweep import SweepError, dask_executor, parameter_sets, process_pool, sweep, write_rows
+from ..sim.sweep import SweepError, dask_executor, parameter_sets, process_pool, sweep, write_rows
 
 
 def parse_value(text: str) -> Any:

@@ -1,6 +1,6 @@
 """Ratio station: the setpoint of a flow loop as a ratio times a wild flow.
 
-The ratio structure (:class:`~ctrlblocks.loops.structures.RatioStructure`)
+The ratio structure (:class:`RatioStructure`)
 keeps a controlled flow ``y`` in a given ratio to a *wild* flow ``w`` that
 it measures but does not manipulate (a blending or a burner's air/fuel
 loop).  The ratio station turns the requested ratio ``r`` (the structure's
@@ -38,8 +38,10 @@ from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError, require_finite, require_positive
 from ..blocks.signals import clamp
+from .structure import ENTRY_KEYS, Structure
+from .wiring import Loop, Stage, Wiring
 
-__all__ = ["RatioConfig", "RatioStation"]
+__all__ = ["RatioConfig", "RatioStage", "RatioStation", "RatioStructure"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -170,3 +172,58 @@ class RatioStation:
 
     def __repr__(self) -> str:
         return f"RatioStation({self.config!r})"
+
+
+class RatioStage(Stage):
+    """The ratio station before the flow controller: the flow setpoint ``sp_flow`` (R1)."""
+
+    name = "ratio"
+    signals = ("sp_flow", "ratio", "wild", "wild_hold", "ratio_limited")
+    measurements = ("w",)
+
+    def setup(self, side):
+        side.parts[self.name] = RatioStation(side.spec.options["ratio"])
+
+    def compute(self, side, sp, m, signals):
+        st: RatioStation = side.parts[self.name]
+        signals["sp_flow"] = st(sp, m.w, m.w_ok, m.dt)
+        signals["ratio"] = st.ratio
+        signals["wild"] = st.wild
+        signals["wild_hold"] = float(st.holding)
+        signals["ratio_limited"] = float(st.limited)
+
+
+class RatioStructure(Structure):
+    """Ratio control: the station's ``bias + r w`` is the flow loop's setpoint (module docstring).
+
+    The structure's setpoint input is the requested *ratio*; ``w`` is the
+    wild flow and ``y`` the controlled flow.  The entry has the flow
+    controller ``main`` and the station table ``ratio`` (``r_min``,
+    ``r_max``, ``bias``, ``rate`` of :class:`RatioConfig`).
+    Signals: ``sp_flow`` (the flow setpoint), ``ratio`` (the working ratio),
+    ``wild`` (the last good wild flow), ``wild_hold`` (1 while a bad wild
+    flow holds the setpoint) and ``ratio_limited`` (1 while the request is
+    outside the ratio limits).
+    """
+
+    name = "ratio"
+    roles = ("main",)
+    options = ("ratio",)
+    measurements = ("y", "w")
+    setpoint_signal = "sp_flow"
+    wiring = Wiring((Loop("main", sp="sp_flow"),), stages=(RatioStage(),), measured_mv=True)
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*ENTRY_KEYS, "main", "ratio"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        table = r.table(e, "ratio", f"{key}.ratio", False)
+        r.check_keys(table, {"r_min", "r_max", "bias", "rate"}, f"{key}.ratio")
+        kw = {}
+        for name in ("r_min", "r_max", "bias", "rate"):
+            if name in table:
+                kw[name] = r.number(table, name, f"{key}.ratio.{name}")
+        try:
+            cfg = RatioConfig(**kw, ts=ts)
+        except ParameterError as exc:
+            raise r.fail(f"{key}.ratio.{exc.field}", exc.message) from None
+        return {"main": main}, {"ratio": cfg}

@@ -4,8 +4,9 @@ A :class:`BlockSpec` is one block (or plant) table of a file: its ``type`` and
 its keyword arguments, with the key path for error messages.  A
 :class:`ControllerSpec` is one controller entry: its blocks by role (see
 :mod:`.structures`).  :func:`build` makes the object a spec describes from
-the types registered in :data:`BLOCK_TYPES` and :data:`PLANT_TYPES`
-(:func:`register` adds one), so the simulator's scenarios and the runtime's
+the types registered in :data:`BLOCK_TYPES` (the blocks' registry,
+:mod:`ctrlblocks.blocks.registry`) and :data:`PLANT_TYPES` (:func:`register`
+adds one), so the simulator's scenarios and the runtime's
 loops accept exactly the same tables.
 
 :class:`SpecReader` reads a block table (``{ type = "PID", kp = 2.0, ... }``)
@@ -21,8 +22,9 @@ import inspect
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
-from .. import blocks, plants
-from ..blocks.base import Block, ParameterError
+from .. import plants
+from ..blocks.base import ParameterError
+from ..blocks.registry import BLOCK_TYPES, register_block
 from ..plants.base import Plant
 from .toml import KeyPathError, TableReader, unknown_key_problem
 
@@ -70,24 +72,26 @@ def _exported(package: Any, base: type) -> dict[str, Callable[..., Any]]:
     return out
 
 
-BLOCK_TYPES: dict[str, Callable[..., Any]] = _exported(blocks, Block)
-"""Block types a ``type = "..."`` of a controller table names: the blocks
-:mod:`ctrlblocks.blocks` exports (class name -> class), plus :func:`register`'s."""
-
 PLANT_TYPES: dict[str, Callable[..., Any]] = _exported(plants, Plant)
 """Plant types a ``type = "..."`` of a ``[plant]`` (or Smith model) table names: the
 plants :mod:`ctrlblocks.plants` exports, plus :func:`register`'s."""
 
-_REGISTRIES = {"block": BLOCK_TYPES, "plant": PLANT_TYPES}
+_REGISTRIES: dict[str, dict[str, Any]] = {"block": BLOCK_TYPES, "plant": PLANT_TYPES}
+"""``BLOCK_TYPES`` is the blocks' own registry (:mod:`ctrlblocks.blocks.registry`): block
+types a ``type = "..."`` of a controller table names."""
 
 
 def register(kind: str, cls: Callable[..., Any], name: str | None = None) -> None:
     """Make ``cls`` usable as ``type = NAME`` (default its ``__name__``) for ``kind``.
 
     ``kind`` is ``"block"`` or ``"plant"``; a block of your own package is then
-    accepted in scenarios and runtime configurations like the shipped ones.
+    accepted in scenarios and runtime configurations like the shipped ones
+    (a block: :func:`ctrlblocks.blocks.registry.register_block`).
     """
-    _REGISTRIES[kind][name or cls.__name__] = cls
+    if kind == "block":
+        register_block(cls, name)  # type: ignore[arg-type]
+    else:
+        _REGISTRIES[kind][name or cls.__name__] = cls
 
 
 def available_types(kind: str) -> list[str]:

@@ -1,6 +1,6 @@
 """Split range: one controller output driving two actuators, with a gap or an overlap.
 
-The split-range structure (:class:`~ctrlblocks.loops.structures.SplitRangeStructure`)
+The split-range structure (:class:`SplitRangeStructure`)
 runs one controller whose output ``v`` covers the *combined* range
 ``[v_min, v_max]`` (the controller's own limits) and maps it to two
 actuators by a static, continuous, piecewise-linear function: actuator A on
@@ -64,8 +64,12 @@ from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError, require_finite
 from ..blocks.signals import clamp
+from .controller import is_controller
+from .structure import ENTRY_KEYS, Structure
+from .wiring import Loop, OutputStage, Wiring
 
-__all__ = ["ACTIVE", "IDLE", "LIMIT", "STATUS_NAMES", "SplitRange"]
+__all__ = ["ACTIVE", "IDLE", "LIMIT", "STATUS_NAMES", "SplitOutput", "SplitRange",
+           "SplitRangeStructure"]  # fmt: skip
 
 ACTIVE, IDLE, LIMIT = 0, 1, 2
 """Limit status codes of an actuator (module docstring)."""
@@ -183,3 +187,61 @@ class SplitRange:
         sa = LIMIT if v <= self.v_min else IDLE if v >= self.a_end else ACTIVE
         sb = LIMIT if v >= self.v_max else IDLE if v <= self.b_start else ACTIVE
         return sa, sb
+
+
+class SplitOutput(OutputStage):
+    """The split of the controller output: signals ``u_a``, ``u_b`` and their status codes.
+
+    The MV stays the controller output (the split is the structure's
+    :meth:`SplitRangeStructure.actuator_values`); the controller tracks it.
+    """
+
+    def shape(self, side, v, m):
+        split: SplitRange = side.spec.options["split"]
+        a, b = split(v)
+        sa, sb = split.status(v)
+        return v, {"u_a": a, "u_b": b, "a_status": float(sa), "b_status": float(sb)}
+
+
+class SplitRangeStructure(Structure):
+    """One controller, two actuators by a static split of its output (module docstring).
+
+    The entry has the controller table ``main`` and the split table ``split``
+    (``split``, ``gap``, ``a``, ``b`` of :class:`SplitRange`); the split's
+    combined range is the controller's limits ``u_min..u_max`` (its
+    anti-windup acts when both actuators are at their far ends).  The
+    controller output ``v`` is continuous and the MVs ``u_a = a(v)``,
+    ``u_b = b(v)`` are continuous functions of it: no bump when the active
+    actuator changes.  Signals: ``u_a``, ``u_b`` and their limit status
+    codes ``a_status``, ``b_status`` (0 active, 1 idle, 2 limit).
+    """
+
+    name = "split_range"
+    roles = ("main",)
+    options = ("split",)
+    actuators = 2
+    wiring = Wiring((Loop("main"),), output=SplitOutput())
+
+    def parse(self, r, e, key, ts, tune):
+        r.check_keys(e, {*ENTRY_KEYS, "main", "split"}, key)
+        main = r.role(e, "main", key, ts, tune)
+        block = r.build(main, ts, kind="block")
+        lo, hi = (block.u_min, block.u_max) if is_controller(block) else (math.nan, math.nan)
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise r.fail(
+                f"{key}.main.u_min",
+                "the split range needs the controller's finite limits u_min and u_max "
+                "(they are the two actuators' combined range)",
+            )
+        table = r.table(e, "split", f"{key}.split", False)
+        r.check_keys(table, {"split", "gap", "a", "b"}, f"{key}.split")
+        try:
+            split = SplitRange.from_table(table, float(lo), float(hi))
+        except ParameterError as exc:
+            raise r.fail(f"{key}.split.{exc.field}", exc.message) from None
+        except TypeError as exc:  # pragma: no cover - keys are checked above
+            raise r.fail(f"{key}.split", str(exc)) from None
+        return {"main": main}, {"split": split}
+
+    def actuator_values(self, spec, u):
+        return spec.options["split"](u)

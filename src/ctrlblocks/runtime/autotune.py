@@ -551,8 +551,7 @@ def proposal_margins(lp: ControlLoop, tuner: LiveTuner) -> dict[str, dict[str, A
     res = tuner.result
     if res is None or res.model.get("kind") != "FOPDT":
         return {}
-    from ..blocks.adrc import ADRC
-    from ..blocks.pid import PID
+    from ..blocks.registry import block_class
     from ..tuning.identify import FOPDT
     from ..tuning.margins import margins
 
@@ -561,8 +560,8 @@ def proposal_margins(lp: ControlLoop, tuner: LiveTuner) -> dict[str, dict[str, A
     out: dict[str, dict[str, Any]] = {}
     for name, prop in res.proposals.items():
         kw = {k: v for k, v in prop.items() if k != "type"}
-        cls = PID if prop.get("type") == "PID" else ADRC
         try:
+            cls = block_class(prop.get("type", type(lp.block).__name__))
             if isinstance(lp.block, cls):
                 cfg = lp.block.config
                 base = {f.name: getattr(cfg, f.name) for f in dataclasses.fields(cfg)}

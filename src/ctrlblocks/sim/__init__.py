@@ -14,7 +14,10 @@ The main entry points:
   metrics (per run and per event window) and checks the source's claims;
 * :func:`write_result` writes traces, ``metrics.json`` and plots;
 * :func:`load_shipped` loads the scenarios that ship with the package
-  (``ctrlblocks reproduce`` runs them all).
+  (``ctrlblocks reproduce`` runs them all);
+* :func:`sweep` runs a scenario for many parameter sets on a
+  ``concurrent.futures`` executor (a process pool, a Dask cluster:
+  :func:`dask_executor`), :func:`write_rows` writes the rows (:mod:`.sweep`).
 
 See ``docs/simulator.md`` for the scenario format.
 """
@@ -33,6 +36,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from .results import write_result
     from .runner import ClaimResult, ScenarioResult, metric_table, run_scenario
     from .scenario import Scenario, ScenarioError, load_scenario, parse_scenario
+
+# imported now: cheap (standard library only), and the function ``sweep`` must
+# shadow the submodule of the same name
+from .sweep import SweepError, dask_executor, sweep, write_rows
 
 # imported on first use (PEP 562): ``ctrlblocks run --help`` imports none of them
 _WHERE = {
@@ -58,7 +65,9 @@ __all__ = [
     "ScenarioError",
     "ScenarioResult",
     "SetpointProfile",
+    "SweepError",
     "compute_metrics",
+    "dask_executor",
     "load_scenario",
     "load_shipped",
     "metric_table",
@@ -66,7 +75,9 @@ __all__ = [
     "run_scenario",
     "shipped_scenarios",
     "simulate",
+    "sweep",
     "write_result",
+    "write_rows",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE)

@@ -332,8 +332,8 @@ def _models_runner(jobs: int) -> Any:
     Serial for ``jobs = 1``, else on a process pool of ``jobs`` workers (never
     more than models); each worker runs :func:`ctrlblocks.sim.compare.model_rows`.
     """
-    from ..fast.sweep import process_pool
     from .compare import _serial_models, model_rows
+    from .sweep import process_pool
 
     def run(path: Path, tables: list[dict[str, Any]], progress: Any) -> list[dict[str, Any]]:
         if jobs <= 1:

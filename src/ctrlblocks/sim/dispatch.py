@@ -6,41 +6,41 @@
     the reference: the block and plant objects, sample by sample
     (:mod:`ctrlblocks.sim.loop`);
 ``"compiled"``
-    the compiled lane (:func:`ctrlblocks.fast.simlane.lane_loop`, numba),
-    refused with :class:`CompiledLaneError` (naming the reason) for a run it
-    cannot do;
+    the compiled lane (the installed lane ``compiled``,
+    :mod:`ctrlblocks.loops.lane`; ctrlblocks' own is ``ctrlblocks.fast.simlane``,
+    numba), refused with :class:`CompiledLaneError` (naming the reason) for a
+    run it cannot do;
 ``"auto"`` (default of :func:`~ctrlblocks.sim.run_scenario` and the CLI)
     the compiled lane for every run it can do, else the Python path, with the
     reason logged at DEBUG level (logger ``ctrlblocks.sim.dispatch``).
 
-The compiled lane runs the structures that have a wiring for it
-(:attr:`~ctrlblocks.loops.structures.Structure.compiled_lane`: ``single``,
-``cascade``, ``override``, ``feedforward`` with a lead-lag,
-``smith``; the structure decides:
-:meth:`~ctrlblocks.loops.structures.Structure.compiled_blockers`) with
-PIDs or ADRCs whose configuration its kernels cover (the blocks decide:
-``fast_path_blockers``), linear plants of order <= 3 (any dead time) or the
-three-tank process (also as a cascade's inner plant or a Smith predictor's
-model), inside the scenario's actuator (range, rate, input load) and sensor
-(range, noise, output load), with setpoint steps and ramps, input, output
-and inner loads, the three-tank's outlet switch, mode and manual-value
-events, ``limits`` events (``set_limits`` of the MV blocks or of the
-controller named by ``target``: the limits in force of every sample are
-found by the blocks' own ``set_limits`` on copies, so a refused pair keeps
-the old ones; the PID's output is limited at once), the faults of the
+The simulator does not import the lane: it describes a run as a
+:class:`~ctrlblocks.loops.lane.LaneRun` (the controller side with its
+wiring, the plants, the actuator and sensor, the per-sample arrays of the
+events, the noise) and hands it to the lane that :func:`~ctrlblocks.loops.lane.lanes`
+finds.  The lane decides what it can run on the controller side (the
+structure's wiring and each block: ``Lane.controller_blockers``) and which
+plants it has kernels for (``Lane.process_blockers``); this module decides
+for the events and the environment.  ctrlblocks' lane runs the wirings of
+``single``, ``cascade``, ``override``, ``feedforward`` with a lead-lag and
+``smith``, with PIDs or ADRCs whose configuration its kernels cover (the
+blocks decide: ``fast_path_blockers``), linear plants of order <= 3 (any
+dead time) or the three-tank process (also as a cascade's inner plant or a
+Smith predictor's model), inside the scenario's actuator (range, rate, input
+load) and sensor (range, noise, output load), with setpoint steps and ramps,
+input, output and inner loads, the three-tank's outlet switch, mode and
+manual-value events, ``limits`` events (``set_limits`` of the MV blocks or
+of the controller named by ``target``: the limits in force of every sample
+are found by the blocks' own ``set_limits`` on copies, so a refused pair
+keeps the old ones; the PID's output is limited at once), the faults of the
 measurements (``sensor`` events, ``ok`` and ``nan``, also together and
-overlapping): of ``y`` (every controller on ``y`` -- the single loop's,
-the cascade's primary, the feed-forward and Smith structures' -- runs its
-bad-measurement cycle, as with ``pv_ok`` false, and recovers bumplessly;
-``ym`` is recorded NaN during a ``nan`` fault, ``y`` is the true value),
-of a cascade's ``y2`` (the primary holds, the secondary runs its
-bad-measurement cycle), and of an override's ``y`` or ``y2`` (every block
-runs its bad-measurement cycle, as ``Override.compute`` passes ``y_ok and
-y2_ok`` to all, and commits with the selected MV), and the warm-up.
-Everything else -- the other structures, ``set`` events, a ``limits``
-event naming something other than a controller of the lane (the
-feed-forward lead-lag, a plant), other plant switches, numba not
-installed -- runs the Python path.
+overlapping: every loop on a bad measurement runs its bad-measurement cycle,
+as with ``pv_ok`` false, and recovers bumplessly; a cascade's primary holds
+while ``y2`` is bad; ``ym`` is recorded NaN during a ``nan`` fault, ``y`` is
+the true value), and the warm-up.  Everything else -- the other structures,
+``set`` events, a ``limits`` event naming something other than a controller
+of the lane (the feed-forward lead-lag, a plant), other plant switches,
+numba or the lane not installed -- runs the Python path.
 
 A run in which a block's output guard would act (a measurement, an
 output or a control law's result before the limits that is not finite:
@@ -69,6 +69,7 @@ from typing import Any
 import numpy as np
 
 from ..blocks.signals import clamp
+from ..loops.lane import Lane, LaneRun, lanes
 from ..loops.structures import STRUCTURES
 from .loop import Run, _Simulation, played_events
 from .loop import simulate as python_simulate
@@ -136,10 +137,9 @@ def simulate(
 # ---------------------------------------------------------------------------
 
 
-def _have_numba() -> bool:
-    from ..fast._jit import HAVE_NUMBA
-
-    return HAVE_NUMBA
+def _lane() -> Lane | None:
+    """The installed compiled lane (``ctrlblocks.loops.lane``), or None."""
+    return lanes().get("compiled")
 
 
 def _shared_process(sc: Scenario, case: Case, t_end: float, cache: dict[Any, Any]) -> Any:
@@ -170,32 +170,25 @@ def compiled_blockers(sim: _Simulation, cache: dict[Any, Any] | None = None) -> 
     ``cache`` (:func:`simulate`'s) the process side's reasons are found once
     per shared process side (:func:`_shared_process`).
     """
-    bad = list(sim.side.kind.compiled_blockers(sim.side))
+    lane = _lane()
+    if lane is None:
+        return ["no compiled lane is installed (entry point group ctrlblocks.lanes)"]
+    bad = lane.controller_blockers(sim.side)
     if bad:
         return bad  # another structure: the process side does not matter
-    from ..fast.simlane import plant_blocker
-
-    opts = sim.side.kind.lane_options(sim.side)
-    bad += [why for m in opts.get("models", ()) if (why := plant_blocker(m)) is not None]
     key = ("process blockers", id(sim.proc))
     if cache is None or cache.get(key, (None,))[0] is not sim.proc:
-        found = _process_blockers(sim)
+        found = _process_blockers(sim, lane)
         if cache is None:
-            return bad + found
+            return found
         cache[key] = (sim.proc, found)
-    return bad + cache[key][1]
+    return list(cache[key][1])
 
 
-def _process_blockers(sim: _Simulation) -> list[str]:
+def _process_blockers(sim: _Simulation, lane: Lane) -> list[str]:
     """:func:`compiled_blockers` of the process side, the events and the environment."""
-    from ..fast.simlane import plant_blocker
-
-    bad = [] if _have_numba() else ["numba is not installed"]
     proc = sim.proc
-    for model in (proc.model, proc.inner_model):
-        why = None if model is None else plant_blocker(model)
-        if why is not None:
-            bad.append(why)
+    bad = lane.process_blockers([proc.model, proc.inner_model])
     if proc.plant.fault is not None:
         bad.append("a sensor fault is set")
     if not math.isfinite(proc.plant.y_true):
@@ -227,14 +220,12 @@ def _event_blocker(sim: _Simulation, ev: Event) -> str | None:
     if k == "limits":
         # set_limits of the MV blocks or the named one, mirrored per sample (_limits)
         role = f.get("target")
-        if role is None or role in sim.side.kind.lane_roles(sim.side):
+        if role is None or role in sim.side.wiring.roles:
             return None
         return f"{where}: names {role!r}, not a controller of the lane"
     if k == "sensor":
-        # y: the controllers on y run their bad cycle (simlane._bad; an override: every
-        # block, Override.compute); y2 (measured by a cascade or an override only, the
-        # scenario checks): the cascade's primary holds and its secondary runs its bad
-        # cycle, every override block runs its bad cycle
+        # every loop on the bad measurement runs its bad cycle (an override's blocks run on
+        # both flags); a cascade's primary holds while y2 is bad (Wiring.follow)
         return None
     return f"{where}: not covered"
 
@@ -250,11 +241,11 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
     ``cache`` keeps the per-sample arrays of a case (events, noise) for the
     scenario's other controllers: the process side is the same for all.
     """
-    from ..fast.simlane import lane_loop
-
+    lane = _lane()
+    assert lane is not None  # compiled_blockers said so
     sc, proc, h, n, side = sim.sc, sim.proc, sim.ts, sim.n, sim.side
     kind = side.kind
-    blocks = [side.blocks[r] for r in kind.lane_roles(side)]
+    blocks = [side.blocks[r] for r in side.wiring.roles]
     mv = [any(b is m for m in side.mv_blocks) for b in blocks]
     ini = sc.initial
     inner = proc.inner
@@ -269,21 +260,25 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
     key = (sim.case.name, n, nw)
     if key not in cache:
         cache[key] = _signals(sim, n) | {"noise": _noise(sensor, nw, n)}
-    sig = dict(cache[key])
-    sig["manual"] = [
+    sig = cache[key]
+    manual = [
         _piecewise([(0, float(m0)), *(sig["manual_changes"] if is_mv else ())], n)
         for m0, is_mv in zip(manual0, mv, strict=True)
     ]
+    limits = flags = None
     if sig["limits_changes"]:
-        sig["limits"], sig["limits_event"] = _limits(side, blocks, sig["limits_changes"], n)
-    res = lane_loop(
-        kind.compiled_lane, blocks, proc.model, inner_model=proc.inner_model,
-        u_man=[float(b.manual_value) for b in blocks], mv=mv, warmup=nw,
-        sp_warmup=sig["sp_warmup"], y_warmup=proc.plant.y_true, y2_warmup=y2_w,
-        dv_warmup=act.load, actuator=(act.u_min, act.u_max, act.rate * act.ts, act.u),
-        sensor=(sensor.y_min, sensor.y_max), signals=sig, noise=sig["noise"],
-        **kind.lane_options(side),
-    )  # fmt: skip
+        limits, flags = _limits(side, blocks, sig["limits_changes"], n)
+    per_sample = {k: sig[k] for k in _PER_SAMPLE}
+    if flags is not None:
+        per_sample["limits_event"] = flags
+    res = lane.run(LaneRun(
+        side=side, model=proc.model, inner_model=proc.inner_model,
+        actuator=(act.u_min, act.u_max, act.rate * act.ts, act.u),
+        sensor=(sensor.y_min, sensor.y_max), warmup=nw, sp_warmup=sig["sp_warmup"],
+        y_warmup=proc.plant.y_true, y2_warmup=y2_w, dv_warmup=act.load,
+        u_man=[float(b.manual_value) for b in blocks], manual=manual, signals=per_sample,
+        limits=limits, noise=sig["noise"],
+    ))  # fmt: skip
     if res.stopped >= 0:
         return None
     signals = {
@@ -295,10 +290,9 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
         "u_act": res.u_act,
         "load": sig["load_in"].copy(),
     }
-    names = kind.lane_signals(side)
     if inner is not None:
         signals["y2"] = res.y2
-    signals |= dict(zip(names, res.signals[: len(names)], strict=True))
+    signals |= res.signals
     signals["t"] = np.arange(n) * h
     return Run(
         scenario=sc.name,
@@ -309,6 +303,10 @@ def _run_lane(sim: _Simulation, cache: dict[Any, Any]) -> Run | None:
         events=sim.events,
         duration=n * h,
     )
+
+
+_PER_SAMPLE = ("sp", "load_in", "load_out", "u_man", "g3o", "load_mid", "y2_ok", "y_ok", "y_nan")
+"""The per-sample arrays of :func:`_signals` a :class:`~ctrlblocks.loops.lane.LaneRun` takes."""
 
 
 def _limits(
@@ -386,7 +384,7 @@ def _piecewise(changes: list[tuple[int, float]], n: int) -> np.ndarray:
 
 
 def _signals(sim: _Simulation, n: int) -> dict[str, Any]:
-    """Per-sample arrays of the events (see :func:`~ctrlblocks.fast.simlane.single_loop`).
+    """Per-sample arrays of the events (:attr:`~ctrlblocks.loops.lane.LaneRun.signals`).
 
     The mode is left as its changes (``manual_changes``): its initial value
     depends on the controller.

@@ -273,7 +273,6 @@ class _Simulation:
         """
         ini = self.sc.initial
         nw = round(ini["warmup"] / self.ts)
-        manual_blocks = [c.block for c in self.side.ctrls.values()]
         inner = self.proc.inner
         self.side.kind.hold_for_warmup(
             self.side, self.proc.u0, math.nan if inner is None else inner.y
@@ -282,10 +281,7 @@ class _Simulation:
             self._sample(record=False)
             self.proc.reset()  # keep the plant exactly at its steady state
             self.side.reset_models()
-        on = ini["mode"] == "manual"
-        for b in manual_blocks:
-            if hasattr(b, "manual"):
-                b.manual = on
+        self.side.set_modes(manual=ini["mode"] == "manual")
 
     def run(self) -> Run:
         if self.side.kind.closed_loop and (

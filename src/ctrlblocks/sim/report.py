@@ -160,7 +160,7 @@ def _tuned_lines(sc: Scenario) -> list[str]:
 
 
 def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
-    """``(controller, model, margins, tuned)`` for every PID/ADRC whose loop has a linear model.
+    """``(controller, model, margins, tuned)`` for every controller whose loop has a linear model.
 
     A controller tuned by ``[controllers.tune]`` is analysed as configured (the
     table with the tuned parameters) on the fit of its bump test it was tuned on
@@ -169,6 +169,7 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
     is analysed on that plant itself, exactly (:mod:`ctrlblocks.tuning.margins`).
     Other loops (nonlinear plants, cascades, Smith predictors) have no row.
     """
+    from ..blocks.registry import is_controller_type
     from ..loops.spec import build
     from ..loops.structures import STRUCTURES
     from ..plants.linear import LinearPlant
@@ -186,7 +187,7 @@ def margins_rows(sc: Scenario) -> list[tuple[str, str, dict | None, bool]]:
             continue
         if not STRUCTURES[sc.structure].margins_on_plant or sc.plant is None:
             continue
-        if spec.type not in ("PID", "ADRC"):
+        if not is_controller_type(spec.type):
             continue
         plant = build(sc.plant, sc.ts, kind="plant", file=sc.file)  # checked when loaded
         if not isinstance(plant, LinearPlant):

@@ -213,13 +213,12 @@ def block_margins(
     refused parameters, which the caller reports itself).  ``"warnings"``: the
     notes of :attr:`Margins.warnings`, when there are any.
     """
-    from ..blocks.adrc import ADRC
-    from ..blocks.pid import PID
+    from ..blocks.registry import BLOCK_TYPES, is_controller_type
     from .margins import margins
 
-    cls = {"PID": PID, "ADRC": ADRC}.get(block_type)
-    if cls is None:
+    if not is_controller_type(block_type):
         return None
+    cls = BLOCK_TYPES[block_type]
     try:
         block = cls(**{**params, "ts": ts})
         mg = margins(model, block)

@@ -165,10 +165,9 @@ class Design:
 
     def block(self) -> Any:
         """The configured block (unlimited output)."""
-        from ..blocks.adrc import ADRC
-        from ..blocks.pid import PID
+        from ..blocks.registry import block_class
 
-        cls = PID if self.family == "PID" else ADRC
+        cls = block_class(self.family)
         return cls(**self.params, ts=self.ts, u_min=-math.inf, u_max=math.inf)
 
     def loop(self, model: Any) -> Loop:

@@ -1,4 +1,4 @@
-"""Fuzz campaign of the block contract over every exported block (docs/reliability.md).
+"""The fuzz campaign of the block contract, for any block with a :class:`FuzzSpec`.
 
 One implementation of the actions and the checks (:class:`Driver`), used by two
 drivers:
@@ -7,14 +7,20 @@ drivers:
   CI profile, shrinking), which picks every action and value itself;
 * the plain seeded random driver of this module, for the long campaign::
 
-      python -m ctrlblocks.blocks.fuzz --steps 10000000          # per block
-      python -m ctrlblocks.blocks.fuzz --steps 100000 --block PID --seed 3
+      python -m ctrlblocks.testing --steps 10000000          # per block
+      python -m ctrlblocks.testing --steps 100000 --block PID --seed 3
 
   It prints a progress line every ``--every`` seconds (also when stdout is not
   a terminal): steps, steps/s and the count per block, and exits with status
   1 on the first breach, printing the block, the seed, the step and the last
   actions as Python code (replay: the same command with ``--block``,
   ``--seed`` and ``--steps`` up to that step).
+
+A block takes part through its :class:`FuzzSpec` (:func:`register_fuzz`):
+a random valid configuration, how one process step feeds it (default: a
+:class:`~ctrlblocks.blocks.protocols.Controller` through its interface, with
+a first-order plant in the loop; any other block called with one value),
+and what else applies to it (its modes, its limits, its own oracle).
 
 The checks after every action (:class:`Breach` names the broken promise):
 
@@ -27,7 +33,7 @@ The checks after every action (:class:`Breach` names the broken promise):
    driven with the same actions: same ``out`` (:data:`LANE_TOL`) and ``error_id``,
    and the same state (``snapshot()``, floats to :data:`LANE_TOL`), for every
    block with both paths (PID, ADRC, GainSchedule);
-5. PID and ADRC: the first AUTO cycle after MANUAL/TRACK/HOLD/RESET, and the
+5. a controller's first AUTO cycle after MANUAL/TRACK/HOLD/RESET, and the
    first good cycle after a bad input (``BAD_INPUT``, ``BAD_MEASUREMENT``,
    ``BAD_RESULT``), continue from the last output within :data:`BUMP_TOL`;
 6. ``restore(snapshot())`` then the same step gives the same output and status;
@@ -36,11 +42,10 @@ The checks after every action (:class:`Breach` names the broken promise):
    after every action -- a state that overflowed behind a finite output (an
    accumulator of an absurd ``dt``, an observer in MAN) is a breach even when
    the output is held;
-8. a block's own oracle where it has one: the moving average is the mean of the
-   window it holds (:func:`math.fsum`, to ``1e-9`` of the largest value in the
-   window: a running sum that lost the small values after one huge sample
-   left is a breach); the cycle monitor's flags follow the live condition
-   unless latched, and ``acknowledge()`` sets them back to it.
+8. a block's own oracle where it has one (:attr:`FuzzSpec.oracle`: the moving
+   average is the mean of the window it holds; the cycle monitor's flags
+   follow the live condition unless latched, and ``acknowledge()`` sets them
+   back to it).
 """
 
 from __future__ import annotations
@@ -59,9 +64,25 @@ from typing import Any
 
 import numpy as np
 
-from .base import Block, ErrorCode, Mode, ParameterError, live_snapshots
+from ..blocks.base import Block, ErrorCode, Mode, ParameterError
 
-__all__ = ["BLOCKS", "BUMP_TOL", "LANE_TOL", "Breach", "Driver", "exported_blocks", "main"]
+__all__ = [
+    "BAD_PARAMS",
+    "BUMP_TOL",
+    "FUZZ_SPECS",
+    "HOSTILE",
+    "HOSTILE_DT",
+    "LANE_TOL",
+    "Breach",
+    "Driver",
+    "FuzzSpec",
+    "RandomRun",
+    "exported_blocks",
+    "main",
+    "register_fuzz",
+    "run",
+    "traces",
+]
 
 LANE_TOL = 1e-9
 """Per-call and two-phase outputs agree to ``LANE_TOL * max(1, |out|)`` (they run the
@@ -102,352 +123,158 @@ class Breach(AssertionError):
 
 
 # ---------------------------------------------------------------------------
-# Block specifications: random valid configurations and one step
+# How the campaign makes and drives one block type
 # ---------------------------------------------------------------------------
 
+Step = Callable[[Any, bool, list[Any], Any, list[Any], float], Any]
+"""``step(block, two_phase, vals, dt, flags, y)``: one process step of ``block``.
 
-def _lu(r: random.Random, lo: float, hi: float) -> float:
-    """Log-uniform in [lo, hi]."""
-    return math.exp(r.uniform(math.log(lo), math.log(hi)))
-
-
-def _maybe(r: random.Random, p: float, value: Any, other: Any) -> Any:
-    return value if r.random() < p else other
-
-
-def _limits(r: random.Random, span: float = 100.0) -> tuple[float, float]:
-    kind = r.random()
-    if kind < 0.15:
-        return -math.inf, math.inf
-    lo = r.uniform(-span, span)
-    if kind < 0.2:
-        return lo, lo  # a single allowed value
-    return lo, lo + _lu(r, 1e-3, 2 * span)
+``vals`` are five process values (``vals[1]`` None: the plant's output ``y``),
+``dt`` the sample time argument (None: the block's own), ``flags`` three
+quality or switch flags; ``two_phase``: ``compute_output`` then
+``update_state`` instead of the one call."""
 
 
-def _pid_config(r: random.Random) -> dict[str, Any]:
-    u_min, u_max = _limits(r)
-    c: dict[str, Any] = {
-        "kp": _lu(r, 1e-3, 1e3) if r.random() > 0.02 else _lu(r, 1e100, 1e300),
-        "ti": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
-        "td": _maybe(r, 0.4, _lu(r, 1e-3, 1e2), 0.0),
-        "n": _lu(r, 1.0, 100.0),
-        "b": r.uniform(0.0, 1.5),
-        "c": r.choice((0.0, 0.0, 0.5, 1.0)),
-        "ts": _lu(r, 1e-3, 10.0),
-        "u_min": u_min,
-        "u_max": u_max,
-        "integral_method": r.choice(("forward", "backward", "tustin")),
-        "derivative_method": r.choice(("forward", "backward", "tustin")),
-        "form": r.choice(("isa", "isa", "parallel", "series")),
-        "algorithm": r.choice(("positional", "positional", "velocity")),
-        "reverse": r.random() < 0.3,
-        "pv_range": _maybe(r, 0.2, (-50.0, 150.0), None),
-        "sp_filter": _maybe(r, 0.2, _lu(r, 1e-2, 1e2), 0.0),
-        "pv_filter": _maybe(r, 0.2, _lu(r, 1e-2, 1e2), 0.0),
-        "sp_rate": _maybe(r, 0.3, _lu(r, 1e-2, 1e2), 0.0),
-        "out_rate": _maybe(r, 0.2, _lu(r, 1e-2, 1e3), 0.0),
-        "anti_windup": r.choice(("clamping", "back_calc_model", "back_calc_real")),
-        "tt": _maybe(r, 0.3, _lu(r, 1e-3, 1e2), None),
-        "bumpless": r.choice(("integrator", "integrator", "track_setpoint", "suppress_p_action")),
-        "dev_tol": r.uniform(0.1, 50.0),
-        "deadband": _maybe(r, 0.2, r.uniform(-3.0, 3.0), 0.0),
-        "t_stab": _lu(r, 1e-2, 1e2),
-        "reset_value": r.uniform(-100, 100),
-        "safe_value": _maybe(r, 0.3, r.uniform(-100, 100), None),
-        "ff_k": _maybe(r, 0.2, r.uniform(-3, 3), 0.0),
-        "ff_t_lead": _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0),
-        "ff_t_lag": _lu(r, 1e-2, 1e2),
-    }
-    if c["bumpless"] == "track_setpoint" and c["sp_rate"] == 0.0:
-        c["sp_rate"] = 1.0
-    if r.random() < 0.15:  # the PLC cycle in single precision: every option but the dead band
-        c.update(precision="float32", deadband=0.0)
-    return c
+def controller_step(b: Any, two_phase: bool, vals: list[Any], dt: Any, flags: list[Any],
+                    y: float) -> Any:  # fmt: skip
+    """The step of a :class:`~ctrlblocks.blocks.protocols.Controller`: ``(sp, pv)`` with
+    ``pv_ok`` and ``dt``, in one call or in two phases."""
+    sp, pv = vals[0], (vals[1] if vals[1] is not None else y)
+    if two_phase:
+        v = b.compute_output(sp, pv, pv_ok=flags[0], dt=dt)
+        b.update_state(v)
+        return v
+    return b(sp, pv, pv_ok=flags[0], dt=dt)
 
 
-def _adrc_config(r: random.Random) -> dict[str, Any]:
-    u_min, u_max = _limits(r, 10.0)
-    wc = _lu(r, 1e-2, 1e2)
-    lo_sat = r.uniform(-50, 50)
-    cfg = {
-        "order": r.choice((1, 2, 3)),
-        "b0": _lu(r, 1e-3, 1e3),
-        "omega_c": wc,
-        "omega_o": wc * _lu(r, 1.0, 20.0),
-        "ts": _lu(r, 1e-3, 1.0),
-        "u_min": u_min,
-        "u_max": u_max,
-        "t_ref": _maybe(r, 0.3, _lu(r, 1e-2, 1e2), 0.0),
-        "discretisation": r.choice(("euler", "euler", "exact")),
-        "u_sf": r.uniform(-10, 10),
-        "u0": r.uniform(-10, 10),
-        "anti_windup": r.choice(("directional", "freeze", "off", True, False)),
-        "u_real_on": r.random() < 0.2,
-        "anti_backoff": r.random() < 0.3,
-        "y_sat": lo_sat + _lu(r, 1e-2, 100.0),
-        "y_sat_lo": lo_sat,
-        "tau_wait": _maybe(r, 0.5, _lu(r, 1e-2, 10.0), 0.0),
-        "precision": "float64",
-    }
-    if r.random() < 0.15:  # single-precision PLC cycle: every option
-        cfg["precision"] = "float32"
-    cfg["reverse"] = r.random() < 0.3
-    if cfg["precision"] == "float64" and r.random() < 0.2:  # the ESO fed the delayed u
-        cfg["input_delay"] = cfg["ts"] * r.randint(1, 40)
-    return cfg
+def _plain_step(takes_dt: bool) -> Step:
+    def step(b: Any, two_phase: bool, vals: list[Any], dt: Any, flags: list[Any], y: float) -> Any:
+        return b(vals[0], dt=dt) if takes_dt else b(vals[0])
+
+    return step
 
 
-def _ts(r: random.Random) -> float:
-    return _lu(r, 1e-3, 10.0)
+def _takes_dt(cls: type) -> bool:
+    try:
+        return "dt" in inspect.signature(cls.__call__).parameters
+    except (TypeError, ValueError):
+        return False
 
 
-def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
-    def scale(r: random.Random) -> dict[str, Any]:
-        lo = r.uniform(-100, 100)
-        olo = r.uniform(-100, 100)
-        return {
-            "in_lo": lo,
-            "in_hi": lo + r.choice((-1.0, 1.0)) * _lu(r, 1e-3, 1e3),
-            "out_lo": olo,
-            "out_hi": olo + r.uniform(-1e3, 1e3),
-            "clamp": r.random() < 0.5,
-        }
-
-    def leadlag(r: random.Random) -> dict[str, Any]:
-        lo, hi = _limits(r)
-        meth = r.choice(("tustin", "euler"))
-        return {
-            "k": r.uniform(-10, 10),
-            "t_lead": _maybe(r, 0.6, _lu(r, 1e-3, 1e2), 0.0),
-            "t_lag": _maybe(r, 0.9 if meth == "euler" else 1.0, _lu(r, 1e-3, 1e2), 0.0),
-            "ts": _ts(r),
-            "method": meth,
-            "out_min": lo,
-            "out_max": hi,
-            "precision": _maybe(r, 0.15, "float32", "float64"),
-        }
-
-    def manual(r: random.Random) -> dict[str, Any]:
-        lo, hi = _limits(r)
-        return {
-            "tm": _lu(r, 1e-2, 1e3),
-            "tr": _maybe(r, 0.7, _lu(r, 1e-3, 1e2), 0.0),
-            "span": _lu(r, 1e-2, 1e3),
-            "t_accel": _lu(r, 1e-2, 1e2),
-            "accel_max": r.uniform(1.0, 10.0),
-            "out_min": lo,
-            "out_max": hi,
-            "ts": _ts(r),
-            "y0": r.uniform(-100, 100),
-        }
-
-    def alarm(r: random.Random) -> dict[str, Any]:
-        return {
-            "limit": r.uniform(-100, 100),
-            "kind": r.choice(("high", "low")),
-            "deadband": _maybe(r, 0.6, _lu(r, 1e-3, 10.0), 0.0),
-            "on_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
-            "off_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
-            "ts": _ts(r),
-        }
-
-    def loop_alarms(r: random.Random) -> dict[str, Any]:
-        values = sorted(r.uniform(-100, 100) for _ in range(4))
-        lims = zip(("ll", "l", "h", "hh"), values, strict=True)
-        return {
-            **{k: _maybe(r, 0.7, v, None) for k, v in lims},
-            "dev": _maybe(r, 0.6, _lu(r, 1e-2, 1e2), None),
-            "roc": _maybe(r, 0.6, _lu(r, 1e-2, 1e2), None),
-            "roc_period": _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0),
-            "deadband": _maybe(r, 0.6, _lu(r, 1e-3, 10.0), 0.0),
-            "on_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
-            "off_delay": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
-            "ts": _ts(r),
-        }
-
-    def monitor(r: random.Random) -> dict[str, Any]:
-        ts = _ts(r)
-        warn = _maybe(r, 0.5, ts * r.uniform(1.0, 3.0), None)
-        return {
-            "ts": ts,
-            "warn_limit": warn,
-            "alarm_limit": None if warn is None else warn * r.uniform(1.0, 3.0),
-            "latch": r.random() < 0.5,
-        }
-
-    def pwm(r: random.Random) -> dict[str, Any]:
-        ts = _lu(r, 1e-3, 1.0)
-        period = ts * r.uniform(1.0, 100.0)
-        lo = r.uniform(-100, 100)
-        return {
-            "period": period,
-            "t_min_on": _maybe(r, 0.5, period * r.uniform(0, 1), 0.0),
-            "t_min_off": _maybe(r, 0.5, period * r.uniform(0, 1), 0.0),
-            "in_lo": lo,
-            "in_hi": lo + _lu(r, 1e-2, 1e3),
-            "ts": ts,
-        }
-
-    def two_point(r: random.Random) -> dict[str, Any]:
-        return {
-            "hysteresis": _maybe(r, 0.8, _lu(r, 1e-3, 10.0), 0.0),
-            "reverse": r.random() < 0.5,
-            "t_min_on": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
-            "t_min_off": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
-            "ts": _ts(r),
-            "precision": _maybe(r, 0.2, "float32", "float64"),
-        }
-
-    def three_point(r: random.Random) -> dict[str, Any]:
-        d = _maybe(r, 0.9, _lu(r, 1e-3, 10.0), 0.0)
-        return {**two_point(r), "deadband": d, "hysteresis": r.uniform(0.0, 2.0 * d)}
-
-    def transfer(r: random.Random) -> dict[str, Any]:
-        from .transfer import lowpass, notch, tustin
-
-        ts = _ts(r)
-        nyq = math.pi / ts
-        sections: list[Any] = []
-        while not sections or (len(sections) < 6 and r.random() < 0.4):
-            kind = r.random()
-            if kind < 0.4:
-                sections += lowpass(nyq * r.uniform(1e-3, 0.95), ts, r.randint(1, 4))
-            elif kind < 0.7:
-                sections.append(notch(nyq * r.uniform(1e-3, 0.95), _lu(r, 0.5, 50.0), ts,
-                                      _maybe(r, 0.5, r.uniform(0.0, 0.9), 0.0)))  # fmt: skip
-            else:
-                k, t = r.uniform(-100.0, 100.0), _lu(r, 1e-3, 1e3)
-                sections.append(tustin([k], [t, 1.0], ts))
-        lo, hi = _limits(r)
-        return {"sections": tuple(sections[:8]), "ts": ts, "out_min": lo, "out_max": hi,
-                "precision": _maybe(r, 0.2, "float32", "float64")}  # fmt: skip
-
-    def setpoint(r: random.Random) -> dict[str, Any]:
-        segs = tuple(
-            (r.uniform(-100, 100), _maybe(r, 0.8, _lu(r, 1e-3, 1e2), 0.0),
-             _maybe(r, 0.6, _lu(r, 1e-3, 1e2), 0.0))
-            for _ in range(r.randint(1, 6))
-        )  # fmt: skip
-        return {
-            "segments": segs,
-            "start": r.uniform(-100, 100),
-            "start_at_pv": r.random() < 0.3,
-            "repeat": r.random() < 0.4,
-            "holdback_ramp": _maybe(r, 0.4, _lu(r, 1e-2, 1e2), 0.0),
-            "holdback_soak": _maybe(r, 0.4, _lu(r, 1e-2, 1e2), 0.0),
-            "ts": _ts(r),
-            "precision": _maybe(r, 0.2, "float32", "float64"),
-        }
-
-    def heat_cool(r: random.Random) -> dict[str, Any]:
-        ts = _lu(r, 1e-2, 1.0)
-        method = r.choice(("factor", "parameters"))
-        return {
-            "kp": _lu(r, 1e-2, 1e2),
-            "ti": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
-            "td": _maybe(r, 0.3, _lu(r, 1e-2, 10.0), 0.0),
-            "cool_method": method,
-            "cool_factor": _lu(r, 1e-2, 1e2),
-            "kp_cool": _maybe(r, 0.8, _lu(r, 1e-2, 1e2), 0.0),
-            "ti_cool": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
-            "switch_hysteresis": r.uniform(0.0, 10.0),
-            "deadzone": _maybe(r, 0.5, r.uniform(0.0, 20.0), 0.0),
-            "pwm_period": _maybe(r, 0.4, ts * r.uniform(1.0, 50.0), 0.0),
-            "ts": ts,
-        }
-
-    def regulator(r: random.Random) -> dict[str, Any]:
-        lo = r.uniform(-100, 100)
-        slo = r.uniform(-100, 100)
-        return {
-            "kp": _lu(r, 1e-2, 1e2),
-            "ti": _maybe(r, 0.8, _lu(r, 1e-2, 1e3), 0.0),
-            "td": _maybe(r, 0.3, _lu(r, 1e-2, 10.0), 0.0),
-            "u_min": lo,
-            "u_max": lo + _lu(r, 1e-2, 1e3),
-            "sp_min": slo,
-            "sp_max": slo + _lu(r, 1e-2, 1e3),
-            "tm_sp": _lu(r, 1e-1, 1e3),
-            "tm_out": _lu(r, 1e-1, 1e3),
-            "tr": _maybe(r, 0.5, _lu(r, 1e-3, 10.0), 0.0),
-            "sp0": r.uniform(-100, 100),
-            "u0": r.uniform(-100, 100),
-            "ts": _ts(r),
-        }
-
-    return {
-        "TwoPoint": two_point,
-        "ThreePoint": three_point,
-        "TransferFunction": transfer,
-        "SetpointProgram": setpoint,
-        "HeatCoolPID": heat_cool,
-        "Regulator": regulator,
-        "PT1": lambda r: {
-            "t": _maybe(r, 0.8, _lu(r, 1e-3, 1e3), 0.0),
-            "ts": _ts(r),
-            "gain": r.uniform(-1e3, 1e3),
-            "method": r.choice(("exact", "euler")),
-            "y0": r.uniform(-100, 100),
-        },
-        "RateLimiter": lambda r: {
-            "rate_up": _maybe(r, 0.8, _lu(r, 1e-3, 1e3), 0.0),
-            "rate_down": _maybe(r, 0.8, _lu(r, 1e-3, 1e3), 0.0),
-            "ts": _ts(r),
-            "y0": r.uniform(-100, 100),
-        },
-        "DeadBand": lambda r: {"width": r.uniform(-10, 10)},
-        "Scale": scale,
-        "MovingAverage": lambda r: {"n": r.randint(1, 200)},
-        "SteadyStateDetector": lambda r: {
-            "tolerance": _lu(r, 1e-3, 10.0),
-            "t_stab": _lu(r, 1e-2, 1e2),
-            "ts": _ts(r),
-        },
-        "Saturation": lambda r: dict(zip(("lo", "hi"), _limits(r), strict=True)),
-        "MinSelector": lambda r: {},
-        "MaxSelector": lambda r: {},
-        "LeadLag": leadlag,
-        "JumpAndRate": lambda r: {
-            "jlow": -_maybe(r, 0.9, _lu(r, 1e-3, 1e2), 0.0),
-            "jhigh": _maybe(r, 0.9, _lu(r, 1e-3, 1e2), 0.0),
-            "rlow": -_maybe(r, 0.9, _lu(r, 1e-3, 1e2), 0.0),
-            "rhigh": _maybe(r, 0.9, _lu(r, 1e-3, 1e2), 0.0),
-            "ts": _ts(r),
-        },
-        "ManualStation": manual,
-        "CycleMonitor": monitor,
-        "Alarm": alarm,
-        "LoopAlarms": loop_alarms,
-        "PulseWidth": pwm,
-        "StepController": lambda r: {
-            "travel_time": _lu(r, 1e-1, 1e3),
-            "min_pulse": _maybe(r, 0.7, _lu(r, 1e-3, 10.0), 0.0),
-            "min_pause": _maybe(r, 0.7, _lu(r, 1e-3, 10.0), 0.0),
-            "deadband": _maybe(r, 0.7, _lu(r, 1e-3, 10.0), 0.0),
-            "span": _lu(r, 1.0, 1e3),
-            "ts": _ts(r),
-        },
-        "PID": _pid_config,
-        "ADRC": _adrc_config,
-    }
+def _default_twin(ctl: Any) -> bool:
+    return getattr(ctl.config, "precision", "float64") == "float64"
 
 
 @dataclasses.dataclass(frozen=True)
-class Spec:
-    """How the campaign makes and drives one block class."""
+class FuzzSpec:
+    """How the campaign makes and drives one block type (module docstring).
+
+    Parameters
+    ----------
+    name : str
+        The block's name in the campaign (``--block NAME``).
+    cls : type
+        Its class.
+    config : callable
+        ``config(random.Random) -> dict``: the keyword arguments of a random
+        configuration (valid or not: a refused one is drawn again).
+    step : callable, optional
+        One process step (:data:`Step`); default: :func:`controller_step` for
+        a controller, else ``block(value)`` (``block(value, dt=dt)`` when its
+        call takes ``dt``).
+    make : callable, optional
+        ``make(config) -> block`` (default ``cls(**config)``).
+    controller : bool, optional
+        A setpoint/measurement block with modes and limits, run with a plant
+        in the loop (default: ``cls`` has the Controller interface's methods).
+    two_phase : bool, optional
+        Promise 4 applies: a twin runs the two phases (default: ``controller``).
+    bumpless : bool, optional
+        Promise 5 applies (default: ``controller``).
+    modes : tuple of str
+        The mode inputs the campaign switches (``manual``, ``track``, ...).
+    mode_values : dict
+        Mode -> the input of its value (``manual`` -> ``manual_value``).
+    limit_fields : tuple of str
+        The configuration's output limit fields, for a block without
+        ``set_limits`` (``("lo", "hi")``); empty: none.
+    inner : callable, optional
+        The controller a wrapper block drives (``GainSchedule.controller``):
+        modes, limits and the checks act on it.
+    twin_ok : callable, optional
+        ``twin_ok(controller) -> bool``: whether this configuration has a
+        two-phase path equal to the one call (default: float64 precision).
+    configurable : bool
+        The campaign reconfigures it (``configure``).
+    acknowledge : callable, optional
+        It has ``acknowledge()`` (the cycle monitor), an action of the campaign;
+        ``acknowledge(block) -> str | None`` says what is wrong after it.
+    oracle : callable, optional
+        ``oracle(block) -> str | None``: what is wrong by the block's own
+        measure after an action (promise 8).
+    nonfinite_state : tuple of str
+        State that is not finite by design (promise 7 skips it).
+    records_inputs : bool
+        Its state records the process values as they came, NaN included
+        (the alarm blocks): promise 7 does not apply.
+    float32 : bool
+        :func:`traces` also draws seeds that start in ``precision="float32"``.
+    """
 
     name: str
-    cls: type[Block]
+    cls: type
     config: Callable[[random.Random], dict[str, Any]]
-    controller: bool = False  # sp/pv block with modes, limits and a plant in the loop
-    two_phase: bool = False  # has compute_output/update_state with __call__'s arguments
+    step: Step | None = None
+    make: Callable[[dict[str, Any]], Any] | None = None
+    controller: bool | None = None
+    two_phase: bool | None = None
+    bumpless: bool | None = None
+    modes: tuple[str, ...] = ("manual", "awin")
+    mode_values: dict[str, str] = dataclasses.field(
+        default_factory=lambda: {"manual": "manual_value"}
+    )
+    limit_fields: tuple[str, ...] = ()
+    inner: Callable[[Any], Any] | None = None
+    twin_ok: Callable[[Any], bool] = _default_twin
+    configurable: bool = True
+    acknowledge: Callable[[Any], str | None] | None = None
+    oracle: Callable[[Any], str | None] | None = None
+    nonfinite_state: tuple[str, ...] = ()
+    records_inputs: bool = False
+    float32: bool = False
+
+    def __post_init__(self) -> None:
+        if self.controller is None:
+            methods = ("compute_output", "update_state", "set_limits")
+            is_ctl = all(callable(getattr(self.cls, m, None)) for m in methods)
+            object.__setattr__(self, "controller", is_ctl)
+        for name in ("two_phase", "bumpless"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, self.controller)
+        if self.step is None:
+            step = controller_step if self.controller else _plain_step(_takes_dt(self.cls))
+            object.__setattr__(self, "step", step)
+
+    def new(self, cfg: dict[str, Any]) -> Any:
+        """A block of this configuration."""
+        return self.cls(**cfg) if self.make is None else self.make(cfg)
+
+
+FUZZ_SPECS: dict[str, FuzzSpec] = {}
+"""Every block the campaign knows, by name (:func:`register_fuzz`; the shipped ones:
+:mod:`.generators`)."""
+
+
+def register_fuzz(spec: FuzzSpec) -> None:
+    """Make ``spec``'s block part of the campaign (``run([spec.name], ...)``, ``--block``)."""
+    FUZZ_SPECS[spec.name] = spec
 
 
 def exported_blocks() -> dict[str, type[Block]]:
     """Every :class:`~ctrlblocks.Block` subclass exported by ``ctrlblocks.blocks``.
 
-    (``ctrlblocks`` exports the same blocks; the test of the campaign checks it.)
+    (``ctrlblocks`` exports the same blocks; the test of the campaign checks
+    that each has a :class:`FuzzSpec`.)
     """
     import ctrlblocks.blocks as package
 
@@ -457,41 +284,6 @@ def exported_blocks() -> dict[str, type[Block]]:
         if inspect.isclass(obj) and issubclass(obj, Block) and obj is not Block:
             out[name] = obj
     return out
-
-
-def _gain_schedule_config(r: random.Random) -> dict[str, Any]:
-    return {"_pid": _pid_config(r), "kp": (_lu(r, 1e-2, 10.0), _lu(r, 1e-2, 10.0))}
-
-
-def _specs() -> dict[str, Spec]:
-    blocks = exported_blocks()
-    configs = _simple_configs()
-    configs["GainSchedule"] = _gain_schedule_config
-    specs = {}
-    for name, cls in blocks.items():
-        if name not in configs:
-            continue  # tests/blocks/test_fuzz_campaign.py fails: every block needs a generator
-        specs[name] = Spec(
-            name,
-            cls,
-            configs[name],
-            controller=name in ("PID", "ADRC", "GainSchedule"),
-            two_phase=name in ("PID", "ADRC", "GainSchedule"),
-        )
-    return specs
-
-
-def _make(spec: Spec, cfg: dict[str, Any]) -> Block:
-    if spec.name == "GainSchedule":
-        from .pid import PID
-
-        pid = PID(**cfg["_pid"])
-        return spec.cls(pid, breakpoints=(0.0, 100.0), kp=cfg["kp"])  # type: ignore[arg-type]
-    return spec.cls(**cfg)
-
-
-BLOCKS: dict[str, Spec] = _specs()
-"""The campaign's specification of every exported block, by name."""
 
 
 # ---------------------------------------------------------------------------
@@ -527,48 +319,6 @@ def _non_finite(x: Any, path: str = "") -> str | None:
     elif isinstance(x, np.ndarray) and x.dtype.kind == "f" and not np.isfinite(x).all():
         return path
     return None
-
-
-def _moving_average_oracle(b: Any) -> str | None:
-    n = b.config.n
-    count = b._count
-    if count == 0:
-        return None
-    window = [b._buf[(b._idx - count + j) % n] for j in range(count)]
-    exact = math.fsum(v / count for v in window)
-    big = max(abs(v) for v in window)
-    if not abs(b.out - exact) <= 1e-9 * big:
-        return f"out {b.out!r} is not the mean {exact!r} of its window (largest |value| {big:.3g})"
-    return None
-
-
-def _cycle_monitor_oracle(b: Any) -> str | None:
-    if not -math.inf < b.jitter_std < math.inf:
-        return f"jitter_std = {b.jitter_std!r}"
-    live = b.count > 0 and b.out > b.warn_limit, b.count > 0 and b.out > b.alarm_limit
-    flags = (b.warning, b.alarm)
-    missed = any(now and not f for f, now in zip(flags, live, strict=True))
-    if (not b.config.latch and flags != live) or missed:
-        return f"flags (warning, alarm) = {flags} against the live condition {live}"
-    return None
-
-
-_NON_FINITE_BY_DESIGN: dict[str, tuple[str, ...]] = {
-    "MovingAverage": ("_sum", "_err", "_mag"),
-    "PulseWidth": ("t_in",),
-}
-
-_RECORDS_INPUTS = {"Alarm", "LoopAlarms"}
-"""Blocks whose state records the process values as they came (the alarm blocks' last
-value and transition log, NaN included): promise 6 (finite state) does not apply to them."""
-"""State that is +inf by design: the moving average's running sums while the window's sum
-exceeds the float range (its mean, finite, then comes from the window itself; promise 8
-checks it), and the PWM's time in the period, +inf for "a period starts now"."""
-
-_ORACLES: dict[str, Callable[[Any], str | None]] = {
-    "MovingAverage": _moving_average_oracle,
-    "CycleMonitor": _cycle_monitor_oracle,
-}
 
 
 def _same(a: float, b: float, tol: float) -> bool:
@@ -635,14 +385,14 @@ class Driver:
     keeps the last actions as Python code for the reproducer.
     """
 
-    def __init__(self, spec: Spec, cfg: dict[str, Any], log_len: int = 40) -> None:
+    def __init__(self, spec: FuzzSpec, cfg: dict[str, Any], log_len: int = 40) -> None:
         self.spec = spec
         # the last actions, formatted only for a report (formatting costs more than a step)
         self.log: collections.deque[tuple[Any, ...]] = collections.deque(maxlen=log_len)
         self.log.append(("new", cfg))
         try:
-            self.block = _make(spec, cfg)
-            self.twin = _make(spec, cfg) if self._twin_ok() else None
+            self.block = spec.new(cfg)
+            self.twin = spec.new(cfg) if self._twin_ok() else None
         except ParameterError:
             raise
         except Exception as exc:  # a valid-looking configuration must not crash the constructor
@@ -653,18 +403,11 @@ class Driver:
 
     # -- helpers ---------------------------------------------------------------
 
-    def _ctl(self, b: Block) -> Any:
-        return b.controller if self.spec.name == "GainSchedule" else b  # type: ignore[attr-defined]
+    def _ctl(self, b: Any) -> Any:
+        return b if self.spec.inner is None else self.spec.inner(b)
 
     def _twin_ok(self) -> bool:
-        # ADRC with u_real_on applies the measured u_real in __call__ only; the
-        # precision="float32" PLC cycle is a per-call cycle (its two-phase form is float64)
-        c = self._ctl(self.block).config
-        return (
-            self.spec.two_phase
-            and not getattr(c, "u_real_on", False)
-            and getattr(c, "precision", "float64") == "float64"
-        )
+        return bool(self.spec.two_phase) and self.spec.twin_ok(self._ctl(self.block))
 
     def _check_out(self, b: Block, what: str) -> None:
         y = b.out
@@ -678,29 +421,25 @@ class Driver:
 
     def _check_state(self, b: Block, what: str) -> None:
         """Promises 7 and 8: a finite state, and the block's own oracle."""
-        with live_snapshots():
-            snap = {} if self.spec.name in _RECORDS_INPUTS else b.snapshot()
-            sentinels = _NON_FINITE_BY_DESIGN.get(self.spec.name, ())
-            bad = _non_finite({k: v for k, v in snap.items() if k not in sentinels})
+        snap = {} if self.spec.records_inputs else b.snapshot(copy=False)
+        sentinels = self.spec.nonfinite_state
+        bad = _non_finite({k: v for k, v in snap.items() if k not in sentinels})
         if bad:
             raise Breach(f"{self.spec.name}: state {bad} is not finite after {what}")
-        oracle = _ORACLES.get(self.spec.name)
+        oracle = self.spec.oracle
         why = oracle(b) if oracle is not None else None
         if why:
             raise Breach(f"{self.spec.name}: {why} after {what}")
 
     def act_acknowledge(self) -> None:
-        """``acknowledge()`` of a block with alarm flags (the cycle monitor)."""
+        """``acknowledge()`` of a block with alarm flags, then its :attr:`FuzzSpec.acknowledge`."""
         self.log.append(("acknowledge",))
         self._both("acknowledge", lambda b: b.acknowledge())
         self._check_state(self.block, "acknowledge")
-        b: Any = self.block
-        live = b.count > 0 and b.out > b.warn_limit, b.count > 0 and b.out > b.alarm_limit
-        if (b.warning, b.alarm) != live:
-            raise Breach(
-                f"{self.spec.name}: acknowledge() left (warning, alarm) = "
-                f"{(b.warning, b.alarm)} against the live condition {live}"
-            )
+        check = self.spec.acknowledge
+        why = check(self.block) if check is not None else None
+        if why:
+            raise Breach(f"{self.spec.name}: acknowledge() left {why}")
 
     def _guarded(self, what: str, fn: Callable[[], Any]) -> Any:
         try:
@@ -727,70 +466,19 @@ class Driver:
             )
         # the states too, after every action: a divergence behind an output held at a
         # limit shows in the output only later or never (docs/reliability.md); read in
-        # place, not copied (a copy per action made the PID's run 2x slower)
-        with live_snapshots():
-            sa, sb = a.snapshot(), b.snapshot()
-            if not (_plain_equal(sa, sb) or _snap_equal(sa, sb, LANE_TOL)):
-                raise Breach(
-                    f"{self.spec.name}: per-call and two-phase states differ after {what}: "
-                    + _snap_diff(sa, sb, LANE_TOL)
-                )
+        # place, not copied (snapshot(copy=False): a copy per action made the campaign
+        # 1.5x slower)
+        sa, sb = a.snapshot(copy=False), b.snapshot(copy=False)
+        if not (_plain_equal(sa, sb) or _snap_equal(sa, sb, LANE_TOL)):
+            raise Breach(
+                f"{self.spec.name}: per-call and two-phase states differ after {what}: "
+                + _snap_diff(sa, sb, LANE_TOL)
+            )
 
     # -- one process step ------------------------------------------------------
 
     def _call(self, b: Any, two_phase: bool, vals: list[Any], dt: Any, flags: list[Any]) -> Any:
-        n = self.spec.name
-        if self.spec.controller:
-            sp = vals[0]
-            pv = vals[1] if vals[1] is not None else self.y
-            if n == "PID":
-                kw = {"ff": vals[2], "dv": vals[3], "dt": dt, "pv_ok": flags[0]}
-            elif n == "ADRC":
-                kw = {"y_ok": flags[0], "dt": dt}
-                if not two_phase:
-                    kw["u_real"] = vals[2] if flags[1] else None
-            else:
-                kw = {"dt": dt, "pv_ok": flags[0]}
-            args = (sp, pv, vals[4]) if n == "GainSchedule" else (sp, pv)
-            if two_phase:
-                v = b.compute_output(*args, **kw)
-                b.update_state(v)
-                return v
-            return b(*args, **kw)
-        v = vals[0]
-        if n in ("PT1", "RateLimiter", "SteadyStateDetector", "JumpAndRate", "PulseWidth"):
-            return b(v, dt=dt)
-        if n in ("DeadBand", "Scale", "MovingAverage", "Saturation"):
-            return b(v)
-        if n in ("MinSelector", "MaxSelector"):
-            return b(*vals[: 1 + int(flags[0] is True) + int(flags[1] is True)])
-        if n == "LeadLag":
-            return b(v, enable=flags[0], dt=dt)
-        if n == "ManualStation":
-            return b(inc=flags[0], dec=flags[1], track=v if flags[2] else None, dt=dt)
-        if n == "CycleMonitor":
-            return b(dt if dt is not None else v)
-        if n == "Alarm":
-            return b(v, ok=flags[0], suppress=flags[1], dt=dt)
-        if n == "LoopAlarms":
-            return b(0.0 if vals[1] is None else vals[1], v, pv_ok=flags[0], manual=flags[1], dt=dt)
-        if n in ("TwoPoint", "ThreePoint"):
-            return b(0.0 if vals[1] is None else vals[1], v, pv_ok=flags[0], enable=flags[1], dt=dt)
-        if n == "TransferFunction":
-            return b(v, init=flags[0])
-        if n == "SetpointProgram":
-            return b(v, pv_ok=flags[0], run=flags[1], reset=flags[2], dt=dt)
-        if n == "HeatCoolPID":
-            b.manual = flags[2]
-            return b(0.0 if vals[1] is None else vals[1], v, pv_ok=flags[0], dt=dt)
-        if n == "Regulator":
-            b.auto, b.remote = flags[1], flags[2]
-            sp = 0.0 if vals[1] is None else vals[1]
-            return b(v, sp, sp_inc=flags[0], out_dec=flags[1], pv_ok=flags[0], dt=dt)
-        if n == "StepController":
-            fb = vals[1] if flags[2] else None
-            return b(v, dt=dt, open_limit=flags[0], close_limit=flags[1], feedback=fb)
-        raise RuntimeError(f"no step for {n}")
+        return self.spec.step(b, two_phase, vals, dt, flags, self.y)  # type: ignore[misc]
 
     def act_step(self, vals: list[Any], dt: Any, flags: list[Any]) -> None:
         """One process step with these values (``vals[1] = None``: the plant's output)."""
@@ -798,7 +486,7 @@ class Driver:
         a = self.block
         ctl = self._ctl(a)
         prev_out, prev_err = a.out, a.error_id
-        bump = self.spec.name in ("PID", "ADRC")
+        bump = bool(self.spec.bumpless)
         prev_mode = ctl.mode if bump else None
         scale = self._scale(ctl) if bump else 1.0
         self._guarded("step", lambda: self._call(a, False, vals, dt, flags))
@@ -866,24 +554,11 @@ class Driver:
         """Write output limits at run time (``set_limits``) or by configure."""
         self.log.append(("limits", lo, hi))
         self._dirty = True
-        if hasattr(self._ctl(self.block), "set_limits"):
+        if callable(getattr(self._ctl(self.block), "set_limits", None)):
             self._both("set_limits", lambda b: self._ctl(b).set_limits(lo, hi))
             self._check_out(self.block, "set_limits")
-        else:
-            self.act_configure(self._limit_fields(lo, hi))
-
-    def _limit_fields(self, lo: Any, hi: Any) -> dict[str, Any]:
-        names = {
-            "Saturation": ("lo", "hi"),
-            "LeadLag": ("out_min", "out_max"),
-            "ManualStation": ("out_min", "out_max"),
-            "Scale": ("out_lo", "out_hi"),
-            "PulseWidth": ("in_lo", "in_hi"),
-            "TransferFunction": ("out_min", "out_max"),
-            "Regulator": ("u_min", "u_max"),
-            "GainSchedule": (),
-        }.get(self.spec.name, ())
-        return dict(zip(names, (lo, hi), strict=True)) if names else {}
+        elif self.spec.limit_fields:
+            self.act_configure(dict(zip(self.spec.limit_fields, (lo, hi), strict=True)))
 
     def act_configure(self, changes: dict[str, Any]) -> None:
         """Reconfigure: accepted (then the outputs are checked) or refused (promise 3)."""
@@ -983,13 +658,11 @@ class Driver:
 # The plain random driver (long campaign)
 # ---------------------------------------------------------------------------
 
-_MODES = ("manual", "track", "hold", "reset_active", "awin")
-
 
 class RandomRun:
     """Draws the actions of :class:`Driver` from a seeded ``random.Random``."""
 
-    def __init__(self, spec: Spec, seed: int) -> None:
+    def __init__(self, spec: FuzzSpec, seed: int) -> None:
         self.spec = spec
         self.r = random.Random(seed)
         self.driver = self._new_driver()
@@ -1037,12 +710,11 @@ class RandomRun:
             d.act_step(vals, dt, flags)
             d.step_done()
         elif x < 0.95 and self.spec.controller:
-            name = r.choice(_MODES if self.spec.name != "ADRC" else ("manual", "awin"))
+            name = r.choice(self.spec.modes)
             value = r.random() < 0.5 if r.random() < 0.95 else r.choice(_FLAG_VALUES)
             d.act_mode(name, value)
-            if name in ("manual", "track") and r.random() < 0.5:
-                attr = "manual_value" if name == "manual" else "track_value"
-                d.act_mode(attr, self._value(30.0, 100.0))
+            if name in self.spec.mode_values and r.random() < 0.5:
+                d.act_mode(self.spec.mode_values[name], self._value(30.0, 100.0))
         elif x < 0.96:
             lo = r.uniform(-100.0, 100.0)
             hi = lo + r.uniform(0.0, 100.0) if r.random() < 0.8 else r.uniform(-100.0, 100.0)
@@ -1051,7 +723,7 @@ class RandomRun:
             d.act_limits(lo, hi)
         elif x < 0.975:
             fields = [f.name for f in dataclasses.fields(d.block.config)]
-            if self.spec.name == "GainSchedule":
+            if not self.spec.configurable:
                 fields = []
             changes = {}
             if fields and r.random() < 0.5:  # a valid random value for one or more fields
@@ -1066,7 +738,7 @@ class RandomRun:
             vals, dt, flags = self._inputs()
             d.act_snapshot_restore(vals, dt, flags)
         elif x < 0.99:
-            if self.spec.name == "CycleMonitor" and r.random() < 0.5:
+            if self.spec.acknowledge is not None and r.random() < 0.5:
                 d.act_acknowledge()
             else:
                 d.act_reset()
@@ -1103,7 +775,9 @@ def run(
         for n in list(pending):
             t_slice = time.monotonic() + 0.1
             try:
-                rr = runs.get(n) or runs.setdefault(n, RandomRun(BLOCKS[n], seed + names.index(n)))
+                rr = runs.get(n) or runs.setdefault(
+                    n, RandomRun(FUZZ_SPECS[n], seed + names.index(n))
+                )
                 while done[n] < steps:
                     for _ in range(min(50, steps - done[n])):
                         rr.step()
@@ -1114,7 +788,7 @@ def run(
                 s = seed + names.index(n)
                 print(f"BREACH in {n} (seed {s}, step {done[n]}): {exc}", file=out)
                 print(
-                    f"reproduce: python -m ctrlblocks.blocks.fuzz --block {n} --seed {s} "
+                    f"reproduce: python -m ctrlblocks.testing --block {n} --seed {s} "
                     f"--steps {done[n] + 1}",
                     file=out,
                 )
@@ -1160,7 +834,7 @@ def traces(steps: int, seeds: int, float32_seeds: int = 0) -> dict[str, Any]:
     (``ctrlblocks.compiled``).
     """
 
-    def f32_seeds(spec: Spec) -> list[int]:
+    def f32_seeds(spec: FuzzSpec) -> list[int]:
         found: list[int] = []
         seed = 1000
         while len(found) < float32_seeds:
@@ -1170,8 +844,8 @@ def traces(steps: int, seeds: int, float32_seeds: int = 0) -> dict[str, Any]:
         return found
 
     out: dict[str, Any] = {"traces": {}, "float32": 0}
-    for name, spec in sorted(BLOCKS.items()):
-        extra = f32_seeds(spec) if name in ("PID", "ADRC") else []
+    for name, spec in sorted(FUZZ_SPECS.items()):
+        extra = f32_seeds(spec) if spec.float32 else []
         for seed in [*range(seeds), *extra]:
             run = RandomRun(spec, seed)
             trace = []
@@ -1186,17 +860,14 @@ def traces(steps: int, seeds: int, float32_seeds: int = 0) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     """Command line of the long campaign (see the module docstring)."""
-    ap = argparse.ArgumentParser(prog="python -m ctrlblocks.blocks.fuzz", description=__doc__
+    ap = argparse.ArgumentParser(prog="python -m ctrlblocks.testing", description=__doc__
                                  .split("\n")[0])  # fmt: skip
     ap.add_argument("--steps", type=int, default=100_000, help="actions per block")
     ap.add_argument("--seed", type=int, default=0, help="seed of the first block's run")
-    ap.add_argument("--block", action="append", choices=sorted(BLOCKS), help="only this block")
+    ap.add_argument("--block", action="append", choices=sorted(FUZZ_SPECS),
+                    help="only this block")  # fmt: skip
     ap.add_argument("--every", type=float, default=30.0, help="seconds between progress lines")
     ap.add_argument("--minutes", type=float, default=None, help="stop after this wall time")
     a = ap.parse_args(argv)
-    names = a.block or sorted(BLOCKS)
+    names = a.block or sorted(FUZZ_SPECS)
     return run(names, a.steps, a.seed, a.every, minutes=a.minutes)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,7 +12,8 @@ import pytest
 from click.testing import CliRunner
 
 from ctrlblocks.cli import main
-from ctrlblocks.fast.sweep import (
+from ctrlblocks.sim import parse_scenario, run_scenario
+from ctrlblocks.sim.sweep import (
     SweepError,
     apply_key,
     parameter_sets,
@@ -20,7 +21,6 @@ from ctrlblocks.fast.sweep import (
     sweep,
     write_rows,
 )
-from ctrlblocks.sim import parse_scenario, run_scenario
 
 VARY = {"controllers[2].kp": [5.0, 6.31], "sensor.noise": [0.0, 0.002]}
 DURATION = 4.0
@@ -87,7 +87,7 @@ def test_process_pool_sweep_equals_the_serial_sweep():
 
 def test_dask_local_cluster_sweep_equals_the_serial_sweep():
     pytest.importorskip("distributed")
-    from ctrlblocks.fast import dask_executor
+    from ctrlblocks.sim import dask_executor
 
     vary = {"controllers[2].kp": [5.0, 6.31]}
     serial = sweep("nowak_fig7", vary, executor="serial", duration=DURATION)
@@ -100,7 +100,7 @@ def test_dask_local_cluster_sweep_equals_the_serial_sweep():
 
 
 def test_the_scenario_text_is_read_once_and_never_changed_by_a_set():
-    sweep_mod = importlib.import_module("ctrlblocks.fast.sweep")  # the name is the function
+    sweep_mod = importlib.import_module("ctrlblocks.sim.sweep")  # the name is the function
     text, file = read_scenario_text("nowak_fig7")
     sweep_mod._document.cache_clear()
     a = sweep_mod._scenario(text, file, {"controllers[2].kp": 5.0})
@@ -117,7 +117,7 @@ def test_bad_value_is_refused_before_any_run():
 
 
 def test_the_parent_checks_each_value_once_not_every_set():
-    sweep_mod = importlib.import_module("ctrlblocks.fast.sweep")
+    sweep_mod = importlib.import_module("ctrlblocks.sim.sweep")
     vary = {"controllers[2].kp": [5.0, 6.0, 7.0], "controllers[2].ti": [5.4, 6.0]}
     sets = sweep_mod.parameter_sets(vary)
     assert sweep_mod._probes(sets, vary) == [
@@ -193,7 +193,7 @@ class _RecordingPool(cf.ThreadPoolExecutor):
 
 
 def test_batch_size_aims_at_a_tenth_of_a_second_and_a_task_per_worker():
-    from ctrlblocks.fast.sweep import TASK_SECONDS, batch_size
+    from ctrlblocks.sim.sweep import TASK_SECONDS, batch_size
 
     assert TASK_SECONDS == 0.1
     assert batch_size(0.01, 100, 2) == 10  # 10 sets of 10 ms = 100 ms per task
@@ -204,7 +204,7 @@ def test_batch_size_aims_at_a_tenth_of_a_second_and_a_task_per_worker():
 
 
 def test_first_tasks_carry_one_set_and_the_rest_go_in_batches(monkeypatch):
-    sw = sys.modules["ctrlblocks.fast.sweep"]  # the module (the package's `sweep` is the function)
+    sw = sys.modules["ctrlblocks.sim.sweep"]  # the module (the package's `sweep` is the function)
     monkeypatch.setattr(sw, "TASK_SECONDS", 1e6)  # any set is "fast": batches as large as allowed
     vary = {"controllers[2].kp": [4.0, 4.5, 5.0, 5.5, 6.0, 6.31, 7.0, 7.5, 8.0]}
     serial = sweep("nowak_fig7", vary, executor="serial", duration=1.0)
