@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import shlex
@@ -41,6 +42,31 @@ def _bump(k=1.0, t=5.0, L=5.0, noise=0.002, ts=0.5, seed=3):
         plant.step(float(uk))
     rng = np.random.default_rng(seed)
     return tt, u, np.array(y) + rng.normal(0.0, noise, len(tt))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _each_design_once():
+    """Several tests run compare on the same record: each candidate's design is made once per
+    module (a memo of ``design_candidate`` by its arguments; where the designs are the claim,
+    the tests compare them with ctrlblocks.tuning.design called directly)."""
+    import ctrlblocks.sim.compare as cmp
+
+    real, memo = cmp.design_candidate, {}
+
+    def design(name, model, ts, **kw):
+        key = (name, repr(model), ts, tuple(sorted(kw.items())))
+        if key not in memo:
+            try:
+                memo[key] = real(name, model, ts, **kw)
+            except Exception as exc:  # raised again below, as the real one
+                memo[key] = exc
+        if isinstance(memo[key], Exception):
+            raise memo[key]
+        return memo[key]
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(cmp, "design_candidate", design)
+        yield
 
 
 @pytest.fixture(scope="module")
@@ -113,10 +139,9 @@ def test_compare_metrics_equal_running_the_written_scenarios_by_hand(result):
         assert (out / png).stat().st_size > 10000
 
 
-def test_every_event_is_taken_in_auto_at_rest_after_the_release(result):
+def test_every_event_is_taken_in_auto_after_a_bumpless_release(result):
     """The experiment a plant runs: MANUAL during the warm-up, AUTO from t = 0 with SP = PV,
-    the event at t_event > 0; before it the MV has not moved (no bump, no noise-free drift),
-    and the step response is the same as for a loop that was in AUTO long before."""
+    the event at t_event > 0; without noise the MV and PV do not move before it."""
     out, _, s = result
     assert s["t_event"] >= 10 * s["ts"]
     doc = read_toml((out / "compare.toml").read_text(), "compare.toml", ScenarioError)
@@ -125,22 +150,71 @@ def test_every_event_is_taken_in_auto_at_rest_after_the_release(result):
     )
     doc["sensor"]["noise"] = 0.0
     r = run_scenario(parse_scenario_doc(doc, file="compare.toml"))
-    early = dict(doc)  # the event later, the run longer by as much: the same window length
-    early["scenario"] = {**doc["scenario"]}
-    for key in ("duration", "quick_duration"):
-        early["scenario"][key] = doc["scenario"][key] + 2 * s["t_event"]
-    for case in early["cases"]:
-        for ev in case["events"]:
-            ev["t"] = 3 * s["t_event"]
-    r3 = run_scenario(parse_scenario_doc(early, file="compare.toml"))
     for run in r.runs:
         before = run.signals["t"] < s["t_event"] - 1e-9
         assert np.all(run.signals["u"][before] == 0.0) and np.all(run.signals["y"][before] == 0.0)
-    for name in {c.name for c in r.scenario.controllers}:
-        for case in ("setpoint", "load"):
-            # the same response, but for the rounding of a longer rest (3e-6 measured)
-            assert r.metric(name, case, "iae", window=1) == pytest.approx(
-                r3.metric(name, case, "iae", window=1), rel=1e-4, abs=1e-12)
+
+
+def _events_at(doc: dict, t_event: float, warmup: float, window: float):
+    d = copy.deepcopy(doc)
+    d["initial"]["warmup"] = warmup
+    d["scenario"]["duration"] = d["scenario"]["quick_duration"] = t_event + window
+    for case in d["cases"]:
+        for ev in case["events"]:
+            ev["t"] = t_event
+    return run_scenario(parse_scenario_doc(d, file="compare.toml"))
+
+
+def _later_event_change(out: Path, t_event: float, ts: float, window: float) -> dict:
+    """``{(controller, case): relative change of the event's IAE}`` when the event comes
+    ``2 t_event`` later, with the record's noise: the same noise samples from the event on
+    (the noise-free warm-up is shortened by half the shift, the simulator drawing two noise
+    values per warm-up sample -- checked on the trace), so only what the release to AUTO
+    left behind at the event can differ."""
+    change = {}
+    for f in ("compare.toml", "compare_smith.toml"):
+        doc = read_toml((out / f).read_text(), f, ScenarioError)
+        m = round(t_event / ts)
+        now = _events_at(doc, t_event, m * ts + 1.0, window)
+        later = _events_at(doc, t_event + 2 * m * ts, 1.0, window)
+        for a, b in zip(now.runs, later.runs, strict=True):
+            ka = round(t_event / ts)
+            na = (a.signals["ym"] - a.signals["y"])[ka:]
+            nb = (b.signals["ym"] - b.signals["y"])[ka + 2 * m :]
+            # the same noise (ym - y of different y: rounding, 3e-18 measured)
+            assert np.std(na) > 0 and np.max(np.abs(na - nb)) <= 1e-9 * np.std(na)
+        for c in now.scenario.controllers:
+            for case in ("setpoint", "load"):
+                x = now.metric(c.name, case, "iae", window=1)
+                y = later.metric(c.name, case, "iae", window=1)
+                change[(c.name, case)] = abs(x / y - 1.0)
+    return change
+
+
+def test_the_event_finds_the_loop_at_rest_a_later_event_gives_the_same_iae(readme_run):
+    """Events at rest (t_event = 5 times the slowest closed-loop time constant of the
+    candidates): with the record's PV noise every candidate's event IAE equals that of the
+    same event much later within 0.1 %; the former rule, max(10 ts, 0.1 (T + L)) (1.1 s on
+    this record), left the release's transient in the event (the ADRC's handover offset, the
+    states the noise had not yet moved): more than 5 % (asserted below)."""
+    _cmd, _res, out, s = readme_run
+    taus = s["rest"]["time_constants"]
+    assert s["t_event"] == pytest.approx(5 * max(taus.values()), abs=s["ts"])
+    doc = read_toml((out / "compare.toml").read_text(), "compare.toml", ScenarioError)
+    window = doc["scenario"]["duration"] - s["t_event"]
+    now = _later_event_change(out, s["t_event"], s["ts"], window)
+    assert max(now.values()) <= 1e-3, now
+    from ctrlblocks.sim.compare import event_time
+    from ctrlblocks.tuning import read_step_csv
+    from ctrlblocks.tuning.bump import fopdt_of
+    from ctrlblocks.tuning.select import select_model
+
+    data = read_step_csv(ROOT / "docs/examples/bump_k2.csv", "time_s", "p_supply_bar", "p3_bar")
+    _k, T, L = fopdt_of(select_model(data.t, data.u, data.y).model)
+    before = event_time(s["ts"], T, L)  # the former rule: no time constant of the loops
+    assert before == pytest.approx(1.1)
+    old = _later_event_change(out, before, s["ts"], window)
+    assert max(old.values()) > 0.05, old  # the check sees the transient the former rule left
 
 
 def test_monte_carlo_models_are_seeded_draws_from_the_box():
@@ -174,6 +248,7 @@ def test_monte_carlo_spread_equals_running_each_drawn_model_by_hand(result):
         assert mc["worst"] == pytest.approx(max(vals), rel=1e-9) and mc["not_finite"] == 0
 
 
+@pytest.mark.slow
 def test_the_commands_pool_gives_the_numbers_of_the_serial_runs(result, tmp_path):
     """``ctrlblocks compare --jobs 2`` runs the uncertain models on a process pool."""
     from ctrlblocks.sim.cli import _models_runner
@@ -323,8 +398,8 @@ def test_every_plot_axis_has_units(readme_run, tmp_path, monkeypatch):
     real = tplot.plot_identification  # recorded, then drawn
     monkeypatch.setattr(tplot, "plot_identification",
                         lambda *a, **kw: seen.update(kw) or real(*a, **kw))  # fmt: skip
-    t, u, y = _bump()
-    rows = [f"{a:.1f},{b:.3f},{c:.6f}" for a, b, c in zip(t, u, y, strict=True)]
+    t, u, y = _bump()  # written exactly: the record of ``result`` (its designs are reused)
+    rows = [",".join(repr(float(v)) for v in r) for r in zip(t, u, y, strict=True)]
     csv = tmp_path / "bump.csv"
     csv.write_text("t [s],mv [%],pv [degC]\n" + "\n".join(rows) + "\n", encoding="utf-8")
     r = CliRunner().invoke(main, ["compare", str(csv), "--time", "t [s]", "--u", "mv [%]",
@@ -340,9 +415,10 @@ def test_every_plot_axis_has_units(readme_run, tmp_path, monkeypatch):
     assert "IAE load [degC·s]" in md and "MV travel load [%]" in md and "ki [%/(degC·s)]" in md
 
 
-def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path):
-    t, u, y = _bump(k=1.2, t=12.0, L=3.0)
-    rows = [f"{a:.1f};{b:.3f};{c:.6f}".replace(".", ",") for a, b, c in zip(t, u, y, strict=True)]
+def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path, result):
+    t, u, y = _bump()  # written exactly: the record of ``result`` (its designs are reused)
+    rows = [";".join(repr(float(v)).replace(".", ",") for v in r)
+            for r in zip(t, u, y, strict=True)]
     csv = tmp_path / "bump.csv"
     csv.write_text("t;mv;pv\n" + "\n".join(rows) + "\n", encoding="cp1252")
     args = ["compare", str(csv), "--time", "t", "--u", "mv", "--y", "pv", "--delimiter", ";",
@@ -351,12 +427,13 @@ def test_cli_compare_reads_the_csv_formats_identify_reads(tmp_path):
     r = CliRunner().invoke(main, args)
     assert r.exit_code == 0, r.output
     d = json.loads(r.stdout)
-    assert d["fopdt"]["gain"] == pytest.approx(1.2, rel=0.05)
+    assert d["fopdt"] == result[2]["fopdt"]  # read as the numbers themselves
     bad = CliRunner().invoke(main, ["compare", str(tmp_path / "nope.csv"), "--time", "t",
                                     "--u", "u", "--y", "y"])  # fmt: skip
     assert bad.exit_code == 1 and "Traceback" not in bad.output
 
 
+@pytest.mark.slow
 def test_compare_on_a_three_tank_bump_test_with_corners_reports_the_spread(tmp_path):
     """The paper's kind of process: a bump test on the three-tank model, with noise."""
     from ctrlblocks.plants import ThreeTank
@@ -385,6 +462,8 @@ def test_compare_on_a_three_tank_bump_test_with_corners_reports_the_spread(tmp_p
         (["--u-min", "5", "--u-max", "1"], "u_min = 5.0 must be below u_max = 1.0"),
         # limits that leave out the operating point: the verdict once divided by zero MV travel
         (["--u-min", "5", "--u-max", "6"], "do not contain the operating point"),
+        # a positive MV-noise budget no controller meets: once an IndexError in the report
+        (["--mv-noise", "1e-320"], "no candidate can be designed to Ms <= 1.6 and an MV noise"),
     ],
 )  # fmt: skip
 def test_compare_refuses_options_no_comparison_can_use_in_one_line(tmp_path, options, says):
@@ -399,6 +478,19 @@ def test_compare_refuses_options_no_comparison_can_use_in_one_line(tmp_path, opt
     assert last.startswith("Error: ") and says in last, r.output
 
 
+def test_a_candidate_too_slow_to_rest_before_the_event_is_refused_by_name():
+    """A tight MV-noise budget designs loops with time constants of years: the rest before the
+    event (REST of them) would need more samples than a scenario holds -- refused naming the
+    candidate and the option to change (once an error in the generated compare.toml)."""
+    from ctrlblocks.sim.compare import _check_rest
+    from ctrlblocks.sim.scenario import MAX_SAMPLES
+
+    taus = {"PI": 3.0, "ADRC n=3": 1.266e8}
+    with pytest.raises(ValueError, match=r"ADRC n=3's loop .* 1\.266e\+08 s.*--mv-noise"):
+        _check_rest(5 * 1.266e8, 0.05, taus)
+    _check_rest(MAX_SAMPLES * 0.05, 0.05, taus)  # the longest run a scenario holds: accepted
+
+
 def test_a_sample_time_beyond_any_discrete_model_is_refused_by_the_plant():
     from ctrlblocks.blocks import ParameterError
 
@@ -406,6 +498,7 @@ def test_a_sample_time_beyond_any_discrete_model_is_refused_by_the_plant():
         PlantFOPDT(1.0, 2.0, 0.0, 1e308)
 
 
+@pytest.mark.slow
 def test_a_reverse_acting_process_gets_adrcs_with_reverse(tmp_path):
     """A negative process gain: the ADRCs are tuned with reverse = true (the block takes
     b0 > 0) on the mirrored process, with its margins, and stand in the verdict."""

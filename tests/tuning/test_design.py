@@ -121,22 +121,39 @@ def test_the_delayed_adrc_loop_equals_the_real_block_on_the_real_plant():
     assert np.max(np.abs(np.array(ys) - y)) < 1e-12
 
 
-@pytest.mark.parametrize(
-    ("kind", "kw"),
-    [("pi", {"controller": "pi"}), ("pid", {}),
-     ("pid noise", {"noise_std": 0.02, "mv_noise_max": 0.05})],
-)  # fmt: skip
-def test_the_pid_design_keeps_ms_and_the_noise_and_a_brute_force_grid_finds_no_better(kind, kw):
-    """Ms within the target, the MV noise (Lyapunov) within the budget, and a plain grid on
-    the same model (the tests' oracle) finds no PI/PID with a load IAE 3 % better."""
-    d = design_pid(MODEL, TS, **kw)
-    lp = d.loop(MODEL)
+PID_KINDS = {"pi": {"controller": "pi"}, "pid": {},
+             "pid noise": {"noise_std": 0.02, "mv_noise_max": 0.05}}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def designs():
+    """The designs on MODEL, each made once for the module's tests: the PID kinds, the ADRC n=2
+    and both on the reverse-acting process."""
+    neg = FOPDT(-1.5, 20.0, 4.0)
+    out = {kind: design_pid(MODEL, TS, **kw) for kind, kw in PID_KINDS.items()}
+    out["adrc"] = design_adrc(MODEL, 2, TS)
+    out["pid reverse"], out["adrc reverse"] = design_pid(neg, TS), design_adrc(neg, 2, TS)
+    return out
+
+
+@pytest.mark.parametrize("kind", list(PID_KINDS))
+def test_the_pid_design_keeps_ms_and_the_noise(kind, designs):
+    """Ms within the target, the MV noise (Lyapunov) within the budget."""
+    d, kw = designs[kind], PID_KINDS[kind]
     assert d.margins.stable and d.margins.ms <= 1.6 * 1.001
     if "noise_std" in kw:
-        assert lyapunov_noise_gain(lp) * kw["noise_std"] <= kw["mv_noise_max"] * 1.01
+        assert lyapunov_noise_gain(d.loop(MODEL)) * kw["noise_std"] <= kw["mv_noise_max"] * 1.01
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", list(PID_KINDS))
+def test_a_brute_force_grid_finds_no_pid_better_than_the_design(kind, designs):
+    """A plain grid on the same model (the tests' oracle), at the same Ms and noise budget,
+    finds no PI/PID with a load IAE 3 % better."""
+    d, kw = designs[kind], PID_KINDS[kind]
     o = Oracle(MODEL, TS, 1.6, kw.get("noise_std", 0.0), kw.get("mv_noise_max", math.inf),
                1.0, 1.0)  # fmt: skip
-    own = o.iae(lp, "load")
+    own = o.iae(d.loop(MODEL), "load")
     best = math.inf
     tds = [0.0] if kind == "pi" else [0.0, 1.0, 2.0, 3.0]
     for td in tds:
@@ -149,13 +166,17 @@ def test_the_pid_design_keeps_ms_and_the_noise_and_a_brute_force_grid_finds_no_b
     assert own <= 1.03 * best, (own, best)
 
 
-def test_the_adrc_design_keeps_ms_searches_the_ratio_and_beats_a_grid():
-    d = design_adrc(MODEL, 2, TS)
+def test_the_adrc_design_keeps_ms_and_searches_the_observer_ratio(designs):
+    d = designs["adrc"]
     assert d.margins.stable and 1.6 * 0.98 <= d.margins.ms <= 1.6 * 1.001
     ratio = d.params["omega_o"] / d.params["omega_c"]
     assert any(math.isclose(ratio, r, rel_tol=1e-9) for r in (3.0, 5.0, 10.0))
+
+
+@pytest.mark.slow
+def test_a_brute_force_grid_finds_no_adrc_better_than_the_design(designs):
     o = Oracle(MODEL, TS, 1.6, 0.0, math.inf, 1.0, 1.0)
-    own = o.iae(d.loop(MODEL), "load")
+    own = o.iae(designs["adrc"].loop(MODEL), "load")
     best = math.inf
     for b0 in 1.5 / 24**2 * np.geomspace(1.0, 300.0, 10):
         for wc in np.geomspace(0.03, 1.0 / 3.0, 10):
@@ -169,15 +190,16 @@ def test_the_adrc_design_keeps_ms_searches_the_ratio_and_beats_a_grid():
     assert own <= 1.05 * best, (own, best)
 
 
-def test_a_reverse_acting_process_gets_the_mirrored_designs_with_reverse():
-    neg = FOPDT(-1.5, 20.0, 4.0)
-    for make in (lambda m: design_pid(m, TS), lambda m: design_adrc(m, 2, TS)):
-        d, mirror = make(neg), make(MODEL)
-        assert d.params.pop("reverse") is True
-        assert d.params == mirror.params and d.ki == pytest.approx(-mirror.ki)
+def test_a_reverse_acting_process_gets_the_mirrored_designs_with_reverse(designs):
+    for family in ("pid", "adrc"):
+        d, mirror = designs[f"{family} reverse"], designs[family]
+        params = dict(d.params)
+        assert params.pop("reverse") is True
+        assert params == mirror.params and d.ki == pytest.approx(-mirror.ki)
         assert d.margins.ms == pytest.approx(mirror.margins.ms, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_on_a_dead_time_dominant_process_both_compensated_candidates_beat_the_plain_ones():
     """At the same Ms on the model: PI in a Smith predictor against PI, and the ADRC whose
     observer is fed the MV delayed by the dead time against the plain ADRC of that order."""

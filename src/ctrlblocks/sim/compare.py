@@ -25,11 +25,13 @@ The workflow (one function, :func:`compare`):
    for the Smith-predictor candidates; edit and re-run with ``ctrlblocks run``)
    in deviation variables around the operating point, the loop held in MANUAL
    at steady state during the warm-up, released to AUTO at t = 0 with
-   ``SP = PV`` and left at rest in AUTO until the event at ``t_event``: case
+   ``SP = PV`` and left in AUTO until the event at ``t_event``, five times
+   the slowest closed-loop time constant of the candidates on the model (the
+   release's transient has died out: :func:`event_time`): case
    ``setpoint``, a set-point step of the bump's PV change, case ``load``, an
    input load of half the bump.  The metrics are those of the event's window
-   (from ``t_event`` on), so the MAN->AUTO release never coincides with an
-   event.  PV noise of the standard deviation of the fit's residuals, MV limits
+   (from ``t_event`` on), so the MAN->AUTO release is no part of any
+   experiment.  PV noise of the standard deviation of the fit's residuals, MV limits
    from the data (the recorded range widened by twice the bump on each side)
    or given.  On the model, on its 8 uncertainty corners (gain +-20 %, time
    constants +-30 %, dead time +-30 %; the predictor's and the delayed
@@ -60,7 +62,7 @@ from ..tuning.bump import fopdt_of as _fopdt_of
 from ..tuning.design import MS_DEFAULT, MV_NOISE_FRACTION, default_ts
 from ..tuning.identify import SOPDT
 
-__all__ = ["BOX", "LEVELS", "TIE", "compare", "scenario_toml"]
+__all__ = ["BOX", "LEVELS", "REST", "TIE", "compare", "scenario_toml"]
 
 log = logging.getLogger("ctrlblocks.compare")
 
@@ -192,13 +194,45 @@ def _plant_dict(model: Any, gain: float = 1.0, tc: Sequence[float] = (1.0, 1.0),
             "dead_time": model.dead_time * dt}  # fmt: skip
 
 
-def event_time(ts: float, T: float, L: float) -> float:
+REST = 5.0
+"""The loop rests in AUTO this many of its slowest time constants before each event."""
+
+
+def event_time(ts: float, T: float, L: float, tau_slow: float = 0.0) -> float:
     """When the event comes [s]: the loop rests in AUTO from t = 0 until then.
 
-    ``max(10 ts, 0.1 (T + L))`` rounded up to a whole sample: long enough to
-    see that the released loop stays where it is, short against the run.
+    ``max(10 ts, 0.1 (T + L), REST tau_slow)`` rounded up to a whole sample,
+    ``tau_slow`` the slowest closed-loop time constant of the candidates
+    (:func:`slowest_time_constant`).  What the release to AUTO leaves behind --
+    the difference between the loop released at t = 0 and one that had been
+    in AUTO for ever, with the same noise: the states the noise had not yet
+    moved, the ADRC's handover offset of its reference -- is a free response
+    of the loop, so after ``REST = 5`` of its slowest time constants it is
+    below ``e^-5`` (0.7 %) of its size at the release (which is of the order
+    of the noise); the event then finds the loop at rest.
     """
-    return ts * math.ceil(max(10.0, 0.1 * (T + L) / ts) - 1e-9)
+    return ts * math.ceil(max(10.0, 0.1 * (T + L) / ts, REST * tau_slow / ts) - 1e-9)
+
+
+def slowest_time_constant(ctrls: Sequence[dict[str, Any]], model: Any) -> dict[str, float]:
+    """``{candidate: its slowest time constant [s]}`` on ``model`` for the eligible candidates.
+
+    The slowest closed-loop pole ``p`` of the loop on the model (predictor
+    included) as ``-ts/ln|p|``, and for an ADRC also its handover offset's
+    ``1/omega_c`` (the reference offset ``q`` of the MAN->AUTO handover decays
+    as ``exp(-omega_c t)``).
+    """
+    out: dict[str, float] = {}
+    for c in ctrls:
+        d = c.get("_design")
+        if not c["eligible"] or d is None:
+            continue
+        r = float(np.max(np.abs(d.loop(model).poles())))
+        tau = -d.ts / math.log(r) if 0.0 < r < 1.0 else 0.0
+        if d.family == "ADRC":
+            tau = max(tau, 1.0 / float(d.params["omega_c"]))
+        out[c["name"]] = tau
+    return out
 
 
 def scenario_toml(
@@ -371,6 +405,37 @@ def _check_ts(ts: float, T: float, L: float) -> None:
         )
 
 
+def _check_designed(ctrls: Sequence[dict[str, Any]], ms: float, budget: float,
+                   noise: float) -> None:  # fmt: skip
+    """Refuse a comparison without a candidate: every design failed (an MV-noise budget or an
+    Ms no controller meets), so there is nothing to simulate or to judge (ValueError)."""
+    if any(c["params"] is not None for c in ctrls):
+        return
+    why = "; ".join(f"{c['name']}: {c.get('error', '?')}" for c in ctrls)
+    raise ValueError(
+        f"no candidate can be designed to Ms <= {ms:g} and an MV noise of at most {budget:.3g} "
+        f"(standard deviation, from the record's PV noise of {noise:.3g}): {why}. "
+        f"Allow more MV noise (--mv-noise) or a larger Ms (--ms)"
+    )
+
+
+def _check_rest(duration: float, ts: float, taus: dict[str, float]) -> None:
+    """Refuse runs too long to simulate: a candidate so slow (a tight MV-noise budget) that
+    resting the loop :data:`REST` of its time constants before the event needs more samples
+    than a scenario holds (ValueError, naming the candidate)."""
+    from .scenario import MAX_SAMPLES
+
+    if duration / ts <= MAX_SAMPLES:
+        return
+    slow = max(taus, key=lambda n: taus[n])
+    raise ValueError(
+        f"{slow}'s loop on the model has a time constant of {taus[slow]:.4g} s: resting it "
+        f"{REST:g} of them in AUTO before each event gives runs of {duration / ts:.3g} samples "
+        f"of ts = {ts:g} s, at most {MAX_SAMPLES:,}. Allow more MV noise (--mv-noise) or a "
+        f"larger Ms (--ms)"
+    )
+
+
 ModelRunner = Callable[[Path, list[dict[str, Any]], Callable[[int, int], None]], list[Any]]
 """``(scenario file, plant tables, progress(done, total)) -> metric rows`` (see :func:`compare`);
 each row a ``ScenarioResult.metrics`` entry, its ``windows`` included."""
@@ -467,10 +532,13 @@ def compare(
             f"test (the MV before the step, {u_op:g}): no controller could hold the process there"
         )
     ctrls = candidates(model, ts, ms=ms, noise_std=noise, mv_noise_max=budget, say=say)
+    _check_designed(ctrls, ms, budget, noise)
     say(f"designed: {sum(c['eligible'] for c in ctrls)} of {len(ctrls)} candidates with "
         f"Ms <= {ms:g} and MV noise <= {budget:.3g}")  # fmt: skip
-    t_ev = event_time(ts, T, L)
+    taus = slowest_time_constant(ctrls, model)
+    t_ev = event_time(ts, T, L, max(taus.values(), default=0.0))
     duration = float(t_ev + max(10.0 * (T + L), 50.0 * ts))
+    _check_rest(duration, ts, taus)
     common = dict(ts=ts, step=step, load=-du / 2, noise=noise, u_min=lo - u_op, u_max=hi - u_op,
                   duration=duration, t_event=t_ev, y_label=deviation_label(y_label),
                   u_label=deviation_label(u_label),
@@ -517,6 +585,7 @@ def compare(
         "tie": tie,
         "ts": ts,
         "t_event": t_ev,
+        "rest": {"times": REST, "time_constants": taus},
         "u_min": lo,
         "u_max": hi,
         "operating_point": {"u": u_op, "y": float(model.y0)},

@@ -128,10 +128,18 @@ def _conditions(s: dict[str, Any]) -> dict[str, Any]:
          _q(["mv_noise_max"], s["mv_noise_max"], fmt=".3g"),
          _q(["t_event"], s["t_event"], fmt=".4g"),
          _q(["tie"], s["tie"], 100.0, ".3g")]  # fmt: skip
+    rest = s.get("rest") or {}
+    taus = rest.get("time_constants") or {}
+    at_rest = ""
+    if taus:
+        slow = max(taus, key=lambda n: taus[n])
+        q.append(_q(["rest", "time_constants", slow], taus[slow], fmt=".3g"))
+        at_rest = (f" ({rest['times']:g} times the slowest closed-loop time constant, "
+                   f"{q[-1]['shown']} s of {slow}: the release's transient has died out)")
     return {"text": f"Every candidate is designed to Ms <= {q[0]['shown']} on the model and to an "
             f"MV noise of at most {q[2]['shown']} (standard deviation) from the record's PV noise "
             f"of {q[1]['shown']}; each event comes {q[3]['shown']} s after the loop was released "
-            f"to AUTO at rest; results within {q[4]['shown']} % of each other are a tie.",
+            f"to AUTO{at_rest}; results within {q[4]['shown']} % of each other are a tie.",
             "quotes": q}  # fmt: skip
 
 
