@@ -337,14 +337,9 @@ def test_sensor_ok_flag_reaches_adrc_as_y_ok():
     assert math.isfinite(s["ym"][40])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known defect (issue 31 report): the ESO starts at rest for the previously "
-    "applied u (the config's u0, 0 here), not for the manual value the warm-up holds "
-    "(1.0), so x4 starts b0*1.0 off; 2 s = 8/omega_o of warm-up does not settle it, "
-    "and the handover turns the rest into an offset q fading with 1/omega_c (u off by "
-    "2.6e-3 at 0.6 s, 2.2e-4 at 2.7 s; with u0 = 1.0: 2.2e-16)",
-)
+# found when the tolerance below was restored: an ADRC started in MAN took its ESO's rest
+# from the configured u0 (0), not the held manual value (1.0); the warm-up (8/omega_o) did not
+# settle x4, and the handover turned the rest into an offset (u off by 2.6e-3 at 0.6 s)
 def test_a_warmup_in_manual_leaves_the_adrc_at_rest_whatever_its_u0():
     s = simulate(parse_scenario(ADRC_AT_REST), "adrc").signals
     assert np.max(np.abs(s["u"][:30] - 1.0)) <= 1e-9  # the plant rests at u = 1 throughout

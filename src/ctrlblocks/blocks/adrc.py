@@ -484,7 +484,10 @@ def adrc_law(
     state to commit; the caller commits it with the value actually applied.
 
     * ``started`` False: the first valid measurement starts the ESO at rest on
-      it (``Y_hat = y``, ``x2 = x3 = 0``, ``x4 = -b0 u_eso``, reference ``y``);
+      it (``Y_hat = y``, ``x2 = x3 = 0``, ``x4 = -b0 u_eso``, reference ``y``),
+      where a block that starts ``tracking`` (in MAN) takes the held output
+      ``target`` as ``u_eso``: the plant rests at what it is given, not at the
+      configured ``u0``;
     * the reference trajectory (section 5): the exact PT1 ``a_ref`` of the
       setpoint ``r_in``; in MAN with a filter it follows ``y``;
     * the ESO (4a) by :func:`eso_euler`, or the exact current observer by
@@ -519,6 +522,8 @@ def adrc_law(
     f01, f02, f03, f12, f13, f23, g0, g1, g2, c0, c1, c2, c3 = ecoef
     y_sat, y_sat_lo, tau_wait = ab
     if not started:
+        if tracking:  # started in MAN (or holding): the plant rests at the held output
+            u_eso = target
         yh = y
         x2 = 0.0
         x3 = 0.0
