@@ -304,14 +304,6 @@ def _spec_for(block: Any) -> BlockSpec:
                          frozenset(v.st for v in _PID_PROCESS))  # fmt: skip
     if isinstance(block, ADRC):
         bad = plc_unsupported(c, "adrc")
-        if bad == ["input_delay"]:
-            raise UnsupportedBlock(
-                f"the PLC export does not cover the ADRC option input_delay "
-                f"(= {c.input_delay!r} s): the observer fed the MV of input_delay ago "
-                "(Zhao & Gao 2014) needs a history of the MV that the PLC cycle does not have "
-                "yet; "
-                "export the ADRC designed without it (input_delay = 0, compare's 'ADRC n=...' "
-                "candidate) or run this one from Python")  # fmt: skip
         if bad:
             raise UnsupportedBlock(f"the PLC export does not cover the ADRC options {bad}")
         state = pc.adrc_state(c)
