@@ -540,7 +540,12 @@ _CHUNKS = [range(s, min(s + CHUNK, FIRST_SEED + CASES))
            for s in range(FIRST_SEED, FIRST_SEED + CASES, CHUNK)]  # fmt: skip
 
 
-@pytest.mark.parametrize("seeds", _CHUNKS, ids=lambda r: f"seeds{r.start}-{r.stop - 1}")
+# the first two chunks in the default run, the rest with the long campaigns (pytest -m slow)
+@pytest.mark.parametrize(
+    "seeds",
+    [c if i < 2 else pytest.param(c, marks=pytest.mark.slow) for i, c in enumerate(_CHUNKS)],
+    ids=lambda r: f"seeds{r.start}-{r.stop - 1}",
+)
 def test_the_lane_equals_the_python_path_on_generated_scenarios(seeds):
     runs = lane = 0
     for seed in seeds:

@@ -29,9 +29,12 @@ from ctrlblocks.tuning.margins import Loop
 from ctrlblocks.tuning.pid_rules import amigo, lambda_tuning, simc
 
 _rng = random.Random(20261202)
+# the fixed extremes in the default run, six random scales with the long campaigns (-m slow)
 SCALES = [1e25, 1e30, -1e30, 1e-30, 1e100, 1e-100, 1e150, 1e-150] + [
-    _rng.choice((1.0, -1.0)) * 10.0 ** _rng.uniform(-150.0, 150.0) for _ in range(6)
-]
+    pytest.param(_rng.choice((1.0, -1.0)) * 10.0 ** _rng.uniform(-150.0, 150.0),
+                 marks=pytest.mark.slow)
+    for _ in range(6)
+]  # fmt: skip
 
 
 def _same(a: float, b: float, rel: float) -> bool:
