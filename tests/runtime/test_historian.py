@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import csv
+import json
 import math
 import os
 import sqlite3
@@ -153,8 +154,12 @@ def test_postgresql_keeps_every_sample_across_a_restart(writer):
     h = PostgresHistorian(PG_DSN)
     h.open()
     h.audit("alice", "a", "sp", {"sp": 1.0}, {"sp": 2.0}, True)
-    audit = [(r["who"], r["action"], r["ok"]) for r in h.audit_rows()]
+    rows = h.audit_rows()
+    audit = [(r["who"], r["action"], r["ok"]) for r in rows if r["action"] != "alarm"]
     assert audit == [("runtime", "stop", 1)] * 4 + [("alice", "sp", 1)]  # 2 runs x 2 loops
+    # loop b's NaN PV raises its condition alarms once per run: bad PV, then the safe value
+    alarms = [(r["loop"], json.loads(r["new"])["code"]) for r in rows if r["action"] == "alarm"]
+    assert alarms == [("b", "bad_pv"), ("b", "safe_value")] * 2
     h.close()
 
 

@@ -24,7 +24,9 @@ from ctrlblocks.sim import PlantProcess, parse_scenario, simulate
 from .conftest import fresh, wait_for
 from .test_structures import HEAD, _pi, loop_tables
 
-pytestmark = pytest.mark.loopback
+# both protocols end to end against the plant server: run with the long campaigns (-m slow);
+# tests/runtime/test_split_ratio_runtime.py checks the same structures in memory by default
+pytestmark = [pytest.mark.loopback, pytest.mark.slow]
 
 TS = 0.02
 

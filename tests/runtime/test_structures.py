@@ -451,6 +451,7 @@ def test_override_needs_the_inner_measurement_its_blocks_read():
 
 
 @pytest.mark.loopback
+@pytest.mark.slow  # end to end over OPC UA (-m slow); the in-memory tests above run by default
 def test_cascade_over_opcua_equals_the_simulator_exactly(tmp_path, opcua_plant):
     from .test_loopback import history, opcua_addr
 
@@ -498,6 +499,7 @@ flush_interval = 0.2
 
 
 @pytest.mark.loopback
+@pytest.mark.slow  # end to end over Modbus (-m slow)
 @pytest.mark.parametrize(
     ("text", "n"),
     [(cascade(ts=0.02, duration=3.0), 150), (OVERRIDE, 150)],

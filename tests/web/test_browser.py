@@ -31,7 +31,9 @@ from .conftest import (
     running_server,
 )
 
-pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+# the faceplate in a real browser: end to end, about a minute of CPU, run with the long
+# campaigns (pytest -m slow; CI runs them); the API tests cover the same routes in the default run
+pytestmark = [pytest.mark.filterwarnings("ignore::DeprecationWarning"), pytest.mark.slow]
 
 
 @pytest.fixture(scope="module")
