@@ -152,3 +152,32 @@ def test_function_and_fb_names_and_all_declared_names_are_iec_identifiers():
         decl = text.split("<Declaration><![CDATA[")[1].split("]]>")[0]
         for m in re.finditer(r"^\s+(\w+) : ", decl, re.M):
             assert is_iec_identifier(m.group(1)), (name, m.group(1))
+
+
+def test_the_c_macros_an_export_meets_are_reserved_by_the_preprocessors_own_word():
+    """MATIEC writes identifiers into C in upper case: a name spelled like a macro of the
+    headers it compiles with (``X_OK``) does not compile.  The machine's preprocessor is the
+    oracle: every upper-case macro it defines for those headers (and MATIEC's library, when
+    built) is reserved, so no export can spell one (``python tests/plc/c_macros_oracle.py
+    [MATIEC/lib/C]`` prints the set for ``ctrlblocks/plc/c_macros.py``)."""
+    from . import matiec
+    from .c_macros_oracle import live_macros
+
+    m = matiec.matiec_dir()
+    live = live_macros(m / "lib" / "C" if m is not None else None)
+    if live is None:
+        pytest.skip("no gcc: the preprocessor is the oracle")
+    assert len(live) > 500  # the headers were read
+    missing = sorted(live - RESERVED)
+    assert not missing, f"C macros an export could spell: {missing[:20]}"
+    assert iec_name("x_ok") == "x_ok_v" and is_reserved("eof") and is_reserved("Nan")
+
+
+@pytest.mark.parametrize("block", [LeadLag(k=2.0, t_lead=1.0, t_lag=3.0), PID(kp=1.0, ti=5.0),
+                                   ADRC(order=2, b0=0.05)], ids=["leadlag", "pid", "adrc"])
+def test_no_export_spells_a_c_macro(block):
+    from ctrlblocks.plc.c_macros import C_MACROS
+
+    for target in ("codesys", "twincat", "tia"):  # the ST text (the XML targets carry the same)
+        words = {w.upper() for w in _tokens_are_identifiers(plc.export(block, target))}
+        assert not words & C_MACROS, (target, sorted(words & C_MACROS))

@@ -7,7 +7,10 @@ compilers also refuse the names of the standard data types, functions and
 function blocks as variable names (MATIEC refuses ``EXP``, ``PID``,
 ``RAMP``, ``REAL_TO_DINT`` ...), CODESYS and TwinCAT add their own
 keywords (``METHOD``, ``THIS``, ``REF``, ``__NEW`` ...) and Siemens SCL its
-own (``REGION``, ``BEGIN``, ``VERSION`` ...).
+own (``REGION``, ``BEGIN``, ``VERSION`` ...).  MATIEC writes the names into
+C in upper case, where the macros of the C headers it compiles with
+(:data:`~ctrlblocks.plc.c_macros.C_MACROS`: ``X_OK``, ``EOF``, ``NAN`` ...)
+would replace them.
 
 :func:`iec_name` maps any Python identifier to a name that is valid in every
 target: ASCII letters, digits and single underscores, no leading digit, no
@@ -22,6 +25,8 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+
+from .c_macros import C_MACROS
 
 __all__ = ["RESERVED", "iec_name", "is_iec_identifier", "is_reserved"]
 
@@ -76,8 +81,9 @@ RESERVED = frozenset(
         """,
     )
     for w in w.split()
-) | frozenset(_ELEMENTARY)
-"""Upper-case words no exported identifier may be (the union over the targets)."""
+) | frozenset(_ELEMENTARY) | C_MACROS
+"""Upper-case words no exported identifier may be (the union over the targets, and
+the C macros MATIEC's output would meet)."""
 
 _TYPE_NAMES = "|".join(sorted(_ELEMENTARY, key=len, reverse=True))
 _CONVERSION = re.compile(rf"(?:{_TYPE_NAMES}|BCD|TRUNC)_TO_(?:{_TYPE_NAMES}|BCD)", re.I)
