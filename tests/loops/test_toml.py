@@ -53,7 +53,11 @@ def test_table_reader_number_checks_type_nan_and_sign() -> None:
     with pytest.raises(KeyPathError, match=r"t\.x: must not be NaN"):
         r.number({"x": math.nan}, "x", "t.x")
     assert math.isnan(r.number({"x": math.nan}, "x", "t.x", allow_nan=True))
-    assert r.number({"x": -math.inf}, "x", "t.x") == -math.inf  # no limit
+    assert r.number({"x": -math.inf}, "x", "t.x", limit=True) == -math.inf  # no limit
+    # +-inf is no number but a limit's "none": any other field refuses it where it is written
+    for v in (math.inf, -math.inf):
+        with pytest.raises(KeyPathError, match=r"t\.x: must be finite, got -?inf"):
+            r.number({"x": v}, "x", "t.x")
     with pytest.raises(KeyPathError, match=r"t\.x: must be > 0, got -1"):
         r.number({"x": -1}, "x", "t.x", positive=True)
     with pytest.raises(KeyPathError, match=r"t\.x: must be a number, got a boolean True"):

@@ -100,7 +100,7 @@ def test_accepted_mutated_scenarios_run():
         except ScenarioError:
             continue
         try:
-            run_scenario(sc, quick=True, duration=2.0, engine="python")
+            run_scenario(sc, quick=True, duration=max(2.0, sc.ts), engine="python")
         except Exception as exc:
             pytest.fail(f"{name}: {what}: accepted, then the run raised {exc!r}")
         ran += 1
@@ -311,3 +311,60 @@ def test_set_events_are_checked_in_their_order():
 def test_a_valid_input_attribute_of_a_block_may_be_set():
     sc = parse_scenario(_event(t=2.0, do="set", attr="hold", value=True), file="ev.toml")
     assert sc.cases[0].events[-1].fields["attr"] == "hold"
+
+
+_NUMBER_LINE = re.compile(r"^(\s*[A-Za-z0-9_]+\s*=\s*)([-+]?[0-9][0-9_.eE+-]*)\s*(#.*)?$")
+
+
+@pytest.mark.slow  # every number of every shipped scenario, three values each (pytest -m slow)
+@pytest.mark.parametrize("value", ["inf", "-inf", "1e308"])
+def test_every_number_of_every_scenario_beyond_finite_is_refused_at_its_line_or_runs(value):
+    """The campaign's ``noise = inf`` find, swept over its class: no field takes a value
+    the run cannot (it raised in the sensor, past the parser that should have refused it)."""
+    from ctrlblocks.sim.runner import run_scenario
+
+    swept = 0
+    for p in SCENARIOS:
+        lines = p.read_text(encoding="utf-8").splitlines()
+        for i, line in enumerate(lines):
+            m = _NUMBER_LINE.match(line)
+            if not m:
+                continue
+            text = "\n".join([*lines[:i], m.group(1) + value, *lines[i + 1 :]]) + "\n"
+            what = f"{p.name}: line {i + 1} -> {m.group(1)}{value}"
+            swept += 1
+            try:
+                sc = parse_scenario(text, file=p.name)
+            except ScenarioError as exc:
+                check_refusal(exc, p.name, what)
+                continue
+            try:
+                run_scenario(sc, quick=True, duration=max(2.0, sc.ts), engine="python")
+            except Exception as exc:
+                pytest.fail(f"{what}: accepted, then the run raised {exc!r}")
+    assert swept > 200
+
+
+@pytest.mark.parametrize(
+    ("name", "key", "value", "field"),
+    [
+        ("tuned_three_tank", "noise", "inf", "sensor.noise"),  # was: raised in the run
+        ("codesys_bumpless", "noise", "1e308", "sensor.noise"),  # was: OverflowError in the run
+        ("nowak_fig1", "y_max", "-inf", "sensor.y_max"),  # was: BAD_LIMITS in the run
+        ("astrom_fig31_33", "ts", "1e308", "scenario.ts"),  # was: KeyError('t'), no sample
+        ("nowak_fig7", "warmup", "-inf", "initial.warmup"),
+    ],
+)
+def test_a_number_the_run_cannot_take_is_refused_at_its_line(name, key, value, field):
+    text = _shipped(name)
+    bad = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text, count=1)
+    assert bad != text
+    _refused(bad, field)
+
+
+def test_a_run_shorter_than_one_sample_is_refused_by_name():
+    from ctrlblocks.sim.runner import run_scenario
+
+    sc = parse_scenario(_shipped("astrom_fig31_33"), file="s.toml")
+    with pytest.raises(ValueError, match="no sample"):
+        run_scenario(sc, duration=sc.ts / 2, engine="python")

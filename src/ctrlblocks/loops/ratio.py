@@ -221,7 +221,8 @@ class RatioStructure(Structure):
         kw = {}
         for name in ("r_min", "r_max", "bias", "rate"):
             if name in table:
-                kw[name] = r.number(table, name, f"{key}.ratio.{name}")
+                kw[name] = r.number(table, name, f"{key}.ratio.{name}",
+                                   limit=name in ("r_max", "rate"))  # inf: no limit
         try:
             cfg = RatioConfig(**kw, ts=ts)
         except ParameterError as exc:

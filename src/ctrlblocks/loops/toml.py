@@ -218,13 +218,16 @@ class TableReader:
         default: Any = ...,
         positive: bool = False,
         allow_nan: bool = False,
+        limit: bool = False,
     ) -> Any:
         """``d[name]`` as a float (``default`` when absent; no default: required).
 
         A NaN written in the file is refused unless ``allow_nan`` (no field of a
         scenario or a runtime configuration means anything by it: a bad
-        measurement is ``nan = true`` of a ``sensor`` event); ``+-inf`` is
-        accepted (no limit, at once) unless ``positive``.
+        measurement is ``nan = true`` of a ``sensor`` event).  ``+-inf`` is
+        refused unless the field is a ``limit`` (a range's end or a rate: there
+        ``inf`` means no limit); a noise level, a time or a value has no
+        meaning for it, and accepting it only moves the error to the run.
         """
         if name not in d:
             if default is ...:
@@ -236,7 +239,7 @@ class TableReader:
         x = float(v)
         if not allow_nan and math.isnan(x):
             raise self.fail(key, "must not be NaN")
-        if not math.isfinite(x) and positive:
+        if math.isinf(x) and (positive or not limit):
             raise self.fail(key, f"must be finite, got {v!r}")
         if positive and x <= 0:
             raise self.fail(key, f"must be > 0, got {v!r}")

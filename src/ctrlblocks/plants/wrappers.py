@@ -64,6 +64,9 @@ from .base import _P, Plant
 __all__ = ["Actuator", "Noise", "Sensor", "process"]
 
 _CHUNK = 256
+MAX_NOISE = 1e300
+"""Largest noise level: ``uniform(-level, level)`` needs ``2 level`` finite; far beyond any
+measurement, far below the overflow."""
 
 
 class Noise:
@@ -73,7 +76,7 @@ class Noise:
     ----------
     level : float
         ``kind="uniform"``: half-width of the range ``[-level, level]``;
-        ``kind="gaussian"``: standard deviation.  Output units, >= 0.
+        ``kind="gaussian"``: standard deviation.  Output units, 0 ... ``MAX_NOISE``.
     kind : {"uniform", "gaussian"}
         Distribution of the white sequence.
     t_corr : float
@@ -103,6 +106,9 @@ class Noise:
         seed: int | None = 0,
     ) -> None:
         self.level = require_nonnegative("level", level)
+        if self.level > MAX_NOISE:  # the generator's range 2 level overflows (1e308)
+            raise ParameterError(ErrorCode.BAD_PARAMETER, "level",
+                                 f"must be at most {MAX_NOISE:.3g}, got {level!r}")  # fmt: skip
         self.kind = require_choice("kind", kind, ("uniform", "gaussian"))
         self.t_corr = require_nonnegative("t_corr", t_corr, ErrorCode.BAD_TIME_CONSTANT)
         if self.t_corr > 0.0:

@@ -113,6 +113,8 @@ def run_scenario(
     if duration is None and quick:
         duration = scenario.quick_duration
     check_duration(duration)
+    if duration is not None and duration < scenario.ts:
+        raise ValueError(f"duration: {duration!r} s is a run of no sample (ts {scenario.ts!r} s)")
     band = float(scenario.metrics.get("band", 0.02))
     want_windows = bool(scenario.metrics.get("windows", True))
     runs: list[Run] = []

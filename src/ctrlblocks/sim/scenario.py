@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ..blocks.base import ParameterError, require_limits
 from ..loops.spec import BlockSpec, ControllerSpec, SpecReader, TuneHook
 from ..loops.structures import STRUCTURES as _STRUCTURES
 from ..loops.structures import parse_controller as _parse_controller
@@ -38,6 +39,7 @@ from ..loops.toml import (
     unknown_key_problem,
 )
 from ..plants import steady_input
+from ..plants.wrappers import Noise
 
 __all__ = [
     "EVENT_KINDS",
@@ -308,6 +310,10 @@ class _Parser(SpecReader):
         quick = self.number(
             head, "quick_duration", "scenario.quick_duration", default=duration, positive=True
         )
+        for field, length in (("ts", duration), ("quick_duration", quick)):
+            if length < ts:  # a run of no sample
+                raise self.fail(f"scenario.{field}", f"leaves a run of no sample: ts {ts!r} s is "
+                                f"longer than the duration {length!r} s")  # fmt: skip
         seed = head.get("seed", 0)
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise self.fail("scenario.seed", f"must be an integer >= 0, got {seed!r}")
@@ -332,7 +338,7 @@ class _Parser(SpecReader):
         self.samples(initial["warmup"], ts, "initial.warmup")
         controllers = self.controllers(doc, structure, ts, plant, initial)
         self.measured = self.measured_by(doc, structure)
-        cases = self.cases(doc, duration)
+        cases = self.cases(doc, duration, ts)
         for i, case in enumerate(cases):
             if case.duration != duration:
                 self.samples(case.duration, ts, f"cases[{i}].duration")
@@ -447,13 +453,20 @@ class _Parser(SpecReader):
         if steady_input(chain, y0) is None:
             raise self.fail("initial.y", INITIAL_Y_PROBLEM)
 
+    def range(self, out: dict[str, Any], lo: str, hi: str, table: str) -> None:
+        """A range that leaves a finite value (the blocks' own check, ``require_limits``)."""
+        try:
+            require_limits(lo, out[lo], hi, out[hi])
+        except ParameterError as exc:
+            field = hi if out[lo] <= out[hi] and out[lo] != math.inf else lo
+            raise self.fail(f"{table}.{field}", exc.message) from None
+
     def sensor(self, d: dict[str, Any]) -> dict[str, Any]:
         self.check_keys(d, {"y_min", "y_max", "noise", "noise_kind", "noise_t_corr"}, "sensor")
         out: dict[str, Any] = {}
-        out["y_min"] = self.number(d, "y_min", "sensor.y_min", default=-math.inf)
-        out["y_max"] = self.number(d, "y_max", "sensor.y_max", default=math.inf)
-        if out["y_min"] > out["y_max"]:
-            raise self.fail("sensor.y_min", f"is above sensor.y_max ({out['y_max']!r})")
+        out["y_min"] = self.number(d, "y_min", "sensor.y_min", default=-math.inf, limit=True)
+        out["y_max"] = self.number(d, "y_max", "sensor.y_max", default=math.inf, limit=True)
+        self.range(out, "y_min", "y_max", "sensor")
         out["noise"] = self.number(d, "noise", "sensor.noise", default=0.0)
         if out["noise"] < 0:
             raise self.fail("sensor.noise", f"must be >= 0, got {out['noise']!r}")
@@ -464,17 +477,21 @@ class _Parser(SpecReader):
         out["noise_t_corr"] = self.number(d, "noise_t_corr", "sensor.noise_t_corr", default=0.0)
         if out["noise_t_corr"] < 0:
             raise self.fail("sensor.noise_t_corr", "must be >= 0")
+        try:  # the noise block's own checks, here at the line, not in a run
+            Noise(out["noise"], kind=kind, t_corr=out["noise_t_corr"], ts=1.0)
+        except ParameterError as exc:
+            field = {"level": "noise", "kind": "noise_kind"}.get(exc.field, "noise_t_corr")
+            raise self.fail(f"sensor.{field}", exc.message) from None
         return out
 
     def actuator(self, d: dict[str, Any]) -> dict[str, Any]:
         self.check_keys(d, {"u_min", "u_max", "rate"}, "actuator")
         out = {
-            "u_min": self.number(d, "u_min", "actuator.u_min", default=-math.inf),
-            "u_max": self.number(d, "u_max", "actuator.u_max", default=math.inf),
-            "rate": self.number(d, "rate", "actuator.rate", default=math.inf),
+            "u_min": self.number(d, "u_min", "actuator.u_min", default=-math.inf, limit=True),
+            "u_max": self.number(d, "u_max", "actuator.u_max", default=math.inf, limit=True),
+            "rate": self.number(d, "rate", "actuator.rate", default=math.inf, limit=True),
         }
-        if out["u_min"] > out["u_max"]:
-            raise self.fail("actuator.u_min", f"is above actuator.u_max ({out['u_max']!r})")
+        self.range(out, "u_min", "u_max", "actuator")
         if not out["rate"] > 0:
             raise self.fail("actuator.rate", f"must be > 0, got {out['rate']!r}")
         return out
@@ -654,7 +671,7 @@ class _Parser(SpecReader):
 
     # -- time line ---------------------------------------------------------------
 
-    def cases(self, doc: dict[str, Any], duration: float) -> list[Case]:
+    def cases(self, doc: dict[str, Any], duration: float, ts: float) -> list[Case]:
         common = self.events(doc.get("events", []), "events", duration)
         raw = doc.get("cases")
         if raw is None:  # a case's time line is sorted by time (stable: file order at equal t)
@@ -672,6 +689,9 @@ class _Parser(SpecReader):
                 raise self.fail(f"{key}.name", f"duplicate case name {name!r}")
             names.add(name)
             dur = self.number(c, "duration", f"{key}.duration", default=duration, positive=True)
+            if dur < ts:
+                raise self.fail(f"{key}.duration", f"must be at least one sample (ts {ts!r} s), "
+                                f"got {dur!r}")  # fmt: skip
             ev = self.events(c.get("events", []), f"{key}.events", dur)
             out.append(Case(name, dur, tuple(sorted([*common, *ev], key=lambda e: e.t))))
         return out

@@ -56,10 +56,11 @@ class Parser(TableReader, LoopTables):
     # -- typed getters -------------------------------------------------------
 
     def number(
-        self, d: Mapping[str, Any], name: str, key: str, default: Any = ..., *, positive=False
+        self, d: Mapping[str, Any], name: str, key: str, default: Any = ..., *, positive=False,
+        limit=False,
     ) -> Any:
-        """A number that is never NaN; ``positive``: finite and > 0."""
-        x = super().number(d, name, key, default=default, allow_nan=False)
+        """A number that is never NaN, finite unless a ``limit``; ``positive``: finite and > 0."""
+        x = super().number(d, name, key, default=default, allow_nan=False, limit=limit)
         if positive and name in d and not (math.isfinite(x) and x > 0):
             raise self.fail(key, f"must be a finite number > 0, got {d[name]!r}")
         return x
