@@ -1,7 +1,9 @@
 """Every block settles for any measured period the runtime can pass: dt from ts/10 to 20 ts.
 
 The runtime passes a stretched period as ``dt`` up to ``max_dt`` (at most 20 ts,
-``MAX_DT_TS``); the ADRC's observer is covered in test_adrc_handover.py.  Found
+``MAX_DT_TS``); here the PID's derivative, the lead-lag, the PT1 (both
+discretisations), the rate limiter and the heat/cool split-range PID; the
+ADRC's observer is covered in test_adrc_handover.py.  Found
 by this test: a PID with ``derivative_method = "forward"`` (Åström 1987, (2.10))
 given a period beyond 2 Td/N had its derivative pole at ``1 - h/Tf`` outside the
 unit circle (the state grew to 1e229, the output banged between its limits).
@@ -69,3 +71,58 @@ def test_a_lead_lag_settles_on_k_x_for_periods_from_ts_over_10_to_20_ts(method, 
     for dt in periods(seed + 1, 2000):
         out = ll(1.0, dt=dt)
     assert out == pytest.approx(2.0, abs=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(method=st.sampled_from(("exact", "euler")), t=st.floats(0.0, 10.0),
+       gain=st.floats(-5.0, 5.0), seed=st.integers(0, 2**16))  # fmt: skip
+def test_a_pt1_moves_toward_k_u_and_settles_there_for_periods_from_ts_over_10_to_20_ts(
+    method, t, gain, seed
+):
+    """Both discretisations (exact pole exp(-h/T), backward Euler T/(T + h)) give every new
+    output between the last one and K u, for any h: no overshoot, no sign change of the error."""
+    from ctrlblocks.blocks import PT1
+
+    f = PT1(t=t, ts=TS, gain=gain, method=method)
+    for k, dt in enumerate(periods(seed, 100)):
+        u = math.sin(0.7 * k)
+        prev = f.out
+        out = f(u, dt=dt)
+        lo, hi = sorted((prev, gain * u))
+        assert lo - 1e-12 <= out <= hi + 1e-12, (prev, gain * u, out, dt)
+    for dt in periods(seed + 1, 3000):
+        out = f(1.0, dt=dt)
+    assert out == pytest.approx(gain, abs=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(rate=st.floats(0.01, 10.0), seed=st.integers(0, 2**16))
+def test_a_rate_limiter_moves_at_most_rate_dt_for_periods_from_ts_over_10_to_20_ts(rate, seed):
+    from ctrlblocks.blocks import RateLimiter
+
+    rl = RateLimiter(rate_up=rate, rate_down=rate, ts=TS)
+    prev = rl(0.0)
+    for k, dt in enumerate(periods(seed, 200)):
+        out = rl(5.0 * math.sin(0.3 * k), dt=dt)
+        assert abs(out - prev) <= rate * dt * (1 + 1e-12) + 1e-12
+        prev = out
+    for dt in periods(seed + 1, 200):
+        out = rl(1.0, dt=dt)
+    assert out == 1.0
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**16), deadzone=st.floats(0.0, 5.0))
+def test_a_heat_cool_pid_settles_for_periods_from_ts_over_10_to_20_ts(seed, deadzone):
+    """The split-range PID on a first-order process sampled at random periods: the outputs stay
+    in 0..100 % and the PV reaches the set point (its PID takes any period, test above)."""
+    from ctrlblocks.blocks import HeatCoolPID
+
+    blk = HeatCoolPID(kp=2.0, ti=5.0, ts=TS, deadzone=deadzone)
+    y, sp = 20.0, 30.0
+    for dt in periods(seed, 1500):
+        v = blk(sp, y, dt=dt)
+        assert 0.0 <= blk.heat <= 100.0 and 0.0 <= blk.cool <= 100.0 and math.isfinite(v)
+        y_ss = 20.0 + 0.5 * (blk.heat - blk.cool)  # K = 0.5 K/%, T = 4 s, exact in dt
+        y = y_ss + (y - y_ss) * math.exp(-dt / 4.0)
+    assert abs(y - sp) < 0.5
