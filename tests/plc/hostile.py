@@ -212,8 +212,9 @@ def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
                 block.u_man = inp["MAN_VALUE"] = _value(rng, float(rng.uniform(0, 100)), 0.3,
                                                         pool)  # fmt: skip
             u_real = _value(rng, x, p_hostile / 2, pool)
-            inp.update(SP=spv, PV=pvv, PV_OK=ok, U_REAL=u_real)
-            x = block(spv, pvv, y_ok=ok, u_real=u_real, dt=dt)
+            ff = _value(rng, float(rng.normal(0.0, 1.0)), p_hostile / 2, pool)
+            inp.update(SP=spv, PV=pvv, FF=ff, PV_OK=ok, U_REAL=u_real)
+            x = block(spv, pvv, ff=ff, y_ok=ok, u_real=u_real, dt=dt)
             x1, x2, x3, x4 = block.x
             out = {"MV": x, "ERROR_ID": int(block.error_id), "AWOUT": bool(block.awout),
                    "U_RAW": block.u_raw, "MAN_VALUE": block.u_man,

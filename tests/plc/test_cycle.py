@@ -34,7 +34,7 @@ from .traces import (
 )
 
 ADRC_PROCESS = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0,
-                "awin": False, "u_real": math.nan}  # fmt: skip
+                "awin": False, "u_real": math.nan, "ff": 0.0}  # fmt: skip
 PID_PROCESS = {"sp": 0.0, "pv": 0.0, "ff": 0.0, "dv": 0.0, "pv_ok": True, "manual": False,
                "man_value": 0.0, "rst": False, "track": False, "track_value": 0.0,
                "hold": False, "awin": False, "actuator_pos": math.nan}  # fmt: skip
@@ -47,7 +47,7 @@ FB_TO_PY = {
             "TS": "ts"},
     "adrc": {"SP": "sp", "PV": "y", "PV_OK": "y_ok", "MANUAL": "manual", "MAN_VALUE": "u_man",
              "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max",
-             "AWIN": "awin", "U_REAL": "u_real"},
+             "AWIN": "awin", "U_REAL": "u_real", "FF": "ff"},
     "leadlag": {"IN": "x", "ENABLE": "enable", "T_LEAD": "t_lead", "OUT_MIN": "out_min",
                 "OUT_MAX": "out_max"},
 }  # fmt: skip
@@ -134,7 +134,8 @@ def test_cycle_in_float64_is_the_block(kind, make):
                 block.configure(omega_c=inp["OMEGA_C"], omega_o=inp["OMEGA_O"])
             if "U_MIN" in inp:
                 block.set_limits(inp["U_MIN"], inp["U_MAX"])
-            u = block(inp["SP"], inp["PV"], y_ok=inp["PV_OK"], u_real=inp.get("U_REAL"))
+            u = block(inp["SP"], inp["PV"], ff=inp.get("FF", 0.0), y_ok=inp["PV_OK"],
+                      u_real=inp.get("U_REAL"))  # fmt: skip
             ref.append((u, int(block.error_id)))
             fig2.append((block.e, block.y, block.y_ref, *block.x))
         else:

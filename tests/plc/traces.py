@@ -171,17 +171,19 @@ ADRC_OPTIONS = [
     {"reverse": True},  # a reverse-acting process (the trace's plant gain negated)
     {"reverse": True, "discretisation": "exact", "anti_backoff": True, "y_sat": 0.5,
      "y_sat_lo": -3.0, "u_real_on": True},
+    {"out_rate": 5.0},  # the output ramp (5 %/s: the trace's set-point step ramps)
 ]  # fmt: skip
 """ADRC options beyond the Euler law of ``adrc_step``: the exact discretisation, u_real,
 the anti-backoff action (with a sensor that saturates), a warned discretisation, a
-reverse-acting process."""
+reverse-acting process, the output ramp."""
 
 
 def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[ADRC, Trace]:
     """A closed-loop day of a float32 ADRC on ``y'' = -0.5 y' + 0.05 u`` (plus a load).
 
     ``modes`` adds an AWIN stretch and a measured actuator value ``U_REAL`` lagging
-    u (with a NaN sample), the two overflowing PV spikes of :func:`pid_trace`, and
+    u (with a NaN sample), the feed-forward ``FF`` of the measured load (with a NaN
+    sample), the two overflowing PV spikes of :func:`pid_trace`, and
     makes the plant self-regulating (``- 0.1 y``); with
     ``anti_backoff`` the PV saturates at ``y_sat``.  With ``reverse`` the plant's
     gain and the set points are negated (a reverse-acting process).
@@ -224,12 +226,15 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
             pv = REAL_SPIKE if k == int(0.97 * n) else 1.7e308  # overflows LREAL, then REAL
         if cfg.get("anti_backoff"):
             pv = min(max(pv, cfg["y_sat_lo"]), cfg["y_sat"])  # the sensor saturates
+        load = -0.05 if k > 0.75 * n else 0.0
+        ff = 0.0
+        if modes:  # the measured load fed forward (-load/b0), a NaN sample among it
+            ff = inp["FF"] = NAN if k == int(0.8 * n) else -sgn * load / 0.05
         inp.update({"SP": spk, "PV": pv, "PV_OK": y_ok})
-        u = adrc(spk, pv, y_ok=y_ok, u_real=inp.get("U_REAL"))
+        u = adrc(spk, pv, ff=ff, y_ok=y_ok, u_real=inp.get("U_REAL"))
         u_act += 0.5 * (u - u_act)  # the actuator follows u with a lag
         tr.inputs.append(inp)
         tr.outputs.append((u, int(adrc.error_id), bool(adrc.awout)))
-        load = -0.05 if k > 0.75 * n else 0.0
         ddy = -0.5 * dy + sgn * 0.05 * u + load
         if modes:
             ddy -= 0.1 * y  # a self-regulating plant: the loop works in both directions

@@ -357,12 +357,31 @@ def test_sensor_ok_flag_reaches_pid_as_pv_ok():
     assert s["u"][101] != s["u"][79]  # and moves again after recovery
 
 
+ADRC_MAIN = '[controllers.main]\ntype = "ADRC"\norder = 1\nb0 = 0.6\nomega_c = 1.0\nomega_o = 5.0\n'
+
+
+def test_an_adrc_takes_the_feedforward_and_the_observer_is_left_only_the_rest():
+    """The ADRC's ff input (issue 34, point 1): the static feed-forward of the measured input
+    load cancels it as it does for the PID -- the ESO is fed the applied u less ff, so the
+    feed-forward's effect and the load cancel in its total disturbance and it sees nothing;
+    without feed-forward the observer has to find the load first."""
+    text = FEEDFORWARD.replace("[controllers.main]\n" + _pi(1.0, 4.0), ADRC_MAIN)
+    assert text.count('type = "ADRC"') == 2
+    r = run_scenario(parse_scenario(text))
+    with_ff = r.metric("static feed-forward", "main", "peak_error")
+    without = r.metric("no feed-forward", "main", "peak_error")
+    assert with_ff < 1e-9 and without > 0.05
+    run = next(x for x in r.runs if x.controller == "static feed-forward")
+    assert run.signals["ff"][-1] == pytest.approx(-0.5)
+    assert run.signals["u"][-1] == pytest.approx(-0.5, abs=1e-9)  # MV = ff: the load's
+
+
 def test_feedforward_needs_a_controller_with_an_ff_input():
     from ctrlblocks.sim import ScenarioError
 
     text = FEEDFORWARD.replace(
         "[controllers.main]\n" + _pi(1.0, 4.0),
-        '[controllers.main]\ntype = "ADRC"\norder = 1\nb0 = 1.0\nomega_c = 1.0\nomega_o = 4.0\n',
+        '[controllers.main]\ntype = "HeatCoolPID"\nkp = 1.0\nti = 4.0\n',
         1,
     )
     with pytest.raises(ScenarioError) as info:

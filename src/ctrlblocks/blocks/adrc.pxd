@@ -36,7 +36,7 @@ cpdef (double, double, double, double) solve_x4(
                now=cython.long, end_wait=cython.bint, sat_next=cython.long)
 cpdef (double, double, double, double, double, double, double, double, bint, long, long,
        double) adrc_law(
-    double r_in, double y, bint manual, double target, bint tracking, bint started, long sat,
+    double r_in, double y, double ff, bint manual, double target, bint tracking, bint started, long sat,
     bint awin, bint exact, bint ab_on, double yh, double x2, double x3, double x4, double u_eso,
     double u_prev, double ref, double q, long ab_sat, double ab_wait,
     (double, double, double, double, double, double, double, double, double, double, double,
@@ -65,8 +65,8 @@ cdef class ADRC(Block):
     cdef public object _limits_bad, _warn, awout, _eso, _eso_coef, _gains, _law, _sens
     cdef public object _ab_sat, _nd, _u_hist
     cdef public double out, _h, _ts, _yh, _x2, _x3, _x4, _u_prev, _ref, u_raw, y, e
-    cdef public double y_ref, _u_lo, _u_hi, _q
+    cdef public double y_ref, _u_lo, _u_hi, _q, _ff_prev, ff
     cpdef output_limits(self)
-    cdef _call(self, double sp, double y, pv_ok, y_ok, u_real, dt)
-    cdef _compute_output(self, sp, y, pv_ok, y_ok, dt)
+    cdef _call(self, double sp, double y, pv_ok, y_ok, u_real, dt, double ff=*)
+    cdef _compute_output(self, sp, y, pv_ok, y_ok, dt, ff=*)
     cdef _fast_cycle(self, double sp, double y)

@@ -142,6 +142,7 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .pid import pid_output
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
 from .precision import unsupported as _unsupported
@@ -451,6 +452,7 @@ def anti_backoff_states(
 def adrc_law(
     r_in: float,
     y: float,
+    ff: float,
     manual: bool,
     target: float,
     tracking: bool,
@@ -488,6 +490,12 @@ def adrc_law(
       where a block that starts ``tracking`` (in MAN) takes the held output
       ``target`` as ``u_eso``: the plant rests at what it is given, not at the
       configured ``u0``;
+    * ``ff`` (finite; 0: none) is the feed-forward, added to the law's output
+      before the limits as in the PID; the ESO is fed ``u_eso`` -- the applied u
+      *less the ff of its cycle* (the caller's bookkeeping), so the ESO sees the
+      feed-forward's effect as part of the total disturbance and the loop stays
+      offset-free: the feed-forward only acts earlier than the observer can
+      (docs/blocks/adrc.md, "Feed-forward");
     * the reference trajectory (section 5): the exact PT1 ``a_ref`` of the
       setpoint ``r_in``; in MAN with a filter it follows ``y``;
     * the ESO (4a) by :func:`eso_euler`, or the exact current observer by
@@ -523,7 +531,7 @@ def adrc_law(
     y_sat, y_sat_lo, tau_wait = ab
     if not started:
         if tracking:  # started in MAN (or holding): the plant rests at the held output
-            u_eso = target
+            u_eso = target - ff
         yh = y
         x2 = 0.0
         x3 = 0.0
@@ -542,11 +550,11 @@ def adrc_law(
                                             l2, l3, l4, p1, p2, k1, k2, k3)  # fmt: skip
     if tracking:
         if kp != 0.0:
-            q = handover_offset(target, ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
+            q = handover_offset(target - ff, ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
             if q - q == 0.0:  # finite: the ESO runs on, the reference takes the offset
                 return target, target, z0, z1, z2, z3, ref, q, False, 0, ab_sat, ab_wait
         u_free = control_law(ref, z0, z1, z2, z3, b0, kp, kd1, kd2)
-        yh, x2, x3, x4 = solve_x4(target, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
+        yh, x2, x3, x4 = solve_x4(target - ff, u_free, z0, z1, z2, z3, s_yh, s_x2, s_x3, s_u)
         return target, target, yh, x2, x3, x4, ref, 0.0, False, 0, ab_sat, ab_wait
     q = a_q * q
     r = ref + q
@@ -557,7 +565,7 @@ def adrc_law(
         x2 = z1
         x3 = z2
         x4 = z3
-        u_raw = u_free
+        u_raw = u_free + ff
     else:
         if exact:
             yh, x2, x3, x4 = eso_exact(yh, x2, x3, x4, u_eso, y, 0.0, f01, f02, f03, f12,
@@ -569,7 +577,7 @@ def adrc_law(
             yh, x2, x3, x4 = eso_euler_substeps(yh, x2, x3, x4, u_eso, y, 0.0, ts, nsub, b0,
                                                 l1, l2, l3, l4, p1, p2, k1, k2,
                                                 k3)  # fmt: skip
-        u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2)
+        u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2) + ff
     end_wait = False
     if ab_on:
         now = 0
@@ -584,7 +592,7 @@ def adrc_law(
                 ysat = y_sat
             yh, x2, x3, x4 = anti_backoff_states(ysat, r, u_eso, l1, l2, l3, l4, b0, kp,
                                                  kd1, kd2, p1, p2, k1, k2, k3)  # fmt: skip
-            u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2)
+            u_raw = control_law(r, yh, x2, x3, x4, b0, kp, kd1, kd2) + ff
             ab_wait = 0.0
         elif now == 0 and ab_sat != 0:
             ab_wait = tau_wait  # Y has left the saturation
@@ -765,8 +773,8 @@ def adrc_step(
     if manual:
         target = clamp(u_man, lo, hi)
     u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat_next, _ab_sat, _ab_wait = adrc_law(
-        sp, y, manual, target, manual or track, started, sat, awin, False, False, yh, x2, x3,
-        x4, u_prev, u_prev, ref, q, 0, 0.0, prm, NO_EXACT, NO_ANTI_BACKOFF,
+        sp, y, 0.0, manual, target, manual or track, started, sat, awin, False, False, yh, x2,
+        x3, x4, u_prev, u_prev, ref, q, 0, 0.0, prm, NO_EXACT, NO_ANTI_BACKOFF,
     )  # fmt: skip
     return u, u_raw, yh, x2, x3, x4, ref, q, manual or end_wait, sat_next
 
@@ -843,9 +851,18 @@ class ADRCConfig(BlockConfig):
         ago, so that the input it sees is aligned with the output the process
         shows: the delay-compensated ("predictive") observer of Zhao & Gao
         (2014).  The control law is unchanged.  Refused beyond
-        :data:`MAX_DELAY_SAMPLES` samples.  Not covered by the compiled paths
-        and the PLC export yet (``fast_path_blockers``): the simulator runs
-        such an ADRC on its Python path.
+        :data:`MAX_DELAY_SAMPLES` samples.  The PLC cycle and the export have
+        it (input ``DELAY``); the compiled kernels do not
+        (``fast_path_blockers``): the simulator runs such an ADRC on its
+        Python path.
+    out_rate : float
+        Largest change of the output per second [MV units/s]; 0 (default): off.
+        The output ramp of the PID (controltheplant 2024, section 2.3.8; the
+        same stage, :func:`~ctrlblocks.blocks.pid.pid_output`): the limited
+        output moves at most ``out_rate h`` from the last one, in every mode.
+        The ESO is fed the ramped (applied) u, so the loop stays consistent
+        -- a slow actuator the observer knows.  The PLC cycle and the export
+        have it (``OUT_RATE``); the compiled kernels do not.
     """
 
     order: int = 2
@@ -868,6 +885,7 @@ class ADRCConfig(BlockConfig):
     precision: str = "float64"
     reverse: bool = False
     input_delay: float = 0.0
+    out_rate: float = 0.0
 
     def validate(self) -> None:
         if isinstance(self.order, bool) or self.order not in (1, 2, 3):
@@ -898,6 +916,7 @@ class ADRCConfig(BlockConfig):
                 "input_delay",
                 f"at most {MAX_DELAY_SAMPLES} samples of ts, got {self.input_delay!r} s",
             )
+        require_nonnegative("out_rate", self.out_rate, ErrorCode.BAD_RATE)
         if self.precision != "float64":
             _check_precision(self, "adrc")
 
@@ -1117,7 +1136,7 @@ class ADRC(Block):
     _declared = (
         "error_id _config manual awin u_man _lean _started _pending _track _prm _sat "
         "_limits_bad _warn awout _eso _eso_coef _gains _law _sens out _h _ts _yh _x2 _x3 _x4 "
-        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist _q"
+        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist _q _ff_prev ff"
     )
 
     @property
@@ -1142,7 +1161,8 @@ class ADRC(Block):
     _u_prev: float  # the u applied last
     _q: float  # the handover offset of the reference (handover_offset)
     _nd: int  # input_delay in samples
-    _u_hist: tuple[float, ...]  # the applied u of the last _nd samples before _u_prev, oldest first
+    _u_hist: tuple[float, ...]  # the ESO's u (applied less ff) of the _nd samples before the last
+    _ff_prev: float  # the feed-forward of the last cycle (the ESO is fed the applied u less it)
     _state_fields = (
         "out",
         "u_man",
@@ -1156,6 +1176,8 @@ class ADRC(Block):
         "_x3",
         "_x4",
         "_u_prev",
+        "_ff_prev",
+        "ff",
         "_ref",
         "_started",
         "_track",
@@ -1188,6 +1210,7 @@ class ADRC(Block):
             and not c.anti_backoff
             and not c.reverse
             and self._nd == 0
+            and c.out_rate == 0.0
         )
         if old is not None:
             self._u_hist = _resize_history(self._u_hist, self._nd, self._u_prev)
@@ -1234,8 +1257,9 @@ class ADRC(Block):
             self._ref, self._ab_sat, self._q = -self._ref, -self._ab_sat, -self._q
             self._track = True
         else:
-            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait, q = pend
-            self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait, -q)
+            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait, q, ff = pend
+            self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait, -q,
+                             ff)  # fmt: skip
 
     def _retune(self, old_law: tuple[float, float, float, float]) -> None:
         """Bumpless retuning at the instant of the change (:func:`retune_x4`).
@@ -1315,6 +1339,7 @@ class ADRC(Block):
         self.awout = False
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = u0
+        self._ff_prev = self.ff = 0.0
         self._u_hist = (u0,) * self._nd
         self.u_man = u0
         self._ref = 0.0
@@ -1348,7 +1373,9 @@ class ADRC(Block):
         self._q = 0.0
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = held
-        self._u_hist = (held,) * self._nd
+        if not _NINF < self._ff_prev < _INF:
+            self._ff_prev = self.ff = 0.0
+        self._u_hist = (held - self._ff_prev,) * self._nd
         if not self.manual:
             self.u_man = held
         self._started = False
@@ -1360,7 +1387,7 @@ class ADRC(Block):
             # a two-phase cycle in progress: commit this cycle's reference (y_ref, made
             # finite above), as the per-call cycle, which committed it before the guard
             ref = self._sgn * self.y_ref  # in the cycle's units (reverse: -y_ref)
-            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0, 0.0)
+            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0, 0.0, self._ff_prev)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped.
@@ -1372,8 +1399,11 @@ class ADRC(Block):
             snapshot = {**snapshot, "_u_hist": ()}
         if "_q" not in snapshot:  # a snapshot of before the handover offset
             snapshot = {**snapshot, "_q": 0.0}
+        if "_ff_prev" not in snapshot:  # a snapshot of before the feed-forward input
+            snapshot = {**snapshot, "_ff_prev": 0.0, "ff": 0.0}
         super().restore(snapshot)
-        self._u_hist = _resize_history(tuple(self._u_hist), self._nd, self._u_prev)
+        self._u_hist = _resize_history(tuple(self._u_hist), self._nd,
+                                       self._u_prev - self._ff_prev)  # fmt: skip
         self._pending = None
 
     # -- inputs and outputs ----------------------------------------------------
@@ -1464,12 +1494,17 @@ class ADRC(Block):
         sp: float,
         y: float,
         *,
+        ff: float = 0.0,
         pv_ok: bool = True,
         y_ok: bool = True,
         u_real: float | None = None,
         dt: float | None = None,
     ) -> float:
         """Run one cycle; return the manipulated variable u.
+
+        ``ff`` is the feed-forward [MV units], added to the law's output before
+        the limits as in the PID (docs/blocks/adrc.md, "Feed-forward"); a NaN/inf
+        ``ff`` holds the output as a bad setpoint does (``BAD_INPUT``).
 
         ``pv_ok`` is the quality of the measurement (the name of every
         controller, :class:`~ctrlblocks.blocks.protocols.Controller`); ``y_ok``
@@ -1483,15 +1518,18 @@ class ADRC(Block):
             sp = as_input(sp)
         if type(y) is not float:
             y = as_input(y)
+        if type(ff) is not float:
+            ff = as_input(ff)
         prev = self.out
-        v = self._call(sp, y, pv_ok, y_ok, u_real, dt)
+        v = self._call(sp, y, pv_ok, y_ok, u_real, dt, ff)
         u = self.out
         if self._u_lo <= u <= self._u_hi and _NINF < u < _INF:
             return v  # the guard's test inline: no call on the usual path
         return self._checked(prev, v)
 
     def _call(
-        self, sp: float, y: float, pv_ok: Any, y_ok: Any, u_real: Any, dt: float | None
+        self, sp: float, y: float, pv_ok: Any, y_ok: Any, u_real: Any, dt: float | None,
+        ff: float = 0.0,
     ) -> float:
         """The body of :meth:`__call__` (inputs converted, output not yet checked)."""
         if pv_ok is not True:
@@ -1504,6 +1542,8 @@ class ADRC(Block):
             and self._h == self._ts
             and self._pending is None
             and not (self._track or self.manual or self.awin)
+            and ff == 0.0
+            and self._ff_prev == 0.0
             and _NINF < sp < _INF
             and _NINF < y < _INF
         ):
@@ -1511,8 +1551,8 @@ class ADRC(Block):
         if self._config.precision == "float32":
             if self._cycle_time(dt, self._ts) is None:
                 return self.out
-            return _float32_cycle("adrc")(self, sp, y, y_ok, dt, u_real)
-        v = self.compute_output(sp, y, y_ok=y_ok, dt=dt)
+            return _float32_cycle("adrc")(self, sp, y, y_ok, dt, u_real, ff)
+        v = self.compute_output(sp, y, ff=ff, y_ok=y_ok, dt=dt)
         applied = v
         if self._config.u_real_on and self._pending is not None:
             if u_real is not None and is_finite(u_real):
@@ -1534,7 +1574,7 @@ class ADRC(Block):
         u_prev = self._u_prev
         (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, q, _end, self._sat, _abs,
          _abw) = adrc_law(
-            sp, y, False, u_prev, False, True, self._sat, False, False, False, self._yh,
+            sp, y, 0.0, False, u_prev, False, True, self._sat, False, False, False, self._yh,
             self._x2, self._x3, self._x4, u_prev, u_prev, self._ref, self._q, 0, 0.0, prm,
             NO_EXACT, NO_ANTI_BACKOFF,
         )  # fmt: skip
@@ -1568,6 +1608,7 @@ class ADRC(Block):
         sp: float,
         y: float,
         *,
+        ff: float = 0.0,
         pv_ok: bool = True,
         y_ok: bool = True,
         dt: float | None = None,
@@ -1575,11 +1616,14 @@ class ADRC(Block):
         """Compute this cycle's u without committing the state (Åström 1987, section 6).
 
         Idempotent within a cycle: it always starts from the committed state.
-        ``pv_ok`` (``y_ok``, its older alias) is the quality of the measurement.
+        ``pv_ok`` (``y_ok``, its older alias) is the quality of the measurement;
+        ``ff`` the feed-forward (:meth:`__call__`).
         """
-        return self._checked(self.out, self._compute_output(sp, y, pv_ok, y_ok, dt))
+        return self._checked(self.out, self._compute_output(sp, y, pv_ok, y_ok, dt, ff))
 
-    def _compute_output(self, sp: Any, y: Any, pv_ok: Any, y_ok: Any, dt: float | None) -> float:
+    def _compute_output(
+        self, sp: Any, y: Any, pv_ok: Any, y_ok: Any, dt: float | None, ff: Any = 0.0
+    ) -> float:
         """The body of :meth:`compute_output` (output not yet checked)."""
         if pv_ok is not True:
             y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
@@ -1602,6 +1646,12 @@ class ADRC(Block):
         sp_valid = is_finite(sp)
         if not sp_valid and err == ErrorCode.NO_ERROR:
             err = ErrorCode.BAD_INPUT
+        ff = as_input(ff)
+        ff_valid = _NINF < ff < _INF
+        if not ff_valid:  # a bad feed-forward: the last one, the output held (as a bad SP)
+            ff = self._ff_prev
+            if err == ErrorCode.NO_ERROR:
+                err = ErrorCode.BAD_INPUT
         manual = bool(self.manual)
         if manual:
             if is_finite(self.u_man):
@@ -1614,8 +1664,9 @@ class ADRC(Block):
             target = clamp(self._u_prev, lo, hi)
 
         yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
-        # the u the ESO is fed: the applied u, input_delay samples older (Zhao & Gao 2014)
-        u_eso = self._u_hist[0] if self._nd else self._u_prev
+        # the u the ESO is fed: the applied u less its feed-forward, input_delay samples
+        # older (Zhao & Gao 2014)
+        u_eso = self._u_hist[0] if self._nd else self._u_prev - self._ff_prev
         ref, q = self._ref, self._q
         started = self._started
         ab_sat, ab_wait = self._ab_sat, self._ab_wait
@@ -1634,14 +1685,14 @@ class ADRC(Block):
             if prm is None:
                 prm = self._prm = self._kernel_params()
             (u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat, ab_sat, ab_wait) = adrc_law(
-                r_in, yf, manual, target, manual or not sp_valid or self._track, started,
-                self._sat, bool(self.awin), self._exact, self._config.anti_backoff, yh, x2, x3,
-                x4, u_eso, self._u_prev, ref, q, ab_sat, ab_wait, prm,
-                self._eso_coef if self._exact else NO_EXACT, self._ab,
+                r_in, yf, ff, manual, target, manual or not sp_valid or not ff_valid
+                or self._track, started, self._sat, bool(self.awin), self._exact,
+                self._config.anti_backoff, yh, x2, x3, x4, u_eso, self._u_prev, ref, q, ab_sat,
+                ab_wait, prm, self._eso_coef if self._exact else NO_EXACT, self._ab,
             )  # fmt: skip
             started = True
-            # x4 by (11) next cycle: after MAN or a bad setpoint, at the end of the wait
-            track_next = manual or not sp_valid or end_wait
+            # x4 by (11) next cycle: after MAN or a bad setpoint or FF, at the end of the wait
+            track_next = manual or not sp_valid or not ff_valid or end_wait
             y_out = yf
             e = float(sp) - yf if sp_valid else sgn * self.e  # e held, in the cycle's units
             if not (_NINF < yh < _INF and _NINF < x2 < _INF and _NINF < x3 < _INF
@@ -1653,6 +1704,9 @@ class ADRC(Block):
                 yh = x2 = x3 = x4 = q = 0.0
                 started, track_next, sat, ab_sat, ab_wait = False, True, 0, 0, 0.0
                 err = ErrorCode.BAD_RESULT
+        rate = self._config.out_rate
+        if rate > 0.0 and _NINF < u_raw < _INF:  # the output ramp, in every mode
+            u, _ramping = pid_output(u, self.out, lo, hi, rate * h)
         if err == ErrorCode.NO_ERROR and self._limits_bad:
             err = ErrorCode.BAD_LIMITS
         if err == ErrorCode.NO_ERROR and self._warn:
@@ -1664,7 +1718,7 @@ class ADRC(Block):
         self.y = sgn * y_out
         self.e = sgn * e
         self.y_ref = sgn * ref  # the reference trajectory (Fig. 2's Y_ref)
-        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q)
+        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q, ff)
         return u
 
     def update_state(self, applied: float) -> None:
@@ -1693,10 +1747,12 @@ class ADRC(Block):
             self._ab_sat,
             self._ab_wait,
             self._q,
+            ff,
         ) = self._pending
         if self._nd:
-            self._u_hist = (*self._u_hist[1:], self._u_prev)
+            self._u_hist = (*self._u_hist[1:], self._u_prev - self._ff_prev)
         self._u_prev = a
+        self._ff_prev = self.ff = ff
         if not self.manual:
             self.u_man = a  # In/Out as in the PID: AUTO -> MAN holds the output
         self._pending = None
@@ -1708,12 +1764,15 @@ class ADRC(Block):
 
         The one decision for every compiled path: ``discretisation="exact"``,
         ``u_real_on`` and ``anti_backoff`` are not covered, nor the ``awin``
-        input; ``manual_ok`` False also refuses a block in manual (the banks
-        run in auto).
+        input, nor a feed-forward in force (the kernels have no ``ff``: a block
+        whose last cycle had one is refused); ``manual_ok`` False also refuses a
+        block in manual (the banks run in auto).
         """
         bad = _unsupported(self._config, "adrc")  # the options (also the PLC cycle's check)
         if self.awin:
             bad.append("awin")
+        if self._ff_prev != 0.0:
+            bad.append("feed-forward")
         if not manual_ok and self.manual:
             bad.append("manual")
         return bad

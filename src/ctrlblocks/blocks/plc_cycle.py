@@ -770,7 +770,8 @@ def pid_cycle(
 ADRC_RESULTS = (
     "mv", "error_id", "awout", "u_raw", "u_man", "x4_out", "e_out", "y_out", "y_ref",
     "x1_out", "x2_out", "x3_out",
-    "out", "yh", "x2", "x3", "x4", "u_prev", "ref", "q", "e", "y_last", "started", "track",
+    "out", "yh", "x2", "x3", "x4", "u_prev", "ff_prev", "ref", "q", "e", "y_last", "started",
+    "track",
     "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
     "exact_prev", "rev_prev", "u_buf", "d_idx", "nd_prev", "d_restart",
@@ -814,6 +815,7 @@ def discretisation_ok(n: int, omega_c: float, omega_o: float, ts: float, exact: 
 def adrc_cycle(
     sp: float,
     y: float,
+    ff: float,
     y_ok: bool,
     manual: bool,
     u_man: float,
@@ -837,12 +839,14 @@ def adrc_cycle(
     tau_wait: float,
     reverse: bool,
     nd: int,
+    out_rate: float,
     out: float,
     yh: float,
     x2: float,
     x3: float,
     x4: float,
     u_prev: float,
+    ff_prev: float,
     ref: float,
     q: float,
     e: float,
@@ -869,6 +873,11 @@ def adrc_cycle(
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
+    ``ff`` is the feed-forward, added to the law's output before the limits;
+    the ESO is fed the applied u less the ff of its cycle (``ff_prev``;
+    :func:`~ctrlblocks.blocks.adrc.adrc_law`); a NaN/inf ``ff`` holds the output
+    as a bad SP does (16#8101) and keeps the last one.  ``out_rate`` (0: off) is the
+    PID's output ramp (:func:`~ctrlblocks.blocks.pid.pid_output`) after the limits.
     ``aw_rule`` 0 off, 1 freeze, 2 directional (section 4.1); ``exact`` the
     ZOH current observer instead of the Euler ESO (4a); ``u_real_on``: the
     measured actuator value ``u_real`` drives the ESO (section 5; a NaN falls
@@ -977,12 +986,17 @@ def adrc_cycle(
         sat_hi = -y_sat_lo
         sat_lo = -y_sat
     ab = (sat_hi, sat_lo, tau)
-    # the ESO's input: the applied u of nd samples before the last one (ADRC.input_delay)
-    u_eso, u_buf, d_idx, nd_prev, delay_ok = delay_line(u_prev, nd, d_restart, u_buf, d_idx,
-                                                        nd_prev)  # fmt: skip
+    # the ESO's input: the applied u less its feed-forward, of nd samples before the last
+    # one (ADRC.input_delay)
+    u_eso, u_buf, d_idx, nd_prev, delay_ok = delay_line(u_prev - ff_prev, nd, d_restart, u_buf,
+                                                        d_idx, nd_prev)  # fmt: skip
     d_restart = False
     # process data
     err = NO_ERROR
+    ff_valid = is_real(ff)
+    if not ff_valid:
+        ff = ff_prev  # a bad FF: the last one, the output held (as a bad SP)
+        err = BAD_INPUT
     y_valid = y_ok and is_real(y)
     if not y_ok:
         err = BAD_MEASUREMENT
@@ -1018,14 +1032,14 @@ def adrc_cycle(
             tgt = u_target
         # the ADRC's one cycle (adrc.adrc_law), as the block runs it
         mv, u_raw, yh, x2, x3, x4, ref, q, track, sat, ab_sat, ab_wait = adrc_law(
-            r_in, y, manual, clamp(tgt, lo, hi), manual or not sp_valid or track, started, sat,
-            awin, exact, anti_backoff, yh, x2, x3, x4, u_eso, u_prev, ref, q, ab_sat, ab_wait,
-            prm, ecoef, ab,
+            r_in, y, ff, manual, clamp(tgt, lo, hi), manual or not sp_valid or not ff_valid
+            or track, started, sat, awin, exact, anti_backoff, yh, x2, x3, x4, u_eso, u_prev,
+            ref, q, ab_sat, ab_wait, prm, ecoef, ab,
         )  # fmt: skip
         y_last = y
         if sp_valid:
             e = sp - y
-        track = track or manual or not sp_valid
+        track = track or manual or not sp_valid or not ff_valid
         started = True
         if not is_real(u_raw):
             # the law overflowed REAL: hold the output, restart the ESO at rest on the
@@ -1062,6 +1076,9 @@ def adrc_cycle(
             sat = 0
             ab_sat = 0
             ab_wait = 0.0
+    if out_rate > 0.0 and not overflow:
+        # the output ramp of the PID (pid_output), in every mode: at most OUT_RATE TS a cycle
+        mv, _ramping = pid_output(mv, out, lo, hi, out_rate * ts)
     if err == NO_ERROR:
         err = lim_err
     if err == NO_ERROR and not delay_ok:
@@ -1076,6 +1093,7 @@ def adrc_cycle(
             u_prev = u_real  # the measured actuator value drives the ESO (section 5)
         elif err in (NO_ERROR, WARN_DISCRETISATION):
             err = BAD_INPUT
+    ff_prev = ff
     if not manual:
         u_man = u_prev  # In/Out: outside MAN the manual value follows the applied u
     out = mv
@@ -1086,8 +1104,8 @@ def adrc_cycle(
         sgn = -1.0
     return (
         mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * ref, yh, x2, x3,
-        out, yh, x2, x3, x4, u_prev, ref, q, e, y_last, started, track, sat, ab_sat, ab_wait,
-        lo, hi,
+        out, yh, x2, x3, x4, u_prev, ff_prev, ref, q, e, y_last, started, track, sat, ab_sat,
+        ab_wait, lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
         u_buf, d_idx, nd_prev, d_restart,
     )  # fmt: skip
@@ -1275,6 +1293,7 @@ def adrc_inputs(config: Any) -> dict[str, Any]:
         "y_sat": float(config.y_sat), "y_sat_lo": float(config.y_sat_lo),
         "tau_wait": float(config.tau_wait), "reverse": bool(config.reverse),
         "nd": _adrc.delay_samples(config.input_delay, config.ts),
+        "out_rate": float(config.out_rate),
     }  # fmt: skip
 
 
@@ -1289,7 +1308,8 @@ def adrc_state(config: Any) -> dict[str, Any]:
     u0 = clamp(float(config.u0), lo, hi)
     nd = _adrc.delay_samples(config.input_delay, config.ts)
     return {
-        "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ref": 0.0,
+        "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ff_prev": 0.0,
+        "ref": 0.0,
         "q": 0.0, "e": 0.0, "y_last": 0.0, "started": False, "track": False, "sat": 0,
         "ab_sat": 0, "ab_wait": 0.0, "lo": lo, "hi": hi, "tuned": False, "order_prev": 0,
         "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
@@ -1376,7 +1396,8 @@ def pid_float32(
 
 
 def adrc_float32(
-    adrc: Any, sp: float, y: float, y_ok: bool, dt: float | None, u_real: float | None = None
+    adrc: Any, sp: float, y: float, y_ok: bool, dt: float | None, u_real: float | None = None,
+    ff: float = 0.0,
 ) -> float:
     """The cycle of an ADRC with ``precision="float32"``: :func:`adrc_cycle` in REAL."""
     prm = adrc_inputs(adrc.config)
@@ -1386,7 +1407,7 @@ def adrc_float32(
             return _no_cycle(adrc)
         prm["ts"] = float(dt)
     res = _lane(adrc, adrc_cycle, ADRC_RESULTS, {
-        "sp": sp, "y": y, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
+        "sp": sp, "y": y, "ff": ff, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
         "u_man": adrc.u_man, "awin": bool(adrc.awin),
         "u_real": math.nan if u_real is None else u_real}, prm, adrc_state)  # fmt: skip
     if res is None:
@@ -1401,6 +1422,7 @@ def adrc_float32(
     adrc.e, adrc.y, adrc.y_ref = float(res["e_out"]), float(res["y_out"]), float(res["y_ref"])
     adrc._yh, adrc._x2, adrc._x3 = (float(res[k]) for k in ("x1_out", "x2_out", "x3_out"))
     adrc._x4 = float(res["x4_out"])
+    adrc.ff = adrc._ff_prev = float(res["ff_prev"])
     return adrc.out
 
 

@@ -138,6 +138,8 @@ def unsupported(config: Any, kind: str) -> list[str]:
             # (loops, banks, lanes): a delay line of up to 100,000 samples is an array per
             # controller, which their state layout does not have (docs/blocks/adrc.md)
             bad.append("input_delay")
+        if getattr(config, "out_rate", 0.0) != 0.0:
+            bad.append("out_rate")
     return bad
 
 
@@ -147,8 +149,8 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
     A subset of :func:`unsupported`: the PLC cycle of :mod:`.plc_cycle` has
     the PID's velocity algorithm, PV scaling, filters, ramps, lead-lag
     feed-forward, adaptive dead band, every bumpless and anti-windup method,
-    and the ADRC's exact discretisation, ``u_real``, anti-backoff, ``reverse``
-    and ``input_delay``, which the compiled kernels lack.  Not covered: a dead-band
+    and the ADRC's exact discretisation, ``u_real``, anti-backoff, ``reverse``,
+    ``input_delay`` and ``out_rate``, which the compiled kernels lack.  Not covered: a dead-band
     window ``t_stab/ts`` beyond :data:`PLC_MAX_WINDOW` samples (the ARRAY the
     function block holds).
     """

@@ -70,6 +70,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..blocks.adrc import ADRC
 from ..blocks.leadlag import LeadLag
 from ..compiled import interpreted
 from ..loops.feedforward import FeedForwardStage
@@ -592,6 +593,10 @@ def wiring_blockers(side: Any) -> list[str]:
         if lp.ff not in (None, "ff") or (lp.ff == "ff" and "ff" not in signals):
             bad.append(f"{lp.role}: a feed-forward {lp.ff!r}")
         block = side.blocks[lp.role]
+        if lp.ff is not None and isinstance(block, ADRC):
+            # adrc_step has no ff: its ESO would be fed the whole applied u (the Python
+            # path feeds it the applied u less ff, ADRC.compute_output)
+            bad.append(f"{lp.role}: an ADRC's feed-forward (the kernel has none)")
         if not isinstance(block, _KernelSeam):
             bad.append(f"{lp.role}: {type(block).__name__} has no compiled kernel")
         else:

@@ -3,7 +3,7 @@
 The structure ``feedforward`` (Bonde et al. 2021, Fig. 10): the block
 ``feedforward`` (a :class:`~ctrlblocks.LeadLag`, or any block called as
 ``block(dv)``) filters the measured disturbance ``dv``; its output is added
-to the controller output before the limits (the PID's ``ff`` input).  A bad
+to the controller output before the limits (the ``ff`` input of the PID and the ADRC).  A bad
 ``dv`` (flagged or not finite) freezes the lead-lag (not called): ``ff``
 keeps its last value.
 """
@@ -55,6 +55,6 @@ class FeedForward(Structure):
             raise r.fail(
                 f"{key}.main.type",
                 f"{blocks['main'].type} has no feed-forward input 'ff'; "
-                "the feedforward structure needs one (e.g. PID)",
+                "the feedforward structure needs one (PID, ADRC)",
             )
         return blocks, opts

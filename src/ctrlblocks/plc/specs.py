@@ -170,6 +170,8 @@ _PID_STATE_COMMENTS = {
 _ADRC_PROCESS = _table("""
 sp     SP        setpoint Y_sp [{pv}]
 y      PV        process value Y [{pv}]
+ff     FF        feed-forward [{mv}], added before the limits; the ESO is fed the applied u
+                 less it (a NaN holds MV as a bad SP, 16#8101)
 y_ok   PV_OK     quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF
 manual MANUAL    MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)
 u_man  MAN_VALUE manual value [{mv}]; outside MANUAL it follows the applied u (In/Out)
@@ -194,6 +196,7 @@ y_sat        Y_SAT        upper saturation of the sensor [{pv}] (ANTI_BACKOFF)
 y_sat_lo     Y_SAT_LO     lower saturation of the sensor [{pv}] (ANTI_BACKOFF)
 tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
 reverse      REVERSE      reverse-acting process (negative gain): the ESO and law run on -SP, -Y
+out_rate     OUT_RATE     largest change of MV per second [{mv}/s], in every mode; 0 = off
 nd           DELAY        dead time of the process input [samples of TS] (input_delay/ts): the ESO
                           is fed the applied u of DELAY samples before the last (Zhao & Gao 2014);
                           at most the exported array (a longer one: 16#8211, the one in force stays)
@@ -218,6 +221,7 @@ _ADRC_STATE_COMMENTS = {
     "out": "u of the last cycle [{mv}]", "yh": "ESO state Y_hat [{pv}]", "x2": "ESO state x2",
     "x3": "ESO state x3", "x4": "ESO state x4 (total disturbance)",
     "u_prev": "applied u of the last cycle [{mv}]", "ref": "reference trajectory [{pv}]",
+    "ff_prev": "FF of the last cycle [{mv}] (the ESO is fed U_PREV - FF_PREV)",
     "q": "handover offset of the reference [{pv}] (bumpless transfer, decays by "
          "EXP(-OMEGA_C TS))",
     "e": "control error of the last valid cycle [{pv}]",
@@ -307,8 +311,8 @@ def _spec_for(block: Any) -> BlockSpec:
         if bad:
             raise UnsupportedBlock(f"the PLC export does not cover the ADRC options {bad}")
         state = pc.adrc_state(c)
-        process = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": state["out"],
-                   "awin": False, "u_real": 0.0}  # fmt: skip
+        process = {"sp": 0.0, "y": 0.0, "ff": 0.0, "y_ok": True, "manual": False,
+                   "u_man": state["out"], "awin": False, "u_real": 0.0}  # fmt: skip
         values = {**process, **pc.adrc_inputs(c), **state, "mv": state["out"], "error_id": 0,
                   "awout": False, "u_raw": state["out"], "x4_out": 0.0, "e_out": 0.0,
                   "y_out": 0.0, "y_ref": 0.0, "x1_out": 0.0, "x2_out": 0.0,

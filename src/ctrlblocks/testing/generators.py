@@ -110,6 +110,8 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
     cfg["reverse"] = r.random() < 0.3
     if cfg["precision"] == "float64" and r.random() < 0.2:  # the ESO fed the delayed u
         cfg["input_delay"] = cfg["ts"] * r.randint(1, 40)
+    if r.random() < 0.2:  # the output ramp
+        cfg["out_rate"] = _lu(r, 1e-3, 1e3)
     return cfg
 
 
@@ -408,9 +410,10 @@ def _pid_step(blk: Any, two_phase: bool, vals: list[Any], dt: Any, flags: list[A
 
 def _adrc_step(blk: Any, two_phase: bool, vals: list[Any], dt: Any, flags: list[Any],
                y: float) -> Any:  # fmt: skip
-    """The ADRC with its older flag name ``y_ok`` and the measured ``u_real`` (one call)."""
+    """The ADRC with its feed-forward ``ff``, its older flag name ``y_ok`` and the measured
+    ``u_real`` (one call)."""
     sp, pv = vals[0], (vals[1] if vals[1] is not None else y)
-    kw: dict[str, Any] = {"y_ok": flags[0], "dt": dt}
+    kw: dict[str, Any] = {"ff": vals[3], "y_ok": flags[0], "dt": dt}
     if two_phase:
         v = blk.compute_output(sp, pv, **kw)
         blk.update_state(v)
