@@ -1,4 +1,4 @@
-"""The ADRC as a drop-in for the PID (issue 34, point 1): feed-forward ``ff`` and output ramp.
+"""The ADRC as a drop-in for the PID (issue 34, point 1): feed-forward, output ramp, TRACK, HOLD.
 
 ``ff`` is added to the law's output before the limits, as in the PID; the ESO
 is fed the applied u *less* the ff of its cycle, so the feed-forward's effect
@@ -18,8 +18,10 @@ exactly (zero-order hold):
 The output ramp ``out_rate`` is the PID's (``pid_output``): at most ``out_rate h``
 a cycle in every mode, the ESO fed the ramped u, offset-free.  The float32
 cycle and the exported FB of both are checked against the block by the PLC
-tests (``tests/plc/traces.py``: ``FF`` in the mode traces, ``out_rate`` among the
-options, hostile FF values in the seeded sequences).
+tests (``tests/plc/traces.py``: ``FF``, TRACK and HOLD in the mode traces,
+``out_rate`` among the options, hostile FF values and the modes in the seeded
+sequences).  TRACK and HOLD are MAN with another value: priority TRACK > HOLD >
+MANUAL, bumpless back to AUTO.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ctrlblocks import ADRC
-from ctrlblocks.blocks.base import ErrorCode, ParameterError
+from ctrlblocks.blocks.base import ErrorCode, Mode, ParameterError
 
 A, K, TS = 0.5, 2.0, 0.1
 E = math.exp(-A * TS)
@@ -199,3 +201,55 @@ def test_out_rate_is_refused_when_negative_and_the_old_configuration_stays():
         block.configure(out_rate=-1.0)
     assert info.value.code == ErrorCode.BAD_RATE and block.config.out_rate == 1.0
     assert "out_rate" in adrc(out_rate=1.0).fast_path_blockers()
+
+
+# -- TRACK and HOLD ---------------------------------------------------------------------
+
+
+def _at_rest(block: ADRC, u_man: float) -> float:
+    """The loop at rest in MAN on ``u_man``; returns y."""
+    y = 0.0
+    block.manual, block.u_man = True, u_man
+    for _ in range(300):
+        y = plant(y, block(1.0, y), 0.0)
+    block.manual = False
+    return y
+
+
+@pytest.mark.parametrize("mode", ["track", "hold"])
+def test_track_and_hold_give_their_output_and_return_to_auto_without_a_bump(mode):
+    block = adrc(u_min=-5.0, u_max=5.0)
+    y = _at_rest(block, 0.1)  # y = k 0.1 / a = 0.4, below the set point 1
+    for _ in range(5):
+        y = plant(y, block(1.0, y), 0.0)  # AUTO: the MV rises toward the set point
+    last = block.out
+    setattr(block, mode, True)
+    block.track_value = 9.0  # limited to 5
+    assert block.mode == (Mode.TRACK if mode == "track" else Mode.HOLD)
+    for _ in range(50):
+        u = block(1.0, y, ff=0.3)
+        y = plant(y, u, 0.0)
+    assert u == (5.0 if mode == "track" else last)
+    assert block.u_man == u  # the manual value follows (In/Out), as in the PID's TRACK
+    setattr(block, mode, False)
+    first = block(1.0, y, ff=0.3)
+    assert first == pytest.approx(u, abs=1e-12)  # no bump at the return
+
+
+def test_the_priority_is_track_hold_manual_and_a_bad_tracking_value_holds():
+    block = adrc(u_min=-5.0, u_max=5.0)
+    y = _at_rest(block, 1.0)
+    block.manual, block.u_man = True, -2.0
+    block.hold = True
+    block.track, block.track_value = True, 3.0
+    assert block.mode == Mode.TRACK and block(1.0, y) == 3.0
+    block.track = False
+    assert block.mode == Mode.HOLD and block(1.0, y) == 3.0  # the last u, held
+    block.hold = False
+    assert block.mode == Mode.MANUAL and block(1.0, y) == -2.0
+    block.track, block.track_value = True, math.nan
+    assert block(1.0, y) == -2.0 and block.error_id == ErrorCode.BAD_INPUT
+    block.mode = Mode.AUTO
+    assert not (block.track or block.hold or block.manual)
+    with pytest.raises(ParameterError):
+        block.mode = Mode.RESET

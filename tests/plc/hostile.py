@@ -7,7 +7,8 @@ sample and at random (a seeded :class:`numpy.random.Generator`):
   NaN, +-inf, +-1.7e308 (inf as a REAL), +-3e38 (a REAL whose arithmetic
   overflows), denormals (1e-40, -1.4e-45), +-0.0, 1e30, 1e-30;
 * the quality flag off, and the modes switched: MANUAL (with a hostile
-  manual value), RST, TRACK (hostile tracking values), HOLD, AWIN, ENABLE;
+  manual value), RST, TRACK (hostile tracking values), HOLD, AWIN, ENABLE
+  (the ADRC: MANUAL, TRACK, HOLD, AWIN; hostile FF values too);
 * retunes through ``configure()`` of any tuning field, with random values
   (the ones the block refuses are dropped, as an operator's would be), new
   limits, the other algorithm or discretisation;
@@ -203,7 +204,8 @@ def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
                    "I_TERM": block.i, "D_TERM": block.d,
                    "MAN_VALUE": block.manual_value}  # fmt: skip
         elif kind == "adrc":
-            for mode, attr in (("MANUAL", "manual"), ("AWIN", "awin")):
+            for mode, attr in (("MANUAL", "manual"), ("TRACK", "track"), ("HOLD", "hold"),
+                               ("AWIN", "awin")):  # fmt: skip
                 if rng.random() < (0.01 if not modes.get(mode) else 0.08):
                     modes[mode] = not modes.get(mode, False)
                     setattr(block, attr, modes[mode])
@@ -211,6 +213,9 @@ def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
             if rng.random() < 0.03:
                 block.u_man = inp["MAN_VALUE"] = _value(rng, float(rng.uniform(0, 100)), 0.3,
                                                         pool)  # fmt: skip
+            if rng.random() < 0.03:
+                block.track_value = inp["TRACK_VALUE"] = _value(rng, float(rng.uniform(0, 100)),
+                                                                0.3, pool)  # fmt: skip
             u_real = _value(rng, x, p_hostile / 2, pool)
             ff = _value(rng, float(rng.normal(0.0, 1.0)), p_hostile / 2, pool)
             inp.update(SP=spv, PV=pvv, FF=ff, PV_OK=ok, U_REAL=u_real)

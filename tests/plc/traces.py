@@ -181,7 +181,8 @@ reverse-acting process, the output ramp."""
 def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[ADRC, Trace]:
     """A closed-loop day of a float32 ADRC on ``y'' = -0.5 y' + 0.05 u`` (plus a load).
 
-    ``modes`` adds an AWIN stretch and a measured actuator value ``U_REAL`` lagging
+    ``modes`` adds an AWIN stretch, a TRACK (with a NaN tracking value) and a HOLD
+    stretch, a measured actuator value ``U_REAL`` lagging
     u (with a NaN sample), the feed-forward ``FF`` of the measured load (with a NaN
     sample), the two overflowing PV spikes of :func:`pid_trace`, and
     makes the plant self-regulating (``- 0.1 y``); with
@@ -211,6 +212,13 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
         if k == int(0.35 * n):
             adrc.manual = False
             inp["MANUAL"] = False
+        if modes and k in (int(0.55 * n), int(0.57 * n)):  # TRACK a value, with a NaN in it
+            adrc.track = inp["TRACK"] = k == int(0.55 * n)
+            adrc.track_value = inp["TRACK_VALUE"] = 35.0
+        if modes and k == int(0.56 * n):
+            adrc.track_value = inp["TRACK_VALUE"] = NAN
+        if modes and k in (int(0.63 * n), int(0.64 * n)):  # HOLD
+            adrc.hold = inp["HOLD"] = k == int(0.63 * n)
         if k == int(0.45 * n):
             adrc.configure(omega_c=0.8, omega_o=3.0)  # retune mid-run (bumpless by (11))
             inp["OMEGA_C"], inp["OMEGA_O"] = 0.8, 3.0

@@ -63,7 +63,7 @@ from .base cimport Block, as_input
 cdef class ADRC(Block):
     cdef public object manual, awin, u_man, _lean, _started, _pending, _track, _prm, _sat
     cdef public object _limits_bad, _warn, awout, _eso, _eso_coef, _gains, _law, _sens
-    cdef public object _ab_sat, _nd, _u_hist
+    cdef public object _ab_sat, _nd, _u_hist, track, hold, track_value
     cdef public double out, _h, _ts, _yh, _x2, _x3, _x4, _u_prev, _ref, u_raw, y, e
     cdef public double y_ref, _u_lo, _u_hi, _q, _ff_prev, ff
     cpdef output_limits(self)

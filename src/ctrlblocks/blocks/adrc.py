@@ -1083,6 +1083,12 @@ class ADRC(Block):
     awin : bool
         Freeze the x4 update (this block is a primary controller whose
         secondary is at a limit; section 5).
+    track, track_value, hold : bool, float, bool
+        The PID's TRACK and HOLD modes (controltheplant 2024, section 2.3.5;
+        priority TRACK > HOLD > MANUAL > AUTO, :attr:`mode`): u = ``track_value``
+        (limited; NaN: the last u, ``BAD_INPUT``) or the last applied u.  As in
+        MAN the ESO runs on the applied u and the law is kept on it, so the
+        return to AUTO is bumpless; ``u_man`` follows the applied u.
 
     Outputs
     -------
@@ -1136,7 +1142,8 @@ class ADRC(Block):
     _declared = (
         "error_id _config manual awin u_man _lean _started _pending _track _prm _sat "
         "_limits_bad _warn awout _eso _eso_coef _gains _law _sens out _h _ts _yh _x2 _x3 _x4 "
-        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist _q _ff_prev ff"
+        "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist _q _ff_prev ff track hold "
+        "track_value"
     )
 
     @property
@@ -1195,6 +1202,9 @@ class ADRC(Block):
         self.manual = False
         self.u_man = 0.0
         self.awin = False
+        self.track = False
+        self.track_value = 0.0
+        self.hold = False
         self._limits_bad = False
         self._pending: tuple[Any, ...] | None = None
         super().__init__(config, **params)
@@ -1286,7 +1296,9 @@ class ADRC(Block):
         if self._n < 2:
             x2 = 0.0
         x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, *self._law)
-        if not started or track or self.manual or not _NINF < x4_new < _INF:
+        if not started or track or self.manual or self.track or self.hold or not (
+            _NINF < x4_new < _INF
+        ):
             track = True  # the next cycle re-solves x4 by (11)
         else:
             x4 = x4_new
@@ -1432,16 +1444,24 @@ class ADRC(Block):
 
     @property
     def mode(self) -> Mode:
-        """``Mode.MANUAL`` or ``Mode.AUTO`` (set ``manual`` or assign a Mode)."""
+        """The active mode from the inputs, by the priority of :class:`Mode` (TRACK > HOLD >
+        MANUAL > AUTO); assigning a Mode sets its input and clears the others."""
+        if self.track:
+            return Mode.TRACK
+        if self.hold:
+            return Mode.HOLD
         return Mode.MANUAL if self.manual else Mode.AUTO
 
     @mode.setter
     def mode(self, value: Mode) -> None:
-        if value not in (Mode.AUTO, Mode.MANUAL):
+        if value not in (Mode.AUTO, Mode.MANUAL, Mode.TRACK, Mode.HOLD):
             raise ParameterError(
-                ErrorCode.BAD_PARAMETER, "mode", f"ADRC supports AUTO and MANUAL, got {value!r}"
-            )
+                ErrorCode.BAD_PARAMETER, "mode",
+                f"ADRC supports AUTO, MANUAL, TRACK and HOLD, got {value!r}",
+            )  # fmt: skip
         self.manual = value == Mode.MANUAL
+        self.track = value == Mode.TRACK
+        self.hold = value == Mode.HOLD
 
     @property
     def u_min(self) -> float:
@@ -1541,7 +1561,7 @@ class ADRC(Block):
             and self._started
             and self._h == self._ts
             and self._pending is None
-            and not (self._track or self.manual or self.awin)
+            and not (self._track or self.manual or self.awin or self.track or self.hold)
             and ff == 0.0
             and self._ff_prev == 0.0
             and _NINF < sp < _INF
@@ -1652,16 +1672,22 @@ class ADRC(Block):
             ff = self._ff_prev
             if err == ErrorCode.NO_ERROR:
                 err = ErrorCode.BAD_INPUT
-        manual = bool(self.manual)
+        # the output of a held mode, by the priority of Mode (TRACK > HOLD > MANUAL), as the
+        # PID's: the tracking value, the last output, the manual value
+        target = clamp(self._u_prev, lo, hi)
+        wanted: Any = None
+        if self.track:
+            wanted = self.track_value
+        elif self.hold:
+            wanted = self._u_prev
+        elif self.manual:
+            wanted = self.u_man
+        manual = wanted is not None  # a held mode: the law tracks its output
         if manual:
-            if is_finite(self.u_man):
-                target = clamp(float(self.u_man), lo, hi)
-            else:
-                target = clamp(self._u_prev, lo, hi)
-                if err == ErrorCode.NO_ERROR:
-                    err = ErrorCode.BAD_INPUT
-        else:
-            target = clamp(self._u_prev, lo, hi)
+            if is_finite(wanted):
+                target = clamp(float(wanted), lo, hi)
+            elif err == ErrorCode.NO_ERROR:
+                err = ErrorCode.BAD_INPUT
 
         yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
         # the u the ESO is fed: the applied u less its feed-forward, input_delay samples
@@ -1671,7 +1697,7 @@ class ADRC(Block):
         started = self._started
         ab_sat, ab_wait = self._ab_sat, self._ab_wait
         if not y_valid:
-            # measurement invalid: safe value (manual value in MAN), ESO frozen
+            # measurement invalid: safe value (the held mode's output), ESO frozen
             u = target if manual else clamp(float(self._config.u_sf), lo, hi)
             u_raw = u
             track_next = True
@@ -1773,6 +1799,8 @@ class ADRC(Block):
             bad.append("awin")
         if self._ff_prev != 0.0:
             bad.append("feed-forward")
+        if self.track or self.hold:
+            bad.append("track" if self.track else "hold")
         if not manual_ok and self.manual:
             bad.append("manual")
         return bad

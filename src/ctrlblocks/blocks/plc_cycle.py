@@ -771,7 +771,7 @@ ADRC_RESULTS = (
     "mv", "error_id", "awout", "u_raw", "u_man", "x4_out", "e_out", "y_out", "y_ref",
     "x1_out", "x2_out", "x3_out",
     "out", "yh", "x2", "x3", "x4", "u_prev", "ff_prev", "ref", "q", "e", "y_last", "started",
-    "track",
+    "resolve",
     "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
     "exact_prev", "rev_prev", "u_buf", "d_idx", "nd_prev", "d_restart",
@@ -819,6 +819,9 @@ def adrc_cycle(
     y_ok: bool,
     manual: bool,
     u_man: float,
+    track: bool,
+    track_value: float,
+    hold: bool,
     awin: bool,
     u_real: float,
     order: int,
@@ -852,7 +855,7 @@ def adrc_cycle(
     e: float,
     y_last: float,
     started: bool,
-    track: bool,
+    resolve: bool,
     sat: int,
     ab_sat: int,
     ab_wait: float,
@@ -873,7 +876,10 @@ def adrc_cycle(
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
-    ``ff`` is the feed-forward, added to the law's output before the limits;
+    ``track``/``track_value`` and ``hold`` are the PID's TRACK and HOLD modes (priority
+    TRACK > HOLD > MANUAL: the output is the tracking value, the last applied u, the
+    manual value; the law tracks it as in MAN).  ``ff`` is the feed-forward, added to the
+    law's output before the limits;
     the ESO is fed the applied u less the ff of its cycle (``ff_prev``;
     :func:`~ctrlblocks.blocks.adrc.adrc_law`); a NaN/inf ``ff`` holds the output
     as a bad SP does (16#8101) and keeps the last one.  ``out_rate`` (0: off) is the
@@ -949,10 +955,10 @@ def adrc_cycle(
     if retuned:
         # x4 so that the new law gives u_keep on them (retune_x4); (11) where it cannot
         x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, b0, kp, kd1, kd2)
-        if started and not track and not manual and is_real(x4_new):
+        if started and not resolve and not (manual or track or hold) and is_real(x4_new):
             x4 = x4_new
         else:
-            track = True
+            resolve = True
     a_ref = pt1_coefficient(t_ref, ts, "exact")
     a_q = handover_pole(omega_c, ts)
     prm = (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3, s_u,
@@ -975,7 +981,7 @@ def adrc_cycle(
         e = -e  # the held e and Y of Fig. 2 too (a bad SP or PV in this cycle keeps them)
         y_last = -y_last
         ab_sat = -ab_sat
-        track = True
+        resolve = True
     rev_prev = reverse
     sat_hi = y_sat
     sat_lo = y_sat_lo
@@ -1005,20 +1011,27 @@ def adrc_cycle(
     sp_valid = is_real(sp)
     if not sp_valid and err == NO_ERROR:
         err = BAD_INPUT
-    man_ok = is_real(u_man)
-    if manual and not man_ok and err == NO_ERROR:
-        err = BAD_INPUT
-    u_target = u_prev
-    if man_ok:
-        u_target = u_man
+    # the output of a held mode, by the priority TRACK > HOLD > MANUAL (as the PID's)
+    held = track or hold or manual
+    wanted = u_man
+    if track:
+        wanted = track_value
+    elif hold:
+        wanted = u_prev
+    tgt = u_prev
+    if held:
+        if is_real(wanted):
+            tgt = wanted
+        elif err == NO_ERROR:
+            err = BAD_INPUT
     overflow = False
     if not y_valid:
-        # measurement invalid: safe value (manual value in MAN), ESO frozen
+        # measurement invalid: safe value (the held mode's output), ESO frozen
         mv = clamp(u_sf, lo, hi)
-        if manual:
-            mv = clamp(u_target, lo, hi)
+        if held:
+            mv = clamp(tgt, lo, hi)
         u_raw = mv
-        track = True
+        resolve = True
         sat = 0
     else:
         r_in = sp
@@ -1027,19 +1040,16 @@ def adrc_cycle(
             if not started:
                 r_in = y
         ref_old = ref
-        tgt = u_prev
-        if manual:
-            tgt = u_target
         # the ADRC's one cycle (adrc.adrc_law), as the block runs it
-        mv, u_raw, yh, x2, x3, x4, ref, q, track, sat, ab_sat, ab_wait = adrc_law(
-            r_in, y, ff, manual, clamp(tgt, lo, hi), manual or not sp_valid or not ff_valid
-            or track, started, sat, awin, exact, anti_backoff, yh, x2, x3, x4, u_eso, u_prev,
+        mv, u_raw, yh, x2, x3, x4, ref, q, resolve, sat, ab_sat, ab_wait = adrc_law(
+            r_in, y, ff, held, clamp(tgt, lo, hi), held or not sp_valid or not ff_valid
+            or resolve, started, sat, awin, exact, anti_backoff, yh, x2, x3, x4, u_eso, u_prev,
             ref, q, ab_sat, ab_wait, prm, ecoef, ab,
         )  # fmt: skip
         y_last = y
         if sp_valid:
             e = sp - y
-        track = track or manual or not sp_valid or not ff_valid
+        resolve = resolve or held or not sp_valid or not ff_valid
         started = True
         if not is_real(u_raw):
             # the law overflowed REAL: hold the output, restart the ESO at rest on the
@@ -1056,7 +1066,7 @@ def adrc_cycle(
                 ref = ref_old
             q = 0.0
             started = False
-            track = True
+            resolve = True
             sat = 0
             ab_sat = 0
             ab_wait = 0.0
@@ -1072,7 +1082,7 @@ def adrc_cycle(
             x4 = 0.0
             q = 0.0
             started = False
-            track = True
+            resolve = True
             sat = 0
             ab_sat = 0
             ab_wait = 0.0
@@ -1104,7 +1114,7 @@ def adrc_cycle(
         sgn = -1.0
     return (
         mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * ref, yh, x2, x3,
-        out, yh, x2, x3, x4, u_prev, ff_prev, ref, q, e, y_last, started, track, sat, ab_sat,
+        out, yh, x2, x3, x4, u_prev, ff_prev, ref, q, e, y_last, started, resolve, sat, ab_sat,
         ab_wait, lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
         u_buf, d_idx, nd_prev, d_restart,
@@ -1310,7 +1320,7 @@ def adrc_state(config: Any) -> dict[str, Any]:
     return {
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ff_prev": 0.0,
         "ref": 0.0,
-        "q": 0.0, "e": 0.0, "y_last": 0.0, "started": False, "track": False, "sat": 0,
+        "q": 0.0, "e": 0.0, "y_last": 0.0, "started": False, "resolve": False, "sat": 0,
         "ab_sat": 0, "ab_wait": 0.0, "lo": lo, "hi": hi, "tuned": False, "order_prev": 0,
         "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
         "rev_prev": bool(config.reverse), "u_buf": [0.0] * (nd + 1), "d_idx": 0, "nd_prev": 0,
@@ -1408,6 +1418,7 @@ def adrc_float32(
         prm["ts"] = float(dt)
     res = _lane(adrc, adrc_cycle, ADRC_RESULTS, {
         "sp": sp, "y": y, "ff": ff, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
+        "track": bool(adrc.track), "track_value": adrc.track_value, "hold": bool(adrc.hold),
         "u_man": adrc.u_man, "awin": bool(adrc.awin),
         "u_real": math.nan if u_real is None else u_real}, prm, adrc_state)  # fmt: skip
     if res is None:

@@ -175,6 +175,9 @@ ff     FF        feed-forward [{mv}], added before the limits; the ESO is fed th
 y_ok   PV_OK     quality of PV (y_ok, Nowak et al. 2018 section 5); FALSE: MV := U_SF
 manual MANUAL    MAN mode (A_M): MV := MAN_VALUE, x4 re-solved by (11)
 u_man  MAN_VALUE manual value [{mv}]; outside MANUAL it follows the applied u (In/Out)
+track  TRACK     TRACK mode (priority TRACK > HOLD > MANUAL): MV := TRACK_VALUE, bumpless back
+track_value TRACK_VALUE tracking value [{mv}] (NaN: the last MV, 16#8101)
+hold   HOLD      HOLD mode: MV := the last applied u, bumpless back
 awin   AWIN      freeze x4 (anti-windup from a secondary in cascade, section 5)
 u_real U_REAL    measured actuator value u_real [{mv}] (U_REAL_ON; NaN: u, 16#8101)
 """)
@@ -226,7 +229,7 @@ _ADRC_STATE_COMMENTS = {
          "EXP(-OMEGA_C TS))",
     "e": "control error of the last valid cycle [{pv}]",
     "y_last": "PV of the last valid cycle [{pv}]",
-    "started": "the ESO has been started on a valid PV", "track": "re-solve x4 by (11)",
+    "started": "the ESO has been started on a valid PV", "resolve": "re-solve x4 by (11)",
     "sat": "+1/-1: last u_raw above/below the limits", "lo": "low limit in force",
     "hi": "high limit in force", "ab_sat": "+1/-1: Y at the upper/lower sensor saturation",
     "ab_wait": "anti-backoff hold time left [s]",
@@ -312,7 +315,8 @@ def _spec_for(block: Any) -> BlockSpec:
             raise UnsupportedBlock(f"the PLC export does not cover the ADRC options {bad}")
         state = pc.adrc_state(c)
         process = {"sp": 0.0, "y": 0.0, "ff": 0.0, "y_ok": True, "manual": False,
-                   "u_man": state["out"], "awin": False, "u_real": 0.0}  # fmt: skip
+                   "u_man": state["out"], "track": False, "track_value": 0.0, "hold": False,
+                   "awin": False, "u_real": 0.0}  # fmt: skip
         values = {**process, **pc.adrc_inputs(c), **state, "mv": state["out"], "error_id": 0,
                   "awout": False, "u_raw": state["out"], "x4_out": 0.0, "e_out": 0.0,
                   "y_out": 0.0, "y_ref": 0.0, "x1_out": 0.0, "x2_out": 0.0,
