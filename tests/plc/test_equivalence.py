@@ -131,3 +131,38 @@ def test_a_dead_band_window_beyond_the_exported_array_is_refused_as_the_float32_
             assert fb["db_win"] == 10 and fb["db_t"] == np.float32(1.0)
     assert codes[29] == 0 and set(codes[30:70]) == {0x8209} and codes[70:] == [0] * 20
     assert fb["db_win"] == 3
+
+
+@pytest.mark.parametrize("kind", ["pid", "adrc", "leadlag"])
+def test_limits_written_with_a_bad_ts_keep_the_held_output_inside_them_as_in_the_block(kind):
+    """The MATIEC campaign's find: new limits that exclude the output, written in a cycle whose
+    TS is bad (NaN). The cycle does not run, but the block's output guard limits the held
+    output -- to the REAL limit, as the FB has it (``precision.block_limits``; it was the
+    float64 limit, no REAL). The FB's hold branch now limits the held MV the same way."""
+    from ctrlblocks import ADRC, ErrorCode, LeadLag
+
+    make, fb_name, out, lo_hi = {
+        "pid": (lambda **k: PID(kp=1.0, ti=5.0, u_min=0.0, u_max=100.0, **k), "CB_PID", "MV",
+                ("u_min", "u_max")),
+        "adrc": (lambda **k: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0, **k), "CB_ADRC",
+                 "MV", ("u_min", "u_max")),
+        "leadlag": (lambda **k: LeadLag(k=2.0, t_lead=1.0, t_lag=2.0, out_min=-100.0,
+                                        out_max=100.0, **k), "CB_LEADLAG", "OUT",
+                    ("out_min", "out_max")),
+    }[kind]  # fmt: skip
+    block = make(precision="float32")
+    fb = Interpreter(plc.export(make(), "codesys")).instance(fb_name)
+    call = {"pid": lambda b, dt: b(50.0, 40.0, dt=dt), "adrc": lambda b, dt: b(50.0, 40.0, dt=dt),
+            "leadlag": lambda b, dt: b(10.0, dt=dt)}[kind]  # fmt: skip
+    proc = {"pid": {"SP": 50.0, "PV": 40.0}, "adrc": {"SP": 50.0, "PV": 40.0},
+            "leadlag": {"IN": 10.0}}[kind]  # fmt: skip
+    for _ in range(5):
+        call(block, None)
+        fb(**proc, TS=0.1)
+    assert ulps(fb[out], block.out) == 0
+    new = (65.08519646342809, 66.94845581054688)  # no REAL: the FB gets it rounded
+    block.configure(**dict(zip(lo_hi, new, strict=True)))
+    u = call(block, math.nan)
+    fb(**proc, TS=math.nan, **{n.upper(): np.float32(v) for n, v in zip(lo_hi, new, strict=True)})
+    assert u == float(np.float32(new[0])) and ulps(fb[out], u) == 0
+    assert fb["ERROR_ID"] == int(block.error_id) == int(ErrorCode.NO_CYCLE)

@@ -143,6 +143,7 @@ from .base import (
     require_positive,
 )
 from .pid import pid_output
+from .precision import block_limits
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
 from .precision import unsupported as _unsupported
@@ -1241,7 +1242,7 @@ class ADRC(Block):
             *self._gains, *self._law, *self._sens, *self._eso_coef,
         )  # fmt: skip
         if old is None or (old.u_min, old.u_max) != (c.u_min, c.u_max):  # type: ignore[attr-defined]
-            self._u_lo, self._u_hi = float(c.u_min), float(c.u_max)
+            self._u_lo, self._u_hi = block_limits(float(c.u_min), float(c.u_max), c.precision)
             self._limits_bad = False
         # (the default saturates: omega_o = 5e-324 would make the wait +inf)
         self._tau_wait = float(c.tau_wait) if c.tau_wait > 0 else min(3.5 / c.omega_o, MAX_TIME)
@@ -1502,7 +1503,7 @@ class ADRC(Block):
             self._limits_bad = True
             self.error_id = ErrorCode.BAD_LIMITS
             return
-        self._u_lo, self._u_hi = lo, hi
+        self._u_lo, self._u_hi = block_limits(lo, hi, self._config.precision)
         self._limits_bad = False
         self._prm = None
         self._relimit()

@@ -85,6 +85,7 @@ from .base import (
     require_nonnegative,
     require_positive,
 )
+from .precision import block_limits
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
 from .signals import clamp
@@ -258,7 +259,7 @@ class LeadLag(Block):
         c = self._config
         self._k, self._t_lead, self._t_lag = float(c.k), float(c.t_lead), float(c.t_lag)
         self._tustin = c.method == "tustin"
-        self._lo, self._hi = float(c.out_min), float(c.out_max)
+        self._lo, self._hi = block_limits(float(c.out_min), float(c.out_max), c.precision)
         self._ts = float(c.ts)
         self._set_h(self._ts)
 

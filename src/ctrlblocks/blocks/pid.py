@@ -80,6 +80,7 @@ from .base import (
 )
 from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
+from .precision import block_limits
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
 from .precision import unsupported as _unsupported
@@ -1054,7 +1055,7 @@ class PID(Block):
         self._imeth = METHODS.index(c.integral_method)
         self._dmeth = METHODS.index(c.derivative_method)
         self._alpha, self._beta = integral_weights(self._imeth)
-        self._lo, self._hi = float(c.u_min), float(c.u_max)
+        self._lo, self._hi = block_limits(float(c.u_min), float(c.u_max), c.precision)
         self._sgn = -1.0 if c.reverse else 1.0
         self._velocity = c.algorithm == "velocity"
         self._range = (float(c.pv_range[0]), float(c.pv_range[1])) if c.pv_range else None

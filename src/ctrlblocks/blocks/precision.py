@@ -104,6 +104,22 @@ def real_sqrt(x: Any) -> np.float32:
         return np.float32(math.sqrt(v)) if v != math.inf else _F32_INF
     return np.float32(math.nan)
 
+def block_limits(lo: float, hi: float, precision: str) -> tuple[float, float]:
+    """Output limits as the block holds them: a float32 block's as the REALs its FB gets.
+
+    The float32 cycle limits in REAL; the output guard, which also acts when no cycle
+    runs (a limit written with a bad TS), must limit to the same REAL values, else the
+    held output would be the float64 limit, which no REAL is (the MATIEC campaign's
+    find).  Infinite limits stay infinite (a finite REAL output is inside both).
+    """
+    if precision != "float32":
+        return lo, hi
+    with np.errstate(all="ignore"):
+        return tuple(  # type: ignore[return-value]
+            v if not math.isfinite(v) else float(np.float32(v)) for v in (lo, hi)
+        )
+
+
 PLC_MAX_WINDOW = 100_000
 """Longest dead-band window ``t_stab/ts`` [samples] of the PLC cycle: its ARRAY of REAL
 (400 kB at this length) is declared in the function block."""

@@ -181,9 +181,16 @@ def build(block: Any, name: str | None = None, units: Mapping[str, str] | None =
         # the block's bad dt: a TS that is no finite REAL > 0 runs nothing (outputs and state
         # hold), as the float32 block does (plc_cycle.cycle_time_ok, NO_CYCLE)
         ok = prog.function(pc.cycle_time_ok)
+        held = [f"    {var(st['error_id'])} := {pc.NO_CYCLE};"]
+        if spec.limited is not None:
+            # limits written with a bad TS: the held output stays inside them (the block's
+            # output guard; the last valid limits stay when the new pair is no range)
+            o, lo, hi = (var(st[n]) for n in spec.limited)
+            held += [f"    IF {lo} <= {hi} THEN", f"        IF {o} < {lo} THEN",
+                     f"            {o} := {lo};", f"        ELSIF {o} > {hi} THEN",
+                     f"            {o} := {hi};", "        END_IF;", "    END_IF;"]  # fmt: skip
         body = [f"IF {pou_ref(ok.pou)}({ok.inputs['ts'][0]} := {var(st['ts'])}) THEN",
-                *("    " + ln for ln in body), "ELSE",
-                f"    {var(st['error_id'])} := {pc.NO_CYCLE};", "END_IF;"]  # fmt: skip
+                *("    " + ln for ln in body), "ELSE", *held, "END_IF;"]  # fmt: skip
     body = [*body, f"{var('ERROR')} := {var(st['error_id'])} <> 0;"]
     for v in spec.state:
         if st[v.py] not in fbvars and not _zero(spec.values[v.py]):

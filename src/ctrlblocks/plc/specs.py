@@ -53,6 +53,9 @@ class BlockSpec:
     config: Any
     process: frozenset[str] = frozenset()
     """PLC names of the inputs the process writes (the others are the configuration's)."""
+    limited: tuple[str, str, str] | None = None
+    """``(output, low limit input, high limit input)``: the output the block keeps inside
+    the limits even when no cycle runs (python names; None: no such pair)."""
 
     def names(self) -> dict[str, str]:
         """python name -> PLC name for every parameter and result of the cycle."""
@@ -308,7 +311,8 @@ def _spec_for(block: Any) -> BlockSpec:
         return BlockSpec("pid", "CB_PID", "PID (ISA form, positional or velocity)", pc.pid_cycle,
                          pc.PID_RESULTS, _PID_PROCESS + _PID_TUNING, _PID_OUT,
                          _state(state, _PID_STATE_COMMENTS, {"p", "i_term"}), values, c,
-                         frozenset(v.st for v in _PID_PROCESS))  # fmt: skip
+                         frozenset(v.st for v in _PID_PROCESS),
+                         ("mv", "u_min", "u_max"))  # fmt: skip
     if isinstance(block, ADRC):
         bad = plc_unsupported(c, "adrc")
         if bad:
@@ -324,7 +328,8 @@ def _spec_for(block: Any) -> BlockSpec:
         return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler or exact ESO, orders 1..3)", pc.adrc_cycle,
                          pc.ADRC_RESULTS, _ADRC_PROCESS + _ADRC_TUNING, _ADRC_OUT,
                          _state(state, _ADRC_STATE_COMMENTS, set()), values, c,
-                         frozenset(v.st for v in _ADRC_PROCESS))  # fmt: skip
+                         frozenset(v.st for v in _ADRC_PROCESS),
+                         ("mv", "u_min", "u_max"))  # fmt: skip
     if isinstance(block, LeadLag):
         state = pc.leadlag_state(c)
         values = {"x": 0.0, "enable": True, **pc.leadlag_inputs(c), **state, "error_id": 0}
@@ -333,7 +338,8 @@ def _spec_for(block: Any) -> BlockSpec:
                          _LL_OUT, _state(state, {"x_prev": "input of the last sample",
                                                  "lo": "low limit in force",
                                                  "hi": "high limit in force"}, {"out"}),
-                         values, c, frozenset(v.st for v in _LL_PROCESS))  # fmt: skip
+                         values, c, frozenset(v.st for v in _LL_PROCESS),
+                         ("out", "out_min", "out_max"))  # fmt: skip
     cycle_spec = _cycle_block_spec(block)
     if cycle_spec is not None:
         return cycle_spec

@@ -74,12 +74,15 @@ class ScenarioResult:
         return all(c.holds for c in self.claims)
 
 
-def check_duration(duration: Any) -> None:
-    """Refuse a run duration [s] that is not a number > 0 (``inf``: no cut; None: the case's)."""
+def check_duration(duration: Any, ts: float | None = None) -> None:
+    """Refuse a run duration [s] that is not a number > 0 (``inf``: no cut; None: the case's),
+    or, given the sample time ``ts``, one shorter than a sample (a run of no sample)."""
     if duration is None:
         return
     if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not duration > 0:
         raise ValueError(f"duration: must be a number of seconds > 0, got {duration!r}")
+    if ts is not None and duration < ts:
+        raise ValueError(f"duration: {duration!r} s is a run of no sample (ts {ts!r} s)")
 
 
 def run_scenario(
@@ -112,9 +115,7 @@ def run_scenario(
     """
     if duration is None and quick:
         duration = scenario.quick_duration
-    check_duration(duration)
-    if duration is not None and duration < scenario.ts:
-        raise ValueError(f"duration: {duration!r} s is a run of no sample (ts {scenario.ts!r} s)")
+    check_duration(duration, scenario.ts)
     band = float(scenario.metrics.get("band", 0.02))
     want_windows = bool(scenario.metrics.get("windows", True))
     runs: list[Run] = []

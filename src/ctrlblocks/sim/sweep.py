@@ -234,7 +234,11 @@ def sweep(
     text, file = read_scenario_text(scenario)
     sets = parameter_sets(vary)
     for params in _probes(sets, vary):  # a bad key or value before sending work anywhere
-        _checked(text, file, params)
+        sc = _checked(text, file, params)
+        try:
+            check_duration(duration, sc.ts)  # a run of no sample
+        except ValueError as exc:
+            raise SweepError(str(exc)) from None
     if progress is not None:
         progress(0, len(sets))
     return _flatten(_run_sets(text, file, sets, executor, quick, duration, progress, batch, engine))
