@@ -131,10 +131,13 @@ def test_a_plain_block_has_no_modes_and_sees_nan_for_a_bad_measurement() -> None
 
 
 def test_tracking_uses_the_track_mode_where_there_is_one_else_manual() -> None:
+    from ctrlblocks.blocks import LeadLag
+
     pid, adrc = PID(kp=1.0, ti=2.0), ADRC(order=1, b0=1.0, omega_c=1.0, omega_o=5.0)
-    assert isinstance(pid, Tracking) and not isinstance(adrc, Tracking)
+    assert isinstance(pid, Tracking) and isinstance(adrc, Tracking)  # the ADRC has TRACK now
     assert isinstance(pid, Controller) and isinstance(adrc, Controller)
-    for block, mode in ((pid, "track"), (adrc, "manual")):
+    assert Wired(LeadLag()).follow(0.4) is None  # no modes: its own law
+    for block, mode in ((pid, "track"), (adrc, "track")):
         w = Wired(block)
         saved = w.follow(0.4)
         assert saved is not None and saved[0] == mode

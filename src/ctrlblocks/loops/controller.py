@@ -221,9 +221,9 @@ class Wired:
         A block with a TRACK mode (the PID: ``track``, ``track_value``,
         Åström 1987, Fig. 4.4: the integrator is set so that ``P + I + D +
         FF`` is the output, and the first cycle back in AUTO continues from
-        it) tracks; one with only a manual mode (the ADRC) runs that cycle in
-        manual at ``value``, which solves x4 by (11) of Nowak et al. 2018 and
-        re-solves it in its first cycle back in AUTO.  The mode inputs are the
+        it; the ADRC: its law is kept on the tracked output by the handover
+        offset) tracks; one with only a manual mode runs that cycle in
+        manual at ``value``.  The mode inputs are the
         user's: they are put back right after the compute (the blocks commit
         the mode of the computed cycle, so the manual value still follows the
         output, In/Out).  A block without modes runs its own law (None).
