@@ -86,6 +86,7 @@ pt1_coefficient = _signals.pt1_coefficient
 pt1_step = _signals.pt1_step
 rate_limit_step = _signals.rate_limit_step
 scale = _signals.scale
+steady_step = _signals.steady_step
 
 __all__ = [
     "ADRC_RESULTS",
@@ -236,23 +237,12 @@ def steady_detector(
 ) -> tuple[bool, float, float, bool]:
     """Has ``u`` stayed within ``tolerance`` of its anchor for ``t_stab`` [s]? ``restart`` resets.
 
-    :class:`~ctrlblocks.SteadyStateDetector` (controltheplant 2024,
-    ``FindSteadyState``): a larger variation moves the anchor to ``u`` and
-    restarts the time; a small slack makes ``t_stab = k h`` steady after
-    exactly k samples.  Returns ``(steady, anchor, elapsed, started)``.
+    The detector's one cycle, :func:`.signals.steady_step`, as
+    :class:`~ctrlblocks.SteadyStateDetector` runs it (controltheplant 2024,
+    ``FindSteadyState``).  Returns ``(steady, anchor, elapsed, started)``.
     """
-    steady = False
-    if restart:
-        started = False
-        elapsed = 0.0
-    else:
-        if not started or abs(u - anchor) > tolerance:
-            anchor = u
-            elapsed = 0.0
-            started = True
-        else:
-            elapsed = elapsed + h
-        steady = elapsed >= t_stab - 1e-9 * h
+    steady, anchor, elapsed, started = steady_step(u, tolerance, t_stab, h, restart, anchor,
+                                                   elapsed, started)  # fmt: skip
     return steady, anchor, elapsed, started
 
 

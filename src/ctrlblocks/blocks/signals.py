@@ -42,7 +42,6 @@ from .base import (
     BlockConfig,
     ErrorCode,
     ParameterError,
-    add_time,
     as_input,
     is_finite,
     require_bool,
@@ -578,6 +577,48 @@ class SteadyStateDetectorConfig(BlockConfig):
         require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
 
 
+STEADY_TIME_CAP = 1e30
+"""The longest time steady [s] the detector counts (3e22 years; a REAL holds it)."""
+
+
+def steady_step(
+    u: float,
+    tolerance: float,
+    t_stab: float,
+    h: float,
+    restart: bool,
+    anchor: float,
+    elapsed: float,
+    started: bool,
+) -> tuple[bool, float, float, bool]:
+    """One sample of the steady-state detector: the one cycle of the block and the PLC.
+
+    Has ``u`` stayed within ``tolerance`` of its anchor for ``t_stab`` [s]
+    (controltheplant 2024, ``FindSteadyState``)?  A larger variation moves the
+    anchor to ``u`` and restarts the time; ``restart`` (a bad input, the PID's
+    dead band leaving) starts afresh; a small slack makes ``t_stab = k h``
+    steady after exactly k samples; the time saturates at
+    :data:`STEADY_TIME_CAP`.  :class:`SteadyStateDetector` and the PID's dead
+    band (``plc_cycle.steady_detector``, float32 and the exported FB) run it.
+    Returns ``(steady, anchor, elapsed, started)``.
+    """
+    steady = False
+    if restart:
+        started = False
+        elapsed = 0.0
+    else:
+        if not started or abs(u - anchor) > tolerance:
+            anchor = u
+            elapsed = 0.0
+            started = True
+        else:
+            elapsed = elapsed + h
+            if elapsed > STEADY_TIME_CAP:
+                elapsed = STEADY_TIME_CAP
+        steady = elapsed >= t_stab - 1e-9 * h
+    return steady, anchor, elapsed, started
+
+
 class SteadyStateDetector(Block):
     """Is the input steady? (controltheplant 2024, ``FindSteadyState``).
 
@@ -607,22 +648,12 @@ class SteadyStateDetector(Block):
         if h is None:
             return self.steady
         u = as_input(u)
-        if not math.isfinite(u):
-            self.error_id = ErrorCode.BAD_INPUT
-            self._started = False
-            self._elapsed = 0.0
-            self.steady = False
-            self.out = 0.0
-            return False
-        self.error_id = ErrorCode.NO_ERROR
-        if not self._started or abs(u - self._anchor) > self._config.tolerance:
-            self._anchor = u
-            self._elapsed = 0.0
-            self._started = True
-        else:
-            self._elapsed = add_time(self._elapsed, h)
-        # a small slack so that t_stab = k*ts is reached after exactly k samples
-        self.steady = self._elapsed >= self._config.t_stab - 1e-9 * h
+        bad = not math.isfinite(u)  # not steady, the time restarts
+        self.error_id = ErrorCode.BAD_INPUT if bad else ErrorCode.NO_ERROR
+        c = self._config
+        self.steady, self._anchor, self._elapsed, self._started = steady_step(
+            u, c.tolerance, c.t_stab, h, bad, self._anchor, self._elapsed, self._started
+        )
         self.out = 1.0 if self.steady else 0.0
         return self.steady
 
