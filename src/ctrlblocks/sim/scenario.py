@@ -453,7 +453,7 @@ class _Parser(SpecReader):
         if steady_input(chain, y0) is None:
             raise self.fail("initial.y", INITIAL_Y_PROBLEM)
 
-    def range(self, out: dict[str, Any], lo: str, hi: str, table: str) -> None:
+    def limit_pair(self, out: dict[str, Any], lo: str, hi: str, table: str) -> None:
         """A range that leaves a finite value (the blocks' own check, ``require_limits``)."""
         try:
             require_limits(lo, out[lo], hi, out[hi])
@@ -466,7 +466,7 @@ class _Parser(SpecReader):
         out: dict[str, Any] = {}
         out["y_min"] = self.number(d, "y_min", "sensor.y_min", default=-math.inf, limit=True)
         out["y_max"] = self.number(d, "y_max", "sensor.y_max", default=math.inf, limit=True)
-        self.range(out, "y_min", "y_max", "sensor")
+        self.limit_pair(out, "y_min", "y_max", "sensor")
         out["noise"] = self.number(d, "noise", "sensor.noise", default=0.0)
         if out["noise"] < 0:
             raise self.fail("sensor.noise", f"must be >= 0, got {out['noise']!r}")
@@ -491,7 +491,7 @@ class _Parser(SpecReader):
             "u_max": self.number(d, "u_max", "actuator.u_max", default=math.inf, limit=True),
             "rate": self.number(d, "rate", "actuator.rate", default=math.inf, limit=True),
         }
-        self.range(out, "u_min", "u_max", "actuator")
+        self.limit_pair(out, "u_min", "u_max", "actuator")
         if not out["rate"] > 0:
             raise self.fail("actuator.rate", f"must be > 0, got {out['rate']!r}")
         return out
