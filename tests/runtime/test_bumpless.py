@@ -229,3 +229,46 @@ def test_a_restart_after_a_kill_during_a_transient_starts_from_the_mv_and_the_pr
     assert float(np.max(np.abs(np.diff([mv_at_kill, *after[:15]])))) < 0.05
     assert after[2] > after[1]  # the first move: up, toward the set point
     assert min(after[:15]) > 0.8 * mv_at_kill  # toward SP 3 (above the PV): never down to 0
+
+
+@pytest.mark.parametrize("kind", ["PID", "ADRC"])
+def test_a_device_that_comes_back_during_a_cycles_read_holds_that_cycle_then_starts_from_it(
+    kind,
+):
+    """The loopback race CI met once: the connection came back while a cycle's read was on
+    its way (after the cycle had looked for reconnections), so the read carried the PV but no
+    MV read-back; the loop cycled from its safe value and recorded it (nothing was written).
+    Now that cycle holds, and the next one resyncs and starts from the device's MV."""
+    bus = MemoryBus()
+    rt, clock, _samples = make(loop_toml(sp="1.5", block=BLOCKS[kind]), {"io": bus})
+    plant = ClockedPlant(bus, clock, 0.1, u0=U_DEVICE)
+    conn = rt.connections["io"]
+    adapter = conn.adapter
+    real_read = adapter.read
+    raced = []
+
+    async def read(addresses):
+        if not raced and clock.now() >= 5.0:  # the reconnection lands inside this read
+            raced.append(clock.now())
+            conn.reconnects += 1
+        return await real_read(addresses)
+
+    adapter.read = read
+
+    async def main():
+        plant.start()
+        await rt.start()
+        await clock.run_until(4.95)
+        writes0 = len(plant.device_writes())
+        await clock.run_until(5.05)  # the cycle of the race
+        writes1 = len(plant.device_writes())
+        await clock.run_until(5.15)  # the next one
+        st = rt.state("loop")
+        await rt.stop()
+        return writes0, writes1, st
+
+    writes0, writes1, st = bounded(main())
+    rows = {round(x.t, 6): x for x in _samples}
+    assert raced == [5.0] and writes1 == writes0  # nothing written in the cycle of the race
+    assert rows[5.0].mv == rows[4.9].mv and rows[4.9].mv != rows[4.8].mv  # held, not cycled
+    assert st["last_start"].startswith("reconnect: bumpless from the device's MV")

@@ -264,8 +264,16 @@ class Scan:
         self._watch_reconnects()
         self._start_reads()
         fresh = await self._wait_inputs(t)
+        # a device that came back during this cycle (after _watch_reconnects): its read
+        # carried no MV read-back, so its loops hold this cycle; the next one resyncs them
+        # and starts from the device's MV (a loop that cycled on the fresh PV from its safe
+        # value recorded that value though nothing was written -- loopback, under load)
+        back = {n for n, seen in self._reconnects.items()
+                if self.connections[n].reconnects != seen}  # fmt: skip
         outputs: dict[str, list[tuple[ControlLoop, float]]] = {}
         for lp, where in zip(self.loops, self._where, strict=True):
+            if back and back & set(lp.config.connections()):
+                continue
             conns = {c for c, _ in where.values()}
             on_time = conns <= fresh
             inputs: dict[str, Reading] | None = None
