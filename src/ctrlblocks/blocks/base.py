@@ -208,6 +208,30 @@ def require_finite(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_PARAME
     return x
 
 
+def require_range(name: str, value: Any) -> tuple[float, float] | None:
+    """A PV range ``(lo, hi)`` scaled to 0..100 % (controltheplant 2024 ``rangeLo/rangeHi``).
+
+    None (no scaling) passes; else a pair of finite numbers with ``lo < hi`` whose
+    span ``hi - lo`` is finite too (a span that overflows would scale every PV to 0),
+    or ParameterError ``BAD_LIMITS``.
+    """
+    if value is None:
+        return None
+    try:
+        lo, hi = value
+    except (TypeError, ValueError):
+        raise ParameterError(
+            ErrorCode.BAD_LIMITS, name, "must be None or a pair (lo, hi)"
+        ) from None
+    lo = require_finite(name, lo, ErrorCode.BAD_LIMITS)
+    hi = require_finite(name, hi, ErrorCode.BAD_LIMITS)
+    if not lo < hi:
+        raise ParameterError(ErrorCode.BAD_LIMITS, name, f"needs lo < hi, got {value!r}")
+    if not math.isfinite(hi - lo):
+        raise ParameterError(ErrorCode.BAD_LIMITS, name, f"its span hi - lo overflows: {value!r}")
+    return lo, hi
+
+
 def require_positive(name: str, value: Any, code: ErrorCode = ErrorCode.BAD_PARAMETER) -> float:
     """Return ``value`` as a float > 0, or raise ParameterError with ``code``."""
     x = require_finite(name, value, code)

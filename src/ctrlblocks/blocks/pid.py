@@ -77,6 +77,7 @@ from .base import (
     require_limits,
     require_nonnegative,
     require_positive,
+    require_range,
 )
 from .leadlag import LeadLag, LeadLagConfig
 from .pid_forms import FORMS, isa_parameters
@@ -748,19 +749,7 @@ class PIDConfig(BlockConfig):
         require_choice("derivative_method", self.derivative_method, METHODS)
         require_choice("algorithm", self.algorithm, ("positional", "velocity"))
         require_bool("reverse", self.reverse)
-        if self.pv_range is not None:
-            try:
-                lo, hi = self.pv_range
-            except (TypeError, ValueError):
-                raise ParameterError(
-                    ErrorCode.BAD_LIMITS, "pv_range", "must be None or a pair (lo, hi)"
-                ) from None
-            lo = require_finite("pv_range", lo, ErrorCode.BAD_LIMITS)
-            hi = require_finite("pv_range", hi, ErrorCode.BAD_LIMITS)
-            if not lo < hi:
-                raise ParameterError(
-                    ErrorCode.BAD_LIMITS, "pv_range", f"needs lo < hi, got {self.pv_range!r}"
-                )
+        require_range("pv_range", self.pv_range)
         require_nonnegative("sp_filter", self.sp_filter, ErrorCode.BAD_TIME_CONSTANT)
         require_nonnegative("pv_filter", self.pv_filter, ErrorCode.BAD_TIME_CONSTANT)
         require_nonnegative("sp_rate", self.sp_rate, ErrorCode.BAD_RATE)
