@@ -251,5 +251,7 @@ def test_the_priority_is_track_hold_manual_and_a_bad_tracking_value_holds():
     assert block(1.0, y) == -2.0 and block.error_id == ErrorCode.BAD_INPUT
     block.mode = Mode.AUTO
     assert not (block.track or block.hold or block.manual)
+    block.mode = Mode.RESET  # above them all: u0 (0 here) at once
+    assert block.reset_active and block(1.0, y) == 0.0 and block.mode == Mode.RESET
     with pytest.raises(ParameterError):
-        block.mode = Mode.RESET
+        block.mode = 7

@@ -420,7 +420,7 @@ def test_in_a_compiled_run_the_build_is_what_is_loaded() -> None:
     assert inspect.isfunction(compiled.interpreted("pid").pid_step)
     from ctrlblocks.blocks import plc_cycle
 
-    assert plc_cycle.pid_step is compiled.interpreted("pid").pid_step
+    assert plc_cycle.pid_law is compiled.interpreted("pid").pid_law
     # the call's parameters, from the interpreted source
     assert "pv_ok" in compiled.signature(ctrlblocks.PID).parameters
     assert "u_real" in compiled.signature(ctrlblocks.ADRC).parameters

@@ -8,7 +8,7 @@ sample and at random (a seeded :class:`numpy.random.Generator`):
   overflows), denormals (1e-40, -1.4e-45), +-0.0, 1e30, 1e-30;
 * the quality flag off, and the modes switched: MANUAL (with a hostile
   manual value), RST, TRACK (hostile tracking values), HOLD, AWIN, ENABLE
-  (the ADRC: MANUAL, TRACK, HOLD, AWIN; hostile FF values too);
+  (the ADRC: MANUAL, RST, TRACK, HOLD, AWIN; hostile FF values too);
 * retunes through ``configure()`` of any tuning field, with random values
   (the ones the block refuses are dropped, as an operator's would be), new
   limits, the other algorithm or discretisation;
@@ -51,6 +51,8 @@ STARTS: list[tuple[str, dict[str, Any]]] = [
               "t_ref": 1.0, "u_real_on": True}),
     ("adrc", {"order": 1, "b0": 0.5, "anti_backoff": True, "y_sat": 80.0, "y_sat_lo": -5.0,
               "reverse": True, "u_min": -50.0, "u_max": 50.0}),
+    ("adrc", {"order": 2, "b0": 0.1, "omega_c": 0.5, "omega_o": 2.5, "pv_range": (-20.0, 180.0),
+              "sp_filter": 1.0, "pv_filter": 0.5, "sp_rate": 10.0, "out_rate": 30.0}),
     ("leadlag", {"k": 1.5, "t_lead": 2.0, "t_lag": 1.0, "ts": 0.1}),
     ("leadlag", {"k": -0.5, "t_lead": 0.0, "t_lag": 0.3, "method": "euler", "out_min": -2.0,
                  "out_max": 3.0}),
@@ -113,6 +115,13 @@ _ADRC_RETUNES: dict[str, Any] = {
     "reverse": lambda r: bool(r.integers(2)),
     "tau_wait": lambda r: float(r.uniform(0.0, 3.0)),
     "limits": lambda r: sorted(float(x) for x in r.uniform(-20.0, 120.0, 2)),
+    "out_rate": lambda r: float(r.choice([0.0, r.uniform(0.5, 50.0)])),
+    "u0": lambda r: float(r.uniform(-10.0, 110.0)),
+    "pv_range": lambda r: None if r.integers(2) else (float(r.uniform(-100.0, 0.0)),
+                                                        float(r.uniform(50.0, 300.0))),
+    "sp_filter": lambda r: float(r.choice([0.0, r.uniform(0.05, 5.0)])),
+    "pv_filter": lambda r: float(r.choice([0.0, r.uniform(0.05, 5.0)])),
+    "sp_rate": lambda r: float(r.choice([0.0, r.uniform(0.5, 50.0)])),
 }
 _LL_RETUNES: dict[str, Any] = {
     "k": lambda r: float(r.uniform(-3.0, 3.0)),
@@ -204,8 +213,8 @@ def hostile_trace(kind: str, n: int, seed: int, jitter: bool = False,
                    "I_TERM": block.i, "D_TERM": block.d,
                    "MAN_VALUE": block.manual_value}  # fmt: skip
         elif kind == "adrc":
-            for mode, attr in (("MANUAL", "manual"), ("TRACK", "track"), ("HOLD", "hold"),
-                               ("AWIN", "awin")):  # fmt: skip
+            for mode, attr in (("MANUAL", "manual"), ("RST", "reset_active"), ("TRACK", "track"),
+                               ("HOLD", "hold"), ("AWIN", "awin")):  # fmt: skip
                 if rng.random() < (0.01 if not modes.get(mode) else 0.08):
                     modes[mode] = not modes.get(mode, False)
                     setattr(block, attr, modes[mode])

@@ -35,7 +35,7 @@ from .traces import (
 
 ADRC_PROCESS = {"sp": 0.0, "y": 0.0, "y_ok": True, "manual": False, "u_man": 0.0,
                 "awin": False, "u_real": math.nan, "ff": 0.0, "track": False,
-                "track_value": 0.0, "hold": False}  # fmt: skip
+                "track_value": 0.0, "hold": False, "rst": False}  # fmt: skip
 PID_PROCESS = {"sp": 0.0, "pv": 0.0, "ff": 0.0, "dv": 0.0, "pv_ok": True, "manual": False,
                "man_value": 0.0, "rst": False, "track": False, "track_value": 0.0,
                "hold": False, "awin": False, "actuator_pos": math.nan}  # fmt: skip
@@ -49,7 +49,8 @@ FB_TO_PY = {
     "adrc": {"SP": "sp", "PV": "y", "PV_OK": "y_ok", "MANUAL": "manual", "MAN_VALUE": "u_man",
              "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max",
              "AWIN": "awin", "U_REAL": "u_real", "FF": "ff", "TRACK": "track",
-             "TRACK_VALUE": "track_value", "HOLD": "hold"},
+             "TRACK_VALUE": "track_value", "HOLD": "hold", "RST": "rst", "PV_LO": "pv_lo",
+             "PV_HI": "pv_hi"},
     "leadlag": {"IN": "x", "ENABLE": "enable", "T_LEAD": "t_lead", "OUT_MIN": "out_min",
                 "OUT_MAX": "out_max"},
 }  # fmt: skip
@@ -135,6 +136,10 @@ def test_cycle_in_float64_is_the_block(kind, make):
             for name in ("TRACK", "TRACK_VALUE", "HOLD"):
                 if name in inp:
                     setattr(block, name.lower(), inp[name])
+            if "RST" in inp:
+                block.reset_active = inp["RST"]
+            if "PV_LO" in inp:
+                block.configure(pv_range=(inp["PV_LO"], inp["PV_HI"]))
             if "OMEGA_C" in inp:
                 block.configure(omega_c=inp["OMEGA_C"], omega_o=inp["OMEGA_O"])
             if "U_MIN" in inp:

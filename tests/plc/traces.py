@@ -172,22 +172,28 @@ ADRC_OPTIONS = [
     {"reverse": True, "discretisation": "exact", "anti_backoff": True, "y_sat": 0.5,
      "y_sat_lo": -3.0, "u_real_on": True},
     {"out_rate": 5.0},  # the output ramp (5 %/s: the trace's set-point step ramps)
+    # the input stage: PV range (b0 in % of it), SP and PV filters, SP ramp
+    {"pv_range": (-2.0, 8.0), "b0": 0.5, "sp_filter": 1.0, "pv_filter": 0.3, "sp_rate": 20.0},
+    {"pv_range": (-1.0, 4.0), "b0": 1.0, "anti_backoff": True, "y_sat": 3.0, "y_sat_lo": -0.5,
+     "sp_rate": 10.0, "reverse": True},
 ]  # fmt: skip
 """ADRC options beyond the Euler law of ``adrc_step``: the exact discretisation, u_real,
 the anti-backoff action (with a sensor that saturates), a warned discretisation, a
-reverse-acting process, the output ramp."""
+reverse-acting process, the output ramp, the input stage (PV range, filters, SP ramp;
+the range changed mid-run)."""
 
 
 def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[ADRC, Trace]:
     """A closed-loop day of a float32 ADRC on ``y'' = -0.5 y' + 0.05 u`` (plus a load).
 
-    ``modes`` adds an AWIN stretch, a TRACK (with a NaN tracking value) and a HOLD
-    stretch, a measured actuator value ``U_REAL`` lagging
+    ``modes`` adds an AWIN stretch, a TRACK (with a NaN tracking value), a RESET and a
+    HOLD stretch, a measured actuator value ``U_REAL`` lagging
     u (with a NaN sample), the feed-forward ``FF`` of the measured load (with a NaN
     sample), the two overflowing PV spikes of :func:`pid_trace`, and
     makes the plant self-regulating (``- 0.1 y``); with
     ``anti_backoff`` the PV saturates at ``y_sat``.  With ``reverse`` the plant's
-    gain and the set points are negated (a reverse-acting process).
+    gain and the set points are negated (a reverse-acting process).  With
+    ``pv_range`` the range widens mid-run (the ESO restarts, bumplessly).
     """
     cfg = {"order": 2, "b0": 0.05, "omega_c": 0.5, "omega_o": 2.5, "ts": 0.1,
            "u_min": 0.0, "u_max": 100.0, **config}  # fmt: skip
@@ -219,6 +225,12 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
             adrc.track_value = inp["TRACK_VALUE"] = NAN
         if modes and k in (int(0.63 * n), int(0.64 * n)):  # HOLD
             adrc.hold = inp["HOLD"] = k == int(0.63 * n)
+        if modes and k in (int(0.58 * n), int(0.59 * n)):  # RESET: u0 at once
+            adrc.reset_active = inp["RST"] = k == int(0.58 * n)
+        if "pv_range" in cfg and k == int(0.47 * n):  # a wider range: new units
+            lo, hi = cfg["pv_range"][0] - 1.0, cfg["pv_range"][1] + 1.0
+            adrc.configure(pv_range=(lo, hi))
+            inp["PV_LO"], inp["PV_HI"] = lo, hi
         if k == int(0.45 * n):
             adrc.configure(omega_c=0.8, omega_o=3.0)  # retune mid-run (bumpless by (11))
             inp["OMEGA_C"], inp["OMEGA_O"] = 0.8, 3.0

@@ -63,9 +63,9 @@ from .base cimport Block, as_input
 cdef class ADRC(Block):
     cdef public object manual, awin, u_man, _lean, _started, _pending, _track, _prm, _sat
     cdef public object _limits_bad, _warn, awout, _eso, _eso_coef, _gains, _law, _sens
-    cdef public object _ab_sat, _nd, _u_hist, track, hold, track_value
+    cdef public object _ab_sat, _nd, _u_hist, track, hold, track_value, reset_active
     cdef public double out, _h, _ts, _yh, _x2, _x3, _x4, _u_prev, _ref, u_raw, y, e
-    cdef public double y_ref, _u_lo, _u_hi, _q, _ff_prev, ff
+    cdef public double y_ref, _u_lo, _u_hi, _q, _ff_prev, ff, _sp_f, _pv_f, _sp_w, sp_w
     cpdef output_limits(self)
     cdef _call(self, double sp, double y, pv_ok, y_ok, u_real, dt, double ff=*)
     cdef _compute_output(self, sp, y, pv_ok, y_ok, dt, ff=*)

@@ -141,13 +141,14 @@ from .base import (
     require_limits,
     require_nonnegative,
     require_positive,
+    require_range,
 )
 from .pid import pid_output
 from .precision import block_limits
 from .precision import check_precision as _check_precision
 from .precision import float32_cycle as _float32_cycle
 from .precision import unsupported as _unsupported
-from .signals import clamp, pt1_coefficient
+from .signals import clamp, pt1_coefficient, pt1_step, rate_limit_step, scale
 
 __all__ = [
     "ADRC",
@@ -780,6 +781,82 @@ def adrc_step(
     return u, u_raw, yh, x2, x3, x4, ref, q, manual or end_wait, sat_next
 
 
+def input_stage(
+    sp: float,
+    y: float,
+    sp_ok: bool,
+    y_ok: bool,
+    sp_filter: float,
+    pv_filter: float,
+    sp_rate: float,
+    h: float,
+    preset: bool,
+    sp_f: float,
+    pv_f: float,
+    sp_w: float,
+) -> tuple[float, float, float]:
+    """The input stage of the ADRC, as the PID's: SP and PV filters, then the setpoint ramp.
+
+    One sample of the PID's input stage (controltheplant 2024, sections 2.3.4
+    scaling, 2.3.7 filters, 2.3.8 rate limit; :class:`~ctrlblocks.PID`): ``sp``
+    and ``y`` -- already scaled to 0..100 % where a PV range is configured --
+    each pass a PT1 with the exact pole
+    ``exp(-h/T)`` (:func:`.signals.pt1_coefficient`, ``T = 0``: off), and the
+    filtered setpoint a ramp of ``sp_rate`` units/s both ways (0: off,
+    :func:`.signals.rate_limit_step`).  A value that is not valid (``sp_ok``,
+    ``y_ok`` False) leaves its chain where it is.  ``preset`` (the ESO is not yet
+    started: the first valid measurement, or a restart) starts each chain at its
+    input, and a setpoint not yet valid then at the PV, so the ramp later starts
+    from the process.  With every option off the stage passes its inputs through
+    exactly.  Returns the new ``(sp_f, pv_f, sp_w)``: the working setpoint is
+    ``sp_w``, the measurement the ESO and the law see ``pv_f``.
+    """
+    if y_ok:
+        if preset:
+            pv_f = y
+        pv_f = pt1_step(pt1_coefficient(pv_filter, h, "exact"), pv_f, 1.0, y)
+        if sp_ok:
+            if preset:
+                sp_f = sp
+                sp_w = sp
+            sp_f = pt1_step(pt1_coefficient(sp_filter, h, "exact"), sp_f, 1.0, sp)
+            sp_w, _ramping = rate_limit_step(sp_f, sp_w, sp_rate, sp_rate, h)
+            if sp_w - sp_w != 0.0:  # the ramp's step overflowed: the filtered setpoint
+                sp_w = sp_f
+        elif preset:
+            sp_f = pv_f
+            sp_w = pv_f
+    return sp_f, pv_f, sp_w
+
+
+def mode_output(
+    rst: bool,
+    track: bool,
+    hold: bool,
+    manual: bool,
+    reset_value: float,
+    track_value: float,
+    u_prev: float,
+    u_man: float,
+) -> tuple[bool, float]:
+    """The mode in force and the output it asks for, by the PID's priority of modes.
+
+    RESET > TRACK > HOLD > MANUAL > AUTO (controltheplant 2024, section 2.3.5;
+    :class:`~ctrlblocks.blocks.base.Mode`): the reset value (the ADRC's ``u0``),
+    the tracking value, the last applied u, the manual value.  Returns ``(held,
+    wanted)``: ``held`` is any mode but AUTO (the law then tracks ``wanted``, which
+    the caller checks and limits).
+    """
+    wanted = u_man
+    if rst:
+        wanted = reset_value
+    elif track:
+        wanted = track_value
+    elif hold:
+        wanted = u_prev
+    return rst or track or hold or manual, wanted
+
+
 # ---------------------------------------------------------------------------
 # Configuration
 # ---------------------------------------------------------------------------
@@ -864,6 +941,27 @@ class ADRCConfig(BlockConfig):
         The ESO is fed the ramped (applied) u, so the loop stays consistent
         -- a slow actuator the observer knows.  The PLC cycle and the export
         have it (``OUT_RATE``); the compiled kernels do not.
+    pv_range : tuple of float or None
+        ``(lo, hi)`` of SP and PV [eng. units] scaled to 0..100 % before the
+        cycle, as the PID's (controltheplant 2024, section 2.3.4, ``rangeLo/
+        rangeHi``); None (default): no scaling.  The cycle then runs in % of the
+        range: ``b0`` is in %/s^n per unit of u, and ``y``, ``e``, ``y_ref``,
+        ``sp_w`` and the ESO state are in %; ``y_sat``/``y_sat_lo`` stay in PV
+        units (the block scales them).  A change of the range while running
+        restarts the ESO at rest on the next measurement, bumplessly (x4 by (11)).
+    sp_filter, pv_filter : float
+        Time constants [s] of the PID's SP and PV filters (PT1 with the exact
+        pole ``exp(-h/T)``, section 2.3.7; :func:`input_stage`); 0 (default):
+        off.  The PV filter is part of the loop: the ESO and the law see the
+        filtered PV, so tune with it in the plant model (``tune adrc``'s margins
+        include it).  Refused together with ``anti_backoff``: the sensor's
+        saturation is a property of the raw PV, which a filtered PV only
+        approaches.
+    sp_rate : float
+        Setpoint ramp [PV units/s, or %/s with ``pv_range``], both ways, after
+        the SP filter (section 2.3.8); 0 (default): off.  Unlike ``t_ref`` (the
+        paper's first-order reference trajectory, which the ESO-based handover
+        offsets), a ramp bounds the speed of the reference the law sees.
     """
 
     order: int = 2
@@ -887,6 +985,10 @@ class ADRCConfig(BlockConfig):
     reverse: bool = False
     input_delay: float = 0.0
     out_rate: float = 0.0
+    pv_range: tuple[float, float] | None = None
+    sp_filter: float = 0.0
+    pv_filter: float = 0.0
+    sp_rate: float = 0.0
 
     def validate(self) -> None:
         if isinstance(self.order, bool) or self.order not in (1, 2, 3):
@@ -918,6 +1020,16 @@ class ADRCConfig(BlockConfig):
                 f"at most {MAX_DELAY_SAMPLES} samples of ts, got {self.input_delay!r} s",
             )
         require_nonnegative("out_rate", self.out_rate, ErrorCode.BAD_RATE)
+        require_range("pv_range", self.pv_range)
+        require_nonnegative("sp_filter", self.sp_filter, ErrorCode.BAD_TIME_CONSTANT)
+        require_nonnegative("pv_filter", self.pv_filter, ErrorCode.BAD_TIME_CONSTANT)
+        require_nonnegative("sp_rate", self.sp_rate, ErrorCode.BAD_RATE)
+        if self.anti_backoff and self.pv_filter > 0.0:
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER, "pv_filter",
+                "anti_backoff detects the sensor's saturation on the raw PV, which a filtered "
+                "PV only approaches: use one of them",
+            )  # fmt: skip
         if self.precision != "float64":
             _check_precision(self, "adrc")
 
@@ -1068,7 +1180,8 @@ class ADRC(Block):
     ----------
     See :class:`ADRCConfig`: ``order, b0, omega_c, omega_o, ts, u_min, u_max,
     t_ref, discretisation, u_sf, u0, anti_windup, u_real_on, anti_backoff,
-    y_sat, y_sat_lo, tau_wait, precision, reverse``.
+    y_sat, y_sat_lo, tau_wait, precision, reverse, input_delay, out_rate,
+    pv_range, sp_filter, pv_filter, sp_rate``.
 
     Inputs (attributes written between cycles, like PLC inputs)
     -----------------------------------------------------------
@@ -1090,11 +1203,17 @@ class ADRC(Block):
         (limited; NaN: the last u, ``BAD_INPUT``) or the last applied u.  As in
         MAN the ESO runs on the applied u and the law is kept on it, so the
         return to AUTO is bumpless; ``u_man`` follows the applied u.
+    reset_active : bool
+        The PID's RESET mode (controltheplant 2024, section 2.3.5; priority over
+        all others): u = ``u0`` (limited) at once, past the output ramp; the
+        law tracks it as in MAN, so the return is bumpless.
 
     Outputs
     -------
     u / out (applied value computed this cycle), ``u_raw`` (4b before the
-    limits), ``e = sp - y``, ``y``, ``y_ref``, ``x = (Y_hat, x2, x3, x4)``,
+    limits), ``e = sp_w - y``, ``y`` (the PV the law sees: scaled and filtered
+    where configured), ``sp_w`` (the working setpoint after the SP filter and
+    ramp), ``y_ref``, ``x = (Y_hat, x2, x3, x4)``,
     ``awout`` (u_raw beyond a limit), ``error``, ``error_id``, ``warning``.
 
     Anti-windup (section 4.1) and why the default rule is *directional*
@@ -1144,7 +1263,7 @@ class ADRC(Block):
         "error_id _config manual awin u_man _lean _started _pending _track _prm _sat "
         "_limits_bad _warn awout _eso _eso_coef _gains _law _sens out _h _ts _yh _x2 _x3 _x4 "
         "_u_prev _ref u_raw y e y_ref _u_lo _u_hi _ab_sat _nd _u_hist _q _ff_prev ff track hold "
-        "track_value"
+        "track_value reset_active _sp_f _pv_f _sp_w sp_w"
     )
 
     @property
@@ -1195,6 +1314,10 @@ class ADRC(Block):
         "_plc_state",
         "_u_hist",
         "_q",
+        "_sp_f",
+        "_pv_f",
+        "_sp_w",
+        "sp_w",
     )
 
     # -- configuration -------------------------------------------------------
@@ -1206,6 +1329,7 @@ class ADRC(Block):
         self.track = False
         self.track_value = 0.0
         self.hold = False
+        self.reset_active = False
         self._limits_bad = False
         self._pending: tuple[Any, ...] | None = None
         super().__init__(config, **params)
@@ -1222,14 +1346,24 @@ class ADRC(Block):
             and not c.reverse
             and self._nd == 0
             and c.out_rate == 0.0
+            and c.pv_range is None
+            and c.sp_filter == 0.0
+            and c.pv_filter == 0.0
+            and c.sp_rate == 0.0
         )
+        self._range = None if c.pv_range is None else (float(c.pv_range[0]),
+                                                       float(c.pv_range[1]))  # fmt: skip
+        rng = self._range
         if old is not None:
             self._u_hist = _resize_history(self._u_hist, self._nd, self._u_prev)
         # reverse: the block works on -y and -sp (ADRCConfig.reverse); the sensor's
         # saturation in those units
         self._sgn = -1.0 if c.reverse else 1.0
-        self._ysat_hi = -float(c.y_sat_lo) if c.reverse else float(c.y_sat)
-        self._ysat_lo = -float(c.y_sat) if c.reverse else float(c.y_sat_lo)
+        ys_hi, ys_lo = float(c.y_sat), float(c.y_sat_lo)
+        if rng:  # the sensor's saturation in % of the PV range, as the cycle's PV
+            ys_hi, ys_lo = (scale(v, rng[0], rng[1], 0.0, 100.0) for v in (ys_hi, ys_lo))
+        self._ysat_hi = -ys_lo if c.reverse else ys_hi
+        self._ysat_lo = -ys_hi if c.reverse else ys_lo
         self._n = int(c.order)
         self._ts = float(c.ts)
         self._b0 = float(c.b0)
@@ -1254,6 +1388,21 @@ class ADRC(Block):
                 self._retune(old_law)
             if old.reverse != c.reverse:
                 self._reverse_states()
+            if old.pv_range != c.pv_range:
+                self._restart_units()
+
+    def _restart_units(self) -> None:
+        """``pv_range`` changed: the states were in the old units of the PV.
+
+        The ESO restarts at rest on the next valid measurement (its filters preset
+        on it) and x4 is re-solved by (11) there, so the output continues from the
+        last u (as after a failed cycle, :meth:`_resume`, but the outputs stand).
+        """
+        pend = self._pending
+        if pend is None:
+            self._started, self._track = False, True
+        else:
+            self._pending = (*pend[:5], False, True, *pend[7:])
 
     def _reverse_states(self) -> None:
         """``reverse`` changed: the states in the units of the measurement change sign.
@@ -1268,9 +1417,9 @@ class ADRC(Block):
             self._ref, self._ab_sat, self._q = -self._ref, -self._ab_sat, -self._q
             self._track = True
         else:
-            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait, q, ff = pend
+            yh, x2, x3, x4, ref, started, _track, sat, ab_sat, ab_wait, q, *rest = pend
             self._pending = (-yh, -x2, -x3, -x4, -ref, started, True, sat, -ab_sat, ab_wait, -q,
-                             ff)  # fmt: skip
+                             *rest)  # fmt: skip
 
     def _retune(self, old_law: tuple[float, float, float, float]) -> None:
         """Bumpless retuning at the instant of the change (:func:`retune_x4`).
@@ -1279,10 +1428,13 @@ class ADRC(Block):
         two-phase cycle computed but not yet committed) keeps its Y_hat, x2, x3
         and reference; x4 takes the value that makes the new law (4b) give what
         the old law gave on them.  When the order drops, the unused x2/x3 are
-        zeroed first.  Before the first measurement, in MAN and while x4 is to
-        be re-solved by (11) anyway (``_track``: after MAN, a bad measurement, a
+        zeroed first.  Before the first measurement and while x4 is to be
+        re-solved by (11) anyway (``_track``: after MAN, a bad measurement, a
         failed cycle) the next cycle's (11) does it; so it does if the shift is
-        not finite (an overflowing law).
+        not finite (an overflowing law).  The modes do not enter: a mode switched
+        in the same cycle as the retune (the PLC writes both before its cycle)
+        must give what the PLC cycle gives, and a held mode tracks its output
+        whatever x4 is.
         """
         pend = self._pending
         if pend is None:
@@ -1297,9 +1449,9 @@ class ADRC(Block):
         if self._n < 2:
             x2 = 0.0
         x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, *self._law)
-        if not started or track or self.manual or self.track or self.hold or not (
-            _NINF < x4_new < _INF
-        ):
+        # (not the modes: they are inputs of the next cycle, which the PLC cycle decides
+        # on, and a held mode tracks its output from whatever x4)
+        if not started or track or not (_NINF < x4_new < _INF):
             track = True  # the next cycle re-solves x4 by (11)
         else:
             x4 = x4_new
@@ -1353,6 +1505,7 @@ class ADRC(Block):
         self._yh = self._x2 = self._x3 = self._x4 = 0.0
         self._u_prev = u0
         self._ff_prev = self.ff = 0.0
+        self._sp_f = self._pv_f = self._sp_w = self.sp_w = 0.0
         self._u_hist = (u0,) * self._nd
         self.u_man = u0
         self._ref = 0.0
@@ -1400,7 +1553,8 @@ class ADRC(Block):
             # a two-phase cycle in progress: commit this cycle's reference (y_ref, made
             # finite above), as the per-call cycle, which committed it before the guard
             ref = self._sgn * self.y_ref  # in the cycle's units (reverse: -y_ref)
-            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0, 0.0, self._ff_prev)
+            self._pending = (0.0, 0.0, 0.0, 0.0, ref, False, True, 0, 0, 0.0, 0.0, self._ff_prev,
+                             *self._pending[12:])  # fmt: skip
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Restore a state taken by :meth:`snapshot`; a pending two-phase cycle is dropped.
@@ -1414,6 +1568,10 @@ class ADRC(Block):
             snapshot = {**snapshot, "_q": 0.0}
         if "_ff_prev" not in snapshot:  # a snapshot of before the feed-forward input
             snapshot = {**snapshot, "_ff_prev": 0.0, "ff": 0.0}
+        if "_sp_w" not in snapshot and "y" in snapshot:
+            # a snapshot of before the input stage: its chains at the last PV and setpoint
+            y, sp = snapshot["y"], snapshot["y"] + snapshot.get("e", 0.0)
+            snapshot = {**snapshot, "_pv_f": y, "_sp_f": sp, "_sp_w": sp, "sp_w": sp}
         super().restore(snapshot)
         self._u_hist = _resize_history(tuple(self._u_hist), self._nd,
                                        self._u_prev - self._ff_prev)  # fmt: skip
@@ -1445,8 +1603,10 @@ class ADRC(Block):
 
     @property
     def mode(self) -> Mode:
-        """The active mode from the inputs, by the priority of :class:`Mode` (TRACK > HOLD >
-        MANUAL > AUTO); assigning a Mode sets its input and clears the others."""
+        """The active mode from the inputs, by the priority of :class:`Mode` (RESET > TRACK >
+        HOLD > MANUAL > AUTO); assigning a Mode sets its input and clears the others."""
+        if self.reset_active:
+            return Mode.RESET
         if self.track:
             return Mode.TRACK
         if self.hold:
@@ -1455,11 +1615,12 @@ class ADRC(Block):
 
     @mode.setter
     def mode(self, value: Mode) -> None:
-        if value not in (Mode.AUTO, Mode.MANUAL, Mode.TRACK, Mode.HOLD):
+        if value not in tuple(Mode):
             raise ParameterError(
                 ErrorCode.BAD_PARAMETER, "mode",
-                f"ADRC supports AUTO, MANUAL, TRACK and HOLD, got {value!r}",
+                f"ADRC supports AUTO, MANUAL, TRACK, HOLD and RESET, got {value!r}",
             )  # fmt: skip
+        self.reset_active = value == Mode.RESET
         self.manual = value == Mode.MANUAL
         self.track = value == Mode.TRACK
         self.hold = value == Mode.HOLD
@@ -1562,7 +1723,8 @@ class ADRC(Block):
             and self._started
             and self._h == self._ts
             and self._pending is None
-            and not (self._track or self.manual or self.awin or self.track or self.hold)
+            and not (self._track or self.manual or self.awin or self.track or self.hold
+                     or self.reset_active)
             and ff == 0.0
             and self._ff_prev == 0.0
             and _NINF < sp < _INF
@@ -1608,6 +1770,8 @@ class ADRC(Block):
         self.e = sp - y
         self.y_ref = self._ref = ref
         self._u_prev = self.u_man = u
+        self._pv_f = y  # the input stage passes its inputs through (input_stage)
+        self._sp_f = self._sp_w = self.sp_w = sp
         return u
 
     def _kernel_params(self) -> tuple[float, ...]:
@@ -1650,14 +1814,16 @@ class ADRC(Block):
             y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
         self._pending = None
         sp, y, y_ok = as_input(sp), as_input(y), as_flag(y_ok, False)
-        sgn = self._sgn
-        if sgn < 0.0:  # reverse acting: the cycle runs on -sp and -y (ADRCConfig.reverse)
-            sp, y = -sp, -y
         h = self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
         self._coefficients(h)
+        c = self._config
         lo, hi = self._u_lo, self._u_hi
+        rng = self._range
+        if rng is not None:  # SP and PV in % of the PV range (ADRCConfig.pv_range)
+            sp = scale(sp, rng[0], rng[1], 0.0, 100.0)
+            y = scale(y, rng[0], rng[1], 0.0, 100.0)
         err = ErrorCode.NO_ERROR
         y_valid = bool(y_ok) and is_finite(y)
         if not y_ok:
@@ -1667,26 +1833,34 @@ class ADRC(Block):
         sp_valid = is_finite(sp)
         if not sp_valid and err == ErrorCode.NO_ERROR:
             err = ErrorCode.BAD_INPUT
+        # the PID's input stage (filters, setpoint ramp), in the units of the PV
+        sp_f, pv_f, sp_w = input_stage(
+            sp, y, sp_valid, y_valid, c.sp_filter, c.pv_filter, c.sp_rate, h,
+            not self._started, self._sp_f, self._pv_f, self._sp_w,
+        )  # fmt: skip
+        if sp_valid:
+            sp = sp_w
+        if y_valid:
+            y = pv_f
+        sgn = self._sgn
+        if sgn < 0.0:  # reverse acting: the cycle runs on -sp and -y (ADRCConfig.reverse)
+            sp, y = -sp, -y
         ff = as_input(ff)
         ff_valid = _NINF < ff < _INF
         if not ff_valid:  # a bad feed-forward: the last one, the output held (as a bad SP)
             ff = self._ff_prev
             if err == ErrorCode.NO_ERROR:
                 err = ErrorCode.BAD_INPUT
-        # the output of a held mode, by the priority of Mode (TRACK > HOLD > MANUAL), as the
-        # PID's: the tracking value, the last output, the manual value
+        # the output of a held mode, by the priority of Mode (RESET > TRACK > HOLD > MANUAL)
         target = clamp(self._u_prev, lo, hi)
-        wanted: Any = None
-        if self.track:
-            wanted = self.track_value
-        elif self.hold:
-            wanted = self._u_prev
-        elif self.manual:
-            wanted = self.u_man
-        manual = wanted is not None  # a held mode: the law tracks its output
-        if manual:
+        rst = bool(self.reset_active)
+        manual, wanted = mode_output(
+            rst, bool(self.track), bool(self.hold), bool(self.manual), float(c.u0),
+            as_input(self.track_value), self._u_prev, as_input(self.u_man),
+        )  # fmt: skip
+        if manual:  # a held mode: the law tracks its output
             if is_finite(wanted):
-                target = clamp(float(wanted), lo, hi)
+                target = clamp(wanted, lo, hi)
             elif err == ErrorCode.NO_ERROR:
                 err = ErrorCode.BAD_INPUT
 
@@ -1731,9 +1905,9 @@ class ADRC(Block):
                 yh = x2 = x3 = x4 = q = 0.0
                 started, track_next, sat, ab_sat, ab_wait = False, True, 0, 0, 0.0
                 err = ErrorCode.BAD_RESULT
-        rate = self._config.out_rate
-        if rate > 0.0 and _NINF < u_raw < _INF:  # the output ramp, in every mode
-            u, _ramping = pid_output(u, self.out, lo, hi, rate * h)
+        rate = c.out_rate
+        if rate > 0.0 and _NINF < u_raw < _INF and not rst:  # the output ramp, in every mode
+            u, _ramping = pid_output(u, self.out, lo, hi, rate * h)  # but RESET (immediate)
         if err == ErrorCode.NO_ERROR and self._limits_bad:
             err = ErrorCode.BAD_LIMITS
         if err == ErrorCode.NO_ERROR and self._warn:
@@ -1745,7 +1919,9 @@ class ADRC(Block):
         self.y = sgn * y_out
         self.e = sgn * e
         self.y_ref = sgn * ref  # the reference trajectory (Fig. 2's Y_ref)
-        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q, ff)
+        self.sp_w = sp_w
+        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q, ff,
+                         sp_f, pv_f, sp_w)  # fmt: skip
         return u
 
     def update_state(self, applied: float) -> None:
@@ -1775,6 +1951,9 @@ class ADRC(Block):
             self._ab_wait,
             self._q,
             ff,
+            self._sp_f,
+            self._pv_f,
+            self._sp_w,
         ) = self._pending
         if self._nd:
             self._u_hist = (*self._u_hist[1:], self._u_prev - self._ff_prev)
@@ -1800,8 +1979,7 @@ class ADRC(Block):
             bad.append("awin")
         if self._ff_prev != 0.0:
             bad.append("feed-forward")
-        if self.track or self.hold:
-            bad.append("track" if self.track else "hold")
+        bad += [n for n in ("track", "hold", "reset_active") if getattr(self, n)]
         if not manual_ok and self.manual:
             bad.append("manual")
         return bad

@@ -59,6 +59,8 @@ pole_distance = _adrc.pole_distance
 euler_sensitivities = _adrc.euler_sensitivities
 euler_substeps = _adrc.euler_substeps
 handover_pole = _adrc.handover_pole
+input_stage = _adrc.input_stage
+mode_output = _adrc.mode_output
 adrc_step = _adrc.adrc_step
 adrc_switches = _adrc.adrc_switches
 anti_backoff_states = _adrc.anti_backoff_states
@@ -764,7 +766,8 @@ ADRC_RESULTS = (
     "resolve",
     "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
-    "exact_prev", "rev_prev", "u_buf", "d_idx", "nd_prev", "d_restart",
+    "exact_prev", "rev_prev", "u_buf", "d_idx", "nd_prev", "d_restart", "sp_f", "pv_f",
+    "sp_w", "scale_prev", "pv_lo_prev", "pv_hi_prev",
 )  # fmt: skip
 """Names of the values :func:`adrc_cycle` returns: outputs, then the new state."""
 
@@ -812,6 +815,7 @@ def adrc_cycle(
     track: bool,
     track_value: float,
     hold: bool,
+    rst: bool,
     awin: bool,
     u_real: float,
     order: int,
@@ -833,6 +837,13 @@ def adrc_cycle(
     reverse: bool,
     nd: int,
     out_rate: float,
+    u0: float,
+    scale_pv: bool,
+    pv_lo: float,
+    pv_hi: float,
+    sp_filter: float,
+    pv_filter: float,
+    sp_rate: float,
     out: float,
     yh: float,
     x2: float,
@@ -863,12 +874,22 @@ def adrc_cycle(
     d_idx: int,
     nd_prev: int,
     d_restart: bool,
+    sp_f: float,
+    pv_f: float,
+    sp_w: float,
+    scale_prev: bool,
+    pv_lo_prev: float,
+    pv_hi_prev: float,
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
-    ``track``/``track_value`` and ``hold`` are the PID's TRACK and HOLD modes (priority
-    TRACK > HOLD > MANUAL: the output is the tracking value, the last applied u, the
-    manual value; the law tracks it as in MAN).  ``ff`` is the feed-forward, added to the
+    ``rst``, ``track``/``track_value`` and ``hold`` are the PID's RESET, TRACK and HOLD
+    modes (priority RESET > TRACK > HOLD > MANUAL, :func:`.adrc.mode_output`: the output
+    is ``u0`` at once, the tracking value, the last applied u, the manual value; the law
+    tracks it as in MAN).  The PID's input stage runs first (:func:`.adrc.input_stage`):
+    SP and PV scaled from ``pv_lo..pv_hi`` to 0..100 % (``scale_pv``; ``y_sat`` and
+    ``y_sat_lo`` with them; a change of the range restarts the ESO at rest, x4 by (11)),
+    the SP and PV filters and the setpoint ramp.  ``ff`` is the feed-forward, added to the
     law's output before the limits;
     the ESO is fed the applied u less the ff of its cycle (``ff_prev``;
     :func:`~ctrlblocks.blocks.adrc.adrc_law`); a NaN/inf ``ff`` holds the output
@@ -945,7 +966,7 @@ def adrc_cycle(
     if retuned:
         # x4 so that the new law gives u_keep on them (retune_x4); (11) where it cannot
         x4_new = retune_x4(ref + q, yh, x2, x3, u_keep, b0, kp, kd1, kd2)
-        if started and not resolve and not (manual or track or hold) and is_real(x4_new):
+        if started and not resolve and is_real(x4_new):
             x4 = x4_new
         else:
             resolve = True
@@ -973,14 +994,27 @@ def adrc_cycle(
         ab_sat = -ab_sat
         resolve = True
     rev_prev = reverse
+    if scale_pv != scale_prev or (scale_pv and (pv_lo != pv_lo_prev or pv_hi != pv_hi_prev)):
+        # the PV range changed (ADRC._restart_units): the states were in the old units; the
+        # ESO restarts at rest on the next valid PV, x4 by (11), so u continues
+        started = False
+        resolve = True
+    scale_prev = scale_pv
+    pv_lo_prev = pv_lo
+    pv_hi_prev = pv_hi
     sat_hi = y_sat
     sat_lo = y_sat_lo
+    if scale_pv:
+        # SP and PV in % of the PV range (ADRCConfig.pv_range), the sensor's saturation too
+        sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
+        y = scale(y, pv_lo, pv_hi, 0.0, 100.0)
+        sat_hi = scale(y_sat, pv_lo, pv_hi, 0.0, 100.0)
+        sat_lo = scale(y_sat_lo, pv_lo, pv_hi, 0.0, 100.0)
     if reverse:
         # a reverse-acting process: the cycle runs on -sp and -y (ADRCConfig.reverse)
-        sp = -sp
-        y = -y
-        sat_hi = -y_sat_lo
-        sat_lo = -y_sat
+        sat_old = sat_hi
+        sat_hi = -sat_lo
+        sat_lo = -sat_old
     ab = (sat_hi, sat_lo, tau)
     # the ESO's input: the applied u less its feed-forward, of nd samples before the last
     # one (ADRC.input_delay)
@@ -1001,13 +1035,18 @@ def adrc_cycle(
     sp_valid = is_real(sp)
     if not sp_valid and err == NO_ERROR:
         err = BAD_INPUT
-    # the output of a held mode, by the priority TRACK > HOLD > MANUAL (as the PID's)
-    held = track or hold or manual
-    wanted = u_man
-    if track:
-        wanted = track_value
-    elif hold:
-        wanted = u_prev
+    # the PID's input stage (filters, setpoint ramp), in the units of the PV
+    sp_f, pv_f, sp_w = input_stage(sp, y, sp_valid, y_valid, sp_filter, pv_filter, sp_rate, ts,
+                                   not started, sp_f, pv_f, sp_w)  # fmt: skip
+    if sp_valid:
+        sp = sp_w
+    if y_valid:
+        y = pv_f
+    if reverse:
+        sp = -sp
+        y = -y
+    # the output of a held mode, by the priority RESET > TRACK > HOLD > MANUAL (as the PID's)
+    held, wanted = mode_output(rst, track, hold, manual, u0, track_value, u_prev, u_man)
     tgt = u_prev
     if held:
         if is_real(wanted):
@@ -1076,8 +1115,9 @@ def adrc_cycle(
             sat = 0
             ab_sat = 0
             ab_wait = 0.0
-    if out_rate > 0.0 and not overflow:
-        # the output ramp of the PID (pid_output), in every mode: at most OUT_RATE TS a cycle
+    if out_rate > 0.0 and not overflow and not rst:
+        # the output ramp of the PID (pid_output), in every mode but RESET (which acts at
+        # once, as the PID's): at most OUT_RATE TS a cycle
         mv, _ramping = pid_output(mv, out, lo, hi, out_rate * ts)
     if err == NO_ERROR:
         err = lim_err
@@ -1107,7 +1147,7 @@ def adrc_cycle(
         out, yh, x2, x3, x4, u_prev, ff_prev, ref, q, e, y_last, started, resolve, sat, ab_sat,
         ab_wait, lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
-        u_buf, d_idx, nd_prev, d_restart,
+        u_buf, d_idx, nd_prev, d_restart, sp_f, pv_f, sp_w, scale_prev, pv_lo_prev, pv_hi_prev,
     )  # fmt: skip
 
 
@@ -1231,7 +1271,6 @@ _ADRC_AW = {"off": 0, "freeze": 1, "directional": 2, False: 0, True: 2}
 def pid_inputs(config: Any) -> dict[str, Any]:
     """The tuning/mode inputs of :func:`pid_cycle` for a PIDConfig (floats as Python floats)."""
     k, ti, td = config.isa()
-    rng = config.pv_range if config.pv_range is not None else (0.0, 100.0)
     return {
         "k": float(k), "ti": float(ti), "td": float(td), "n": float(config.n),
         "b": float(config.b), "c": float(config.c), "ts": float(config.ts),
@@ -1242,10 +1281,7 @@ def pid_inputs(config: Any) -> dict[str, Any]:
         "d_method": _METHODS.index(config.derivative_method),
         "aw": _PID_AW[config.anti_windup],
         "velocity": config.algorithm == "velocity",
-        "scale_pv": config.pv_range is not None,
-        "pv_lo": float(rng[0]), "pv_hi": float(rng[1]),
-        "sp_filter": float(config.sp_filter), "pv_filter": float(config.pv_filter),
-        "sp_rate": float(config.sp_rate), "out_rate": float(config.out_rate),
+        **_input_stage(config), "out_rate": float(config.out_rate),
         "ff_k": float(config.ff_k), "ff_t_lead": float(config.ff_t_lead),
         "ff_t_lag": float(config.ff_t_lag),
         "bumpless": _BUMPLESS.index(config.bumpless), "dev_tol": float(config.dev_tol),
@@ -1254,6 +1290,16 @@ def pid_inputs(config: Any) -> dict[str, Any]:
         "use_safe": config.safe_value is not None,
         "db_width": float(config.deadband), "t_stab": float(config.t_stab),
         "i_band": float(config.i_band),
+    }  # fmt: skip
+
+
+def _input_stage(config: Any) -> dict[str, Any]:
+    """The inputs of the input stage (PV range, SP/PV filters, SP ramp): PID's and ADRC's."""
+    rng = config.pv_range if config.pv_range is not None else (0.0, 100.0)
+    return {
+        "scale_pv": config.pv_range is not None, "pv_lo": float(rng[0]), "pv_hi": float(rng[1]),
+        "sp_filter": float(config.sp_filter), "pv_filter": float(config.pv_filter),
+        "sp_rate": float(config.sp_rate),
     }  # fmt: skip
 
 
@@ -1293,7 +1339,7 @@ def adrc_inputs(config: Any) -> dict[str, Any]:
         "y_sat": float(config.y_sat), "y_sat_lo": float(config.y_sat_lo),
         "tau_wait": float(config.tau_wait), "reverse": bool(config.reverse),
         "nd": _adrc.delay_samples(config.input_delay, config.ts),
-        "out_rate": float(config.out_rate),
+        "out_rate": float(config.out_rate), "u0": float(config.u0), **_input_stage(config),
     }  # fmt: skip
 
 
@@ -1307,6 +1353,7 @@ def adrc_state(config: Any) -> dict[str, Any]:
     lo, hi = float(config.u_min), float(config.u_max)
     u0 = clamp(float(config.u0), lo, hi)
     nd = _adrc.delay_samples(config.input_delay, config.ts)
+    stage = _input_stage(config)
     return {
         "out": u0, "yh": 0.0, "x2": 0.0, "x3": 0.0, "x4": 0.0, "u_prev": u0, "ff_prev": 0.0,
         "ref": 0.0,
@@ -1314,7 +1361,9 @@ def adrc_state(config: Any) -> dict[str, Any]:
         "ab_sat": 0, "ab_wait": 0.0, "lo": lo, "hi": hi, "tuned": False, "order_prev": 0,
         "b0_prev": 0.0, "wc_prev": 0.0, "wo_prev": 0.0, "ts_prev": 0.0, "exact_prev": False,
         "rev_prev": bool(config.reverse), "u_buf": [0.0] * (nd + 1), "d_idx": 0, "nd_prev": 0,
-        "d_restart": False,
+        "d_restart": False, "sp_f": 0.0, "pv_f": 0.0, "sp_w": 0.0,
+        "scale_prev": stage["scale_pv"], "pv_lo_prev": stage["pv_lo"],
+        "pv_hi_prev": stage["pv_hi"],
     }  # fmt: skip
 
 
@@ -1409,7 +1458,7 @@ def adrc_float32(
     res = _lane(adrc, adrc_cycle, ADRC_RESULTS, {
         "sp": sp, "y": y, "ff": ff, "y_ok": bool(y_ok), "manual": bool(adrc.manual),
         "track": bool(adrc.track), "track_value": adrc.track_value, "hold": bool(adrc.hold),
-        "u_man": adrc.u_man, "awin": bool(adrc.awin),
+        "rst": bool(adrc.reset_active), "u_man": adrc.u_man, "awin": bool(adrc.awin),
         "u_real": math.nan if u_real is None else u_real}, prm, adrc_state)  # fmt: skip
     if res is None:
         adrc.error_id = ErrorCode.NO_CYCLE
@@ -1424,6 +1473,7 @@ def adrc_float32(
     adrc._yh, adrc._x2, adrc._x3 = (float(res[k]) for k in ("x1_out", "x2_out", "x3_out"))
     adrc._x4 = float(res["x4_out"])
     adrc.ff = adrc._ff_prev = float(res["ff_prev"])
+    adrc.sp_w = float(res["sp_w"])
     return adrc.out
 
 

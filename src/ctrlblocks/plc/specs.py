@@ -181,6 +181,8 @@ u_man  MAN_VALUE manual value [{mv}]; outside MANUAL it follows the applied u (I
 track  TRACK     TRACK mode (priority TRACK > HOLD > MANUAL): MV := TRACK_VALUE, bumpless back
 track_value TRACK_VALUE tracking value [{mv}] (NaN: the last MV, 16#8101)
 hold   HOLD      HOLD mode: MV := the last applied u, bumpless back
+rst    RST       RESET mode (priority over all): MV := RESET_VALUE (limited) at once, past
+                 OUT_RATE; the law tracks it, bumpless back
 awin   AWIN      freeze x4 (anti-windup from a secondary in cascade, section 5)
 u_real U_REAL    measured actuator value u_real [{mv}] (U_REAL_ON; NaN: u, 16#8101)
 """)
@@ -203,6 +205,14 @@ y_sat_lo     Y_SAT_LO     lower saturation of the sensor [{pv}] (ANTI_BACKOFF)
 tau_wait     TAU_WAIT     hold of u after leaving the saturation [s]; 0 = 3.5/OMEGA_O
 reverse      REVERSE      reverse-acting process (negative gain): the ESO and law run on -SP, -Y
 out_rate     OUT_RATE     largest change of MV per second [{mv}/s], in every mode; 0 = off
+u0           RESET_VALUE  output while RST [{mv}] (the block's u0)
+scale_pv     SCALE_PV     TRUE: SP and PV (and Y_SAT, Y_SAT_LO) scaled from PV_LO..PV_HI to
+                          0..100 %; B0 then in %/s^n per {mv}
+pv_lo        PV_LO        PV range low [{pv}] (SCALE_PV)
+pv_hi        PV_HI        PV range high [{pv}] (SCALE_PV)
+sp_filter    SP_FILTER    SP filter time constant [s] (PT1, exp(-TS/T)); 0 = off
+pv_filter    PV_FILTER    PV filter time constant [s] (PT1, exp(-TS/T)); 0 = off
+sp_rate      SP_RATE      setpoint ramp [{pv}/s, %/s with SCALE_PV]; 0 = off
 nd           DELAY        dead time of the process input [samples of TS] (input_delay/ts): the ESO
                           is fed the applied u of DELAY samples before the last (Zhao & Gao 2014);
                           at most the exported array (a longer one: 16#8211, the one in force stays)
@@ -238,6 +248,9 @@ _ADRC_STATE_COMMENTS = {
     "ab_wait": "anti-backoff hold time left [s]",
     "rev_prev": "REVERSE of the last cycle (a change negates the states)",
     "d_restart": "the delay line restarts at the output (after an overflow)",
+    "sp_f": "filtered SP", "pv_f": "filtered PV (the Y the ESO sees)",
+    "sp_w": "working setpoint after the ramp", "scale_prev": "SCALE_PV of the last cycle",
+    "pv_lo_prev": "PV_LO of the last cycle", "pv_hi_prev": "PV_HI of the last cycle",
 }  # fmt: skip
 
 _LL_PROCESS = _table("""
@@ -320,7 +333,7 @@ def _spec_for(block: Any) -> BlockSpec:
         state = pc.adrc_state(c)
         process = {"sp": 0.0, "y": 0.0, "ff": 0.0, "y_ok": True, "manual": False,
                    "u_man": state["out"], "track": False, "track_value": 0.0, "hold": False,
-                   "awin": False, "u_real": 0.0}  # fmt: skip
+                   "rst": False, "awin": False, "u_real": 0.0}  # fmt: skip
         values = {**process, **pc.adrc_inputs(c), **state, "mv": state["out"], "error_id": 0,
                   "awout": False, "u_raw": state["out"], "x4_out": 0.0, "e_out": 0.0,
                   "y_out": 0.0, "y_ref": 0.0, "x1_out": 0.0, "x2_out": 0.0,

@@ -112,6 +112,12 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
         cfg["input_delay"] = cfg["ts"] * r.randint(1, 40)
     if r.random() < 0.2:  # the output ramp
         cfg["out_rate"] = _lu(r, 1e-3, 1e3)
+    if r.random() < 0.3:  # the PID's input stage: PV range, SP/PV filters, SP ramp
+        lo = r.uniform(-100.0, 100.0)
+        cfg["pv_range"] = _maybe(r, 0.5, (lo, lo + _lu(r, 1e-2, 1e3)), None)
+        cfg["sp_filter"] = _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0)
+        cfg["pv_filter"] = 0.0 if cfg["anti_backoff"] else _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0)
+        cfg["sp_rate"] = _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0)
     return cfg
 
 
@@ -489,7 +495,7 @@ def register_shipped() -> None:
         FuzzSpec("PID", b.PID, _pid_config, step=_pid_step, modes=_PID_MODES,
                  mode_values=_PID_VALUES, float32=True),
         FuzzSpec("ADRC", b.ADRC, _adrc_config, step=_adrc_step, twin_ok=_adrc_twin,
-                 modes=("manual", "track", "hold", "awin"),
+                 modes=("manual", "track", "hold", "reset_active", "awin"),
                  mode_values={"manual": "manual_value", "track": "track_value"}, float32=True),
         FuzzSpec("GainSchedule", b.GainSchedule, _gain_schedule_config, step=_schedule_step,
                  make=_make_schedule, controller=True, bumpless=False, modes=_PID_MODES,

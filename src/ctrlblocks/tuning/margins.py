@@ -230,28 +230,35 @@ def controller_ss(block: PID | ADRC, *, direct: bool = False) -> DiscreteSS:
 
     The block's configuration is copied with infinite output limits (the
     margins are those of the linear loop); the matrices come from one cycle of
-    that block per unit state and unit input (module docstring).  A PID with
-    filters, ramps, scaling, a dead band, feed-forward or the velocity form is
-    refused (its law is then not the plain linear one analysed here).
+    that block per unit state and unit input (module docstring).  SP/PV filters
+    and PV scaling are part of the controller (as a plant runs it); a ramp of the
+    setpoint or the output, or a dead band, is refused (the law is then not
+    linear).
     """
     cfg = block.config
     nd = round(float(getattr(cfg, "input_delay", 0.0)) / float(cfg.ts))
     if isinstance(block, ADRC) and nd > 1 and not direct:
         one = ADRC(cfg, input_delay=float(cfg.ts), u_min=-math.inf, u_max=math.inf)
         return _extend_history(controller_ss(one), nd)
+    if isinstance(block, PID | ADRC):
+        nonlinear = [name for name in ("sp_rate", "out_rate", "deadband")
+                     if getattr(cfg, name, 0.0) != 0.0]  # fmt: skip
+        if nonlinear:
+            kind = type(block).__name__
+            raise ParameterError(
+                ErrorCode.BAD_PARAMETER,
+                kind,
+                f"margins need a linear law; {', '.join(nonlinear)} is not (a ramp limits a "
+                f"rate, the dead band holds the output): analyse the {kind} without it",
+            )
     if isinstance(block, ADRC):
         probe: PID | ADRC = ADRC(cfg, u_min=-math.inf, u_max=math.inf, anti_backoff=False)
         fields = _ADRC_STATES[int(cfg.order)]  # x2, x3 unused below order 2, 3
+        # the input stage's filters are part of the loop (PV) and of the reference path
+        # (SP); PV scaling is static (the affine part is subtracted below)
+        fields += tuple(f for f, t in (("_sp_f", cfg.sp_filter), ("_pv_f", cfg.pv_filter))
+                        if t > 0.0)  # fmt: skip
     elif isinstance(block, PID):
-        nonlinear = [name for name in ("sp_rate", "out_rate", "deadband")
-                     if getattr(cfg, name) != 0.0]  # fmt: skip
-        if nonlinear:
-            raise ParameterError(
-                ErrorCode.BAD_PARAMETER,
-                "PID",
-                f"margins need a linear law; {', '.join(nonlinear)} is not (a ramp limits a "
-                "rate, the dead band holds the output): analyse the PID without it",
-            )
         probe = PID(cfg, u_min=-math.inf, u_max=math.inf, bumpless="integrator")
         plain = (
             cfg.algorithm == "positional"
