@@ -619,6 +619,10 @@ class LoopAlarms(Block):
         """The ISA-18.2 state of alarm ``name``."""
         return self._state[_index(name)]
 
+    def active_of(self, name: str) -> bool:
+        """True while alarm ``name``'s condition holds (after deadband and delays)."""
+        return self._active[_index(name)]
+
     @property
     def unacknowledged(self) -> int:
         """Number of alarms waiting for acknowledgement (UNACK, RTN_UNACK)."""

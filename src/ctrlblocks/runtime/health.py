@@ -13,6 +13,19 @@ A loop of the runtime's configuration may carry two tables::
 window and period [s] and the :class:`ctrlblocks.health.AssessOptions` fields
 ``u_min``, ``u_max``, ``pv_span``, ``ti``, ``tu`` and ``dead_time``.
 
+A third table, ``alarm_outputs``, binds the alarms' states to device
+variables (a PLC or SCADA reads them as variables of the loop)::
+
+    alarm_outputs = { h_state = "plc:ns=2;s=level.H", h_unack = "plc:ns=2;s=level.H_unack" }
+
+Its keys are :data:`ALARM_OUTPUT_KEYS`: per configured alarm ``NAME_state``
+(the ISA-18.2 state number, :data:`~ctrlblocks.blocks.alarms.STATE_NAMES`),
+``NAME_active`` (1/0: the condition after deadband and delays) and
+``NAME_unack`` (1/0: waiting for an acknowledgement, UNACK or RTN_UNACK), and
+for the loop ``unacknowledged`` (how many wait) and ``worst`` (the highest
+priority annunciated, 1..3; 0: none).  The loop writes them with its MV in
+the cycle's batched write (:meth:`HealthMonitor.output_values`).
+
 :class:`HealthMonitor` sees every sample the runtime records (``observe``): it
 runs the loop's :class:`~ctrlblocks.LoopAlarms` (MAN from the sample's mode,
 the PV's quality from ``pv_ok``) and its
@@ -33,17 +46,53 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..blocks.alarms import STATE_NAMES, LoopAlarms, LoopAlarmsConfig
+from ..blocks.alarms import ALARM_NAMES, RTN_UNACK, STATE_NAMES, UNACK, LoopAlarms, LoopAlarmsConfig
 from ..blocks.base import ParameterError
 
-__all__ = ["ALARM_KEYS", "ASSESS_KEYS", "HealthMonitor", "alarm_events", "check_health_tables"]
+__all__ = [
+    "ALARM_KEYS",
+    "ALARM_OUTPUT_KEYS",
+    "ASSESS_KEYS",
+    "HealthMonitor",
+    "alarm_events",
+    "alarm_output_problem",
+    "check_health_tables",
+]
 
 ALARM_KEYS = tuple(f for f in LoopAlarmsConfig.__dataclass_fields__ if f != "ts")
 """The keys of a loop's ``alarms`` table."""
 ASSESS_KEYS = ("window", "every", "u_min", "u_max", "pv_span", "ti", "tu", "dead_time")
 """The keys of a loop's ``assess`` table."""
 
+_ALARM_FIELDS = ("state", "active", "unack")
+ALARM_OUTPUT_KEYS = (
+    *(f"{n.lower()}_{f}" for n in ALARM_NAMES for f in _ALARM_FIELDS),
+    "unacknowledged",
+    "worst",
+)
+"""The keys of a loop's ``alarm_outputs`` table (the module docstring)."""
+
 Fail = Callable[[str, str], Exception]
+
+
+def alarm_output_problem(key: str, health: Mapping[str, Any]) -> str | None:
+    """Why ``key`` cannot be an alarm output of a loop with ``health``; None: it can.
+
+    ``health`` is the loop's :func:`check_health_tables` result.
+    """
+    if key not in ALARM_OUTPUT_KEYS:
+        return (
+            "unknown key; the alarm outputs are NAME_state, NAME_active, NAME_unack "
+            f"(NAME: {', '.join(n.lower() for n in ALARM_NAMES)}), unacknowledged, worst"
+        )
+    alarms = health.get("alarms")
+    if alarms is None:
+        return "the loop has no alarms table: there is no alarm state to write"
+    name = key.rpartition("_")[0].upper()
+    if name and LoopAlarmsConfig(**alarms).limit(name) is None:
+        how = "bad_pv = true" if name == "BAD" else f"alarms.{name.lower()}"
+        return f"alarm {name} is not configured (it needs {how})"
+    return None
 
 
 def check_health_tables(raw: Mapping[str, Any], key: str, ts: float, fail: Fail) -> dict[str, Any]:
@@ -182,6 +231,31 @@ class HealthMonitor:
         al = self._alarms(loop)
         al.unshelve(alarm)
         self._log(loop, user, al.transitions)
+
+    def output_values(self, loop: str, keys: Iterable[str]) -> list[float]:
+        """The values of the alarm outputs ``keys`` (:data:`ALARM_OUTPUT_KEYS`) of ``loop``.
+
+        States as their numbers, flags as 1.0 / 0.0 -- exact in any numeric
+        variable (a FLOAT32 register pair, a UInt16, a Boolean node).
+        """
+        al = self._alarms(loop)
+        out = []
+        for key in keys:
+            if key == "unacknowledged":
+                out.append(float(al.unacknowledged))
+                continue
+            if key == "worst":
+                out.append(float(al.worst))
+                continue
+            name, _, what = key.rpartition("_")
+            st = al.state_of(name.upper())
+            if what == "state":
+                out.append(float(st))
+            elif what == "unack":
+                out.append(1.0 if st in (UNACK, RTN_UNACK) else 0.0)
+            else:
+                out.append(1.0 if al.active_of(name.upper()) else 0.0)
+        return out
 
     def status(self, loop: str) -> dict[str, Any]:
         """The loop's alarm state at a glance, its alarm list and the last findings."""

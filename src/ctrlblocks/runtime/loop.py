@@ -57,7 +57,7 @@ import dataclasses
 import logging
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from ..blocks.base import ErrorCode, ParameterError, is_finite, require_limits
@@ -176,11 +176,15 @@ class ControlLoop:
         self._init_age = math.inf
         self._retained_mv: float | None = None  # set by restore_retained
         self.tuning: Any = None  # a live tuning (ctrlblocks.runtime.autotune.LoopTuning)
+        # the values of the bound alarm outputs, in the order of config.alarm_outputs (the
+        # runtime's HealthMonitor.output_values); None: no alarm outputs are written
+        self.alarm_values: Callable[[], Sequence[float]] | None = None
+        self.alarm_output_error = ""
         # the engineering ranges every command is checked against (runtime.bounds)
         self.bounds = LoopBounds(self)
         self._limits_in = (math.nan, math.nan)
         # signal -> binding of the inputs read each cycle
-        written = {"mv", "mv2", *config.outputs}
+        written = set(config.written())
         self._inputs = {n: b for n, b in config.bindings().items() if b.is_io and n not in written}
         # an output stage (PWM, step controller) has a fixed off state (Structure.off_mv)
         self._off_mv = self.side.kind.off_mv(self.side.spec)
@@ -488,7 +492,9 @@ class ControlLoop:
         """The ``(address, value)`` items that write the MV ``u`` (one; a split range's two).
 
         The structure's bound output tags go with it (a step controller's
-        ``open``/``close`` bits, ``Structure.output_values``).
+        ``open``/``close`` bits, ``Structure.output_values``), and the bound
+        alarm outputs (``alarm_values``: the alarms' states as the last
+        recorded sample and any acknowledgement since left them).
         """
         c = self.config
         if c.mv2 is None:
@@ -499,6 +505,18 @@ class ControlLoop:
         if c.outputs:
             values = self.side.kind.output_values(self.side.spec, u)
             items += [(b.address, values[tag]) for tag, b in c.outputs.items()]
+        if c.alarm_outputs and self.alarm_values is not None:
+            try:
+                states = self.alarm_values()
+            except Exception as exc:  # a defect: the MV still goes out, the alarm outputs not
+                if not self.alarm_output_error:
+                    log.exception("loop %s: alarm outputs not written", self.name)
+                self.alarm_output_error = f"{type(exc).__name__}: {exc}"
+            else:
+                self.alarm_output_error = ""
+                items += [
+                    (b.address, v) for b, v in zip(c.alarm_outputs.values(), states, strict=True)
+                ]
         return items
 
     def written(self, err: str | None) -> None:

@@ -14,9 +14,12 @@ counted timeout, not a dropped connection.
 
 Float vs double: the data type of each node is read once, at its first use;
 values are written as a Variant of that type (``Float`` nodes get a FLOAT32,
-``Double`` nodes a FLOAT64, integer nodes a rounded integer), because a
-server may refuse a write whose Variant type differs from the node's
-(``BadTypeMismatch``).  Reads of any numeric type come back as Python floats.
+``Double`` nodes a FLOAT64, integer nodes a rounded integer, ``Boolean``
+nodes a value of 0 or 1 -- any other value is refused for that item, as a
+status bit such as an alarm flag is never rounded), because a server may
+refuse a write whose Variant type differs from the node's
+(``BadTypeMismatch``).  Reads of any numeric type (and of ``Boolean``: 1.0 /
+0.0) come back as Python floats.
 
 Quality: a value whose StatusCode is not Good, whose value is not a finite
 number, or (with ``stale_after > 0``) whose SourceTimestamp is older than
@@ -242,7 +245,12 @@ class OpcUaAdapter(Adapter):
                 res_pre.append(f"{a}: not a numeric variable")
                 continue
             x: Any = float(v)
-            if vt not in (ua.VariantType.Float, ua.VariantType.Double):
+            if vt == ua.VariantType.Boolean:
+                if x not in (0.0, 1.0):
+                    res_pre.append(f"{a}: {x!r} does not fit a Boolean node (0 or 1)")
+                    continue
+                x = x == 1.0
+            elif vt not in (ua.VariantType.Float, ua.VariantType.Double):
                 if not math.isfinite(x):
                     res_pre.append(f"{a}: {x!r} does not fit an integer node")
                     continue
@@ -329,6 +337,7 @@ def _data_types() -> dict[int, Any]:
         return {}
     V, O = ua.VariantType, ua.ObjectIds  # noqa: E741
     return {
+        O.Boolean: V.Boolean,
         O.Float: V.Float,
         O.Double: V.Double,
         O.SByte: V.SByte,

@@ -39,6 +39,15 @@ tripped   26        1 while the watchdog holds the safe MV, else 0   read
 ``mv`` (and ``mv2``) read back the MV the process applies: the last one
 written, or the watchdog's safe MV while it is tripped.
 
+**Device outputs** (``outputs``): further writable variables, as a PLC holds
+them for what the runtime writes besides the MV -- a loop's output tags and
+its alarm outputs (``alarm_outputs``: the alarms' ISA-18.2 states, active and
+unacknowledged flags).  OPC UA ``ns=2;s=NAME`` of the given data type
+(``Double``, ``Float``, ``UInt16`` or ``Boolean``); Modbus FLOAT32 holding
+registers after the table's, two each in the given order
+(:meth:`PlantServer.output_register`).  :attr:`PlantServer.outputs` holds the
+values written to each, in order.  They do not act on the process.
+
 **Device watchdog** (``watchdog`` seconds, the pattern of a real PLC): the
 runtime writes a counter to ``hb`` every cycle (``heartbeat = "...:hb"`` on
 the connection); when ``hb`` has not changed for ``watchdog`` seconds -- the
@@ -81,14 +90,14 @@ import contextlib
 import datetime as _dt
 import logging
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from ..sim.plant_process import PlantProcess
 
-__all__ = ["MODBUS_REGISTERS", "SIGNALS", "PairServer", "PlantServer"]
+__all__ = ["MODBUS_REGISTERS", "OUTPUT_TYPES", "SIGNALS", "PairServer", "PlantServer"]
 
 log = logging.getLogger(__name__)
 
@@ -100,6 +109,9 @@ SIGNALS = (
 
 MODBUS_REGISTERS = {name: 2 * i for i, name in enumerate(SIGNALS)}
 """Holding register of each variable (FLOAT32 in two registers)."""
+
+OUTPUT_TYPES = ("Double", "Float", "UInt16", "Boolean")
+"""OPC UA data types of the device outputs (``PlantServer(outputs=...)``)."""
 
 NAMESPACE = "urn:ctrlblocks:plant"
 
@@ -167,6 +179,10 @@ class PlantServer:
         ``watchdog_mv`` (module docstring); None: no watchdog.
     watchdog_mv : float
         The plant's own safe MV while the watchdog is tripped.
+    outputs : mapping or iterable of str
+        Device outputs (module docstring): ``{name: OPC UA data type}`` (one
+        of :data:`OUTPUT_TYPES`), or names (``Double``).  :attr:`outputs`
+        maps each name to the list of the values written to it.
     """
 
     def __init__(
@@ -185,6 +201,7 @@ class PlantServer:
         users: dict[str, str] | None = None,
         watchdog: float | None = None,
         watchdog_mv: float = 0.0,
+        outputs: Mapping[str, str] | Iterable[str] = (),
     ) -> None:
         if sync not in ("write", "clock"):
             raise ValueError(f"sync must be 'write' or 'clock', got {sync!r}")
@@ -206,6 +223,14 @@ class PlantServer:
         if unknown:
             raise ValueError(f"unknown signals {sorted(unknown)}; signals: {SIGNALS}")
         self.word_order = word_order
+        types = dict(outputs) if isinstance(outputs, Mapping) else dict.fromkeys(outputs, "Double")
+        for name, vt in types.items():
+            if name in SIGNALS or not name.isidentifier():
+                raise ValueError(f"output {name!r}: a name of its own (not one of {SIGNALS})")
+            if vt not in OUTPUT_TYPES:
+                raise ValueError(f"output {name!r}: data type {vt!r} is not one of {OUTPUT_TYPES}")
+        self.output_types = types
+        self.outputs: dict[str, list[float]] = {name: [] for name in types}
         self.certificate, self.private_key = certificate, private_key
         self.trusted = list(trusted)
         self.users = dict(users or {})
@@ -363,6 +388,16 @@ class PlantServer:
             v["pv"] = math.nan
         return v
 
+    def output_register(self, name: str) -> int:
+        """The Modbus holding register of device output ``name`` (FLOAT32, two registers)."""
+        return 2 * len(SIGNALS) + 2 * list(self.output_types).index(name)
+
+    def _output_written(self, name: str, value: Any) -> None:
+        try:
+            self.outputs[name].append(float(value))
+        except (TypeError, ValueError):
+            return
+
     # -- OPC UA ----------------------------------------------------------------------------
 
     async def _start_opcua(self) -> None:
@@ -411,6 +446,13 @@ class PlantServer:
                 server.set_attribute_value_setter(nodeid, self._opcua_mv_setter(name))
             # every read serves the process's value (an MV: the one it applies)
             server.set_attribute_value_callback(nodeid, self._opcua_reader(name, vt))
+        for name, tname in self.output_types.items():
+            vt = getattr(ua.VariantType, tname)
+            nodeid = ua.NodeId(name, idx)
+            initial = False if tname == "Boolean" else 0
+            var = await obj.add_variable(nodeid, name, ua.Variant(initial, vt))
+            await var.set_writable(True)
+            server.set_attribute_value_setter(nodeid, self._opcua_output_setter(name))
         await server.start()
         self._opcua = server
 
@@ -448,6 +490,13 @@ class PlantServer:
 
         return write
 
+    def _opcua_output_setter(self, name: str) -> Any:
+        def write(node: Any, attr: Any, value: Any) -> None:
+            node.attributes[attr].value = value
+            self._output_written(name, getattr(value.Value, "Value", None))
+
+        return write
+
     async def set_mv_writable(self, writable: bool) -> None:
         """Make the OPC UA ``mv`` variable writable or not (a rejected write for tests)."""
         from asyncua import ua
@@ -461,8 +510,9 @@ class PlantServer:
     # -- Modbus -----------------------------------------------------------------------------
 
     async def _start_modbus(self) -> None:
+        count = 2 * (len(SIGNALS) + len(self.output_types))
         self.modbus_port, self._modbus = await _serve_registers(
-            self.host, self.modbus_port, 2 * len(SIGNALS), self._modbus_action
+            self.host, self.modbus_port, count, self._modbus_action
         )
 
     async def _modbus_action(
@@ -481,6 +531,21 @@ class PlantServer:
         if self.delay > 0.0:
             await asyncio.sleep(self.delay)
         written = None
+        base = 2 * len(SIGNALS)
+        if set_values and address >= base:  # device outputs: whole FLOAT32 pairs only
+            names = list(self.output_types)
+            pairs = [int(v) for v in set_values]
+            if (
+                (address - base) % 2
+                or len(pairs) % 2
+                or address + len(pairs) > base + 2 * len(names)
+            ):
+                return ExcCodes.ILLEGAL_ADDRESS
+            first = (address - base) // 2
+            for j in range(0, len(pairs), 2):
+                u = registers_to_float32(pairs[j : j + 2], self.word_order)
+                self._output_written(names[first + j // 2], u)
+            return None
         if set_values:
             lo, hi = address, address + len(set_values)
             writable = (*self._mvs, "hb")

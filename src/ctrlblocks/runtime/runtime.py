@@ -58,6 +58,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import functools
 import gc
 import logging
 import math
@@ -167,6 +168,12 @@ class Runtime:
         self.health = HealthMonitor(
             ((lc.name, lc.ts, lc.health) for lc in config.loops), self._audit
         )
+        for lc in config.loops:  # the alarms' states go out with the loop's MV
+            if lc.alarm_outputs:
+                keys = tuple(lc.alarm_outputs)
+                self.loops[lc.name].alarm_values = functools.partial(
+                    self.health.output_values, lc.name, keys
+                )
 
     @property
     def event_loop(self) -> asyncio.AbstractEventLoop | None:

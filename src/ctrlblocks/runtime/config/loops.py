@@ -14,7 +14,7 @@ from ...loops.spec import ControllerSpec
 from ...loops.structures import STRUCTURES as _STRUCTURES
 from ...loops.structures import parse_controller
 from ...loops.toml import NAME_RE
-from ..health import check_health_tables
+from ..health import alarm_output_problem, check_health_tables
 from .engineering import ENGINEERING_KEYS, engineering
 from .model import (
     MAX_DT_TS,
@@ -25,6 +25,7 @@ from .model import (
     LoopConfig,
     RuntimeConfigError,
 )
+from .protocols import PROTOCOLS
 
 __all__ = ["LoopTables"]
 
@@ -73,6 +74,7 @@ class LoopTables:
             "u0",
             "alarms",
             "assess",
+            "alarm_outputs",
             *_FAULT_LOOP_KEYS,
             *_TIME_LOOP_KEYS,
             *ENGINEERING_KEYS,
@@ -188,6 +190,9 @@ class LoopTables:
         if a < w:
             raise self.fail(f"{key}.alarm_limit", f"must be >= warn_limit ({w!r})")
         retries = self.integer(raw, "write_retries", f"{key}.write_retries", 1, 0)
+        health = check_health_tables(raw, key, ts, self.fail)
+        taken = {"mv": mv, "mv2": mv2, **outputs, **meas, "sp": sp, "mode": mode, **opt}
+        alarm_outputs = self.alarm_outputs(raw, key, conns, mv, health, taken)
         return LoopConfig(
             name=name,
             ts=ts,
@@ -215,7 +220,8 @@ class LoopTables:
             mv2=mv2,
             wild=meas.get("wild"),
             outputs=outputs,
-            health=check_health_tables(raw, key, ts, self.fail),
+            health=health,
+            alarm_outputs=alarm_outputs,
             **self.fault_action(raw, key),
             **self.time_settings(raw, key, ts),
             **engineering(self, raw, key, sp, opt["manual_value"]),
@@ -277,6 +283,46 @@ class LoopTables:
             taken = [n for n, o in (("mv", mv), *out.items()) if o.address == b.address]
             if taken:
                 raise self.fail(f"{key}.{tag}", f"is the address of {taken[0]} ({b})")
+            out[tag] = b
+        return out
+
+    def alarm_outputs(
+        self,
+        raw: Mapping[str, Any],
+        key: str,
+        conns: Mapping[str, ConnectionConfig],
+        mv: Binding,
+        health: Mapping[str, Any],
+        taken: Mapping[str, Binding | None],
+    ) -> dict[str, Binding]:
+        """``alarm_outputs``: the alarms' states written with the MV (runtime.health)."""
+        table = raw.get("alarm_outputs")
+        if table is None:
+            return {}
+        if not isinstance(table, Mapping):
+            raise self.fail(f"{key}.alarm_outputs", 'must be a table such as { h_state = "..." }')
+        if not table:
+            raise self.fail(f"{key}.alarm_outputs", "is empty: bind at least one alarm output")
+        used = {n: b for n, b in taken.items() if b is not None and b.is_io}
+        out: dict[str, Binding] = {}
+        for tag, value in table.items():
+            k = f"{key}.alarm_outputs.{tag}"
+            why = alarm_output_problem(tag, health)
+            if why:
+                raise self.fail(k, why)
+            b = self.written_with_mv(
+                value,
+                k,
+                conns,
+                mv,
+                "the alarm outputs are written with the MV in one batched request",
+            )
+            why = PROTOCOLS[conns[b.connection].protocol].writable_problem(b.address)  # type: ignore[index]
+            if why:
+                raise self.fail(k, why)
+            same = [n for n, o in (*used.items(), *out.items()) if o.address == b.address]
+            if same:
+                raise self.fail(k, f"is the address of {same[0]} ({b})")
             out[tag] = b
         return out
 

@@ -176,6 +176,8 @@ class LoopConfig:
     units: Mapping[str, str] = dataclasses.field(default_factory=dict)
     # -- loop health (runtime.health): the checked ``alarms`` and ``assess`` tables --
     health: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    # -- the alarms' states written with the MV (``alarm_outputs``: key -> binding) --
+    alarm_outputs: Mapping[str, Binding] = dataclasses.field(default_factory=dict)
 
     def bindings(self) -> dict[str, Binding]:
         """The signal bindings by name (only those that are set)."""
@@ -183,7 +185,14 @@ class LoopConfig:
             "pv", "pv2", "dv", "wild", "mv", "mv2", "sp", "mode", "manual_value", "u_min", "u_max"
         )  # fmt: skip
         out = {n: b for n in names if (b := getattr(self, n)) is not None}
-        return {**out, **self.outputs}
+        alarms = {f"alarm_outputs.{k}": b for k, b in self.alarm_outputs.items()}
+        return {**out, **self.outputs, **alarms}
+
+    def written(self) -> dict[str, Binding]:
+        """The bindings the loop writes (MV, a second MV, output tags, alarm outputs)."""
+        names = ("mv", "mv2", *self.outputs, *(f"alarm_outputs.{k}" for k in self.alarm_outputs))
+        b = self.bindings()
+        return {n: b[n] for n in names if n in b}
 
     def connections(self) -> set[str]:
         """The connections this loop reads or writes."""

@@ -114,8 +114,8 @@ class Parser(TableReader, LoopTables):
         # an MV is written by one loop only
         seen: dict[str, str] = {}
         for lc in loops:
-            for sig, b in (("mv", lc.mv), ("mv2", lc.mv2), *lc.outputs.items()):
-                if b is not None and b.is_io:
+            for sig, b in lc.written().items():
+                if b.is_io:
                     k = str(b)
                     if k in seen:
                         raise self.fail(
