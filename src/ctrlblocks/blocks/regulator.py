@@ -250,18 +250,18 @@ def regulator_cycle(
     u_v = clamp(u_v, u_lo, u_hi)
     rate_sp = station_rate(sp_lo, sp_hi, tm_sp_f)
     rate_u = station_rate(u_lo, u_hi, tm_out_f)
-    # switch 1: the setpoint
+    # switch 1: the setpoint; while remote the local station tracks the remote setpoint
+    # (bumpless back to local) and a remote setpoint that is no finite REAL holds SP
     ok_sp = True
     if remote:
         if is_real(sp_remote):
             sp_w = sp_remote
-            # the local setpoint follows: bumpless back to local
             sp_v, sp_held, sp_dir, ok_sp = regulator_station(
                 False, False, sp_remote, True, ts, rate_sp, tr_f, t_accel_f, accel_max_f, sp_lo,
                 sp_hi, sp_v, sp_held, sp_dir,
             )  # fmt: skip
         else:
-            err = BAD_INPUT  # the setpoint holds
+            err = BAD_INPUT
     else:
         sp_v, sp_held, sp_dir, ok_sp = regulator_station(
             sp_inc, sp_dec, 0.0, False, ts, rate_sp, tr_f, t_accel_f, accel_max_f, sp_lo, sp_hi,
