@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from ctrlblocks import ADRC, PID, LeadLag, plc
+from ctrlblocks import ADRC, PID, LeadLag, Regulator, plc
 
 from . import matiec
 from .hostile import STARTS as HOSTILE
@@ -103,6 +103,17 @@ def test_every_block_kind_in_one_project_with_test_benches_compiles_strictly(tmp
     tests = re.findall(r"^PROGRAM (\w+_TEST)$", src, re.M)
     assert len(tests) == len(blocks)
     matiec.iec2c(src + matiec.configuration(list(blocks), tests), tmp_path)
+
+
+def test_the_documented_regulator_wiring_compiles_strictly(tmp_path):
+    """docs/plc.md's PROGRAM wiring CB_REGULATOR to CB_PID, with the two FBs exported from one
+    Regulator: iec2c without -b accepts it."""
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "plc.md").read_text(encoding="utf-8")
+    prog = re.search(r"^(PROGRAM REGULATOR_LOOP\n.*?^END_PROGRAM\n)", doc, re.M | re.S)
+    assert prog is not None
+    reg = Regulator(kp=2.0, ti=10.0, sp0=50.0, u0=40.0, ts=0.1)
+    src = plc.export([reg, reg.pid], "codesys") + "\n" + prog.group(1)
+    matiec.iec2c(src + matiec.configuration([], ["REGULATOR_LOOP"]), tmp_path)
 
 
 @pytest.mark.slow
