@@ -170,3 +170,15 @@ def test_limits_and_manual_times_written_at_run_time_keep_the_ones_in_force() ->
         assert res["error_id"] == code
         assert res["sp_out"] == 51.0  # 100 units in 100 s from 50: the set in force moved it
         assert (res["sp_lo"], res["sp_hi"], res["tm_sp_f"]) == (0.0, 100.0, 100.0)
+
+
+def test_a_float32_regulator_refuses_an_int_beyond_any_float_with_a_parameter_error() -> None:
+    """The fuzz campaign's find (seed 0): the REAL-range check of precision="float32" ran before
+    the PID's own check and raised OverflowError on 10**400."""
+    reg = Regulator(kp=1.0, ti=5.0, precision="float32")
+    with pytest.raises(ParameterError):
+        reg.configure(sp_rate=10**400)
+    with pytest.raises(ParameterError) as e:
+        reg.configure(u_max=1e31)
+    assert e.value.code == ErrorCode.BAD_LIMITS
+    assert reg.config == Regulator(kp=1.0, ti=5.0, precision="float32").config

@@ -353,14 +353,14 @@ class RegulatorConfig(BlockConfig):
         require_finite("u0", self.u0)
         require_nonnegative("tr", self.tr, ErrorCode.BACK_CALC_T)
         require_positive("ts", self.ts, ErrorCode.NO_CYCLE)
-        require_precision(self)
-        PID(**self.pid_params())
+        PID(**self.pid_params())  # refuses bad tunings (and precisions) with the PID's codes
         for which in ("sp", "out"):
             ManualStation(**self.station_params(which))
         for name in ("tm_sp", "tm_out", "t_accel", "accel_max", "tr"):
             x = float(getattr(self, name))
             if x > TIME_CAP:
                 raise ParameterError(ErrorCode.BAD_PARAMETER, name, f"must be <= 1e30, got {x!r}")
+        require_precision(self)  # last: every field is a number by now
 
     def pid_params(self) -> dict[str, Any]:
         """The PID's configuration."""
