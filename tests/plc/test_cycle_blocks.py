@@ -7,7 +7,8 @@ hostile samples (NaN, inf, values beyond REAL, a bad quality flag, resets),
 exports the block's configuration, runs the ST with the same inputs -- in the
 project's interpreter and compiled strictly by MATIEC and gcc (:mod:`.matiec`,
 skipped with a message where MATIEC is not built) -- and requires every output
-bit-identical.
+bit-identical.  The heat/cool stage and the regulator's stations run beside the
+PID: their FBs are driven as a PLC wires them to CB_PID.
 """
 
 from __future__ import annotations
@@ -19,7 +20,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-from ctrlblocks import SetpointProgram, ThreePoint, TransferFunction, TwoPoint, plc
+from ctrlblocks import (
+    ErrorCode,
+    Regulator,
+    SetpointProgram,
+    ThreePoint,
+    TransferFunction,
+    TwoPoint,
+    plc,
+)
 from ctrlblocks.blocks.transfer import lowpass, notch
 
 from . import matiec
@@ -31,16 +40,27 @@ pytestmark = pytest.mark.slow  # blark's parser, gcc: the long campaign (pytest 
 def compiled(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
              ) -> Callable[[Any, str], Any]:  # fmt: skip
     """``compiled(block, fb_name)``: a fresh instance of the block's exported FB, run by the
-    project's ST interpreter or compiled by MATIEC (strict) and gcc."""
+    project's ST interpreter or compiled by MATIEC (strict) and gcc.  ``block`` may be a list
+    of blocks exported into one project and ``fb_name`` a tuple of FB names: a tuple of
+    instances (one parse, one build)."""
     if request.param == "interpreter":
         pytest.importorskip("blark")
         from .st_interpreter import Interpreter
 
-        return lambda block, fb: Interpreter(plc.export(block, "codesys")).instance(fb)
+        def interpreted(block: Any, fb: str | tuple[str, ...]) -> Any:
+            st = Interpreter(plc.export(block, "codesys"))
+            return tuple(st.instance(f) for f in fb) if isinstance(fb, tuple) else st.instance(fb)
+
+        return interpreted
     matiec.require_matiec()
     cache = tmp_path_factory.mktemp("matiec")
-    return lambda block, fb: matiec.build(plc.export(block, "codesys"), cache,
-                                          [fb]).instance(fb)  # fmt: skip
+
+    def built(block: Any, fb: str | tuple[str, ...]) -> Any:
+        names = list(fb) if isinstance(fb, tuple) else [fb]
+        lib = matiec.build(plc.export(block, "codesys"), cache, names)
+        return tuple(lib.instance(f) for f in names) if isinstance(fb, tuple) else lib.instance(fb)
+
+    return built
 
 
 HOSTILE = (math.nan, math.inf, -math.inf, 4e38, -1e39)
@@ -142,3 +162,56 @@ def test_heat_cool_stage_fb_equals_the_float32_block(compiled) -> None:
         for name, ref in (("OUT", b.out), ("HEAT", b.heat), ("COOL", b.cool)):
             assert _same(fb[name], ref), f"sample {k}: {name} {fb[name]!r} vs {ref!r}"
         assert bool(fb["COOLING"]) == bool(b.snapshot()["_mem"]["cooling"]), k
+
+
+def test_regulator_fb_wired_to_the_pid_fb_equals_the_float32_regulator(compiled) -> None:
+    """CB_REGULATOR called before CB_PID (its SP, MANUAL, MAN_VALUE written to CB_PID, CB_PID.MV
+    to its PID_MV), as docs/plc.md wires them, is the float32 Regulator (Åström 1987,
+    Fig. 4.6) bit for bit: both switches both ways, held and accelerating raise/lower buttons,
+    remote setpoints that are NaN, inf or beyond REAL, bad and beyond-REAL measurements, PV_OK
+    false, Tr > 0, and U_MAX, TM_OUT and TR retuned mid-run."""
+    reg = Regulator(kp=3.0, ti=8.0, td=0.6, u_min=-5.0, u_max=90.0, sp_min=0.0, sp_max=120.0,
+                    tm_sp=20.0, tm_out=10.0, t_accel=1.0, accel_max=4.0, tr=0.3, sp0=40.0,
+                    u0=15.0, sp_rate=5.0, ts=0.1, precision="float32")  # fmt: skip
+    fb_reg, fb_pid = compiled([reg, reg.pid], ("CB_REGULATOR", "CB_PID"))
+    rng = np.random.default_rng(7)
+    spr = _values(1200, 8, 10.0)
+    pvs = _values(1200, 9, 0.5)
+    y = 20.0
+    switched = {"auto": 0, "remote": 0}
+    codes = set()
+    for k in range(1200):
+        if k % 97 == 40 or k % 211 == 5:
+            reg.auto = not reg.auto
+            switched["auto"] += 1
+        if k % 131 == 60:
+            reg.remote = not reg.remote
+            switched["remote"] += 1
+        b = {n: bool(rng.random() < 0.35) for n in ("sp_inc", "sp_dec", "out_inc", "out_dec")}
+        if k // 50 % 3 == 0:  # held for 50 samples: the rate accelerates
+            b = {"sp_inc": True, "sp_dec": False, "out_inc": k % 2 == 0, "out_dec": False}
+        retune: dict[str, float] = {}
+        if k == 500:
+            retune = {"u_max": 70.0, "tm_out": 5.0, "tr": 0.0}
+        if k == 900:
+            retune = {"u_max": 100.0, "tr": 1.5}
+        if retune:
+            reg.configure(**retune)
+        sp_remote = 60.0 + spr[k]
+        pv = y + pvs[k] if math.isfinite(pvs[k]) else pvs[k]
+        pv_ok = k % 67 != 30
+        u = reg(pv, sp_remote, pv_ok=pv_ok, **b)
+        writes = {n.upper(): v for n, v in (*b.items(), *retune.items())}
+        fb_reg(PID_MV=fb_pid["MV"], SP_REMOTE=sp_remote, AUTO=reg.auto, REMOTE=reg.remote,
+               **writes)  # fmt: skip
+        pid_retune = {n.upper(): v for n, v in retune.items() if n == "u_max"}
+        fb_pid(SP=fb_reg["SP"], PV=pv, PV_OK=pv_ok, MANUAL=fb_reg["MANUAL"],
+               MAN_VALUE=fb_reg["MAN_VALUE"], **pid_retune)  # fmt: skip
+        assert _same(fb_pid["MV"], u), f"sample {k}: MV {fb_pid['MV']!r} vs {u!r}"
+        assert _same(fb_reg["SP"], reg.sp), f"sample {k}: SP {fb_reg['SP']!r} vs {reg.sp!r}"
+        err = int(fb_reg["ERROR_ID"]) or int(fb_pid["ERROR_ID"])
+        assert err == int(reg.error_id), f"sample {k}: ERROR_ID {err:#x} vs {reg.error_id!r}"
+        codes.add(err)
+        y = 0.97 * y + 0.03 * 0.8 * u
+    assert switched["auto"] >= 10 and switched["remote"] >= 8
+    assert {ErrorCode.BAD_INPUT, ErrorCode.BAD_MEASUREMENT} <= codes  # the bad data came

@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import pytest
 
-from ctrlblocks import HeatCoolPID, SetpointProgram, ThreePoint, TransferFunction, TwoPoint, plc
+from ctrlblocks import (
+    HeatCoolPID,
+    Regulator,
+    SetpointProgram,
+    ThreePoint,
+    TransferFunction,
+    TwoPoint,
+    plc,
+)
 from ctrlblocks.blocks.transfer import lowpass
 
 BLOCKS = {
@@ -13,6 +21,7 @@ BLOCKS = {
     "CB_TRANSFER": lambda: TransferFunction(sections=lowpass(1.0, 0.1, 3), ts=0.1),
     "CB_SETPOINT": lambda: SetpointProgram(segments=((1.0, 1.0, 1.0), (0.0, 0.0, 0.0))),
     "CB_HEATCOOL": lambda: HeatCoolPID(kp=2.0, ti=30.0, pwm_period=4.0),
+    "CB_REGULATOR": lambda: Regulator(kp=2.0, ti=10.0, sp0=50.0, u0=40.0, tr=0.5, ts=0.1),
 }
 
 

@@ -20,7 +20,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from ctrlblocks import ADRC, PID, LeadLag, MovingAverage, plc
+from ctrlblocks import ADRC, PID, LeadLag, MovingAverage, Regulator, plc
 from ctrlblocks.blocks import plc_cycle as pc
 from ctrlblocks.blocks.precision import real_exp
 from ctrlblocks.plc.translate import Program, TranslationError
@@ -40,9 +40,11 @@ BLOCKS = {
     "adrc_options": lambda: ADRC(order=2, b0=0.05, discretisation="exact", u_real_on=True,
                                  anti_backoff=True, y_sat=90.0, y_sat_lo=-1.0),
     "pid_deadband": lambda: PID(kp=2.0, ti=3.0, deadband=0.5, t_stab=1.0, sp_filter=1.0),
+    "regulator": lambda: Regulator(kp=2.0, ti=10.0, sp0=50.0, u0=40.0, tr=0.5, ts=0.1),
 }  # fmt: skip
 FB = {"pid": "CB_PID", "adrc1": "CB_ADRC", "adrc3": "CB_ADRC", "leadlag": "CB_LEADLAG",
-      "pid_options": "CB_PID", "adrc_options": "CB_ADRC", "pid_deadband": "CB_PID"}  # fmt: skip
+      "pid_options": "CB_PID", "adrc_options": "CB_ADRC", "pid_deadband": "CB_PID",
+      "regulator": "CB_REGULATOR"}  # fmt: skip
 
 
 def _bodies(st: str) -> dict[str, list[str]]:
@@ -61,7 +63,8 @@ def _bodies(st: str) -> dict[str, list[str]]:
 
 
 @pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
-@pytest.mark.parametrize("name", ["pid_options", "pid_deadband", "adrc_options", "leadlag"])
+@pytest.mark.parametrize("name", ["pid_options", "pid_deadband", "adrc_options", "leadlag",
+                                  "regulator"])  # fmt: skip
 def test_st_targets_parse_with_blark(name):
     """blark's TwinCAT grammar takes the ST (MATIEC compiles every configuration strictly,
     test_matiec.py; here the option-rich ones, for the grammar the IDE reads)."""

@@ -21,7 +21,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ctrlblocks import ADRC, PID, LeadLag, plc
+from ctrlblocks import ADRC, PID, LeadLag, Regulator, plc
 from ctrlblocks.plc.names import RESERVED, iec_name, is_iec_identifier, is_reserved
 from ctrlblocks.plc.translate import Program
 
@@ -135,6 +135,7 @@ CONFIGS = [
     *(ADRC(**{"order": 2, "b0": 0.05, **c}) for c in ADRC_OPTIONS),
     ADRC(order=1, b0=0.5), ADRC(order=3, b0=0.01, discretisation="exact"),
     LeadLag(k=2.0, t_lead=1.0, t_lag=3.0), LeadLag(method="euler"),
+    Regulator(kp=2.0, ti=10.0, tr=0.5),
 ]  # fmt: skip
 
 
@@ -174,7 +175,8 @@ def test_the_c_macros_an_export_meets_are_reserved_by_the_preprocessors_own_word
 
 
 @pytest.mark.parametrize("block", [LeadLag(k=2.0, t_lead=1.0, t_lag=3.0), PID(kp=1.0, ti=5.0),
-                                   ADRC(order=2, b0=0.05)], ids=["leadlag", "pid", "adrc"])
+                                   ADRC(order=2, b0=0.05), Regulator(tr=0.5)],
+                         ids=["leadlag", "pid", "adrc", "regulator"])  # fmt: skip
 def test_no_export_spells_a_c_macro(block):
     from ctrlblocks.plc.c_macros import C_MACROS
 

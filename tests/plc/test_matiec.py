@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from ctrlblocks import ADRC, PID, LeadLag, plc
+from ctrlblocks import ADRC, PID, LeadLag, Regulator, plc
 
 from . import matiec
 from .hostile import STARTS as HOSTILE
@@ -93,15 +93,27 @@ SMOKE = {"pid": PID(kp=1.2, ti=5.9, td=0.9, ts=0.1, u_min=0.0, u_max=100.0),
 
 
 def test_every_block_kind_in_one_project_with_test_benches_compiles_strictly(tmp_path):
-    """The five PID/ADRC/lead-lag configurations and the five one-cycle blocks (two/three-point,
-    transfer function, set-point program, heat/cool stage), their helpers once, and a test
-    program per block: iec2c without -b (standard syntax only) accepts the file."""
+    """The five PID/ADRC/lead-lag configurations and the six one-cycle blocks (two/three-point,
+    transfer function, set-point program, heat/cool stage, the regulator's stations), their
+    helpers once, and a test program per block: iec2c without -b (standard syntax only)
+    accepts the file."""
     blocks = {f"CB_{k.upper()}": b for k, b in SMOKE.items()}
     blocks.update((k, make()) for k, make in CYCLE_BLOCKS.items())
     src = plc.export(blocks, "codesys", test="plain")
     tests = re.findall(r"^PROGRAM (\w+_TEST)$", src, re.M)
     assert len(tests) == len(blocks)
     matiec.iec2c(src + matiec.configuration(list(blocks), tests), tmp_path)
+
+
+def test_the_documented_regulator_wiring_compiles_strictly(tmp_path):
+    """docs/plc.md's PROGRAM wiring CB_REGULATOR to CB_PID, with the two FBs exported from one
+    Regulator: iec2c without -b accepts it."""
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "plc.md").read_text(encoding="utf-8")
+    prog = re.search(r"^(PROGRAM REGULATOR_LOOP\n.*?^END_PROGRAM\n)", doc, re.M | re.S)
+    assert prog is not None
+    reg = Regulator(kp=2.0, ti=10.0, sp0=50.0, u0=40.0, ts=0.1)
+    src = plc.export([reg, reg.pid], "codesys") + "\n" + prog.group(1)
+    matiec.iec2c(src + matiec.configuration([], ["REGULATOR_LOOP"]), tmp_path)
 
 
 @pytest.mark.slow
@@ -188,7 +200,7 @@ def _configurations() -> list[tuple[str, Any]]:
 @pytest.mark.slow
 @pytest.mark.parametrize("target", ["codesys", "beremiz", "plcopen"])
 def test_every_exported_configuration_compiles_strictly(target, tmp_path):
-    """Every configuration the tests use (33) and the five one-cycle blocks, each with its
+    """Every configuration the tests use (33) and the six one-cycle blocks, each with its
     test bench, in one project: the ST as written (TwinCAT's text is the same,
     test_export.py), the XML read back to ST (the Beremiz form as Beremiz reads it). TIA's
     SCL is another language (checked offline)."""
@@ -196,7 +208,7 @@ def test_every_exported_configuration_compiles_strictly(target, tmp_path):
     src = plc.export([b for _n, b in configs], target, test="plain")
     if target in ("beremiz", "plcopen"):
         src = st_from_plcopen(src, "beremiz" if target == "beremiz" else "codesys")
-    kinds = "PID|ADRC|LEADLAG|TWOPOINT|THREEPOINT|TRANSFER|SETPOINT|HEATCOOL"
+    kinds = "PID|ADRC|LEADLAG|TWOPOINT|THREEPOINT|TRANSFER|SETPOINT|HEATCOOL|REGULATOR"
     fbs = re.findall(rf"^FUNCTION_BLOCK (CB_(?:{kinds})(?:_\d+)?)$", src, re.M)
     tests = re.findall(r"^PROGRAM (\w+_TEST)$", src, re.M)
     assert len(fbs) == len(tests) == len(configs)

@@ -75,14 +75,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 
 from .base import (
+    MAX_TIME,
     Block,
     BlockConfig,
     ErrorCode,
     ParameterError,
-    add_time,
     as_flag,
     as_input,
     is_finite,
@@ -97,12 +96,11 @@ __all__ = [
     "ManualStation",
     "ManualStationConfig",
     "manual_increment",
+    "manual_station_step",
     "manual_station_update",
     "manual_travel",
 ]
 
-
-_MAX_TIME = sys.float_info.max
 
 # ---------------------------------------------------------------------------
 # The module's law: pure functions over floats
@@ -150,6 +148,7 @@ def manual_station_update(
     tr: float,
     lo: float,
     hi: float,
+    big: float,
 ) -> float:
     """Advance the station state by one sample (see the module docstring).
 
@@ -169,12 +168,19 @@ def manual_station_update(
         Tracking time constant Tr [s]; 0: ideal tracking.
     lo, hi : float
         Output limits.
+    big : float
+        The largest magnitude the executor holds (the block: the largest float; the
+        PLC cycle: the end of the REAL range).
     """
-    if not -_MAX_TIME <= delta <= _MAX_TIME:
+    if not (delta >= -big and delta <= big):
         # a travel beyond any range in one sample (a button held through an absurd dt):
         # the output goes to the limit it travels to (and holds where there is none)
-        bound = hi if delta > 0.0 else lo
-        return bound if -_MAX_TIME <= bound <= _MAX_TIME else v
+        bound = lo
+        if delta > 0.0:
+            bound = hi
+        if bound >= -big and bound <= big:
+            return bound
+        return v
     if not tracking:
         v = v + delta
     elif tr <= 0.0:
@@ -183,6 +189,54 @@ def manual_station_update(
         target = w + delta / h * tr
         v = target + (v - target) * math.exp(-h / tr)
     return clamp(v, lo, hi)
+
+
+def manual_station_step(
+    inc: bool,
+    dec: bool,
+    w: float,
+    tracking: bool,
+    h: float,
+    rate: float,
+    tr: float,
+    t_accel: float,
+    accel_max: float,
+    lo: float,
+    hi: float,
+    big: float,
+    v: float,
+    held: float,
+    direction: int,
+) -> tuple[float, float, int]:
+    """One sample of the station (module docstring): the block's and the PLC cycle's.
+
+    ``inc``, ``dec``: the buttons; ``w``, ``tracking``: the tracking input;
+    ``rate = span/Tm`` the base rate; ``big`` as in :func:`manual_station_update`
+    (the time held saturates there too).  The memory: ``v`` the output, ``held``
+    the time the present button has been held [s], ``direction`` +1, -1 or 0 (the
+    button of the last sample).  Returns the new ``(v, held, direction)``.
+    """
+    s = 0
+    if inc:
+        s = 1
+    if dec:
+        s = s - 1
+    tau = 0.0
+    if s != 0 and s == direction:
+        tau = held
+    delta = 0.0
+    held = 0.0
+    if s != 0:
+        delta = rate * manual_increment(tau, h, t_accel, accel_max)
+        if s < 0:
+            delta = -delta
+        # the time held saturates: a button held through an absurd dt keeps the station
+        # running at its top rate, never inf
+        held = tau + h
+        if held > big:
+            held = big
+    v = manual_station_update(v, delta, w, tracking, h, tr, lo, hi, big)
+    return v, held, s
 
 
 # ---------------------------------------------------------------------------
@@ -345,19 +399,10 @@ class ManualStation(Block):
             self.error_id = ErrorCode.BAD_INPUT
             return self.out
         self.error_id = ErrorCode.NO_ERROR
-        s = (1 if as_flag(inc, False) else 0) - (1 if as_flag(dec, False) else 0)
-        tau = self.held if s != 0 and s == self.direction else 0.0
-        if s != 0:
-            delta = s * self._rate * manual_increment(tau, h, self._t_accel, self._accel_max)
-            # the time held saturates at the largest float: a button held through an
-            # absurd dt keeps the station running at its top rate, never inf
-            self.held = add_time(tau, h)
-        else:
-            delta = 0.0
-            self.held = 0.0
-        self.direction = s
         self.tracking = tracking
-        self.out = manual_station_update(
-            self.out, delta, w, tracking, h, self._tr, self._lo, self._hi
-        )
+        self.out, self.held, self.direction = manual_station_step(
+            as_flag(inc, False), as_flag(dec, False), w, tracking, h, self._rate, self._tr,
+            self._t_accel, self._accel_max, self._lo, self._hi, MAX_TIME, self.out, self.held,
+            self.direction,
+        )  # fmt: skip
         return self.out

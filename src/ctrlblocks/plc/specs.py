@@ -20,6 +20,7 @@ from ..blocks import plc_cycle as pc
 from ..blocks.cycleblock import CycleBlock
 from ..blocks.heatcool import HeatCoolPID
 from ..blocks.precision import plc_unsupported
+from ..blocks.regulator import Regulator
 
 __all__ = ["EXPORTED", "BlockSpec", "UnsupportedBlock", "spec_for"]
 
@@ -472,8 +473,58 @@ cooling_out COOLING  TRUE: give CB_PID the cooling tunings in the next cycle
     {"cooling": "the parameter set chosen (cooling)", "h_on": "heating PWM on",
      "c_on": "cooling PWM on"},
 )
+_REGULATOR_PROCESS = _table("""
+pid_mv    PID_MV    CB_PID.MV of the last cycle [{mv}] (the regulator's output): the output
+                    station tracks it in AUTO (not a finite REAL: it holds, 16#8101)
+sp_remote SP_REMOTE external (remote) setpoint [{pv}]; not a finite REAL while REMOTE: SP holds
+                    (16#8101)
+auto      AUTO      switch 2: TRUE automatic (the PID's output), FALSE manual (the output
+                    station's, moved by OUT_INC/OUT_DEC); both ways bumpless
+remote    REMOTE    switch 1: TRUE SP := SP_REMOTE, FALSE the local setpoint station (moved by
+                    SP_INC/SP_DEC; it tracks SP_REMOTE while REMOTE: bumpless back to local)
+sp_inc    SP_INC    raise button of the local setpoint (held = TRUE; accelerates)
+sp_dec    SP_DEC    lower button of the local setpoint
+out_inc   OUT_INC   raise button of the output in manual
+out_dec   OUT_DEC   lower button of the output in manual
+""")
+_REGULATOR = (
+    "CB_REGULATOR", "stations and switches of the complete regulator, Åström 1987, Fig. 4.6 "
+    "(call before CB_PID; wire SP, MANUAL, MAN_VALUE to it and CB_PID.MV to PID_MV)",
+    _REGULATOR_PROCESS + _table("""
+sp_min    SP_MIN    local setpoint low limit [{pv}]
+sp_max    SP_MAX    local setpoint high limit [{pv}]
+u_min     U_MIN     output low limit [{mv}] (write CB_PID.U_MIN alike)
+u_max     U_MAX     output high limit [{mv}] (write CB_PID.U_MAX alike)
+tm_sp     TM_SP     manual time constant Tm [s] of the setpoint station: SP_MAX - SP_MIN in
+                    TM_SP at the base rate (Åström 1987, Fig. 4.5)
+tm_out    TM_OUT    manual time constant Tm [s] of the output station: U_MAX - U_MIN in TM_OUT
+t_accel   T_ACCEL   a held button's rate grows by one base rate every T_ACCEL [s]
+accel_max ACCEL_MAX largest rate / base rate (1 = no acceleration)
+tr        TR        tracking time constant Tr [s] of the idle station (Åström 1987,
+                    Fig. 4.5); 0 = ideal tracking (exactly bumpless)
+ts        TS
+"""),
+    _table("""
+sp_out    SP        working setpoint [{pv}]: write it to CB_PID.SP
+manual    MANUAL    NOT AUTO: write it to CB_PID.MANUAL (the PID tracks the station)
+man_value MAN_VALUE output station [{mv}]: write it to CB_PID.MAN_VALUE
+error_id  ERROR_ID
+"""),
+    {"sp_w": "working setpoint [{pv}]", "sp_v": "local setpoint station [{pv}]",
+     "sp_held": "time the setpoint button has been held [s]",
+     "sp_dir": "setpoint button of the last cycle: +1, -1, 0", "u_v": "output station [{mv}]",
+     "u_held": "time the output button has been held [s]",
+     "u_dir": "output button of the last cycle: +1, -1, 0",
+     "follow": "the last cycle was automatic: the output station tracks PID_MV",
+     "h_prev": "TS of the last cycle [s]", "sp_lo": "setpoint low limit in force",
+     "sp_hi": "setpoint high limit in force", "u_lo": "output low limit in force",
+     "u_hi": "output high limit in force", "tm_sp_f": "TM_SP in force",
+     "tm_out_f": "TM_OUT in force", "t_accel_f": "T_ACCEL in force",
+     "accel_max_f": "ACCEL_MAX in force", "tr_f": "TR in force"},
+)  # fmt: skip
 _CYCLE_PROCESS = {
     "HeatCoolPID": ("V",),
+    "Regulator": tuple(v.st for v in _REGULATOR_PROCESS),
     "SetpointProgram": ("PV", "PV_OK", "RUN", "RESET"),
     "TwoPoint": tuple(v.st for v in _ONOFF_PROCESS),
     "ThreePoint": tuple(v.st for v in _ONOFF_PROCESS),
@@ -483,6 +534,7 @@ _CYCLE_PROCESS = {
 configuration's: the hostile runs retune them)."""
 _CYCLE_BLOCKS: dict[str, tuple[str, str, list[Var], list[Var], dict[str, str]]] = {
     "HeatCoolPID": _HEAT_COOL,
+    "Regulator": _REGULATOR,
     "SetpointProgram": _SETPOINT,
     "TwoPoint": _TWO_POINT,
     "ThreePoint": _THREE_POINT,
@@ -496,7 +548,7 @@ EXPORTED = ("PID", "ADRC", "LeadLag", *sorted(_CYCLE_BLOCKS))
 def _cycle_block_spec(block: Any) -> BlockSpec | None:
     """The :class:`BlockSpec` of a block run by one cycle function, or None."""
     entry = _CYCLE_BLOCKS.get(type(block).__name__)
-    if entry is None or not isinstance(block, CycleBlock | HeatCoolPID):
+    if entry is None or not isinstance(block, CycleBlock | HeatCoolPID | Regulator):
         return None
     fb_name, title, inputs, outputs, comments = entry
     values = block.plc_values()

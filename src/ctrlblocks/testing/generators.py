@@ -297,6 +297,7 @@ def _simple_configs() -> dict[str, Callable[[random.Random], dict[str, Any]]]:
             "sp0": r.uniform(-100, 100),
             "u0": r.uniform(-100, 100),
             "ts": _ts(r),
+            "precision": _maybe(r, 0.2, "float32", "float64"),
         }
 
     return {
