@@ -232,7 +232,7 @@ def test_a_snapshot_of_before_the_stage_restores_its_chains_at_the_pv_and_setpoi
 def test_the_compiled_kernels_refuse_the_stage_and_reset():
     for kw in ({"pv_range": (0.0, 1.0)}, {"sp_filter": 1.0}, {"pv_filter": 1.0},
                {"sp_rate": 1.0}):  # fmt: skip
-        assert list(kw)[0] in adrc(**kw).fast_path_blockers()
+        assert next(iter(kw)) in adrc(**kw).fast_path_blockers()
     block = adrc()
     block.reset_active = True
     assert "reset_active" in block.fast_path_blockers()
