@@ -17,6 +17,7 @@ import os
 from pathlib import Path
 
 from setuptools import setup
+from setuptools.command.bdist_wheel import bdist_wheel
 from setuptools.command.build_py import build_py
 
 HERE = Path(__file__).resolve().parent
@@ -35,6 +36,9 @@ def _compiled_module():
 
 class BuildPyWithCompiledBlocks(build_py):
     """``build_py``, then the compiled blocks into the package (never fatal)."""
+
+    compiled = False
+    """Whether the package holds the compiled blocks for this Python (the wheel's tag)."""
 
     def run(self) -> None:
         super().run()
@@ -57,6 +61,28 @@ class BuildPyWithCompiledBlocks(build_py):
             )
             return
         print(f"ctrlblocks: compiled blocks in {folder or 'place already'}")
+        self.compiled = True
 
 
-setup(cmdclass={"build_py": BuildPyWithCompiledBlocks})
+class BdistWheelTagged(bdist_wheel):
+    """A wheel that holds the compiled blocks is a binary wheel of this Python and platform.
+
+    The blocks are built by ``build_py`` (not declared as ``ext_modules``), so
+    setuptools would tag the wheel ``py3-none-any`` although it carries
+    CPython extension modules: the build runs first here, and a package that
+    got them is tagged ``cpXY-cpXY-<platform>`` (``Root-Is-Purelib: false``).
+    Without a compiler (or with ``CTRLBLOCKS_BUILD_COMPILED=off``) the wheel
+    stays the pure-Python ``py3-none-any`` one.
+    """
+
+    def run(self) -> None:
+        if not self.skip_build:
+            self.run_command("build")  # run once: bdist_wheel's own call is then a no-op
+        if self.get_finalized_command("build_py").compiled:
+            self.root_is_pure = False
+            # the package then installs to platlib, the wheel's root (not its .data/purelib)
+            self.distribution.has_ext_modules = lambda: True  # type: ignore[method-assign]
+        super().run()
+
+
+setup(cmdclass={"build_py": BuildPyWithCompiledBlocks, "bdist_wheel": BdistWheelTagged})
