@@ -385,9 +385,9 @@ def _cycle_monitor_oracle(b: Any) -> str | None:
 
 
 
-# the state that is +inf by design: the moving average's running sums while the window's
-# sum exceeds the float range (its mean, finite, then comes from the window itself; its
-# oracle checks it), and the PWM's time in the period, +inf for "a period starts now";
+# the state that is not finite by design: the moving average's running sums while the
+# window's sum exceeds the float range (inf, or NaN after its compensated resum; its mean,
+# finite, then comes from the window itself; its oracle checks it), and the PWM's time in the period, +inf for "a period starts now";
 # the alarm blocks' state records the process values as they came (NaN included)
 
 
@@ -516,7 +516,7 @@ def register_shipped() -> None:
             lambda blk, v, dt, f: blk(v[0], dt=dt, open_limit=f[0], close_limit=f[1],
                                       feedback=v[1] if f[2] else None))),
         FuzzSpec("MovingAverage", b.MovingAverage, configs["MovingAverage"],
-                 oracle=_moving_average_oracle, nonfinite_state=("_sum", "_err", "_mag")),
+                 oracle=_moving_average_oracle, nonfinite_state=("_sum", "_spread", "_mag")),
         FuzzSpec("PulseWidth", b.PulseWidth, configs["PulseWidth"], limit_fields=("in_lo", "in_hi"),
                  nonfinite_state=("t_in",)),
         FuzzSpec("TwoPoint", b.TwoPoint, configs["TwoPoint"], step=_step(_on_off_step),
