@@ -445,8 +445,8 @@ def moving_average_step(
     ``count`` the values in the window.  The running sum ``total`` gains the
     new value and loses the one leaving; ``spread`` is its rounding-error
     bound in unit roundoffs (each operation rounds by at most one unit
-    roundoff of its result: the difference and the sum, Higham 2002, eq.
-    (4.3)) and ``mag`` the running sum of the magnitudes.  The window is
+    roundoff of its result: the difference and the sum, Higham 2002,
+    section 4.2) and ``mag`` the running sum of the magnitudes.  The window is
     summed afresh -- a FOR loop with Neumaier's compensation (Neumaier 1974)
     -- once ``n`` samples after the last fresh sum, so that rounding cannot
     drift, and at once when ``spread`` exceeds ``loss`` times ``mag`` (after
