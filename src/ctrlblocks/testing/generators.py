@@ -387,7 +387,8 @@ def _cycle_monitor_oracle(b: Any) -> str | None:
 
 # the state that is not finite by design: the moving average's running sums while the
 # window's sum exceeds the float range (inf, or NaN after its compensated resum; its mean,
-# finite, then comes from the window itself; its oracle checks it), and the PWM's time in the period, +inf for "a period starts now";
+# finite, then comes from the window itself; its oracle checks it), and the PWM's time in
+# the period, +inf for "a period starts now";
 # the alarm blocks' state records the process values as they came (NaN included)
 
 
