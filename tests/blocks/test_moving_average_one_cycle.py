@@ -6,6 +6,7 @@ window, in float64 (the block) and in REAL (the float32 cycle)."""
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -17,9 +18,10 @@ from ctrlblocks.blocks import plc_cycle as pc
 from ctrlblocks.blocks.signals import SUM_LOSS_FLOAT64
 
 _NAMES = ("mean", "buf", "idx", "count", "since", "total", "spread", "mag", "n_prev")
+_HUGE = 1.7976931348623157e308
 _U = st.one_of(
     st.floats(-1e3, 1e3),
-    st.sampled_from([math.nan, math.inf, 0.0, 1e300, -1e300, 1.5e308, 1e-300]),
+    st.sampled_from([math.nan, math.inf, 0.0, 1e300, -1e300, 1.5e308, -_HUGE, 1e-300]),
 )
 
 
@@ -49,6 +51,32 @@ def test_the_block_and_the_plc_cycle_are_one_average(us, n):
             state["idx"], state["count"], state["since"])  # fmt: skip
         for mine, its in (("_sum", "total"), ("_spread", "spread"), ("_mag", "mag")):
             assert _same(snap[mine], state[its]), (mine, snap[mine], state[its])
+        _is_the_mean_of_its_window(ma)
+
+
+def _is_the_mean_of_its_window(ma: MovingAverage) -> None:
+    """The fuzz campaign's oracle: the mean of the window the block holds (exact, in
+    fractions: ``math.fsum`` of the quotients overflows for three values of 1.8e308), to 1e-9
+    of the largest value in it."""
+    st_ = ma.snapshot()
+    n, count = ma.config.n, st_["_count"]
+    if count:
+        window = [st_["_buf"][(st_["_idx"] - count + j) % n] for j in range(count)]
+        exact = float(sum(Fraction(v) for v in window) / count)
+        assert abs(ma.out - exact) <= 1e-9 * max(abs(v) for v in window), (ma.out, exact)
+
+
+@pytest.mark.parametrize("n", [2, 3, 36])
+def test_the_largest_float_leaving_the_window_leaves_the_mean_of_the_rest(n):
+    """-1.8e308 makes the running sum's error bound and magnitudes infinite (loss * mag
+    overflows too): the window is summed afresh, and once the value has left the mean is
+    that of the small values (the fuzz campaign's find, seed 0 step 28551: 0.0 instead of
+    11.94)."""
+    ma = MovingAverage(n=n)
+    rng = np.random.default_rng(n)
+    for u in (*rng.uniform(-118.0, 118.0, 2 * n), -_HUGE, *rng.uniform(-118.0, 118.0, 3 * n)):
+        ma(float(u))
+        _is_the_mean_of_its_window(ma)
 
 
 def drift(us: np.ndarray, n: int, real: bool) -> float:

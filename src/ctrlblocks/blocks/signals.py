@@ -449,12 +449,13 @@ def moving_average_step(
     section 4.2) and ``mag`` the running sum of the magnitudes.  The window is
     summed afresh -- a FOR loop with Neumaier's compensation (Neumaier 1974)
     -- once ``n`` samples after the last fresh sum, so that rounding cannot
-    drift, and at once when ``spread`` exceeds ``loss`` times ``mag`` (after
-    one huge sample left a window of small values, say, which a plain running
-    sum forgets until the window wraps; ``loss`` is :data:`SUM_LOSS_FLOAT64`
-    or :data:`SUM_LOSS_REAL` by the precision that runs it).  A window whose
-    sum overflows gives the mean of its values each divided by ``count``.  A
-    new ``n`` keeps the newest ``min(count, n)`` values and sums afresh.
+    drift, and at once when ``spread`` exceeds ``loss`` times ``mag`` or is not
+    finite (after one huge sample left a window of small values, say, which a
+    plain running sum forgets until the window wraps; ``loss`` is
+    :data:`SUM_LOSS_FLOAT64` or :data:`SUM_LOSS_REAL` by the precision that
+    runs it).  A window whose sum overflows gives the sum of its values each
+    divided by ``count``, limited to the window's smallest and largest value.
+    A new ``n`` keeps the newest ``min(count, n)`` values and sums afresh.
     Returns ``(mean, buf, idx, count, since, total, spread, mag, n_prev)``.
     """
     cap = len(buf)
@@ -475,7 +476,9 @@ def moving_average_step(
     since = since + 1
     spread = spread + (abs(step) + abs(total))
     mag = mag + (abs(u) - abs(leaving))
-    if since >= n or not spread <= loss * mag:
+    if since >= n or not spread <= loss * mag or spread - spread != 0.0:
+        # (an infinite bound -- the sum overflowed -- is above any threshold, also an
+        # infinite one: loss * mag overflows with it)
         # the window afresh, oldest first, with Neumaier's compensation c
         total = 0.0
         c = 0.0
@@ -496,10 +499,18 @@ def moving_average_step(
         since = 0
     mean = total / float(count)
     if total - total != 0.0:  # inf or NaN
-        # the sum of finite values overflowed: the mean itself is finite
+        # the sum of finite values overflowed: the mean itself is finite, between the
+        # window's smallest and largest value (the roundings of v / count may push the sum
+        # of three values of 1.8e308 past the range)
         mean = 0.0
+        lo = buf[(idx + cap - count) % cap]
+        hi = lo
         for j in range(count):
-            mean = mean + buf[(idx + cap - count + j) % cap] / float(count)
+            v = buf[(idx + cap - count + j) % cap]
+            mean = mean + v / float(count)
+            lo = min(lo, v)
+            hi = max(hi, v)
+        mean = clamp(mean, lo, hi)
     return mean, buf, idx, count, since, total, spread, mag, n_prev
 
 
@@ -585,8 +596,12 @@ class MovingAverage(Block):
         s = self._sum
         if -math.inf < s < math.inf:
             return s / self._count
-        # the sum of finite values overflowed: the mean itself is finite
-        return math.fsum(v / self._count for v in self._buf)
+        # the sum of finite values overflowed: the mean itself is finite, between the
+        # window's smallest and largest value (as in moving_average_step)
+        n, count = self._config.n, self._count
+        window = [self._buf[(self._idx - count + j) % n] for j in range(count)]
+        mean = sum(v / count for v in window)
+        return clamp(mean, min(window), max(window))
 
     def _resume(self, held: float) -> None:
         self._exact_sums()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable
+from fractions import Fraction
 from typing import Any
 
 from .. import blocks as b
@@ -364,7 +365,10 @@ def _moving_average_oracle(b: Any) -> str | None:
     if count == 0:
         return None
     window = [st["_buf"][(st["_idx"] - count + j) % n] for j in range(count)]
-    exact = math.fsum(v / count for v in window)
+    try:
+        exact = math.fsum(v / count for v in window)
+    except OverflowError:  # the quotients' roundings past the range: the exact mean
+        exact = float(sum(Fraction(v) for v in window) / count)
     big = max(abs(v) for v in window)
     if not abs(b.out - exact) <= 1e-9 * big:
         return f"out {b.out!r} is not the mean {exact!r} of its window (largest |value| {big:.3g})"
