@@ -67,16 +67,28 @@ def _is_the_mean_of_its_window(ma: MovingAverage) -> None:
 
 
 @pytest.mark.parametrize("n", [2, 3, 36])
-def test_the_largest_float_leaving_the_window_leaves_the_mean_of_the_rest(n):
-    """-1.8e308 makes the running sum's error bound and magnitudes infinite (loss * mag
-    overflows too): the window is summed afresh, and once the value has left the mean is
-    that of the small values (the fuzz campaign's find, seed 0 step 28551: 0.0 instead of
-    11.94)."""
+def test_the_largest_floats_leaving_the_window_leave_the_mean_of_the_rest(n):
+    """-1.8e308 and 0.9e308 make the running sum's error bound and magnitudes infinite
+    (loss * mag overflows too): the window is summed afresh, and once they have left the
+    mean is that of the small values (the fuzz campaign's find, seed 0 step 28551: 0.0
+    instead of 11.94)."""
     ma = MovingAverage(n=n)
     rng = np.random.default_rng(n)
-    for u in (*rng.uniform(-118.0, 118.0, 2 * n), -_HUGE, *rng.uniform(-118.0, 118.0, 3 * n)):
+    for u in (*rng.uniform(-118.0, 118.0, 2 * n), -_HUGE, _HUGE / 2,
+              *rng.uniform(-118.0, 118.0, 3 * n)):  # fmt: skip
         ma(float(u))
         _is_the_mean_of_its_window(ma)
+
+
+def test_a_window_of_the_largest_floats_has_their_mean_also_after_configure():
+    """Three values of -1.8e308: their sum overflows and so does the sum of the rounded
+    quotients v / 3; the mean is the value itself, in the cycle and after configure."""
+    ma = MovingAverage(n=3)
+    for _ in range(3):
+        assert ma(-_HUGE) == -_HUGE
+    ma.configure(n=4)
+    assert ma.out == -_HUGE
+    assert ma(-_HUGE) == -_HUGE
 
 
 def drift(us: np.ndarray, n: int, real: bool) -> float:
