@@ -440,7 +440,8 @@ def moving_average_step(
 
     Mean of the last ``n`` inputs, ``1 <= n <= len(buf)`` (controltheplant 2024,
     ``MovingAverage``); until ``n`` values have arrived, the mean of those
-    received.  ``buf`` is a ring of ``len(buf)`` values (the block's list of
+    received.  ``mean`` is the last mean (the FB's output; not read).  ``buf``
+    is a ring of ``len(buf)`` values (the block's list of
     ``n``, the PLC's ARRAY sized at export), ``idx`` the next place to write,
     ``count`` the values in the window.  The running sum ``total`` gains the
     new value and loses the one leaving; ``spread`` is its rounding-error
