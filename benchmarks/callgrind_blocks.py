@@ -11,7 +11,8 @@ instructions a call executes does not.  Each case runs in two processes under
 calls than the other (``PYTHONHASHSEED=0``, after a first run that writes the
 byte-code caches); the difference of their totals divided by the number of
 calls is the cost of one call (what varies between two starts of Python, a
-few thousand instructions, is below one instruction per call).  The cases: the
+few thousand instructions, is below one instruction per call; OpenBLAS's
+worker threads, which varied by millions, are not started).  The cases: the
 plain PID and ADRC per call (their fast lanes), the PID with an SP filter and
 an output ramp (its general cycle) and the two-phase PID and ADRC
 (``compute_output`` + ``update_state``, as the loop structures call them).
@@ -59,7 +60,11 @@ for k in range(int(sys.argv[1])):
 def instructions(case: str, calls: int, compiled: bool) -> int:
     """The total instructions of one process running the case with ``calls`` calls."""
     script = SCRIPT.format(setup=SETUP[case], compiled=compiled)
-    env = dict(os.environ, PYTHONHASHSEED="0", CTRLBLOCKS_COMPILED="require" if compiled else "off")
+    # OPENBLAS_NUM_THREADS=1: numpy's OpenBLAS (imported with ctrlblocks) starts no worker
+    # threads, whose busy-waiting callgrind counts too -- a few million instructions that
+    # differ between two starts (docs/performance.md, "Instructions per call")
+    env = dict(os.environ, PYTHONHASHSEED="0", OPENBLAS_NUM_THREADS="1",
+               CTRLBLOCKS_COMPILED="require" if compiled else "off")  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "cg.out"
         subprocess.run(

@@ -21,7 +21,7 @@ CASES = [
                  out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (59, 115, 19, 41, 3)),
     # the error inside the dead band, the detector counting, the average still following MV
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, deadband=1.0, t_stab=2.0), "CB_PID",
-     {"SP": 50.0, "PV": 50.5}, (66, 114, 25, 40, 5)),
+     {"SP": 50.0, "PV": 50.5}, (73, 117, 29, 40, 5)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
      {"SP": 1.0, "PV": 0.5}, (85, 61, 16, 26, 1)),
     (lambda: ADRC(order=2, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",

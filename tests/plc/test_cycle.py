@@ -353,14 +353,15 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
 
 
 def test_moving_average_kernel_is_the_moving_average_block_with_window_changes():
-    """plc_cycle.moving_average (a ring in a fixed array, running sum re-summed once per
-    window) against MovingAverage (exact window sum) over 3000 samples with the window
-    changed to shorter and longer lengths (the newest values kept, as the block keeps
-    them): the same means to 1e-12, in float64."""
+    """plc_cycle.moving_average (the block's one cycle on a ring in a fixed array, with the
+    PLC's resum threshold) against MovingAverage (its list resized by configure) over 3000
+    samples with the window changed to shorter and longer lengths (the newest values kept,
+    as the block keeps them): the same means to 1e-12, in float64."""
     rng = np.random.default_rng(70)
     cap = 40
+    names = ("mean", "buf", "idx", "count", "since", "total", "spread", "mag", "n_prev")
     state = {"mean": 0.0, "buf": [0.0] * cap, "idx": 0, "count": 0, "since": 0, "total": 0.0,
-             "n_prev": 0}  # fmt: skip
+             "spread": 0.0, "mag": 0.0, "n_prev": 0}  # fmt: skip
     ma = MovingAverage(n=25)
     n = 25
     for k in range(3000):
@@ -369,10 +370,8 @@ def test_moving_average_kernel_is_the_moving_average_block_with_window_changes()
             ma.configure(n=n)
         u = 50.0 + 10.0 * math.sin(k / 50.0) + rng.standard_normal()
         ref = ma(u)
-        res = pc.moving_average(u, n, state["mean"], state["buf"], state["idx"], state["count"],
-                                state["since"], state["total"], state["n_prev"])  # fmt: skip
-        state = dict(zip(("mean", "buf", "idx", "count", "since", "total", "n_prev"), res,
-                         strict=True))  # fmt: skip
+        res = pc.moving_average(u, n, pc.SUM_LOSS_REAL, *(state[k] for k in names))
+        state = dict(zip(names, res, strict=True))
         assert abs(state["mean"] - ref) <= 1e-12 * 60.0, (k, state["mean"], ref)
 
 

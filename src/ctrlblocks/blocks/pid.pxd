@@ -52,9 +52,15 @@ cpdef (double, double, double, double, double, double, double, double) pid_step(
 
 from .base cimport Block, as_input
 
+ctypedef (double, double, double, double, double, double, double, double, double, double,
+          double, double, double) pid_prm_t
+
 cdef class PID(Block):
     cdef public object manual, track, hold, reset_active, awin, manual_value, _lean
-    cdef public object _mode_prev, _cold, _reinit, _pending, _prm, limits_active
+    cdef public object _mode_prev, _cold, _reinit, _pending, limits_active
+    # the law's parameters as the C tuple pid_law takes: converted when set (configure),
+    # not at every call (docs/performance.md, "Instructions per call")
+    cdef public pid_prm_t _prm
     cdef public object _limits_status, _lean_ran, _law_in_force, deadband_active
     cdef public object p_suppressed
     cdef public double out, _h, _ts, _i, _d, _w_prev, _e_prev, p, i, d, e, sp_w, pv_f, ff

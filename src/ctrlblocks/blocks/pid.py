@@ -1639,10 +1639,9 @@ class PID(Block):
         p, d, ff = cycle.p, cycle.d, cycle.ff
         pos = self.actuator_pos
         pos_ok = is_finite(pos)
-        prm = self._prm
         i, x = pid_commit(u, self.out, cycle.v_raw, p, cycle.i, d, ff, cycle.held, pos_ok,
-                          float(pos) if pos_ok else 0.0, prm[6], prm[11], prm[12],
-                          self._opt[0])  # fmt: skip
+                          float(pos) if pos_ok else 0.0, self._prm[6], self._prm[11],
+                          self._prm[12], self._opt[0])  # fmt: skip
         if self._velocity:
             self._x = x
             self._bias = i if cycle.held else cycle.bias

@@ -89,6 +89,7 @@ pt1_step = _signals.pt1_step
 rate_limit_step = _signals.rate_limit_step
 scale = _signals.scale
 steady_step = _signals.steady_step
+SUM_LOSS_REAL = _signals.SUM_LOSS_REAL
 
 __all__ = [
     "ADRC_RESULTS",
@@ -248,55 +249,13 @@ def steady_detector(
     return steady, anchor, elapsed, started
 
 
-@plc_block(
+# the moving average's one cycle (signals.moving_average_step, MovingAverage's), exported as
+# the FB CB_MOVAVG_<n>: its ring is an ARRAY, which a FUNCTION cannot take
+moving_average = plc_block(
     "MOVAVG",
-    ("mean", "buf", "idx", "count", "since", "total", "n_prev"),
-    hidden=("buf", "idx", "count", "since", "total", "n_prev"),
-)
-def moving_average(
-    u: float,
-    n: int,
-    mean: float,
-    buf: list[float],
-    idx: int,
-    count: int,
-    since: int,
-    total: float,
-    n_prev: int,
-) -> tuple[float, list[float], int, int, int, float, int]:
-    """Mean of the last ``n`` inputs, ``1 <= n <= len(buf)`` (:class:`~ctrlblocks.MovingAverage`).
-
-    controltheplant 2024, ``MovingAverage``: until ``n`` values have arrived,
-    the mean of those received.  ``buf`` is a ring of ``len(buf)`` values (in
-    the PLC an ARRAY sized at export), ``idx`` the next place to write,
-    ``count`` the values in the window; the running sum ``total`` gains the
-    new value and loses the one leaving the window, and is summed afresh once
-    per window (a FOR loop over the window) so that rounding cannot drift.  A
-    new ``n`` keeps the newest ``min(count, n)`` values, as the block does on
-    reconfiguration.  Returns ``(mean, buf, idx, count, since, total, n_prev)``.
-    """
-    cap = len(buf)
-    if n != n_prev:
-        # a new window keeps the newest min(count, n) values; summed afresh below
-        count = min(count, n)
-        since = n
-        n_prev = n
-    leaving = 0.0
-    if count >= n:
-        leaving = buf[(idx + cap - n) % cap]
-    total = total + (u - leaving)
-    buf[idx] = u
-    idx = (idx + 1) % cap
-    if count < n:
-        count = count + 1
-    since = since + 1
-    if since >= n:
-        total = 0.0
-        for j in range(count):
-            total = total + buf[(idx + cap - count + j) % cap]
-        since = 0
-    mean = total / float(count)
-    return mean, buf, idx, count, since, total, n_prev
+    ("mean", "buf", "idx", "count", "since", "total", "spread", "mag", "n_prev"),
+    hidden=("buf", "idx", "count", "since", "total", "spread", "mag", "n_prev"),
+)(_signals.moving_average_step)
 
 
 @plc_block("DELAY", ("u", "buf", "idx", "n_prev", "ok"), hidden=("buf", "idx", "n_prev"))
@@ -365,7 +324,8 @@ PID_RESULTS = (
     "cold", "reinit", "reinit_d", "k_prev", "ti_prev", "td_prev", "n_prev", "b_prev",
     "c_prev", "rev_prev", "vel_prev", "scale_prev", "pv_lo_prev", "pv_hi_prev",
     "db_active", "db_hold", "db_win", "db_t", "db_mean", "db_buf", "ma_idx", "ma_count",
-    "ma_since", "ma_total", "ma_n", "st_anchor", "st_elapsed", "st_started",
+    "ma_since", "ma_total", "ma_spread", "ma_mag", "ma_n", "st_anchor", "st_elapsed",
+    "st_started",
 )  # fmt: skip
 """Names of the values :func:`pid_cycle` returns: outputs, then the new state."""
 
@@ -474,6 +434,8 @@ def pid_cycle(
     ma_count: int,
     ma_since: int,
     ma_total: float,
+    ma_spread: float,
+    ma_mag: float,
     ma_n: int,
     st_anchor: float,
     st_elapsed: float,
@@ -706,9 +668,11 @@ def pid_cycle(
                 if not inside:
                     db_active = False
                 if not (inside and db_active):
-                    db_mean, db_buf, ma_idx, ma_count, ma_since, ma_total, ma_n = moving_average(
-                        mv, db_win, db_mean, db_buf, ma_idx, ma_count, ma_since, ma_total, ma_n
-                    )
+                    (db_mean, db_buf, ma_idx, ma_count, ma_since, ma_total, ma_spread, ma_mag,
+                     ma_n) = moving_average(
+                        mv, db_win, SUM_LOSS_REAL, db_mean, db_buf, ma_idx, ma_count, ma_since,
+                        ma_total, ma_spread, ma_mag, ma_n,
+                    )  # fmt: skip
                     if inside and steady:
                         db_active = True
                         db_hold = db_mean
@@ -751,7 +715,7 @@ def pid_cycle(
         cold, reinit, reinit_d, k_prev, ti_prev, td_prev, n_prev, b_prev,
         c_prev, rev_prev, vel_prev, scale_prev, pv_lo_prev, pv_hi_prev,
         db_active, db_hold, db_win, db_t, db_mean, db_buf, ma_idx, ma_count,
-        ma_since, ma_total, ma_n, st_anchor, st_elapsed, st_started,
+        ma_since, ma_total, ma_spread, ma_mag, ma_n, st_anchor, st_elapsed, st_started,
     )  # fmt: skip
 
 
@@ -1323,7 +1287,8 @@ def pid_state(config: Any) -> dict[str, Any]:
         "vel_prev": False, "scale_prev": False, "pv_lo_prev": 0.0, "pv_hi_prev": 0.0,
         "db_active": False, "db_hold": u0, "db_win": window, "db_t": float(config.t_stab),
         "db_mean": 0.0, "db_buf": [0.0] * window, "ma_idx": 0, "ma_count": 0, "ma_since": 0,
-        "ma_total": 0.0, "ma_n": 0, "st_anchor": 0.0, "st_elapsed": 0.0, "st_started": False,
+        "ma_total": 0.0, "ma_spread": 0.0, "ma_mag": 0.0, "ma_n": 0, "st_anchor": 0.0,
+        "st_elapsed": 0.0, "st_started": False,
     }  # fmt: skip
 
 

@@ -412,6 +412,108 @@ class Scale(Block):
 MAX_WINDOW = 1_000_000
 """Longest moving-average window [samples]: the buffer is held in memory."""
 
+SUM_LOSS_FLOAT64 = 2.0**23
+"""The moving average sums its window afresh when the rounding-error bound of its running
+sum exceeds this many unit roundoffs of the window's magnitudes: 2^23 x 2^-53 = 2^-30 of
+them in float64 (:class:`MovingAverage`)."""
+
+SUM_LOSS_REAL = 2.0**10
+"""The same for a REAL (float32) running sum, the PID's dead band in the PLC cycle and its
+FB: 2^10 x 2^-24 = 2^-14 (6.1e-5) of the window's magnitudes."""
+
+
+def moving_average_step(
+    u: float,
+    n: int,
+    loss: float,
+    mean: float,
+    buf: list[float],
+    idx: int,
+    count: int,
+    since: int,
+    total: float,
+    spread: float,
+    mag: float,
+    n_prev: int,
+) -> tuple[float, list[float], int, int, int, float, float, float, int]:
+    """One sample of the moving average: the one cycle of :class:`MovingAverage` and the PLC.
+
+    Mean of the last ``n`` inputs, ``1 <= n <= len(buf)`` (controltheplant 2024,
+    ``MovingAverage``); until ``n`` values have arrived, the mean of those
+    received.  ``mean`` is the last mean (the FB's output; not read).  ``buf``
+    is a ring of ``len(buf)`` values (the block's list of
+    ``n``, the PLC's ARRAY sized at export), ``idx`` the next place to write,
+    ``count`` the values in the window.  The running sum ``total`` gains the
+    new value and loses the one leaving; ``spread`` is its rounding-error
+    bound in unit roundoffs (each operation rounds by at most one unit
+    roundoff of its result: the difference and the sum, Higham 2002,
+    section 4.2) and ``mag`` the running sum of the magnitudes.  The window is
+    summed afresh -- a FOR loop with Neumaier's compensation (Neumaier 1974)
+    -- once ``n`` samples after the last fresh sum, so that rounding cannot
+    drift, and at once when ``spread`` exceeds ``loss`` times ``mag`` or is not
+    finite (after one huge sample left a window of small values, say, which a
+    plain running sum forgets until the window wraps; ``loss`` is
+    :data:`SUM_LOSS_FLOAT64` or :data:`SUM_LOSS_REAL` by the precision that
+    runs it).  A window whose sum overflows gives the sum of its values each
+    divided by ``count``, limited to the window's smallest and largest value.
+    A new ``n`` keeps the newest ``min(count, n)`` values and sums afresh.
+    Returns ``(mean, buf, idx, count, since, total, spread, mag, n_prev)``.
+    """
+    cap = len(buf)
+    if n != n_prev:
+        # a new window keeps the newest min(count, n) values; summed afresh below
+        count = min(count, n)
+        since = n
+        n_prev = n
+    leaving = 0.0
+    if count >= n:
+        leaving = buf[(idx + cap - n) % cap]
+    step = u - leaving
+    total = total + step
+    buf[idx] = u
+    idx = (idx + 1) % cap
+    if count < n:
+        count = count + 1
+    since = since + 1
+    spread = spread + (abs(step) + abs(total))
+    mag = mag + (abs(u) - abs(leaving))
+    if since >= n or not spread <= loss * mag or spread - spread != 0.0:
+        # (an infinite bound -- the sum overflowed -- is above any threshold, also an
+        # infinite one: loss * mag overflows with it)
+        # the window afresh, oldest first, with Neumaier's compensation c
+        total = 0.0
+        c = 0.0
+        mag = 0.0
+        for j in range(count):
+            v = buf[(idx + cap - count + j) % cap]
+            t = total + v
+            big = total
+            small = v
+            if abs(v) > abs(total):
+                big = v
+                small = total
+            c = c + ((big - t) + small)  # what t lost of the smaller addend, exactly
+            total = t
+            mag = mag + abs(v)
+        total = total + c
+        spread = abs(total)
+        since = 0
+    mean = total / float(count)
+    if total - total != 0.0:  # inf or NaN
+        # the sum of finite values overflowed: the mean itself is finite, between the
+        # window's smallest and largest value (the roundings of v / count may push the sum
+        # of three values of 1.8e308 past the range)
+        mean = 0.0
+        lo = buf[(idx + cap - count) % cap]
+        hi = lo
+        for j in range(count):
+            v = buf[(idx + cap - count + j) % cap]
+            mean = mean + v / float(count)
+            lo = min(lo, v)
+            hi = max(hi, v)
+        mean = clamp(mean, lo, hi)
+    return mean, buf, idx, count, since, total, spread, mag, n_prev
+
 
 @dataclasses.dataclass(frozen=True)
 class MovingAverageConfig(BlockConfig):
@@ -431,25 +533,25 @@ class MovingAverageConfig(BlockConfig):
 class MovingAverage(Block):
     """Mean of the last ``n`` inputs (controltheplant 2024, ``MovingAverage``).
 
-    Until ``n`` values have arrived, the mean of those received.  The sum is
-    recomputed exactly once per window so that rounding cannot drift, and at
-    once when the running sum may have lost what the window holds: the block
-    keeps a bound of the running sum's rounding error (``_err``, the unit
-    roundoff times each partial result) and the running sum of the magnitudes
-    (``_mag``); when the bound exceeds 2^-30 of the magnitudes -- after one
-    1e300 sample left a window of small values, say, which a plain running sum
-    forgets until the window wraps -- the sums are recomputed (``math.fsum``).
-    On ordinary data the bound stays near ``n`` unit roundoffs and nothing
+    Until ``n`` values have arrived, the mean of those received.  One sample is
+    :func:`moving_average_step`, the cycle the PID's dead band runs in the PLC
+    cycle too: a running sum, summed afresh once per window so that rounding
+    cannot drift, and at once when its rounding-error bound (``_spread``, in
+    unit roundoffs) exceeds 2^-30 of the window's magnitudes (``_mag``;
+    :data:`SUM_LOSS_FLOAT64`) -- after one 1e300 sample left a window of small
+    values, say, which a plain running sum forgets until the window wraps.  On
+    ordinary data the bound stays near ``n`` unit roundoffs and nothing
     changes.  NaN/inf input: not stored, output held, ``BAD_INPUT``.
     """
 
     Config = MovingAverageConfig
-    _state_fields = ("out", "_buf", "_idx", "_count", "_sum", "_err", "_mag")
+    _state_fields = ("out", "_buf", "_idx", "_count", "_since", "_sum", "_spread", "_mag")
     config: MovingAverageConfig
     _config: MovingAverageConfig
     _buf: list[float]
     _idx: int
     _count: int
+    _since: int
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         """A new window length keeps the newest ``min(count, n)`` values, oldest first."""
@@ -461,6 +563,7 @@ class MovingAverage(Block):
         self._buf = keep + [0.0] * (n - len(keep))
         self._count = len(keep)
         self._idx = self._count % n
+        self._since = self._idx
         self._exact_sums()
         if self._count:
             self.out = self._mean()
@@ -469,13 +572,23 @@ class MovingAverage(Block):
         """The running sums afresh from the window (``math.fsum``): no rounding error carried."""
         self._sum = _window_sum(self._buf)
         self._mag = _window_sum([abs(v) for v in self._buf])
-        self._err = _EPS * abs(self._sum)
+        self._spread = abs(self._sum)
 
     def restore(self, snapshot: dict[str, Any]) -> None:
-        """Restore a :meth:`snapshot`; one of before the error bound (no ``_err``) sums afresh."""
-        fresh = "_err" not in snapshot
-        if fresh:
-            snapshot = {**snapshot, "_err": 0.0, "_mag": 0.0}
+        """Restore a :meth:`snapshot`, also one of an earlier version of the block.
+
+        A snapshot with the error bound in absolute terms (``_err``) converts it
+        to unit roundoffs; one without any bound sums afresh.  Both summed afresh
+        once per window from index 0 (``_since`` is the index).
+        """
+        fresh = "_spread" not in snapshot and "_err" not in snapshot
+        if "_spread" not in snapshot:
+            snapshot = {k: v for k, v in snapshot.items() if k != "_err"} | {
+                "_spread": float(snapshot.get("_err", 0.0)) / _EPS,
+                "_mag": snapshot.get("_mag", 0.0),
+            }
+        if "_since" not in snapshot:
+            snapshot = {**snapshot, "_since": snapshot.get("_idx", 0)}
         super().restore(snapshot)
         if fresh:
             self._exact_sums()
@@ -484,8 +597,12 @@ class MovingAverage(Block):
         s = self._sum
         if -math.inf < s < math.inf:
             return s / self._count
-        # the sum of finite values overflowed: the mean itself is finite
-        return math.fsum(v / self._count for v in self._buf)
+        # the sum of finite values overflowed: the mean itself is finite, between the
+        # window's smallest and largest value (as in moving_average_step)
+        n, count = self._config.n, self._count
+        window = [self._buf[(self._idx - count + j) % n] for j in range(count)]
+        mean = sum(v / count for v in window)
+        return clamp(mean, min(window), max(window))
 
     def _resume(self, held: float) -> None:
         self._exact_sums()
@@ -496,8 +613,9 @@ class MovingAverage(Block):
         self._buf = [0.0] * self._config.n
         self._idx = 0
         self._count = 0
+        self._since = 0
         self._sum = 0.0
-        self._err = 0.0
+        self._spread = 0.0
         self._mag = 0.0
 
     def preset(self, value: float) -> None:
@@ -505,10 +623,10 @@ class MovingAverage(Block):
         if is_finite(value):
             n = self._config.n
             self._buf = [float(value)] * n
-            self._idx, self._count = 0, n
+            self._idx, self._count, self._since = 0, n, 0
             self._sum = float(value) * n
             self._mag = abs(self._sum)
-            self._err = _EPS * self._mag
+            self._spread = self._mag
             self.out = float(value)
 
     def __call__(self, u: float) -> float:
@@ -518,26 +636,15 @@ class MovingAverage(Block):
             return self.out
         self.error_id = ErrorCode.NO_ERROR
         n = self._config.n
-        i = self._idx
-        old = self._buf[i]
-        s = self._sum + (u - old)
-        self._sum = s
-        self._buf[i] = u
-        self._idx = i + 1 if i + 1 < n else 0
-        # the rounding error the running sum may carry (two roundings: u - old, the sum)
-        self._err += _EPS * (abs(u - old) + abs(s))
-        self._mag += abs(u) - abs(old)
-        if self._idx == 0 or not self._err <= _LOSS * self._mag < _INF:
-            self._exact_sums()
-        if self._count < n:
-            self._count += 1
-        self.out = self._mean()
+        (self.out, self._buf, self._idx, self._count, self._since, self._sum, self._spread,
+         self._mag, _n) = moving_average_step(
+            u, n, SUM_LOSS_FLOAT64, self.out, self._buf, self._idx, self._count, self._since,
+            self._sum, self._spread, self._mag, n,
+        )  # fmt: skip
         return self.out
 
 
-_EPS = sys.float_info.epsilon / 2.0  # unit roundoff of float64
-_LOSS = 2.0**-30  # the error bound, relative to the magnitudes, that asks for an exact sum
-_INF = math.inf
+_EPS = sys.float_info.epsilon / 2.0  # unit roundoff of float64 (an old snapshot's bound)
 
 
 def _window_sum(buf: list[float]) -> float:

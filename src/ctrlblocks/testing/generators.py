@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable
+from fractions import Fraction
 from typing import Any
 
 from .. import blocks as b
@@ -371,7 +372,10 @@ def _moving_average_oracle(b: Any) -> str | None:
     if count == 0:
         return None
     window = [st["_buf"][(st["_idx"] - count + j) % n] for j in range(count)]
-    exact = math.fsum(v / count for v in window)
+    try:
+        exact = math.fsum(v / count for v in window)
+    except OverflowError:  # the quotients' roundings past the range: the exact mean
+        exact = float(sum(Fraction(v) for v in window) / count)
     big = max(abs(v) for v in window)
     if not abs(b.out - exact) <= 1e-9 * big:
         return f"out {b.out!r} is not the mean {exact!r} of its window (largest |value| {big:.3g})"
@@ -392,9 +396,10 @@ def _cycle_monitor_oracle(b: Any) -> str | None:
 
 
 
-# the state that is +inf by design: the moving average's running sums while the window's
-# sum exceeds the float range (its mean, finite, then comes from the window itself; its
-# oracle checks it), and the PWM's time in the period, +inf for "a period starts now";
+# the state that is not finite by design: the moving average's running sums while the
+# window's sum exceeds the float range (inf, or NaN after its compensated resum; its mean,
+# finite, then comes from the window itself; its oracle checks it), and the PWM's time in
+# the period, +inf for "a period starts now";
 # the alarm blocks' state records the process values as they came (NaN included)
 
 
@@ -523,7 +528,7 @@ def register_shipped() -> None:
             lambda blk, v, dt, f: blk(v[0], dt=dt, open_limit=f[0], close_limit=f[1],
                                       feedback=v[1] if f[2] else None))),
         FuzzSpec("MovingAverage", b.MovingAverage, configs["MovingAverage"],
-                 oracle=_moving_average_oracle, nonfinite_state=("_sum", "_err", "_mag")),
+                 oracle=_moving_average_oracle, nonfinite_state=("_sum", "_spread", "_mag")),
         FuzzSpec("PulseWidth", b.PulseWidth, configs["PulseWidth"], limit_fields=("in_lo", "in_hi"),
                  nonfinite_state=("t_in",)),
         FuzzSpec("TwoPoint", b.TwoPoint, configs["TwoPoint"], step=_step(_on_off_step),
