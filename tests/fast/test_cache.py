@@ -129,3 +129,18 @@ def test_a_compiled_call_does_not_import_scipy_linalg_for_numbas_blas_probe(tmp_
     # machine); the kernels need none: a three-tank loop runs without it, and it imports after
     got = _run(THREE_TANK, CTRLBLOCKS_NUMBA_CACHE=str(tmp_path / "cache"))
     assert got == {"before": False, "path": "compiled", "expm": 1.0}
+
+
+def test_the_cache_key_differs_with_and_without_the_compiled_blocks(monkeypatch) -> None:
+    """A kernel cached by a process with the compiled blocks (numba compiled the interpreted
+    copies, ``ctrlblocks._interpreted_blocks``) must not be loaded by one without them: it
+    raised ModuleNotFoundError there (CTRLBLOCKS_COMPILED=off after a run with the build)."""
+    from ctrlblocks import compiled
+    from ctrlblocks.fast import _jit
+
+    keys = {}
+    for active in (True, False):
+        monkeypatch.setattr(compiled, "active", lambda a=active: a)
+        monkeypatch.setattr(_jit, "_cache_state", {})
+        keys[active] = _jit.source_key()
+    assert keys[True] != keys[False]

@@ -22,9 +22,14 @@ not the blocks' functions it inlines (``blocks/pid.py``, ...), and would
 happily load a stale kernel after such a change.  Here the cache key is a hash
 of every source file compiled code can reach (``blocks/``, ``plants/``,
 ``fast/`` and, once it exists, ``loops/``; lower layers never import higher
-ones) and of the numba version: the cache lives in a folder named after that
-hash, and the same hash is the source stamp numba checks, so any change of
-those sources compiles anew.
+ones), of the numba version and of whether the compiled blocks are loaded
+(:mod:`ctrlblocks.compiled`: with them numba compiles the interpreted copies
+of the law functions, which live under another module name, so a kernel
+cached by one kind of process would not load in the other -- it raised
+``ModuleNotFoundError: ctrlblocks._interpreted_blocks`` in a process run
+with ``CTRLBLOCKS_COMPILED=off`` after one with the build): the cache lives
+in a folder named after that hash, and the same hash is the source stamp
+numba checks, so any change of those sources compiles anew.
 
 Where: ``$CTRLBLOCKS_NUMBA_CACHE`` if set (``off`` disables the cache), else
 ``$NUMBA_CACHE_DIR/ctrlblocks`` when numba's own cache folder is set, else
@@ -44,6 +49,8 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
+
+from .. import compiled as _compiled
 
 __all__ = [
     "HAVE_NUMBA",
@@ -150,6 +157,9 @@ def source_key() -> str:
     """Hex hash of the numba version and every ``.py`` file compiled kernels can reach."""
     if "key" not in _cache_state:
         h = hashlib.sha256(f"numba {getattr(_numba, '__version__', '-')}".encode())
+        # the law functions numba compiles are the interpreted copies when the build is
+        # loaded (another module name): one cache per kind of process
+        h.update(b"blocks compiled\0" if _compiled.active() else b"blocks interpreted\0")
         for sub in _KEYED_PACKAGES:
             for path in sorted((_PACKAGE / sub).rglob("*.py")):
                 h.update(str(path.relative_to(_PACKAGE)).encode())
