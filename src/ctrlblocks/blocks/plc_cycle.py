@@ -969,11 +969,15 @@ def adrc_cycle(
     sat_hi = y_sat
     sat_lo = y_sat_lo
     if scale_pv:
-        # SP and PV in % of the PV range (ADRCConfig.pv_range), the sensor's saturation too
+        # SP and PV in % of the PV range (ADRCConfig.pv_range), the sensor's saturation too;
+        # a saturation at +-REAL_MAX (or inf) is none and stays one: scaled, it would overflow
+        # REAL (a floating-point exception on a PLC that traps them) on every cycle
         sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
         y = scale(y, pv_lo, pv_hi, 0.0, 100.0)
-        sat_hi = scale(y_sat, pv_lo, pv_hi, 0.0, 100.0)
-        sat_lo = scale(y_sat_lo, pv_lo, pv_hi, 0.0, 100.0)
+        if abs(y_sat) < REAL_MAX:
+            sat_hi = scale(y_sat, pv_lo, pv_hi, 0.0, 100.0)
+        if abs(y_sat_lo) < REAL_MAX:
+            sat_lo = scale(y_sat_lo, pv_lo, pv_hi, 0.0, 100.0)
     if reverse:
         # a reverse-acting process: the cycle runs on -sp and -y (ADRCConfig.reverse)
         sat_old = sat_hi
