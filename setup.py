@@ -7,7 +7,8 @@ key is a hash of the sources and the Python ABI, so an edited source simply
 has no build until the next install or ``ctrlblocks compile``).  Without a C
 compiler, or with ``CTRLBLOCKS_BUILD_COMPILED=off``, the build is skipped with
 one warning and the package is the pure-Python one -- the reference, always
-complete.  Everything else is declared in ``pyproject.toml``.
+complete.  ``CTRLBLOCKS_BUILD_COMPILED=require`` (the release CI's) makes a
+failed build fail the install instead.  Everything else is declared in ``pyproject.toml``.
 """
 
 from __future__ import annotations
@@ -42,9 +43,8 @@ class BuildPyWithCompiledBlocks(build_py):
 
     def run(self) -> None:
         super().run()
-        if os.environ.get("CTRLBLOCKS_BUILD_COMPILED", "auto").strip().lower() in (
-            "off", "0", "no", "false",
-        ):  # fmt: skip
+        how = os.environ.get("CTRLBLOCKS_BUILD_COMPILED", "auto").strip().lower()
+        if how in ("off", "0", "no", "false"):
             print("ctrlblocks: CTRLBLOCKS_BUILD_COMPILED=off: the interpreted blocks only")
             return
         # an editable install runs the source tree: the build goes next to it
@@ -54,6 +54,8 @@ class BuildPyWithCompiledBlocks(build_py):
         try:
             folder = compiled.build_packaged(package / "_compiled", say=print)
         except Exception as exc:  # no compiler, no Cython, no headers: the fallback
+            if how == "require":  # the release CI: a binary wheel or none
+                raise RuntimeError(f"ctrlblocks: the compiled blocks failed: {exc}") from exc
             self.warn(
                 f"ctrlblocks: the compiled blocks were not built ({type(exc).__name__}: "
                 f"{str(exc)[-400:]}); the interpreted blocks are used (ctrlblocks compile "

@@ -86,3 +86,12 @@ def test_the_wheel_is_binary_with_the_compiled_blocks_and_pure_without(tmp_path:
     status = json.loads(got.stdout.strip().splitlines()[-1])
     assert status["file"].startswith(str(tmp_path / "site"))
     assert status["active"] and status["folder"].startswith(str(tmp_path / "site"))
+    # and what the release CI runs on every binary wheel it builds (pyproject.toml's
+    # [tool.cibuildwheel] test-command): in use, and bit-equal to the interpreted blocks
+    checked = subprocess.run(
+        [sys.executable, "-m", "ctrlblocks", "compile", "--check"], capture_output=True,
+        text=True, timeout=900, cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(tmp_path / "site"), "CTRLBLOCKS_COMPILED": "auto"},
+    )  # fmt: skip
+    assert checked.returncode == 0, checked.stderr[-2000:]
+    assert "every block bit-equal to the interpreted blocks over 54 runs" in checked.stdout
