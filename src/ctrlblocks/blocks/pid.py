@@ -1346,9 +1346,8 @@ class PID(Block):
         if not self._lean_ran:
             return
         sp_w, pv_f, out = self.sp_w, self.pv_f, self.out
-        if self._pending is True:
-            lean = self._lean_cycle
-            out, sp_w, pv_f = lean[0], lean[1], lean[2]
+        if self._pending is True:  # (indexed: in the build a C struct, not made a tuple)
+            out, sp_w, pv_f = self._lean_cycle[0], self._lean_cycle[1], self._lean_cycle[2]
         subs = self._subs
         subs["_sp_filter"].out = subs["_sp_ramp"].out = sp_w
         subs["_pv_filter"].out = pv_f
@@ -1555,8 +1554,8 @@ class PID(Block):
             # for _sync_subs and _full_cycle
             out_prev, sp_prev, pv_prev = self.out, self.sp_w, self.pv_f
             if pending is True:  # computed again: from the values the pending cycle kept
-                lean = self._lean_cycle
-                out_prev, sp_prev, pv_prev = lean[0], lean[1], lean[2]
+                out_prev = self._lean_cycle[0]
+                sp_prev, pv_prev = self._lean_cycle[1], self._lean_cycle[2]
             out, v_raw, _lim, p, i_k, d, w, e, _bias, _sup, _dbh = pid_law(
                 sp, pv, ff, False, 0.0, False, False, False, False, False, 0.0, self._i, self._d,
                 self._w_prev, self._e_prev, 0.0, 0.0, 0.0, 0.0, 0.0, out_prev, out_prev,
@@ -1749,9 +1748,8 @@ class PID(Block):
                 if _NINF < a < _INF:
                     u = a
             self.manual_value = u
-            prm = self._prm
             self._i, _x = pid_commit(u, self.out, v_raw, p, i_k, d, ff, False, False, 0.0,
-                                     prm[6], prm[11], prm[12], 0.0)  # fmt: skip
+                                     self._prm[6], self._prm[11], self._prm[12], 0.0)  # fmt: skip
             self._d, self._w_prev, self._e_prev = d, w, e
             self.p_suppressed = False
             self._lean_ran = True
