@@ -268,7 +268,7 @@ class TwoPhase(RuleBasedStateMachine):
             _same(self.lean.snapshot(), self.ref.snapshot(), "snapshots")
 
 
-def _run(examples: int, steps: int) -> None:
+def _run(examples: int, steps: int, derandomize: bool) -> None:
     TwoPhase.lean_cycles = TwoPhase.lean_commits = 0
     run_state_machine_as_test(
         TwoPhase,
@@ -276,6 +276,7 @@ def _run(examples: int, steps: int) -> None:
             max_examples=examples,
             stateful_step_count=steps,
             deadline=None,
+            derandomize=derandomize,
             suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
         ),
     )
@@ -285,12 +286,13 @@ def _run(examples: int, steps: int) -> None:
 
 
 def test_the_lean_two_phase_cycle_equals_the_general_one():
-    _run(40, 50)
+    _run(40, 50, derandomize=True)  # the CI run: the same examples every time
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1800)
 def test_the_lean_two_phase_cycle_equals_the_general_one_long():
-    _run(1500, 80)
+    _run(600, 80, derandomize=False)
 
 
 def _pair(**config):
