@@ -54,6 +54,10 @@ from .base cimport Block, as_input
 
 ctypedef (double, double, double, double, double, double, double, double, double, double,
           double, double, double) pid_prm_t
+# the lean two-phase cycle pending (PID._pending is True): what update_state commits with
+# pid_commit, and the committed values before it (PID._lean_cycle; docs/performance.md)
+ctypedef (double, double, double, double, double, double, double, double, double, double,
+          double, double, double) pid_lean_t
 
 cdef class PID(Block):
     cdef public object manual, track, hold, reset_active, awin, manual_value, _lean
@@ -61,10 +65,12 @@ cdef class PID(Block):
     # the law's parameters as the C tuple pid_law takes: converted when set (configure),
     # not at every call (docs/performance.md, "Instructions per call")
     cdef public pid_prm_t _prm
+    cdef public pid_lean_t _lean_cycle
+    cdef public bint _two_phase_lean
     cdef public object _limits_status, _lean_ran, _law_in_force, deadband_active
     cdef public object p_suppressed
     cdef public double out, _h, _ts, _i, _d, _w_prev, _e_prev, p, i, d, e, sp_w, pv_f, ff
     cdef public double _lo, _hi, _x, _bias, _ff_prev
     cpdef output_limits(self)
     cdef _call(self, double sp, double pv, double ff, double dv, dt, pv_ok)
-    cdef _compute_output(self, sp, pv, ff, dv, dt, pv_ok)
+    cdef _compute_output(self, double sp, double pv, double ff, double dv, dt, pv_ok)

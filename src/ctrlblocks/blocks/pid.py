@@ -852,7 +852,11 @@ class _Cycle(NamedTuple):
     """One PID cycle computed by ``compute_output``, committed by ``update_state``.
 
     The pending value of the two-phase contract (:mod:`.base`): everything the
-    second phase needs, nothing stored on the block in between.
+    second phase needs, nothing stored on the block in between.  The lean
+    cycle (:meth:`PID.compute_output` in plain auto operation) is pending as
+    ``PID._pending is True`` with its values in ``PID._lean_cycle``
+    (:data:`_LEAN_FIELDS`; in the compiled build a C struct); what it does not
+    cover turns it into this tuple first (:meth:`PID._full_cycle`).
     """
 
     kind: int  # _SKIP bad dt (nothing to commit), _BAD bad input, _LAW the law ran
@@ -872,6 +876,13 @@ class _Cycle(NamedTuple):
     held: bool = False  # a mode other than AUTO, or the adaptive dead band, held the output
     ramp: float = 0.0  # the output ramp's state to commit [%]
     limiting: bool = False  # the output ramp set the output
+
+
+_LEAN_FIELDS = ("out_prev", "sp_prev", "pv_prev", "sp", "pv", "e", "w", "d", "p", "ff", "i",
+                "v_raw", "out")  # fmt: skip
+"""``PID._lean_cycle``, the lean pending cycle: the committed output, working setpoint and
+PV it started from (``out``, ``sp_w``, ``pv_f`` until the commit), its inputs, and the
+values of :class:`_Cycle` that :func:`pid_commit` reads."""
 
 
 @functools.cache
@@ -967,7 +978,8 @@ class PID(Block):
     # configure's rollback saves by name; tests/blocks/test_compiled.py keeps both in step
     _declared = (
         "error_id _config manual track hold reset_active awin manual_value _lean _mode_prev "
-        "_cold _reinit _pending _prm limits_active _limits_status _lean_ran _law_in_force "
+        "_cold _reinit _pending _prm _lean_cycle _two_phase_lean limits_active _limits_status "
+        "_lean_ran _law_in_force "
         "deadband_active p_suppressed out _h _ts _i _d _w_prev _e_prev p i d e sp_w pv_f ff "
         "_lo _hi _x _bias _ff_prev"
     )
@@ -1032,13 +1044,19 @@ class PID(Block):
         self.awin = False
         # filters, ramps, lead-lag, detector by name (several block classes, used by name)
         self._subs: dict[str, Any] = {}
-        self._pending: _Cycle | None = None
+        self._pending: _Cycle | bool | None = None
+        self._lean_cycle = (0.0,) * len(_LEAN_FIELDS)
+        # compute_output's lean cycle (False: always the general one; a switch for the tests
+        # that compare the two, tests/blocks/test_pid_two_phase_lean.py)
+        self._two_phase_lean = True
         super().__init__(config, **params)
 
     # -- configuration ---------------------------------------------------------
 
     def _apply_config(self, old: BlockConfig | None) -> None:
         if old is not None:
+            if self._pending is True:  # the commit will see the new configuration
+                self._full_cycle()
             self._sync_subs()
         c = self._config
         self._imeth = METHODS.index(c.integral_method)
@@ -1186,6 +1204,8 @@ class PID(Block):
         except Exception:
             self._config = old
             raise
+        if self._pending is True:  # the re-initialisation of _relaw is the general commit's
+            self._full_cycle()
         self._sync_subs()
         self._relaw(old)
 
@@ -1210,6 +1230,8 @@ class PID(Block):
         them before the guard ran (:func:`pid_step`).
         """
         cycle = self._pending
+        if cycle is True:
+            cycle = self._full_cycle()
         if cycle is not None and cycle.kind == _LAW:
             self._d, self._w_prev, self._e_prev = cycle.d, cycle.w, cycle.e
         for name in ("p", "i", "d", "ff", "e", "sp_w", "pv_f", "_d", "_w_prev", "_e_prev",
@@ -1252,6 +1274,8 @@ class PID(Block):
             return
         self._subs["_out_ramp"].preset(self.out)
         cycle = self._pending
+        if cycle is True:
+            cycle = self._full_cycle()
         if cycle is not None:  # the state update_state will commit
             self._pending = cycle._replace(ramp=self.out, limiting=False)
 
@@ -1316,14 +1340,18 @@ class PID(Block):
         The fast lane (:func:`pid_step`) does not call the sub-blocks, which
         are pass-throughs in the configurations it serves; their outputs are
         set here to what those calls would have left, before a snapshot or a
-        reconfiguration that may switch them on.
+        reconfiguration that may switch them on.  While a lean two-phase cycle
+        is pending, the committed values are those it started from.
         """
         if not self._lean_ran:
             return
+        sp_w, pv_f, out = self.sp_w, self.pv_f, self.out
+        if self._pending is True:  # (indexed: in the build a C struct, not made a tuple)
+            out, sp_w, pv_f = self._lean_cycle[0], self._lean_cycle[1], self._lean_cycle[2]
         subs = self._subs
-        subs["_sp_filter"].out = subs["_sp_ramp"].out = self.sp_w
-        subs["_pv_filter"].out = self.pv_f
-        subs["_out_ramp"].out = self.out
+        subs["_sp_filter"].out = subs["_sp_ramp"].out = sp_w
+        subs["_pv_filter"].out = pv_f
+        subs["_out_ramp"].out = out
         for name in ("_sp_filter", "_pv_filter", "_sp_ramp", "_out_ramp"):
             subs[name].error_id = ErrorCode.NO_ERROR
         subs["_sp_ramp"].limiting = subs["_out_ramp"].limiting = False
@@ -1458,6 +1486,13 @@ class PID(Block):
         cycle starts from the committed state again and gives the same result
         for the same inputs.
 
+        Lean cycle: in plain auto operation (the conditions of the per-call
+        fast lane, :meth:`__call__`) the cycle is one call of :func:`pid_law`
+        -- no filters, ramps or sub-block states -- and the pending value a
+        few floats (a C struct in the compiled build), which
+        :meth:`update_state` commits with :func:`pid_commit`; the results are
+        those of the general cycle.
+
         Parameters
         ----------
         sp, pv : float
@@ -1477,15 +1512,75 @@ class PID(Block):
         float
             The output ``v`` [%] (limited, ramped); also ``self.out``.
         """
-        return self._checked(self.out, self._compute_output(sp, pv, ff, dv, dt, pv_ok))
+        # the output guard (Block._checked) around the body, as in __call__
+        if type(sp) is not float:
+            sp = as_input(sp)
+        if type(pv) is not float:
+            pv = as_input(pv)
+        if type(ff) is not float:
+            ff = as_input(ff)
+        if type(dv) is not float:
+            dv = as_input(dv)
+        prev = self.out
+        v = self._compute_output(sp, pv, ff, dv, dt, pv_ok)
+        u = self.out
+        if self._lo <= u <= self._hi and _NINF < u < _INF:
+            return v
+        return self._checked(prev, v)
 
     def _compute_output(
-        self, sp: Any, pv: Any, ff: Any, dv: Any, dt: float | None, pv_ok: Any
+        self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: Any
     ) -> float:
-        """The body of :meth:`compute_output` (output not yet checked)."""
-        sp, pv, ff, dv = as_input(sp), as_input(pv), as_input(ff), as_input(dv)
-        pv_ok = as_flag(pv_ok, False)
+        """The body of :meth:`compute_output` (inputs converted, output not yet checked)."""
         pending = self._pending
+        if (
+            self._lean
+            and self._two_phase_lean
+            and dt is None
+            and pv_ok is True
+            and dv == 0.0
+            and (pending is None or pending is True)
+            and self._mode_prev == 0
+            and not (self._cold or self._reinit or self.p_suppressed)
+            and self._h == self._ts
+            and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
+            and _NINF < sp < _INF
+            and _NINF < pv < _INF
+            and _NINF < ff < _INF
+        ):
+            # the lean cycle: the fast lane's conditions (_call; and P not suppressed), in which
+            # the general cycle's sub-blocks pass their inputs through and the law's options
+            # are off (NO_OPTIONS, as pid_step); the committed values it starts from are kept
+            # for _sync_subs and _full_cycle
+            out_prev, sp_prev, pv_prev = self.out, self.sp_w, self.pv_f
+            if pending is True:  # computed again: from the values the pending cycle kept
+                out_prev = self._lean_cycle[0]
+                sp_prev, pv_prev = self._lean_cycle[1], self._lean_cycle[2]
+            out, v_raw, _lim, p, i_k, d, w, e, _bias, _sup, _dbh = pid_law(
+                sp, pv, ff, False, 0.0, False, False, False, False, False, 0.0, self._i, self._d,
+                self._w_prev, self._e_prev, 0.0, 0.0, 0.0, 0.0, 0.0, out_prev, out_prev,
+                self._prm, NO_OPTIONS,
+            )  # fmt: skip
+            if (
+                _NINF < v_raw < _INF
+                and _NINF < d < _INF
+                and _NINF < w < _INF
+                and _NINF < i_k < _INF
+            ):
+                self.sp_w, self.pv_f, self.e = sp, pv, e
+                self.out = out
+                self.limits_active = v_raw > self._hi or v_raw < self._lo
+                self.p, self.d, self.ff, self.i = p, d, ff, i_k
+                self.error_id = self._limits_status
+                self._lean_cycle = (out_prev, sp_prev, pv_prev, sp, pv, e, w, d, p, ff, i_k, v_raw,
+                                    out)  # fmt: skip
+                self._pending = True
+                return out
+            # an overflow: the general cycle's failed cycle (BAD_RESULT, _resume)
+        pv_ok = as_flag(pv_ok, False)
+        if pending is True:
+            pending = self._full_cycle()
+        self._sync_subs()  # the committed states of the sub-blocks the cycle runs
         out_prev = self.out if pending is None else pending.out_prev
         # the filters, ramps and lead-lag commit when called: run them from their
         # committed state, keep the state they reach in the pending cycle, put it back
@@ -1504,6 +1599,29 @@ class PID(Block):
             self.error_id = ErrorCode.BAD_RESULT
             self._resume(self.out)
         return self.out
+
+    def _full_cycle(self) -> _Cycle:
+        """The lean pending cycle as the general one (:class:`_Cycle`), pending instead.
+
+        For what the lean commit does not cover between the two phases: a
+        reconfiguration or retune, limits narrowed below the output, the
+        restart after a failed cycle, ``compute_output`` again on the general
+        path.  The sub-blocks run from their committed states on the cycle's
+        inputs, as :meth:`_compute` runs them, and their new states travel in
+        the cycle.
+        """
+        (out_prev, _sp_prev, _pv_prev, sp, pv, e, w, d, p, ff, i_k, v_raw,
+         out) = self._lean_cycle  # fmt: skip
+        self._sync_subs()
+        subs, named, h = self._cycle_subs, self._subs, self._ts
+        committed = subs.take()
+        named["_sp_ramp"](named["_sp_filter"](sp, dt=h), dt=h)
+        named["_pv_filter"](pv, dt=h)
+        cycle = _Cycle(_LAW, out_prev, Mode.AUTO, h, subs.take(), e, w, d, p, ff, i_k, v_raw,
+                       self._bias, False, False, out, False)  # fmt: skip
+        subs.put(committed)
+        self._pending = cycle
+        return cycle
 
     def _compute(
         self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool,
@@ -1618,6 +1736,24 @@ class PID(Block):
             log.debug("PID.update_state without compute_output: ignored")
             return
         self._pending = None
+        if cycle is True:
+            # the lean cycle (compute_output): the commit below for a _LAW cycle in auto of the
+            # positional law, nothing held, no dead band -- the sub-blocks are brought up to
+            # date when next needed (_sync_subs)
+            (_out_prev, _sp_prev, _pv_prev, _sp, _pv, e, w, d, p, ff, i_k, v_raw,
+             _out) = self._lean_cycle  # fmt: skip
+            u = self.out
+            if type(applied) is float or is_finite(applied):
+                a = float(applied)
+                if _NINF < a < _INF:
+                    u = a
+            self.manual_value = u
+            self._i, _x = pid_commit(u, self.out, v_raw, p, i_k, d, ff, False, False, 0.0,
+                                     self._prm[6], self._prm[11], self._prm[12], 0.0)  # fmt: skip
+            self._d, self._w_prev, self._e_prev = d, w, e
+            self.p_suppressed = False
+            self._lean_ran = True
+            return
         if cycle.kind == _SKIP:
             return
         self._cycle_subs.put(cycle.subs)
