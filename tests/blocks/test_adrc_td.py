@@ -36,6 +36,7 @@ from scipy import signal
 from ctrlblocks import ADRC
 from ctrlblocks.blocks.adrc import tracking_differentiator
 from ctrlblocks.blocks.base import ErrorCode, ParameterError
+from ctrlblocks.tuning.margins import controller_ss
 
 
 def td_ss(n: int, td_time: float) -> tuple[np.ndarray, ...]:
@@ -373,3 +374,43 @@ def test_two_phase_cycle_and_snapshot():
     old = {k: v for k, v in snap.items() if "td" not in k}  # a snapshot of before the TD
     blk.restore(old)
     assert blk._td1 == blk._td2 == blk._sp_w
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("disc", ["euler", "exact"])
+def test_two_degree_of_freedom_view_has_the_td_in_the_reference_path(n, disc):
+    """``C_r`` (the reference path of the controller ``tune adrc`` reads) is the plain
+    one times the TD's ``r -> r_eff`` (python-control); ``C_y`` (the loop) is unchanged."""
+    h, td_time = 0.1, 0.7
+    cfg = {"order": n, "b0": 2.0, "omega_c": 0.8, "omega_o": 4.0, "ts": h,
+           "discretisation": disc}  # fmt: skip
+    plain = ADRC(**cfg)
+    w = np.logspace(-2, math.log10(math.pi / h) - 0.01, 50)
+    c_plain = controller_ss(plain).response(w)[:, 0, :]
+    c_td = controller_ss(ADRC(**cfg, td_time=td_time)).response(w)[:, 0, :]
+    ac, bc, cc, dc = td_ss(n, td_time)
+    phi, gam, cd, dd, _h = signal.cont2discrete((ac, bc, cc, dc), h, method="zoh")
+    g = plain.gains
+    weights = np.zeros(n + 1)
+    weights[0] = 1.0
+    weights[n] += 1.0 / g["kp"]  # r_f^(n)
+    if n >= 2:
+        weights[1] += g["kd1"] / g["kp"]
+    if n >= 3:
+        weights[2] += g["kd2"] / g["kp"]
+    tdsys = control.ss(phi, gam, weights @ cd, weights @ dd, h)
+    g_eff = np.array([complex(tdsys(np.exp(1j * wk * h))) for wk in w])
+    np.testing.assert_allclose(c_td[:, 0], c_plain[:, 0] * g_eff, rtol=1e-8)
+    np.testing.assert_allclose(c_td[:, 1], c_plain[:, 1], rtol=1e-10)
+    assert abs(abs(g_eff[0]) - 1.0) < 1e-3 and abs(g_eff[-1] - 1.0) > 0.1  # a 2-DOF filter
+
+
+@pytest.mark.parametrize("td_time", [5e-324, 1e-300])
+def test_a_denormal_td_time_keeps_every_output_finite(td_time):
+    """1/td_time overflows: no derivative is fed forward (found by the fuzz campaign)."""
+    blk = ADRC(order=3, b0=2.0, omega_c=1.0, omega_o=5.0, ts=0.1, td_time=td_time)
+    for k in range(20):
+        u = blk(2.0 if k > 3 else 0.0, 0.1 * k)
+        outs = (u, blk.sp_td, blk.sp_td_d1, blk.sp_td_d2, blk.sp_td_d3, blk.y_ref)
+        assert all(math.isfinite(v) for v in outs), outs
+    assert blk.sp_td == 2.0  # the chain is at the setpoint within a sample

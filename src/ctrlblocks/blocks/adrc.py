@@ -874,8 +874,9 @@ def tracking_differentiator(
     (a held mode) puts the chain at rest on the measurement ``y`` and keeps it
     there (``r_eff = y``); ``preset`` (the ESO not yet started) puts it at rest
     on ``y`` and runs it.  A bad setpoint or measurement holds the chain.  A
-    step that overflows restarts it at rest on ``r``; an ``r_eff`` that
-    overflows (or ``kp = 0``) is ``r_f``.  Spelled out for n = 1, 2, 3 (a PLC
+    step that overflows restarts it at rest on ``r``; derivatives that
+    overflow (a ``td_time`` so short that ``1/td_time`` does) are 0, and an
+    ``r_eff`` that overflows (or ``kp = 0``) is ``r_f``.  Spelled out for n = 1, 2, 3 (a PLC
     has no lists): the block, the float32 cycle and the exported FB run this
     one function.  Returns ``(r_eff, r_f, d1, d2, d3, z1, z2, z3)``, ``dk``
     the k-th derivative of ``r_f`` (0 beyond n).
@@ -917,6 +918,11 @@ def tracking_differentiator(
         z3 = r + ea * ((z3 - r) + a * (z2 - r) + a * a / 2.0 * (z1 - r))
         z2 = r + ea * ((z2 - r) + a * (z1 - r))
         z1 = r + ea * (z1 - r)
+    if d1 - d1 != 0.0 or d2 - d2 != 0.0 or d3 - d3 != 0.0:
+        d1 = 0.0  # a td_time so short that w overflows: no derivative to feed forward
+        d2 = 0.0
+        d3 = 0.0
+        dn = 0.0
     r_eff = rf
     if kp > 0.0:
         r_eff = rf + (kd1 * d1 + kd2 * d2 + dn) / kp
