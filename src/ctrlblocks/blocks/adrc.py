@@ -1352,7 +1352,7 @@ class ADRC(Block):
     See :class:`ADRCConfig`: ``order, b0, omega_c, omega_o, ts, u_min, u_max,
     t_ref, discretisation, u_sf, u0, anti_windup, u_real_on, anti_backoff,
     y_sat, y_sat_lo, tau_wait, precision, reverse, input_delay, out_rate,
-    pv_range, sp_filter, pv_filter, sp_rate``.
+    pv_range, sp_filter, pv_filter, sp_rate, td_time``.
 
     Inputs (attributes written between cycles, like PLC inputs)
     -----------------------------------------------------------
@@ -1384,7 +1384,9 @@ class ADRC(Block):
     u / out (applied value computed this cycle), ``u_raw`` (4b before the
     limits), ``e = sp_w - y``, ``y`` (the PV the law sees: scaled and filtered
     where configured), ``sp_w`` (the working setpoint after the SP filter and
-    ramp), ``y_ref``, ``x = (Y_hat, x2, x3, x4)``,
+    ramp), ``y_ref`` (the reference of (4b): with ``td_time`` the TD's ``r_eff``),
+    ``sp_td`` and ``sp_td_d1..3`` (the tracking differentiator's filtered setpoint
+    and its derivatives; ``sp_w`` and 0 while it is off), ``x = (Y_hat, x2, x3, x4)``,
     ``awout`` (u_raw beyond a limit), ``error``, ``error_id``, ``warning``.
 
     Anti-windup (section 4.1) and why the default rule is *directional*
@@ -1462,6 +1464,9 @@ class ADRC(Block):
     _nd: int  # input_delay in samples
     _u_hist: tuple[float, ...]  # the ESO's u (applied less ff) of the _nd samples before the last
     _ff_prev: float  # the feed-forward of the last cycle (the ESO is fed the applied u less it)
+    _td1: float  # the tracking differentiator's chain (tracking_differentiator), PV units
+    _td2: float
+    _td3: float
     _state_fields = (
         "out",
         "u_man",
