@@ -859,8 +859,14 @@ def tracking_differentiator(
     (zero-order hold): ``z(t+h) = r + Phi (z(t) - r)`` with ``Phi_kj = exp(-a)
     a^(k-j)/(k-j)!`` (``a = h/td_time``) -- the same as ``Phi z + Gamma r``
     with ``Gamma = (I - Phi) 1``, written on the deviations so that a chain at
-    rest stays exactly at rest, in REAL too.  The outputs belong to the
-    sample's instant: from the states before the step, and this ``r``.
+    rest stays exactly at rest, in REAL too.  ``r_f`` and the derivatives
+    below the n-th belong to the sample's instant (the states before the step);
+    the n-th, which u acts on directly, is its mean over the sample,
+    ``(r_f^(n-1)(t + h) - r_f^(n-1)(t))/h`` -- the value a u held over the
+    sample must have for the chain's (n-1)-th derivative to move as the
+    reference's (the point value at t lags by about ``w h``: in closed loop on
+    ``b0/s^n`` the error to ``w^n/(s + w)^n`` falls from 1-2.4 % to below
+    0.03 % of a step at ``w h = 0.04``, tests/blocks/test_adrc_td.py).
 
     The control law with the reference's derivatives fed forward (docs/blocks/
     adrc.md, "Tracking differentiator"), ``u = (kp (r_f - Y_hat) + kd1 (r_f' -
@@ -879,7 +885,8 @@ def tracking_differentiator(
     ``r_eff`` that overflows (or ``kp = 0``) is ``r_f``.  Spelled out for n = 1, 2, 3 (a PLC
     has no lists): the block, the float32 cycle and the exported FB run this
     one function.  Returns ``(r_eff, r_f, d1, d2, d3, z1, z2, z3)``, ``dk``
-    the k-th derivative of ``r_f`` (0 beyond n).
+    the k-th derivative of ``r_f`` (the n-th: its mean over the sample; 0
+    beyond n).
     """
     if not td_time > 0.0:
         return r, r, 0.0, 0.0, 0.0, z1, z2, z3
@@ -898,22 +905,27 @@ def tracking_differentiator(
     w = 1.0 / td_time
     a = h / td_time
     ea = math.exp(-a)
+    _d, q = pole_distance(w, h)  # (1 - exp(-a))/h, accurate for a tiny a
     d2 = 0.0
     d3 = 0.0
+    # the n-th derivative is fed forward as its mean over the sample, (D_(n-1)(t + h) -
+    # D_(n-1)(t))/h: the value a u held over the sample must have (its point value
+    # w^n (...) at t would lag by about w h); the lower ones at the sample's instant
     if n == 1:
-        d1 = w * (r - z1)
+        d1 = q * (r - z1)
         dn = d1
         z1 = r + ea * (z1 - r)
     elif n == 2:
         d1 = w * (z1 - z2)
-        d2 = w * (w * ((r - z1) - (z1 - z2)))
+        d2 = w * (q * (z2 - z1) + ea * w * (r - z1))
         dn = d2
         z2 = r + ea * ((z2 - r) + a * (z1 - r))
         z1 = r + ea * (z1 - r)
     else:
         d1 = w * (z2 - z3)
         d2 = w * (w * ((z1 - z2) - (z2 - z3)))
-        d3 = w * (w * (w * ((r - z1) - 2.0 * (z1 - z2) + (z2 - z3))))
+        d3 = w * (w * (q * ((z2 - z1) - (z3 - z2))
+                       + ea * w * ((z2 - z1) + (1.0 - a / 2.0) * (r - z1))))  # fmt: skip
         dn = d3
         z3 = r + ea * ((z3 - r) + a * (z2 - r) + a * a / 2.0 * (z1 - r))
         z2 = r + ea * ((z2 - r) + a * (z1 - r))
