@@ -2136,7 +2136,11 @@ class ADRC(Block):
             # x4 by (11) next cycle: after MAN or a bad setpoint or FF, at the end of the wait
             track_next = manual or not sp_valid or not ff_valid or end_wait
             y_out = yf
-            e = float(sp) - yf if sp_valid else sgn * self.e  # e held, in the cycle's units
+            e = sgn * self.e  # e held, in the cycle's units: a bad SP, or SP - Y beyond the range
+            if sp_valid:
+                e_new = float(sp) - yf
+                if _NINF < e_new < _INF:
+                    e = e_new
             if not (_NINF < yh < _INF and _NINF < x2 < _INF and _NINF < x3 < _INF
                     and _NINF < x4 < _INF):  # fmt: skip
                 # the ESO overflowed behind an output that did not need it (MAN, the

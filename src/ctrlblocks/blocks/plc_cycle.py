@@ -1077,7 +1077,9 @@ def adrc_cycle(
         )  # fmt: skip
         y_last = y
         if sp_valid:
-            e = sp - y
+            e_new = sp - y
+            if is_real(e_new):
+                e = e_new  # else held: SP - Y beyond the range (a finite SP and PV far apart)
         resolve = resolve or held or not sp_valid or not ff_valid
         started = True
         if not is_real(u_raw):
