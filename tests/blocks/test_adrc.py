@@ -939,3 +939,24 @@ def test_auto_to_manual_holds_the_output_because_u_man_follows_it() -> None:
     assert block.u_man == u == block.manual_value
     block.manual = True
     assert block(2.0, plant.y) == u
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+@pytest.mark.parametrize("two_phase", [False, True])
+def test_an_error_beyond_the_float_range_is_held(precision, two_phase) -> None:
+    """SP and PV finite but so far apart that SP - PV overflows: e keeps its last value (the
+    fuzz campaign, seed 2 step 160655: e = inf in MAN, where no guard restarts anything)."""
+    big = 1.7976931348623157e308 if precision == "float64" else 3.4028234663852886e38
+    block = ADRC(order=1, b0=3.65, omega_c=6.16, omega_o=14.4, ts=0.042, u_min=7.47,
+                 u_max=7.51, discretisation="exact", precision=precision)  # fmt: skip
+    for _ in range(5):
+        block(30.0, 12.4)
+    block.manual, block.u_man = True, 7.5
+    e = block.e
+    if two_phase:
+        if precision == "float32":
+            pytest.skip("the float32 cycle is a per-call cycle (its two-phase form is float64)")
+        block.update_state(block.compute_output(0.5 * big, -big))
+    else:
+        block(0.5 * big, -big)
+    assert block.e == e and math.isfinite(block.e)

@@ -53,6 +53,8 @@ STARTS: list[tuple[str, dict[str, Any]]] = [
               "reverse": True, "u_min": -50.0, "u_max": 50.0}),
     ("adrc", {"order": 2, "b0": 0.1, "omega_c": 0.5, "omega_o": 2.5, "pv_range": (-20.0, 180.0),
               "sp_filter": 1.0, "pv_filter": 0.5, "sp_rate": 10.0, "out_rate": 30.0}),
+    ("adrc", {"order": 3, "b0": 0.01, "omega_c": 0.3, "omega_o": 1.2, "td_time": 1.5,
+              "sp_filter": 0.5, "reverse": True}),
     ("leadlag", {"k": 1.5, "t_lead": 2.0, "t_lag": 1.0, "ts": 0.1}),
     ("leadlag", {"k": -0.5, "t_lead": 0.0, "t_lag": 0.3, "method": "euler", "out_min": -2.0,
                  "out_max": 3.0}),
@@ -122,6 +124,7 @@ _ADRC_RETUNES: dict[str, Any] = {
     "sp_filter": lambda r: float(r.choice([0.0, r.uniform(0.05, 5.0)])),
     "pv_filter": lambda r: float(r.choice([0.0, r.uniform(0.05, 5.0)])),
     "sp_rate": lambda r: float(r.choice([0.0, r.uniform(0.5, 50.0)])),
+    "td_time": lambda r: float(r.choice([0.0, r.uniform(0.05, 5.0)])),
 }
 _LL_RETUNES: dict[str, Any] = {
     "k": lambda r: float(r.uniform(-3.0, 3.0)),

@@ -23,15 +23,18 @@ CASES = [
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, deadband=1.0, t_stab=2.0), "CB_PID",
      {"SP": 50.0, "PV": 50.5}, (73, 117, 29, 40, 5)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (99, 71, 16, 33, 1)),
+     {"SP": 1.0, "PV": 0.5}, (99, 76, 17, 34, 1)),
     (lambda: ADRC(order=2, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (132, 76, 19, 35, 1)),
+     {"SP": 1.0, "PV": 0.5}, (132, 81, 20, 36, 1)),
     (lambda: ADRC(order=2, b0=1.0, u_min=0.0, u_max=100.0, discretisation="exact"), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (140, 71, 18, 35, 1)),
+     {"SP": 1.0, "PV": 0.5}, (140, 76, 19, 36, 1)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, t_ref=1.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (137, 77, 20, 35, 1)),
+     {"SP": 1.0, "PV": 0.5}, (137, 82, 21, 36, 1)),
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, discretisation="exact"), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (169, 72, 18, 35, 1)),
+     {"SP": 1.0, "PV": 0.5}, (169, 77, 19, 36, 1)),
+    # the tracking differentiator of order 3 (its chain, derivatives and r_eff)
+    (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, td_time=1.0), "CB_ADRC",
+     {"SP": 1.0, "PV": 0.5}, (197, 102, 22, 38, 1)),
     (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 11, 2, 8, 0)),
 ]  # fmt: skip
 

@@ -50,7 +50,7 @@ FB_TO_PY = {
              "OMEGA_C": "omega_c", "OMEGA_O": "omega_o", "U_MIN": "u_min", "U_MAX": "u_max",
              "AWIN": "awin", "U_REAL": "u_real", "FF": "ff", "TRACK": "track",
              "TRACK_VALUE": "track_value", "HOLD": "hold", "RST": "rst", "PV_LO": "pv_lo",
-             "PV_HI": "pv_hi"},
+             "PV_HI": "pv_hi", "TD_TIME": "td_time"},
     "leadlag": {"IN": "x", "ENABLE": "enable", "T_LEAD": "t_lead", "OUT_MIN": "out_min",
                 "OUT_MAX": "out_max"},
 }  # fmt: skip
@@ -140,6 +140,8 @@ def test_cycle_in_float64_is_the_block(kind, make):
                 block.reset_active = inp["RST"]
             if "PV_LO" in inp:
                 block.configure(pv_range=(inp["PV_LO"], inp["PV_HI"]))
+            if "TD_TIME" in inp:
+                block.configure(td_time=inp["TD_TIME"])
             if "OMEGA_C" in inp:
                 block.configure(omega_c=inp["OMEGA_C"], omega_o=inp["OMEGA_O"])
             if "U_MIN" in inp:
@@ -147,7 +149,7 @@ def test_cycle_in_float64_is_the_block(kind, make):
             u = block(inp["SP"], inp["PV"], ff=inp.get("FF", 0.0), y_ok=inp["PV_OK"],
                       u_real=inp.get("U_REAL"))  # fmt: skip
             ref.append((u, int(block.error_id)))
-            fig2.append((block.e, block.y, block.y_ref, *block.x))
+            fig2.append((block.e, block.y, block.y_ref, *block.x, block.sp_td))
         else:
             if "T_LEAD" in inp:
                 block.configure(t_lead=inp["T_LEAD"], out_min=inp["OUT_MIN"],
@@ -164,7 +166,8 @@ def test_cycle_in_float64_is_the_block(kind, make):
         assert e == f, f"sample {k}: cycle 16#{e:04X}, block 16#{f:04X}"
     if kind == "adrc":
         # the FB's outputs E, Y, Y_REF, X1..X3 and DISTURBANCE are the block's e, y, y_ref, x
-        names = ("e_out", "y_out", "y_ref", "x1_out", "x2_out", "x3_out", "x4_out")
+        # and SP_TD the tracking differentiator's filtered setpoint (the working SP without)
+        names = ("e_out", "y_out", "y_ref", "x1_out", "x2_out", "x3_out", "x4_out", "sp_td")
         moved = set()
         for k, ((_u, _e, res), want) in enumerate(zip(got, fig2[:end], strict=True)):
             for name, w in zip(names, want, strict=True):
@@ -173,7 +176,7 @@ def test_cycle_in_float64_is_the_block(kind, make):
                 if g != 0.0:
                     moved.add(name)
         n = start.config.order
-        assert moved >= {"e_out", "y_out", "y_ref", "x1_out", "x4_out",
+        assert moved >= {"e_out", "y_out", "y_ref", "x1_out", "x4_out", "sp_td",
                          *(["x2_out"] if n >= 2 else []), *(["x3_out"] if n >= 3 else [])}
 
 

@@ -176,11 +176,18 @@ ADRC_OPTIONS = [
     {"pv_range": (-2.0, 8.0), "b0": 0.5, "sp_filter": 1.0, "pv_filter": 0.3, "sp_rate": 20.0},
     {"pv_range": (-1.0, 4.0), "b0": 1.0, "anti_backoff": True, "y_sat": 3.0, "y_sat_lo": -0.5,
      "sp_rate": 10.0, "reverse": True},
+    # the tracking differentiator (its time constant halved mid-run), alone and behind the
+    # input stage, with the exact observer, a reverse-acting process, the anti-backoff
+    {"td_time": 2.0},
+    {"td_time": 1.0, "order": 3, "b0": 0.01, "omega_c": 0.3, "omega_o": 1.2,
+     "discretisation": "exact", "reverse": True, "sp_filter": 0.5, "sp_rate": 20.0},
+    {"td_time": 0.5, "order": 1, "b0": 0.5, "anti_backoff": True, "y_sat": 3.0,
+     "y_sat_lo": -0.5},
 ]  # fmt: skip
 """ADRC options beyond the Euler law of ``adrc_step``: the exact discretisation, u_real,
 the anti-backoff action (with a sensor that saturates), a warned discretisation, a
 reverse-acting process, the output ramp, the input stage (PV range, filters, SP ramp;
-the range changed mid-run)."""
+the range changed mid-run), the tracking differentiator (retuned mid-run)."""
 
 
 def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[ADRC, Trace]:
@@ -193,7 +200,8 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
     makes the plant self-regulating (``- 0.1 y``); with
     ``anti_backoff`` the PV saturates at ``y_sat``.  With ``reverse`` the plant's
     gain and the set points are negated (a reverse-acting process).  With
-    ``pv_range`` the range widens mid-run (the ESO restarts, bumplessly).
+    ``pv_range`` the range widens mid-run (the ESO restarts, bumplessly); with
+    ``td_time`` the tracking differentiator's time constant is halved mid-run.
     """
     cfg = {"order": 2, "b0": 0.05, "omega_c": 0.5, "omega_o": 2.5, "ts": 0.1,
            "u_min": 0.0, "u_max": 100.0, **config}  # fmt: skip
@@ -231,6 +239,9 @@ def adrc_trace(n: int, seed: int, modes: bool = False, **config: Any) -> tuple[A
             lo, hi = cfg["pv_range"][0] - 1.0, cfg["pv_range"][1] + 1.0
             adrc.configure(pv_range=(lo, hi))
             inp["PV_LO"], inp["PV_HI"] = lo, hi
+        if cfg.get("td_time") and k == int(0.23 * n):  # in the set-point step's transient
+            adrc.configure(td_time=cfg["td_time"] / 2.0)
+            inp["TD_TIME"] = cfg["td_time"] / 2.0
         if k == int(0.45 * n):
             adrc.configure(omega_c=0.8, omega_o=3.0)  # retune mid-run (bumpless by (11))
             inp["OMEGA_C"], inp["OMEGA_O"] = 0.8, 3.0

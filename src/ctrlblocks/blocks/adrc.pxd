@@ -66,6 +66,7 @@ cdef class ADRC(Block):
     cdef public object _ab_sat, _nd, _u_hist, track, hold, track_value, reset_active
     cdef public double out, _h, _ts, _yh, _x2, _x3, _x4, _u_prev, _ref, u_raw, y, e
     cdef public double y_ref, _u_lo, _u_hi, _q, _ff_prev, ff, _sp_f, _pv_f, _sp_w, sp_w
+    cdef public double _td1, _td2, _td3, sp_td, sp_td_d1, sp_td_d2, sp_td_d3
     cpdef output_limits(self)
     cdef _call(self, double sp, double y, pv_ok, y_ok, u_real, dt, double ff=*)
     cdef _compute_output(self, sp, y, pv_ok, y_ok, dt, ff=*)

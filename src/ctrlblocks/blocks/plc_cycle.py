@@ -61,6 +61,8 @@ euler_substeps = _adrc.euler_substeps
 handover_pole = _adrc.handover_pole
 input_stage = _adrc.input_stage
 mode_output = _adrc.mode_output
+tracking_differentiator = _adrc.tracking_differentiator
+td_restart = _adrc.td_restart
 adrc_step = _adrc.adrc_step
 adrc_switches = _adrc.adrc_switches
 anti_backoff_states = _adrc.anti_backoff_states
@@ -725,13 +727,13 @@ def pid_cycle(
 
 ADRC_RESULTS = (
     "mv", "error_id", "awout", "u_raw", "u_man", "x4_out", "e_out", "y_out", "y_ref",
-    "x1_out", "x2_out", "x3_out",
+    "x1_out", "x2_out", "x3_out", "sp_td",
     "out", "yh", "x2", "x3", "x4", "u_prev", "ff_prev", "ref", "q", "e", "y_last", "started",
     "resolve",
     "sat", "ab_sat",
     "ab_wait", "lo", "hi", "tuned", "order_prev", "b0_prev", "wc_prev", "wo_prev", "ts_prev",
     "exact_prev", "rev_prev", "u_buf", "d_idx", "nd_prev", "d_restart", "sp_f", "pv_f",
-    "sp_w", "scale_prev", "pv_lo_prev", "pv_hi_prev",
+    "sp_w", "scale_prev", "pv_lo_prev", "pv_hi_prev", "td1", "td2", "td3", "td_time_prev",
 )  # fmt: skip
 """Names of the values :func:`adrc_cycle` returns: outputs, then the new state."""
 
@@ -808,6 +810,7 @@ def adrc_cycle(
     sp_filter: float,
     pv_filter: float,
     sp_rate: float,
+    td_time: float,
     out: float,
     yh: float,
     x2: float,
@@ -844,6 +847,10 @@ def adrc_cycle(
     scale_prev: bool,
     pv_lo_prev: float,
     pv_hi_prev: float,
+    td1: float,
+    td2: float,
+    td3: float,
+    td_time_prev: float,
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
@@ -853,7 +860,9 @@ def adrc_cycle(
     tracks it as in MAN).  The PID's input stage runs first (:func:`.adrc.input_stage`):
     SP and PV scaled from ``pv_lo..pv_hi`` to 0..100 % (``scale_pv``; ``y_sat`` and
     ``y_sat_lo`` with them; a change of the range restarts the ESO at rest, x4 by (11)),
-    the SP and PV filters and the setpoint ramp.  ``ff`` is the feed-forward, added to the
+    the SP and PV filters and the setpoint ramp, then the tracking differentiator
+    (:func:`.adrc.tracking_differentiator`, ``td_time``; states ``td1..td3``) whose
+    ``r_eff`` is the law's reference.  ``ff`` is the feed-forward, added to the
     law's output before the limits;
     the ESO is fed the applied u less the ff of its cycle (``ff_prev``;
     :func:`~ctrlblocks.blocks.adrc.adrc_law`); a NaN/inf ``ff`` holds the output
@@ -900,6 +909,18 @@ def adrc_cycle(
             x3 = 0.0
         if order < 2:
             x2 = 0.0
+    # the tracking differentiator (ADRC._td_retune): a new TD_TIME or ORDER restarts its
+    # chain on its r_f and the derivatives its states carry (td_restart); a change of
+    # r_eff's weights re-solves the handover offset (not TS: a jitter is no retune)
+    td_retuned = False
+    if tuned and (td_time > 0.0 or td_time_prev > 0.0):
+        td_new = td_time != td_time_prev or order != order_prev
+        if td_new:
+            td1, td2, td3 = td_restart(order_prev, td_time_prev, order, td_time, sp_w, td1,
+                                       td2, td3)  # fmt: skip
+        td_retuned = (td_new or b0 != b0_prev or omega_c != wc_prev or omega_o != wo_prev
+                      or exact != exact_prev)  # fmt: skip
+    td_time_prev = td_time
     tuned = True
     order_prev = order
     b0_prev = b0
@@ -934,6 +955,8 @@ def adrc_cycle(
             x4 = x4_new
         else:
             resolve = True
+    if td_retuned:
+        resolve = True
     a_ref = pt1_coefficient(t_ref, ts, "exact")
     a_q = handover_pole(omega_c, ts)
     prm = (ts, b0, l1, l2, l3, l4, p1, p2, k1, k2, k3, kp, kd1, kd2, s_yh, s_x2, s_x3, s_u,
@@ -1003,6 +1026,8 @@ def adrc_cycle(
     sp_valid = is_real(sp)
     if not sp_valid and err == NO_ERROR:
         err = BAD_INPUT
+    # the output of a held mode, by the priority RESET > TRACK > HOLD > MANUAL (as the PID's)
+    held, wanted = mode_output(rst, track, hold, manual, u0, track_value, u_prev, u_man)
     # the PID's input stage (filters, setpoint ramp), in the units of the PV
     sp_f, pv_f, sp_w = input_stage(sp, y, sp_valid, y_valid, sp_filter, pv_filter, sp_rate, ts,
                                    not started, sp_f, pv_f, sp_w)  # fmt: skip
@@ -1010,11 +1035,18 @@ def adrc_cycle(
         sp = sp_w
     if y_valid:
         y = pv_f
+    # the tracking differentiator on the working setpoint: the reference r_eff of (4b)
+    r_law = sp  # off: the working setpoint (what tracking_differentiator passes through)
+    sp_td = sp_w
+    if td_time > 0.0:
+        r_law, sp_td, _td_d1, _td_d2, _td_d3, td1, td2, td3 = tracking_differentiator(
+            sp_w, y, sp_valid, y_valid, held, not started, order, td_time, ts, kp, kd1, kd2,
+            td1, td2, td3,
+        )  # fmt: skip
     if reverse:
         sp = -sp
         y = -y
-    # the output of a held mode, by the priority RESET > TRACK > HOLD > MANUAL (as the PID's)
-    held, wanted = mode_output(rst, track, hold, manual, u0, track_value, u_prev, u_man)
+        r_law = -r_law
     tgt = u_prev
     if held:
         if is_real(wanted):
@@ -1031,7 +1063,7 @@ def adrc_cycle(
         resolve = True
         sat = 0
     else:
-        r_in = sp
+        r_in = r_law
         if not sp_valid:
             r_in = ref
             if not started:
@@ -1045,7 +1077,9 @@ def adrc_cycle(
         )  # fmt: skip
         y_last = y
         if sp_valid:
-            e = sp - y
+            e_new = sp - y
+            if is_real(e_new):
+                e = e_new  # else held: SP - Y beyond the range (a finite SP and PV far apart)
         resolve = resolve or held or not sp_valid or not ff_valid
         started = True
         if not is_real(u_raw):
@@ -1111,11 +1145,12 @@ def adrc_cycle(
     if reverse:
         sgn = -1.0
     return (
-        mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * ref, yh, x2, x3,
+        mv, err, sat != 0, u_raw, u_man, x4, sgn * e, sgn * y_last, sgn * ref, yh, x2, x3, sp_td,
         out, yh, x2, x3, x4, u_prev, ff_prev, ref, q, e, y_last, started, resolve, sat, ab_sat,
         ab_wait, lo, hi,
         tuned, order_prev, b0_prev, wc_prev, wo_prev, ts_prev, exact_prev, rev_prev,
         u_buf, d_idx, nd_prev, d_restart, sp_f, pv_f, sp_w, scale_prev, pv_lo_prev, pv_hi_prev,
+        td1, td2, td3, td_time_prev,
     )  # fmt: skip
 
 
@@ -1309,6 +1344,7 @@ def adrc_inputs(config: Any) -> dict[str, Any]:
         "tau_wait": float(config.tau_wait), "reverse": bool(config.reverse),
         "nd": _adrc.delay_samples(config.input_delay, config.ts),
         "out_rate": float(config.out_rate), "u0": float(config.u0), **_input_stage(config),
+        "td_time": float(config.td_time),
     }  # fmt: skip
 
 
@@ -1332,7 +1368,8 @@ def adrc_state(config: Any) -> dict[str, Any]:
         "rev_prev": bool(config.reverse), "u_buf": [0.0] * (nd + 1), "d_idx": 0, "nd_prev": 0,
         "d_restart": False, "sp_f": 0.0, "pv_f": 0.0, "sp_w": 0.0,
         "scale_prev": stage["scale_pv"], "pv_lo_prev": stage["pv_lo"],
-        "pv_hi_prev": stage["pv_hi"],
+        "pv_hi_prev": stage["pv_hi"], "td1": 0.0, "td2": 0.0, "td3": 0.0,
+        "td_time_prev": float(config.td_time),
     }  # fmt: skip
 
 
@@ -1443,6 +1480,7 @@ def adrc_float32(
     adrc._x4 = float(res["x4_out"])
     adrc.ff = adrc._ff_prev = float(res["ff_prev"])
     adrc.sp_w = float(res["sp_w"])
+    adrc.sp_td = float(res["sp_td"])
     return adrc.out
 
 

@@ -156,8 +156,9 @@ def unsupported(config: Any, kind: str) -> list[str]:
             bad.append("input_delay")
         if getattr(config, "pv_range", None) is not None:
             bad.append("pv_range")
-        # the input stage's chains are state the kernels' fixed layout lacks, as the PID's
-        for name in ("out_rate", "sp_filter", "pv_filter", "sp_rate"):
+        # the input stage's chains (and the tracking differentiator's) are state the
+        # kernels' fixed layout lacks, as the PID's
+        for name in ("out_rate", "sp_filter", "pv_filter", "sp_rate", "td_time"):
             if getattr(config, name, 0.0) != 0.0:
                 bad.append(name)
     return bad
@@ -170,8 +171,8 @@ def plc_unsupported(config: Any, kind: str) -> list[str]:
     the PID's velocity algorithm, PV scaling, filters, ramps, lead-lag
     feed-forward, adaptive dead band, every bumpless and anti-windup method,
     and the ADRC's exact discretisation, ``u_real``, anti-backoff, ``reverse``,
-    ``input_delay``, ``out_rate`` and input stage (PV range, SP/PV filters, SP
-    ramp), which the compiled kernels lack.  Not covered: a dead-band
+    ``input_delay``, ``out_rate``, input stage (PV range, SP/PV filters, SP
+    ramp) and tracking differentiator, which the compiled kernels lack.  Not covered: a dead-band
     window ``t_stab/ts`` beyond :data:`PLC_MAX_WINDOW` samples (the ARRAY the
     function block holds).
     """

@@ -214,6 +214,8 @@ pv_hi        PV_HI        PV range high [{pv}] (SCALE_PV)
 sp_filter    SP_FILTER    SP filter time constant [s] (PT1, exp(-TS/T)); 0 = off
 pv_filter    PV_FILTER    PV filter time constant [s] (PT1, exp(-TS/T)); 0 = off
 sp_rate      SP_RATE      setpoint ramp [{pv}/s, %/s with SCALE_PV]; 0 = off
+td_time      TD_TIME      tracking differentiator time constant [s]: ORDER lags on the working SP,
+                          their derivatives fed forward in (4b); 0 = off (not with T_REF)
 nd           DELAY        dead time of the process input [samples of TS] (input_delay/ts): the ESO
                           is fed the applied u of DELAY samples before the last (Zhao & Gao 2014);
                           at most the exported array (a longer one: 16#8211, the one in force stays)
@@ -233,6 +235,8 @@ x1_out   X1          ESO state Y_hat [{pv}] (Fig. 2, observer state; with REVERS
 x2_out   X2          ESO state x2 [{pv}/s] (the first derivative of Y in the model; 0 for n = 1)
 x3_out   X3          ESO state x3 [{pv}/s^2] (the second derivative of Y in the model; 0 for
                      n < 3)
+sp_td    SP_TD       the tracking differentiator's filtered SP r_f [{pv}] (TD_TIME; else the
+                     working SP)
 """)
 _ADRC_STATE_COMMENTS = {
     "out": "u of the last cycle [{mv}]", "yh": "ESO state Y_hat [{pv}]", "x2": "ESO state x2",
@@ -252,6 +256,9 @@ _ADRC_STATE_COMMENTS = {
     "sp_f": "filtered SP", "pv_f": "filtered PV (the Y the ESO sees)",
     "sp_w": "working setpoint after the ramp", "scale_prev": "SCALE_PV of the last cycle",
     "pv_lo_prev": "PV_LO of the last cycle", "pv_hi_prev": "PV_HI of the last cycle",
+    "td1": "tracking differentiator: first lag [{pv}]", "td2": "second lag [{pv}]",
+    "td3": "third lag [{pv}]", "td_time_prev": "TD_TIME of the last cycle (a change restarts "
+    "the chain)",
 }  # fmt: skip
 
 _LL_PROCESS = _table("""
@@ -337,7 +344,7 @@ def _spec_for(block: Any) -> BlockSpec:
                    "rst": False, "awin": False, "u_real": 0.0}  # fmt: skip
         values = {**process, **pc.adrc_inputs(c), **state, "mv": state["out"], "error_id": 0,
                   "awout": False, "u_raw": state["out"], "x4_out": 0.0, "e_out": 0.0,
-                  "y_out": 0.0, "y_ref": 0.0, "x1_out": 0.0, "x2_out": 0.0,
+                  "y_out": 0.0, "y_ref": 0.0, "x1_out": 0.0, "x2_out": 0.0, "sp_td": 0.0,
                   "x3_out": 0.0}  # fmt: skip
         return BlockSpec("adrc", "CB_ADRC", "ADRC (Euler or exact ESO, orders 1..3)", pc.adrc_cycle,
                          pc.ADRC_RESULTS, _ADRC_PROCESS + _ADRC_TUNING, _ADRC_OUT,

@@ -17,7 +17,7 @@ The loop's TOML gives them (``docs/faceplate.md``):
                                       (kp: at most twice the ultimate gain of the
                                       loop's identified model, where one is known)
   times ``ti``, ``td``, filters,      ts/10 .. max(10^4 ts, 100 x configured) [s];
-  ``t_ref``, ``tau_wait``, ...        0 where the block takes 0 (off)
+  ``t_ref``, ``td_time``, ...         0 where the block takes 0 (off)
   bandwidths ``omega_c``, ``omega_o`` 1/100 .. 100 times the configured value, and
                                       below the stability limit of the discretised
                                       chain at ts (Euler: omega ts < 2^((m+1)/m) - 2,
@@ -71,7 +71,7 @@ TUNING_MAGNITUDE = 1e6
 
 _GAINS = ("kp", "b0", "ff_k")
 _TIMES = ("ti", "td", "sp_filter", "pv_filter", "t_stab", "ff_t_lead", "ff_t_lag", "t_ref",
-          "tau_wait", "tt")  # fmt: skip
+          "tau_wait", "tt", "td_time")  # fmt: skip
 _BANDWIDTHS = ("omega_c", "omega_o")
 _FIXED = {"order": (1.0, 3.0, True), "n": (1.0, 100.0, False), "b": (0.0, 2.0, False),
           "c": (0.0, 2.0, False)}  # fmt: skip

@@ -119,6 +119,8 @@ def _adrc_config(r: random.Random) -> dict[str, Any]:
         cfg["sp_filter"] = _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0)
         cfg["pv_filter"] = 0.0 if cfg["anti_backoff"] else _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0)
         cfg["sp_rate"] = _maybe(r, 0.5, _lu(r, 1e-2, 1e2), 0.0)
+    if cfg["t_ref"] == 0.0 and r.random() < 0.3:  # the tracking differentiator (not with t_ref)
+        cfg["td_time"] = _lu(r, 1e-3, 1e2)
     return cfg
 
 

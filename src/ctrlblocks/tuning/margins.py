@@ -230,8 +230,9 @@ def controller_ss(block: PID | ADRC, *, direct: bool = False) -> DiscreteSS:
 
     The block's configuration is copied with infinite output limits (the
     margins are those of the linear loop); the matrices come from one cycle of
-    that block per unit state and unit input (module docstring).  SP/PV filters
-    and PV scaling are part of the controller (as a plant runs it); a ramp of the
+    that block per unit state and unit input (module docstring).  SP/PV filters,
+    the ADRC's tracking differentiator (its reference path ``C_r``) and PV scaling
+    are part of the controller (as a plant runs it); a ramp of the
     setpoint or the output, or a dead band, is refused (the law is then not
     linear).
     """
@@ -258,6 +259,9 @@ def controller_ss(block: PID | ADRC, *, direct: bool = False) -> DiscreteSS:
         # (SP); PV scaling is static (the affine part is subtracted below)
         fields += tuple(f for f, t in (("_sp_f", cfg.sp_filter), ("_pv_f", cfg.pv_filter))
                         if t > 0.0)  # fmt: skip
+        # the tracking differentiator's chain: the reference path only (r_eff)
+        if getattr(cfg, "td_time", 0.0) > 0.0:
+            fields += ("_td1", "_td2", "_td3")[: int(cfg.order)]
     elif isinstance(block, PID):
         probe = PID(cfg, u_min=-math.inf, u_max=math.inf, bumpless="integrator")
         plain = (
