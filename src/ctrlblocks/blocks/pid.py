@@ -1383,8 +1383,9 @@ class PID(Block):
 
         Fast lane: in plain auto operation (no filters, ramps, scaling, dead
         band, lead-lag, velocity form; finite inputs; ``ts`` sample time) the
-        cycle is one call of :func:`pid_step`, which gives exactly the same
-        result as the two phases.
+        cycle is :func:`pid_step`'s (:func:`pid_law`, then :func:`pid_commit`
+        with the block's own output), which gives exactly the same result as
+        the two phases.
         """
         # the output guard (Block._checked) around the body, with the inputs converted
         # first: the compiled build's _call takes C doubles (docs/performance.md)
@@ -1416,15 +1417,23 @@ class PID(Block):
             and not (self._cold or self._reinit or self._pending is not None)
             and self._h == self._ts
             and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
-            and _NINF < sp < _INF
-            and _NINF < pv < _INF
-            and _NINF < ff < _INF
+            # finite inputs: a finite sum has no infinite or NaN term (one that overflows
+            # takes the general path, which gives the same result)
+            and _NINF < sp + pv + ff < _INF
         ):
-            (out, v_raw, self.p, self.i, self._i, self._d, self._w_prev, e) = pid_step(
-                sp, pv, ff, False, 0.0, False, False, self._i, self._d, self._w_prev,
-                self._e_prev, self.out, self._prm,
+            # pid_step's auto cycle, its two calls made here (one frame and one tuple less):
+            # the law, then its commit with the block's own output applied
+            prm = self._prm
+            out_prev = self.out
+            out, v_raw, _lim, p, i_k, d, self._w_prev, e, _bias, _sup, _dbh = pid_law(
+                sp, pv, ff, False, 0.0, False, False, False, False, False, 0.0, self._i,
+                self._d, self._w_prev, self._e_prev, 0.0, 0.0, 0.0, 0.0, 0.0, out_prev,
+                out_prev, prm, NO_OPTIONS,
             )  # fmt: skip
-            self.d = self._d
+            self._i, _x = pid_commit(out, out, v_raw, p, i_k, d, ff, False, False, 0.0, prm[6],
+                                     prm[11], prm[12], 0.0)  # fmt: skip
+            self.p, self.i = p, i_k
+            self.d = self._d = d
             self.e = self._e_prev = e
             self.sp_w, self.pv_f, self.ff = sp, pv, ff
             self.out = self.manual_value = out if _NINF < v_raw < _INF else math.nan
