@@ -5,10 +5,10 @@ same run (medians of ``--rounds`` rounds; quote ratios, not nanoseconds):
 
 * ``law``: the one law every executor runs (``pid.pid_law`` with the options off,
   ``adrc.adrc_law`` with the Euler ESO), called with its arguments ready;
-* ``kernel``: the whole auto cycle the block's fast lane runs (``pid_step``: the law
-  and its commit; the ADRC's ``_fast_cycle``: the law and its state);
+* ``kernel``: the whole auto cycle as the compiled kernels run it (``pid_step``: the
+  law and its commit; ``adrc_step``: the law with the ADRC's state), its result a tuple;
 * ``body``: the block's ``_call`` -- the lane's admission test (modes, first cycle,
-  inputs finite, sample time), the kernel, the outputs it writes;
+  inputs finite, sample time), the law and its commit, the outputs and state it writes;
 * ``call``: ``block(sp, pv)`` -- the input conversion and the output guard around it.
 
 Run with ``CTRLBLOCKS_COMPILED=off`` (the default here) for the interpreted blocks:
@@ -26,7 +26,7 @@ from collections.abc import Callable
 os.environ.setdefault("CTRLBLOCKS_COMPILED", "off")
 
 from ctrlblocks import ADRC, PID
-from ctrlblocks.blocks.adrc import NO_ANTI_BACKOFF, NO_EXACT, adrc_law
+from ctrlblocks.blocks.adrc import NO_ANTI_BACKOFF, NO_EXACT, adrc_law, adrc_step
 from ctrlblocks.blocks.pid import NO_OPTIONS, pid_law, pid_step
 
 
@@ -65,7 +65,8 @@ def adrc_layers(rounds: int) -> dict[str, float]:
         "law": _ns(lambda: adrc_law(1.0, 0.99, 0.0, False, 20.0, False, True, 0, False, False,
                                     False, 0.99, 0.0, 0.0, 0.0, 20.0, 20.0, 1.0, 0.0, 0, 0.0, prm,
                                     NO_EXACT, NO_ANTI_BACKOFF), rounds),
-        "kernel": _ns(lambda: a._fast_cycle(1.0, 0.99), rounds),
+        "kernel": _ns(lambda: adrc_step(1.0, 0.99, False, 20.0, True, False, 0, 0.99, 0.0, 0.0,
+                                        0.0, 20.0, 1.0, 0.0, prm), rounds),
         "body": _ns(lambda: a._call(1.0, 0.99, True, True, None, None, 0.0), rounds),
         "call": _ns(lambda: a(1.0, 0.99), rounds),
         "peer": _ns(lambda: peer(0.99, 20.0, 1.0), rounds),
