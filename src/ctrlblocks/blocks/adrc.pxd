@@ -69,3 +69,4 @@ cdef class ADRC(Block):
     cpdef output_limits(self)
     cdef _call(self, double sp, double y, pv_ok, y_ok, u_real, dt, double ff=*)
     cdef _compute_output(self, sp, y, pv_ok, y_ok, dt, ff=*)
+    cdef _fast_cycle(self, double sp, double y)

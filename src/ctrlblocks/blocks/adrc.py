@@ -1727,34 +1727,10 @@ class ADRC(Block):
                      or self.reset_active)
             and ff == 0.0
             and self._ff_prev == 0.0
-            # finite inputs: a finite sum has no infinite or NaN term (one that overflows
-            # takes the general path, which gives the same result)
-            and _NINF < sp + y < _INF
+            and _NINF < sp < _INF
+            and _NINF < y < _INF
         ):
-            # the fast lane: the whole auto cycle as one adrc_law call, the same result
-            # and state as compute_output + update_state (tests/fast/test_lanes.py)
-            prm = self._prm
-            if prm is None:
-                prm = self._prm = self._kernel_params()
-            u_prev = self._u_prev
-            (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, q, _end, self._sat, _abs,
-             _abw) = adrc_law(
-                sp, y, 0.0, False, u_prev, False, True, self._sat, False, False, False, self._yh,
-                self._x2, self._x3, self._x4, u_prev, u_prev, self._ref, self._q, 0, 0.0, prm,
-                NO_EXACT, NO_ANTI_BACKOFF,
-            )  # fmt: skip
-            self._q = q
-            self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
-            self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
-            self.u_raw = u_raw
-            self.awout = self._sat != 0
-            self.y = y
-            self.e = sp - y
-            self.y_ref = self._ref = ref
-            self._u_prev = self.u_man = u
-            self._pv_f = y  # the input stage passes its inputs through (input_stage)
-            self._sp_f = self._sp_w = self.sp_w = sp
-            return u
+            return self._fast_cycle(sp, y)
         if self._config.precision == "float32":
             if self._cycle_time(dt, self._ts) is None:
                 return self.out
@@ -1768,6 +1744,35 @@ class ADRC(Block):
                 self.error_id = ErrorCode.BAD_INPUT
         self.update_state(applied)
         return v
+
+    def _fast_cycle(self, sp: float, y: float) -> float:
+        """Fast lane of ``__call__``: the whole auto cycle as one :func:`adrc_step` call.
+
+        Same result and state as :meth:`compute_output` + :meth:`update_state`
+        (tests/fast/test_lanes.py checks it cycle by cycle).
+        """
+        prm = self._prm
+        if prm is None:
+            prm = self._prm = self._kernel_params()
+        u_prev = self._u_prev
+        (u, u_raw, self._yh, self._x2, self._x3, self._x4, ref, q, _end, self._sat, _abs,
+         _abw) = adrc_law(
+            sp, y, 0.0, False, u_prev, False, True, self._sat, False, False, False, self._yh,
+            self._x2, self._x3, self._x4, u_prev, u_prev, self._ref, self._q, 0, 0.0, prm,
+            NO_EXACT, NO_ANTI_BACKOFF,
+        )  # fmt: skip
+        self._q = q
+        self.error_id = _BAD_LIMITS if self._limits_bad else _WARN if self._warn else _NO_ERROR
+        self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
+        self.u_raw = u_raw
+        self.awout = self._sat != 0
+        self.y = y
+        self.e = sp - y
+        self.y_ref = self._ref = ref
+        self._u_prev = self.u_man = u
+        self._pv_f = y  # the input stage passes its inputs through (input_stage)
+        self._sp_f = self._sp_w = self.sp_w = sp
+        return u
 
     def _kernel_params(self) -> tuple[float, ...]:
         """The ``prm`` tuple of :func:`adrc_step` for the coefficients and limits in force."""
