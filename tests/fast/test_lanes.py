@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import settings
 from hypothesis import strategies as st
-from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
+from hypothesis.stateful import RuleBasedStateMachine, rule
 
 from ctrlblocks import ADRC, PID, ParameterError
 
@@ -156,15 +156,16 @@ def test_pid_inputs_whose_sum_overflows_take_the_general_path_with_the_same_resu
             _same(fast, slow)
 
 
-class PIDLaneFlag(RuleBasedStateMachine):
-    """The PID's cached lane flag (``_lane``: ``_lean`` and ``_h == _ts``) never goes stale.
+class PIDLaneAdmission(RuleBasedStateMachine):
+    """The PID's fast lane admits exactly the cycles the two-phase path runs as it would.
 
     A block called normally and a twin driven through ``compute_output`` +
     ``update_state`` get the same writes of the mode inputs, reconfigurations
     (options that switch the lane off and on, the sample time, tuning, refused
     values), limits (refused ones too), cycles at other ``dt`` and the kernel
     parameters' read (which sets ``h`` back to ``ts``): same output and state
-    after every cycle, and the flag is what it caches.
+    after every cycle.  (A cached admission flag, tried and not kept, must pass
+    this; a stale one failed it.)
     """
 
     def __init__(self) -> None:
@@ -213,11 +214,6 @@ class PIDLaneFlag(RuleBasedStateMachine):
         assert u_fast == u_slow
         _same(self.fast, self.slow)
 
-    @invariant()
-    def flag_is_what_it_caches(self):
-        b = self.fast
-        assert b._lane == (b._lean and b._h == b._ts)
 
-
-TestPIDLaneFlag = PIDLaneFlag.TestCase
-TestPIDLaneFlag.settings = settings(max_examples=60, stateful_step_count=40, deadline=None)
+TestPIDLaneAdmission = PIDLaneAdmission.TestCase
+TestPIDLaneAdmission.settings = settings(max_examples=60, stateful_step_count=40, deadline=None)

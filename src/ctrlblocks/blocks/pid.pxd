@@ -63,7 +63,6 @@ cdef class PID(Block):
     cdef public pid_prm_t _prm
     cdef public object _limits_status, _lean_ran, _law_in_force, deadband_active
     cdef public object p_suppressed
-    cdef public bint _lane
     cdef public double out, _h, _ts, _i, _d, _w_prev, _e_prev, p, i, d, e, sp_w, pv_f, ff
     cdef public double _lo, _hi, _x, _bias, _ff_prev
     cpdef output_limits(self)

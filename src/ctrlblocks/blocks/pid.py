@@ -966,7 +966,7 @@ class PID(Block):
     # the attributes the compiled build keeps in the C struct (pid.pxd), which
     # configure's rollback saves by name; tests/blocks/test_compiled.py keeps both in step
     _declared = (
-        "error_id _config manual track hold reset_active awin manual_value _lean _lane _mode_prev "
+        "error_id _config manual track hold reset_active awin manual_value _lean _mode_prev "
         "_cold _reinit _pending _prm limits_active _limits_status _lean_ran _law_in_force "
         "deadband_active p_suppressed out _h _ts _i _d _w_prev _e_prev p i d e sp_w pv_f ff "
         "_lo _hi _x _bias _ff_prev"
@@ -1030,7 +1030,6 @@ class PID(Block):
         self.reset_active = False
         self.actuator_pos = math.nan
         self.awin = False
-        self._lean = False  # the fast lane's configuration (_apply_config), read by _set_h
         # filters, ramps, lead-lag, detector by name (several block classes, used by name)
         self._subs: dict[str, Any] = {}
         self._pending: _Cycle | None = None
@@ -1054,7 +1053,6 @@ class PID(Block):
         self._set_tuning(c)
         # the per-call fast lane runs pid_step: the configurations of the compiled kernels
         self._lean = not (_unsupported(c, "pid") or self._option_blockers())
-        self._lane = self._lean and self._h == self._ts
         self._sync("_sp_filter", PT1, t=c.sp_filter, ts=ts)
         self._sync("_pv_filter", PT1, t=c.pv_filter, ts=ts)
         self._sync("_sp_ramp", RateLimiter, rate_up=c.sp_rate, rate_down=c.sp_rate, ts=ts)
@@ -1157,9 +1155,6 @@ class PID(Block):
         )  # fmt: skip
         self._opt = (1.0 if self._velocity else 0.0, float(c.dev_tol), c.out_rate * h, self._db,
                      float(c.i_band))  # fmt: skip
-        # what of the fast lane's admission changes only here and in _apply_config, which
-        # writes _lean and _ts: one flag for _call to read (tests/fast/test_lanes.py)
-        self._lane = self._lean and h == self._ts
 
     def configure(self, **changes: Any) -> None:
         """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``.
@@ -1414,12 +1409,13 @@ class PID(Block):
     ) -> float:
         """The body of :meth:`__call__` (inputs converted, output not yet checked)."""
         if (
-            self._lane  # _lean and _h == _ts (_set_h)
+            self._lean
             and dt is None
             and pv_ok is True
             and dv == 0.0
             and self._mode_prev == 0
             and not (self._cold or self._reinit or self._pending is not None)
+            and self._h == self._ts
             and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
             # finite inputs: a finite sum has no infinite or NaN term (one that overflows
             # takes the general path, which gives the same result)
