@@ -14,8 +14,11 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, rule
 
-from ctrlblocks import ADRC, PID
+from ctrlblocks import ADRC, PID, ParameterError
 
 
 def _two_phase(block, *args, **kw):
@@ -139,3 +142,119 @@ def test_adrc_fast_lane_equals_the_two_phase_cycle(name):
         assert fast.error_id == slow.error_id and fast.u_man == slow.u_man
         y += 0.1 * (0.8 * u_fast - y)  # a first-order plant closes the loop
     assert lanes > 300
+
+
+def test_pid_inputs_whose_sum_overflows_take_the_general_path_with_the_same_result():
+    # the lane tests the inputs' finiteness on their sum: finite inputs whose sum
+    # overflows run the two-phase cycle instead, which must give the lane's result
+    for sp, pv, ff in ((1e308, 1e308, 0.0), (-1e308, 0.5, -1e308), (1e308, -1e308, 1e308)):
+        fast, slow = PID(**PIDS["clamping"]), PID(**PIDS["clamping"])
+        for k in range(6):
+            args = (sp, pv) if k % 2 else (1.0, 0.8)
+            kw = {"ff": ff} if k % 2 else {}
+            assert fast(*args, **kw) == _two_phase(slow, *args, **kw)
+            _same(fast, slow)
+
+
+def test_p_suppressed_after_a_switch_keeps_the_pid_off_the_fast_lane() -> None:
+    # bumpless="suppress_p_action": after MAN -> AUTO the P action is off until
+    # |e| <= dev_tol, also after a reconfiguration to another bumpless method (the
+    # law's suppressed flag is state, not configuration). The fast lane once passed
+    # the law "not suppressed" there: a bump of kp e (here 2 x 2 = 4) on the call path
+    # that the two phases did not make.
+    fast, slow = (PID(kp=2.0, ti=5.0, ts=0.1, u_min=0.0, u_max=100.0,
+                      bumpless="suppress_p_action") for _ in range(2))  # fmt: skip
+    slow._two_phase_lean = False
+    for block, step in ((fast, lambda b: b(5.0, 3.0)), (slow, lambda b: _two_phase(b, 5.0, 3.0))):
+        block.manual, block.manual_value = True, 10.0
+        for _ in range(3):
+            step(block)
+        block.manual = False
+        for _ in range(3):
+            step(block)
+        assert block.p_suppressed
+        block.configure(bumpless="integrator")
+    for _ in range(5):
+        assert fast(5.0, 3.0) == _two_phase(slow, 5.0, 3.0) < 11.0  # no P kick of 4
+        _same(fast, slow)
+
+
+class PIDLaneAdmission(RuleBasedStateMachine):
+    """The PID's fast lane admits exactly the cycles the two-phase path runs as it would.
+
+    A block called normally and a twin driven through the general cycle of
+    ``compute_output`` + ``update_state`` get the same writes of the mode
+    inputs, reconfigurations (options that switch the lane off and on, the
+    sample time, tuning, refused values, the bumpless method: P suppressed
+    after a switch outlives a change to another method, and the lane once
+    missed it), limits (refused ones too), cycles at other ``dt`` and the
+    kernel parameters' read (which sets ``h`` back to ``ts``): same output and
+    state after every cycle.  (A cached admission flag, tried and not kept,
+    must pass this; a stale one failed it.)
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fast, self.slow = PID(**PIDS["back_calc"]), PID(**PIDS["back_calc"])
+        self.slow._two_phase_lean = False  # the twin runs the general cycle, always
+
+    def _both(self, fn):
+        for b in (self.fast, self.slow):
+            fn(b)
+
+    @rule(name=st.sampled_from(["manual", "track", "hold", "reset_active", "awin"]),
+          value=st.booleans())  # fmt: skip
+    def mode_input(self, name, value):
+        self._both(lambda b: setattr(b, name, value))
+
+    @rule(changes=st.sampled_from([
+        {"ti": 4.0}, {"kp": 2.5, "td": 0.5}, {"ts": 0.2}, {"ts": 0.1}, {"sp_filter": 1.0},
+        {"sp_filter": 0.0}, {"out_rate": 5.0}, {"out_rate": 0.0}, {"deadband": 0.05},
+        {"deadband": 0.0}, {"algorithm": "velocity"}, {"algorithm": "positional"},
+        {"anti_windup": "clamping"}, {"anti_windup": "back_calc_model"}, {"kp": math.nan},
+        {"ts": -1.0}, {"bumpless": "suppress_p_action"}, {"bumpless": "integrator"},
+    ]))  # fmt: skip
+    def configure(self, changes):
+        refused = []
+        for b in (self.fast, self.slow):
+            try:
+                b.configure(**changes)
+            except ParameterError:
+                refused.append(b)
+        assert len(refused) in (0, 2)
+
+    @rule(lo=st.sampled_from([0.0, -1.0, 0.5, math.nan]), hi=st.sampled_from([3.0, 1.2, -2.0]))
+    def set_limits(self, lo, hi):
+        self._both(lambda b: b.set_limits(lo, hi))
+
+    @rule()
+    def kernel_params(self):
+        self._both(lambda b: b.kernel_params())
+
+    @rule(sp=st.floats(-2.0, 3.0), pv=st.floats(-2.0, 3.0),
+          dt=st.sampled_from([None, None, None, 0.1, 0.05, 0.3]))  # fmt: skip
+    def cycle(self, sp, pv, dt):
+        kw = {} if dt is None else {"dt": dt}
+        u_fast = self.fast(sp, pv, **kw)
+        u_slow = _two_phase(self.slow, sp, pv, **kw)
+        assert u_fast == u_slow
+        _same(self.fast, self.slow)
+
+
+TestPIDLaneAdmission = PIDLaneAdmission.TestCase
+TestPIDLaneAdmission.settings = settings(max_examples=60, stateful_step_count=40, deadline=None)
+
+
+def test_a_pid_with_p_suppressed_is_not_handed_to_the_kernels() -> None:
+    pid = PID(kp=2.0, ti=5.0, ts=0.1, u_min=0.0, u_max=100.0, bumpless="suppress_p_action")
+    pid.manual, pid.manual_value = True, 10.0
+    pid(5.0, 3.0)
+    pid.manual = False
+    pid(5.0, 3.0)
+    pid.configure(bumpless="integrator")
+    assert pid.p_suppressed
+    assert not pid.fast_path_supported()
+    assert any("suppressed" in why for why in pid.fast_path_blockers())
+    for _ in range(3):  # |e| <= dev_tol ends it; then the kernels may take it
+        pid(5.0, 5.0)
+    assert not pid.p_suppressed and pid.fast_path_supported()

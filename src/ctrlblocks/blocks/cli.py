@@ -33,10 +33,10 @@ def compile_command(show: bool, check: bool, force: bool, drop: bool, jobs: int 
         click.echo(f"removed {len(gone)} build(s) from {compiled.build_root()}")
         return
     if check:  # what the release CI runs on every binary wheel (docs/performance.md)
-        from ..testing.buildcheck import check
+        from ..testing import buildcheck
 
         try:
-            click.echo(check())
+            click.echo(buildcheck.check())
         except compiled.BuildError as exc:
             raise click.ClickException(str(exc)) from None
         return

@@ -59,7 +59,7 @@ import logging
 import math
 import operator
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 from .base import (
     Block,
@@ -1044,7 +1044,7 @@ class PID(Block):
         self.awin = False
         # filters, ramps, lead-lag, detector by name (several block classes, used by name)
         self._subs: dict[str, Any] = {}
-        self._pending: _Cycle | bool | None = None
+        self._pending: _Cycle | Literal[True] | None = None
         self._lean_cycle = (0.0,) * len(_LEAN_FIELDS)
         # compute_output's lean cycle (False: always the general one; a switch for the tests
         # that compare the two, tests/blocks/test_pid_two_phase_lean.py)
@@ -1411,8 +1411,9 @@ class PID(Block):
 
         Fast lane: in plain auto operation (no filters, ramps, scaling, dead
         band, lead-lag, velocity form; finite inputs; ``ts`` sample time) the
-        cycle is one call of :func:`pid_step`, which gives exactly the same
-        result as the two phases.
+        cycle is :func:`pid_step`'s (:func:`pid_law`, then :func:`pid_commit`
+        with the block's own output), which gives exactly the same result as
+        the two phases.
         """
         # the output guard (Block._checked) around the body, with the inputs converted
         # first: the compiled build's _call takes C doubles (docs/performance.md)
@@ -1441,18 +1442,28 @@ class PID(Block):
             and pv_ok is True
             and dv == 0.0
             and self._mode_prev == 0
-            and not (self._cold or self._reinit or self._pending is not None)
+            # P suppressed after a switch with bumpless="suppress_p_action" stays so until
+            # |e| <= dev_tol, also after a reconfiguration to another method: the law's case
+            and not (self._cold or self._reinit or self._pending is not None or self.p_suppressed)
             and self._h == self._ts
             and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
-            and _NINF < sp < _INF
-            and _NINF < pv < _INF
-            and _NINF < ff < _INF
+            # finite inputs: a finite sum has no infinite or NaN term (one that overflows
+            # takes the general path, which gives the same result)
+            and _NINF < sp + pv + ff < _INF
         ):
-            (out, v_raw, self.p, self.i, self._i, self._d, self._w_prev, e) = pid_step(
-                sp, pv, ff, False, 0.0, False, False, self._i, self._d, self._w_prev,
-                self._e_prev, self.out, self._prm,
+            # pid_step's auto cycle, its two calls made here (one frame and one tuple less):
+            # the law, then its commit with the block's own output applied
+            prm = self._prm
+            out_prev = self.out
+            out, v_raw, _lim, p, i_k, d, self._w_prev, e, _bias, _sup, _dbh = pid_law(
+                sp, pv, ff, False, 0.0, False, False, False, False, False, 0.0, self._i,
+                self._d, self._w_prev, self._e_prev, 0.0, 0.0, 0.0, 0.0, 0.0, out_prev,
+                out_prev, prm, NO_OPTIONS,
             )  # fmt: skip
-            self.d = self._d
+            self._i, _x = pid_commit(out, out, v_raw, p, i_k, d, ff, False, False, 0.0, prm[6],
+                                     prm[11], prm[12], 0.0)  # fmt: skip
+            self.p, self.i = p, i_k
+            self.d = self._d = d
             self.e = self._e_prev = e
             self.sp_w, self.pv_f, self.ff = sp, pv, ff
             self.out = self.manual_value = out if _NINF < v_raw < _INF else math.nan
@@ -1820,7 +1831,8 @@ class PID(Block):
         SP or output ramps, the lead-lag feed-forward, the adaptive dead band,
         bumpless methods other than ``"integrator"``, anti-windup
         ``back_calc_real``), inputs it does not read (``track``, ``hold``,
-        ``reset_active``, ``awin``), and a re-initialisation in progress.
+        ``reset_active``, ``awin``), a re-initialisation in progress, and the P
+        action still suppressed after a switch (the kernels never suppress it).
         ``manual_ok`` False also refuses a block that last ran in manual (the
         banks start in auto).
         """
@@ -1829,6 +1841,8 @@ class PID(Block):
         bad += [n for n in ("track", "hold", "reset_active", "awin") if getattr(self, n)]
         if self._reinit and not self._cold:
             bad.append("re-initialising after a change (run one cycle first)")
+        if self.p_suppressed:  # state, not configuration: it outlives a change of bumpless
+            bad.append("P action suppressed after a switch (until |e| <= dev_tol)")
         if not manual_ok and self._mode_prev not in (-1, Mode.AUTO):
             bad.append("last cycle not in auto")
         return bad
