@@ -50,3 +50,33 @@ def test_an_observer_ratio_outside_1_to_100_is_refused_as_a_bandwidth(ratio):
         design_adrc(FOPDT(1.0, 5.0, 1.0), 2, 0.1, ratios=(3.0, ratio))
     assert err.value.code == ErrorCode.BAD_BANDWIDTH
     assert "observer_ratio" in str(err.value)
+
+
+@pytest.mark.parametrize("gain", [1e308, -1e308, 1e31, 1e-31, 1e-300, 5e-324])
+def test_a_process_gain_beyond_1e30_either_way_is_refused_as_a_parameter(gain):
+    # tune pid --gain 1e308 (the designed PID, not the rule the CLI campaign drove)
+    # divided by zero in the kp search; tune adrc overflowed the load response's FFT
+    # with RuntimeWarnings on the user's screen
+    import warnings
+
+    for design in _designs(FOPDT(gain, 5.0, 1.0), 0.1):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(ParameterError) as err:
+                design()
+        assert err.value.code == ErrorCode.BAD_PARAMETER and err.value.field == "gain"
+
+
+@pytest.mark.parametrize("decade", [-9, -3, 3, 6])
+def test_the_designs_scale_with_the_process_gain(decade):
+    # the loop is the same when the gain is k times and the controller's 1/k: kp k,
+    # b0/k, omega_c and the margins do not depend on the gain's units
+    one = FOPDT(1.0, 5.0, 1.0)
+    k = 10.0**decade
+    scaled = FOPDT(k, 5.0, 1.0)
+    pid1, pidk = design_pid(one, 0.1), design_pid(scaled, 0.1)
+    assert pidk.params["kp"] * k == pytest.approx(pid1.params["kp"], rel=1e-9)
+    assert pidk.margins.ms == pytest.approx(pid1.margins.ms, rel=1e-9)
+    adrc1, adrck = design_adrc(one, 2, 0.1), design_adrc(scaled, 2, 0.1)
+    assert adrck.params["b0"] / k == pytest.approx(adrc1.params["b0"], rel=1e-9)
+    assert adrck.params["omega_c"] == pytest.approx(adrc1.params["omega_c"], rel=1e-9)

@@ -315,7 +315,8 @@ class _Model:
         moving towards faster loops.
         """
         ps = self.p[3] / (1.0 + c[3] * self.p[3])
-        y = np.cumsum(np.fft.irfft(ps, self.n_fft))
+        with np.errstate(over="ignore", invalid="ignore"):  # huge gains: judged by _iae
+            y = np.cumsum(np.fft.irfft(ps, self.n_fft))
         return self._iae(y, self.ki(c))
 
     def setpoint_iae(self, ss: DiscreteSS) -> float:
@@ -327,10 +328,13 @@ class _Model:
             den = 1.0 + cy * self.dm[3]
             cr, cy = cr / den, cy / den
         p = self.p[3]
-        e = np.cumsum(np.fft.irfft(1.0 - p * cr / (1.0 + cy * p), self.n_fft))
+        with np.errstate(over="ignore", invalid="ignore"):  # huge gains: judged by _iae
+            e = np.cumsum(np.fft.irfft(1.0 - p * cr / (1.0 + cy * p), self.n_fft))
         return self._iae(e, self.ki((np.array([]), np.array([]), -ss.response(self.w0)[:, 0, 1])))
 
     def _iae(self, e: np.ndarray, ki: float) -> float:
+        if not np.all(np.isfinite(e)):  # a response beyond float (a gain of 1e308): no contender
+            return math.inf
         iae = float(np.sum(np.abs(e)) * self.ts)
         tail = float(np.max(np.abs(e[-self.n_fft // 8 :])))
         if not ki > 0.0:
@@ -364,6 +368,10 @@ def _feasible(m: _Model, c, ms: float, noise_max: float) -> bool:
     return not (noise_max < math.inf and m.noise(c) > noise_max)
 
 
+GAIN_RANGE = (1e-30, 1e30)
+"""The process gains the designs accept (by magnitude); any real plant's, in any units."""
+
+
 def _check(
     model: Any, ts: float, ms: float, noise_std: float | None, mv_noise_max: float | None
 ):
@@ -374,7 +382,16 @@ def _check(
         raise ParameterError(ErrorCode.BAD_PARAMETER, "model", "an FOPDT or SOPDT model")
     if not (math.isfinite(ts) and ts > 0.0):
         raise ParameterError(ErrorCode.BAD_TIME_CONSTANT, "ts", f"must be finite > 0, got {ts!r}")
-    _k, tau, _L = _scales(model)
+    k, tau, _L = _scales(model)
+    if not GAIN_RANGE[0] <= abs(k) <= GAIN_RANGE[1]:
+        # the searches span controller gains 0.1/k .. 1e4/k and the loop's responses k
+        # times them: beyond this the floats underflow or overflow (a gain of 1e308 divided
+        # by zero in the PID's search)
+        raise ParameterError(
+            ErrorCode.BAD_PARAMETER, "gain",
+            f"|gain| must be {GAIN_RANGE[0]:g} .. {GAIN_RANGE[1]:g} (PV units per MV unit), "
+            f"got {model.gain:g}: rescale the PV or the MV",
+        )  # fmt: skip
     if not tau / ts <= MAX_DEAD_SAMPLES:
         # the search grids and the load response's FFT are sized in samples of ts
         raise ParameterError(
