@@ -46,6 +46,12 @@ BASE: dict[tuple[str, ...], list[str]] = {
                   "p_supply_bar", "--no-plots", "--out", "{tmp}/assess"],
     ("compile",): ["--status"],  # no hostile --jobs is a valid count: nothing is built
 }  # fmt: skip
+# further valid command lines of a command whose paths differ by a choice: tune pid's
+# default is the designed PID (design_pid), not the rule above -- a gain of 1e308
+# once raised ZeroDivisionError there, unseen while only the rule was driven
+VARIANTS: dict[tuple[str, ...], list[list[str]]] = {
+    ("tune", "pid"): [["--gain", "1", "--time-constant", "5", "--dead-time", "1"]],
+}
 # commands that start a server or act on a running one: their start-up numbers are
 # checked by tests/runtime/test_cli_user_errors.py (busy ports, both ports 0, ...)
 SERVERS = {("serve",), ("plant-server",), ("tune-live",)}
@@ -90,7 +96,11 @@ def test_every_command_with_number_options_is_in_the_campaign():
 )
 @pytest.mark.slow  # a campaign over every option (pytest -m slow)
 def test_a_hostile_number_gives_an_error_line_not_a_traceback(tmp_path, path, option):
-    base = [a.replace("{tmp}", str(tmp_path)) for a in BASE[path]]
+    for line in (BASE[path], *VARIANTS.get(path, [])):
+        _campaign(tmp_path, path, option, [a.replace("{tmp}", str(tmp_path)) for a in line])
+
+
+def _campaign(tmp_path, path, option, base):
     for value in HOSTILE:
         args = list(base)
         if option in args:
