@@ -72,6 +72,7 @@ cdef class PID(Block):
     cdef public double out, _h, _ts, _i, _d, _w_prev, _e_prev, p, i, d, e, sp_w, pv_f, ff
     cdef public double _lo, _hi, _x, _bias, _ff_prev
     cpdef output_limits(self)
+    cdef bint _plain_auto(self, dt, pv_ok, double dv)
     @cython.locals(prm=pid_prm_t, out_prev=cython.double, out=cython.double,
                    v_raw=cython.double, _lim=cython.bint, p=cython.double, i_k=cython.double,
                    d=cython.double, e=cython.double, _bias=cython.double, _sup=cython.bint,

@@ -1432,21 +1432,35 @@ class PID(Block):
             return v  # the guard's test inline: no call on the usual path
         return self._checked(prev, v)
 
-    def _call(
-        self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool
-    ) -> float:
-        """The body of :meth:`__call__` (inputs converted, output not yet checked)."""
-        if (
+    def _plain_auto(self, dt: float | None, pv_ok: Any, dv: float) -> bool:
+        """Whether this cycle is plain auto operation, the one test of both lean paths.
+
+        The per-call fast lane (:meth:`_call`) and the lean two-phase cycle
+        (:meth:`_compute_output`) run the law with the kernels' options and no
+        sub-block only when this holds (besides finite inputs and no pending
+        cycle of the other kind): the lean configuration, the sample time
+        ``ts``, a good PV, no lead-lag input, the last cycle in auto, no first
+        cycle or re-initialisation, no mode input, and the P action not
+        suppressed -- a flag of state that outlives a change of ``bumpless``.
+        """
+        return (
             self._lean
             and dt is None
             and pv_ok is True
             and dv == 0.0
             and self._mode_prev == 0
-            # P suppressed after a switch with bumpless="suppress_p_action" stays so until
-            # |e| <= dev_tol, also after a reconfiguration to another method: the law's case
-            and not (self._cold or self._reinit or self._pending is not None or self.p_suppressed)
+            and not (self._cold or self._reinit or self.p_suppressed)
             and self._h == self._ts
             and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
+        )
+
+    def _call(
+        self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool
+    ) -> float:
+        """The body of :meth:`__call__` (inputs converted, output not yet checked)."""
+        if (
+            self._pending is None
+            and self._plain_auto(dt, pv_ok, dv)
             # finite inputs: a finite sum has no infinite or NaN term (one that overflows
             # takes the general path, which gives the same result)
             and _NINF < sp + pv + ff < _INF
@@ -1545,21 +1559,14 @@ class PID(Block):
         """The body of :meth:`compute_output` (inputs converted, output not yet checked)."""
         pending = self._pending
         if (
-            self._lean
-            and self._two_phase_lean
-            and dt is None
-            and pv_ok is True
-            and dv == 0.0
+            self._two_phase_lean
             and (pending is None or pending is True)
-            and self._mode_prev == 0
-            and not (self._cold or self._reinit or self.p_suppressed)
-            and self._h == self._ts
-            and not (self.manual or self.track or self.hold or self.reset_active or self.awin)
+            and self._plain_auto(dt, pv_ok, dv)
             and _NINF < sp < _INF
             and _NINF < pv < _INF
             and _NINF < ff < _INF
         ):
-            # the lean cycle: the fast lane's conditions (_call; and P not suppressed), in which
+            # the lean cycle: the fast lane's conditions (_plain_auto), in which
             # the general cycle's sub-blocks pass their inputs through and the law's options
             # are off (NO_OPTIONS, as pid_step); the committed values it starts from are kept
             # for _sync_subs and _full_cycle
@@ -1747,17 +1754,13 @@ class PID(Block):
             log.debug("PID.update_state without compute_output: ignored")
             return
         self._pending = None
+        u = float(applied) if is_finite(applied) else self.out
         if cycle is True:
             # the lean cycle (compute_output): the commit below for a _LAW cycle in auto of the
             # positional law, nothing held, no dead band -- the sub-blocks are brought up to
             # date when next needed (_sync_subs)
             (_out_prev, _sp_prev, _pv_prev, _sp, _pv, e, w, d, p, ff, i_k, v_raw,
              _out) = self._lean_cycle  # fmt: skip
-            u = self.out
-            if type(applied) is float or is_finite(applied):
-                a = float(applied)
-                if _NINF < a < _INF:
-                    u = a
             self.manual_value = u
             self._i, _x = pid_commit(u, self.out, v_raw, p, i_k, d, ff, False, False, 0.0,
                                      self._prm[6], self._prm[11], self._prm[12], 0.0)  # fmt: skip
@@ -1773,7 +1776,6 @@ class PID(Block):
         mode = cycle.mode
         if mode == Mode.RESET:
             self._limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
-        u = float(applied) if is_finite(applied) else self.out
         if mode != Mode.MANUAL:
             self.manual_value = u
         if cycle.kind == _BAD:  # bad input: nothing is known, re-initialise on recovery
