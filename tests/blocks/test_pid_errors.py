@@ -113,3 +113,39 @@ def test_manual_mode_with_a_bad_pv_keeps_the_manual_output_and_flags_it() -> Non
     assert pid.error_id == ErrorCode.BAD_INPUT
     pid.manual_value = math.nan
     assert pid(50.0, 40.0) == 25.0 and pid.error_id == ErrorCode.BAD_INPUT
+
+
+@pytest.mark.parametrize("manual", [False, True])
+def test_a_pv_whose_scaling_overflows_holds_the_output_as_a_failed_cycle(manual: bool) -> None:
+    """A finite PV that the PV range scales beyond the doubles (1e307 over a range of 1) is no
+    measurement to control on: the cycle fails (``BAD_RESULT``), the output holds (MANUAL: the
+    manual value stands) and the next good cycle continues from it without a bump -- as the
+    exported FB does with a REAL that overflows (``pid.pid_compute``, one input stage).  The
+    PV filter, a sub-block of its own before, held its last output with its own ``BAD_INPUT``
+    and the PID integrated on that stale PV with no status."""
+    pid = PID(kp=1.0, ti=1.0, ts=0.1, u_min=-100.0, u_max=100.0, pv_range=(0.0, 1.0))
+    for _ in range(3):
+        pid(0.5, 0.4)
+    held = pid.out
+    if manual:
+        pid.manual, pid.manual_value = True, 7.0
+        held = 7.0
+    assert pid(0.5, 1e307) == held
+    assert pid.error_id == ErrorCode.BAD_RESULT
+    assert pid(0.5, 0.4) == held  # the recovery continues from the held output
+    assert pid.error_id == ErrorCode.NO_ERROR
+
+
+def test_a_failed_law_after_a_first_compute_output_holds_the_committed_output() -> None:
+    """``compute_output`` again in the same cycle starts from the committed state: a law that
+    overflows in the second call holds the committed output (or the safe value), not the
+    output the first call computed and nobody applied (the fallback of ``pid_compute``)."""
+    pid = PID(kp=10.0, ti=1.0, ts=0.1, u_min=-100.0, u_max=100.0)
+    pid(1.0, 0.0)
+    committed = pid.out
+    assert pid.compute_output(5.0, 0.0) != committed
+    assert pid.compute_output(1e308, -1e308) == committed
+    assert pid.error_id == ErrorCode.BAD_RESULT
+    alone = PID(kp=10.0, ti=1.0, ts=0.1, u_min=-100.0, u_max=100.0)
+    alone(1.0, 0.0)
+    assert alone.compute_output(1e308, -1e308) == committed  # the same result as called alone

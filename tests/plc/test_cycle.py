@@ -17,6 +17,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ctrlblocks import ADRC, PID, LeadLag, MovingAverage, ParameterError, SteadyStateDetector
 from ctrlblocks.blocks import adrc as adrc_mod
@@ -338,7 +340,8 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
     kind = "pid" if isinstance(block, PID) else "adrc"
     seen = []
-    name = "pid_law" if kind == "pid" else "adrc_law"  # each block's one law
+    # each block's one law (the PID's through its process-data half, pid.pid_compute)
+    name = "pid_compute" if kind == "pid" else "adrc_law"
     kernel = getattr(pc, name)
 
     def spy(*args):
@@ -426,3 +429,78 @@ def test_float32_adrc_with_a_measured_cycle_time_every_cycle_keeps_controlling()
     assert len(set(runs["float32"][:50])) == 50  # it moves every cycle
     np.testing.assert_allclose(runs["float32"], runs["float64"], rtol=0, atol=1e-4)
     assert runs["float32"][-1] == pytest.approx(2.0 / 0.73, abs=1e-4)  # offset-free
+
+
+def test_the_pid_block_and_its_fb_run_one_process_data_function(monkeypatch):
+    """The block's general cycle and the FB's cycle (pid_cycle: the float32 lane, the export)
+    both run pid.pid_compute, the one implementation of the process data around the law (the
+    mode's target, the judgement of the inputs, the bad-input output, the input stage, the
+    transfer, the law's failure): replacing that function changes both."""
+    from ctrlblocks.blocks import pid as pid_mod
+    from ctrlblocks.compiled import interpreted
+
+    assert pc.pid_compute is interpreted("pid").pid_compute
+    seen = []
+    for mod, who in ((pid_mod, "block"), (pc, "fb")):
+        real = mod.pid_compute
+
+        def spy(*args, _real=real, _who=who):
+            seen.append(_who)
+            return _real(*args)
+
+        monkeypatch.setattr(mod, "pid_compute", spy)
+    block = PID(kp=2.0, ti=3.0, pv_filter=1.0)  # a filter: the general cycle
+    block.update_state(block.compute_output(1.0, 0.0))
+    pc.pid_cycle(**{**PID_PROCESS, "sp": 1.0}, **pc.pid_inputs(block.config),
+                 **pc.pid_state(block.config))  # fmt: skip
+    assert seen == ["block", "fb"]
+
+
+_MODE_ATTR = {"manual": "manual", "track": "track", "hold": "hold", "rst": "reset_active"}
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    options=st.fixed_dictionaries({
+        "pv_range": st.sampled_from([None, (-20.0, 180.0)]),
+        "sp_filter": st.sampled_from([0.0, 0.7]), "pv_filter": st.sampled_from([0.0, 0.3]),
+        "sp_rate": st.sampled_from([0.0, 4.0]), "out_rate": st.sampled_from([0.0, 30.0]),
+        "ff_k": st.sampled_from([0.0, 1.5]), "algorithm": st.sampled_from(["positional",
+                                                                         "velocity"]),
+        "bumpless": st.sampled_from(["integrator", "suppress_p_action"]),
+        "deadband": st.sampled_from([0.0, 2.0]), "safe_value": st.sampled_from([None, 5.0]),
+        "td": st.sampled_from([0.0, 0.4]), "reverse": st.booleans(),
+    }),
+    steps=st.lists(st.tuples(
+        st.one_of(st.floats(-50.0, 150.0), st.just(math.nan)),
+        st.one_of(st.floats(-50.0, 150.0), st.just(math.inf)),
+        st.floats(-5.0, 5.0), st.floats(-5.0, 5.0), st.booleans(),
+        st.sampled_from([None, None, None, "manual", "track", "hold", "rst"]),
+        st.floats(-120.0, 120.0),
+    ), min_size=1, max_size=40),
+)  # fmt: skip
+def test_pid_block_and_its_fb_in_float64_agree_on_random_options_modes_and_bad_inputs(
+    options, steps
+):
+    """Hypothesis: the block and pid_cycle run in float64 give the same output and status on
+    every sample, over the input-stage options, the modes and bad inputs (the
+    process data of both is pid.pid_compute; the FB's commit is its own)."""
+    cfg = {**options, "ff_t_lag": 2.0, "dev_tol": 1.0}
+    block = PID(kp=1.2, ti=2.0, ts=0.1, u_min=-100.0, u_max=100.0, t_stab=0.5, **cfg)
+    args = {**PID_PROCESS, **pc.pid_inputs(block.config), **pc.pid_state(block.config)}
+    args["man_value"] = args["out"]
+    for k, (sp, pv, ff, dv, pv_ok, mode, value) in enumerate(steps):
+        for name, attr in _MODE_ATTR.items():
+            on = mode == name
+            setattr(block, attr, on)
+            args[name] = on
+        if mode == "manual":
+            block.manual_value = args["man_value"] = value
+        block.track_value = args["track_value"] = value
+        u = block(sp, pv, ff=ff, dv=dv, pv_ok=pv_ok)
+        args.update(sp=sp, pv=pv, ff=ff, dv=dv, pv_ok=pv_ok)
+        res = dict(zip(pc.PID_RESULTS, pc.pid_cycle(**args), strict=True))
+        args.update({n: res[n] for n in args if n in res})
+        args["man_value"] = res["man_value"]
+        assert abs(res["mv"] - u) <= 1e-9 * (1.0 + abs(u)), f"sample {k}: {res['mv']!r}, {u!r}"
+        assert res["error_id"] == int(block.error_id), f"sample {k}"

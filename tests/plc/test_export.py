@@ -211,39 +211,39 @@ def test_tia_scl_follows_the_dialect_rules(name):
 
 
 @pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
-def test_small_blocks_with_memory_are_fbs_instantiated_inside_the_pid():
-    """The SP/PV filters, the setpoint ramp and the feed-forward lead-lag are FUNCTION_BLOCKs
-    of their own, held as instances in CB_PID's VAR (a multi-instance in TIA), and their
-    memory is not a variable of CB_PID."""
+def test_the_input_stage_is_the_pids_function_and_its_memory_the_pids_state():
+    """The SP/PV filters, the setpoint ramp and the feed-forward lead-lag run in the FUNCTION
+    CB_PID_COMPUTE (pid.pid_compute, the block's input stage too), their memories are state
+    variables of CB_PID passed in and out; the dead band's moving average, whose ring is an
+    ARRAY, stays an instance of its FUNCTION_BLOCK."""
     block = PID(kp=2.0, ti=3.0, sp_filter=1.0, sp_rate=2.0, ff_k=1.0, ff_t_lag=2.0)
     st = plc.export(block, "codesys")
     pous = {c.split()[1]: c for c in split_pous(st) if c.startswith("FUNCTION")}
-    assert [c.split()[0] for n, c in pous.items() if n in ("CB_PT1", "CB_RAMP", "CB_LEADLAG_FF")
-            ] == ["FUNCTION_BLOCK"] * 3  # fmt: skip
+    assert not {"CB_PT1", "CB_RAMP", "CB_LEADLAG_FF"} & set(pous)
+    compute = pous["CB_PID_COMPUTE"]
+    assert compute.startswith("FUNCTION CB_PID_COMPUTE : REAL")
+    for step in ("CB_PT1_STEP(", "CB_RATE_LIMIT_STEP(", "CB_LEADLAG_STEP(", "CB_PID_LAW("):
+        assert step in compute
     pid = pous["CB_PID"]
-    for decl in ("PT1_sp_f : CB_PT1;", "PT1_pv_f : CB_PT1;", "RAMP_sp_w : CB_RAMP;",
-                 "LEADLAG_FF_ll_out : CB_LEADLAG_FF;"):  # fmt: skip
-        assert decl in pid
-    # no declaration of their memory (`sp_w : REAL`); a call may pass it (`sp_w := RAMP_sp_w.Y`)
-    assert not re.search(r"^\s+(sp_f|pv_f|sp_w|ll_x|ll_out) :(?!=)", pid, re.M)
-    assert re.search(r"^\s+sp_w := RAMP_sp_w\.Y,", pid, re.M)
-    assert "PT1_pv_f.Y" in pid and "PT1_sp_f(" in pid
-    assert "PT1_sp_f : \"CB_PT1\";" in plc.export(block, "tia")
-    assert "#PT1_sp_f(" in plc.export(block, "tia") and "#PT1_pv_f.Y" in plc.export(block, "tia")
-    xml = plc.export(block, "plcopen")
-    assert '<derived name="CB_PT1" />' in xml and 'pouType="functionBlock"' in xml
+    for name in ("sp_f", "pv_f", "sp_w", "ll_x", "ll_out"):  # the memories: CB_PID's VAR
+        assert re.search(rf"^\s+{name} : REAL := 0\.0;", pid, re.M), name
+        assert re.search(rf"^\s+{name}_in := {name},", pid, re.M), name
+    assert "CB_PID_COMPUTE(" in pid
+    assert "#sp_f" in plc.export(block, "tia")
     db = PID(kp=2.0, ti=3.0, deadband=0.5, t_stab=1.5, ts=0.1)
     assert "BUF : ARRAY[0..14] OF REAL;" in plc.export(db, "codesys")  # round(1.5/0.1) values
     assert "BUF : Array[0..14] of Real;" in plc.export(db, "tia")
     assert '<array><dimension lower="0" upper="14" /><baseType><REAL /></baseType></array>' in (
         plc.export(db, "plcopen"))  # fmt: skip
+    xml = plc.export(db, "plcopen")
+    assert '<derived name="CB_MOVAVG_15" />' in xml and 'pouType="functionBlock"' in xml
     # the stateless helpers stay FUNCTIONs
     assert pous["CB_PT1_STEP"].startswith("FUNCTION CB_PT1_STEP : REAL")
 
 
 @pytest.mark.slow  # blark's parser: the long campaign (pytest -m slow)
-def test_an_instance_runs_with_its_own_memory_in_the_interpreter():
-    """Two CB_PT1 instances (SP and PV filter) keep separate memories across calls."""
+def test_the_filters_memories_run_in_the_interpreter():
+    """The SP and PV filters keep separate memories (CB_PID's sp_f, pv_f) across calls."""
     it = Interpreter(plc.export(PID(kp=1.0, ti=5.0, sp_filter=2.0, pv_filter=0.5), "codesys"))
     fb = it.instance("CB_PID")
     fb(SP=10.0, PV=0.0)
@@ -252,13 +252,19 @@ def test_an_instance_runs_with_its_own_memory_in_the_interpreter():
     a_pv = real_exp(np.float32(-0.1) / np.float32(0.5))
     sp_f = a_sp * np.float32(10.0) + (np.float32(1.0) - a_sp) * np.float32(1.0) * np.float32(20.0)
     pv_f = a_pv * np.float32(0.0) + (np.float32(1.0) - a_pv) * np.float32(1.0) * np.float32(4.0)
-    assert fb["PT1_sp_f"].output("Y") == sp_f and fb["PT1_pv_f"].output("Y") == pv_f
+    assert fb["sp_f"] == sp_f and fb["pv_f"] == pv_f
     with pytest.raises(Exception, match="not an output"):
-        fb["PT1_sp_f"].output("U")
+        fb.output("sp_f")
+
+
+@pc.plc_block("MEM", ("y",))
+def _memory(u: float, y: float) -> float:
+    """A small block with memory (the translator's test)."""
+    return u + y
 
 
 def _writes_a_memory(u: float, y: float, z: float) -> tuple[float, float, float]:
-    y = pc.pt1_filter(u, 1.0, 0.1, False, y)
+    y = _memory(u, y)
     y = 0.0
     return y, y, z
 

@@ -58,6 +58,7 @@ import functools
 import logging
 import math
 import operator
+import sys
 from collections.abc import Callable
 from typing import Any, Literal, NamedTuple
 
@@ -79,7 +80,7 @@ from .base import (
     require_positive,
     require_range,
 )
-from .leadlag import LeadLag, LeadLagConfig
+from .leadlag import LeadLag, LeadLagConfig, leadlag_coefficients, leadlag_step
 from .pid_forms import FORMS, isa_parameters
 from .precision import block_limits
 from .precision import check_precision as _check_precision
@@ -93,6 +94,8 @@ from .signals import (
     SteadyStateDetector,
     clamp,
     deadband,
+    pt1_coefficient,
+    pt1_step,
     rate_limit_step,
     scale,
 )
@@ -148,6 +151,7 @@ class Bumpless:
 
 METHODS = ("forward", "backward", "tustin")
 _INF, _NINF = math.inf, -math.inf
+_BIG = sys.float_info.max  # the largest valid magnitude of a double (pid_compute's ``big``)
 _FORWARD, _BACKWARD, _TUSTIN = 0, 1, 2
 
 
@@ -600,6 +604,242 @@ def pid_step(
 
 
 # ---------------------------------------------------------------------------
+# The process data of one cycle around the law: one implementation (DESIGN 2)
+# ---------------------------------------------------------------------------
+
+_AUTO, _MANUAL, _TRACK, _HOLD, _RESET = 0, 1, 2, 3, 4  # Mode
+_NO_MODE = -1  # no cycle ran since the reset
+_NO_ERROR, _BAD_INPUT, _BAD_MEASUREMENT = 0x0000, 0x8101, 0x8102  # ErrorCode
+_TRACK_SETPOINT, _SUPPRESS_P = 1, 2  # Bumpless.ALL
+
+
+def is_valid(x: float, big: float) -> bool:
+    """True for a value the cycle computes with: not NaN and ``|x| <= big``.
+
+    ``big`` is the largest valid magnitude of the executor's number format: the
+    largest double for the block (the test is then ``isfinite``), ``REAL_MAX``
+    for a PLC's REAL (:func:`.plc_cycle.is_real`).  The NaN is caught by ``x ==
+    x`` first, a *quiet* comparison (IEEE 754: no invalid-operation exception for
+    a quiet NaN), so that a runtime that traps floating-point exceptions does not
+    stop at a NaN in the ordered comparison (docs/plc.md, "Traps").
+    """
+    if x == x:  # the NaN test
+        return abs(x) <= big
+    return False
+
+
+def pid_mode(rst: bool, track: bool, hold: bool, manual: bool) -> int:
+    """The active mode from the mode inputs, by the priority RESET > TRACK > HOLD > MANUAL > AUTO
+    (controltheplant 2024; :class:`~ctrlblocks.Mode`)."""
+    if rst:
+        return _RESET
+    if track:
+        return _TRACK
+    if hold:
+        return _HOLD
+    if manual:
+        return _MANUAL
+    return _AUTO
+
+
+def pid_compute(
+    sp: float,
+    pv: float,
+    ff: float,
+    dv: float,
+    pv_ok: bool,
+    mode: int,
+    man_value: float,
+    track_value: float,
+    reset_value: float,
+    use_safe: bool,
+    safe_value: float,
+    out: float,
+    ramp_y: float,
+    scale_pv: bool,
+    pv_lo: float,
+    pv_hi: float,
+    a_sp: float,
+    a_pv: float,
+    sp_rate: float,
+    ff_on: bool,
+    ll_b0: float,
+    ll_b1: float,
+    ll_a1: float,
+    bumpless: int,
+    h: float,
+    cold: bool,
+    reinit: bool,
+    reinit_d: bool,
+    mode_prev: int,
+    suppressed: bool,
+    awin: bool,
+    db_active: bool,
+    db_hold: float,
+    i: float,
+    d: float,
+    w_prev: float,
+    e_prev: float,
+    x: float,
+    bias: float,
+    p_prev: float,
+    d_prev: float,
+    ff_prev: float,
+    sp_f: float,
+    pv_f: float,
+    sp_w: float,
+    sp_ramping: bool,
+    ll_out: float,
+    ll_x: float,
+    prm: tuple[float, ...],
+    opt: tuple[float, ...],
+    big: float,
+) -> tuple[float, int, bool, bool, bool, bool, float, float, float, float, float, float, float,
+           float, float, bool, bool, float, float, float, bool, float, float]:  # fmt: skip
+    """The PID's cycle from its process data to its output: the compute half of every executor.
+
+    The block (:meth:`PID.compute_output`), its float32 cycle and the exported
+    function block (:func:`.plc_cycle.pid_cycle`) run this function; the law
+    itself is :func:`pid_law`.  It is ``ComputeOutput`` of Åström 1987
+    (section 6, Listing 6.3); :func:`pid_update` commits it.
+
+    * The output of a mode other than AUTO (``mode``: :func:`pid_mode`): RESET
+      the limited ``reset_value`` at once (past the output ramp, controltheplant
+      2024, section 2.3.5), TRACK ``track_value``, HOLD the last output ``out``,
+      MANUAL ``man_value``; a mode value that is not valid (NaN, beyond ``big``)
+      is a bad input and holds the output.
+    * SP, PV, FF, DV are judged (:func:`is_valid` with ``big``, the largest
+      valid magnitude), then the quality flag ``pv_ok``: ``BAD_INPUT``,
+      ``BAD_MEASUREMENT``.  A cycle with a bad input holds the output (in AUTO
+      ``safe_value`` if ``use_safe``) through the output stage
+      (:func:`pid_output`) and runs nothing else.
+    * The input stage: SP and PV scaled from ``pv_lo..pv_hi`` to 0..100 %
+      (``scale_pv``; controltheplant 2024, section 2.3.4), a PT1 each (pole
+      ``a_sp``, ``a_pv`` from :func:`.signals.pt1_coefficient`, 0: off;
+      :func:`.signals.pt1_step`, section 2.3.7), the setpoint ramp of
+      ``sp_rate`` units/s (:func:`.signals.rate_limit_step`, section 2.3.8);
+      ``cold`` (the first cycle) starts the filters and the ramp at their input.
+      In a mode other than AUTO with ``bumpless`` track-setpoint the working
+      setpoint follows the filtered PV.  ``ff_on``: the lead-lag feed-forward on
+      ``dv`` with the Tustin coefficients ``ll_b0, ll_b1, ll_a1`` (Bonde et al.
+      2021, Fig. 10; :func:`.leadlag.leadlag_step`, limited to ``big``) is added
+      to ``ff``.  A memory that is not valid (after an overflow) restarts from 0.
+    * The transfer to AUTO: the first AUTO cycle after another mode, or after
+      a re-initialisation, continues from ``out`` (Åström 1987, Fig. 4.4); with
+      ``bumpless`` suppress-P the P action is off until ``|e| <= dev_tol``.
+    * The law (:func:`pid_law`, with ``prm``, ``opt``); the I term shown while
+      the output is held is what makes ``P + I + D + FF`` the output.  A law
+      whose value, derivative memory or I term is not valid has failed: its
+      output is the last one (or ``safe_value``), limited (``law_ok`` False).
+
+    Returns ``(mv, err, ok, law_ok, limits_active, limiting, v_raw, p, i_k,
+    i_shown, d, w, e, bias, ff, suppressed, held, sp_f, pv_f, sp_w, sp_ramping,
+    ll_out, ll_x)``: the output, the status of the inputs (0, ``BAD_INPUT``,
+    ``BAD_MEASUREMENT``), whether they were good, whether the law's values are
+    valid, the limit status, whether the output ramp set the output, the
+    law's value before the limits, the terms (``i_k`` the integrator for
+    :func:`pid_commit`, ``i_shown`` the I term shown), ``w`` and ``e``, the
+    velocity form's bias, the whole feed-forward, P still suppressed, whether
+    the output was held (a mode, the dead band), and the input stage's new
+    memories.
+    """
+    k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g = prm
+    velocity, dev_tol, rate_h, db, i_band = opt
+    ok = is_valid(sp, big) and is_valid(pv, big) and is_valid(ff, big) and is_valid(dv, big)
+    err = _NO_ERROR
+    if not ok:
+        err = _BAD_INPUT
+    if not pv_ok:
+        ok = False
+        err = _BAD_MEASUREMENT
+    # the output of a mode other than AUTO
+    target = out
+    if mode == _RESET:
+        target = clamp(reset_value, lo, hi)
+        ramp_y = target  # the output ramp is preset: RESET acts immediately
+    elif mode in (_MANUAL, _TRACK):
+        value = man_value
+        if mode == _TRACK:
+            value = track_value
+        if is_valid(value, big):
+            target = value
+        else:
+            ok = False
+            if err == _NO_ERROR:
+                err = _BAD_INPUT
+    held = mode != _AUTO
+    if not ok:
+        # hold (or the safe value); the next good cycle continues without a bump
+        if mode == _AUTO and use_safe:
+            target = safe_value
+        mv, limiting = pid_output(target, ramp_y, lo, hi, rate_h)
+        limits_active = limiting or target > hi or target < lo
+        return (mv, err, False, True, limits_active, limiting, target, 0.0, i, 0.0, d, w_prev,
+                e_prev, bias, ff, suppressed, held, sp_f, pv_f, sp_w, sp_ramping, ll_out,
+                ll_x)  # fmt: skip
+    # input stage: scaling, filters, setpoint ramp, lead-lag feed-forward
+    x_sp = sp
+    x_pv = pv
+    if scale_pv:
+        x_sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
+        x_pv = scale(pv, pv_lo, pv_hi, 0.0, 100.0)
+    if not is_valid(sp_f, big):
+        sp_f = 0.0  # a memory that overflowed restarts from 0
+    if not is_valid(pv_f, big):
+        pv_f = 0.0
+    if cold:
+        sp_f = x_sp  # the first cycle starts the filters at their input
+        pv_f = x_pv
+    sp_f = pt1_step(a_sp, sp_f, 1.0, x_sp)
+    pv_f = pt1_step(a_pv, pv_f, 1.0, x_pv)
+    ramp_in = sp_f
+    follow = bumpless == _TRACK_SETPOINT and mode != _AUTO
+    if follow:
+        ramp_in = pv_f  # in a non-auto mode the working setpoint follows the PV
+    if not is_valid(sp_w, big):
+        sp_w = 0.0
+    if cold or follow:
+        sp_w = ramp_in
+    sp_w, sp_ramping = rate_limit_step(ramp_in, sp_w, sp_rate, sp_rate, h)
+    ff_tot = ff
+    if ff_on:
+        if not is_valid(ll_out, big):
+            ll_out = 0.0
+            ll_x = 0.0
+        ll_out = leadlag_step(dv, ll_x, ll_out, ll_b0, ll_b1, ll_a1, -big, big)
+        ll_x = dv
+        ff_tot = ff + ll_out
+    # the transfer to AUTO and the P suppression
+    from_mode = mode == _AUTO and mode_prev != _NO_MODE and mode_prev != _AUTO
+    if from_mode and bumpless == _SUPPRESS_P:
+        suppressed = True
+    transfer = from_mode or (mode == _AUTO and reinit)
+    # the PID's one law
+    law_prm = (k, sgn, b, c, ad, bd, ki_h, alpha, beta, lo, hi, aw, g)
+    law_opt = (velocity, dev_tol, rate_h, db, i_band)
+    (mv, v_raw, limiting, p, i_k, dn, w, e, bias, suppressed, db_held) = pid_law(
+        sp_w, pv_f, ff_tot, held, target, cold or reinit_d, transfer, suppressed, awin,
+        db_active, db_hold, i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out, ramp_y,
+        law_prm, law_opt,
+    )  # fmt: skip
+    held = held or db_held
+    limits_active = limiting or v_raw > hi or v_raw < lo
+    i_shown = i_k
+    if held:
+        i_shown = mv - p - dn - ff_tot  # the I term shown: P + I + D + FF is the output
+    v_ok = is_valid(v_raw, big)
+    law_ok = v_ok and is_valid(dn, big) and is_valid(w, big) and is_valid(i_shown, big)
+    if not v_ok:
+        # the law overflowed: hold the output (or the safe value), limited
+        mv = out
+        if use_safe:
+            mv = safe_value
+        mv = clamp(mv, lo, hi)
+    return (mv, err, True, law_ok, limits_active, limiting, v_raw, p, i_k, i_shown, dn, w, e,
+            bias, ff_tot, suppressed, held, sp_f, pv_f, sp_w, sp_ramping, ll_out, ll_x)  # fmt: skip
+
+
+# ---------------------------------------------------------------------------
 # Configuration
 # ---------------------------------------------------------------------------
 
@@ -846,6 +1086,7 @@ _SUB_COMPUTE = ("_sp_filter", "_pv_filter", "_sp_ramp", "_ll")
 output ramp's is a value of the law, :func:`pid_output`)."""
 
 _SKIP, _BAD, _LAW = 0, 1, 2
+_MODES = tuple(sorted(Mode))  # Mode by its value
 
 
 class _Cycle(NamedTuple):
@@ -923,14 +1164,6 @@ class _SubStates:
         """Put back states from :meth:`take`."""
         for (b, _get, put), st in zip(self._subs, states, strict=True):
             put(b, st)
-
-
-_SUBS = _Cycle._fields.index("subs")
-
-
-def _with_subs(cycle: _Cycle, subs: tuple[tuple[Any, ...], ...]) -> _Cycle:
-    """``cycle`` with the sub-block states ``subs`` (a cheap ``_replace``)."""
-    return tuple.__new__(_Cycle, (*cycle[:_SUBS], subs, *cycle[_SUBS + 1 :]))
 
 
 class PID(Block):
@@ -1068,6 +1301,7 @@ class PID(Block):
         self._range = (float(c.pv_range[0]), float(c.pv_range[1])) if c.pv_range else None
         self._db = abs(float(c.deadband))
         self._ts = ts = float(c.ts)
+        self._safe = float(c.safe_value) if c.safe_value is not None else 0.0
         self._set_tuning(c)
         # the per-call fast lane runs pid_step: the configurations of the compiled kernels
         self._lean = not (_unsupported(c, "pid") or self._option_blockers())
@@ -1173,6 +1407,14 @@ class PID(Block):
         )  # fmt: skip
         self._opt = (1.0 if self._velocity else 0.0, float(c.dev_tol), c.out_rate * h, self._db,
                      float(c.i_band))  # fmt: skip
+        # the input stage's coefficients at h (pid_compute): the filters' poles, the lead-lag's
+        ff_on = c.ff_k != 0.0
+        ll = leadlag_coefficients(c.ff_k, c.ff_t_lead, c.ff_t_lag, h, True) if ff_on else (0.0,) * 3
+        rng = self._range if self._range is not None else (0.0, 100.0)
+        self._stage = (self._range is not None, rng[0], rng[1],
+                       pt1_coefficient(float(c.sp_filter), h, "exact"),
+                       pt1_coefficient(float(c.pv_filter), h, "exact"), float(c.sp_rate), ff_on,
+                       *ll, Bumpless.ALL.index(c.bumpless))  # fmt: skip
 
     def configure(self, **changes: Any) -> None:
         """As :meth:`Block.configure`; a valid new ``u_min``/``u_max`` clears ``BAD_LIMITS``.
@@ -1374,16 +1616,8 @@ class PID(Block):
 
     @property
     def mode(self) -> Mode:
-        """The active mode from the inputs, by the priority of :class:`Mode`."""
-        if self.reset_active:
-            return Mode.RESET
-        if self.track:
-            return Mode.TRACK
-        if self.hold:
-            return Mode.HOLD
-        if self.manual:
-            return Mode.MANUAL
-        return Mode.AUTO
+        """The active mode from the inputs, by the priority of :class:`Mode` (:func:`pid_mode`)."""
+        return _MODES[pid_mode(self.reset_active, self.track, self.hold, self.manual)]
 
     @property
     def awout(self) -> bool:
@@ -1598,22 +1832,17 @@ class PID(Block):
         pv_ok = as_flag(pv_ok, False)
         if pending is True:
             pending = self._full_cycle()
-        self._sync_subs()  # the committed states of the sub-blocks the cycle runs
+        self._sync_subs()  # the committed states of the sub-blocks the cycle reads
         out_prev = self.out if pending is None else pending.out_prev
-        # the filters, ramps and lead-lag commit when called: run them from their
-        # committed state, keep the state they reach in the pending cycle, put it back
-        subs = self._cycle_subs
-        committed = subs.take()
-        cycle = self._compute(sp, pv, ff, dv, dt, pv_ok, out_prev)
-        self._pending = _with_subs(cycle, subs.take())
-        subs.put(committed)
-        if cycle.kind == _LAW and not (
-            _NINF < cycle.d < _INF and _NINF < cycle.w < _INF and _NINF < self.i < _INF
-        ):
-            # the law's memory overflowed behind an output that did not need it (a mode's
-            # target, the dead band's hold: a forward-Euler derivative over an absurd dt):
-            # as a failed cycle, the memory is made finite and re-initialised bumplessly
-            # from the output on recovery (_resume); the output of this cycle stands
+        # the filters', ramp's and lead-lag's states after the cycle travel in the pending cycle
+        cycle, law_ok = self._compute(sp, pv, ff, dv, dt, pv_ok, out_prev)
+        self._pending = cycle
+        if not law_ok:
+            # the law failed (pid_compute): an overflowed law holds the output (or the safe
+            # value); a memory that overflowed behind an output that did not need it (a mode's
+            # target, the dead band's hold: a forward-Euler derivative over an absurd dt) lets
+            # the output stand; as a failed cycle, the memory is made finite and
+            # re-initialised bumplessly from the output on recovery (_resume)
             self.error_id = ErrorCode.BAD_RESULT
             self._resume(self.out)
         return self.out
@@ -1644,99 +1873,51 @@ class PID(Block):
     def _compute(
         self, sp: float, pv: float, ff: float, dv: float, dt: float | None, pv_ok: bool,
         out_prev: float,
-    ) -> _Cycle:  # fmt: skip
-        """The cycle from the committed state (:func:`pid_law`); sets the outputs, returns it."""
+    ) -> tuple[_Cycle, bool]:  # fmt: skip
+        """The cycle from the committed state (:func:`pid_compute`); sets the outputs, returns
+        it and whether the law's values are valid."""
+        committed = self._cycle_subs.take()
         h = self._cycle_time(dt, self._ts)
         if h is None:
             self.error_id = ErrorCode.NO_CYCLE
             self.out = out_prev
-            return _Cycle(_SKIP, out_prev, Mode.AUTO, self._h)
+            return _Cycle(_SKIP, out_prev, Mode.AUTO, self._h, committed), True
         if h != self._h:
             self._set_h(h)
         mode = self.mode
         c = self._config
-        subs = self._subs
-        lo, hi = self._lo, self._hi
-        limits_status = self._limits_status
-        ramp_y = subs["_out_ramp"].out
-
-        ok = is_finite(sp) and is_finite(pv) and is_finite(ff) and is_finite(dv)
-        bad = ErrorCode.BAD_INPUT if not ok else ErrorCode.NO_ERROR
-        if not pv_ok:
-            ok, bad = False, ErrorCode.BAD_MEASUREMENT
-        target: float | None = None  # output target of a non-auto mode
-        if mode == Mode.MANUAL:
-            target = float(self.manual_value) if is_finite(self.manual_value) else out_prev
-            ok = ok and is_finite(self.manual_value)
-        elif mode == Mode.TRACK:
-            target = float(self.track_value) if is_finite(self.track_value) else out_prev
-            ok = ok and is_finite(self.track_value)
-        elif mode == Mode.HOLD:
-            target = out_prev
-        elif mode == Mode.RESET:
-            target = clamp(float(c.reset_value), lo, hi)
-            ramp_y = target  # "immediately" (controltheplant 2024, section 2.3.5)
-            limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
-
-        if not ok:
-            if target is None:
-                target = out_prev if c.safe_value is None else float(c.safe_value)
-            if _NINF < target < _INF:
-                out, limiting = pid_output(target, ramp_y, lo, hi, self._opt[2])
-            else:
-                out, limiting = math.nan, False
-            self.limits_active = target > hi or target < lo or limiting
-            self.out = out
-            self.error_id = bad or ErrorCode.BAD_INPUT
-            return _Cycle(_BAD, out_prev, mode, h, ramp=out if out == out else ramp_y,
-                          limiting=limiting)  # fmt: skip
-
-        # --- inputs: scaling, filters, setpoint ramp -------------------------
-        x_sp, x_pv = float(sp), float(pv)
-        if self._range is not None:
-            x_sp = scale(x_sp, self._range[0], self._range[1], 0.0, 100.0)
-            x_pv = scale(x_pv, self._range[0], self._range[1], 0.0, 100.0)
-        spf, pvf = subs["_sp_filter"], subs["_pv_filter"]
-        sramp = subs["_sp_ramp"]
-        if self._cold:
-            spf.preset(x_sp)
-            pvf.preset(x_pv)
-        sp_f = spf(x_sp, dt=h)
-        pv_f = pvf(x_pv, dt=h)
-        if c.bumpless == Bumpless.TRACK_SETPOINT and mode != Mode.AUTO:
-            sramp.preset(pv_f)  # controltheplant 2024: in manual the SP follows the PV
-            sp_w = pv_f
-        else:
-            if self._cold:
-                sramp.preset(sp_f)
-            sp_w = sramp(sp_f, dt=h)
-        ff_tot = float(ff)
-        if c.ff_k != 0.0:
-            ff_tot += subs["_ll"](float(dv), dt=h)
-
-        # --- the law, in every mode (the integrator tracks the others' output) ----------
-        from_mode = mode == Mode.AUTO and self._mode_prev not in (-1, Mode.AUTO)
-        suppressed = self.p_suppressed or (from_mode and c.bumpless == Bumpless.SUPPRESS_P_ACTION)
-        held = target is not None
-        out, v_raw, limiting, p, i_k, d, w, e, bias, suppressed, db_held = pid_law(
-            sp_w, pv_f, ff_tot, held, 0.0 if target is None else target,
-            self._cold or self._reinit_d, from_mode or (mode == Mode.AUTO and self._reinit),
-            suppressed, bool(self.awin),
-            self.deadband_active, self._db_hold, self._i, self._d, self._w_prev, self._e_prev,
-            self._x, self._bias, self._p_prev, self._d_prev, self._ff_prev, out_prev, ramp_y,
-            self._prm, self._opt,
+        man, trk = self.manual_value, self.track_value
+        if type(man) is not float:
+            man = as_input(man)
+        if type(trk) is not float:
+            trk = as_input(trk)
+        sp_s, pv_s, ramp_s, ll_s = committed
+        scale_pv, pv_lo, pv_hi, a_sp, a_pv, sp_rate, ff_on, b0, b1, a1, bumpless = self._stage
+        (out, err, ok, law_ok, limits_active, limiting, v_raw, p, i_k, i_shown, d, w, e, bias,
+         ff_tot, suppressed, held, sp_f, pv_f, sp_w, sp_ramping, ll_out, ll_x) = pid_compute(
+            sp, pv, ff, dv, pv_ok, mode, man, trk, float(c.reset_value), c.safe_value is not None,
+            self._safe, out_prev, self._subs["_out_ramp"].out, scale_pv, pv_lo, pv_hi, a_sp, a_pv,
+            sp_rate, ff_on, b0, b1, a1, bumpless, h, self._cold, self._reinit, self._reinit_d,
+            self._mode_prev, self.p_suppressed, bool(self.awin), self.deadband_active,
+            self._db_hold, self._i, self._d, self._w_prev, self._e_prev, self._x, self._bias,
+            self._p_prev, self._d_prev, self._ff_prev, sp_s[0], pv_s[0], ramp_s[0], ramp_s[1],
+            ll_s[0], ll_s[2], self._prm, self._opt, _BIG,
         )  # fmt: skip
-        held = held or db_held
+        self.out = out
+        self.limits_active = limits_active
+        if not ok:
+            self.error_id = ErrorCode(err)
+            return _Cycle(_BAD, out_prev, mode, h, committed, ramp=out, limiting=limiting), True
         self.sp_w, self.pv_f, self.e = sp_w, pv_f, e
-        # a law that overflowed (v not finite) is the output guard's case (BAD_RESULT)
-        self.out = out if _NINF < v_raw < _INF else math.nan
-        self.limits_active = v_raw > hi or v_raw < lo or limiting
-        self.p, self.d, self.ff = p, d, ff_tot
-        # the I term shown: while held, what makes P + I + D + FF the output
-        self.i = out - p - d - ff_tot if held else i_k
-        self.error_id = limits_status
-        return _Cycle(_LAW, out_prev, mode, h, (), e, w, d, p, ff_tot, i_k, v_raw, bias,
-                      suppressed, held, out, limiting)  # fmt: skip
+        self.p, self.d, self.ff, self.i = p, d, ff_tot, i_shown
+        # controltheplant 2024: RESET clears the limits' status
+        self.error_id = self._limits_status if mode != Mode.RESET else ErrorCode.NO_ERROR
+        # the sub-blocks' states the cycle leaves (their fields and status, _SubStates)
+        ok_ = ErrorCode.NO_ERROR
+        subs = ((sp_f, ok_), (pv_f, ok_), (sp_w, sp_ramping, ok_),
+                (ll_out, True, ll_x, ll_s[3], ok_) if ff_on else ll_s)  # fmt: skip
+        return _Cycle(_LAW, out_prev, mode, h, subs, e, w, d, p, ff_tot, i_k, v_raw, bias,
+                      suppressed, held, out, limiting), law_ok  # fmt: skip
 
     def update_state(self, applied: float) -> None:
         """UpdateState of Åström 1987, Listing 6.3 with the value actually applied [%].

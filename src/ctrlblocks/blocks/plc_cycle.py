@@ -78,7 +78,9 @@ leadlag_step = _leadlag.leadlag_step
 leadlag_law = _leadlag.leadlag_law
 _pid = _interpreted("pid")
 pid_commit = _pid.pid_commit
+pid_compute = _pid.pid_compute
 pid_law = _pid.pid_law
+pid_mode = _pid.pid_mode
 pid_output = _pid.pid_output
 pid_parameters = _pid.pid_parameters
 retune_states = _pid.retune_states
@@ -166,7 +168,8 @@ def plc_block(short: str, results: tuple[str, ...], hidden: tuple[str, ...] = ()
     The function is pure: its parameters are the inputs and the memory, it
     returns ``results`` (named in order); a result named like a parameter is
     that memory's new value.  The caller passes its memory in and takes it back
-    (``y = pt1_filter(u, t, h, preset, y)``); in the PLC an instance of the FB,
+    (``steady, anchor, elapsed, started = steady_detector(u, ..., anchor, elapsed,
+    started)``); in the PLC an instance of the FB,
     declared in the caller's VAR, holds it, and the caller reads it as the
     instance's output (``hidden`` memories are no outputs).  Only the call
     writes that memory, so the two stay the same value (the translator checks).
@@ -177,54 +180,6 @@ def plc_block(short: str, results: tuple[str, ...], hidden: tuple[str, ...] = ()
         return fn
 
     return mark
-
-
-@plc_block("PT1", ("y",))
-def pt1_filter(u: float, t: float, h: float, preset: bool, y: float) -> float:
-    """First-order filter, exact pole ``exp(-h/t)`` (t = 0: off); ``preset`` starts at ``u``.
-
-    :func:`.signals.pt1_coefficient` and :func:`.signals.pt1_step` (the PID's SP
-    and PV filters, :class:`~ctrlblocks.PT1`).  A memory that is not a finite
-    REAL (after the PID's law overflowed) restarts from 0, as the block resets
-    a filter whose output is not finite.
-    """
-    y = finite_or_zero(y)
-    if preset:
-        y = u
-    return pt1_step(pt1_coefficient(t, h, "exact"), y, 1.0, u)
-
-
-@plc_block("RAMP", ("y", "limiting"))
-def ramp_filter(u: float, rate: float, h: float, preset: bool, y: float) -> tuple[float, bool]:
-    """Linear ramp ``rate`` [units/s] both ways (0 = off); ``preset`` sets the output to ``u``.
-
-    :func:`.signals.rate_limit_step` (the PID's setpoint ramp,
-    :class:`~ctrlblocks.RateLimiter`); a memory that is not a finite REAL
-    restarts from 0.  Returns ``(y, limiting)``.
-    """
-    y = finite_or_zero(y)
-    if preset:
-        y = u
-    y, limiting = rate_limit_step(u, y, rate, rate, h)
-    return y, limiting
-
-
-@plc_block("LEADLAG_FF", ("y", "x_prev"), hidden=("x_prev",))
-def leadlag_filter(
-    u: float, k: float, t_lead: float, t_lag: float, h: float, y: float, x_prev: float
-) -> tuple[float, float]:
-    """``k (1 + t_lead s)/(1 + t_lag s)`` by Tustin, unlimited (Bonde et al. 2021, Fig. 10).
-
-    :func:`.leadlag.leadlag_coefficients` and :func:`.leadlag.leadlag_step`:
-    the PID's feed-forward path.  A memory that is not a finite REAL restarts
-    at rest.  Returns ``(y, x_prev)``.
-    """
-    if not is_real(y):
-        y = 0.0
-        x_prev = 0.0
-    b0, b1, a1 = leadlag_coefficients(k, t_lead, t_lag, h, True)
-    y = leadlag_step(u, x_prev, y, b0, b1, a1, -REAL_MAX, REAL_MAX)
-    return y, u
 
 
 @plc_block(
@@ -457,12 +412,14 @@ def pid_cycle(
     :func:`moving_average`) and releases it bumplessly when the error leaves;
     a ``t_stab`` whose window exceeds the array (``db_buf``) is refused with
     ``BAD_STAB_TIME`` and the window in force stays.
-    The input stage -- PV scaling to 0..100 %, the SP and PV filters (PT1,
-    exact pole), the setpoint ramp, the lead-lag feed-forward on ``dv``
-    (Bonde et al. 2021 version 4, Tustin) -- runs here; the law in
-    :func:`.pid.pid_step` for the positional form without output ramp,
-    ``awin``, ``back_calc_real`` and P suppression, else in
-    :func:`pid_general_step` (the same results where both apply).
+    The process data of the cycle -- the modes' outputs, the judgement of the
+    inputs, the input stage (PV scaling to 0..100 %, the SP and PV filters:
+    PT1, exact pole; the setpoint ramp; the lead-lag feed-forward on ``dv``,
+    Bonde et al. 2021 version 4, Tustin), the transfer to AUTO and the law
+    (:func:`.pid.pid_law`) -- is :func:`.pid.pid_compute`, the block's too; what
+    is this cycle's own: the coefficients from the inputs every cycle, a change
+    of tuning, algorithm or scaling detected here (the block's ``configure``),
+    the limits and the dead band's window written at run time.
     Returns :data:`PID_RESULTS`.
     """
     lim_err = NO_ERROR
@@ -545,15 +502,7 @@ def pid_cycle(
         db_win, db_ok = deadband_window(t_stab, ts, len(db_buf), db_win)
         if db_ok:
             db_t = t_stab
-    mode = AUTO
-    if rst:
-        mode = RESET
-    elif track:
-        mode = TRACK
-    elif hold:
-        mode = HOLD
-    elif manual:
-        mode = MANUAL
+    mode = pid_mode(rst, track, hold, manual)
     # the law's parameters of this cycle (PID._set_h): pid_parameters, tracking_time
     (k_p, sgn, b_p, c_p, ad, bd, ki_h, alpha, beta, lo_p, hi_p, aw_p,
      g) = pid_parameters(k, ti, td, n, b, c, ts, lo, hi, reverse, d_method, i_method,
@@ -563,41 +512,31 @@ def pid_cycle(
     if velocity:
         vel = 1.0
     opt = (vel, dev_tol, out_rate * ts, db, i_band)
-    # process data
-    ok = is_real(sp) and is_real(pv) and is_real(ff) and is_real(dv)
-    err = NO_ERROR
-    if not ok:
-        err = BAD_INPUT
-    if not pv_ok:
-        ok = False
-        err = BAD_MEASUREMENT
-    # the output of a mode other than AUTO
-    target = out
-    ramp_y = ramp_out
-    if mode == RESET:
-        target = clamp(reset_value, lo, hi)
-        ramp_y = target  # the output ramp is preset: RESET acts immediately
-    elif mode in (MANUAL, TRACK):
-        value = man_value
-        if mode == TRACK:
-            value = track_value
-        if is_real(value):
-            target = value
-        else:
-            ok = False
-            if err == NO_ERROR:
-                err = BAD_INPUT
+    # the input stage's coefficients of this cycle (the filters' poles, the lead-lag's)
+    a_sp = pt1_coefficient(sp_filter, ts, "exact")
+    a_pv = pt1_coefficient(pv_filter, ts, "exact")
+    ff_on = ff_k != 0.0
+    ll_b0 = 0.0
+    ll_b1 = 0.0
+    ll_a1 = 0.0
+    if ff_on:
+        ll_b0, ll_b1, ll_a1 = leadlag_coefficients(ff_k, ff_t_lead, ff_t_lag, ts, True)
+    # the process data of the cycle and the law (pid.pid_compute, the block's too)
+    (mv, err, ok, law_ok, limits_active, _limiting, v_raw, p_k, i_k, i_shown, d_k, w_k, e_k,
+     bias_k, ff_tot, supp_k, held, sp_f, pv_f, sp_w, _sp_ramping, ll_out, ll_x) = pid_compute(
+        sp, pv, ff, dv, pv_ok, mode, man_value, track_value, reset_value, use_safe, safe_value,
+        out, ramp_out, scale_pv, pv_lo, pv_hi, a_sp, a_pv, sp_rate, ff_on, ll_b0, ll_b1, ll_a1,
+        bumpless, ts, cold, reinit, reinit_d, mode_prev, suppressed, awin, db_active, db_hold, i,
+        d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, sp_f, pv_f, sp_w, False, ll_out,
+        ll_x, prm, opt, REAL_MAX,
+    )  # fmt: skip
     # the terms shown (P, I_TERM, D_TERM) are those of the last cycle that ran the law: a
     # cycle that holds (bad input, bad mode value) shows them unchanged, as the block does
     d_term = d
     overflow = False
+    ramp_out = mv
     if not ok:
-        # hold (or the safe value); the next good cycle continues without a bump
-        if mode == AUTO and use_safe:
-            target = safe_value
-        mv, limits_active = pid_output(target, ramp_y, lo, hi, out_rate * ts)
-        ramp_out = mv
-        limits_active = limits_active or target > hi or target < lo
+        # the next good cycle continues without a bump
         reinit = True
         reinit_d = True
         if db_active:  # leave the dead band: the recovery continues from the output
@@ -606,57 +545,28 @@ def pid_cycle(
                 0.0, DB_TOLERANCE, db_t, ts, True, st_anchor, st_elapsed, st_started
             )
     else:
-        # input stage: scaling, filters, setpoint ramp, lead-lag feed-forward
-        x_sp = sp
-        x_pv = pv
-        if scale_pv:
-            x_sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
-            x_pv = scale(pv, pv_lo, pv_hi, 0.0, 100.0)
-        sp_f = pt1_filter(x_sp, sp_filter, ts, cold, sp_f)
-        pv_f = pt1_filter(x_pv, pv_filter, ts, cold, pv_f)
-        ramp_in = sp_f
-        follow = bumpless == BUMPLESS_TRACK_SP and mode != AUTO
-        if follow:
-            ramp_in = pv_f  # in a non-auto mode the working setpoint follows the PV
-        sp_w, _sp_ramping = ramp_filter(ramp_in, sp_rate, ts, cold or follow, sp_w)
-        ff_tot = ff
-        if ff_k != 0.0:
-            ll_out, ll_x = leadlag_filter(dv, ff_k, ff_t_lead, ff_t_lag, ts, ll_out, ll_x)
-            ff_tot = ff + ll_out
-        from_mode = mode == AUTO and mode_prev != NO_MODE and mode_prev != AUTO
-        # the memory of the last cycle, kept if the law overflows REAL in this one
-        pp_old, dp_old, fp_old, supp_old = p_prev, d_prev, ff_prev, suppressed
-        if from_mode and bumpless == BUMPLESS_SUPPRESS_P:
-            suppressed = True
-        held = mode != AUTO
-        transfer = from_mode or (mode == AUTO and reinit)
-        # the PID's one law (pid.pid_law), then its commit with the applied value = MV
-        (mv, v_raw, limits_active, p, i_term, d, w_prev, e_prev, bias_k, suppressed,
-         db_held) = pid_law(
-            sp_w, pv_f, ff_tot, held, target, cold or reinit_d, transfer, suppressed, awin,
-            db_active, db_hold, i, d, w_prev, e_prev, x, bias, p_prev, d_prev, ff_prev, out,
-            ramp_y, prm, opt,
-        )  # fmt: skip
-        held = held or db_held
-        ramp_out = mv
-        limits_active = limits_active or v_raw > hi or v_raw < lo
-        i_new, x_new = pid_commit(mv, mv, v_raw, p, i_term, d, ff_tot, held,
+        # the commit with the applied value = MV (pid.pid_commit)
+        i_new, x_new = pid_commit(mv, mv, v_raw, p_k, i_k, d_k, ff_tot, held,
                                   is_real(actuator_pos), actuator_pos, ki_h, aw_p, g,
                                   vel)  # fmt: skip
-        if velocity:
-            x = x_new
-            bias = bias_k
-            if held:
-                bias = i_new
-            p_prev = p
-            d_prev = d
-            ff_prev = ff_tot
-        else:
-            i = i_new
-        if held:
-            i_term = mv - p - d - ff_tot  # the I term shown: P + I + D + FF is the output
-        d_term = d
-        if is_real(v_raw) and is_real(d) and is_real(w_prev) and is_real(i_term):
+        if law_ok:
+            p = p_k
+            i_term = i_shown
+            d_term = d_k
+            d = d_k
+            w_prev = w_k
+            e_prev = e_k
+            suppressed = supp_k
+            if velocity:
+                x = x_new
+                bias = bias_k
+                if held:
+                    bias = i_new
+                p_prev = p_k
+                d_prev = d_k
+                ff_prev = ff_tot
+            else:
+                i = i_new
             cold = False
             reinit = False
             reinit_d = False
@@ -680,21 +590,16 @@ def pid_cycle(
                         db_hold = db_mean
         else:
             # the law overflowed REAL (Block._contain, PID._resume): an overflowed law holds
-            # the output (or the safe value); a memory that overflowed behind an output
-            # that did not need it (a mode's target) lets this cycle's output stand; the
-            # memory is made finite and the next good cycle restarts bumplessly from MV
+            # the output (or the safe value: pid_compute); a memory that overflowed behind an
+            # output that did not need it (a mode's target) lets this cycle's output stand;
+            # the memory is made finite and the next good cycle restarts bumplessly from MV
             overflow = True
-            if not is_real(v_raw):
-                mv = out
-                if use_safe:
-                    mv = safe_value
-                mv = clamp(mv, lo, hi)
-            i, x, bias, ramp_out = mv, mv, mv, mv
-            d, w_prev, e_prev = finite_or_zero(d), finite_or_zero(w_prev), finite_or_zero(e_prev)
-            p_prev, d_prev = finite_or_zero(pp_old), finite_or_zero(dp_old)
-            ff_prev, suppressed = finite_or_zero(fp_old), supp_old
-            # (a filter, ramp or feed-forward memory that overflowed restarts in its block)
-            p, i_term, d_term = finite_or_zero(p), finite_or_zero(i_term), finite_or_zero(d)
+            i, x, bias = mv, mv, mv
+            d, w_prev, e_prev = finite_or_zero(d_k), finite_or_zero(w_k), finite_or_zero(e_k)
+            p_prev, d_prev = finite_or_zero(p_prev), finite_or_zero(d_prev)
+            ff_prev = finite_or_zero(ff_prev)
+            # (a filter, ramp or feed-forward memory that overflowed restarts in pid_compute)
+            p, i_term, d_term = finite_or_zero(p_k), finite_or_zero(i_shown), finite_or_zero(d_k)
             limits_active = False
             reinit = True
             reinit_d = True
