@@ -10,8 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ctrlblocks.blocks import SteadyStateDetector
-from ctrlblocks.blocks import plc_cycle as pc
-from ctrlblocks.blocks.signals import STEADY_TIME_CAP
+from ctrlblocks.blocks.signals import STEADY_TIME_CAP, steady_step
 
 _U = st.one_of(st.floats(-10.0, 10.0), st.sampled_from([math.nan, math.inf, 0.0, 0.05]))
 _H = st.one_of(st.floats(1e-3, 5.0), st.just(1e308))
@@ -26,7 +25,7 @@ def test_the_block_and_the_plc_cycle_are_one_detector(us, tol, t_stab):
     for u, h in us:
         got = det(u, dt=h)
         bad = not math.isfinite(u)
-        steady, anchor, elapsed, started = pc.steady_detector(
+        steady, anchor, elapsed, started = steady_step(
             0.0 if bad else u, tol, t_stab, h, bad, anchor, elapsed, started
         )
         assert got is steady

@@ -14,14 +14,14 @@ pytestmark = pytest.mark.slow  # blark's parser: the long campaign (pytest -m sl
 # (block, FB, inputs) -> documented (arithmetic, comparison, standard function, FUNCTION call,
 # FB instance call) counts
 CASES = [
-    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (52, 107, 17, 38, 0)),
+    (lambda: PID(kp=2.0, ti=5.0, td=1.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (52, 108, 17, 39, 0)),
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, algorithm="velocity"), "CB_PID",
-     {"SP": 50.0, "PV": 40.0}, (56, 90, 17, 34, 0)),
+     {"SP": 50.0, "PV": 40.0}, (56, 91, 17, 35, 0)),
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, sp_filter=1.0, pv_filter=1.0, sp_rate=5.0,
-                 out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (59, 115, 19, 40, 0)),
+                 out_rate=10.0), "CB_PID", {"SP": 50.0, "PV": 40.0}, (59, 116, 19, 41, 0)),
     # the error inside the dead band, the detector counting, the average still following MV
     (lambda: PID(kp=2.0, ti=5.0, td=1.0, deadband=1.0, t_stab=2.0), "CB_PID",
-     {"SP": 50.0, "PV": 50.5}, (73, 117, 29, 39, 2)),
+     {"SP": 50.0, "PV": 50.5}, (73, 118, 29, 40, 1)),
     (lambda: ADRC(order=1, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",
      {"SP": 1.0, "PV": 0.5}, (99, 76, 17, 34, 1)),
     (lambda: ADRC(order=2, b0=1.0, u_min=0.0, u_max=100.0), "CB_ADRC",

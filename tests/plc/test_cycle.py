@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 from ctrlblocks import ADRC, PID, LeadLag, MovingAverage, ParameterError, SteadyStateDetector
 from ctrlblocks.blocks import adrc as adrc_mod
 from ctrlblocks.blocks import plc_cycle as pc
+from ctrlblocks.blocks.signals import steady_step
 
 from .traces import (
     ADRC_OPTIONS,
@@ -382,8 +383,8 @@ def test_moving_average_kernel_is_the_moving_average_block_with_window_changes()
 
 
 def test_steady_detector_kernel_is_the_steady_state_detector_block():
-    """plc_cycle.steady_detector against SteadyStateDetector over a signal that settles,
-    jumps and settles again, with restarts (the block's reset)."""
+    """signals.steady_step (the PID's dead band, pid.pid_update) against SteadyStateDetector
+    over a signal that settles, jumps and settles again, with restarts (the block's reset)."""
     rng = np.random.default_rng(71)
     det = SteadyStateDetector(tolerance=0.5, t_stab=1.0, ts=0.1)
     anchor, elapsed, started = 0.0, 0.0, False
@@ -396,7 +397,7 @@ def test_steady_detector_kernel_is_the_steady_state_detector_block():
             ref = False
         else:
             ref = det(u)
-        steady, anchor, elapsed, started = pc.steady_detector(
+        steady, anchor, elapsed, started = steady_step(
             u, 0.5, 1.0, 0.1, restart, anchor, elapsed, started
         )
         assert steady == ref, k
@@ -433,27 +434,30 @@ def test_float32_adrc_with_a_measured_cycle_time_every_cycle_keeps_controlling()
 
 def test_the_pid_block_and_its_fb_run_one_process_data_function(monkeypatch):
     """The block's general cycle and the FB's cycle (pid_cycle: the float32 lane, the export)
-    both run pid.pid_compute, the one implementation of the process data around the law (the
-    mode's target, the judgement of the inputs, the bad-input output, the input stage, the
-    transfer, the law's failure): replacing that function changes both."""
+    both run pid.pid_compute and pid.pid_update, the one implementation of the process data
+    around the law (the mode's target, the judgement of the inputs, the bad-input output, the
+    input stage, the transfer, the law's failure; the commit, the dead band's detector):
+    replacing those functions changes both."""
     from ctrlblocks.blocks import pid as pid_mod
     from ctrlblocks.compiled import interpreted
 
-    assert pc.pid_compute is interpreted("pid").pid_compute
     seen = []
-    for mod, who in ((pid_mod, "block"), (pc, "fb")):
-        real = mod.pid_compute
+    for name in ("pid_compute", "pid_update"):
+        assert getattr(pc, name) is getattr(interpreted("pid"), name)
+        for mod, who in ((pid_mod, "block"), (pc, "fb")):
+            real = getattr(mod, name)
 
-        def spy(*args, _real=real, _who=who):
-            seen.append(_who)
-            return _real(*args)
+            def spy(*args, _real=real, _who=who, _name=name):
+                seen.append((_who, _name))
+                return _real(*args)
 
-        monkeypatch.setattr(mod, "pid_compute", spy)
+            monkeypatch.setattr(mod, name, spy)
     block = PID(kp=2.0, ti=3.0, pv_filter=1.0)  # a filter: the general cycle
     block.update_state(block.compute_output(1.0, 0.0))
     pc.pid_cycle(**{**PID_PROCESS, "sp": 1.0}, **pc.pid_inputs(block.config),
                  **pc.pid_state(block.config))  # fmt: skip
-    assert seen == ["block", "fb"]
+    assert seen == [("block", "pid_compute"), ("block", "pid_update"), ("fb", "pid_compute"),
+                    ("fb", "pid_update")]  # fmt: skip
 
 
 _MODE_ATTR = {"manual": "manual", "track": "track", "hold": "hold", "rst": "reset_active"}

@@ -98,6 +98,7 @@ from .signals import (
     pt1_step,
     rate_limit_step,
     scale,
+    steady_step,
 )
 
 __all__ = [
@@ -839,6 +840,165 @@ def pid_compute(
             bias, ff_tot, suppressed, held, sp_f, pv_f, sp_w, sp_ramping, ll_out, ll_x)  # fmt: skip
 
 
+def valid_or_zero(x: float, big: float) -> float:
+    """``x`` if it is valid (:func:`is_valid`), else 0: a memory made finite after a failure."""
+    if is_valid(x, big):
+        return x
+    return 0.0
+
+
+_DB_TOLERANCE = 0.5
+"""Tolerance of the dead band's steady-state detector (fed with 0: only its time counts)."""
+
+
+def pid_update(
+    u: float,
+    out: float,
+    ok: bool,
+    mode: int,
+    man_value: float,
+    v_raw: float,
+    p_k: float,
+    i_k: float,
+    d_k: float,
+    w_k: float,
+    e_k: float,
+    ff_k: float,
+    bias_k: float,
+    supp_k: bool,
+    held: bool,
+    actuator_pos: float,
+    ki_h: float,
+    aw: float,
+    g: float,
+    velocity: float,
+    db: float,
+    t_stab: float,
+    h: float,
+    i: float,
+    x: float,
+    bias: float,
+    d: float,
+    w_prev: float,
+    e_prev: float,
+    p_prev: float,
+    d_prev: float,
+    ff_prev: float,
+    suppressed: bool,
+    cold: bool,
+    reinit: bool,
+    reinit_d: bool,
+    db_active: bool,
+    steady: bool,
+    st_anchor: float,
+    st_elapsed: float,
+    st_started: bool,
+    big: float,
+) -> tuple[float, float, float, float, float, float, float, float, float, float, bool, bool,
+           bool, bool, bool, bool, bool, bool, float, float, bool]:  # fmt: skip
+    """The PID's state after a cycle of :func:`pid_compute` with the applied value ``u``.
+
+    The commit half of every executor: the block (:meth:`PID.update_state`) and
+    the exported function block (:func:`.plc_cycle.pid_cycle`, which applies its
+    own output).  ``UpdateState`` of Åström 1987, Listing 6.3: outside MANUAL the
+    manual value follows ``u`` (In/Out); a cycle with good inputs (``ok``)
+    commits the law's values (the ``_k`` arguments, :func:`pid_compute`'s) with
+    :func:`pid_commit` (the integrator's tracking of ``u``, Åström 1987, Fig. 3.6;
+    with back-calculation on ``actuator_pos`` while it is valid, Fig. 3.2 A; set
+    so that ``P + I + D + FF = u`` while ``held``, Fig. 4.4), the velocity form's
+    output integrator, bias and last P, D, FF (controltheplant 2024, 2.3.1; Åström
+    1987, Figs. 2.2-2.5), and ends the first cycle and a re-initialisation.  The
+    adaptive dead band (controltheplant 2024, section 2.3.10; ``db`` > 0): the
+    steady-state detector (:func:`.signals.steady_step`, controltheplant 2024,
+    ``FindSteadyState``) counts the time the error stays inside the band in AUTO,
+    restarting outside it; the moving average of the applied output follows
+    ``u`` until the band holds the output.  The average's ring is an ARRAY,
+    which a PLC FUNCTION cannot take: the caller runs it (``feed``) and, on
+    ``latch``, holds the output at its mean (``db_active`` is already set).  A
+    cycle with a bad input re-initialises on recovery and leaves the dead band.
+    ``ki_h``, ``aw``, ``g``, ``velocity`` are those of :func:`pid_law`'s ``prm``
+    and ``opt``; ``big`` the largest valid magnitude (:func:`is_valid`).
+
+    Returns ``(man_value, i, x, bias, d, w_prev, e_prev, p_prev, d_prev,
+    ff_prev, suppressed, cold, reinit, reinit_d, db_active, feed, latch, steady,
+    st_anchor, st_elapsed, st_started)``.
+    """
+    if mode != _MANUAL:
+        man_value = u  # In/Out: outside MANUAL the manual value follows the output
+    feed = False
+    latch = False
+    if not ok:
+        # bad input: nothing is known, re-initialise on recovery
+        reinit = True
+        reinit_d = True
+        if db_active:  # leave the dead band: the recovery continues from u
+            db_active = False
+            steady, st_anchor, st_elapsed, st_started = steady_step(
+                0.0, _DB_TOLERANCE, t_stab, h, True, st_anchor, st_elapsed, st_started
+            )
+    else:
+        i_new, x_new = pid_commit(u, out, v_raw, p_k, i_k, d_k, ff_k, held,
+                                  is_valid(actuator_pos, big), actuator_pos, ki_h, aw, g,
+                                  velocity)  # fmt: skip
+        if velocity != 0.0:
+            x = x_new
+            bias = bias_k
+            if held:
+                bias = i_new
+            p_prev = p_k
+            d_prev = d_k
+            ff_prev = ff_k
+        else:
+            i = i_new
+        d = d_k
+        w_prev = w_k
+        e_prev = e_k
+        suppressed = supp_k
+        cold = False
+        reinit = False
+        reinit_d = False
+        if db > 0.0:
+            # the detector counts the time inside the band in AUTO; the average follows the
+            # applied output until the band holds it
+            inside = mode == _AUTO and deadband(e_prev, db) == 0.0
+            steady, st_anchor, st_elapsed, st_started = steady_step(
+                0.0, _DB_TOLERANCE, t_stab, h, not inside, st_anchor, st_elapsed, st_started
+            )
+            if not inside:
+                db_active = False
+            feed = not (inside and db_active)
+            latch = feed and inside and steady
+            if latch:
+                db_active = True
+    return (man_value, i, x, bias, d, w_prev, e_prev, p_prev, d_prev, ff_prev, suppressed, cold,
+            reinit, reinit_d, db_active, feed, latch, steady, st_anchor, st_elapsed,
+            st_started)  # fmt: skip
+
+
+def pid_restart(
+    held: float,
+    d: float,
+    w: float,
+    e: float,
+    p_prev: float,
+    d_prev: float,
+    ff_prev: float,
+    big: float,
+) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """After a failed cycle (``BAD_RESULT``): the memory made finite, a bumpless restart.
+
+    The block's ``_resume`` and the exported FB's law overflow: the integrator,
+    the velocity form's output integrator and bias restart from the ``held``
+    output (the next good cycle re-initialises from it, Åström 1987, Fig. 4.4),
+    the derivative's and the error's histories and the velocity form's last P,
+    D, FF keep their value if valid, else 0.  Returns ``(i, x, bias, d, w, e,
+    p_prev, d_prev, ff_prev)``.
+    """
+    return (held, held, held, valid_or_zero(d, big), valid_or_zero(w, big),
+            valid_or_zero(e, big), valid_or_zero(p_prev, big), valid_or_zero(d_prev, big),
+            valid_or_zero(ff_prev, big))  # fmt: skip
+
+
 # ---------------------------------------------------------------------------
 # Configuration
 # ---------------------------------------------------------------------------
@@ -1476,11 +1636,14 @@ class PID(Block):
             cycle = self._full_cycle()
         if cycle is not None and cycle.kind == _LAW:
             self._d, self._w_prev, self._e_prev = cycle.d, cycle.w, cycle.e
-        for name in ("p", "i", "d", "ff", "e", "sp_w", "pv_f", "_d", "_w_prev", "_e_prev",
-                     "_p_prev", "_d_prev", "_ff_prev"):  # fmt: skip
+        for name in ("p", "i", "d", "ff", "e", "sp_w", "pv_f"):  # the terms shown
             if not _NINF < getattr(self, name) < _INF:
                 setattr(self, name, 0.0)
-        self._i = self._x = self._bias = held
+        (self._i, self._x, self._bias, self._d, self._w_prev, self._e_prev, self._p_prev,
+         self._d_prev, self._ff_prev) = pid_restart(
+            held, self._d, self._w_prev, self._e_prev, self._p_prev, self._d_prev, self._ff_prev,
+            _BIG,
+        )  # fmt: skip
         self._db_hold = held
         self.deadband_active = False
         subs = self._cycle_subs
@@ -1952,57 +2115,37 @@ class PID(Block):
         if cycle.kind == _SKIP:
             return
         self._cycle_subs.put(cycle.subs)
-        ramp = self._subs["_out_ramp"]
+        subs = self._subs
+        ramp = subs["_out_ramp"]
         ramp.out, ramp.limiting = cycle.ramp, cycle.limiting
         mode = cycle.mode
         if mode == Mode.RESET:
             self._limits_status = ErrorCode.NO_ERROR  # controltheplant 2024: reset clears
-        if mode != Mode.MANUAL:
-            self.manual_value = u
-        if cycle.kind == _BAD:  # bad input: nothing is known, re-initialise on recovery
-            self._reinit = self._reinit_d = True
-            self._mode_prev = mode
-            if self.deadband_active:  # leave the dead band: the recovery continues from u
-                self.deadband_active = False
-                self._subs["_det"].reset()
-            return
-        p, d, ff = cycle.p, cycle.d, cycle.ff
         pos = self.actuator_pos
-        pos_ok = is_finite(pos)
-        i, x = pid_commit(u, self.out, cycle.v_raw, p, cycle.i, d, ff, cycle.held, pos_ok,
-                          float(pos) if pos_ok else 0.0, self._prm[6], self._prm[11],
-                          self._prm[12], self._opt[0])  # fmt: skip
-        if self._velocity:
-            self._x = x
-            self._bias = i if cycle.held else cycle.bias
-            self._p_prev, self._d_prev, self._ff_prev = p, d, ff
-        else:
-            self._i = i
-        self._d = d
-        self._w_prev = cycle.w
-        self._e_prev = cycle.e
-        self.p_suppressed = cycle.suppressed
-        self._update_deadband(mode, u, cycle.e, cycle.h)
+        if type(pos) is not float:
+            pos = as_input(pos)
+        prm, det = self._prm, subs["_det"]
+        (self.manual_value, self._i, self._x, self._bias, self._d, self._w_prev, self._e_prev,
+         self._p_prev, self._d_prev, self._ff_prev, self.p_suppressed, self._cold, self._reinit,
+         self._reinit_d, self.deadband_active, feed, latch, steady, anchor, elapsed,
+         started) = pid_update(
+            u, self.out, cycle.kind == _LAW, mode, self.manual_value, cycle.v_raw, cycle.p,
+            cycle.i, cycle.d, cycle.w, cycle.e, cycle.ff, cycle.bias, cycle.suppressed,
+            cycle.held, pos, prm[6], prm[11], prm[12], self._opt[0], self._db,
+            self._config.t_stab, cycle.h, self._i, self._x, self._bias, self._d, self._w_prev,
+            self._e_prev, self._p_prev, self._d_prev, self._ff_prev, self.p_suppressed,
+            self._cold, self._reinit, self._reinit_d, self.deadband_active, det.steady,
+            det._anchor, det._elapsed, det._started, _BIG,
+        )  # fmt: skip
         self._mode_prev = mode
-        self._cold = self._reinit = self._reinit_d = False
-
-    def _update_deadband(self, mode: Mode, u: float, e: float, h: float) -> None:
-        """Adaptive dead band (controltheplant 2024, 2.3.10): steady-state detector + average."""
-        if self._db == 0.0:
-            return
-        det, ma = self._subs["_det"], self._subs["_ma"]
-        inside = deadband(e, self._db) == 0.0
-        if mode != Mode.AUTO or not inside:
-            self.deadband_active = False
-            det.reset()
-            ma(u)
-            return
-        det(0.0, dt=h)  # counts the time spent inside the band
-        if not self.deadband_active:
-            ma(u)
-            if det.steady:
-                self.deadband_active = True
-                self._db_hold = ma.out
+        if self._db != 0.0:  # the dead band (pid_update): its detector, its moving average
+            det.steady, det._anchor, det._elapsed, det._started = steady, anchor, elapsed, started
+            det.out = 1.0 if steady else 0.0
+            if feed:
+                ma = subs["_ma"]
+                ma(u)
+                if latch:
+                    self._db_hold = ma.out
 
     # -- the public seam of the compiled paths (fast/, plc/) ---------------------------
 

@@ -83,6 +83,8 @@ pid_law = _pid.pid_law
 pid_mode = _pid.pid_mode
 pid_output = _pid.pid_output
 pid_parameters = _pid.pid_parameters
+pid_restart = _pid.pid_restart
+pid_update = _pid.pid_update
 retune_states = _pid.retune_states
 tracking_time = _pid.tracking_time
 _signals = _interpreted("signals")
@@ -168,8 +170,8 @@ def plc_block(short: str, results: tuple[str, ...], hidden: tuple[str, ...] = ()
     The function is pure: its parameters are the inputs and the memory, it
     returns ``results`` (named in order); a result named like a parameter is
     that memory's new value.  The caller passes its memory in and takes it back
-    (``steady, anchor, elapsed, started = steady_detector(u, ..., anchor, elapsed,
-    started)``); in the PLC an instance of the FB,
+    (``u, buf, idx, n_prev, ok = delay_line(push, n, restart, buf, idx, n_prev)``); in
+    the PLC an instance of the FB,
     declared in the caller's VAR, holds it, and the caller reads it as the
     instance's output (``hidden`` memories are no outputs).  Only the call
     writes that memory, so the two stay the same value (the translator checks).
@@ -180,30 +182,6 @@ def plc_block(short: str, results: tuple[str, ...], hidden: tuple[str, ...] = ()
         return fn
 
     return mark
-
-
-@plc_block(
-    "STEADY", ("steady", "anchor", "elapsed", "started"), hidden=("anchor", "elapsed", "started")
-)
-def steady_detector(
-    u: float,
-    tolerance: float,
-    t_stab: float,
-    h: float,
-    restart: bool,
-    anchor: float,
-    elapsed: float,
-    started: bool,
-) -> tuple[bool, float, float, bool]:
-    """Has ``u`` stayed within ``tolerance`` of its anchor for ``t_stab`` [s]? ``restart`` resets.
-
-    The detector's one cycle, :func:`.signals.steady_step`, as
-    :class:`~ctrlblocks.SteadyStateDetector` runs it (controltheplant 2024,
-    ``FindSteadyState``).  Returns ``(steady, anchor, elapsed, started)``.
-    """
-    steady, anchor, elapsed, started = steady_step(u, tolerance, t_stab, h, restart, anchor,
-                                                   elapsed, started)  # fmt: skip
-    return steady, anchor, elapsed, started
 
 
 # the moving average's one cycle (signals.moving_average_step, MovingAverage's), exported as
@@ -294,8 +272,6 @@ BUMPLESS_TRACK_SP = 1
 BUMPLESS_SUPPRESS_P = 2
 BAD_STAB_TIME = int(ErrorCode.BAD_STAB_TIME)
 BAD_TIME_CONSTANT = int(ErrorCode.BAD_TIME_CONSTANT)
-DB_TOLERANCE = 0.5
-"""Tolerance of the dead band's steady-state detector (fed with 0: only its time counts)."""
 
 
 def pid_cycle(
@@ -408,7 +384,7 @@ def pid_cycle(
     The adaptive dead band (controltheplant 2024, section 2.3.10; ``db_width``
     > 0, a negative width acts as its absolute value) holds the output at the
     mean of the applied output over the last ``t_stab/ts`` samples once the
-    error has stayed inside the band for ``t_stab`` (:func:`steady_detector`,
+    error has stayed inside the band for ``t_stab`` (:func:`.pid.pid_update`,
     :func:`moving_average`) and releases it bumplessly when the error leaves;
     a ``t_stab`` whose window exceeds the array (``db_buf``) is refused with
     ``BAD_STAB_TIME`` and the window in force stays.
@@ -533,86 +509,53 @@ def pid_cycle(
     # the terms shown (P, I_TERM, D_TERM) are those of the last cycle that ran the law: a
     # cycle that holds (bad input, bad mode value) shows them unchanged, as the block does
     d_term = d
-    overflow = False
+    overflow = ok and not law_ok
     ramp_out = mv
-    if not ok:
-        # the next good cycle continues without a bump
+    if overflow:
+        # the law overflowed REAL (PID._resume): an overflowed law holds the output (or the
+        # safe value: pid_compute); a memory that overflowed behind an output that did not
+        # need it (a mode's target) lets this cycle's output stand; the memory is made finite
+        # and the next good cycle restarts bumplessly from MV (pid.pid_restart)
+        i, x, bias, d, w_prev, e_prev, p_prev, d_prev, ff_prev = pid_restart(
+            mv, d_k, w_k, e_k, p_prev, d_prev, ff_prev, REAL_MAX
+        )
+        p, i_term, d_term = finite_or_zero(p_k), finite_or_zero(i_shown), finite_or_zero(d_k)
+        limits_active = False
         reinit = True
         reinit_d = True
-        if db_active:  # leave the dead band: the recovery continues from the output
-            db_active = False
-            _st, st_anchor, st_elapsed, st_started = steady_detector(
-                0.0, DB_TOLERANCE, db_t, ts, True, st_anchor, st_elapsed, st_started
-            )
+        db_hold = mv
+        db_active = False
+        if mode != MANUAL:
+            man_value = mv  # In/Out: outside MANUAL the manual value follows the output
     else:
-        # the commit with the applied value = MV (pid.pid_commit)
-        i_new, x_new = pid_commit(mv, mv, v_raw, p_k, i_k, d_k, ff_tot, held,
-                                  is_real(actuator_pos), actuator_pos, ki_h, aw_p, g,
-                                  vel)  # fmt: skip
-        if law_ok:
+        # the commit with the applied value = MV (pid.pid_update, the block's too)
+        (man_value, i, x, bias, d, w_prev, e_prev, p_prev, d_prev, ff_prev, suppressed, cold,
+         reinit, reinit_d, db_active, feed, latch, _steady, st_anchor, st_elapsed,
+         st_started) = pid_update(
+            mv, mv, ok, mode, man_value, v_raw, p_k, i_k, d_k, w_k, e_k, ff_tot, bias_k, supp_k,
+            held, actuator_pos, ki_h, aw_p, g, vel, db, db_t, ts, i, x, bias, d, w_prev, e_prev,
+            p_prev, d_prev, ff_prev, suppressed, cold, reinit, reinit_d, db_active, False,
+            st_anchor, st_elapsed, st_started, REAL_MAX,
+        )  # fmt: skip
+        if ok:
             p = p_k
             i_term = i_shown
             d_term = d_k
-            d = d_k
-            w_prev = w_k
-            e_prev = e_k
-            suppressed = supp_k
-            if velocity:
-                x = x_new
-                bias = bias_k
-                if held:
-                    bias = i_new
-                p_prev = p_k
-                d_prev = d_k
-                ff_prev = ff_tot
-            else:
-                i = i_new
-            cold = False
-            reinit = False
-            reinit_d = False
-            if db > 0.0:
-                # the dead band's detector counts the time inside the band in AUTO; the
-                # average follows the applied output until the band holds it
-                inside = mode == AUTO and deadband(e_prev, db) == 0.0
-                steady, st_anchor, st_elapsed, st_started = steady_detector(
-                    0.0, DB_TOLERANCE, db_t, ts, not inside, st_anchor, st_elapsed, st_started
-                )
-                if not inside:
-                    db_active = False
-                if not (inside and db_active):
-                    (db_mean, db_buf, ma_idx, ma_count, ma_since, ma_total, ma_spread, ma_mag,
-                     ma_n) = moving_average(
-                        mv, db_win, SUM_LOSS_REAL, db_mean, db_buf, ma_idx, ma_count, ma_since,
-                        ma_total, ma_spread, ma_mag, ma_n,
-                    )  # fmt: skip
-                    if inside and steady:
-                        db_active = True
-                        db_hold = db_mean
-        else:
-            # the law overflowed REAL (Block._contain, PID._resume): an overflowed law holds
-            # the output (or the safe value: pid_compute); a memory that overflowed behind an
-            # output that did not need it (a mode's target) lets this cycle's output stand;
-            # the memory is made finite and the next good cycle restarts bumplessly from MV
-            overflow = True
-            i, x, bias = mv, mv, mv
-            d, w_prev, e_prev = finite_or_zero(d_k), finite_or_zero(w_k), finite_or_zero(e_k)
-            p_prev, d_prev = finite_or_zero(p_prev), finite_or_zero(d_prev)
-            ff_prev = finite_or_zero(ff_prev)
-            # (a filter, ramp or feed-forward memory that overflowed restarts in pid_compute)
-            p, i_term, d_term = finite_or_zero(p_k), finite_or_zero(i_shown), finite_or_zero(d_k)
-            limits_active = False
-            reinit = True
-            reinit_d = True
-            db_hold = mv
-            db_active = False
+        if feed:
+            # the dead band's moving average of the applied output (an ARRAY: an instance)
+            (db_mean, db_buf, ma_idx, ma_count, ma_since, ma_total, ma_spread, ma_mag,
+             ma_n) = moving_average(
+                mv, db_win, SUM_LOSS_REAL, db_mean, db_buf, ma_idx, ma_count, ma_since,
+                ma_total, ma_spread, ma_mag, ma_n,
+            )  # fmt: skip
+            if latch:
+                db_hold = db_mean
     if err == NO_ERROR:
         err = lim_err
     if err == NO_ERROR and db > 0.0 and not db_ok:
         err = BAD_STAB_TIME
     if overflow:
         err = BAD_RESULT
-    if mode != MANUAL:
-        man_value = mv  # In/Out: outside MANUAL the manual value follows the output
     out = mv
     mode_prev = mode
     return (

@@ -706,7 +706,7 @@ def steady_step(
     dead band leaving) starts afresh; a small slack makes ``t_stab = k h``
     steady after exactly k samples; the time saturates at
     :data:`STEADY_TIME_CAP`.  :class:`SteadyStateDetector` and the PID's dead
-    band (``plc_cycle.steady_detector``, float32 and the exported FB) run it.
+    band (``pid.pid_update``: the block, float32 and the exported FB) run it.
     Returns ``(steady, anchor, elapsed, started)``.
     """
     steady = False

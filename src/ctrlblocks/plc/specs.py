@@ -169,6 +169,9 @@ _PID_STATE_COMMENTS = {
     "ramp_out": "output ramp's last value [{mv}]",
     "db_active": "the dead band holds the output", "db_hold": "output held by the dead band [{mv}]",
     "db_win": "moving-average window in force [samples]", "db_t": "T_STAB in force [s]",
+    "st_anchor": "dead band's steady-state detector: its anchor",
+    "st_elapsed": "dead band's steady-state detector: time inside the band [s]",
+    "st_started": "dead band's steady-state detector: anchor set",
 }  # fmt: skip
 
 _ADRC_PROCESS = _table("""
