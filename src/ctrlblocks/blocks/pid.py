@@ -1242,8 +1242,9 @@ def _law(c: PIDConfig) -> tuple[Any, ...]:
 
 
 _SUB_COMPUTE = ("_sp_filter", "_pv_filter", "_sp_ramp", "_ll")
-"""The sub-blocks ``compute_output`` calls; their states travel in the pending cycle (the
-output ramp's is a value of the law, :func:`pid_output`)."""
+"""The sub-blocks whose states ``compute_output``'s input stage (:func:`pid_compute`) reads;
+the states it reaches travel in the pending cycle (the output ramp's is a value of the law,
+:func:`pid_output`)."""
 
 _SKIP, _BAD, _LAW = 0, 1, 2
 _MODES = tuple(sorted(Mode))  # Mode by its value
@@ -2017,8 +2018,9 @@ class PID(Block):
         reconfiguration or retune, limits narrowed below the output, the
         restart after a failed cycle, ``compute_output`` again on the general
         path.  The sub-blocks run from their committed states on the cycle's
-        inputs, as :meth:`_compute` runs them, and their new states travel in
-        the cycle.
+        inputs, as :func:`pid_compute`'s input stage does (with every option
+        of the lean configuration off), and their new states travel in the
+        cycle.
         """
         (out_prev, _sp_prev, _pv_prev, sp, pv, e, w, d, p, ff, i_k, v_raw,
          out) = self._lean_cycle  # fmt: skip
