@@ -338,7 +338,8 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
     kind = "pid" if isinstance(block, PID) else "adrc"
     seen = []
-    name = "pid_law" if kind == "pid" else "adrc_law"  # each block's one law
+    # each block's one law (the ADRC's through its one process-data function)
+    name = "pid_law" if kind == "pid" else "adrc_compute"
     kernel = getattr(pc, name)
 
     def spy(*args):
