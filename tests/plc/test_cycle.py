@@ -341,8 +341,8 @@ def test_cycle_passes_the_kernel_the_blocks_own_kernel_params(block, monkeypatch
     """The coefficients the cycle computes from its inputs are the block's kernel_params()."""
     kind = "pid" if isinstance(block, PID) else "adrc"
     seen = []
-    # each block's one law (the PID's through its process-data half, pid.pid_compute)
-    name = "pid_compute" if kind == "pid" else "adrc_law"
+    # each block's one law, through its one process-data function (pid_compute, adrc_compute)
+    name = "pid_compute" if kind == "pid" else "adrc_compute"
     kernel = getattr(pc, name)
 
     def spy(*args):

@@ -276,6 +276,41 @@ def test_translator_refuses_writing_an_instances_memory_outside_its_call():
         Program().function(pc.pid_cycle)
 
 
+def _product(prm: tuple[float, ...]) -> float:
+    a, b = prm
+    return a * b
+
+
+def _passes_on(x: float, prm: tuple[float, ...]) -> float:
+    return x + _product(prm)
+
+
+def _changes_then_passes_on(x: float, prm: tuple[float, ...]) -> float:
+    a, _b = prm
+    a = x
+    return a + _product(prm)
+
+
+def test_translator_passes_a_parameter_tuple_on_as_the_callee_unpacks_it(monkeypatch):
+    """A parameter tuple only passed on (``adrc_compute``'s ``ecoef`` and ``ab`` to
+    ``adrc_law``) becomes inputs named as the callee unpacks it; one whose values the
+    function changed before passing it on is refused (it would pass the changed ones)."""
+    for fn in (_product, _passes_on, _changes_then_passes_on):
+        monkeypatch.setattr(fn, "__module__", "ctrlblocks.test_export")  # a block function
+    prog = Program()
+    pou = prog.pous[prog.function(_passes_on).pou]
+    assert [n for n, _t in pou.inputs] == ["x", "a", "b"]
+    body = "".join(pou.body)
+    callee = prog.function(_product).pou
+    assert callee in body and "a := \x01a\x02" in body and "b := \x01b\x02" in body, body
+    with pytest.raises(TranslationError, match="'a' changed after tuple 'prm' was built"):
+        Program().function(_changes_then_passes_on)
+    compute = Program()
+    compute.function(pc.adrc_compute)
+    names = [n for n, _t in compute.pous["CB_ADRC_COMPUTE"].inputs]
+    assert {"f01", "c3", "y_sat", "tau_wait", "kp", "x_max"} <= set(names)
+
+
 def test_the_delayed_observer_exports_with_its_delay_ring():
     st = plc.export(ADRC(order=1, b0=1.0, ts=0.1, input_delay=0.5))  # 5 samples of TS
     assert "DELAY" in st and "ARRAY" in st

@@ -119,6 +119,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -182,6 +183,14 @@ EXACT_LIMIT: float = math.pi / 2.0
 _INF, _NINF = math.inf, -math.inf
 _NO_ERROR, _BAD_LIMITS = ErrorCode.NO_ERROR, ErrorCode.BAD_LIMITS
 _WARN = ErrorCode.WARN_DISCRETISATION
+# adrc_compute's status codes, as the PLC's DINT holds them (the members themselves)
+_OK: int = ErrorCode.NO_ERROR
+_BAD_INPUT: int = ErrorCode.BAD_INPUT
+_BAD_MEASUREMENT: int = ErrorCode.BAD_MEASUREMENT
+_BAD_RESULT: int = ErrorCode.BAD_RESULT
+
+#: The largest valid magnitude of the block's process data (float64): "finite" (adrc_compute).
+FLOAT_MAX: float = sys.float_info.max
 
 #: Longest ``input_delay`` [samples of ts] (the history of u the ESO is fed from).
 MAX_DELAY_SAMPLES: int = 100_000
@@ -1022,6 +1031,227 @@ def mode_output(
     return rst or track or hold or manual, wanted
 
 
+def adrc_compute(
+    sp: float,
+    y: float,
+    ff: float,
+    y_ok: bool,
+    rst: bool,
+    track: bool,
+    hold: bool,
+    manual: bool,
+    awin: bool,
+    track_value: float,
+    u_man: float,
+    scale_pv: bool,
+    n: int,
+    reverse: bool,
+    exact: bool,
+    ab_on: bool,
+    status: int,
+    out: float,
+    u_prev: float,
+    ff_prev: float,
+    u_eso: float,
+    yh: float,
+    x2: float,
+    x3: float,
+    x4: float,
+    ref: float,
+    q: float,
+    started: bool,
+    resolve: bool,
+    sat: int,
+    ab_sat: int,
+    ab_wait: float,
+    e: float,
+    y_last: float,
+    sp_f: float,
+    pv_f: float,
+    sp_w: float,
+    td1: float,
+    td2: float,
+    td3: float,
+    opt: tuple[float, ...],
+    prm: tuple[float, ...],
+    ecoef: tuple[float, ...],
+    ab: tuple[float, ...],
+) -> tuple[
+    float, float, int, float, float, float, float, float, float, float, float, float, float,
+    float, bool, bool, int, int, float, float, float, float, float, float, float, float, float,
+]:  # fmt: skip
+    """The ADRC's process data of one cycle around its law: the one body of every executor.
+
+    The block (:meth:`ADRC.compute_output`, float64) and the PLC cycle
+    (:func:`.plc_cycle.adrc_cycle`: the exported FB ``CB_ADRC`` and the block's
+    ``precision="float32"`` lane) both run this function, in the subset the PLC
+    translator accepts; around it each keeps only what it needs beyond it (the
+    block: configuration, the pending commit, the output guard; the FB: the
+    configuration changes it detects in its cycle, the coefficients, the delay
+    line and its commit).  In order:
+
+    * SP and PV scaled from ``pv_lo..pv_hi`` to 0..100 % (``scale_pv``; the PID's
+      input scaling, controltheplant 2024, section 2.3.4);
+    * the process data judged (Nowak et al. 2018, section 5, input ``y_ok``): a
+      measurement not ``y_ok`` is ``BAD_MEASUREMENT``; a PV, SP, feed-forward
+      or held mode's output that is no number of magnitude ``<= x_max``
+      (the block passes the largest double, the FB ``REAL_MAX``: :func:`.plc_cycle.is_real`,
+      its NaN test first) ``BAD_INPUT``; a bad ``ff`` is replaced by the last one (``ff_prev``) and
+      holds the output as a bad SP does;
+    * the mode in force and its output (:func:`mode_output`, RESET > TRACK >
+      HOLD > MANUAL, controltheplant 2024, section 2.3.5), limited;
+    * the PID's input stage (:func:`input_stage`) and the tracking
+      differentiator (:func:`tracking_differentiator`, Han 2009, ``td_time > 0``)
+      whose ``r_eff`` is the reference of (4b);
+    * reverse action: the cycle runs on ``-sp`` and ``-y`` (``reverse``);
+    * an invalid measurement: the safe value ``u_sf`` (the held mode's output),
+      the ESO frozen, x4 re-solved by (11) when it returns (``resolve``);
+    * else the law, :func:`adrc_law` (the ESO (4a), the law (4b), the bumpless
+      transfer by (11) and the handover offset, the anti-windup of section 4.1,
+      the anti-backoff (12a)/(12b)); ``e = sp - y`` held where it is no number;
+      an ESO that overflowed behind an output that did not need it (MAN, the
+      re-solve by (11), the anti-backoff wait) restarts at rest with x4 by (11)
+      on the next valid measurement (``BAD_RESULT``); the output of the cycle
+      stands;
+    * the PID's output ramp (:func:`.pid.pid_output`, ``out_rate``, from the
+      last output ``out``), in every mode but RESET;
+    * the status: the process data's, else the caller's ``status`` (its
+      configuration's: limits, delay, discretisation).
+
+    ``opt`` is ``(reset_value, u_sf, pv_lo, pv_hi, sp_filter, pv_filter,
+    sp_rate, out_rate, td_time, x_max)``: the reset value (``u0``), the safe
+    value, the PV range, the input stage's time constants and ramp, the output
+    ramp, the TD's time constant, the largest valid magnitude.  ``prm``,
+    ``ecoef``, ``ab`` are :func:`adrc_law`'s (``prm``'s ``ts`` is the sample
+    time of the cycle); ``u_eso`` the u the ESO is fed (the applied u less its
+    feed-forward, ``input_delay`` samples before the last).  ``e``, ``y_last``
+    and the states are in the cycle's units (reversed: of ``-y``).  A law that
+    overflowed (``u_raw`` no number) is the caller's to contain.  Returns
+    ``(u, u_raw, error, e, y_last, sp_td, td_d1, td_d2, td_d3, Y_hat, x2, x3,
+    x4, ref, started, resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w,
+    td1, td2, td3)``: the outputs, then the state to commit (from ``Y_hat`` on,
+    in the order of :class:`ADRC`'s pending cycle).
+    """
+    (reset_value, u_sf, pv_lo, pv_hi, sp_filter, pv_filter, sp_rate, out_rate, td_time,
+     x_max) = opt  # fmt: skip
+    (h, _b0, _l1, _l2, _l3, _l4, _p1, _p2, _k1, _k2, _k3, kp, kd1, kd2, _s_yh, _s_x2, _s_x3,
+     _s_u, lo, hi, _rule, _a_ref, _a_q, _nsub) = prm  # fmt: skip
+    if scale_pv:  # SP and PV in % of the PV range (ADRCConfig.pv_range)
+        sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
+        y = scale(y, pv_lo, pv_hi, 0.0, 100.0)
+    # a value is valid when it is a number of magnitude <= x_max (the largest double for the
+    # block, REAL_MAX for the FB's REAL); its NaN test comes first: x == x is a quiet
+    # comparison (IEEE 754: no invalid-operation exception for a quiet NaN), so that a runtime
+    # that traps floating-point exceptions never reaches the ordered comparison with a NaN
+    # (docs/plc.md, section Traps; plc_cycle.is_real)
+    y_valid = abs(y) <= x_max if y == y else False
+    sp_valid = abs(sp) <= x_max if sp == sp else False
+    ff_valid = abs(ff) <= x_max if ff == ff else False
+    err = _OK
+    if not y_ok:
+        y_valid = False
+        err = _BAD_MEASUREMENT
+    elif not y_valid:
+        err = _BAD_INPUT
+    if not sp_valid and err == _OK:
+        err = _BAD_INPUT
+    if not ff_valid:
+        ff = ff_prev  # a bad FF: the last one, the output held (as a bad SP)
+        if err == _OK:
+            err = _BAD_INPUT
+    # the output of a held mode, by the priority RESET > TRACK > HOLD > MANUAL (as the PID's)
+    held, wanted = mode_output(rst, track, hold, manual, reset_value, track_value, u_prev,
+                               u_man)  # fmt: skip
+    target = u_prev
+    if held:  # a held mode: the law tracks its output
+        wanted_valid = abs(wanted) <= x_max if wanted == wanted else False
+        if wanted_valid:
+            target = wanted
+        elif err == _OK:
+            err = _BAD_INPUT
+    target = clamp(target, lo, hi)
+    # the PID's input stage (filters, setpoint ramp), in the units of the PV
+    sp_f, pv_f, sp_w = input_stage(sp, y, sp_valid, y_valid, sp_filter, pv_filter, sp_rate, h,
+                                   not started, sp_f, pv_f, sp_w)  # fmt: skip
+    if sp_valid:
+        sp = sp_w
+    if y_valid:
+        y = pv_f
+    # the tracking differentiator on the working setpoint: the reference r_eff of (4b)
+    r_law = sp  # off: the working setpoint (what tracking_differentiator passes through)
+    sp_td = sp_w
+    td_d1 = 0.0
+    td_d2 = 0.0
+    td_d3 = 0.0
+    if td_time > 0.0:
+        r_law, sp_td, td_d1, td_d2, td_d3, td1, td2, td3 = tracking_differentiator(
+            sp_w, y, sp_valid, y_valid, held, not started, n, td_time, h, kp, kd1, kd2, td1,
+            td2, td3,
+        )  # fmt: skip
+    if reverse:  # a reverse-acting process: the cycle runs on -sp and -y (ADRCConfig.reverse)
+        sp = -sp
+        y = -y
+        r_law = -r_law
+    if not y_valid:
+        # measurement invalid: safe value (the held mode's output), ESO frozen
+        u = clamp(u_sf, lo, hi)
+        if held:
+            u = target
+        u_raw = u
+        resolve = True
+        sat = 0
+    else:
+        r_in = r_law
+        if not sp_valid:
+            r_in = ref
+            if not started:
+                r_in = y
+        # the ADRC's one law (adrc_law); x4 by (11) after a held mode, a bad SP or FF
+        u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat, ab_sat, ab_wait = adrc_law(
+            r_in, y, ff, held, target, held or not sp_valid or not ff_valid or resolve,
+            started, sat, awin, exact, ab_on, yh, x2, x3, x4, u_eso, u_prev, ref, q, ab_sat,
+            ab_wait, prm, ecoef, ab,
+        )  # fmt: skip
+        # x4 by (11) next cycle: after a held mode or a bad SP or FF, at the end of the wait
+        resolve = end_wait or held or not sp_valid or not ff_valid
+        started = True
+        y_last = y
+        if sp_valid:
+            e_new = sp - y
+            e_valid = abs(e_new) <= x_max if e_new == e_new else False
+            if e_valid:
+                e = e_new  # else held: SP - Y beyond the range (a finite SP and PV far apart)
+        eso_valid = False
+        if yh == yh and x2 == x2 and x3 == x3 and x4 == x4:  # the NaN tests first
+            eso_valid = (abs(yh) <= x_max and abs(x2) <= x_max and abs(x3) <= x_max
+                         and abs(x4) <= x_max)  # fmt: skip
+        if not eso_valid:
+            # the ESO overflowed behind an output that did not need it (MAN, the re-solve
+            # by (11), the anti-backoff wait): it restarts at rest on the next valid
+            # measurement with x4 by (11); the output of this cycle stands
+            yh = 0.0
+            x2 = 0.0
+            x3 = 0.0
+            x4 = 0.0
+            q = 0.0
+            started = False
+            resolve = True
+            sat = 0
+            ab_sat = 0
+            ab_wait = 0.0
+            err = _BAD_RESULT
+    if out_rate > 0.0 and not rst and u_raw == u_raw:  # (the NaN test first, as above)
+        ramp = abs(u_raw) <= x_max  # not after a law that overflowed: the caller's case
+        if ramp:
+            # the output ramp of the PID (pid_output), in every mode but RESET (which acts at
+            # once, as the PID's): at most out_rate h a cycle
+            u, _ramping = pid_output(u, out, lo, hi, out_rate * h)
+    if err == _OK:
+        err = status  # the configuration's: limits, delay, discretisation
+    return (u, u_raw, err, e, y_last, sp_td, td_d1, td_d2, td_d3, yh, x2, x3, x4, ref, started,
+            resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w, td1, td2, td3)  # fmt: skip
+
+
 # ---------------------------------------------------------------------------
 # Configuration
 # ---------------------------------------------------------------------------
@@ -1548,14 +1778,20 @@ class ADRC(Block):
             and c.sp_rate == 0.0
             and c.td_time == 0.0
         )
-        self._range = None if c.pv_range is None else (float(c.pv_range[0]),
-                                                       float(c.pv_range[1]))  # fmt: skip
-        rng = self._range
+        rng = None if c.pv_range is None else (float(c.pv_range[0]), float(c.pv_range[1]))
         if old is not None:
             self._u_hist = _resize_history(self._u_hist, self._nd, self._u_prev)
         # reverse: the block works on -y and -sp (ADRCConfig.reverse); the sensor's
         # saturation in those units
         self._sgn = -1.0 if c.reverse else 1.0
+        self._reverse = bool(c.reverse)
+        self._scale_pv = rng is not None
+        pv_lo, pv_hi = rng if rng is not None else (0.0, 100.0)
+        # adrc_compute's options: the reset and safe values, the input stage, the output
+        # ramp, the TD, the largest valid magnitude of the process data (float64: finite)
+        self._opt = (float(c.u0), float(c.u_sf), pv_lo, pv_hi, float(c.sp_filter),
+                     float(c.pv_filter), float(c.sp_rate), float(c.out_rate), float(c.td_time),
+                     FLOAT_MAX)  # fmt: skip
         ys_hi, ys_lo = float(c.y_sat), float(c.y_sat_lo)
         if rng:  # the sensor's saturation in % of the PV range, as the cycle's PV
             ys_hi, ys_lo = (scale(v, rng[0], rng[1], 0.0, 100.0) for v in (ys_hi, ys_lo))
@@ -2039,135 +2275,75 @@ class ADRC(Block):
         ``pv_ok`` (``y_ok``, its older alias) is the quality of the measurement;
         ``ff`` the feed-forward (:meth:`__call__`).
         """
-        return self._checked(self.out, self._compute_output(sp, y, pv_ok, y_ok, dt, ff))
+        prev = self.out
+        v = self._compute_output(sp, y, pv_ok, y_ok, dt, ff)
+        u = self.out
+        if self._u_lo <= u <= self._u_hi and _NINF < u < _INF:
+            return v  # the guard's test inline (as __call__): no call on the usual path
+        return self._checked(prev, v)
 
     def _compute_output(
         self, sp: Any, y: Any, pv_ok: Any, y_ok: Any, dt: float | None, ff: Any = 0.0
     ) -> float:
-        """The body of :meth:`compute_output` (output not yet checked)."""
+        """The body of :meth:`compute_output` (output not yet checked).
+
+        The cycle's process data is :func:`adrc_compute` (also the PLC cycle's); the block
+        adds its edge (inputs converted, the sample time), its coefficients, the
+        status of its configuration, the outputs and the pending commit.
+        """
         if pv_ok is not True:
             y_ok = as_flag(y_ok, False) and as_flag(pv_ok, False)
         self._pending = None
-        sp, y, y_ok = as_input(sp), as_input(y), as_flag(y_ok, False)
-        h = self._cycle_time(dt, self._ts)
+        # the edge: the conversions only where needed (as_input passes a float, as_flag True)
+        if type(sp) is not float:
+            sp = as_input(sp)
+        if type(y) is not float:
+            y = as_input(y)
+        if type(ff) is not float:
+            ff = as_input(ff)
+        if y_ok is not True:
+            y_ok = as_flag(y_ok, False)
+        tv, um = self.track_value, self.u_man
+        if type(tv) is not float:
+            tv = as_input(tv)
+        if type(um) is not float:
+            um = as_input(um)
+        h = self._ts if dt is None else self._cycle_time(dt, self._ts)
         if h is None:
             return self.out
-        self._coefficients(h)
+        if h != self._h:
+            self._coefficients(h)
         c = self._config
-        lo, hi = self._u_lo, self._u_hi
-        rng = self._range
-        if rng is not None:  # SP and PV in % of the PV range (ADRCConfig.pv_range)
-            sp = scale(sp, rng[0], rng[1], 0.0, 100.0)
-            y = scale(y, rng[0], rng[1], 0.0, 100.0)
-        err = ErrorCode.NO_ERROR
-        y_valid = bool(y_ok) and is_finite(y)
-        if not y_ok:
-            err = ErrorCode.BAD_MEASUREMENT
-        elif not is_finite(y):
-            err = ErrorCode.BAD_INPUT
-        sp_valid = is_finite(sp)
-        if not sp_valid and err == ErrorCode.NO_ERROR:
-            err = ErrorCode.BAD_INPUT
-        # the output of a held mode, by the priority of Mode (RESET > TRACK > HOLD > MANUAL)
-        target = clamp(self._u_prev, lo, hi)
-        rst = bool(self.reset_active)
-        manual, wanted = mode_output(
-            rst, bool(self.track), bool(self.hold), bool(self.manual), float(c.u0),
-            as_input(self.track_value), self._u_prev, as_input(self.u_man),
-        )  # fmt: skip
-        if manual:  # a held mode: the law tracks its output
-            if is_finite(wanted):
-                target = clamp(wanted, lo, hi)
-            elif err == ErrorCode.NO_ERROR:
-                err = ErrorCode.BAD_INPUT
-        # the PID's input stage (filters, setpoint ramp), in the units of the PV
-        sp_f, pv_f, sp_w = input_stage(
-            sp, y, sp_valid, y_valid, c.sp_filter, c.pv_filter, c.sp_rate, h,
-            not self._started, self._sp_f, self._pv_f, self._sp_w,
-        )  # fmt: skip
-        if sp_valid:
-            sp = sp_w
-        if y_valid:
-            y = pv_f
-        # the tracking differentiator on the working setpoint: the reference r_eff of (4b)
-        _b0, kp, kd1, kd2 = self._law
-        r_law, sp_td, td_d1, td_d2, td_d3, td1, td2, td3 = tracking_differentiator(
-            sp_w, y, sp_valid, y_valid, manual, not self._started, self._n, float(c.td_time),
-            h, kp, kd1, kd2, self._td1, self._td2, self._td3,
-        )  # fmt: skip
+        prm = self._prm
+        if prm is None:
+            prm = self._prm = self._kernel_params()
         sgn = self._sgn
-        if sgn < 0.0:  # reverse acting: the cycle runs on -sp and -y (ADRCConfig.reverse)
-            sp, y, r_law = -sp, -y, -r_law
-        ff = as_input(ff)
-        ff_valid = _NINF < ff < _INF
-        if not ff_valid:  # a bad feed-forward: the last one, the output held (as a bad SP)
-            ff = self._ff_prev
-            if err == ErrorCode.NO_ERROR:
-                err = ErrorCode.BAD_INPUT
-
-        yh, x2, x3, x4 = self._yh, self._x2, self._x3, self._x4
         # the u the ESO is fed: the applied u less its feed-forward, input_delay samples
         # older (Zhao & Gao 2014)
         u_eso = self._u_hist[0] if self._nd else self._u_prev - self._ff_prev
-        ref, q = self._ref, self._q
-        started = self._started
-        ab_sat, ab_wait = self._ab_sat, self._ab_wait
-        if not y_valid:
-            # measurement invalid: safe value (the held mode's output), ESO frozen
-            u = target if manual else clamp(float(self._config.u_sf), lo, hi)
-            u_raw = u
-            track_next = True
-            sat = 0
-            y_out = sgn * self.y
-            e = sgn * self.e
-        else:
-            yf = float(y)
-            r_in = float(r_law) if sp_valid else ref if started else yf
-            prm = self._prm
-            if prm is None:
-                prm = self._prm = self._kernel_params()
-            (u, u_raw, yh, x2, x3, x4, ref, q, end_wait, sat, ab_sat, ab_wait) = adrc_law(
-                r_in, yf, ff, manual, target, manual or not sp_valid or not ff_valid
-                or self._track, started, self._sat, bool(self.awin), self._exact,
-                self._config.anti_backoff, yh, x2, x3, x4, u_eso, self._u_prev, ref, q, ab_sat,
-                ab_wait, prm, self._eso_coef if self._exact else NO_EXACT, self._ab,
-            )  # fmt: skip
-            started = True
-            # x4 by (11) next cycle: after MAN or a bad setpoint or FF, at the end of the wait
-            track_next = manual or not sp_valid or not ff_valid or end_wait
-            y_out = yf
-            e = sgn * self.e  # e held, in the cycle's units: a bad SP, or SP - Y beyond the range
-            if sp_valid:
-                e_new = float(sp) - yf
-                if _NINF < e_new < _INF:
-                    e = e_new
-            if not (_NINF < yh < _INF and _NINF < x2 < _INF and _NINF < x3 < _INF
-                    and _NINF < x4 < _INF):  # fmt: skip
-                # the ESO overflowed behind an output that did not need it (MAN, the
-                # re-solve by (11), the anti-backoff wait): it restarts at rest on the
-                # next valid measurement with x4 by (11), as after a failed cycle
-                # (_resume), and the cycle says so; the output of this cycle stands
-                yh = x2 = x3 = x4 = q = 0.0
-                started, track_next, sat, ab_sat, ab_wait = False, True, 0, 0, 0.0
-                err = ErrorCode.BAD_RESULT
-        rate = c.out_rate
-        if rate > 0.0 and _NINF < u_raw < _INF and not rst:  # the output ramp, in every mode
-            u, _ramping = pid_output(u, self.out, lo, hi, rate * h)  # but RESET (immediate)
-        if err == ErrorCode.NO_ERROR and self._limits_bad:
-            err = ErrorCode.BAD_LIMITS
-        if err == ErrorCode.NO_ERROR and self._warn:
-            err = ErrorCode.WARN_DISCRETISATION
+        res = adrc_compute(
+            sp, y, ff, y_ok, bool(self.reset_active), bool(self.track), bool(self.hold),
+            bool(self.manual), bool(self.awin), tv, um, self._scale_pv, self._n, self._reverse,
+            self._exact, c.anti_backoff, _BAD_LIMITS if self._limits_bad else _WARN if self._warn
+            else _NO_ERROR, self.out, self._u_prev, self._ff_prev, u_eso, self._yh, self._x2,
+            self._x3, self._x4, self._ref, self._q, self._started, self._track, self._sat,
+            self._ab_sat, self._ab_wait, sgn * self.e, sgn * self.y, self._sp_f, self._pv_f,
+            self._sp_w, self._td1, self._td2, self._td3, self._opt, prm,
+            self._eso_coef if self._exact else NO_EXACT, self._ab,
+        )  # fmt: skip
+        u, u_raw, err, e, y_out, sp_td, td_d1, td_d2, td_d3 = res[:9]
         self.error_id = err
         self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
         self.u_raw = u_raw
-        self.awout = sat != 0
+        self.awout = res[16] != 0  # sat
         self.y = sgn * y_out
         self.e = sgn * e
-        self.y_ref = sgn * ref  # the reference trajectory (Fig. 2's Y_ref)
-        self.sp_w = sp_w
+        self.y_ref = sgn * res[13]  # the reference trajectory (Fig. 2's Y_ref)
+        self.sp_w = res[23]
         self.sp_td, self.sp_td_d1, self.sp_td_d2, self.sp_td_d3 = sp_td, td_d1, td_d2, td_d3
-        self._pending = (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q, ff,
-                         sp_f, pv_f, sp_w, td1, td2, td3)  # fmt: skip
+        # (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f,
+        # sp_w, td1, td2, td3): committed by update_state
+        self._pending = res[9:]
         return u
 
     def update_state(self, applied: float) -> None:

@@ -5,8 +5,9 @@ lives in the instance.  The functions here are that cycle, written with the
 blocks' own pure per-cycle functions (DESIGN principle 2: one implementation
 of each law): :func:`pid_cycle` calls :func:`.pid.pid_law` and
 :func:`.pid.pid_commit` (the PID's one law, also the block's, the compiled
-kernels' and the float32 lane's), :func:`adrc_cycle` calls :func:`.adrc.adrc_law`
-(Nowak et al. 2018, (4a), (4b), (11)) and :func:`leadlag_cycle` calls
+kernels' and the float32 lane's), :func:`adrc_cycle` calls :func:`.adrc.adrc_compute`
+(the block's own process data of a cycle around its one law :func:`.adrc.adrc_law`,
+Nowak et al. 2018, (4a), (4b), (11)) and :func:`leadlag_cycle` calls
 :func:`.leadlag.leadlag_law` (the block's cycle too).  What they add is the *plumbing* a PLC block
 needs around the law, the same the blocks' ``compute_output``/``update_state``
 do for these configurations:
@@ -60,6 +61,7 @@ euler_sensitivities = _adrc.euler_sensitivities
 euler_substeps = _adrc.euler_substeps
 handover_pole = _adrc.handover_pole
 input_stage = _adrc.input_stage
+adrc_compute = _adrc.adrc_compute
 mode_output = _adrc.mode_output
 tracking_differentiator = _adrc.tracking_differentiator
 td_restart = _adrc.td_restart
@@ -702,6 +704,15 @@ def adrc_cycle(
 ) -> tuple[Any, ...]:
     """One cycle of the ADRC (:class:`~ctrlblocks.ADRC`, orders 1..3 in one body).
 
+    The process data of the cycle -- scaling, the judgement of SP, PV, FF and the
+    modes, the input stage, the tracking differentiator, reverse action, the law,
+    the observer's restart, the output ramp, the status -- is the block's own
+    function :func:`.adrc.adrc_compute`; this cycle adds what a PLC needs beyond the
+    block: the changes of its configuration inputs, detected in the cycle (the block
+    gets them through ``configure``), the coefficients every cycle, the delay line,
+    the containment of a law that overflows REAL (the block's output guard) and the
+    commit of its own output.
+
     ``rst``, ``track``/``track_value`` and ``hold`` are the PID's RESET, TRACK and HOLD
     modes (priority RESET > TRACK > HOLD > MANUAL, :func:`.adrc.mode_output`: the output
     is ``u0`` at once, the tracking value, the last applied u, the manual value; the law
@@ -840,11 +851,9 @@ def adrc_cycle(
     sat_hi = y_sat
     sat_lo = y_sat_lo
     if scale_pv:
-        # SP and PV in % of the PV range (ADRCConfig.pv_range), the sensor's saturation too;
-        # a saturation at +-REAL_MAX (or inf) is none and stays one: scaled, it would overflow
-        # REAL (a floating-point exception on a PLC that traps them) on every cycle
-        sp = scale(sp, pv_lo, pv_hi, 0.0, 100.0)
-        y = scale(y, pv_lo, pv_hi, 0.0, 100.0)
+        # the sensor's saturation in % of the PV range, as SP and PV (adrc_compute); one at
+        # +-REAL_MAX (or inf) is none and stays one: scaled, it would overflow REAL (a
+        # floating-point exception on a PLC that traps them) on every cycle
         if abs(y_sat) < REAL_MAX:
             sat_hi = scale(y_sat, pv_lo, pv_hi, 0.0, 100.0)
         if abs(y_sat_lo) < REAL_MAX:
@@ -860,122 +869,41 @@ def adrc_cycle(
     u_eso, u_buf, d_idx, nd_prev, delay_ok = delay_line(u_prev - ff_prev, nd, d_restart, u_buf,
                                                         d_idx, nd_prev)  # fmt: skip
     d_restart = False
-    # process data
-    err = NO_ERROR
-    ff_valid = is_real(ff)
-    if not ff_valid:
-        ff = ff_prev  # a bad FF: the last one, the output held (as a bad SP)
-        err = BAD_INPUT
-    y_valid = y_ok and is_real(y)
-    if not y_ok:
-        err = BAD_MEASUREMENT
-    elif not is_real(y):
-        err = BAD_INPUT
-    sp_valid = is_real(sp)
-    if not sp_valid and err == NO_ERROR:
-        err = BAD_INPUT
-    # the output of a held mode, by the priority RESET > TRACK > HOLD > MANUAL (as the PID's)
-    held, wanted = mode_output(rst, track, hold, manual, u0, track_value, u_prev, u_man)
-    # the PID's input stage (filters, setpoint ramp), in the units of the PV
-    sp_f, pv_f, sp_w = input_stage(sp, y, sp_valid, y_valid, sp_filter, pv_filter, sp_rate, ts,
-                                   not started, sp_f, pv_f, sp_w)  # fmt: skip
-    if sp_valid:
-        sp = sp_w
-    if y_valid:
-        y = pv_f
-    # the tracking differentiator on the working setpoint: the reference r_eff of (4b)
-    r_law = sp  # off: the working setpoint (what tracking_differentiator passes through)
-    sp_td = sp_w
-    if td_time > 0.0:
-        r_law, sp_td, _td_d1, _td_d2, _td_d3, td1, td2, td3 = tracking_differentiator(
-            sp_w, y, sp_valid, y_valid, held, not started, order, td_time, ts, kp, kd1, kd2,
-            td1, td2, td3,
-        )  # fmt: skip
-    if reverse:
-        sp = -sp
-        y = -y
-        r_law = -r_law
-    tgt = u_prev
-    if held:
-        if is_real(wanted):
-            tgt = wanted
-        elif err == NO_ERROR:
-            err = BAD_INPUT
-    overflow = False
-    if not y_valid:
-        # measurement invalid: safe value (the held mode's output), ESO frozen
-        mv = clamp(u_sf, lo, hi)
-        if held:
-            mv = clamp(tgt, lo, hi)
-        u_raw = mv
+    # the configuration's status, below the process data's (ADRC: limits, then the warning)
+    status = lim_err
+    if status == NO_ERROR and not delay_ok:
+        status = BAD_TIME_CONSTANT  # a delay beyond the exported array: the one in force stays
+    if status == NO_ERROR and not discretisation_ok(order, omega_c, omega_o, ts, exact):
+        status = WARN_DISCRETISATION
+    ref_old = ref
+    # the process data of the cycle around the law (adrc.adrc_compute), as the block runs it
+    opt = (u0, u_sf, pv_lo, pv_hi, sp_filter, pv_filter, sp_rate, out_rate, td_time, REAL_MAX)
+    (mv, u_raw, err, e, y_last, sp_td, _td_d1, _td_d2, _td_d3, yh, x2, x3, x4, ref, started,
+     resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w, td1, td2, td3) = adrc_compute(
+        sp, y, ff, y_ok, rst, track, hold, manual, awin, track_value, u_man, scale_pv, order,
+        reverse, exact, anti_backoff, status, out, u_prev, ff_prev, u_eso, yh, x2, x3, x4, ref,
+        q, started, resolve, sat, ab_sat, ab_wait, e, y_last, sp_f, pv_f, sp_w, td1, td2, td3,
+        opt, prm, ecoef, ab,
+    )  # fmt: skip
+    if not is_real(u_raw):
+        # the law overflowed REAL: hold the output, restart the ESO at rest on the next
+        # valid PV with x4 by (11) (the block's output guard: Block._contain, ADRC._resume)
+        mv = out
+        u_raw = out
+        yh = 0.0
+        x2 = 0.0
+        x3 = 0.0
+        x4 = 0.0
+        ref = 0.0
+        if is_real(ref_old):
+            ref = ref_old
+        q = 0.0
+        started = False
         resolve = True
         sat = 0
-    else:
-        r_in = r_law
-        if not sp_valid:
-            r_in = ref
-            if not started:
-                r_in = y
-        ref_old = ref
-        # the ADRC's one cycle (adrc.adrc_law), as the block runs it
-        mv, u_raw, yh, x2, x3, x4, ref, q, resolve, sat, ab_sat, ab_wait = adrc_law(
-            r_in, y, ff, held, clamp(tgt, lo, hi), held or not sp_valid or not ff_valid
-            or resolve, started, sat, awin, exact, anti_backoff, yh, x2, x3, x4, u_eso, u_prev,
-            ref, q, ab_sat, ab_wait, prm, ecoef, ab,
-        )  # fmt: skip
-        y_last = y
-        if sp_valid:
-            e_new = sp - y
-            if is_real(e_new):
-                e = e_new  # else held: SP - Y beyond the range (a finite SP and PV far apart)
-        resolve = resolve or held or not sp_valid or not ff_valid
-        started = True
-        if not is_real(u_raw):
-            # the law overflowed REAL: hold the output, restart the ESO at rest on the
-            # next valid PV with x4 by (11) (Block._contain and ADRC._resume)
-            overflow = True
-            mv = out
-            u_raw = out
-            yh = 0.0
-            x2 = 0.0
-            x3 = 0.0
-            x4 = 0.0
-            ref = 0.0
-            if is_real(ref_old):
-                ref = ref_old
-            q = 0.0
-            started = False
-            resolve = True
-            sat = 0
-            ab_sat = 0
-            ab_wait = 0.0
-            d_restart = True  # the delay line restarts at the held output (ADRC._resume)
-        elif not (is_real(yh) and is_real(x2) and is_real(x3) and is_real(x4)):
-            # the ESO overflowed REAL behind an output that did not need it (MAN, the
-            # re-solve by (11), the anti-backoff wait): it restarts at rest on the next
-            # valid PV with x4 by (11), as ADRC.compute_output; this cycle's MV stands
-            overflow = True
-            yh = 0.0
-            x2 = 0.0
-            x3 = 0.0
-            x4 = 0.0
-            q = 0.0
-            started = False
-            resolve = True
-            sat = 0
-            ab_sat = 0
-            ab_wait = 0.0
-    if out_rate > 0.0 and not overflow and not rst:
-        # the output ramp of the PID (pid_output), in every mode but RESET (which acts at
-        # once, as the PID's): at most OUT_RATE TS a cycle
-        mv, _ramping = pid_output(mv, out, lo, hi, out_rate * ts)
-    if err == NO_ERROR:
-        err = lim_err
-    if err == NO_ERROR and not delay_ok:
-        err = BAD_TIME_CONSTANT  # a delay beyond the exported array: the one in force stays
-    if err == NO_ERROR and not discretisation_ok(order, omega_c, omega_o, ts, exact):
-        err = WARN_DISCRETISATION
-    if overflow:
+        ab_sat = 0
+        ab_wait = 0.0
+        d_restart = True  # the delay line restarts at the held output (ADRC._resume)
         err = BAD_RESULT
     u_prev = mv
     if u_real_on:

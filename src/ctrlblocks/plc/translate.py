@@ -10,7 +10,8 @@ module turns that subset into ST:
 
 * every called function becomes a ``FUNCTION`` POU (a tuple-returning one
   gets ``VAR_OUTPUT`` parameters, one per returned value, and is called with
-  ``=>``); its parameter tuple (``k, sgn, ... = prm``) becomes separate inputs;
+  ``=>``); its parameter tuple (``k, sgn, ... = prm``) becomes separate inputs,
+  and so does one it only passes on to a callee (named as the callee unpacks it);
 * the top-level cycle function becomes the body of the ``FUNCTION_BLOCK``:
   its parameters are the FB's inputs and state variables, its final
   ``return`` assigns the outputs and the new state;
@@ -490,17 +491,30 @@ class _Translator:
                     None,
                 )
                 if unpack is None:
-                    raise self.err(self.node, f"parameter {pname!r} needs a type annotation")
-                body.remove(unpack)
-                target = unpack.targets[0]
-                assert isinstance(target, ast.Tuple)
-                names = [e.id for e in target.elts if isinstance(e, ast.Name)]
+                    # a parameter tuple only passed on to a callee: its values are inputs
+                    # named as the callee unpacks them (keys no Python name has)
+                    wanted = self.lookahead_names(pname)
+                    if not wanted:
+                        raise self.err(self.node, f"parameter {pname!r} needs a type annotation")
+                    names = [f"{pname}.{j}" for j in range(len(wanted))]
+                    for n, want in zip(names, wanted, strict=True):
+                        self.declare(n, REAL, self.node, want)
+                else:
+                    body.remove(unpack)
+                    target = unpack.targets[0]
+                    assert isinstance(target, ast.Tuple)
+                    names = [e.id for e in target.elts if isinstance(e, ast.Name)]
+                    for n in names:
+                        self.declare(n, REAL, unpack)
                 st_names = []
                 for n in names:
-                    st_names.append(self.declare(n, REAL, unpack))
                     del self.locals[self.st[n]]
                     inputs.append((self.st[n], REAL))
+                    st_names.append(self.st[n])
                 sig_inputs[pname] = st_names
+                # passed on as a whole: the tuple of its inputs (unchanged since, checked)
+                self.tuples[pname] = [ast.Name(n) for n in names]
+                self.tuple_versions[pname] = dict.fromkeys(names, 0)
                 continue
             st = self.declare(pname, ptype, self.node)
             del self.locals[st]
