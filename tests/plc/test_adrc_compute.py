@@ -15,6 +15,7 @@ exported FB ``CB_ADRC`` and the block's ``precision="float32"`` lane) both call 
 from __future__ import annotations
 
 import math
+import sys
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -178,3 +179,34 @@ def test_the_output_ramp_acts_in_a_cycle_whose_observer_overflowed(precision, sp
     assert a(0.0, spike) == pytest.approx(0.1, rel=1e-6)  # out_rate ts, not 5.0
     assert a.error_id == ErrorCode.BAD_RESULT
     assert a(0.0, 0.5) == pytest.approx(0.2, rel=1e-6) and a.error_id == ErrorCode.NO_ERROR
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.3])
+@pytest.mark.parametrize("t_ref", [0.0, 0.5])
+def test_after_a_law_that_overflowed_the_block_and_the_fb_continue_alike(delay, t_ref, monkeypatch):
+    """A PV whose law overflows (1.7e308) in the cycle where the feed-forward changes: the
+    output is held (16#8103) and the ESO restarts -- the block by its output guard
+    (``ADRC._resume``), the FB in its cycle.  Both keep the feed-forward the held output
+    was made with (the last one: the ESO restarts on the held u less it) and this cycle's
+    reference, so every later cycle is the same bit for bit.  Before, the FB kept this
+    cycle's FF and the last reference: the restarted ESO started from another u and the
+    outputs parted.  The FB runs in float64 with the double's range as its REAL's (its
+    ``REAL_MAX`` the largest double), so that the same PV overflows both laws."""
+    monkeypatch.setattr(pc, "REAL_MAX", sys.float_info.max)
+    cfg = {"order": 2, "b0": 0.5, "omega_c": 1.0, "omega_o": 5.0, "ts": 0.1, "u_min": -50.0,
+           "u_max": 50.0, "input_delay": delay, "t_ref": t_ref}  # fmt: skip
+    block = ADRC(**cfg)
+    fb = _Fb(block)
+    for k in range(40):
+        u, res = _step(block, fb, 1.0, 0.02 * k, ff=0.5)
+        assert _same(u, res["mv"]), k
+    u, res = _step(block, fb, 1.0, 1.7e308, ff=3.0)
+    assert int(block.error_id) == int(res["error_id"]) == ErrorCode.BAD_RESULT
+    assert _same(u, res["mv"])
+    for k in range(40):
+        u, res = _step(block, fb, 1.0, 0.8 + 0.005 * k, ff=3.0)
+        assert _same(u, res["mv"]), (k, u, res["mv"])
+        assert int(block.error_id) == int(res["error_id"]), k
+        want = (block.e, block.y, block.y_ref, *block.x, block.sp_td)
+        for name, w in zip(FIG2, want, strict=True):
+            assert _same(res[name], w), (k, name, res[name], w)

@@ -875,7 +875,6 @@ def adrc_cycle(
         status = BAD_TIME_CONSTANT  # a delay beyond the exported array: the one in force stays
     if status == NO_ERROR and not discretisation_ok(order, omega_c, omega_o, ts, exact):
         status = WARN_DISCRETISATION
-    ref_old = ref
     # the process data of the cycle around the law (adrc.adrc_compute), as the block runs it
     opt = (u0, u_sf, pv_lo, pv_hi, sp_filter, pv_filter, sp_rate, out_rate, td_time, REAL_MAX)
     (mv, u_raw, err, e, y_last, sp_td, _td_d1, _td_d2, _td_d3, yh, x2, x3, x4, ref, started,
@@ -887,16 +886,18 @@ def adrc_cycle(
     )  # fmt: skip
     if not is_real(u_raw):
         # the law overflowed REAL: hold the output, restart the ESO at rest on the next
-        # valid PV with x4 by (11) (the block's output guard: Block._contain, ADRC._resume)
+        # valid PV with x4 by (11) (the block's output guard: Block._contain, ADRC._resume);
+        # this cycle's reference stands (made finite) and the feed-forward is the one the
+        # held output was made with: the restarted ESO is fed the held u less it
         mv = out
         u_raw = out
         yh = 0.0
         x2 = 0.0
         x3 = 0.0
         x4 = 0.0
-        ref = 0.0
-        if is_real(ref_old):
-            ref = ref_old
+        if not is_real(ref):
+            ref = 0.0
+        ff = ff_prev
         q = 0.0
         started = False
         resolve = True
