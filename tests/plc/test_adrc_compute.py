@@ -185,13 +185,14 @@ def test_the_output_ramp_acts_in_a_cycle_whose_observer_overflowed(precision, sp
 @pytest.mark.parametrize("t_ref", [0.0, 0.5])
 def test_after_a_law_that_overflowed_the_block_and_the_fb_continue_alike(delay, t_ref, monkeypatch):
     """A PV whose law overflows (1.7e308) in the cycle where the feed-forward changes: the
-    output is held (16#8103) and the ESO restarts -- the block by its output guard
-    (``ADRC._resume``), the FB in its cycle.  Both keep the feed-forward the held output
-    was made with (the last one: the ESO restarts on the held u less it) and this cycle's
-    reference, so every later cycle is the same bit for bit.  Before, the FB kept this
-    cycle's FF and the last reference: the restarted ESO started from another u and the
-    outputs parted.  The FB runs in float64 with the double's range as its REAL's (its
-    ``REAL_MAX`` the largest double), so that the same PV overflows both laws."""
+    output is held (16#8103) and the ESO restarts (``adrc_compute``; the block's delay
+    history by ``ADRC._resume``, the FB's delay line in its cycle).  Both keep the
+    feed-forward the held output was made with (the last one: the ESO restarts on the held
+    u less it) and this cycle's reference, so every later cycle is the same bit for bit.
+    Before, the FB kept this cycle's FF and the last reference: the restarted ESO started
+    from another u and the outputs parted.  The FB runs in float64 with the double's range
+    as its REAL's (its ``REAL_MAX`` the largest double), so that the same PV overflows both
+    laws."""
     monkeypatch.setattr(pc, "REAL_MAX", sys.float_info.max)
     cfg = {"order": 2, "b0": 0.5, "omega_c": 1.0, "omega_o": 5.0, "ts": 0.1, "u_min": -50.0,
            "u_max": 50.0, "input_delay": delay, "t_ref": t_ref}  # fmt: skip

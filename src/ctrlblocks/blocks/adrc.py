@@ -1079,6 +1079,7 @@ def adrc_compute(
 ) -> tuple[
     float, float, int, float, float, float, float, float, float, float, float, float, float,
     float, bool, bool, int, int, float, float, float, float, float, float, float, float, float,
+    bool,
 ]:  # fmt: skip
     """The ADRC's process data of one cycle around its law: the one body of every executor.
 
@@ -1109,10 +1110,13 @@ def adrc_compute(
     * else the law, :func:`adrc_law` (the ESO (4a), the law (4b), the bumpless
       transfer by (11) and the handover offset, the anti-windup of section 4.1,
       the anti-backoff (12a)/(12b)); ``e = sp - y`` held where it is no number;
-      an ESO that overflowed behind an output that did not need it (MAN, the
-      re-solve by (11), the anti-backoff wait) restarts at rest with x4 by (11)
-      on the next valid measurement (``BAD_RESULT``); the output of the cycle
-      stands;
+      a failure (``BAD_RESULT``) restarts the ESO at rest with x4 by (11) on
+      the next valid measurement: a law that overflowed (``u_raw`` no number,
+      the output guard's case of the block, ``Block._contain``) holds the last
+      output ``out`` with the feed-forward it was made with (``ff_prev``) and
+      keeps this cycle's reference (0 if it is no number); an ESO that
+      overflowed behind an output that did not need it (MAN, the re-solve by
+      (11), the anti-backoff wait) lets the output of the cycle stand;
     * the PID's output ramp (:func:`.pid.pid_output`, ``out_rate``, from the
       last output ``out``), in every mode but RESET;
     * the status: the process data's, else the caller's ``status`` (its
@@ -1126,11 +1130,13 @@ def adrc_compute(
     time of the cycle); ``u_eso`` the u the ESO is fed (the applied u less its
     feed-forward, ``input_delay`` samples before the last).  ``e``, ``y_last``
     and the states are in the cycle's units (reversed: of ``-y``).  A law that
-    overflowed (``u_raw`` no number) is the caller's to contain.  Returns
-    ``(u, u_raw, error, e, y_last, sp_td, td_d1, td_d2, td_d3, Y_hat, x2, x3,
-    x4, ref, started, resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w,
-    td1, td2, td3)``: the outputs, then the state to commit (from ``Y_hat`` on,
-    in the order of :class:`ADRC`'s pending cycle).
+    overflowed is held here; what else its caller restarts (the block's
+    delay history and attributes, ``ADRC._resume``; the FB's delay line) it
+    learns from ``failed``.  Returns ``(u, u_raw, error, e, y_last, sp_td,
+    td_d1, td_d2, td_d3, Y_hat, x2, x3, x4, ref, started, resolve, sat, ab_sat,
+    ab_wait, q, ff, sp_f, pv_f, sp_w, td1, td2, td3, failed)``: the outputs,
+    then the state to commit (from ``Y_hat`` to ``td3``, in the order of
+    :class:`ADRC`'s pending cycle), then whether the law failed.
     """
     (reset_value, u_sf, pv_lo, pv_hi, sp_filter, pv_filter, sp_rate, out_rate, td_time,
      x_max) = opt  # fmt: skip
@@ -1192,6 +1198,7 @@ def adrc_compute(
         sp = -sp
         y = -y
         r_law = -r_law
+    failed = False
     if not y_valid:
         # measurement invalid: safe value (the held mode's output), ESO frozen
         u = clamp(u_sf, lo, hi)
@@ -1221,14 +1228,29 @@ def adrc_compute(
             e_valid = abs(e_new) <= x_max if e_new == e_new else False
             if e_valid:
                 e = e_new  # else held: SP - Y beyond the range (a finite SP and PV far apart)
+        failed = True
+        if u_raw == u_raw:  # the NaN test first, as above
+            failed = abs(u_raw) > x_max
         eso_valid = False
-        if yh == yh and x2 == x2 and x3 == x3 and x4 == x4:  # the NaN tests first
+        if yh == yh and x2 == x2 and x3 == x3 and x4 == x4:
             eso_valid = (abs(yh) <= x_max and abs(x2) <= x_max and abs(x3) <= x_max
                          and abs(x4) <= x_max)  # fmt: skip
-        if not eso_valid:
-            # the ESO overflowed behind an output that did not need it (MAN, the re-solve
-            # by (11), the anti-backoff wait): it restarts at rest on the next valid
-            # measurement with x4 by (11); the output of this cycle stands
+        if failed:
+            # the law overflowed: the last output, limited, with the feed-forward it was
+            # made with (the restarted ESO is fed the held u less it); this cycle's reference
+            u = clamp(out, lo, hi)
+            u_raw = u
+            ff_held = abs(ff_prev) <= x_max if ff_prev == ff_prev else False
+            ff = 0.0
+            if ff_held:
+                ff = ff_prev
+            ref_valid = abs(ref) <= x_max if ref == ref else False
+            if not ref_valid:
+                ref = 0.0
+        if failed or not eso_valid:
+            # the ESO restarts at rest on the next valid measurement with x4 by (11); an ESO
+            # that overflowed behind an output that did not need it (MAN, the re-solve by
+            # (11), the anti-backoff wait) lets the output of this cycle stand
             yh = 0.0
             x2 = 0.0
             x3 = 0.0
@@ -1240,16 +1262,15 @@ def adrc_compute(
             ab_sat = 0
             ab_wait = 0.0
             err = _BAD_RESULT
-    if out_rate > 0.0 and not rst and u_raw == u_raw:  # (the NaN test first, as above)
-        ramp = abs(u_raw) <= x_max  # not after a law that overflowed: the caller's case
-        if ramp:
-            # the output ramp of the PID (pid_output), in every mode but RESET (which acts at
-            # once, as the PID's): at most out_rate h a cycle
-            u, _ramping = pid_output(u, out, lo, hi, out_rate * h)
+    if out_rate > 0.0 and not rst and not failed:
+        # the output ramp of the PID (pid_output), in every mode but RESET (which acts at
+        # once, as the PID's): at most out_rate h a cycle (not after a failed law: held)
+        u, _ramping = pid_output(u, out, lo, hi, out_rate * h)
     if err == _OK:
         err = status  # the configuration's: limits, delay, discretisation
     return (u, u_raw, err, e, y_last, sp_td, td_d1, td_d2, td_d3, yh, x2, x3, x4, ref, started,
-            resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w, td1, td2, td3)  # fmt: skip
+            resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w, td1, td2, td3,
+            failed)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------
@@ -2333,7 +2354,7 @@ class ADRC(Block):
         )  # fmt: skip
         u, u_raw, err, e, y_out, sp_td, td_d1, td_d2, td_d3 = res[:9]
         self.error_id = err
-        self.out = u if _NINF < u_raw < _INF else math.nan  # overflow: the guard's case
+        self.out = u
         self.u_raw = u_raw
         self.awout = res[16] != 0  # sat
         self.y = sgn * y_out
@@ -2343,7 +2364,11 @@ class ADRC(Block):
         self.sp_td, self.sp_td_d1, self.sp_td_d2, self.sp_td_d3 = sp_td, td_d1, td_d2, td_d3
         # (yh, x2, x3, x4, ref, started, track_next, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f,
         # sp_w, td1, td2, td3): committed by update_state
-        self._pending = res[9:]
+        self._pending = res[9:-1]
+        if res[-1]:
+            # the law failed (held, the ESO restarts: adrc_compute): the delay history and
+            # the attributes restart as after any failed cycle (the output guard's _resume)
+            self._resume(u)
         return u
 
     def update_state(self, applied: float) -> None:

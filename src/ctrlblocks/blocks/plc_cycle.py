@@ -709,9 +709,9 @@ def adrc_cycle(
     the observer's restart, the output ramp, the status -- is the block's own
     function :func:`.adrc.adrc_compute`; this cycle adds what a PLC needs beyond the
     block: the changes of its configuration inputs, detected in the cycle (the block
-    gets them through ``configure``), the coefficients every cycle, the delay line,
-    the containment of a law that overflows REAL (the block's output guard) and the
-    commit of its own output.
+    gets them through ``configure``), the coefficients every cycle, the delay line
+    (restarted after a failed law, as the block's ``_resume`` restarts its history)
+    and the commit of its own output.
 
     ``rst``, ``track``/``track_value`` and ``hold`` are the PID's RESET, TRACK and HOLD
     modes (priority RESET > TRACK > HOLD > MANUAL, :func:`.adrc.mode_output`: the output
@@ -737,7 +737,7 @@ def adrc_cycle(
     states and re-solves x4 by (11), bumplessly.  The status
     ``WARN_DISCRETISATION`` (16#8301) when omega ts leaves the trusted range;
     a law that overflows REAL holds the output and restarts the ESO
-    (16#8103), as the block's output guard does.  ``nd``: the dead time of the
+    (16#8103, :func:`.adrc.adrc_compute`), as the block does.  ``nd``: the dead time of the
     process input in samples (``ADRCConfig.input_delay``): the ESO is fed the
     applied u of ``nd`` samples before the last one (Zhao & Gao 2014), from the
     line :func:`delay_line` (its array sized at export; a longer ``nd`` is
@@ -878,34 +878,15 @@ def adrc_cycle(
     # the process data of the cycle around the law (adrc.adrc_compute), as the block runs it
     opt = (u0, u_sf, pv_lo, pv_hi, sp_filter, pv_filter, sp_rate, out_rate, td_time, REAL_MAX)
     (mv, u_raw, err, e, y_last, sp_td, _td_d1, _td_d2, _td_d3, yh, x2, x3, x4, ref, started,
-     resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w, td1, td2, td3) = adrc_compute(
+     resolve, sat, ab_sat, ab_wait, q, ff, sp_f, pv_f, sp_w, td1, td2, td3,
+     failed) = adrc_compute(
         sp, y, ff, y_ok, rst, track, hold, manual, awin, track_value, u_man, scale_pv, order,
         reverse, exact, anti_backoff, status, out, u_prev, ff_prev, u_eso, yh, x2, x3, x4, ref,
         q, started, resolve, sat, ab_sat, ab_wait, e, y_last, sp_f, pv_f, sp_w, td1, td2, td3,
         opt, prm, ecoef, ab,
     )  # fmt: skip
-    if not is_real(u_raw):
-        # the law overflowed REAL: hold the output, restart the ESO at rest on the next
-        # valid PV with x4 by (11) (the block's output guard: Block._contain, ADRC._resume);
-        # this cycle's reference stands (made finite) and the feed-forward is the one the
-        # held output was made with: the restarted ESO is fed the held u less it
-        mv = out
-        u_raw = out
-        yh = 0.0
-        x2 = 0.0
-        x3 = 0.0
-        x4 = 0.0
-        if not is_real(ref):
-            ref = 0.0
-        ff = ff_prev
-        q = 0.0
-        started = False
-        resolve = True
-        sat = 0
-        ab_sat = 0
-        ab_wait = 0.0
+    if failed:
         d_restart = True  # the delay line restarts at the held output (ADRC._resume)
-        err = BAD_RESULT
     u_prev = mv
     if u_real_on:
         if is_real(u_real):
