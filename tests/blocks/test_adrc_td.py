@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 from scipy import signal
 
 from ctrlblocks import ADRC
-from ctrlblocks.blocks.adrc import tracking_differentiator
+from ctrlblocks.blocks.adrc import td_restart, td_state, tracking_differentiator
 from ctrlblocks.blocks.base import ErrorCode, ParameterError
 from ctrlblocks.tuning.margins import controller_ss
 
@@ -425,3 +425,35 @@ def test_a_denormal_td_time_keeps_every_output_finite(td_time):
         outs = (u, blk.sp_td, blk.sp_td_d1, blk.sp_td_d2, blk.sp_td_d3, blk.y_ref)
         assert all(math.isfinite(v) for v in outs), outs
     assert blk.sp_td == 2.0  # the chain is at the setpoint within a sample
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    n=st.sampled_from([1, 2, 3]),
+    td_time=st.floats(1e-3, 1e3),
+    z=st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
+)
+def test_td_state_is_the_binomial_sum_of_the_chain(n, td_time, z):
+    """``td_state``, the one place the law and the retune read the chain's value and the
+    derivatives its states determine, against the sum ``r_f^(k) = w^k sum_j C(k, j)
+    (-1)^(k-j) z_{n-j}`` evaluated here with exact fractions (k < n; 0 at and beyond n);
+    and ``td_restart`` of an unchanged chain gives its states back (it inverts that sum)."""
+    from fractions import Fraction
+
+    w = 1.0 / td_time
+    chain = [None, *z]  # chain[k] = z_k
+    want = [Fraction(chain[n])]
+    for k in (1, 2):
+        if k >= n:
+            want.append(Fraction(0))
+            continue
+        total = sum(Fraction(math.comb(k, j)) * (-1) ** (k - j) * Fraction(chain[n - j])
+                    for j in range(k + 1))  # fmt: skip
+        want.append(Fraction(w) ** k * total)
+    got = td_state(n, w, *z)
+    scale = max(abs(v) for v in z) + 1.0
+    for k, (g, x) in enumerate(zip(got, want, strict=True)):
+        assert abs(Fraction(g) - x) <= Fraction(1e-12) * Fraction(scale) * Fraction(w) ** k, k
+    back = td_restart(n, td_time, n, td_time, 0.0, *z)
+    expect = {1: (z[0],) * 3, 2: (z[0], z[1], z[1]), 3: (z[0], z[1], z[2])}[n]
+    assert back == pytest.approx(expect, rel=1e-9, abs=1e-9 * scale)

@@ -34,7 +34,7 @@ CASES = [
      {"SP": 1.0, "PV": 0.5}, (169, 75, 18, 27, 1)),
     # the tracking differentiator of order 3 (its chain, derivatives and r_eff)
     (lambda: ADRC(order=3, b0=1.0, u_min=0.0, u_max=100.0, td_time=1.0), "CB_ADRC",
-     {"SP": 1.0, "PV": 0.5}, (197, 100, 21, 29, 1)),
+     {"SP": 1.0, "PV": 0.5}, (197, 100, 21, 30, 1)),
     (lambda: LeadLag(t_lead=1.0), "CB_LEADLAG", {"IN": 1.0}, (18, 11, 2, 8, 0)),
 ]  # fmt: skip
 

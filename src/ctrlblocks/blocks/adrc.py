@@ -904,35 +904,29 @@ def tracking_differentiator(
         z1 = y
         z2 = y
         z3 = y
-    rf = z3
-    if n == 1:
-        rf = z1
-    elif n == 2:
-        rf = z2
     if not run:
+        rf, _d1, _d2 = td_state(n, 0.0, z1, z2, z3)
         return rf, rf, 0.0, 0.0, 0.0, z1, z2, z3
     w = 1.0 / td_time
     a = h / td_time
     ea = math.exp(-a)
     _d, q = pole_distance(w, h)  # (1 - exp(-a))/h, accurate for a tiny a
-    d2 = 0.0
+    # r_f and the derivatives below the n-th at the sample's instant (td_state); the n-th
+    # is fed forward as its mean over the sample, (D_(n-1)(t + h) - D_(n-1)(t))/h: the value
+    # a u held over the sample must have (its point value w^n (...) at t would lag by about
+    # w h)
+    rf, d1, d2 = td_state(n, w, z1, z2, z3)
     d3 = 0.0
-    # the n-th derivative is fed forward as its mean over the sample, (D_(n-1)(t + h) -
-    # D_(n-1)(t))/h: the value a u held over the sample must have (its point value
-    # w^n (...) at t would lag by about w h); the lower ones at the sample's instant
     if n == 1:
         d1 = q * (r - z1)
         dn = d1
         z1 = r + ea * (z1 - r)
     elif n == 2:
-        d1 = w * (z1 - z2)
         d2 = w * (q * (z2 - z1) + ea * w * (r - z1))
         dn = d2
         z2 = r + ea * ((z2 - r) + a * (z1 - r))
         z1 = r + ea * (z1 - r)
     else:
-        d1 = w * (z2 - z3)
-        d2 = w * (w * ((z1 - z2) - (z2 - z3)))
         d3 = w * (w * (q * ((z2 - z1) - (z3 - z2))
                        + ea * w * ((z2 - z1) + (1.0 - a / 2.0) * (r - z1))))  # fmt: skip
         dn = d3
@@ -954,6 +948,23 @@ def tracking_differentiator(
         z2 = r
         z3 = r
     return r_eff, rf, d1, d2, d3, z1, z2, z3
+
+
+def td_state(n: int, w: float, z1: float, z2: float, z3: float) -> tuple[float, float, float]:
+    """The filtered reference ``r_f`` of a tracking differentiator of order n and the
+    derivatives its states determine, ``(r_f, r_f', r_f'')`` (0 at and beyond the order).
+
+    ``r_f^(k) = w^k sum_j C(k, j) (-1)^(k-j) z_{n-j}`` (k < n; :func:`tracking_differentiator`,
+    after Han 2009) of the chain ``z_k' = w (z_{k-1} - z_k)``, ``r_f = z_n``: the chain's
+    value at its states' instant, for the law (:func:`tracking_differentiator`) and for the
+    restart after a retune (:func:`td_restart`), which continues them.  ``w = 1/td_time``;
+    ``w = 0`` gives ``r_f`` alone.
+    """
+    if n == 1:
+        return z1, 0.0, 0.0
+    if n == 2:
+        return z2, w * (z1 - z2), 0.0
+    return z3, w * (z2 - z3), w * (w * ((z1 - z2) - (z2 - z3)))
 
 
 def td_restart(
@@ -981,16 +992,7 @@ def td_restart(
     d1 = 0.0
     d2 = 0.0
     if td_old > 0.0:
-        w = 1.0 / td_old
-        d0 = z3
-        if n_old == 1:
-            d0 = z1
-        elif n_old == 2:
-            d0 = z2
-            d1 = w * (z1 - z2)
-        else:
-            d1 = w * (z2 - z3)
-            d2 = w * (w * ((z1 - z2) - (z2 - z3)))
+        d0, d1, d2 = td_state(n_old, 1.0 / td_old, z1, z2, z3)
     t = td_time
     if not t > 0.0:
         return d0, d0, d0
