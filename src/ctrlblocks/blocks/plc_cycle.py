@@ -76,7 +76,6 @@ solve_x4 = _adrc.solve_x4
 x4_update_allowed = _adrc.x4_update_allowed
 _leadlag = _interpreted("leadlag")
 leadlag_coefficients = _leadlag.leadlag_coefficients
-leadlag_step = _leadlag.leadlag_step
 leadlag_law = _leadlag.leadlag_law
 _pid = _interpreted("pid")
 pid_commit = _pid.pid_commit
@@ -89,14 +88,12 @@ pid_restart = _pid.pid_restart
 pid_update = _pid.pid_update
 retune_states = _pid.retune_states
 tracking_time = _pid.tracking_time
+valid_or_zero = _pid.valid_or_zero
 _signals = _interpreted("signals")
 clamp = _signals.clamp
 deadband = _signals.deadband
 pt1_coefficient = _signals.pt1_coefficient
-pt1_step = _signals.pt1_step
-rate_limit_step = _signals.rate_limit_step
 scale = _signals.scale
-steady_step = _signals.steady_step
 SUM_LOSS_REAL = _signals.SUM_LOSS_REAL
 
 __all__ = [
@@ -148,13 +145,6 @@ def cycle_time_ok(ts: float) -> bool:
     if is_real(ts):
         return ts > 0.0
     return False
-
-
-def finite_or_zero(x: float) -> float:
-    """``x`` if it is a finite REAL, else 0 (a memory made finite after an overflow)."""
-    if is_real(x):
-        return x
-    return 0.0
 
 
 # ---------------------------------------------------------------------------
@@ -521,7 +511,9 @@ def pid_cycle(
         i, x, bias, d, w_prev, e_prev, p_prev, d_prev, ff_prev = pid_restart(
             mv, d_k, w_k, e_k, p_prev, d_prev, ff_prev, REAL_MAX
         )
-        p, i_term, d_term = finite_or_zero(p_k), finite_or_zero(i_shown), finite_or_zero(d_k)
+        p = valid_or_zero(p_k, REAL_MAX)
+        i_term = valid_or_zero(i_shown, REAL_MAX)
+        d_term = valid_or_zero(d_k, REAL_MAX)
         limits_active = False
         reinit = True
         reinit_d = True
